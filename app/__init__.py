@@ -1,0 +1,1 @@
+"""ArtRo Gait Studio application: simulation loop, server, viser view and CLI."""

@@ -1,0 +1,112 @@
+"""Leg interface of the ArtRo gait: leg parameters -> the 12 joint angles, eqs (2)–(9) of seed 000.
+
+ArtRo's hip-yaw servo sits above the crossed hip roll/pitch axes and all leg axes meet one line
+when standing (the "one-line axis design"), so the joint angles follow from the leg angle, foot
+angle and leg extension without rotation matrices:
+
+    hip   = (leg_roll, leg_pitch + alpha2, leg_yaw)              eq (7)
+    knee  = alpha1 - pi  (<= 0)                                   eq (8)
+    ankle = (foot_roll - leg_roll, alpha3 + foot_pitch - leg_pitch)  eq (9)
+
+with alpha1..alpha3 the angles of the hip-knee-ankle triangle for the leg length eta*(L_UL + L_LL).
+Joint order per leg (left leg first): hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch, ankle_roll.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from gait.params import GaitParams, Motion
+from gait.phases import (
+    FOOT_PITCH,
+    FOOT_ROLL,
+    GAMMA,
+    LEG_PITCH,
+    LEG_ROLL,
+    LEG_YAW,
+    leg_parameters_with_flags,
+)
+
+JOINTS_PER_LEG = ("hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll")
+JOINT_NAMES = tuple(f"{side}_{j}" for side in ("l", "r") for j in JOINTS_PER_LEG)
+
+
+@dataclass(frozen=True)
+class LegGeometry:
+    """Leg segment lengths: hip (roll/pitch crossing) -> knee -> ankle (roll/pitch crossing)."""
+
+    upper_m: float  # L_UL
+    lower_m: float  # L_LL
+
+    @property
+    def max_length_m(self) -> float:
+        return self.upper_m + self.lower_m  # L_max
+
+
+#: The built-in ArtRo model (`models/artro.xml`); a test checks the MJCF against these lengths.
+ARTRO_LEG = LegGeometry(upper_m=0.09, lower_m=0.09)
+
+
+class JointAngles(NamedTuple):
+    values: NDArray[np.float64]  # (..., 12) in JOINT_NAMES order, rad
+    gamma_clamped: NDArray[np.bool_]  # (..., 2) per leg: eq (45) exceeded [-1, 0]
+
+
+def knee_triangle(
+    eta: ArrayLike, geometry: LegGeometry = ARTRO_LEG
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """alpha1 (at the knee), alpha2 (at the hip), alpha3 (at the ankle) for relative length eta.
+
+    Eq (5) takes alpha2 from an arcsin, which is right while alpha2 <= pi/2, i.e. while
+    L_UL^2 + L^2 >= L_LL^2: always so for ArtRo's equal thigh and shank.
+    """
+    lu, ll = geometry.upper_m, geometry.lower_m
+    length = np.asarray(eta, dtype=float) * geometry.max_length_m  # eq (3)
+    cos_a1 = (lu * lu + ll * ll - length * length) / (2.0 * lu * ll)
+    alpha1 = np.arccos(np.clip(cos_a1, -1.0, 1.0))  # eq (4)
+    alpha2 = np.arcsin(np.clip(ll / length * np.sin(alpha1), -1.0, 1.0))  # eq (5)
+    alpha3 = np.pi - (alpha1 + alpha2)  # eq (6)
+    return alpha1, alpha2, alpha3
+
+
+def leg_to_joint_angles(
+    legs: ArrayLike, eta_min: float, geometry: LegGeometry = ARTRO_LEG
+) -> NDArray[np.float64]:
+    """Leg parameters (..., 2, 6) -> joint angles (..., 12), eqs (2)–(9)."""
+    legs = np.asarray(legs, dtype=float)
+    eta = 1.0 + (1.0 - eta_min) * legs[..., GAMMA]  # eq (2)
+    alpha1, alpha2, alpha3 = knee_triangle(eta, geometry)
+    leg_roll, leg_pitch = legs[..., LEG_ROLL], legs[..., LEG_PITCH]
+    per_leg = np.stack(
+        [
+            legs[..., LEG_YAW],  # hip yaw, eq (7)
+            leg_roll,  # hip roll, eq (7)
+            leg_pitch + alpha2,  # hip pitch, eq (7)
+            alpha1 - np.pi,  # knee, eq (8)
+            alpha3 + legs[..., FOOT_PITCH] - leg_pitch,  # ankle pitch, eq (9)
+            legs[..., FOOT_ROLL] - leg_roll,  # ankle roll, eq (9)
+        ],
+        axis=-1,
+    )  # (..., 2, 6)
+    return per_leg.reshape(*per_leg.shape[:-2], 12)
+
+
+def joint_angles_with_flags(
+    params: GaitParams,
+    motion: Motion,
+    phi_trunk: ArrayLike,
+    geometry: LegGeometry = ARTRO_LEG,
+) -> JointAngles:
+    legs = leg_parameters_with_flags(params, motion, phi_trunk)
+    return JointAngles(
+        leg_to_joint_angles(legs.values, params.leg.eta_min, geometry), legs.gamma_clamped
+    )
+
+
+def joint_angles(params: GaitParams, motion: Motion, phi_trunk: ArrayLike) -> NDArray[np.float64]:
+    """The 12 joint angles (..., 12) of the built-in ArtRo model, in the joint order of SPEC §3."""
+    return joint_angles_with_flags(params, motion, phi_trunk).values

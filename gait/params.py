@@ -1,0 +1,315 @@
+"""The gait's parameters: the motion vector and every constant of eqs (12)–(39), paper defaults.
+
+This is the one parameter schema of the project. Each field carries, in its metadata, its range,
+slider step, unit, the equation it comes from and a description; the HTTP validation, the viser
+sliders and the export formats are all generated from it (see `describe_fields`).
+
+The ranges of the phase speeds v and offsets o are chosen so that each phase's active window lies
+inside one gait cycle: then every joint trajectory is continuous, also where phi_Leg wraps at +-pi.
+
+Sign conventions (derived from the equations, SPEC §3): a_p > 0 walks forward, a_r > 0 steps to the
+robot's right, a_y > 0 turns clockwise, CA > 0 lengthens the left steps and so turns clockwise.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass, field, fields
+from typing import Any
+
+PHASE_GROUPS = ("shift", "short", "swing", "load", "balance")
+
+
+def _param(
+    default: float,
+    lo: float,
+    hi: float,
+    *,
+    step: float,
+    unit: str,
+    eq: str,
+    doc: str,
+) -> Any:
+    """A tunable float field: its paper default plus the metadata the UI and validation use."""
+    meta = {"min": lo, "max": hi, "step": step, "unit": unit, "eq": eq, "doc": doc}
+    return field(default=default, metadata=meta)
+
+
+def _switch(doc: str, default: bool = True) -> Any:
+    return field(default=default, metadata={"unit": "bool", "doc": doc, "eq": ""})
+
+
+@dataclass(frozen=True)
+class Motion:
+    """The motion vector a_Robot = (a_r, a_p, a_y) and the curve amount CA (seed 004, eqs 10–11)."""
+
+    a_r: float = _param(
+        0.0, -0.3, 0.3, step=0.005, unit="rad", eq="(13)",
+        doc="lateral walking amplitude; > 0 steps to the robot's right",
+    )  # fmt: skip
+    a_p: float = _param(
+        0.0, -0.3, 0.3, step=0.005, unit="rad", eq="(28)",
+        doc="sagittal walking amplitude; > 0 walks forward",
+    )  # fmt: skip
+    a_y: float = _param(
+        0.0, -0.6, 0.6, step=0.01, unit="rad", eq="(29)",
+        doc="rotation amplitude; > 0 turns clockwise (seen from above)",
+    )  # fmt: skip
+    ca: float = _param(
+        0.0, -0.3, 0.3, step=0.001, unit="1", eq="seed 004 (10)-(11)",
+        doc="curve amount; > 0 makes left steps longer and turns clockwise",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class ClockParams:
+    """The walking clock: phi_Trunk advances by 2*pi*f*dt (the paper gives no f)."""
+
+    freq_hz: float = _param(
+        1.0, 0.2, 3.0, step=0.01, unit="Hz", eq="(10)-(11)",
+        doc="gait cycle frequency (one left and one right step per cycle)",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class ShiftParams:
+    """Lateral shifting of the centre of mass, eqs (12)–(15)."""
+
+    enabled: bool = _switch("lateral shifting phase on")
+    amp_base: float = _param(
+        0.12, 0.0, 0.4, step=0.005, unit="rad", eq="(13)", doc="shift amplitude at rest"
+    )
+    amp_speed: float = _param(
+        0.08, 0.0, 1.0, step=0.01, unit="1", eq="(13)", doc="shift gain on |(a_r, a_p)|"
+    )
+    amp_lateral: float = _param(
+        0.7, 0.0, 2.0, step=0.01, unit="1", eq="(13)", doc="shift gain on |a_r|"
+    )
+    foot_ratio: float = _param(
+        0.5, 0.0, 1.5, step=0.01, unit="1", eq="(15)",
+        doc="foot roll counter-shift, as a fraction of the leg shift",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class ShortParams:
+    """Shortening of the swing leg and lifting of the leading foot edge, eqs (16)–(21)."""
+
+    enabled: bool = _switch("shortening phase on")
+    v: float = _param(
+        3.0, 2.5, 6.0, step=0.05, unit="1", eq="(17)", doc="phase speed: 1/duration of shortening"
+    )
+    o: float = _param(
+        -0.05, -0.5, 0.3, step=0.01, unit="rad", eq="(18)", doc="phase shift vs lateral shifting"
+    )
+    amp_base: float = _param(
+        0.2, 0.0, 1.0, step=0.01, unit="1", eq="(20)", doc="shortening amplitude at rest"
+    )
+    amp_speed: float = _param(
+        2.0, 0.0, 6.0, step=0.05, unit="1/rad", eq="(20)", doc="shortening gain on |(a_r, a_p)|"
+    )
+    foot_lift: float = _param(
+        0.125, 0.0, 1.0, step=0.005, unit="1", eq="(21)", doc="toe lift gain on a_p"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class SwingParams:
+    """The fast swing and slow linear reverse motion, eqs (22)–(32)."""
+
+    enabled: bool = _switch("swinging phase on")
+    v: float = _param(
+        2.0, 1.5, 6.0, step=0.05, unit="1", eq="(23)", doc="phase speed: 1/duration of the swing"
+    )
+    o: float = _param(
+        -0.15, -0.5, 0.4, step=0.01, unit="rad", eq="(24)", doc="phase shift vs lateral shifting"
+    )
+    foot_roll: float = _param(
+        0.25, 0.0, 1.0, step=0.01, unit="1", eq="(30)", doc="foot roll swing, fraction of a_r"
+    )
+    foot_pitch: float = _param(
+        0.25, 0.0, 1.0, step=0.01, unit="1", eq="(31)", doc="foot pitch swing, fraction of a_p"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class LoadParams:
+    """The second shortening that eases loading of the landing leg, eqs (33)–(36)."""
+
+    enabled: bool = _switch("loading phase on")
+    v: float = _param(
+        3.0, 2.0, 6.0, step=0.05, unit="1", eq="(34)", doc="phase speed: 1/duration of loading"
+    )
+    amp_base: float = _param(
+        0.025, 0.0, 0.5, step=0.005, unit="1", eq="(36)", doc="loading amplitude at rest"
+    )
+    amp_pitch: float = _param(
+        0.5, 0.0, 2.0, step=0.01, unit="1", eq="(36)", doc="loading gain on 1 - cos|a_p|"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class BalanceParams:
+    """Per-step tilting and constant offsets of leg and foot angles, eqs (37)–(39)."""
+
+    enabled: bool = _switch("balancing phase on")
+    foot_roll_amp: float = _param(
+        0.5, 0.0, 2.0, step=0.01, unit="1", eq="(37)", doc="foot roll balance gain on a_r"
+    )
+    foot_roll_phase: float = _param(
+        0.35, -3.14, 3.14, step=0.01, unit="rad", eq="(37)", doc="foot roll balance phase"
+    )
+    foot_pitch_offset: float = _param(
+        0.02, -0.3, 0.3, step=0.005, unit="rad", eq="(38)", doc="constant foot pitch (toe up > 0)"
+    )
+    foot_pitch_speed: float = _param(
+        0.12, -1.0, 1.0, step=0.01, unit="1", eq="(38)", doc="foot pitch gain on a_p"
+    )
+    foot_pitch_amp: float = _param(
+        0.04, -1.0, 1.0, step=0.01, unit="1", eq="(38)", doc="foot pitch oscillation gain on a_p"
+    )
+    foot_pitch_phase: float = _param(
+        0.7, -3.14, 3.14, step=0.01, unit="rad", eq="(38)", doc="foot pitch oscillation phase"
+    )
+    leg_roll_offset: float = _param(
+        0.05, -0.2, 0.3, step=0.005, unit="rad", eq="(39)", doc="constant leg roll (outwards > 0)"
+    )
+    leg_roll_yaw: float = _param(
+        0.1, -1.0, 1.0, step=0.01, unit="1", eq="(39)", doc="leg roll gain on a_y"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class LegParams:
+    """The leg interface, eqs (2)–(9)."""
+
+    eta_min: float = _param(
+        0.875, 0.6, 0.99, step=0.005, unit="1", eq="(2)",
+        doc="relative leg length at full shortening (gamma = -1)",
+    )  # fmt: skip
+    paper_signs: bool = _switch(
+        "eqs (30), (31), (39) with the signs as printed (I_s on foot pitch, not foot roll; "
+        "0.1*a_y not 0.1*|a_y|); off: the mirror-symmetric form"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class GaitParams:
+    """Every walking-phase constant, grouped by phase, with the paper's values as defaults."""
+
+    clock: ClockParams = field(default_factory=ClockParams)
+    shift: ShiftParams = field(default_factory=ShiftParams)
+    short: ShortParams = field(default_factory=ShortParams)
+    swing: SwingParams = field(default_factory=SwingParams)
+    load: LoadParams = field(default_factory=LoadParams)
+    balance: BalanceParams = field(default_factory=BalanceParams)
+    leg: LegParams = field(default_factory=LegParams)
+
+    def to_dict(self) -> dict[str, dict[str, float | bool]]:
+        return dataclasses.asdict(self)
+
+    @classmethod
+    def from_dict(cls, data: Mapping[str, Any]) -> GaitParams:
+        """Build from a (possibly partial) nested dict; unknown groups or fields are errors."""
+        return merge(cls(), data)
+
+    def flat(self) -> dict[str, float | bool]:
+        """Dotted names, e.g. {'swing.v': 2.0, ...}: the form optimisers and diffs use."""
+        return {f"{g}.{k}": v for g, group in self.to_dict().items() for k, v in group.items()}
+
+
+_GROUP_CLASSES = {
+    "clock": ClockParams,
+    "shift": ShiftParams,
+    "short": ShortParams,
+    "swing": SwingParams,
+    "load": LoadParams,
+    "balance": BalanceParams,
+    "leg": LegParams,
+}
+
+
+def merge(params: GaitParams, patch: Mapping[str, Any]) -> GaitParams:
+    """Return `params` with the fields named in a nested partial dict replaced (validated)."""
+    if not isinstance(patch, Mapping):
+        raise ValueError(f"gait parameters must be an object of groups {sorted(_GROUP_CLASSES)}")
+    groups: dict[str, Any] = {}
+    for group_name, values in patch.items():
+        if group_name not in _GROUP_CLASSES:
+            raise ValueError(
+                f"unknown parameter group {group_name!r}; allowed: {sorted(_GROUP_CLASSES)}"
+            )
+        groups[group_name] = replace_checked(getattr(params, group_name), values, group_name)
+    return dataclasses.replace(params, **groups)
+
+
+def replace_checked(obj: Any, values: Mapping[str, Any], where: str) -> Any:
+    """dataclasses.replace with type checks and a clear error for unknown names."""
+    if not isinstance(values, Mapping):
+        raise ValueError(f"{where} must be an object, got {type(values).__name__}")
+    known = {f.name: f for f in fields(obj)}
+    clean: dict[str, Any] = {}
+    for name, value in values.items():
+        if name not in known:
+            raise ValueError(f"unknown field {where}.{name}; allowed: {sorted(known)}")
+        is_bool = known[name].metadata.get("unit") == "bool"
+        if is_bool:
+            if not isinstance(value, bool):
+                raise ValueError(f"{where}.{name} must be true or false, got {value!r}")
+        elif isinstance(value, bool) or not isinstance(value, int | float):
+            raise ValueError(f"{where}.{name} must be a number, got {value!r}")
+        clean[name] = value if is_bool else float(value)
+    return dataclasses.replace(obj, **clean)
+
+
+def _check_ranges(obj: Any) -> None:
+    for f in fields(obj):
+        meta = f.metadata
+        if "min" not in meta:
+            continue
+        value = getattr(obj, f.name)
+        where = f"{type(obj).__name__}.{f.name}"
+        if not isinstance(value, int | float) or isinstance(value, bool):
+            raise ValueError(f"{where} must be a number, got {value!r}")
+        if not math.isfinite(value) or not meta["min"] <= value <= meta["max"]:
+            raise ValueError(
+                f"{where} = {value!r} is out of range; allowed: "
+                f"{meta['min']} to {meta['max']} {meta['unit']}"
+            )
+
+
+def describe_fields(cls: type) -> Iterator[tuple[str, Any, Mapping[str, Any]]]:
+    """(name, default, metadata) for each field of a parameter group: what UIs are built from."""
+    defaults = cls()
+    for f in fields(cls):
+        yield f.name, getattr(defaults, f.name), f.metadata
+
+
+def group_class(name: str) -> type:
+    return _GROUP_CLASSES[name]
