@@ -82,8 +82,9 @@ def test_forward_kinematics_realises_leg_and_foot_angles(left, right, gamma):
         # hip -> ankle line = leg angle (yaw, then roll, then pitch, as the joints are stacked)
         leg_frame = rot_z(mirror * yaw) @ rot_x(mirror * roll)
         expected_dir = leg_frame @ rot_y(-pitch) @ np.array([0, 0, -1.0])
-        np.testing.assert_allclose((ankle - hip) / np.linalg.norm(ankle - hip), expected_dir,
-                                   atol=1e-9)
+        np.testing.assert_allclose(
+            (ankle - hip) / np.linalg.norm(ankle - hip), expected_dir, atol=1e-9
+        )
         # sole orientation relative to the trunk = foot angle: the pitch joints add up to the
         # foot pitch, the roll joints to the foot roll (eqs 7-9)
         expected_sole = leg_frame @ rot_y(-foot_pitch) @ rot_x(mirror * (foot_roll - roll))

@@ -1,0 +1,259 @@
+"""The frame loop: gait -> servo pulses -> TDM-PWM frame -> demultiplexed set-points -> MuJoCo.
+
+One call of `Simulation.step_frame()` is one 20 ms TDM frame (SPEC §2): the walking clock gives
+the phase, the gait gives 12 joint angles, the servo model turns them into pulse widths, the timer
+model quantises those to OCR ticks, and each servo's new set-point -- the angle decoded from its
+quantised, demultiplexed pulse -- takes effect at that pulse's falling edge. Physics steps in
+between, so a set-point reaches the MuJoCo actuator on the first physics step starting at or
+after its edge.
+
+The gait is open loop: a frame's pulses depend only on the parameters and the frame's phase. So the
+loop evaluates the whole pipeline vectorised for a block of future frames at once and replays it;
+any change of parameters or motion discards the rest of the block, so a change reaches the servos
+in the very next frame.
+
+This object alone owns its `MjData`; nothing else may touch it.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from app.robot import RobotModel
+from gait import GaitParams, Motion, joint_angles_with_flags, pi_cut
+from hardware import (
+    FRAME_TICKS,
+    SLOT_TICKS,
+    TICK_US,
+    ServoCalibration,
+    TdmConfig,
+    angles_to_pulses_us,
+    falling_edge_ticks,
+    frame_ocr,
+    guard_violations,
+    pulses_to_angles_rad,
+)
+
+FRAME_S = FRAME_TICKS * TICK_US * 1e-6  # 20 ms
+START_PHASE_RAD = -0.5 * math.pi  # lateral shift passes through zero: both feet on the ground
+FALL_HEIGHT_FRACTION = 0.6  # fallen: trunk below 60 % of its standing height ...
+FALL_TILT_RAD = math.radians(50.0)  # ... or tilted more than 50 degrees
+
+
+@dataclass(frozen=True)
+class HardwareSetup:
+    calibration: ServoCalibration = field(default_factory=ServoCalibration.default)
+    tdm: TdmConfig = field(default_factory=TdmConfig)
+
+
+@dataclass
+class FramePlan:
+    """The pipeline evaluated for a block of consecutive frames (leading axis: frame)."""
+
+    phase: NDArray[np.float64]  # (n,) phi_Trunk at each frame start
+    angles: NDArray[np.float64]  # (n, 12) gait joint angles
+    ocr: NDArray[np.int32]  # (n, 6, 8) timer compare values
+    setpoint: NDArray[np.float64]  # (n, 12) angle decoded from the demultiplexed pulse
+    substep: NDArray[np.int64]  # (n, 12) physics step of the frame at which it takes effect
+    saturated: NDArray[np.bool_]  # (n, 12) servo angle or pulse limited
+    gamma_clamped: NDArray[np.bool_]  # (n, 2)
+    guard: NDArray[np.bool_]  # (n, 6, 8) select change while a line was high
+    next_index: int = 0
+
+    def __len__(self) -> int:
+        return len(self.phase)
+
+
+@dataclass(frozen=True)
+class FrameRecord:
+    """What happened in one frame: the input to metrics, plots and the scope."""
+
+    index: int
+    time_s: float
+    phase: float
+    ocr: NDArray[np.int32]
+    saturated: bool
+    gamma_clamped: bool
+    guard_violation: bool
+
+
+def plan_frames(
+    params: GaitParams,
+    motion: Motion,
+    hardware: HardwareSetup,
+    phase0: float,
+    n_frames: int,
+    steps_per_frame: int,
+    timestep_s: float,
+) -> FramePlan:
+    """Run gait and hardware model for n consecutive frames starting at phase0 (vectorised)."""
+    step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
+    phase = pi_cut(phase0 + step_rad * np.arange(n_frames))
+    angles, gamma_clamped = joint_angles_with_flags(params, motion, phase)
+    pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
+    ocr = frame_ocr(pulse_us, hardware.tdm)
+    fall_ticks = falling_edge_ticks(ocr, hardware.tdm)
+    slot = np.asarray(hardware.tdm.channel_map.slot_index)
+    received_us = (fall_ticks - slot * SLOT_TICKS) * TICK_US  # what the servo measured
+    setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
+    edge_s = fall_ticks * TICK_US * 1e-6
+    substep = np.ceil(edge_s / timestep_s - 1e-9).astype(np.int64)
+    substep = np.minimum(substep, steps_per_frame)
+    return FramePlan(
+        phase=phase,
+        angles=angles,
+        ocr=ocr,
+        setpoint=setpoint,
+        substep=substep,
+        saturated=saturated,
+        gamma_clamped=gamma_clamped,
+        guard=guard_violations(ocr, hardware.tdm),
+    )
+
+
+class Simulation:
+    """The ArtRo simulation, advanced one TDM frame at a time."""
+
+    def __init__(
+        self,
+        robot: RobotModel | None = None,
+        params: GaitParams | None = None,
+        motion: Motion | None = None,
+        hardware: HardwareSetup | None = None,
+        block_frames: int = 50,
+    ) -> None:
+        self.robot = robot or RobotModel.load()
+        self.model = self.robot.model
+        self.data = mujoco.MjData(self.model)
+        self.params = params or GaitParams()
+        self.motion = motion or Motion()
+        self.hardware = hardware or HardwareSetup()
+        self.block_frames = block_frames
+        self.timestep_s = float(self.model.opt.timestep)
+        steps = FRAME_S / self.timestep_s
+        if abs(steps - round(steps)) > 1e-9:
+            raise ValueError(f"model timestep {self.timestep_s} s must divide the 20 ms frame")
+        self.steps_per_frame = round(steps)
+        self._plan: FramePlan | None = None
+        self.reset()
+
+    # --- control -----------------------------------------------------------------------------
+
+    def reset(self, phase: float = START_PHASE_RAD) -> None:
+        """Stand the robot on the floor in the gait's pose at `phase`, feet flat, at rest."""
+        mujoco.mj_resetData(self.model, self.data)
+        self.phase = float(phase)
+        self.frame_index = 0
+        self.fell = False
+        self.blew_up = False
+        pose = joint_angles_with_flags(self.params, self.motion, self.phase).values
+        self.data.qpos[self.robot.qpos_adr] = pose
+        self.data.qpos[2] = self.robot.standing_height_m(pose) + 1e-4
+        self.data.ctrl[self.robot.actuator_ids] = pose
+        mujoco.mj_forward(self.model, self.data)
+        self.standing_height_m = float(self.data.qpos[2])
+        self._plan = None
+
+    def set_gait(self, params: GaitParams | None = None, motion: Motion | None = None) -> None:
+        """New parameters or motion vector: they reach the servos from the next frame on."""
+        if params is not None:
+            self.params = params
+        if motion is not None:
+            self.motion = motion
+        self._plan = None
+
+    def set_hardware(self, hardware: HardwareSetup) -> None:
+        self.hardware = hardware
+        self._plan = None
+
+    # --- the loop ----------------------------------------------------------------------------
+
+    def step_frame(self) -> FrameRecord:
+        plan = self._plan
+        if plan is None or plan.next_index >= len(plan):
+            plan = self._plan = plan_frames(
+                self.params,
+                self.motion,
+                self.hardware,
+                self.phase,
+                self.block_frames,
+                self.steps_per_frame,
+                self.timestep_s,
+            )
+        k = plan.next_index
+        plan.next_index += 1
+        self._apply_frame(plan.substep[k], plan.setpoint[k])
+        record = FrameRecord(
+            index=self.frame_index,
+            time_s=self.frame_index * FRAME_S,
+            phase=float(plan.phase[k]),
+            ocr=plan.ocr[k],
+            saturated=bool(plan.saturated[k].any()),
+            gamma_clamped=bool(plan.gamma_clamped[k].any()),
+            guard_violation=bool(plan.guard[k].any()),
+        )
+        self.frame_index += 1
+        self.phase = float(
+            pi_cut(plan.phase[k] + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S)
+        )
+        self._check_state()
+        return record
+
+    def _apply_frame(self, substep: NDArray[np.int64], setpoint: NDArray[np.float64]) -> None:
+        """Step physics through one frame, switching each servo's set-point at its falling edge."""
+        model, data = self.model, self.data
+        order = np.argsort(substep, kind="stable")
+        ctrl = data.ctrl
+        done = 0
+        for s, actuator, value in zip(
+            substep[order].tolist(),
+            self.robot.actuator_ids[order].tolist(),
+            setpoint[order].tolist(),
+            strict=True,
+        ):
+            if s > done:
+                mujoco.mj_step(model, data, s - done)
+                done = s
+            ctrl[actuator] = value
+        if done < self.steps_per_frame:
+            mujoco.mj_step(model, data, self.steps_per_frame - done)
+
+    def _check_state(self) -> None:
+        data = self.data
+        if (
+            not np.all(np.isfinite(data.qpos))
+            or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
+        ):
+            self.blew_up = True
+            self.fell = True
+            return
+        up_z = 1.0 - 2.0 * (data.qpos[4] ** 2 + data.qpos[5] ** 2)  # trunk z axis, world z part
+        if data.qpos[2] < FALL_HEIGHT_FRACTION * self.standing_height_m or up_z < math.cos(
+            FALL_TILT_RAD
+        ):
+            self.fell = True
+
+    # --- readings ----------------------------------------------------------------------------
+
+    @property
+    def time_s(self) -> float:
+        return self.frame_index * FRAME_S
+
+    def trunk_pose(self) -> tuple[float, float, float]:
+        """(x, y, yaw) of the trunk in the world frame, yaw counter-clockwise."""
+        w, x, y, z = self.data.qpos[3:7]
+        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+        return float(self.data.qpos[0]), float(self.data.qpos[1]), yaw
+
+    def gyro(self) -> NDArray[np.float64]:
+        adr = self.robot.gyro_adr
+        return self.data.sensordata[adr : adr + 3].copy()
+
+    def feet_xy(self) -> NDArray[np.float64]:
+        """(2, 2): left and right sole centre, world x and y."""
+        return np.array([self.data.site("l_sole").xpos[:2], self.data.site("r_sole").xpos[:2]])
