@@ -69,11 +69,11 @@ class RobotModel:
         data.qpos[2] = 0.0
         data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
         mujoco.mj_kinematics(self.model, data)
-        lowest = min(_lowest_corner_z(data, side) for side in ("l", "r"))
+        lowest = min(lowest_sole_z(data, side) for side in ("l", "r"))
         return -lowest
 
 
-def _lowest_corner_z(data: mujoco.MjData, side: str) -> float:
+def lowest_sole_z(data: mujoco.MjData, side: str) -> float:
     """Lowest z of the four bottom corners of a foot plate."""
     geom = data.geom(f"{side}_foot_plate")
     half = data.model.geom(f"{side}_foot_plate").size

@@ -43,6 +43,12 @@ FRAME_S = FRAME_TICKS * TICK_US * 1e-6  # 20 ms
 START_PHASE_RAD = -0.5 * math.pi  # lateral shift passes through zero: both feet on the ground
 FALL_HEIGHT_FRACTION = 0.6  # fallen: trunk below 60 % of its standing height ...
 FALL_TILT_RAD = math.radians(50.0)  # ... or tilted more than 50 degrees
+#: MuJoCo resets the state itself when it meets these; we report them as a blow-up.
+BLOW_UP = (
+    mujoco.mjtWarning.mjWARN_BADQPOS,
+    mujoco.mjtWarning.mjWARN_BADQVEL,
+    mujoco.mjtWarning.mjWARN_BADQACC,
+)
 
 
 @dataclass(frozen=True)
@@ -64,6 +70,12 @@ class FramePlan:
     gamma_clamped: NDArray[np.bool_]  # (n, 2)
     guard: NDArray[np.bool_]  # (n, 6, 8) select change while a line was high
     next_index: int = 0
+
+    def __post_init__(self) -> None:
+        # per-frame summaries, reduced once per block rather than once per frame
+        self.any_saturated = self.saturated.any(axis=-1).tolist()
+        self.any_gamma_clamped = self.gamma_clamped.any(axis=-1).tolist()
+        self.any_guard = self.guard.any(axis=(-2, -1)).tolist()
 
     def __len__(self) -> int:
         return len(self.phase)
@@ -193,14 +205,13 @@ class Simulation:
             time_s=self.frame_index * FRAME_S,
             phase=float(plan.phase[k]),
             ocr=plan.ocr[k],
-            saturated=bool(plan.saturated[k].any()),
-            gamma_clamped=bool(plan.gamma_clamped[k].any()),
-            guard_violation=bool(plan.guard[k].any()),
+            saturated=plan.any_saturated[k],
+            gamma_clamped=plan.any_gamma_clamped[k],
+            guard_violation=plan.any_guard[k],
         )
         self.frame_index += 1
-        self.phase = float(
-            pi_cut(plan.phase[k] + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S)
-        )
+        next_phase = float(plan.phase[k]) + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S
+        self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # piCut, in floats
         self._check_state()
         return record
 
@@ -225,17 +236,14 @@ class Simulation:
 
     def _check_state(self) -> None:
         data = self.data
-        if (
-            not np.all(np.isfinite(data.qpos))
-            or data.warning[mujoco.mjtWarning.mjWARN_BADQACC].number
-        ):
+        # MuJoCo checks qpos, qvel and qacc every step and counts what it finds
+        if any(data.warning[w].number for w in BLOW_UP) or not math.isfinite(data.qpos[2]):
             self.blew_up = True
             self.fell = True
             return
         up_z = 1.0 - 2.0 * (data.qpos[4] ** 2 + data.qpos[5] ** 2)  # trunk z axis, world z part
-        if data.qpos[2] < FALL_HEIGHT_FRACTION * self.standing_height_m or up_z < math.cos(
-            FALL_TILT_RAD
-        ):
+        too_low = data.qpos[2] < FALL_HEIGHT_FRACTION * self.standing_height_m
+        if too_low or up_z < math.cos(FALL_TILT_RAD):
             self.fell = True
 
     # --- readings ----------------------------------------------------------------------------

@@ -1,0 +1,103 @@
+"""The `artro` command line.
+
+artro run --motion AR,AP,AY [--ca X] [--params FILE] [--duration S] [--warmup S] [--json]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import sys
+from collections.abc import Sequence
+
+from app.paramset import ParameterSet, load_parameter_set
+from app.runner import run
+from gait import Motion
+
+
+def _motion_triple(text: str) -> tuple[float, float, float]:
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected three numbers a_r,a_p,a_y such as 0,0.07,0; got {text!r}"
+        )
+    return values  # type: ignore[return-value]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(prog="artro", description=__doc__.split("\n")[0])
+    sub = parser.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run", help="simulate headless and print the run metrics")
+    r.add_argument(
+        "--motion",
+        type=_motion_triple,
+        default=None,
+        metavar="AR,AP,AY",
+        help="motion vector; a_r > 0 steps right, a_p > 0 walks forward, a_y > 0 turns clockwise "
+        "(default: the parameter set's)",
+    )
+    r.add_argument("--ca", type=float, default=None, help="curve amount, > 0 turns clockwise")
+    r.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")
+    r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
+    r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
+    return parser
+
+
+def _cmd_run(args: argparse.Namespace) -> int:
+    pset = load_parameter_set(args.params) if args.params else ParameterSet()
+    motion = pset.motion
+    if args.motion is not None:
+        a_r, a_p, a_y = args.motion
+        motion = dataclasses.replace(motion, a_r=a_r, a_p=a_p, a_y=a_y)
+    if args.ca is not None:
+        motion = dataclasses.replace(motion, ca=args.ca)
+    Motion(**dataclasses.asdict(motion))  # range check of the combined vector
+    result = run(pset.gait, motion, duration_s=args.duration, warmup_s=args.warmup)
+    m = result.metrics
+    if args.json:
+        print(json.dumps(m, allow_nan=False))
+        return 0
+    print(
+        f"parameter set {pset.name!r}, motion a_r={motion.a_r} a_p={motion.a_p} "
+        f"a_y={motion.a_y} CA={motion.ca}"
+    )
+    if m["fell"]:
+        print(f"FELL after {m['fall_time_s']} s")
+    if m["forward_cm_s"] is not None:
+        print(
+            f"forward {m['forward_cm_s']:+.2f} cm/s, lateral {m['lateral_cm_s']:+.2f} cm/s (left +)"
+        )
+        print(
+            f"turn {m['turn_deg_s']:+.2f} deg/s (CCW +), differential drive predicts "
+            f"{m['predicted_turn_deg_s']:+.2f} deg/s, path error {m['path_error_cm']:.2f} cm"
+        )
+        print(f"gyro RMS {m['gyro_rms']:.3f} rad/s")
+    print(f"{m['sim_s']:.1f} s simulated in {m['wall_s']:.2f} s: {m['rtf']:.1f}x real time")
+    peak = max(result.required_torque_nm.items(), key=lambda kv: kv[1])
+    print(f"largest required servo torque (eq 1, sf 0.2): {peak[1]:.2f} N m at {peak[0]}")
+    flags = {k: v for k, v in m["flags"].items() if v}
+    if flags:
+        print(f"flags: {flags}")
+    return 0
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        if args.command == "run":
+            return _cmd_run(args)
+    except (ValueError, OSError) as exc:
+        parser.exit(2, f"artro {args.command}: error: {exc}\n")
+    return 1
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,104 @@
+"""Run metrics of SPEC §6, computed from a recorded trunk trace.
+
+All speeds are means over whole gait cycles after the warm-up, so the within-step sway averages
+out. Body-frame velocities follow ROS: forward = +x of the trunk, lateral = +y (to the robot's
+left), turn = counter-clockwise. `gyro_rms` is the RMS of the trunk angular-velocity magnitude in
+rad/s (seed 004's stability measure). `predicted_turn_deg_s` and `path_error_cm` come from the
+differential-drive model (gait.steering) with V = the measured forward speed and b = the measured
+mean distance between the feet.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gait import Pose2D, predict_path, turn_rate_rad_s
+
+
+@dataclass
+class Trace:
+    """Samples taken once per frame: time, trunk pose, gyro, distance between the feet."""
+
+    t_s: list[float] = field(default_factory=list)
+    x_m: list[float] = field(default_factory=list)
+    y_m: list[float] = field(default_factory=list)
+    yaw_rad: list[float] = field(default_factory=list)
+    gyro_rad_s: list[NDArray[np.float64]] = field(default_factory=list)
+    feet_distance_m: list[float] = field(default_factory=list)
+
+    def append(
+        self, t: float, pose: tuple[float, float, float], gyro: NDArray, feet_m: float
+    ) -> None:
+        self.t_s.append(t)
+        self.x_m.append(pose[0])
+        self.y_m.append(pose[1])
+        self.yaw_rad.append(pose[2])
+        self.gyro_rad_s.append(gyro)
+        self.feet_distance_m.append(feet_m)
+
+    def arrays(self) -> dict[str, NDArray[np.float64]]:
+        return {
+            "t": np.asarray(self.t_s),
+            "x": np.asarray(self.x_m),
+            "y": np.asarray(self.y_m),
+            "yaw": np.unwrap(np.asarray(self.yaw_rad)),
+            "gyro": np.asarray(self.gyro_rad_s).reshape(-1, 3),
+            "feet": np.asarray(self.feet_distance_m),
+        }
+
+
+def whole_cycles(t: NDArray[np.float64], start_s: float, freq_hz: float) -> slice:
+    """Index range from the first sample at or after start_s spanning a whole number of cycles
+    (all remaining samples if less than one cycle is left)."""
+    first = int(np.searchsorted(t, start_s - 1e-9))
+    if first >= len(t) - 1:
+        return slice(first, first)
+    span = t[-1] - t[first]
+    cycles = math.floor(span * freq_hz + 1e-9)
+    if cycles < 1:
+        return slice(first, len(t))
+    last = int(np.searchsorted(t, t[first] + cycles / freq_hz - 1e-9))
+    return slice(first, min(last, len(t) - 1) + 1)
+
+
+def compute_metrics(
+    trace: Trace, *, ca: float, freq_hz: float, warmup_s: float
+) -> dict[str, float | None]:
+    """The motion metrics over whole gait cycles after the warm-up; None where undefined."""
+    a = trace.arrays()
+    window = whole_cycles(a["t"], warmup_s, freq_hz)
+    t, x, y, yaw = (a[k][window] for k in ("t", "x", "y", "yaw"))
+    if len(t) < 2:
+        return dict.fromkeys(
+            (
+                "forward_cm_s",
+                "lateral_cm_s",
+                "turn_deg_s",
+                "predicted_turn_deg_s",
+                "path_error_cm",
+                "gyro_rms",
+            )
+        )
+    duration = t[-1] - t[0]
+    dx, dy = np.diff(x), np.diff(y)
+    mid_yaw = 0.5 * (yaw[1:] + yaw[:-1])
+    forward = np.sum(np.cos(mid_yaw) * dx + np.sin(mid_yaw) * dy) / duration
+    lateral = np.sum(-np.sin(mid_yaw) * dx + np.cos(mid_yaw) * dy) / duration
+    turn = (yaw[-1] - yaw[0]) / duration
+    axle = float(np.mean(a["feet"][window]))
+    predicted_turn = float(turn_rate_rad_s(ca, forward, axle)) + 0.0  # no -0.0 in reports
+    predicted = predict_path(Pose2D(x[0], y[0], yaw[0]), forward, ca, axle, t - t[0])
+    path_error = np.sqrt(np.mean((predicted[:, 1] - x) ** 2 + (predicted[:, 2] - y) ** 2))
+    gyro = a["gyro"][window]
+    return {
+        "forward_cm_s": 100.0 * float(forward),
+        "lateral_cm_s": 100.0 * float(lateral),
+        "turn_deg_s": math.degrees(turn),
+        "predicted_turn_deg_s": math.degrees(predicted_turn),
+        "path_error_cm": 100.0 * float(path_error),
+        "gyro_rms": float(np.sqrt(np.mean(np.sum(gyro**2, axis=1)))),
+    }

@@ -1,0 +1,86 @@
+"""Parameter sets on disk: one JSON document with the motion vector, CA and every gait constant.
+
+    {"schema_version": 1, "name": "...", "created": "ISO time", "project_version": "0.1.0",
+     "motion": {"a_r": 0, "a_p": 0.07, "a_y": 0, "ca": 0},
+     "gait": {"clock": {...}, "shift": {...}, ..., "leg": {...}}}
+
+Groups or fields left out take the paper's value; unknown keys are errors that name what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+from dataclasses import dataclass, field
+from datetime import datetime, timezone
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from gait import GaitParams, Motion
+from gait.params import replace_checked
+
+SCHEMA_VERSION = 1
+TOP_LEVEL_KEYS = ("schema_version", "name", "created", "project_version", "motion", "gait")
+
+
+def project_version() -> str:
+    try:
+        return metadata.version("artro-gait-studio")
+    except metadata.PackageNotFoundError:
+        return "unknown"
+
+
+@dataclass(frozen=True)
+class ParameterSet:
+    name: str = "paper"
+    motion: Motion = field(default_factory=Motion)
+    gait: GaitParams = field(default_factory=GaitParams)
+    created: str = ""
+    project_version: str = ""
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "schema_version": SCHEMA_VERSION,
+            "name": self.name,
+            "created": self.created or datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "project_version": self.project_version or project_version(),
+            "motion": dataclasses.asdict(self.motion),
+            "gait": self.gait.to_dict(),
+        }
+
+    @classmethod
+    def from_dict(cls, data: Any) -> ParameterSet:
+        if not isinstance(data, dict):
+            raise ValueError("a parameter set must be a JSON object")
+        unknown = sorted(set(data) - set(TOP_LEVEL_KEYS))
+        if unknown:
+            raise ValueError(f"unknown keys {unknown}; allowed: {list(TOP_LEVEL_KEYS)}")
+        version = data.get("schema_version", SCHEMA_VERSION)
+        if version != SCHEMA_VERSION:
+            raise ValueError(
+                f"schema_version {version!r} is not supported; this is {SCHEMA_VERSION}"
+            )
+        name = data.get("name", "unnamed")
+        if not isinstance(name, str):
+            raise ValueError("name must be a string")
+        return cls(
+            name=name,
+            motion=replace_checked(Motion(), data.get("motion", {}), "motion"),
+            gait=GaitParams.from_dict(data.get("gait", {})),
+            created=str(data.get("created", "")),
+            project_version=str(data.get("project_version", "")),
+        )
+
+
+def load_parameter_set(path: Path | str) -> ParameterSet:
+    """Read a parameter-set JSON file; ValueError says what is wrong with it."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"{path}: not valid JSON ({exc})") from exc
+    try:
+        return ParameterSet.from_dict(data)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from exc

@@ -1,0 +1,76 @@
+"""`artro run` as a user calls it: the installed console script, real simulation."""
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ARTRO = shutil.which("artro", path=str(Path(sys.executable).parent)) or "artro"
+
+
+def artro(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([ARTRO, *args], capture_output=True, text=True, timeout=300)
+
+
+def test_walking_on_the_spot_for_30_s_stands_and_does_not_drift():
+    out = artro("run", "--motion", "0,0,0", "--duration", "30", "--json")
+    assert out.returncode == 0, out.stderr
+    m = json.loads(out.stdout)
+    expected = {
+        "fell",
+        "forward_cm_s",
+        "lateral_cm_s",
+        "turn_deg_s",
+        "predicted_turn_deg_s",
+        "path_error_cm",
+        "gyro_rms",
+        "sim_s",
+        "wall_s",
+        "rtf",
+    }
+    assert expected <= set(m)
+    assert m["fell"] is False
+    assert (m["forward_cm_s"] ** 2 + m["lateral_cm_s"] ** 2) ** 0.5 < 0.5
+    assert m["sim_s"] == pytest.approx(30.0)
+
+
+def test_human_summary_and_param_file(tmp_path):
+    pset = {"name": "slow", "motion": {"a_p": 0.05}, "gait": {"clock": {"freq_hz": 0.8}}}
+    path = tmp_path / "slow.json"
+    path.write_text(json.dumps(pset))
+    out = artro("run", "--params", str(path), "--duration", "3", "--warmup", "1")
+    assert out.returncode == 0, out.stderr
+    assert "parameter set 'slow'" in out.stdout and "a_p=0.05" in out.stdout
+    assert "real time" in out.stdout
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--motion", "0,0"], "expected three numbers"),
+        (["--motion", "0,nan,0"], "expected three numbers"),
+        (["--motion", "0,0.9,0"], "allowed: -0.3 to 0.3"),
+        (["--ca", "2"], "allowed: -0.3 to 0.3"),
+        (["--params", "/nonexistent/p.json"], "No such file"),
+        (["--duration", "-1"], "duration must be > 0"),
+    ],
+)
+def test_bad_input_is_a_clear_error(args, message):
+    out = artro("run", *args)
+    assert out.returncode == 2
+    assert message in out.stderr
+    assert "Traceback" not in out.stderr
+
+
+def test_bad_param_file_names_the_problem(tmp_path):
+    path = tmp_path / "bad.json"
+    path.write_text(json.dumps({"gait": {"swing": {"speed": 2}}}))
+    out = artro("run", "--params", str(path), "--duration", "1")
+    assert out.returncode == 2
+    assert "unknown field swing.speed" in out.stderr
+    path.write_text("{not json")
+    out = artro("run", "--params", str(path))
+    assert out.returncode == 2 and "not valid JSON" in out.stderr
