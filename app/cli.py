@@ -11,6 +11,7 @@ import json
 import math
 import sys
 from collections.abc import Sequence
+from pathlib import Path
 
 from app.paramset import ParameterSet, load_parameter_set
 from app.runner import run
@@ -33,6 +34,13 @@ def _motion_triple(text: str) -> tuple[float, float, float]:
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(prog="artro", description=__doc__.split("\n")[0])
     sub = parser.add_subparsers(dest="command", required=True)
+    s = sub.add_parser("serve", help="the dashboard: simulation, API, 3D view and scope page")
+    s.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    s.add_argument("--port", type=int, default=8000, help="HTTP port of the dashboard and API")
+    s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
+    s.add_argument("--params", metavar="FILE", help="start with this parameter set")
+    s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
+    s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
     r = sub.add_parser("run", help="simulate headless and print the run metrics")
     r.add_argument(
         "--motion",
@@ -88,12 +96,43 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_serve(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from app.presets import default_data_dir
+    from app.runtime import ServerConfig
+    from app.server import create_app
+    from app.viewer import viser_url
+
+    config = ServerConfig(
+        host=args.host,
+        port=args.port,
+        viser_port=args.viser_port,
+        params_file=Path(args.params) if args.params else None,
+        data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
+        viewer=not args.no_viewer,
+    )
+    if config.params_file:
+        load_parameter_set(config.params_file)  # fail here, clearly, not inside the server
+    app = create_app(config)
+    url = viser_url(args.host, args.port)
+    print(
+        f"ArtRo Gait Studio: {url}  (3D view alone: {viser_url(args.host, args.viser_port)}, "
+        f"API docs: {url}/docs)",
+        flush=True,
+    )
+    uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+    return 0
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
         if args.command == "run":
             return _cmd_run(args)
+        if args.command == "serve":
+            return _cmd_serve(args)
     except (ValueError, OSError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")
     return 1

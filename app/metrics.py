@@ -65,6 +65,18 @@ def whole_cycles(t: NDArray[np.float64], start_s: float, freq_hz: float) -> slic
     return slice(first, min(last, len(t) - 1) + 1)
 
 
+def mean_body_velocity(
+    t: NDArray[np.float64], x: NDArray[np.float64], y: NDArray[np.float64], yaw: NDArray[np.float64]
+) -> tuple[float, float, float]:
+    """Mean (forward m/s, lateral m/s, turn rad/s) in the trunk frame; yaw must be unwrapped."""
+    duration = t[-1] - t[0]
+    dx, dy = np.diff(x), np.diff(y)
+    mid_yaw = 0.5 * (yaw[1:] + yaw[:-1])
+    forward = np.sum(np.cos(mid_yaw) * dx + np.sin(mid_yaw) * dy) / duration
+    lateral = np.sum(-np.sin(mid_yaw) * dx + np.cos(mid_yaw) * dy) / duration
+    return float(forward), float(lateral), float((yaw[-1] - yaw[0]) / duration)
+
+
 def compute_metrics(
     trace: Trace, *, ca: float, freq_hz: float, warmup_s: float
 ) -> dict[str, float | None]:
@@ -83,12 +95,7 @@ def compute_metrics(
                 "gyro_rms",
             )
         )
-    duration = t[-1] - t[0]
-    dx, dy = np.diff(x), np.diff(y)
-    mid_yaw = 0.5 * (yaw[1:] + yaw[:-1])
-    forward = np.sum(np.cos(mid_yaw) * dx + np.sin(mid_yaw) * dy) / duration
-    lateral = np.sum(-np.sin(mid_yaw) * dx + np.cos(mid_yaw) * dy) / duration
-    turn = (yaw[-1] - yaw[0]) / duration
+    forward, lateral, turn = mean_body_velocity(t, x, y, yaw)
     axle = float(np.mean(a["feet"][window]))
     predicted_turn = float(turn_rate_rad_s(ca, forward, axle)) + 0.0  # no -0.0 in reports
     predicted = predict_path(Pose2D(x[0], y[0], yaw[0]), forward, ca, axle, t - t[0])

@@ -88,7 +88,9 @@ class FrameRecord:
     index: int
     time_s: float
     phase: float
-    ocr: NDArray[np.int32]
+    ocr: NDArray[np.int32]  # (6, 8)
+    setpoint: NDArray[np.float64]  # (12,) angle each servo decodes from its pulse
+    saturated_servos: NDArray[np.bool_]  # (12,)
     saturated: bool
     gamma_clamped: bool
     guard_violation: bool
@@ -205,6 +207,8 @@ class Simulation:
             time_s=self.frame_index * FRAME_S,
             phase=float(plan.phase[k]),
             ocr=plan.ocr[k],
+            setpoint=plan.setpoint[k],
+            saturated_servos=plan.saturated[k],
             saturated=plan.any_saturated[k],
             gamma_clamped=plan.any_gamma_clamped[k],
             guard_violation=plan.any_guard[k],

@@ -1,0 +1,53 @@
+"""The TDM-PWM oscilloscope: recent frames over HTTP, live frames over a WebSocket."""
+
+import asyncio
+import contextlib
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Query, WebSocket, WebSocketDisconnect
+
+from app.api.deps import RuntimeDep, WsRuntimeDep
+from app.scope import HISTORY_FRAMES
+
+router = APIRouter(tags=["scope"])
+
+
+@router.get("/api/scope")
+def recent_frames(
+    runtime: RuntimeDep,
+    frames: Annotated[int, Query(ge=1, le=HISTORY_FRAMES, description="how many")] = 1,
+) -> dict[str, Any]:
+    """The last N TDM-PWM frames: per channel the slots (servo, OCR ticks, pulse us, degrees),
+    the edges of the six TDM lines and three select lines, and flags."""
+    return {"frames": runtime.sim.scope.recent(frames)}
+
+
+@router.websocket("/ws/scope")
+async def live_frames(websocket: WebSocket, runtime: WsRuntimeDep) -> None:
+    """One JSON message per 20 ms simulated frame. A client that reads too slowly loses frames."""
+    await websocket.accept()
+    hub = runtime.sim.scope
+    client = hub.connect()
+    receiver = asyncio.create_task(_drain(websocket))
+    try:
+        while not receiver.done():
+            getter = asyncio.create_task(client.queue.get())
+            done, _ = await asyncio.wait({getter, receiver}, return_when=asyncio.FIRST_COMPLETED)
+            if getter not in done:
+                getter.cancel()
+                break
+            await websocket.send_text(getter.result())
+    except (WebSocketDisconnect, RuntimeError):
+        pass
+    finally:
+        hub.disconnect(client)
+        receiver.cancel()
+        with contextlib.suppress(Exception):
+            await websocket.close()
+
+
+async def _drain(websocket: WebSocket) -> None:
+    """Read (and ignore) what the client sends, so a disconnect is noticed at once."""
+    with contextlib.suppress(WebSocketDisconnect, RuntimeError):
+        while True:
+            await websocket.receive_text()

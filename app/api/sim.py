@@ -1,0 +1,45 @@
+"""Health, state and simulation control."""
+
+from typing import Any, Literal
+
+from fastapi import APIRouter
+from pydantic import BaseModel, ConfigDict, Field
+
+from app.api.deps import RuntimeDep
+from app.paramset import project_version
+from app.realtime import SPEED_RANGE
+
+router = APIRouter(tags=["simulation"])
+
+
+class SpeedBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+    speed: float = Field(ge=SPEED_RANGE[0], le=SPEED_RANGE[1], description="x real time")
+
+
+@router.get("/api/health")
+def health(runtime: RuntimeDep) -> dict[str, Any]:
+    return {
+        "status": "ok" if runtime.sim.alive else "simulation stopped",
+        "version": project_version(),
+        "viser_port": runtime.config.viser_port if runtime.viewer is not None else None,
+    }
+
+
+@router.get("/api/state")
+def state(runtime: RuntimeDep) -> dict[str, Any]:
+    """Sim time, real-time factor, fell, trunk pose, parameter version and more."""
+    return runtime.sim.status()
+
+
+@router.post("/api/sim/{action}")
+def control(action: Literal["reset", "pause", "resume", "step"], runtime: RuntimeDep) -> dict:
+    """Reset the robot, pause, resume, or advance one 20 ms frame (pauses first)."""
+    runtime.sim.command(action)
+    return {"accepted": action}
+
+
+@router.put("/api/sim/speed")
+def set_speed(body: SpeedBody, runtime: RuntimeDep) -> dict:
+    runtime.sim.command("speed", body.speed)
+    return {"accepted": "speed", "speed": body.speed}

@@ -1,0 +1,240 @@
+"""Named parameter sets ("presets") on disk, next to read-only built-in ones (SPEC §6).
+
+Each user preset is one `ParameterSet.to_dict()` JSON document at `<data_dir>/presets/<name>.json`.
+Names are a short, fixed alphabet (`NAME_RULE`), so a name can never leave the presets directory.
+Saving is atomic: the document is written to a temporary file in the same directory, flushed and
+fsync'ed, renamed over the target with `os.replace`, and the directory is fsync'ed; a crash at any
+point leaves either the old file or the new one, never a torn one. Files that cannot be read are
+skipped by `list()` and reported in `problems`, so one bad file never hides the others.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import re
+import tempfile
+from collections.abc import Mapping
+from dataclasses import dataclass
+from datetime import datetime, timezone
+from pathlib import Path
+from typing import Any
+
+from app.paramset import ParameterSet, project_version
+
+DATA_DIR_ENV = "ARTRO_DATA_DIR"
+NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
+NAME_RULE = (
+    "1 to 64 characters: letters, digits, '_', '.' and '-', starting with a letter or digit, "
+    "without '..' and not ending in '.'"
+)
+SUFFIX = ".json"
+
+
+class PresetError(ValueError):
+    """A preset name or operation was refused; the message says what is allowed."""
+
+
+class PresetNotFound(KeyError):
+    """No preset of that name, built in or on disk."""
+
+    def __str__(self) -> str:  # KeyError would quote the message
+        return str(self.args[0]) if self.args else "preset not found"
+
+
+@dataclass(frozen=True)
+class PresetInfo:
+    """One entry of `PresetStore.list()`."""
+
+    name: str
+    builtin: bool
+    created: str
+    motion: dict[str, float]
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self)
+
+
+@dataclass(frozen=True)
+class PresetProblem:
+    """A file in the presets directory that `list()` skipped, and why."""
+
+    file: str
+    error: str
+
+    def to_dict(self) -> dict[str, str]:
+        return dataclasses.asdict(self)
+
+
+PresetList = list[PresetInfo]  # module-level aliases: PresetStore.list shadows `list` in the class
+ProblemList = list[PresetProblem]
+
+
+def default_data_dir() -> Path:
+    """$ARTRO_DATA_DIR if set, else ~/.local/share/artro-gait-studio."""
+    configured = os.environ.get(DATA_DIR_ENV, "").strip()
+    if configured:
+        return Path(configured).expanduser()
+    return Path.home() / ".local" / "share" / "artro-gait-studio"
+
+
+def check_name(name: object) -> str:
+    """Return `name` if it is a valid preset name, else raise PresetError saying what is allowed."""
+    if not isinstance(name, str):
+        raise PresetError(f"a preset name must be a string of {NAME_RULE}")
+    if not NAME_PATTERN.fullmatch(name) or ".." in name or name.endswith("."):
+        raise PresetError(f"invalid preset name {name!r}; allowed: {NAME_RULE}")
+    return name
+
+
+def diff(a: ParameterSet, b: ParameterSet) -> list[dict[str, Any]]:
+    """Every parameter that differs: [{'field': 'motion.a_p' | 'swing.v' | ..., 'a': .., 'b': ..}].
+
+    Motion fields come first ('motion.<x>'), then the gait in `GaitParams.flat()` order.
+    Provenance (name, created, project version) is not compared.
+    """
+    left = {f"motion.{k}": v for k, v in dataclasses.asdict(a.motion).items()} | a.gait.flat()
+    right = {f"motion.{k}": v for k, v in dataclasses.asdict(b.motion).items()} | b.gait.flat()
+    return [
+        {"field": name, "a": value, "b": right[name]}
+        for name, value in left.items()
+        if value != right[name]
+    ]
+
+
+def _fsync_dir(directory: Path) -> None:
+    """Make a rename in `directory` durable (POSIX; a no-op where directories can't be opened)."""
+    try:
+        fd = os.open(directory, os.O_RDONLY | getattr(os, "O_DIRECTORY", 0))
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+class PresetStore:
+    """Built-in presets (read-only) plus user presets in `<data_dir>/presets/`."""
+
+    diff = staticmethod(diff)
+
+    def __init__(self, data_dir: Path, builtins: Mapping[str, ParameterSet]) -> None:
+        self.data_dir = Path(data_dir)
+        self.directory = self.data_dir / "presets"
+        self._builtins = {check_name(name): pset for name, pset in builtins.items()}
+        self.problems: ProblemList = []  # from the latest list()
+
+    def is_builtin(self, name: str) -> bool:
+        return name in self._builtins
+
+    def _path(self, name: str) -> Path:
+        path = self.directory / f"{check_name(name)}{SUFFIX}"
+        if path.parent != self.directory:  # unreachable with NAME_PATTERN; defence in depth
+            raise PresetError(f"invalid preset name {name!r}; allowed: {NAME_RULE}")
+        return path
+
+    def _refuse_builtin(self, name: str) -> None:
+        if name in self._builtins:
+            raise PresetError(f"{name!r} is built in and read-only; save under another name")
+
+    @staticmethod
+    def _read(path: Path) -> ParameterSet:
+        """Parse one preset file; ValueError/OSError say what is wrong with it."""
+        text = path.read_text(encoding="utf-8")
+        try:
+            data = json.loads(text)
+        except json.JSONDecodeError as exc:
+            raise ValueError(f"not valid JSON (line {exc.lineno}, column {exc.colno})") from exc
+        return ParameterSet.from_dict(data)
+
+    def get(self, name: str) -> ParameterSet:
+        """The built-in or saved preset `name`.
+
+        Raises:
+            PresetError: invalid name, or the file exists but is not a valid parameter set.
+            PresetNotFound: no such preset.
+        """
+        check_name(name)
+        if name in self._builtins:
+            return self._builtins[name]
+        path = self._path(name)
+        try:
+            return self._read(path)
+        except FileNotFoundError:
+            raise PresetNotFound(f"no preset named {name!r}") from None
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise PresetError(f"preset {name!r} cannot be read: {exc}") from exc
+
+    def save(self, name: str, pset: ParameterSet) -> ParameterSet:
+        """Store `pset` as `name` (replacing a saved one atomically); returns what was stored.
+
+        The stored document gets provenance: name = `name`, created = now (UTC), this project's
+        version. Built-in names are refused.
+        """
+        path = self._path(name)
+        self._refuse_builtin(name)
+        stored = dataclasses.replace(
+            pset,
+            name=name,
+            created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            project_version=project_version(),
+        )
+        text = json.dumps(stored.to_dict(), indent=2, allow_nan=False) + "\n"
+        self.directory.mkdir(parents=True, exist_ok=True)
+        fd, tmp_name = tempfile.mkstemp(dir=self.directory, prefix=f".{name}.", suffix=".tmp")
+        tmp = Path(tmp_name)
+        try:
+            with os.fdopen(fd, "w", encoding="utf-8") as handle:
+                handle.write(text)
+                handle.flush()
+                os.fsync(handle.fileno())
+            os.replace(tmp, path)
+        except BaseException:
+            tmp.unlink(missing_ok=True)
+            raise
+        _fsync_dir(self.directory)
+        return stored
+
+    def delete(self, name: str) -> None:
+        """Remove the saved preset `name`; built-ins are refused, a missing one is not found."""
+        path = self._path(name)
+        self._refuse_builtin(name)
+        try:
+            path.unlink()
+        except FileNotFoundError:
+            raise PresetNotFound(f"no preset named {name!r}") from None
+        _fsync_dir(self.directory)
+
+    def list(self) -> PresetList:
+        """Built-ins (in the given order), then saved presets sorted by name.
+
+        Files that are not valid presets are skipped and recorded in `self.problems`.
+        """
+        infos = [
+            PresetInfo(name, True, pset.created, dataclasses.asdict(pset.motion))
+            for name, pset in self._builtins.items()
+        ]
+        problems: ProblemList = []
+        paths = sorted(self.directory.glob(f"*{SUFFIX}")) if self.directory.is_dir() else []
+        for path in paths:
+            name = path.name[: -len(SUFFIX)]
+            try:
+                check_name(name)
+            except PresetError:
+                problems.append(PresetProblem(path.name, f"not a valid preset name ({NAME_RULE})"))
+                continue
+            if name in self._builtins:
+                problems.append(PresetProblem(path.name, "shadowed by the built-in preset"))
+                continue
+            try:
+                pset = self._read(path)
+            except (OSError, UnicodeDecodeError, ValueError) as exc:
+                problems.append(PresetProblem(path.name, str(exc)))
+                continue
+            infos.append(PresetInfo(name, False, pset.created, dataclasses.asdict(pset.motion)))
+        self.problems = problems
+        return infos

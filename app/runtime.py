@@ -1,0 +1,52 @@
+"""What `artro serve` owns while it runs: the store, the simulation thread, presets, the 3D view."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from app.paramset import ParameterSet, load_parameter_set
+from app.presets import PresetStore, default_data_dir
+from app.realtime import RealtimeSimulation
+from app.store import ParameterStore
+
+
+@dataclass(frozen=True)
+class ServerConfig:
+    host: str = "127.0.0.1"
+    port: int = 8000
+    viser_port: int = 8080
+    params_file: Path | None = None
+    data_dir: Path = field(default_factory=default_data_dir)
+    viewer: bool = True  # start the viser 3D view
+
+
+BUILTIN_PRESETS = {"paper": ParameterSet(name="paper")}
+
+
+class Runtime:
+    def __init__(self, config: ServerConfig) -> None:
+        self.config = config
+        initial = (
+            load_parameter_set(config.params_file)
+            if config.params_file
+            else BUILTIN_PRESETS["paper"]
+        )
+        self.store = ParameterStore(initial)
+        self.presets = PresetStore(config.data_dir, BUILTIN_PRESETS)
+        self.sim = RealtimeSimulation(self.store)
+        self.viewer = None
+        if config.viewer:
+            from app.viewer import Viewer  # viser is only loaded when the view is wanted
+
+            self.viewer = Viewer(self, host=config.host, port=config.viser_port)
+
+    def start(self) -> None:
+        self.sim.start()
+        if self.viewer is not None:
+            self.viewer.start()
+
+    def stop(self) -> None:
+        if self.viewer is not None:
+            self.viewer.stop()
+        self.sim.stop()

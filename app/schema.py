@@ -1,0 +1,103 @@
+"""Pydantic models for the HTTP API, generated from the one parameter schema in `gait.params`.
+
+Nothing here lists a parameter by hand: each group dataclass of `gait.params` becomes a model whose
+fields carry the range, unit and description of the dataclass metadata. The full model requires
+every field (a PUT is a whole parameter set); the patch model makes every field optional. Both
+forbid unknown fields, NaN and inf, and take no strings for numbers.
+"""
+
+from __future__ import annotations
+
+from dataclasses import fields
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, create_model
+
+from gait.params import GaitParams, Motion, describe_fields, group_class
+
+GROUP_NAMES: tuple[str, ...] = tuple(f.name for f in fields(GaitParams))
+
+#: Folder titles for user interfaces, in display order.
+GROUP_TITLES = {
+    "clock": "Clock",
+    "shift": "Shifting",
+    "short": "Shortening",
+    "swing": "Swinging",
+    "load": "Loading",
+    "balance": "Balancing",
+    "leg": "Leg",
+}
+
+STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+
+
+def _field_args(meta: dict[str, Any]) -> dict[str, Any]:
+    if meta.get("unit") == "bool":
+        return {"description": meta["doc"]}
+    return {
+        "ge": meta["min"],
+        "le": meta["max"],
+        "description": f"{meta['doc']} [{meta['unit']}] eq {meta['eq']}",
+        "json_schema_extra": {"step": meta["step"], "unit": meta["unit"]},
+    }
+
+
+def _model_for(cls: type, name: str, *, partial: bool) -> type[BaseModel]:
+    definitions: dict[str, Any] = {}
+    for field_name, _default, meta in describe_fields(cls):
+        kind = bool if meta.get("unit") == "bool" else float
+        if partial:
+            definitions[field_name] = (kind | None, Field(None, **_field_args(meta)))
+        else:
+            definitions[field_name] = (kind, Field(..., **_field_args(meta)))  # required
+    return create_model(name, __config__=STRICT, **definitions)
+
+
+MotionModel = _model_for(Motion, "Motion", partial=False)
+MotionPatch = _model_for(Motion, "MotionPatch", partial=True)
+
+_groups_full = {
+    g: (_model_for(group_class(g), f"{g.title()}Params", partial=False), ...) for g in GROUP_NAMES
+}
+_groups_patch = {
+    g: (_model_for(group_class(g), f"{g.title()}Patch", partial=True) | None, None)
+    for g in GROUP_NAMES
+}
+GaitModel = create_model("Gait", __config__=STRICT, **_groups_full)
+GaitPatch = create_model("GaitPatch", __config__=STRICT, **_groups_patch)
+
+
+class ParamsBody(BaseModel):
+    """A full parameter set: the motion vector with CA, and every gait constant."""
+
+    model_config = STRICT
+    motion: MotionModel  # type: ignore[valid-type]
+    gait: GaitModel  # type: ignore[valid-type]
+
+
+class ParamsPatchBody(BaseModel):
+    """Any subset of the parameters; what is left out stays as it is."""
+
+    model_config = STRICT
+    motion: MotionPatch | None = None  # type: ignore[valid-type]
+    gait: GaitPatch | None = None  # type: ignore[valid-type]
+
+    def as_patch(self) -> dict[str, Any]:
+        """Nested dict of only the fields the client sent."""
+        return self.model_dump(exclude_none=True, exclude_unset=True)
+
+
+def schema_description() -> list[dict[str, Any]]:
+    """Every group and field with label, default, range, step, unit, equation and description:
+    what user interfaces build their controls from."""
+    groups = [("motion", "Motion", Motion)] + [
+        (g, GROUP_TITLES[g], group_class(g)) for g in GROUP_NAMES
+    ]
+    out = []
+    for key, title, cls in groups:
+        entries = []
+        for name, default, meta in describe_fields(cls):
+            entry = {"name": name, "default": default, **dict(meta)}
+            entries.append(entry)
+        out.append({"group": key, "title": title, "fields": entries})
+    return out

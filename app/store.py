@@ -1,0 +1,162 @@
+"""The one parameter store: an immutable snapshot plus a version number (STYLE rule 5).
+
+Every change -- from HTTP, from a viser slider, from a preset or an import -- goes through
+`ParameterStore.update` or `replace`: validated against the schema, diffed, applied under a lock
+as a new snapshot with the next version, and then announced to subscribers *outside* the lock as
+(snapshot, changed field names, source). An update that changes nothing creates no version.
+Undo and redo walk a bounded history of snapshots and are announced like any other change.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from app.paramset import ParameterSet
+from gait import GaitParams, Motion
+from gait.params import merge, replace_checked
+
+HISTORY_LIMIT = 200
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    version: int
+    name: str
+    motion: Motion
+    gait: GaitParams
+
+    def flat(self) -> dict[str, float | bool]:
+        """Dotted field names -> values: 'motion.a_p', 'swing.v', ..."""
+        motion = {f"motion.{k}": v for k, v in dataclasses.asdict(self.motion).items()}
+        return motion | self.gait.flat()
+
+    def to_dict(self) -> dict[str, Any]:
+        return {
+            "version": self.version,
+            "name": self.name,
+            "motion": dataclasses.asdict(self.motion),
+            "gait": self.gait.to_dict(),
+        }
+
+    def parameter_set(self) -> ParameterSet:
+        return ParameterSet(name=self.name, motion=self.motion, gait=self.gait)
+
+
+Subscriber = Callable[[Snapshot, frozenset[str], str], None]
+
+
+class NothingToUndo(LookupError):
+    pass
+
+
+class ParameterStore:
+    def __init__(self, initial: ParameterSet | None = None) -> None:
+        initial = initial or ParameterSet()
+        self._lock = threading.Lock()
+        self._snapshot = Snapshot(1, initial.name, initial.motion, initial.gait)
+        self._undo: list[Snapshot] = []
+        self._redo: list[Snapshot] = []
+        self._subscribers: list[Subscriber] = []
+
+    def snapshot(self) -> Snapshot:
+        return self._snapshot  # immutable: safe to hand out without the lock
+
+    def subscribe(self, callback: Subscriber) -> Callable[[], None]:
+        """Call `callback(snapshot, changed, source)` after every change; returns unsubscribe."""
+        with self._lock:
+            self._subscribers.append(callback)
+
+        def unsubscribe() -> None:
+            with self._lock:
+                if callback in self._subscribers:
+                    self._subscribers.remove(callback)
+
+        return unsubscribe
+
+    # --- changes -------------------------------------------------------------------------------
+
+    def update(self, patch: Mapping[str, Any], source: str) -> Snapshot:
+        """Merge a partial {'motion': {...}, 'gait': {group: {...}}}; ValueError changes nothing."""
+        unknown = set(patch) - {"motion", "gait", "name"}
+        if unknown:
+            raise ValueError(f"unknown keys {sorted(unknown)}; allowed: motion, gait, name")
+
+        def build(current: Snapshot) -> tuple[str, Motion, GaitParams]:
+            motion = current.motion
+            if "motion" in patch:
+                motion = replace_checked(current.motion, patch["motion"], "motion")
+            gait = merge(current.gait, patch["gait"]) if "gait" in patch else current.gait
+            return patch.get("name", current.name), motion, gait
+
+        return self._commit(build, source)
+
+    def replace(self, pset: ParameterSet, source: str) -> Snapshot:
+        """Replace every parameter (a PUT, a loaded preset, an import)."""
+        return self._commit(lambda _current: (pset.name, pset.motion, pset.gait), source)
+
+    def undo(self, source: str) -> Snapshot:
+        return self._step_history(self._undo, self._redo, source)
+
+    def redo(self, source: str) -> Snapshot:
+        return self._step_history(self._redo, self._undo, source)
+
+    @property
+    def can_undo(self) -> bool:
+        return bool(self._undo)
+
+    @property
+    def can_redo(self) -> bool:
+        return bool(self._redo)
+
+    # --- internals ------------------------------------------------------------------------------
+
+    def _commit(
+        self, build: Callable[[Snapshot], tuple[str, Motion, GaitParams]], source: str
+    ) -> Snapshot:
+        with self._lock:
+            current = self._snapshot
+            name, motion, gait = build(current)  # raises before anything changes
+            candidate = Snapshot(current.version + 1, name, motion, gait)
+            changed = _changed(current, candidate)
+            if not changed:
+                return current
+            self._undo.append(current)
+            del self._undo[:-HISTORY_LIMIT]
+            self._redo.clear()
+            self._snapshot = candidate
+            subscribers = list(self._subscribers)
+        self._announce(subscribers, candidate, changed, source)
+        return candidate
+
+    def _step_history(self, take: list[Snapshot], give: list[Snapshot], source: str) -> Snapshot:
+        with self._lock:
+            if not take:
+                raise NothingToUndo("nothing to undo" if take is self._undo else "nothing to redo")
+            current = self._snapshot
+            previous = take.pop()
+            give.append(current)
+            candidate = Snapshot(current.version + 1, previous.name, previous.motion, previous.gait)
+            self._snapshot = candidate
+            changed = _changed(current, candidate)
+            subscribers = list(self._subscribers)
+        self._announce(subscribers, candidate, changed, source)
+        return candidate
+
+    @staticmethod
+    def _announce(
+        subscribers: list[Subscriber], snapshot: Snapshot, changed: frozenset[str], source: str
+    ) -> None:
+        for callback in subscribers:
+            callback(snapshot, changed, source)
+
+
+def _changed(a: Snapshot, b: Snapshot) -> frozenset[str]:
+    fa, fb = a.flat(), b.flat()
+    names = {k for k in fa if fa[k] != fb[k]}
+    if a.name != b.name:
+        names.add("name")
+    return frozenset(names)

@@ -1,0 +1,227 @@
+"""The viser 3D view: the robot (mjviser), parameter sliders, paths on the floor, sim controls.
+
+Built once at start: the MuJoCo scene, every GUI control (generated from the parameter schema,
+never wired by hand), and the two path overlays. A refresh thread moves them at <= 30 Hz and only
+when something changed. One direction of truth: a slider callback ignores programmatic sets
+(event.client is None) and writes to the store as source "viser"; the store subscriber here
+skips changes that came from viser sliders and writes everything else into the sliders.
+"""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+import mjviser
+import numpy as np
+import viser
+
+from app.schema import schema_description
+from app.store import NothingToUndo, Snapshot
+
+if TYPE_CHECKING:
+    from app.runtime import Runtime
+
+log = logging.getLogger(__name__)
+
+FRAME_RATE_HZ = 30.0
+PATH_REFRESH_S = 0.2
+SLIDER_SOURCE = "viser"  # changes made by dragging a slider: the slider already shows them
+BUTTON_SOURCE = "viser-button"  # folder resets, undo/redo: the sliders must follow
+PATH_Z_M = 0.003
+ACTUAL_RGB = (30, 110, 230)
+PREDICTED_RGB = (235, 120, 20)
+DIRECTION_LABELS = {
+    "a_r": "a_r (+ steps right)",
+    "a_p": "a_p (+ forward)",
+    "a_y": "a_y (+ turns clockwise)",
+    "ca": "CA (+ left steps longer, clockwise)",
+}
+
+
+class Viewer:
+    def __init__(self, runtime: Runtime, *, host: str, port: int) -> None:
+        self.runtime = runtime
+        self.store = runtime.store
+        self.sim = runtime.sim
+        self.server = viser.ViserServer(host=host, port=port, verbose=False)
+        self.server.gui.configure_theme(control_width="large")
+        self.scene = mjviser.ViserMujocoScene(self.server, self.sim.sim.model, num_envs=1)
+        self._controls: dict[tuple[str, str], Any] = {}
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
+        self._build_gui()
+        self._build_paths()
+        self._unsubscribe = self.store.subscribe(self._on_params)
+
+    # --- lifecycle ------------------------------------------------------------------------------
+
+    def start(self) -> None:
+        self._thread = threading.Thread(target=self._refresh_loop, name="artro-viewer", daemon=True)
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._unsubscribe()
+        if self._thread is not None:
+            self._thread.join(2.0)
+        self.server.stop()
+
+    # --- GUI --------------------------------------------------------------------------------------
+
+    def _build_gui(self) -> None:
+        gui = self.server.gui
+        with gui.add_folder("Simulation"):
+            self._status = gui.add_markdown("starting…")
+            self._fell_notice = gui.add_markdown("**The robot has fallen.**", visible=False)
+            self._fell_reset = gui.add_button("Reset the robot", visible=False, color="red")
+            self._fell_reset.on_click(lambda _e: self.sim.command("reset"))
+            pause = gui.add_button_group("Run", ("Pause", "Resume", "Step", "Reset"))
+            pause.on_click(lambda e: self.sim.command(e.target.value.lower()))
+            speed = gui.add_slider("Speed (x real time)", 0.25, 4.0, 0.25, 1.0)
+            speed.on_update(lambda e: e.client and self.sim.command("speed", speed.value))
+            follow = gui.add_checkbox("Follow the robot", True)
+            follow.on_update(
+                lambda _e: setattr(self.scene, "camera_tracking_enabled", follow.value)
+            )
+            history = gui.add_button_group("Parameters", ("Undo", "Redo"))
+            history.on_click(lambda e: self._history(e.target.value))
+        for group in schema_description():
+            self._build_group(group)
+        with gui.add_folder("Paths"):
+            self._path_text = gui.add_markdown("")
+            self._show_paths = gui.add_checkbox("Show paths", True)
+            anchor = gui.add_button("Re-anchor prediction here")
+            anchor.on_click(lambda _e: self.sim.command("reanchor"))
+
+    def _build_group(self, group: dict[str, Any]) -> None:
+        gui = self.server.gui
+        key = group["group"]
+        snapshot = self.store.snapshot().flat()
+        with gui.add_folder(group["title"], expand_by_default=key in ("motion", "clock")):
+            for field in group["fields"]:
+                name = field["name"]
+                dotted = f"{key}.{name}"
+                value = snapshot[dotted]
+                hint = f"{field['doc']} — eq {field['eq']}" if field["eq"] else field["doc"]
+                if field["unit"] == "bool":
+                    handle = gui.add_checkbox(name, bool(value), hint=hint)
+                else:
+                    label = DIRECTION_LABELS.get(name, name)
+                    if field["unit"] not in ("1", "bool"):
+                        label = f"{label} [{field['unit']}]"
+                    handle = gui.add_slider(
+                        label, field["min"], field["max"], field["step"], float(value), hint=hint
+                    )
+                handle.on_update(self._slider_callback(key, name))
+                self._controls[(key, name)] = handle
+            reset = gui.add_button(f"Reset {group['title'].lower()} to the paper")
+            defaults = {f["name"]: f["default"] for f in group["fields"]}
+            reset.on_click(lambda _e, k=key, d=defaults: self._reset_group(k, d))
+
+    def _slider_callback(self, key: str, name: str):
+        def on_update(event: viser.GuiEvent) -> None:
+            if event.client is None:  # a programmatic set: the store already has it
+                return
+            value = event.target.value
+            patch = {"motion": {name: value}} if key == "motion" else {"gait": {key: {name: value}}}
+            try:
+                self.store.update(patch, SLIDER_SOURCE)
+            except ValueError as exc:
+                event.client.add_notification("Not applied", str(exc), color="red")
+                self._show(self.store.snapshot())
+
+        return on_update
+
+    def _reset_group(self, key: str, defaults: dict[str, Any]) -> None:
+        patch = {"motion": defaults} if key == "motion" else {"gait": {key: defaults}}
+        self.store.update(patch, BUTTON_SOURCE)
+
+    def _history(self, which: str) -> None:
+        try:
+            (self.store.undo if which == "Undo" else self.store.redo)(BUTTON_SOURCE)
+        except NothingToUndo:
+            pass
+
+    def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
+        if source != SLIDER_SOURCE:
+            self._show(self.store.snapshot(), changed)
+
+    def _show(self, snapshot: Snapshot, only: frozenset[str] | None = None) -> None:
+        values = snapshot.flat()
+        for (key, name), handle in self._controls.items():
+            dotted = f"{key}.{name}"
+            if only is None or dotted in only:
+                handle.value = values[dotted]  # fires the callback with client None: ignored
+
+    # --- paths ------------------------------------------------------------------------------------
+
+    def _build_paths(self) -> None:
+        parent = self.scene.fixed_bodies_frame.name  # moves with the floor when following
+        empty = np.zeros((1, 2, 3), dtype=np.float32)
+        self._actual = self.server.scene.add_line_segments(
+            f"{parent}/path_actual", empty, ACTUAL_RGB, thickness=0.006
+        )
+        self._predicted = self.server.scene.add_line_segments(
+            f"{parent}/path_predicted", empty, PREDICTED_RGB, thickness=0.006
+        )
+
+    def _update_paths(self) -> None:
+        view = self.sim.paths.view(max_points=600)
+        visible = self._show_paths.value
+        for handle, rows in ((self._actual, view["actual"]), (self._predicted, view["predicted"])):
+            handle.visible = visible and len(rows) >= 2
+            if len(rows) >= 2:
+                xy = np.asarray(rows, dtype=np.float32)[:, 1:3]
+                pts = np.concatenate([xy, np.full((len(xy), 1), PATH_Z_M, np.float32)], axis=1)
+                handle.points = np.stack([pts[:-1], pts[1:]], axis=1)
+        radius = view["turn_radius_m"]
+        self._path_text.content = (
+            f"<span style='color:rgb{ACTUAL_RGB}'>■ actual</span> "
+            f"<span style='color:rgb{PREDICTED_RGB}'>■ predicted</span>  \n"
+            f"V = {100 * view['speed_m_s']:.2f} cm/s ({view['speed_source']}), "
+            f"b = {100 * view['axle_m']:.1f} cm  \n"
+            f"turn radius: {'straight' if radius is None else f'{radius:.2f} m'}  \n"
+            f"heading rate: predicted {view['predicted_turn_deg_s']:+.1f} °/s, "
+            f"actual {view['actual_turn_deg_s']:+.1f} °/s"
+        )
+
+    # --- refresh loop -----------------------------------------------------------------------------
+
+    def _refresh_loop(self) -> None:
+        shown = -1
+        next_paths = 0.0
+        period = 1.0 / FRAME_RATE_HZ
+        while not self._stop.wait(period):
+            try:
+                poses = self.sim.body_poses()
+                if poses is not None and poses.serial != shown:
+                    shown = poses.serial
+                    self.scene.update_from_arrays(
+                        poses.xpos[None], poses.xmat.reshape(-1, 3, 3)[None]
+                    )
+                now = time.monotonic()
+                if now >= next_paths:
+                    next_paths = now + PATH_REFRESH_S
+                    self._update_paths()
+                    self._update_status()
+            except Exception:  # the view must not take the server down
+                log.exception("viewer refresh failed")
+
+    def _update_status(self) -> None:
+        s = self.sim.status()
+        rtf = "–" if s["rtf"] is None else f"{s['rtf']:.2f}"
+        behind = " — **behind real time**" if s["behind"] else ""
+        state = "paused" if s["paused"] else ("fallen" if s["fell"] else "running")
+        self._status.content = (
+            f"t = {s['sim_time_s']:.1f} s, {state}, real-time factor {rtf} "
+            f"(target {s['speed']:g}×){behind}"
+        )
+        self._fell_notice.visible = self._fell_reset.visible = bool(s["fell"])
+
+
+def viser_url(host: str, port: int) -> str:
+    shown = "localhost" if host in ("127.0.0.1", "0.0.0.0", "::") else host
+    return f"http://{shown}:{port}"

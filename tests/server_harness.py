@@ -1,0 +1,55 @@
+"""A real uvicorn server running `create_app()` on a free loopback port, for the tests."""
+
+from __future__ import annotations
+
+import contextlib
+import socket
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import httpx
+import uvicorn
+
+from app.runtime import ServerConfig
+from app.server import create_app
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+class _Server(uvicorn.Server):
+    """uvicorn.Server that tells us when it is listening (and the lifespan has run)."""
+
+    def __init__(self, config: uvicorn.Config) -> None:
+        super().__init__(config)
+        self.ready = threading.Event()
+
+    async def startup(self, sockets=None) -> None:
+        await super().startup(sockets)
+        self.ready.set()
+
+
+@contextlib.contextmanager
+def running_server(data_dir: Path, *, viewer: bool = False) -> Iterator[tuple[str, object]]:
+    """Yield (base_url, app) of a live server; stop it (and its threads) afterwards."""
+    port = free_port()
+    config = ServerConfig(port=port, viser_port=free_port(), data_dir=data_dir, viewer=viewer)
+    app = create_app(config)
+    server = _Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
+    thread = threading.Thread(target=server.run, daemon=True)
+    thread.start()
+    if not server.ready.wait(30):
+        raise RuntimeError("server did not start within 30 s")
+    try:
+        yield f"http://127.0.0.1:{port}", app
+    finally:
+        server.should_exit = True
+        thread.join(30)
+
+
+def client(base_url: str) -> httpx.Client:
+    return httpx.Client(base_url=base_url, timeout=10)

@@ -1,0 +1,161 @@
+"""The HTTP and WebSocket API on a real uvicorn server: round trips, and every bad input refused
+with a clear 4xx that changes nothing."""
+
+import json
+import math
+
+import pytest
+from websockets.sync.client import connect
+
+PATCH_HEADERS = {"content-type": "application/json"}
+
+
+def ws_url(base_url: str) -> str:
+    return base_url.replace("http://", "ws://") + "/ws/scope"
+
+
+def frames(base_url: str, n: int) -> list[dict]:
+    with connect(ws_url(base_url), open_timeout=10) as ws:
+        return [json.loads(ws.recv(timeout=10)) for _ in range(n)]
+
+
+def test_health_and_state(http):
+    health = http.get("/api/health").json()
+    assert health["status"] == "ok" and health["version"]
+    state = http.get("/api/state").json()
+    for key in ("sim_time_s", "rtf", "fell", "trunk", "params_version", "speed", "behind"):
+        assert key in state
+    assert state["fell"] is False and state["running"] is True
+
+
+def test_params_round_trip(http):
+    before = http.get("/api/params").json()
+    body = {"motion": before["motion"], "gait": before["gait"]}
+    same = http.put("/api/params", json=body).json()
+    assert same["version"] == before["version"]  # nothing changed: no new version
+    body["motion"]["a_p"] = 0.05
+    body["gait"]["swing"]["v"] = 2.5
+    changed = http.put("/api/params", json=body).json()
+    assert changed["version"] == before["version"] + 1
+    assert changed["motion"]["a_p"] == 0.05 and changed["gait"]["swing"]["v"] == 2.5
+    patched = http.patch("/api/params", json={"gait": {"load": {"enabled": False}}}).json()
+    assert patched["gait"]["load"]["enabled"] is False and patched["gait"]["swing"]["v"] == 2.5
+    assert http.get("/api/params").json() == patched
+    assert http.post("/api/params/undo").json()["gait"]["load"]["enabled"] is True
+    assert http.post("/api/params/redo").json()["gait"]["load"]["enabled"] is False
+    http.put("/api/params", json={"motion": before["motion"], "gait": before["gait"]})
+
+
+BAD_PATCHES = [
+    ('{"motion": {"a_p": "fast"}}', "valid number"),
+    ('{"motion": {"a_p": true}}', "valid number"),
+    ('{"motion": {"a_p": NaN}}', "finite"),
+    ('{"motion": {"a_p": Infinity}}', "finite"),
+    ('{"motion": {"a_p": 1e999}}', "finite"),
+    ('{"motion": {"a_p": 0.9}}', "less than or equal to 0.3"),
+    ('{"gait": {"swing": {"v": 0.1}}}', "greater than or equal to 1.5"),
+    ('{"gait": {"swing": {"speed": 2}}}', "Extra inputs are not permitted"),
+    ('{"gait": {"walk": {}}}', "Extra inputs are not permitted"),
+    ('{"motion": {"a_p": 0.1}, "colour": "red"}', "Extra inputs are not permitted"),
+    ('{"gait": {"shift": {"enabled": 1}}}', "valid boolean"),
+    ('{"motion": [1, 2]}', "valid dictionary"),
+    ("[]", "valid dictionary"),
+    ("{not json", "JSON decode error"),
+    ("", "Field required"),
+]
+
+
+@pytest.mark.parametrize(("body", "message"), BAD_PATCHES)
+def test_bad_patch_is_refused_and_changes_nothing(http, body, message):
+    before = http.get("/api/params").json()
+    response = http.patch("/api/params", content=body, headers=PATCH_HEADERS)
+    assert response.status_code == 422
+    assert message in json.dumps(response.json()["detail"])
+    assert http.get("/api/params").json() == before
+
+
+def test_put_needs_every_field(http):
+    before = http.get("/api/params").json()
+    response = http.put("/api/params", json={"motion": {"a_p": 0.1}, "gait": before["gait"]})
+    assert response.status_code == 422
+    assert "Field required" in response.text
+    assert http.get("/api/params").json() == before
+
+
+def test_sim_control_pause_step_resume_reset_speed(http, server):
+    assert http.post("/api/sim/pause").status_code == 200
+    # a step pauses and advances exactly one frame; the scope shows that frame
+    with connect(ws_url(server[0]), open_timeout=10) as ws:
+        http.post("/api/sim/step")
+        first = json.loads(ws.recv(timeout=10))
+        http.post("/api/sim/step")
+        second = json.loads(ws.recv(timeout=10))
+    assert second["frame"] == first["frame"] + 1
+    state = http.get("/api/state").json()
+    assert state["paused"] is True and state["frame"] == second["frame"] + 1
+    assert http.post("/api/sim/resume").status_code == 200
+    assert http.put("/api/sim/speed", json={"speed": 2.0}).json()["speed"] == 2.0
+    for bad in ({"speed": 0.1}, {"speed": 5}, {"speed": "fast"}, {"speed": None}, {}):
+        response = http.put("/api/sim/speed", json=bad)
+        assert response.status_code == 422, bad
+    assert http.put("/api/sim/speed", json={"speed": 1.0}).status_code == 200
+    assert http.post("/api/sim/jump").status_code == 422
+    assert http.post("/api/sim/reset").status_code == 200
+    assert frames(server[0], 1)[0]["frame"] < 100  # the robot restarted from frame 0
+
+
+def test_scope_frames_over_http_and_websocket(http, server):
+    live = frames(server[0], 20)
+    numbers = [f["frame"] for f in live]
+    assert numbers == sorted(numbers) and numbers[-1] - numbers[0] >= 19
+    slot = live[0]["channels"][0]["slots"][0]
+    assert slot["servo"] == "l_hip_yaw"
+    assert slot["pulse_us"] == (slot["ocr_ticks"] + 1) * 0.5 == slot["decoded_us"]
+    assert [line["name"] for line in live[0]["lines"]][-3:] == ["S0", "S1", "S2"]
+    recent = http.get("/api/scope", params={"frames": 5}).json()["frames"]
+    assert len(recent) == 5
+    assert [f["frame"] for f in recent] == list(range(recent[0]["frame"], recent[0]["frame"] + 5))
+    for bad in ("0", "251", "abc", "-1"):
+        assert http.get("/api/scope", params={"frames": bad}).status_code == 422
+
+
+def test_pulses_follow_a_parameter_change_within_two_frames(http, server):
+    with connect(ws_url(server[0]), open_timeout=10) as ws:
+        json.loads(ws.recv(timeout=10))
+        version = http.patch("/api/params", json={"motion": {"a_y": 0.3}}).json()["version"]
+        seen = 0
+        while True:
+            frame = json.loads(ws.recv(timeout=10))
+            seen += 1
+            if frame["params_version"] == version:
+                break
+    hip_yaw = frame["channels"][0]["slots"][0]
+    assert seen <= 3  # frames already queued when the change came, then the new one
+    expected_deg = math.degrees(hip_yaw["deg"] * math.pi / 180)
+    assert hip_yaw["pulse_us"] == pytest.approx(1500 + 10 * expected_deg, abs=0.5)
+    http.patch("/api/params", json={"motion": {"a_y": 0.0}})
+
+
+def test_paths(http):
+    path = http.get("/api/path").json()
+    for key in ("actual", "predicted", "speed_m_s", "axle_m", "turn_radius_m", "ca"):
+        assert key in path
+    assert all(len(row) == 4 for row in path["actual"])
+    assert http.post("/api/path/anchor", json={"speed_m_s": 0.04}).status_code == 200
+    for bad in ({"speed_m_s": "x"}, {"speed_m_s": 9}, {"v": 1}):
+        assert http.post("/api/path/anchor", json=bad).status_code == 422
+
+
+def test_openapi_documents_the_ranges(http):
+    spec = http.get("/openapi.json").json()
+    swing = spec["components"]["schemas"]["SwingParams"]["properties"]["v"]
+    assert swing["minimum"] == 1.5 and "eq (23)" in swing["description"]
+
+
+def test_the_server_survives_abrupt_disconnects(http, server):
+    for _ in range(5):
+        ws = connect(ws_url(server[0]), open_timeout=10)
+        ws.recv(timeout=10)
+        ws.socket.close()  # no close handshake
+    assert http.get("/api/health").json()["status"] == "ok"
+    assert http.get("/api/state").json()["scope"]["clients"] <= 1

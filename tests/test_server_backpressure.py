@@ -1,0 +1,54 @@
+"""A WebSocket client that stops reading loses frames; the simulation and other clients don't."""
+
+import base64
+import json
+import os
+import socket
+
+import httpx
+from websockets.sync.client import connect
+
+
+def stalled_scope_client(host: str, port: int) -> socket.socket:
+    """Open /ws/scope by hand with a tiny receive buffer, then never read again."""
+    sock = socket.socket()
+    sock.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 2048)
+    sock.connect((host, port))
+    key = base64.b64encode(os.urandom(16)).decode()
+    request = (
+        f"GET /ws/scope HTTP/1.1\r\nHost: {host}:{port}\r\nUpgrade: websocket\r\n"
+        f"Connection: Upgrade\r\nSec-WebSocket-Key: {key}\r\nSec-WebSocket-Version: 13\r\n\r\n"
+    )
+    sock.sendall(request.encode())
+    head = b""
+    while b"\r\n\r\n" not in head:
+        head += sock.recv(1)
+    assert b" 101 " in head.split(b"\r\n", 1)[0], head
+    return sock
+
+
+def test_a_stalled_client_does_not_slow_the_simulation_or_other_clients(server):
+    base_url, _app = server
+    host, port = base_url.removeprefix("http://").split(":")
+    http = httpx.Client(base_url=base_url, timeout=10)
+    # 4x real time fills the stalled connection's buffers within seconds
+    assert http.put("/api/sim/speed", json={"speed": 4.0}).status_code == 200
+    stalled = stalled_scope_client(host, int(port))
+    try:
+        with connect(base_url.replace("http://", "ws://") + "/ws/scope", open_timeout=10) as ws:
+            # read until the server reports the stalled client losing frames (<= 60 s at 4x)
+            received = 0
+            while http.get("/api/state").json()["scope"]["dropped"] == 0:
+                for _ in range(100):
+                    ws.recv(timeout=10)
+                received += 100
+                assert received < 60 * 200, "the stalled client never lost a frame"
+            # from now on the stalled client is losing frames: this client must lose none
+            numbers = [json.loads(ws.recv(timeout=10))["frame"] for _ in range(300)]
+        state = http.get("/api/state").json()
+    finally:
+        stalled.close()
+        http.put("/api/sim/speed", json={"speed": 1.0})
+    assert numbers == list(range(numbers[0], numbers[0] + 300))
+    assert abs(state["rtf"] - 4.0) < 0.2  # the simulation kept its pace
+    assert state["scope"]["dropped"] > 0 and state["frames_dropped"] == 0
