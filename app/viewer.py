@@ -49,6 +49,9 @@ class Viewer:
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.configure_theme(control_width="large")
         self.scene = mjviser.ViserMujocoScene(self.server, self.sim.sim.model, num_envs=1)
+        # a 35 cm robot: start close, looking at the trunk from the front left
+        self.server.initial_camera.position = (0.55, 0.45, 0.12)
+        self.server.initial_camera.look_at = (0.0, 0.0, -0.08)
         self._controls: dict[tuple[str, str], Any] = {}
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None

@@ -294,14 +294,17 @@ def _check_ranges(obj: Any) -> None:
         if "min" not in meta:
             continue
         value = getattr(obj, f.name)
-        where = f"{type(obj).__name__}.{f.name}"
+        where = f"{_GROUP_KEYS.get(type(obj).__name__, type(obj).__name__)}.{f.name}"
         if not isinstance(value, int | float) or isinstance(value, bool):
             raise ValueError(f"{where} must be a number, got {value!r}")
         if not math.isfinite(value) or not meta["min"] <= value <= meta["max"]:
-            raise ValueError(
-                f"{where} = {value!r} is out of range; allowed: "
-                f"{meta['min']} to {meta['max']} {meta['unit']}"
-            )
+            unit = "" if meta["unit"] == "1" else f" {meta['unit']}"
+            allowed = f"{meta['min']} to {meta['max']}{unit}"
+            raise ValueError(f"{where} = {value!r} is out of range; allowed: {allowed}")
+
+
+#: user-facing group names, for error messages ("swing.v", not "SwingParams.v")
+_GROUP_KEYS = {cls.__name__: key for key, cls in _GROUP_CLASSES.items()} | {"Motion": "motion"}
 
 
 def describe_fields(cls: type) -> Iterator[tuple[str, Any, Mapping[str, Any]]]:

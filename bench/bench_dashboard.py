@@ -1,0 +1,190 @@
+"""Benchmark: the running dashboard, as users load it.
+
+Starts `artro serve` as a real process, opens N dashboard pages in headless Chromium (each one a
+client of the scope WebSocket and of the embedded viser 3D view), and for `--seconds` measures:
+  - real-time factor: simulated / wall time over the whole window, and the worst 2 s window;
+  - scope frames per second received by a WebSocket client (this script's own, and each page's);
+  - server CPU, % of one core (from /proc/<pid>/stat);
+  - parameter change -> servo latency: PATCH a new a_p, then count 20 ms frames until the scope
+    shows a frame made with the new parameter version (the servos get it at that frame's pulses).
+
+    python bench/bench_dashboard.py [--clients 2] [--seconds 60] [--no-3d]
+
+--no-3d opens the pages with the 3D view hidden (the iframe is removed), to separate what
+software WebGL rendering in headless Chromium costs on this machine from the server's own load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import socket
+import statistics
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+import httpx
+from websockets.sync.client import connect
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--no-first-run",
+    "--disable-sync",
+]
+
+
+def free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def cpu_seconds(pid: int) -> float:
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+class ScopeCounter(threading.Thread):
+    """Counts scope frames and remembers the newest frame and parameter version seen."""
+
+    def __init__(self, url: str) -> None:
+        super().__init__(daemon=True)
+        self.url = url
+        self.count = 0
+        self.last_frame = -1
+        self.version_seen: dict[int, tuple[int, float]] = {}  # version -> (frame, wall time)
+        self.stop = threading.Event()
+        self.lock = threading.Lock()
+
+    def run(self) -> None:
+        with connect(self.url, open_timeout=10, max_size=2**22) as ws:
+            while not self.stop.is_set():
+                msg = json.loads(ws.recv(timeout=10))
+                with self.lock:
+                    self.count += 1
+                    self.last_frame = msg["frame"]
+                    self.version_seen.setdefault(
+                        msg["params_version"], (msg["frame"], time.monotonic())
+                    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--clients", type=int, default=2)
+    parser.add_argument("--seconds", type=float, default=60.0)
+    parser.add_argument("--no-3d", action="store_true", help="hide the embedded 3D view")
+    args = parser.parse_args()
+
+    port, viser_port = free_port(), free_port()
+    data_dir = tempfile.mkdtemp(prefix="artro-bench-")
+    artro = Path(sys.executable).with_name("artro")
+    server = subprocess.Popen(
+        [str(artro), "serve", "--port", str(port), "--viser-port", str(viser_port),
+         "--data-dir", data_dir],
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    base = f"http://127.0.0.1:{port}"
+    http = httpx.Client(base_url=base, timeout=10)
+    try:
+        assert server.stdout is not None
+        server.stdout.readline()  # the URL line: printed before uvicorn binds
+        deadline = time.monotonic() + 30
+        while True:
+            try:
+                http.get("/api/health")
+                break
+            except httpx.TransportError:
+                if time.monotonic() > deadline:
+                    raise
+                time.sleep(0.2)
+        http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+        run(args, base, http, server.pid)
+    finally:
+        server.terminate()
+        server.wait(10)
+
+
+def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> None:
+    from playwright.sync_api import sync_playwright
+
+    counter = ScopeCounter(base.replace("http://", "ws://") + "/ws/scope")
+    counter.start()
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        pages = []
+        for _ in range(args.clients):
+            page = browser.new_context(viewport={"width": 1600, "height": 1000}).new_page()
+            page.goto(base + "/")
+            if args.no_3d:
+                page.evaluate("document.getElementById('viser-frame')?.remove()")
+            pages.append(page)
+        for page in pages:  # every page is receiving scope frames before the clock starts
+            page.wait_for_function("window.artro && window.artro.framesReceived > 0", timeout=30000)
+        page_start = [pg.evaluate("window.artro.framesReceived") for pg in pages]
+        state0, wall0, cpu0 = http.get("/api/state").json(), time.monotonic(), cpu_seconds(pid)
+        count0 = counter.count
+        windows = []
+        end = wall0 + args.seconds
+        while time.monotonic() < end:
+            time.sleep(1.0)  # sampling period of the measurement, not synchronisation
+            rtf = http.get("/api/state").json()["rtf"]
+            if rtf is not None:
+                windows.append(rtf)
+        state1, wall1, cpu1 = http.get("/api/state").json(), time.monotonic(), cpu_seconds(pid)
+        count1 = counter.count
+        page_end = [pg.evaluate("window.artro.framesReceived") for pg in pages]
+        latencies = measure_latency(http, counter)
+        browser.close()
+    counter.stop.set()
+
+    wall = wall1 - wall0
+    rtf = (state1["sim_time_s"] - state0["sim_time_s"]) / wall
+    page_fps = [(e - s) / wall for s, e in zip(page_start, page_end, strict=True)]
+    print(
+        f"dashboard clients   : {args.clients} headless Chromium pages"
+        f"{' (3D view removed)' if args.no_3d else ' (with the 3D view)'}, {wall:.0f} s"
+    )
+    print(
+        f"real-time factor    : {rtf:.3f} over the window; 2 s windows min {min(windows):.3f}"
+        f" max {max(windows):.3f}; frames dropped catching up: "
+        f"{state1['frames_dropped'] - state0['frames_dropped']}"
+    )
+    print(
+        f"scope frames/s      : {(count1 - count0) / wall:.1f} (script's WebSocket); pages: "
+        + ", ".join(f"{f:.1f}" for f in page_fps)
+    )
+    print(f"server CPU          : {100 * (cpu1 - cpu0) / wall:.1f} % of one core")
+    print(
+        f"change -> servos    : median {statistics.median(latencies):.1f} frames, max "
+        f"{max(latencies)} frames, over {len(latencies)} changes (1 frame = 20 ms)"
+    )
+
+
+def measure_latency(http: httpx.Client, counter: ScopeCounter, changes: int = 20) -> list[int]:
+    """Frames from sending a PATCH to the first frame built with the new parameters."""
+    latencies = []
+    for i in range(changes):
+        with counter.lock:
+            frame_before = counter.last_frame
+        version = http.patch(
+            "/api/params", json={"motion": {"a_p": 0.06 + 0.002 * (i % 5)}}
+        ).json()["version"]
+        deadline = time.monotonic() + 5
+        while version not in counter.version_seen and time.monotonic() < deadline:
+            time.sleep(0.005)  # polling the counter thread's record
+        frame_after, _ = counter.version_seen.get(version, (frame_before + 10**6, 0))
+        latencies.append(frame_after - frame_before)
+    return latencies
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,86 @@
+// Small fetch wrappers for the ArtRo Gait Studio REST API.
+// Every call resolves to parsed JSON or throws an ApiError carrying the HTTP status and the
+// server's human-readable `detail` (a string, or FastAPI's list of validation errors).
+
+export class ApiError extends Error {
+  constructor(status, detail) {
+    super(detail);
+    this.status = status;
+    this.detail = detail;
+  }
+}
+
+/** Turn FastAPI's `detail` (string | [{loc, msg}, ...] | object) into one readable line. */
+export function formatDetail(detail) {
+  if (detail == null) return "";
+  if (typeof detail === "string") return detail;
+  if (Array.isArray(detail)) {
+    return detail
+      .map((d) => {
+        const loc = Array.isArray(d.loc) ? d.loc.filter((p) => p !== "body").join(".") : "";
+        return loc ? `${loc}: ${d.msg}` : d.msg || JSON.stringify(d);
+      })
+      .join("; ");
+  }
+  return JSON.stringify(detail);
+}
+
+async function request(method, path, { json, body, headers } = {}) {
+  const init = { method, headers: { ...(headers || {}) } };
+  if (json !== undefined) {
+    init.body = JSON.stringify(json);
+    init.headers["Content-Type"] = "application/json";
+  } else if (body !== undefined) {
+    init.body = body;
+  }
+  let res;
+  try {
+    res = await fetch(path, init);
+  } catch (err) {
+    throw new ApiError(0, `server unreachable (${err.message})`);
+  }
+  const text = await res.text();
+  let data = null;
+  if (text) {
+    try {
+      data = JSON.parse(text);
+    } catch {
+      data = text;
+    }
+  }
+  if (!res.ok) {
+    const detail = data && typeof data === "object" && "detail" in data ? data.detail : data;
+    throw new ApiError(res.status, formatDetail(detail) || `${res.status} ${res.statusText}`);
+  }
+  return data;
+}
+
+export const api = {
+  get: (path) => request("GET", path),
+  post: (path, json) => request("POST", path, json === undefined ? {} : { json }),
+  put: (path, json) => request("PUT", path, json === undefined ? {} : { json }),
+  patch: (path, json) => request("PATCH", path, { json }),
+  del: (path) => request("DELETE", path),
+  /** POST raw bytes (file upload) with an explicit Content-Type. */
+  postRaw: (path, body, contentType) =>
+    request("POST", path, { body, headers: { "Content-Type": contentType } }),
+};
+
+/** Call `fn` now and every `ms` milliseconds; never overlaps two calls. Returns a stop function. */
+export function poll(fn, ms) {
+  let stopped = false;
+  let timer = null;
+  const tick = async () => {
+    try {
+      await fn();
+    } catch (err) {
+      console.debug("poll:", err);
+    }
+    if (!stopped) timer = setTimeout(tick, ms);
+  };
+  tick();
+  return () => {
+    stopped = true;
+    clearTimeout(timer);
+  };
+}

@@ -1,0 +1,18 @@
+// Entry point: wire up every panel of the dashboard.
+
+import { initParams, refreshParams } from "./params.js";
+import { initPaths } from "./paths.js";
+import { initPresets } from "./presets.js";
+import { initScope } from "./scope-panel.js";
+import { initStatus } from "./status.js";
+import { initTransfer } from "./transfer.js";
+import { initViser } from "./viser.js";
+
+initStatus();
+initViser();
+initScope();
+initPaths();
+initParams();
+initPresets();
+initTransfer();
+refreshParams();

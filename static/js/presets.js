@@ -1,0 +1,131 @@
+// Presets: list (built-ins are read-only), load, delete, save the current parameters under a
+// name, and the diff of any two (or a preset against "current").
+
+import { api } from "./api.js";
+import { refreshParams } from "./params.js";
+import { $, fmt, h, setMessage } from "./util.js";
+
+const NAME_RE = /^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$/;
+
+export function initPresets() {
+  $("preset-save").addEventListener("click", save);
+  $("preset-name").addEventListener("keydown", (e) => e.key === "Enter" && save());
+  $("diff-a").addEventListener("change", runDiff);
+  $("diff-b").addEventListener("change", runDiff);
+  $("diff-run").addEventListener("click", runDiff);
+  // "current" changes whenever the parameters do: keep a diff against it up to date
+  document.addEventListener("artro:params-version", () => {
+    if ($("diff-a").value === "current" || $("diff-b").value === "current") runDiff();
+  });
+  refreshPresets();
+}
+
+export async function refreshPresets() {
+  let data;
+  try {
+    data = await api.get("/api/presets");
+  } catch (err) {
+    setMessage($("preset-message"), err.message, "error");
+    return;
+  }
+  const list = $("preset-list");
+  list.replaceChildren(...data.presets.map(row));
+  if (!data.presets.length) list.append(h("tr", {}, h("td", { colspan: 4, class: "dim" }, "no presets")));
+  const problems = $("preset-problems");
+  problems.replaceChildren(...(data.problems || []).map((p) => h("li", {}, `${p.file}: ${p.reason ?? p.error ?? JSON.stringify(p)}`)));
+  problems.hidden = !(data.problems || []).length;
+  fillDiffSelects(data.presets.map((p) => p.name));
+  runDiff();
+}
+
+function row(p) {
+  const m = p.motion || {};
+  const load = h("button", { type: "button", class: "small", "data-preset": p.name, onclick: () => load_(p.name) }, "Load");
+  const del = p.builtin
+    ? h("span", { class: "badge ro", title: "built in: read-only" }, "read-only")
+    : h("button", { type: "button", class: "small danger", "data-preset": p.name, onclick: () => remove(p.name) }, "Delete");
+  return h(
+    "tr",
+    { "data-preset": p.name, class: p.builtin ? "builtin" : "" },
+    h("td", {}, h("strong", {}, p.name), p.created ? h("div", { class: "dim small" }, p.created.replace("T", " ").slice(0, 19)) : null),
+    h("td", { class: "num small" }, `a_p ${fmt(m.a_p, 3)} · a_r ${fmt(m.a_r, 3)} · a_y ${fmt(m.a_y, 3)} · CA ${fmt(m.ca, 3)}`),
+    h("td", { class: "actions" }, load, del),
+  );
+}
+
+async function load_(name) {
+  try {
+    const p = await api.post(`/api/presets/${encodeURIComponent(name)}/load`);
+    setMessage($("preset-message"), `loaded '${name}' (parameters v${p.version})`, "ok");
+    refreshParams();
+  } catch (err) {
+    setMessage($("preset-message"), err.message, "error");
+  }
+}
+
+async function remove(name) {
+  if (!confirm(`Delete preset '${name}'?`)) return;
+  try {
+    await api.del(`/api/presets/${encodeURIComponent(name)}`);
+    setMessage($("preset-message"), `deleted '${name}'`, "ok");
+    refreshPresets();
+  } catch (err) {
+    setMessage($("preset-message"), err.message, "error");
+  }
+}
+
+async function save() {
+  const input = $("preset-name");
+  const name = input.value.trim();
+  const msg = $("preset-message");
+  if (!name) {
+    setMessage(msg, "type a name first", "error");
+    return;
+  }
+  // the server decides; this only marks an obviously bad name while typing
+  input.classList.toggle("invalid", !NAME_RE.test(name));
+  try {
+    await api.put(`/api/presets/${encodeURIComponent(name)}`);
+    setMessage(msg, `saved the current parameters as '${name}'`, "ok");
+    input.value = "";
+    input.classList.remove("invalid");
+    refreshPresets();
+  } catch (err) {
+    setMessage(msg, err.message, "error");
+  }
+}
+
+function fillDiffSelects(names) {
+  for (const [id, fallback] of [["diff-a", names[0] ?? "current"], ["diff-b", "current"]]) {
+    const sel = $(id);
+    const keep = sel.value || fallback;
+    sel.replaceChildren(
+      h("option", { value: "current" }, "current (in use)"),
+      ...names.map((n) => h("option", { value: n }, n)),
+    );
+    sel.value = ["current", ...names].includes(keep) ? keep : fallback;
+  }
+}
+
+async function runDiff() {
+  const a = $("diff-a").value;
+  const b = $("diff-b").value;
+  const body = $("diff-body");
+  const msg = $("diff-message");
+  try {
+    const d = await api.get(`/api/presets/diff?a=${encodeURIComponent(a)}&b=${encodeURIComponent(b)}`);
+    $("diff-head-a").textContent = a;
+    $("diff-head-b").textContent = b;
+    body.replaceChildren(
+      ...d.differences.map((r) =>
+        h("tr", {}, h("td", {}, r.field), h("td", { class: "num" }, show(r.a)), h("td", { class: "num" }, show(r.b))),
+      ),
+    );
+    setMessage(msg, d.differences.length ? `${d.differences.length} field${d.differences.length > 1 ? "s" : ""} differ` : "identical parameters", "");
+  } catch (err) {
+    body.replaceChildren();
+    setMessage(msg, err.message, "error");
+  }
+}
+
+const show = (v) => (typeof v === "number" ? String(Number(v.toPrecision(6))) : JSON.stringify(v));

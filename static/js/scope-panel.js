@@ -1,0 +1,266 @@
+// The oscilloscope panel: servo lane choice, single-frame / roll views, cursors, freeze and the
+// receive readout. Frames arrive from ScopeFeed at 50/s; the canvas is redrawn at most once per
+// animation frame, with the newest frame (or the frozen one).
+
+import { api } from "./api.js";
+import { RollBuffer, drawRoll } from "./roll.js";
+import { drawSingleFrame, singleFrameMinHeight } from "./scope.js";
+import { ScopeFeed } from "./scope-feed.js";
+import { $, fitCanvas, h, JOINTS, SERVOS, servoColor } from "./util.js";
+
+const ROLL_WINDOW_S = 10;
+const DEFAULT_SERVOS = ["l_hip_pitch", "l_knee", "r_hip_pitch", "r_knee"];
+const STORAGE_KEY = "artro.scope.servos";
+
+const state = {
+  mode: "single", // "single" | "roll"
+  unit: "us", // roll view: "us" | "deg"
+  servos: [],
+  frozen: false,
+  frozenFrame: null,
+  frozenSamples: null,
+  latest: null,
+  cursors: { a: null, b: null },
+  axis: null, // what the last draw returned: maps x px <-> time
+};
+const buffer = new RollBuffer(Math.ceil((ROLL_WINDOW_S / 0.02) * 1.2));
+let feed;
+let drawPending = false;
+
+export function initScope() {
+  state.servos = loadServos();
+  buildServoPicker();
+
+  $("scope-mode-single").addEventListener("click", () => setMode("single"));
+  $("scope-mode-roll").addEventListener("click", () => setMode("roll"));
+  $("roll-unit").addEventListener("change", (e) => {
+    state.unit = e.target.value;
+    requestDraw();
+  });
+  $("scope-freeze").addEventListener("click", toggleFreeze);
+  $("scope-clear-cursors").addEventListener("click", () => {
+    state.cursors = { a: null, b: null };
+    updateCursorReadout();
+    requestDraw();
+  });
+  $("scope-canvas").addEventListener("click", onCanvasClick);
+  new ResizeObserver(() => requestDraw()).observe($("scope-wrap"));
+
+  feed = new ScopeFeed({
+    onFrame(frame) {
+      state.latest = frame;
+      buffer.push(frame);
+      if (!state.frozen) requestDraw();
+    },
+    onStatus(text, kind) {
+      const el = $("scope-link");
+      el.textContent = text;
+      el.className = `badge ${kind}`;
+      el.hidden = kind === "ok"; // only say something when the link is not live
+    },
+  });
+  feed.connect();
+  prefill();
+  setInterval(updateFpsReadout, 500);
+  setMode("single");
+}
+
+/** Show recent history at once (and something at all while the simulation is paused or the
+ *  robot has fallen, when no live frames come): the last 5 s from GET /api/scope. */
+async function prefill() {
+  let frames;
+  try {
+    frames = (await api.get("/api/scope?frames=250")).frames;
+  } catch {
+    return;
+  }
+  if (state.latest || !frames?.length) return; // live frames won the race: keep those
+  for (const f of frames) buffer.push(f);
+  state.latest = frames[frames.length - 1];
+  requestDraw();
+}
+
+function loadServos() {
+  try {
+    const saved = JSON.parse(localStorage.getItem(STORAGE_KEY));
+    if (Array.isArray(saved)) return SERVOS.filter((s) => saved.includes(s));
+  } catch {
+    /* ignore a damaged entry */
+  }
+  return [...DEFAULT_SERVOS];
+}
+
+/** Two rows (left leg, right leg) of checkboxes, one per joint, coloured like their traces. */
+function buildServoPicker() {
+  const box = $("scope-servos");
+  box.replaceChildren();
+  for (const side of ["l", "r"]) {
+    const row = h("div", { class: "servo-row" }, h("span", { class: "servo-side" }, side === "l" ? "Left" : "Right"));
+    for (const joint of JOINTS) {
+      const name = `${side}_${joint}`;
+      const input = h("input", { type: "checkbox", id: `servo-${name}`, value: name, checked: state.servos.includes(name) });
+      input.addEventListener("change", () => {
+        state.servos = SERVOS.filter((s) => $(`servo-${s}`).checked);
+        localStorage.setItem(STORAGE_KEY, JSON.stringify(state.servos));
+        requestDraw();
+      });
+      row.append(
+        h("label", { class: "servo-chip", title: name }, input, h("span", { class: "dot", style: `background:${servoColor(name)}` }), joint),
+      );
+    }
+    box.append(row);
+  }
+  const all = h("button", { type: "button", class: "small", id: "scope-servos-all" }, "All");
+  const none = h("button", { type: "button", class: "small", id: "scope-servos-none" }, "None");
+  const setAll = (on) => {
+    for (const s of SERVOS) $(`servo-${s}`).checked = on;
+    state.servos = on ? [...SERVOS] : [];
+    localStorage.setItem(STORAGE_KEY, JSON.stringify(state.servos));
+    requestDraw();
+  };
+  all.addEventListener("click", () => setAll(true));
+  none.addEventListener("click", () => setAll(false));
+  box.lastChild.append(h("span", { class: "spacer" }), all, none);
+}
+
+function setMode(mode) {
+  state.mode = mode;
+  state.cursors = { a: null, b: null };
+  $("scope-mode-single").classList.toggle("active", mode === "single");
+  $("scope-mode-roll").classList.toggle("active", mode === "roll");
+  $("scope-mode-single").setAttribute("aria-pressed", String(mode === "single"));
+  $("scope-mode-roll").setAttribute("aria-pressed", String(mode === "roll"));
+  $("roll-unit-wrap").hidden = mode !== "roll";
+  updateCursorReadout();
+  requestDraw();
+}
+
+function toggleFreeze() {
+  state.frozen = !state.frozen;
+  if (state.frozen) {
+    state.frozenFrame = state.latest;
+    state.frozenSamples = buffer.toArray();
+  }
+  const btn = $("scope-freeze");
+  btn.textContent = state.frozen ? "Unfreeze" : "Freeze";
+  btn.classList.toggle("active", state.frozen);
+  btn.setAttribute("aria-pressed", String(state.frozen));
+  const run = $("scope-run");
+  run.textContent = state.frozen ? "STOP" : "RUN";
+  run.className = `badge ${state.frozen ? "bad" : "ok"}`;
+  requestDraw();
+}
+
+function requestDraw() {
+  if (drawPending) return;
+  drawPending = true;
+  requestAnimationFrame(draw);
+}
+
+function draw() {
+  drawPending = false;
+  const canvas = $("scope-canvas");
+  const wrap = $("scope-wrap");
+  const frame = state.frozen ? state.frozenFrame : state.latest;
+  // the single-frame view grows taller than the panel when many servo lanes are chosen
+  const need = state.mode === "single" ? singleFrameMinHeight(frame, state.servos.length) : 0;
+  canvas.style.height = `${Math.max(wrap.clientHeight, need)}px`;
+  const { ctx, w, h: hgt } = fitCanvas(canvas);
+  const opts = { servos: state.servos, cursors: state.cursors, unit: state.unit, windowS: ROLL_WINDOW_S };
+  if (state.mode === "single") {
+    if (!frame) {
+      placeholder(ctx, w, hgt, "waiting for TDM-PWM frames…");
+      state.axis = null;
+    } else {
+      const ax = drawSingleFrame(ctx, w, hgt, frame, opts);
+      state.axis = { x0: ax.x0, x1: ax.x1, toTime: ax.toUs };
+    }
+  } else {
+    const samples = state.frozen ? state.frozenSamples || [] : buffer.toArray();
+    const ax = drawRoll(ctx, w, hgt, samples, opts);
+    state.axis = { x0: ax.x0, x1: ax.x1, toTime: ax.toT };
+  }
+  updateFrameInfo(frame);
+}
+
+function placeholder(ctx, w, hgt, text) {
+  ctx.fillStyle = "#070b0e";
+  ctx.fillRect(0, 0, w, hgt);
+  ctx.fillStyle = "#5d6b66";
+  ctx.font = "14px system-ui, sans-serif";
+  ctx.textAlign = "center";
+  ctx.textBaseline = "middle";
+  ctx.fillText(text, w / 2, hgt / 2);
+}
+
+/** Click: cursor A (or B if A is set and B is not); shift-click: cursor B. */
+function onCanvasClick(ev) {
+  const ax = state.axis;
+  if (!ax) return;
+  const rect = ev.currentTarget.getBoundingClientRect();
+  const x = ev.clientX - rect.left;
+  if (x < ax.x0 || x > ax.x1) return;
+  const t = ax.toTime(x);
+  const c = state.cursors;
+  if (ev.shiftKey || (c.a != null && c.b == null)) c.b = t;
+  else {
+    c.a = t;
+    c.b = null;
+  }
+  updateCursorReadout();
+  requestDraw();
+}
+
+/** µs -> "850 µs" or "2.345 ms". */
+function fmtFrameTime(us) {
+  return Math.abs(us) < 1000 ? `${us.toFixed(1)} µs` : `${(us / 1000).toFixed(3)} ms`;
+}
+
+function updateCursorReadout() {
+  const { a, b } = state.cursors;
+  const el = $("scope-cursors");
+  if (a == null && b == null) {
+    el.textContent = "cursors: click = A, shift-click or 2nd click = B";
+    el.classList.add("dim");
+    return;
+  }
+  el.classList.remove("dim");
+  const f = state.mode === "single" ? fmtFrameTime : (s) => `${s.toFixed(3)} s`;
+  const parts = [];
+  if (a != null) parts.push(`A ${f(a)}`);
+  if (b != null) parts.push(`B ${f(b)}`);
+  if (a != null && b != null) {
+    const d = b - a;
+    const seconds = state.mode === "single" ? d * 1e-6 : d;
+    const hz = Math.abs(seconds) > 0 ? ` · ${(1 / Math.abs(seconds)).toFixed(Math.abs(seconds) < 0.01 ? 0 : 2)} Hz` : "";
+    parts.push(`Δt ${f(d)}${hz}`);
+  }
+  el.textContent = parts.join("   ");
+}
+
+function updateFpsReadout() {
+  if (!feed) return;
+  const el = $("scope-fps");
+  el.textContent = `${feed.fps()} fps · ${feed.dropped} dropped`;
+  el.title = `frames received per second (averaged over 2 s) and frames lost (gaps in the frame numbers); ${feed.received} received since the page opened`;
+}
+
+function updateFrameInfo(frame) {
+  const info = $("scope-info");
+  const flags = $("scope-flags");
+  if (!frame) {
+    info.textContent = "";
+    flags.replaceChildren();
+    return;
+  }
+  info.textContent = `#${frame.frame} · ${frame.t_s.toFixed(2)} s · φ ${frame.phase_rad.toFixed(2)}`;
+  info.title = `frame number, sim time and trunk phase φ (rad) of the frame shown; parameters v${frame.params_version ?? "?"}`;
+  const f = frame.flags || {};
+  const items = [];
+  if (f.guard_violation) items.push(h("span", { class: "flag guard" }, "guard violation"));
+  if (f.saturated?.length) items.push(h("span", { class: "flag sat" }, `saturated: ${f.saturated.join(", ")}`));
+  if (f.glitch?.length) items.push(h("span", { class: "flag glitch" }, `glitch: ${f.glitch.join(", ")}`));
+  if (f.stray?.length) items.push(h("span", { class: "flag glitch" }, `stray: ${f.stray.map((s) => s.join("·")).join(", ")}`));
+  if (!items.length) items.push(h("span", { class: "flag none" }, "no flags"));
+  flags.replaceChildren(...items);
+}
