@@ -110,7 +110,7 @@ g: &g [*f, *f, *f, *f, *f, *f, *f, *f, *f]
         (b'{"motion": {"a_p": 0.1, "a_p": 0.2}}', "duplicate key 'a_p'"),
         (b"motion: {a_p: 0.1}\nmotion: {a_p: 0.2}\n", "duplicate key 'motion'"),
         (b'{"motion": {"speed": 1}}', "unknown field motion.speed; allowed:"),
-        (b'{"gait": {"swing": {"v": 99}}}', "SwingParams.v = 99.0 is out of range"),
+        (b'{"gait": {"swing": {"v": 99}}}', "swing.v = 99.0 is out of range"),
         (b'{"colour": "red"}', "unknown keys ['colour']"),
         (b'{"motion": {"a_p": "fast"}}', "motion.a_p must be a number"),
         (b'{"schema_version": 2}', "schema_version 2 is not supported"),
