@@ -71,7 +71,8 @@ class RealtimeSimulation:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._applied = snap
-        self._pending_since: float | None = None  # wall time of the first unapplied change
+        # (frames done, wall time) when the first not yet applied change entered the store
+        self._pending: tuple[int, float] | None = None
         self._status_lock = threading.Lock()
         self._poses: BodyPoses | None = None
         self._pose_serial = 0
@@ -81,6 +82,7 @@ class RealtimeSimulation:
         self.last_behind_wall = -math.inf
         self.errors: deque[str] = deque(maxlen=20)
         self.resets = 0
+        # per applied change: frames from entering the store to the frame whose pulses carry it
         self.param_latency_frames: deque[int] = deque(maxlen=100)
         self._rtf_window: deque[tuple[float, float]] = deque()
         self._unsubscribe = store.subscribe(self._on_params)
@@ -113,8 +115,8 @@ class RealtimeSimulation:
         self._wake.set()
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
-        if self._pending_since is None:
-            self._pending_since = time.monotonic()
+        if self._pending is None:
+            self._pending = (self.sim.frame_index, time.monotonic())
         self._wake.set()
 
     # --- reading (any thread) -------------------------------------------------------------------
@@ -142,7 +144,7 @@ class RealtimeSimulation:
             "trunk": {"x_m": x, "y_m": y, "z_m": float(sim.data.qpos[2]), "yaw_rad": yaw},
             "params_version": self.store.snapshot().version,
             "params_version_applied": self._applied.version,
-            "param_latency_frames_max": max(self.param_latency_frames, default=None),
+            "param_latency_frames": _summary(self.param_latency_frames),
             "resets": self.resets,
             "scope": {"clients": self.scope.client_count, "dropped": self.scope.dropped},
             "errors": list(self.errors),
@@ -173,6 +175,7 @@ class RealtimeSimulation:
                     frames_since_anchor += due - MAX_CATCHUP_FRAMES
                     due = MAX_CATCHUP_FRAMES
                 for _ in range(max(due, 0)):
+                    self._apply_params()  # also between catch-up frames: no change waits a batch
                     self._frame()
                     frames_since_anchor += 1
                     if self.sim.fell:
@@ -222,10 +225,10 @@ class RealtimeSimulation:
         if snap.motion != old.motion:
             self.paths.reanchor()
         self._applied = snap
-        if self._pending_since is not None:
-            waited = time.monotonic() - self._pending_since
-            self.param_latency_frames.append(math.floor(waited * self.speed / FRAME_S))
-            self._pending_since = None
+        if self._pending is not None:
+            # the next frame (number frame_index) is the first built with the change
+            self.param_latency_frames.append(self.sim.frame_index - self._pending[0] + 1)
+            self._pending = None
 
     def _frame(self) -> None:
         sim = self.sim
@@ -257,3 +260,10 @@ class RealtimeSimulation:
             self._rtf_window.append((now, self.sim.time_s))
             while len(self._rtf_window) > 2 and now - self._rtf_window[0][0] > RTF_WINDOW_S:
                 self._rtf_window.popleft()
+
+
+def _summary(values: deque[int]) -> dict[str, float | int | None]:
+    ordered = sorted(values)
+    if not ordered:
+        return {"count": 0, "median": None, "max": None}
+    return {"count": len(ordered), "median": ordered[len(ordered) // 2], "max": ordered[-1]}

@@ -27,7 +27,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 FRAME_RATE_HZ = 30.0
-PATH_REFRESH_S = 0.2
+PATH_REFRESH_S = 0.5
 SLIDER_SOURCE = "viser"  # changes made by dragging a slider: the slider already shows them
 BUTTON_SOURCE = "viser-button"  # folder resets, undo/redo: the sliders must follow
 PATH_Z_M = 0.003
@@ -175,20 +175,24 @@ class Viewer:
         view = self.sim.paths.view(max_points=600)
         visible = self._show_paths.value
         for handle, rows in ((self._actual, view["actual"]), (self._predicted, view["predicted"])):
-            handle.visible = visible and len(rows) >= 2
+            _assign(handle, "visible", visible and len(rows) >= 2)
             if len(rows) >= 2:
                 xy = np.asarray(rows, dtype=np.float32)[:, 1:3]
                 pts = np.concatenate([xy, np.full((len(xy), 1), PATH_Z_M, np.float32)], axis=1)
                 handle.points = np.stack([pts[:-1], pts[1:]], axis=1)
         radius = view["turn_radius_m"]
-        self._path_text.content = (
-            f"<span style='color:rgb{ACTUAL_RGB}'>■ actual</span> "
-            f"<span style='color:rgb{PREDICTED_RGB}'>■ predicted</span>  \n"
-            f"V = {100 * view['speed_m_s']:.2f} cm/s ({view['speed_source']}), "
-            f"b = {100 * view['axle_m']:.1f} cm  \n"
-            f"turn radius: {'straight' if radius is None else f'{radius:.2f} m'}  \n"
-            f"heading rate: predicted {view['predicted_turn_deg_s']:+.1f} °/s, "
-            f"actual {view['actual_turn_deg_s']:+.1f} °/s"
+        _assign(
+            self._path_text,
+            "content",
+            (
+                f"<span style='color:rgb{ACTUAL_RGB}'>■ actual</span> "
+                f"<span style='color:rgb{PREDICTED_RGB}'>■ predicted</span>  \n"
+                f"V = {100 * view['speed_m_s']:.2f} cm/s ({view['speed_source']}), "
+                f"b = {100 * view['axle_m']:.1f} cm  \n"
+                f"turn radius: {'straight' if radius is None else f'{radius:.2f} m'}  \n"
+                f"heading rate: predicted {view['predicted_turn_deg_s']:+.1f} °/s, "
+                f"actual {view['actual_turn_deg_s']:+.1f} °/s"
+            ),
         )
 
     # --- refresh loop -----------------------------------------------------------------------------
@@ -199,6 +203,9 @@ class Viewer:
         period = 1.0 / FRAME_RATE_HZ
         while not self._stop.wait(period):
             try:
+                if not self.server.get_clients():
+                    shown = -1  # nobody is watching: no scene updates until someone connects
+                    continue
                 poses = self.sim.body_poses()
                 if poses is not None and poses.serial != shown:
                     shown = poses.serial
@@ -218,11 +225,20 @@ class Viewer:
         rtf = "–" if s["rtf"] is None else f"{s['rtf']:.2f}"
         behind = " — **behind real time**" if s["behind"] else ""
         state = "paused" if s["paused"] else ("fallen" if s["fell"] else "running")
-        self._status.content = (
+        _assign(
+            self._status,
+            "content",
             f"t = {s['sim_time_s']:.1f} s, {state}, real-time factor {rtf} "
-            f"(target {s['speed']:g}×){behind}"
+            f"(target {s['speed']:g}×){behind}",
         )
-        self._fell_notice.visible = self._fell_reset.visible = bool(s["fell"])
+        _assign(self._fell_notice, "visible", bool(s["fell"]))
+        _assign(self._fell_reset, "visible", bool(s["fell"]))
+
+
+def _assign(handle: Any, prop: str, value: Any) -> None:
+    """Set a handle property only when it changes: every assignment is a message to each client."""
+    if getattr(handle, prop) != value:
+        setattr(handle, prop, value)
 
 
 def viser_url(host: str, port: int) -> str:
