@@ -13,6 +13,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from app.exporting import FORMATS, export_text
 from app.paramset import ParameterSet, load_parameter_set
 from app.runner import run
 from gait import Motion
@@ -55,6 +56,10 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")
     r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
+    e = sub.add_parser("export", help="write a parameter set as JSON, YAML or a firmware C header")
+    e.add_argument("--format", required=True, choices=FORMATS, help="output format")
+    e.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
     return parser
 
 
@@ -96,6 +101,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_export(args: argparse.Namespace) -> int:
+    pset = load_parameter_set(args.params) if args.params else ParameterSet()
+    text, _media_type, _filename = export_text(pset, args.format)
+    if args.output:
+        Path(args.output).write_text(text, encoding="utf-8")
+    else:
+        sys.stdout.write(text)
+    return 0
+
+
 def _cmd_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
@@ -133,6 +148,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_run(args)
         if args.command == "serve":
             return _cmd_serve(args)
+        if args.command == "export":
+            return _cmd_export(args)
     except (ValueError, OSError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")
     return 1

@@ -74,3 +74,18 @@ def test_bad_param_file_names_the_problem(tmp_path):
     path.write_text("{not json")
     out = artro("run", "--params", str(path))
     assert out.returncode == 2 and "not valid JSON" in out.stderr
+
+
+@pytest.mark.parametrize("fmt", ["json", "yaml", "c"])
+def test_export_writes_each_format(tmp_path, fmt):
+    source = tmp_path / "in.json"
+    source.write_text(json.dumps({"name": "brisk", "motion": {"a_p": 0.05}}))
+    target = tmp_path / f"out.{fmt}"
+    out = artro("export", "--format", fmt, "--params", str(source), "-o", str(target))
+    assert out.returncode == 0, out.stderr
+    text = target.read_text()
+    if fmt == "c":
+        assert "#define ARTRO_MOTION_A_P 0.05f" in text
+    else:
+        assert "brisk" in text and "0.05" in text
+    assert artro("export", "--format", "pdf").returncode == 2
