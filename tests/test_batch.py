@@ -1,0 +1,82 @@
+"""The batch evaluator gives exactly the numbers `artro run` gives."""
+
+import numpy as np
+import pytest
+
+from app.batch import BatchEvaluator, Job, control_sequence, start_of
+from app.runner import run
+from app.simulation import Simulation, plan_frames
+from gait import GaitParams, Motion
+
+EVALUATOR = BatchEvaluator(threads=2)
+COMPARED = (
+    "fell",
+    "forward_cm_s",
+    "lateral_cm_s",
+    "turn_deg_s",
+    "predicted_turn_deg_s",
+    "path_error_cm",
+    "gyro_rms",
+    "sim_s",
+)
+
+
+def test_batch_metrics_equal_artro_run_for_the_same_parameter_set():
+    tuned = GaitParams.from_dict({"short": {"amp_base": 0.5}, "clock": {"freq_hz": 1.2}})
+    jobs = [Job(GaitParams(), Motion(a_p=0.07, ca=0.05)), Job(tuned, Motion(a_r=-0.1, a_y=0.1))]
+    batch = EVALUATOR.evaluate(jobs, duration_s=8.0, warmup_s=2.0)
+    for job, metrics in zip(jobs, batch, strict=True):
+        single = run(job.params, job.motion, duration_s=8.0, warmup_s=2.0).metrics
+        assert {k: metrics[k] for k in COMPARED} == {k: single[k] for k in COMPARED}
+
+
+def test_a_fall_ends_the_measurement_as_in_artro_run():
+    falls = Job(
+        GaitParams.from_dict({"shift": {"amp_base": 0.4, "amp_lateral": 2.0}}),
+        Motion(a_r=0.3, a_p=0.3, a_y=0.6),
+    )
+    (metrics,) = EVALUATOR.evaluate([falls], duration_s=10.0, warmup_s=1.0)
+    single = run(falls.params, falls.motion, duration_s=10.0, warmup_s=1.0).metrics
+    assert metrics["fell"] and single["fell"]
+    assert metrics["fall_time_s"] == single["fall_time_s"] < 10.0
+
+
+def test_the_control_switches_at_each_falling_edge():
+    sim = Simulation(motion=Motion(a_p=0.1, a_y=0.2))
+    start = start_of(sim)
+    frames = 5
+    ctrl = control_sequence(sim, start, frames).reshape(frames, sim.steps_per_frame, -1)
+    plan = plan_frames(
+        sim.params,
+        sim.motion,
+        sim.hardware,
+        start.phase,
+        frames,
+        sim.steps_per_frame,
+        sim.timestep_s,
+    )
+    act = sim.robot.actuator_ids
+    previous = start.ctrl[act]
+    for k in range(frames):
+        for servo, actuator in enumerate(act):
+            switch = plan.substep[k, servo]  # the first step on or after the pulse's falling edge
+            np.testing.assert_array_equal(ctrl[k, :switch, actuator], previous[servo])
+            np.testing.assert_array_equal(ctrl[k, switch:, actuator], plan.setpoint[k, servo])
+        previous = plan.setpoint[k]
+
+
+def test_progress_is_reported():
+    calls = []
+    EVALUATOR.evaluate(
+        [Job(GaitParams(), Motion())] * 3,
+        duration_s=0.2,
+        warmup_s=0.0,
+        progress=lambda done, total: calls.append((done, total)),
+    )
+    assert calls[-1] == (3, 3)
+
+
+@pytest.mark.parametrize("duration", [0.02, 0.5])
+def test_short_runs(duration):
+    (metrics,) = EVALUATOR.evaluate([Job(GaitParams(), Motion())], duration_s=duration, warmup_s=0)
+    assert metrics["sim_s"] == pytest.approx(duration) and not metrics["fell"]

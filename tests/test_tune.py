@@ -1,0 +1,78 @@
+"""`artro tune`: a short run improves its objective, resumes from its results file, and writes a
+preset that loads."""
+
+import json
+
+import pytest
+
+from app.batch import BatchEvaluator, Job
+from app.paper_cases import CASES
+from app.paramset import ParameterSet, load_parameter_set
+from app.tune import Tuner, case_loss, dimensions, save_preset, total_loss
+from gait import GaitParams
+
+EVALUATOR = BatchEvaluator(threads=2)
+# a deliberately poor start: a slow clock and almost no foot clearance
+POOR = ParameterSet(
+    name="poor",
+    gait=GaitParams.from_dict(
+        {"clock": {"freq_hz": 0.5}, "short": {"amp_base": 0.05}, "leg": {"paper_signs": False}}
+    ),
+)
+NAMES = ("clock.freq_hz", "short.amp_base")
+SETTINGS = {"duration_s": 3.0, "warmup_s": 1.0, "popsize": 4, "seed": 3}
+
+
+def base_loss() -> float:
+    jobs = [Job(POOR.gait, case.motion) for case in CASES]
+    metrics = EVALUATOR.evaluate(jobs, duration_s=3.0, warmup_s=1.0)
+    return total_loss(metrics, 3.0)
+
+
+def test_a_short_run_improves_and_writes_a_loadable_preset(tmp_path):
+    results = tmp_path / "results.jsonl"
+    tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
+    best = tuner.run(3, results, progress=None)
+    assert tuner.best[0] < base_loss()
+    path = save_preset(best, tmp_path / "tuned.json", "tuned")
+    loaded = load_parameter_set(tmp_path / "tuned.json")
+    assert loaded.name == "tuned" and loaded.gait == path.gait
+    assert loaded.gait.clock.freq_hz != 0.5 or loaded.gait.short.amp_base != 0.05
+    lines = results.read_text().splitlines()
+    assert json.loads(lines[0])["settings"]["popsize"] == 4 and len(lines) == 1 + 3 * 4
+
+
+def test_resuming_replays_the_file_without_simulating(tmp_path):
+    results = tmp_path / "results.jsonl"
+    first = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
+    first.run(2, results, progress=None)
+
+    class NoSimulation(BatchEvaluator):
+        def evaluate(self, *args, **kwargs):
+            raise AssertionError("a recorded generation was simulated again")
+
+    again = Tuner(POOR, NAMES, evaluator=NoSimulation(threads=1), **SETTINGS)
+    again.run(2, results, progress=None)  # both generations come from the file
+    assert again.best[0] == first.best[0] and again.generation == 2
+    other = Tuner(POOR, NAMES, evaluator=EVALUATOR, **{**SETTINGS, "seed": 4})
+    with pytest.raises(ValueError, match="other settings"):
+        other.run(3, results, progress=None)
+
+
+def test_loss_rewards_the_paper_figure_and_punishes_falls():
+    forward = CASES[1]
+    exact = {"fell": False, "forward_cm_s": 3.8, "lateral_cm_s": 0.0, "turn_deg_s": 0.0}
+    half = exact | {"forward_cm_s": 1.9}
+    assert case_loss(forward, exact, 20) == 0.0
+    assert case_loss(forward, half, 20) == pytest.approx(0.25)
+    early, late = {"fell": True, "fall_time_s": 1.0}, {"fell": True, "fall_time_s": 19.0}
+    assert (
+        case_loss(forward, early, 20) > case_loss(forward, late, 20) > case_loss(forward, half, 20)
+    )
+
+
+def test_only_numeric_schema_fields_can_be_tuned():
+    assert [d.name for d in dimensions(["swing.v"])] == ["swing.v"]
+    for bad in ("swing.enabled", "swing.speed", "walk.v", "freq"):
+        with pytest.raises(ValueError, match="not a tunable number"):
+            dimensions([bad])
