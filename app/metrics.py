@@ -18,6 +18,16 @@ from numpy.typing import NDArray
 
 from gait import Pose2D, predict_path, turn_rate_rad_s
 
+#: What `compute_metrics` measures (SPEC §6), besides fell and the timing of the run.
+MOTION_METRICS = (
+    "forward_cm_s",
+    "lateral_cm_s",
+    "turn_deg_s",
+    "predicted_turn_deg_s",
+    "path_error_cm",
+    "gyro_rms",
+)
+
 
 @dataclass
 class Trace:
@@ -85,16 +95,7 @@ def compute_metrics(
     window = whole_cycles(a["t"], warmup_s, freq_hz)
     t, x, y, yaw = (a[k][window] for k in ("t", "x", "y", "yaw"))
     if len(t) < 2:
-        return dict.fromkeys(
-            (
-                "forward_cm_s",
-                "lateral_cm_s",
-                "turn_deg_s",
-                "predicted_turn_deg_s",
-                "path_error_cm",
-                "gyro_rms",
-            )
-        )
+        return dict.fromkeys(MOTION_METRICS)
     forward, lateral, turn = mean_body_velocity(t, x, y, yaw)
     axle = float(np.mean(a["feet"][window]))
     predicted_turn = float(turn_rate_rad_s(ca, forward, axle)) + 0.0  # no -0.0 in reports

@@ -21,19 +21,28 @@ class ServerConfig:
     viewer: bool = True  # start the viser 3D view
 
 
-BUILTIN_PRESETS = {"paper": ParameterSet(name="paper")}
+PRESETS_DIR = Path(__file__).resolve().parent.parent / "models" / "presets"
+START_PRESET = "tuned"  # a new user should see a robot that walks; "paper" if it is missing
+
+
+def builtin_presets() -> dict[str, ParameterSet]:
+    """The read-only presets shipped in models/presets/: 'paper' (the literal paper values)
+    first, then the others (e.g. 'tuned')."""
+    found = {p.stem: load_parameter_set(p) for p in sorted(PRESETS_DIR.glob("*.json"))}
+    paper = found.pop("paper", ParameterSet(name="paper"))
+    return {"paper": paper, **found}
 
 
 class Runtime:
     def __init__(self, config: ServerConfig) -> None:
         self.config = config
-        initial = (
-            load_parameter_set(config.params_file)
-            if config.params_file
-            else BUILTIN_PRESETS["paper"]
-        )
+        builtins = builtin_presets()
+        if config.params_file:
+            initial = load_parameter_set(config.params_file)
+        else:
+            initial = builtins.get(START_PRESET, builtins["paper"])
         self.store = ParameterStore(initial)
-        self.presets = PresetStore(config.data_dir, BUILTIN_PRESETS)
+        self.presets = PresetStore(config.data_dir, builtins)
         self.sim = RealtimeSimulation(self.store)
         self.viewer = None
         if config.viewer:

@@ -4,21 +4,13 @@ import numpy as np
 import pytest
 
 from app.batch import BatchEvaluator, Job, control_sequence, start_of
+from app.metrics import MOTION_METRICS
 from app.runner import run
 from app.simulation import Simulation, plan_frames
 from gait import GaitParams, Motion
 
 EVALUATOR = BatchEvaluator(threads=2)
-COMPARED = (
-    "fell",
-    "forward_cm_s",
-    "lateral_cm_s",
-    "turn_deg_s",
-    "predicted_turn_deg_s",
-    "path_error_cm",
-    "gyro_rms",
-    "sim_s",
-)
+COMPARED = ("fell", *MOTION_METRICS, "sim_s")
 
 
 def test_batch_metrics_equal_artro_run_for_the_same_parameter_set():

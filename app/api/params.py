@@ -1,6 +1,6 @@
 """The parameter set: read, replace, patch, undo, redo; and the schema it follows."""
 
-from typing import Any
+from typing import Any, Literal
 
 from fastapi import APIRouter, HTTPException
 
@@ -31,18 +31,12 @@ def patch_params(body: ParamsPatchBody, runtime: RuntimeDep) -> dict[str, Any]:
     return runtime.store.update(body.as_patch(), "http").to_dict()
 
 
-@router.post("/params/undo")
-def undo(runtime: RuntimeDep) -> dict[str, Any]:
+@router.post("/params/{step}")
+def history(step: Literal["undo", "redo"], runtime: RuntimeDep) -> dict[str, Any]:
+    """Undo or redo a parameter change (409 when there is nothing to undo or redo)."""
+    move = runtime.store.undo if step == "undo" else runtime.store.redo
     try:
-        return runtime.store.undo("http").to_dict()
-    except NothingToUndo as exc:
-        raise HTTPException(409, str(exc)) from exc
-
-
-@router.post("/params/redo")
-def redo(runtime: RuntimeDep) -> dict[str, Any]:
-    try:
-        return runtime.store.redo("http").to_dict()
+        return move("http").to_dict()
     except NothingToUndo as exc:
         raise HTTPException(409, str(exc)) from exc
 
