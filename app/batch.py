@@ -14,6 +14,7 @@ import math
 import os
 import time
 from collections.abc import Callable, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Any
 
@@ -85,38 +86,71 @@ class BatchEvaluator:
         warmup_s: float = 5.0,
         progress: Callable[[int, int], None] | None = None,
     ) -> list[dict[str, Any]]:
-        """Metrics of each job, in order, as `artro run` would print them (wall time aside)."""
+        """Metrics of each job, in order, as `artro run` would print them (wall time aside).
+
+        Runs go to MuJoCo in chunks; while one chunk rolls out (MuJoCo's threads, no GIL), a
+        Python worker plans the next chunk and measures the previous one.
+        """
         n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
+        chunks = [jobs[i : i + RUNS_PER_CALL] for i in range(0, len(jobs), RUNS_PER_CALL)]
         results: list[dict[str, Any]] = []
-        for first in range(0, len(jobs), RUNS_PER_CALL):
-            chunk = jobs[first : first + RUNS_PER_CALL]
-            sims = [Simulation(self.robot, j.params, j.motion) for j in chunk]
-            starts = [start_of(s) for s in sims]
-            controls = np.stack(
-                [control_sequence(s, st, n_frames) for s, st in zip(sims, starts, strict=True)]
-            )
-            initial = np.stack([st.state for st in starts])
-            t0 = time.perf_counter()
-            states, sensors = rollout.rollout(
-                self.model, self._datas[: len(chunk)], initial, controls
-            )
-            wall = time.perf_counter() - t0
-            for i, job in enumerate(chunk):
-                metrics = self._measure(
-                    states[i],
-                    sensors[i],
-                    starts[i],
-                    job,
-                    n_frames,
-                    sims[i].steps_per_frame,
-                    warmup_s,
+        with ThreadPoolExecutor(max_workers=1) as worker:
+            planned = worker.submit(self._plan, chunks[0], n_frames) if chunks else None
+            measuring = None
+            for index, chunk in enumerate(chunks):
+                assert planned is not None
+                sims, starts, controls, initial = planned.result()
+                if index + 1 < len(chunks):
+                    planned = worker.submit(self._plan, chunks[index + 1], n_frames)
+                t0 = time.perf_counter()
+                states, sensors = rollout.rollout(
+                    self.model, self._datas[: len(chunk)], initial, controls
                 )
-                metrics["wall_s"] = wall / len(chunk)
-                metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
-                results.append(metrics)
-            if progress is not None:
-                progress(len(results), len(jobs))
+                wall = time.perf_counter() - t0
+                if measuring is not None:
+                    results.extend(measuring.result())
+                    if progress is not None:
+                        progress(len(results), len(jobs))
+                measuring = worker.submit(
+                    self._measure_chunk, chunk, sims, starts, states, sensors, n_frames, wall,
+                    warmup_s,
+                )  # fmt: skip
+            if measuring is not None:
+                results.extend(measuring.result())
+                if progress is not None:
+                    progress(len(results), len(jobs))
         return results
+
+    def _plan(
+        self, chunk: Sequence[Job], n_frames: int
+    ) -> tuple[list[Simulation], list[Start], np.ndarray, np.ndarray]:
+        sims = [Simulation(self.robot, j.params, j.motion) for j in chunk]
+        starts = [start_of(s) for s in sims]
+        controls = np.stack(
+            [control_sequence(s, st, n_frames) for s, st in zip(sims, starts, strict=True)]
+        )
+        return sims, starts, controls, np.stack([st.state for st in starts])
+
+    def _measure_chunk(
+        self,
+        chunk: Sequence[Job],
+        sims: list[Simulation],
+        starts: list[Start],
+        states: np.ndarray,
+        sensors: np.ndarray,
+        n_frames: int,
+        wall_s: float,
+        warmup_s: float,
+    ) -> list[dict[str, Any]]:
+        out = []
+        for i, job in enumerate(chunk):
+            metrics = self._measure(
+                states[i], sensors[i], starts[i], job, n_frames, sims[i].steps_per_frame, warmup_s
+            )
+            metrics["wall_s"] = wall_s / len(chunk)
+            metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
+            out.append(metrics)
+        return out
 
     def _measure(
         self,

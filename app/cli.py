@@ -1,6 +1,10 @@
 """The `artro` command line.
 
+artro serve [--host 127.0.0.1] [--port 8000] [--viser-port 8080] [--params FILE] [--data-dir DIR]
 artro run --motion AR,AP,AY [--ca X] [--params FILE] [--duration S] [--warmup S] [--json]
+artro export --format json|yaml|c [--params FILE] [-o FILE]
+artro bench paper [--presets NAME_OR_FILE,...] [--duration S] [--warmup S] [--out DIR] [--quick]
+artro tune [--base FILE] [--tune a.b,...] [--generations N] [--results FILE] [--out FILE]
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
+from app import paper_bench, tune
 from app.exporting import FORMATS, export_text
 from app.paramset import ParameterSet, load_parameter_set
 from app.runner import run
@@ -60,6 +65,10 @@ def build_parser() -> argparse.ArgumentParser:
     e.add_argument("--format", required=True, choices=FORMATS, help="output format")
     e.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
     e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
+    b = sub.add_parser("bench", help="simulate what the papers measured and compare (tables, PNGs)")
+    paper_bench.add_arguments(b)
+    t = sub.add_parser("tune", help="CMA-ES over gait parameters toward the paper's walking")
+    tune.add_arguments(t)
     return parser
 
 
@@ -150,6 +159,10 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_serve(args)
         if args.command == "export":
             return _cmd_export(args)
+        if args.command == "bench":
+            return paper_bench.cmd_bench(args)
+        if args.command == "tune":
+            return tune.command(args)
     except (ValueError, OSError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")
     return 1

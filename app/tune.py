@@ -29,7 +29,14 @@ import cma
 import numpy as np
 
 from app.batch import BatchEvaluator, Job
-from app.paper_cases import CASES, SPOT_DRIFT_LIMIT_CM_S, PaperCase, measured
+from app.paper_cases import (
+    CASES,
+    MIRROR_TOLERANCE,
+    SPOT_DRIFT_LIMIT_CM_S,
+    PaperCase,
+    measured,
+    passes,
+)
 from app.paramset import ParameterSet
 from gait import GaitParams
 from gait.params import describe_fields, group_class, merge
@@ -47,6 +54,7 @@ DEFAULT_NAMES = (
 FALL_LOSS = 20.0  # a fall costs this much, plus as much again scaled by how early it came
 CROSS_TALK_WEIGHT = 0.2  # unwanted rotation while translating, translation while turning
 GYRO_WEIGHT = 0.05
+BAND_MARGIN = 0.2  # the band penalty starts at 20 % error, inside the 25 % tolerance
 
 
 @dataclass(frozen=True)
@@ -93,7 +101,10 @@ def with_values(base: GaitParams, dims: Sequence[Dimension], unit: np.ndarray) -
     return merge(base, patch)
 
 
-def case_loss(case: PaperCase, metrics: dict[str, Any], duration_s: float) -> float:
+def case_loss(
+    case: PaperCase, metrics: dict[str, Any], duration_s: float, band_weight: float = 0.0
+) -> float:
+    """One case's loss; `band_weight` > 0 adds a steep penalty for leaving the tolerance band."""
     if metrics["fell"]:
         fall_time = metrics.get("fall_time_s", 0.0)
         return FALL_LOSS * (2.0 - fall_time / duration_s)
@@ -104,7 +115,8 @@ def case_loss(case: PaperCase, metrics: dict[str, Any], duration_s: float) -> fl
         loss = (value / SPOT_DRIFT_LIMIT_CM_S) ** 2
         turn = metrics["turn_deg_s"] or 0.0
         return loss + CROSS_TALK_WEIGHT * (turn / 5.0) ** 2
-    loss = ((value - case.paper) / case.paper) ** 2
+    error = (value - case.paper) / case.paper
+    loss = error**2 + band_weight * max(0.0, abs(error) - BAND_MARGIN) ** 2
     if case.metric == "turn_deg_s":
         drift = math.hypot(metrics["forward_cm_s"], metrics["lateral_cm_s"])
         loss += CROSS_TALK_WEIGHT * (drift / 1.0) ** 2
@@ -113,8 +125,12 @@ def case_loss(case: PaperCase, metrics: dict[str, Any], duration_s: float) -> fl
     return loss
 
 
-def total_loss(per_case: Sequence[dict[str, Any]], duration_s: float) -> float:
-    loss = sum(case_loss(c, m, duration_s) for c, m in zip(CASES, per_case, strict=True))
+def total_loss(
+    per_case: Sequence[dict[str, Any]], duration_s: float, band_weight: float = 0.0
+) -> float:
+    loss = sum(
+        case_loss(c, m, duration_s, band_weight) for c, m in zip(CASES, per_case, strict=True)
+    )
     gyro = [m["gyro_rms"] for m in per_case if m.get("gyro_rms") is not None]
     return loss + GYRO_WEIGHT * (float(np.mean(gyro)) if gyro else 10.0)
 
@@ -131,11 +147,13 @@ class Tuner:
         popsize: int = 10,
         sigma0: float = 0.12,
         seed: int = 1,
+        band_weight: float = 0.0,
     ) -> None:
         self.base = base
         self.dims = dimensions(names)
         self.evaluator = evaluator or BatchEvaluator()
         self.duration_s, self.warmup_s = duration_s, warmup_s
+        self.band_weight = band_weight
         x0 = [dim.to_unit(_get(base.gait, dim.name)) for dim in self.dims]
         options = {
             "bounds": [0.0, 1.0],
@@ -153,7 +171,10 @@ class Tuner:
             "sigma0": sigma0,
             "seed": seed,
         }
+        if band_weight:
+            self.settings["band_weight"] = band_weight
         self.best: tuple[float, GaitParams, list[dict[str, Any]]] | None = None
+        self.evaluated: list[tuple[float, GaitParams, list[dict[str, Any]]]] = []
         self.generation = 0
 
     def evaluate(
@@ -174,10 +195,9 @@ class Tuner:
         out = []
         for i, params in enumerate(sets):
             per_case = metrics[i * n : (i + 1) * n]
-            loss = total_loss(per_case, self.duration_s)
+            loss = total_loss(per_case, self.duration_s, self.band_weight)
             out.append((loss, per_case))
-            if self.best is None or loss < self.best[0]:
-                self.best = (loss, params, per_case)
+            self._record(loss, params, per_case)
         return out
 
     def run(
@@ -229,9 +249,32 @@ class Tuner:
             )
         for u, r in zip(candidates, rows, strict=True):
             params = with_values(self.base.gait, self.dims, u)
-            if self.best is None or r["loss"] < self.best[0]:
-                self.best = (r["loss"], params, list(r["metrics"].values()))
+            self._record(r["loss"], params, [r["metrics"][c.name] for c in CASES])
         return [r["loss"] for r in rows]
+
+    def _record(self, loss: float, params: GaitParams, per_case: list[dict[str, Any]]) -> None:
+        self.evaluated.append((loss, params, per_case))
+        if self.best is None or loss < self.best[0]:
+            self.best = (loss, params, per_case)
+
+    def best_passing(self) -> tuple[float, GaitParams, list[dict[str, Any]]] | None:
+        """The lowest-loss candidate that meets every paper criterion, if any did."""
+        passing = [e for e in self.evaluated if meets_all_criteria(e[2])]
+        return min(passing, key=lambda e: e[0]) if passing else None
+
+
+def meets_all_criteria(per_case: Sequence[dict[str, Any]]) -> bool:
+    """No fall, every case within its tolerance, mirror pairs within 15 % of each other."""
+    values = {c.name: measured(c, m) for c, m in zip(CASES, per_case, strict=True)}
+    for case, metrics in zip(CASES, per_case, strict=True):
+        if not passes(case, values[case.name], metrics["fell"]):
+            return False
+    for case in CASES:
+        if case.mirror_of:
+            a, b = abs(values[case.name]), abs(values[case.mirror_of])
+            if abs(a - b) > MIRROR_TOLERANCE * 0.5 * (a + b):
+                return False
+    return True
 
 
 def _get(params: GaitParams, dotted: str) -> float:
@@ -306,10 +349,22 @@ def add_arguments(parser: Any) -> None:
     parser.add_argument("--duration", type=float, default=20.0, help="simulated s per case")
     parser.add_argument("--warmup", type=float, default=4.0)
     parser.add_argument("--seed", type=int, default=1)
+    parser.add_argument(
+        "--band-weight",
+        type=float,
+        default=0.0,
+        help="extra penalty per case for errors beyond 20 %% (the tolerance is 25 %%)",
+    )
     parser.add_argument("--threads", type=int, default=None)
     parser.add_argument("--results", default="out/tune/results.jsonl", help="resumable log")
     parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
     parser.add_argument("--name", default="tuned", help="name of the saved preset")
+    parser.add_argument(
+        "--select",
+        choices=("best", "passing"),
+        default="best",
+        help="save the lowest loss, or the lowest loss that meets every paper criterion",
+    )
 
 
 def command(args: Any) -> int:
@@ -335,15 +390,25 @@ def command(args: Any) -> int:
         popsize=args.popsize,
         sigma0=args.sigma,
         seed=args.seed,
+        band_weight=args.band_weight,
     )
     tuner.settings["set"] = args.set
     results = Path(args.results)
     results.parent.mkdir(parents=True, exist_ok=True)
-    best = tuner.run(args.generations, results)
-    save_preset(best, Path(args.out), args.name)
-    assert tuner.best is not None
-    print(f"best loss {tuner.best[0]:.4f} after {tuner.generation} generations; saved {args.out}")
-    for case, metrics in zip(CASES, tuner.best[2], strict=True):
+    tuner.run(args.generations, results)
+    chosen = tuner.best
+    if args.select == "passing":
+        chosen = tuner.best_passing()
+        if chosen is None:
+            print("no candidate met every criterion; saving the lowest loss instead")
+            chosen = tuner.best
+    assert chosen is not None
+    save_preset(ParameterSet(name=args.name, gait=chosen[1]), Path(args.out), args.name)
+    print(
+        f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
+        f"saved {args.out}"
+    )
+    for case, metrics in zip(CASES, chosen[2], strict=True):
         value = measured(case, metrics)
         shown = "fell" if metrics["fell"] else f"{value:+.2f}"
         print(f"  {case.name:24s} paper {case.paper:+6.1f}  tuned {shown}")

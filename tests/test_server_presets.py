@@ -8,7 +8,15 @@ import yaml
 PRESET_NAMES_BAD = ["..", "a b", "x" * 65, ".hidden", "a..b", "con:x"]
 
 
+def test_the_server_starts_with_the_tuned_preset_and_lists_the_builtins(http):
+    assert http.get("/api/params").json()["name"] == "tuned"  # a new user sees a robot that walks
+    presets = {p["name"]: p for p in http.get("/api/presets").json()["presets"]}
+    assert presets["paper"]["builtin"] and presets["tuned"]["builtin"]
+    assert http.put("/api/presets/tuned").status_code == 422  # read-only
+
+
 def test_save_list_get_load_diff_delete(http):
+    http.post("/api/presets/paper/load")
     http.patch("/api/params", json={"motion": {"a_p": 0.05}, "gait": {"swing": {"v": 2.4}}})
     saved = http.put("/api/presets/brisk")
     assert saved.status_code == 201 and saved.json()["name"] == "brisk"

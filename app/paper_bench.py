@@ -1,0 +1,369 @@
+"""`artro bench paper`: simulate what the papers measured and compare, for one or more presets.
+
+Seed 000 §5 (SPEC §7): walking on the spot, forward at a_p = 0.07 (3.8 cm/s), sideways at
+a_r = 0.1 (3.5 cm/s), turning at a_y = 0.2 (12.1 deg/s), and their mirror images
+(`app.paper_cases`). Seed 004 §V: curve walking forward and backward over a CA sweep -- heading
+rate against eq (13), theta_dot = -2 CA V / b, an effective axle fitted to it, the stability
+(gyro RMS, falls) against CA as in its Fig. 6 (limits 0.15 forward, 0.17 backward on the Nao),
+and whether CA = 0.058 walks a full circle. `app.ca_analysis` has the formulas.
+
+Prints the tables (`app.paper_report`), writes the plots (`app.paper_plots`) and every number
+to results.json in the output folder.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import asdict, replace
+from pathlib import Path
+from typing import Any, TextIO
+
+import numpy as np
+
+from app import ca_analysis as ca_math
+from app.paper_cases import CASES, MIRROR_TOLERANCE, measured, passes
+from app.paper_runs import (
+    CIRCLE_CA,
+    QUICK,
+    WALK_A_P,
+    BenchConfig,
+    PresetRuns,
+    Run,
+    case_by_name,
+    finite_or_none,
+    resolve_presets,
+    run_all,
+)
+
+DEFAULT_OUT = Path("out/bench-paper")
+PAPER_CA_LIMIT = {"forward": 0.15, "backward": 0.17}  # seed 004 §V, the simulated Nao
+
+
+def net_figure(metric: str, run: Run, warmup_s: float, freq_hz: float) -> float | None:
+    """The case's figure from the gait-cycle-mean path (no sway), in the metric's unit."""
+    net = run.trace.net_velocity(warmup_s, freq_hz)
+    if net is None:
+        return None
+    forward, lateral, turn = net
+    return {
+        "drift_cm_s": 100.0 * math.hypot(forward, lateral),
+        "forward_cm_s": 100.0 * forward,
+        "lateral_cm_s": 100.0 * lateral,
+        "turn_deg_s": math.degrees(turn),
+    }[metric]
+
+
+def case_rows(runs: PresetRuns, warmup_s: float) -> list[dict[str, Any]]:
+    """Per paper case: the paper's figure, the simulated one, their ratio, pass, fell, gyro.
+
+    `net` is the same figure from the gait-cycle-mean path (RunTrace.net_velocity), which is what
+    the paper's video measurement saw; pass is judged on the run metric, as `artro run` gives it.
+    """
+    freq = runs.preset.params.clock.freq_hz
+    rows = []
+    for case in CASES:
+        run = runs.cases[case.name]
+        m = run.metrics
+        value = finite_or_none(measured(case, m))
+        rows.append(
+            {
+                "case": case.name,
+                "metric": case.metric,
+                "paper": case.paper,
+                "sim": value,
+                "net": finite_or_none(net_figure(case.metric, run, warmup_s, freq)),
+                "ratio": value / case.paper if value is not None and case.paper else None,
+                "pass": passes(case, value, m["fell"]),
+                "fell": m["fell"],
+                "fall_time_s": m.get("fall_time_s"),
+                "gyro_rms": m["gyro_rms"],
+            }
+        )
+    return rows
+
+
+def mirror_rows(runs: PresetRuns) -> list[dict[str, Any]]:
+    """Each mirrored pair: |a - (-b)| / mean(|a|, |b|) within MIRROR_TOLERANCE."""
+    rows = []
+    for case in CASES:
+        if case.mirror_of is None:
+            continue
+        original = case_by_name(case.mirror_of)
+        a = finite_or_none(measured(original, runs.cases[original.name].metrics))
+        b = finite_or_none(measured(case, runs.cases[case.name].metrics))
+        mismatch = None
+        if a is not None and b is not None and (a or b):
+            mismatch = abs(a + b) / (0.5 * (abs(a) + abs(b)))  # |a - (-b)| / mean(|a|, |b|)
+        rows.append(
+            {
+                "pair": f"{case.mirror_of} / {case.name}",
+                "a": a,
+                "b": b,
+                "mismatch": mismatch,
+                "ok": mismatch is not None and mismatch <= MIRROR_TOLERANCE,
+            }
+        )
+    return rows
+
+
+def _walk_row(
+    run: Run, speed_m_s: float | None, axle_m: float | None, drift: float | None
+) -> dict[str, Any]:
+    ca, m = run.motion.ca, run.metrics
+    turn = finite_or_none(m["turn_deg_s"])
+    eq13 = None
+    if speed_m_s is not None and axle_m:
+        eq13 = math.degrees(float(ca_math.eq13_turn_rate_rad_s(ca, speed_m_s, axle_m))) + 0.0
+    checked = abs(ca) <= ca_math.FIT_CA_LIMIT + 1e-9 and ca != 0 and not m["fell"]
+    rel = rel_drift = None
+    if checked and turn is not None and eq13:
+        rel = (turn - eq13) / abs(eq13)
+        rel_drift = None if drift is None else (turn - drift - eq13) / abs(eq13)
+    return {
+        "ca": ca,
+        "turn_deg_s": turn,
+        "eq13_turn_deg_s": eq13,
+        "rel_error": rel,
+        "rel_error_drift_removed": rel_drift,
+        "forward_cm_s": m["forward_cm_s"],
+        "gyro_rms": m["gyro_rms"],
+        "fell": m["fell"],
+        "fall_time_s": m.get("fall_time_s"),
+    }
+
+
+def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, Any]:
+    """Heading rate vs eq (13), axle fit, antisymmetry, stable limit and the full-circle check."""
+    ref = next(r for r in walks if r.motion.ca == 0)
+    v_cm_s = finite_or_none(ref.metrics["forward_cm_s"])
+    speed = None if v_cm_s is None else v_cm_s / 100.0
+    feet = ref.trace.feet_m[ref.trace.window(warmup_s, freq_hz)]
+    axle = float(np.nanmean(feet)) if np.isfinite(feet).any() else None
+    drift = finite_or_none(ref.metrics["turn_deg_s"])
+    net = ref.trace.net_velocity(warmup_s, freq_hz)
+    rows = [_walk_row(r, speed, axle, drift) for r in walks]
+    usable = [r for r in rows if abs(r["ca"]) <= ca_math.FIT_CA_LIMIT + 1e-9 and not r["fell"]]
+    usable = [r for r in usable if r["turn_deg_s"] is not None]
+    fit = None
+    if speed is not None and len({r["ca"] for r in usable}) >= 2:
+        f = ca_math.fit_axle(
+            [r["ca"] for r in usable], [math.radians(r["turn_deg_s"]) for r in usable], speed
+        )
+        fit = {
+            "axle_eff_cm": None if f.axle_eff_m is None else 100.0 * f.axle_eff_m,
+            "slope_deg_s_per_ca": math.degrees(f.slope_rad_s),
+            "drift_deg_s": math.degrees(f.drift_rad_s),
+            "residual_rms_deg_s": math.degrees(f.residual_rms_rad_s),
+            "n_points": f.n_points,
+        }
+    standing = [r for r in rows if r["turn_deg_s"] is not None]
+    ca_values = [r["ca"] for r in standing]
+    turns = np.array([r["turn_deg_s"] for r in standing])
+    fell = [r["fell"] for r in standing]
+    pairs = ca_math.antisymmetry_pairs(ca_values, turns, fell)
+    pairs_no_drift = ca_math.antisymmetry_pairs(ca_values, turns - (drift or 0.0), fell)
+    limit = ca_math.largest_stable_ca([r["ca"] for r in rows], [r["fell"] for r in rows])
+    return {
+        "speed_cm_s": v_cm_s,
+        "net_speed_cm_s": None if net is None else 100.0 * net[0],
+        "axle_cm": None if axle is None else 100.0 * axle,
+        "drift_deg_s": drift,
+        "rows": rows,
+        "fit": fit,
+        "antisymmetry": [
+            {
+                "ca": p.ca,
+                "turn_pos_deg_s": p.turn_pos,
+                "turn_neg_deg_s": p.turn_neg,
+                "even_part_deg_s": p.even_part,
+                "mismatch": p.mismatch,
+                "ok": p.ok,
+                "mismatch_drift_removed": q.mismatch,
+                "ok_drift_removed": q.ok,
+            }
+            for p, q in zip(pairs, pairs_no_drift, strict=True)
+        ],
+        "stable_limit": {
+            "limit": limit.limit,
+            "first_fall": limit.first_fall,
+            "sweep_max": limit.sweep_max,
+            "beyond_sweep": limit.beyond_sweep,
+        },
+        "circle": _circle(walks, rows),
+    }
+
+
+def _circle(walks: list[Run], rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    i = next((k for k, r in enumerate(walks) if math.isclose(r.motion.ca, CIRCLE_CA)), None)
+    if i is None or len(walks[i].trace.t_s) < 2:
+        return None
+    trace, row = walks[i].trace, rows[i]
+    check = ca_math.CircleCheck(
+        turned_deg=math.degrees(float(trace.yaw_rad[-1] - trace.yaw_rad[0])),
+        run_s=float(trace.t_s[-1]),
+        rate_deg_s=row["turn_deg_s"],
+        predicted_rate_deg_s=row["eq13_turn_deg_s"],
+    )
+    return asdict(check) | {
+        "ca": CIRCLE_CA,
+        "fell": row["fell"],
+        "completed": check.completed and not row["fell"],
+        "circle_s": check.circle_s,
+        "predicted_circle_s": check.predicted_circle_s,
+    }
+
+
+def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str]) -> dict:
+    """Every number of the bench, as one JSON-ready document."""
+    presets = []
+    for runs in all_runs:
+        freq = runs.preset.params.clock.freq_hz
+        presets.append(
+            {
+                "name": runs.preset.name,
+                "source": runs.preset.source,
+                "gait_freq_hz": freq,
+                "cases": case_rows(runs, config.warmup_s),
+                "mirror": mirror_rows(runs),
+                "ca": {
+                    d: ca_summary(runs.walks[d], config.warmup_s, freq) | {"a_p": WALK_A_P[d]}
+                    for d in WALK_A_P
+                },
+                "metrics": {
+                    "cases": {name: r.metrics for name, r in runs.cases.items()},
+                    "walks": {d: [r.metrics for r in rs] for d, rs in runs.walks.items()},
+                },
+            }
+        )
+    return {
+        "config": {
+            "duration_s": config.duration_s,
+            "warmup_s": config.warmup_s,
+            "ca_values": list(config.ca_values),
+            "paper_ca_limit": PAPER_CA_LIMIT,
+            "circle_ca": CIRCLE_CA,
+        },
+        "notes": notes,
+        "presets": presets,
+    }
+
+
+def _json_safe(value: Any) -> Any:
+    if isinstance(value, float):
+        return value if math.isfinite(value) else None
+    if isinstance(value, dict):
+        return {k: _json_safe(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_json_safe(v) for v in value]
+    if isinstance(value, np.generic):
+        return _json_safe(value.item())
+    return value
+
+
+def progress_printer(total_note: str, stream: TextIO) -> Callable[[int, int], None]:
+    """A progress callback printing runs done / total, elapsed and an estimate of what is left."""
+    start = time.perf_counter()
+    live = stream.isatty()
+    print(total_note, file=stream, flush=True)
+
+    def report(done: int, total: int) -> None:
+        elapsed = time.perf_counter() - start
+        left = elapsed / done * (total - done) if done else float("nan")
+        line = f"bench paper: {done}/{total} runs, {elapsed:6.0f} s elapsed, ~{left:.0f} s left"
+        end = "\n" if not live or done == total else ""
+        print(("\r" if live else "") + line, end=end, file=stream, flush=True)
+
+    return report
+
+
+def run_paper_bench(
+    preset_specs: list[str],
+    config: BenchConfig,
+    out_dir: Path,
+    *,
+    stdout: TextIO | None = None,
+    stderr: TextIO | None = None,
+) -> dict[str, Any]:
+    """Run, print the report, write results.json and the PNGs; returns the results document.
+
+    The report goes to stdout, progress to stderr (default: the sys streams at call time).
+    """
+    stdout = stdout or sys.stdout
+    stderr = stderr or sys.stderr
+    from app.paper_plots import write_plots
+    from app.paper_report import render_report
+
+    presets, notes = resolve_presets(preset_specs)
+    if not presets:
+        raise ValueError(f"no presets to run (asked for {preset_specs}): {'; '.join(notes)}")
+    n_runs = len(presets) * (len(CASES) + len(WALK_A_P) * len(config.ca_values))
+    progress = progress_printer(
+        f"bench paper: {n_runs} runs of {config.duration_s:g} s "
+        f"({', '.join(p.name for p in presets)}) ...",
+        stderr,
+    )
+    all_runs = run_all(presets, config, progress)
+    results = _json_safe(summarise(all_runs, config, notes))
+    out_dir.mkdir(parents=True, exist_ok=True)
+    (out_dir / "results.json").write_text(
+        json.dumps(results, indent=1, allow_nan=False), encoding="utf-8"
+    )
+    pngs = write_plots(all_runs, results, out_dir)
+    print(render_report(results), file=stdout)
+    written = ", ".join(p.name for p in [out_dir / "results.json", *pngs])
+    print(f"\nwritten to {out_dir}: {written}", file=stdout)
+    return results
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("suite", choices=["paper"], help="which bench: 'paper' (SPEC §7)")
+    parser.add_argument(
+        "--presets",
+        default="paper,tuned",
+        metavar="NAME_OR_FILE,...",
+        help="parameter sets: 'paper', 'tuned' (models/presets/NAME.json) or JSON files",
+    )
+    parser.add_argument(
+        "--duration", type=float, metavar="S", help="simulated seconds per run (60; --quick 10)"
+    )
+    parser.add_argument(
+        "--warmup", type=float, metavar="S", help="seconds not measured (5; --quick 2)"
+    )
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=DEFAULT_OUT,
+        metavar="DIR",
+        help=f"where the PNGs and results.json go (default {DEFAULT_OUT})",
+    )
+    parser.add_argument(
+        "--threads", type=int, metavar="N", help="rollout threads (default: all cores, <= 8)"
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="short runs and a coarse CA sweep (smoke test)"
+    )
+
+
+def cmd_bench(args: argparse.Namespace) -> int:
+    config = QUICK if args.quick else BenchConfig()
+    if args.duration is not None:
+        config = replace(config, duration_s=args.duration)
+    if args.warmup is not None:
+        config = replace(config, warmup_s=args.warmup)
+    if args.threads is not None:
+        if args.threads < 1:
+            raise ValueError(f"--threads must be >= 1, got {args.threads}")
+        config = replace(config, threads=args.threads)
+    if not config.duration_s > config.warmup_s >= 0:
+        raise ValueError(
+            f"need duration > warm-up >= 0 s, got --duration {config.duration_s:g} "
+            f"--warmup {config.warmup_s:g}"
+        )
+    specs = [s.strip() for s in args.presets.split(",") if s.strip()]
+    run_paper_bench(specs, config, args.out)
+    return 0

@@ -1,0 +1,119 @@
+"""Benchmark: BatchEvaluator throughput against single-thread raw mj_step on models/artro.xml.
+
+Prints, for the same 10 s walks (a_p = 0.07, CA spread over -0.1..0.1):
+  - raw mj_step, one thread: the walk's set-points replayed with MuJoCo's own C loop,
+    mj_step(nstep=20) per frame with the frame's set-points written at its start (as the C-loop
+    variant of bench_pipeline.py), no Python between steps;
+  - BatchEvaluator.evaluate with 1 thread and with N threads (N = os.cpu_count()), end to end
+    (planning the gait + hardware for every step, the rollout, measuring) and the rollout alone;
+  - the ratio batch / (threads x single raw) (goal >= 0.85);
+  - steps per CPU second of this process (all threads), which stays meaningful when other
+    processes compete for the cores (the wall-clock ratio then only says how many were free).
+
+    python bench/bench_batch.py [--seconds 10] [--runs 16] [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import statistics
+import time
+
+import mujoco
+import numpy as np
+
+from app.batch import BatchEvaluator, Job
+from app.simulation import Simulation, plan_frames
+from gait import GaitParams, Motion
+
+GOAL = 0.85
+
+
+def walks(runs: int) -> list[Job]:
+    return [Job(GaitParams(), Motion(a_p=0.07, ca=ca)) for ca in np.linspace(-0.1, 0.1, runs)]
+
+
+def raw_steps_per_s(job: Job, frames: int) -> tuple[float, float]:
+    """Single thread: the walk's frame set-points, MuJoCo's C loop for the 20 steps of a frame.
+
+    Returns (steps per wall second, steps per CPU second of this process)."""
+    sim = Simulation(params=job.params, motion=job.motion)
+    plan = plan_frames(
+        job.params, job.motion, sim.hardware, sim.phase, frames, sim.steps_per_frame, sim.timestep_s
+    )
+    model, data, act, steps = sim.model, sim.data, sim.robot.actuator_ids, sim.steps_per_frame
+    start, cpu_start = time.perf_counter(), time.process_time()
+    for k in range(frames):
+        data.ctrl[act] = plan.setpoint[k]
+        mujoco.mj_step(model, data, steps)
+    total = frames * steps
+    return total / (time.perf_counter() - start), total / (time.process_time() - cpu_start)
+
+
+def batch_steps_per_s(
+    evaluator: BatchEvaluator, jobs: list[Job], seconds: float
+) -> tuple[float, float, float]:
+    """One evaluate call: steps per wall second end to end and for the rollout alone, and
+    steps per CPU second of this process (all its threads) end to end."""
+    steps_per_run = round(seconds / evaluator.model.opt.timestep)
+    start, cpu_start = time.perf_counter(), time.process_time()
+    metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+    rollout_wall = sum(m["wall_s"] for m in metrics)  # wall_s = a call's rollout time / its runs
+    total = steps_per_run * len(jobs)
+    return total / wall, total / rollout_wall, total / cpu
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--seconds", type=float, default=10.0, help="simulated seconds per walk")
+    parser.add_argument("--runs", type=int, default=16, help="walks per evaluate call")
+    parser.add_argument("--repeats", type=int, default=3)
+    args = parser.parse_args()
+    n_threads = os.cpu_count() or 1
+    jobs = walks(args.runs)
+    frames = round(args.seconds / 0.02)
+    one, many = BatchEvaluator(threads=1), BatchEvaluator(threads=n_threads)
+    load_before = os.getloadavg()[0]
+    raw, raw_cpu = [], []
+    batch: dict[int, list[tuple[float, float, float]]] = {1: [], n_threads: []}
+    for _ in range(args.repeats):  # interleaved, so machine load affects all alike
+        trials = [raw_steps_per_s(j, frames) for j in jobs[:4]]
+        raw.append(statistics.median(t[0] for t in trials))
+        raw_cpu.append(statistics.median(t[1] for t in trials))
+        for evaluator in (one, many):
+            batch[evaluator.threads].append(batch_steps_per_s(evaluator, jobs, args.seconds))
+    raw_m, raw_cpu_m = statistics.median(raw), statistics.median(raw_cpu)
+
+    print(f"model: models/artro.xml, timestep {one.model.opt.timestep * 1e3:g} ms")
+    print(
+        f"{args.runs} walks of {args.seconds:g} s (a_p = 0.07, CA -0.1..0.1), "
+        f"{args.repeats} repeats, medians; {n_threads} CPU(s), load average before "
+        f"{load_before:.2f}, after {os.getloadavg()[0]:.2f}"
+    )
+    print(
+        f"raw mj_step, 1 thread (C loop): {raw_m:8.0f} steps/s wall, "
+        f"{raw_cpu_m:8.0f} per CPU second"
+    )
+    ratio_n = 0.0
+    for threads, results in batch.items():
+        e2e, roll, per_cpu = (statistics.median(r[i] for r in results) for i in range(3))
+        ratio = e2e / (threads * raw_m)
+        ratio_n = ratio if threads == n_threads else ratio_n
+        print(
+            f"BatchEvaluator, {threads} thread(s): {e2e:8.0f} steps/s wall end to end "
+            f"(ratio {ratio:.3f}), {roll:8.0f} rollout only; {per_cpu:8.0f} per CPU second "
+            f"(vs raw {per_cpu / raw_cpu_m:.3f})"
+        )
+    print(f"ratio batch / ({n_threads} x raw), wall, end to end: {ratio_n:.3f}  (goal >= {GOAL})")
+    if load_before > 0.5:
+        print(
+            "note: other processes were running (load average above); the wall-clock ratios "
+            "then say how many cores were free, the per-CPU-second figures how efficient the "
+            "batch is"
+        )
+
+
+if __name__ == "__main__":
+    main()

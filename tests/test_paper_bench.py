@@ -1,0 +1,145 @@
+"""`artro bench paper`: a quick real run end to end, and the CA analysis on synthetic data."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from app import paper_runs
+from app.ca_analysis import (
+    CircleCheck,
+    antisymmetry_pairs,
+    eq13_turn_rate_rad_s,
+    fit_axle,
+    largest_stable_ca,
+)
+from app.cli import main
+from app.paper_cases import CASES
+from app.paper_report import table
+from app.paper_runs import ca_sweep, cycle_mean, resolve_presets
+
+PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
+
+
+def test_quick_bench_prints_every_case_and_writes_pngs_and_json(tmp_path, capsys):
+    out = tmp_path / "bench"
+    assert main(["bench", "paper", "--quick", "--presets", "paper", "--out", str(out)]) == 0
+    printed = capsys.readouterr()
+    for case in CASES:
+        assert case.name in printed.out
+    assert "CA CURVE WALKING, FORWARD" in printed.out
+    assert "CA CURVE WALKING, BACKWARD" in printed.out
+    assert "largest stable |CA|" in printed.out
+    assert "runs" in printed.err  # progress went to stderr
+
+    for name in ("paths_paper.png", "ca_stability.png", "ca_heading.png"):
+        assert (out / name).read_bytes()[:8] == PNG_MAGIC, name
+    results = json.loads((out / "results.json").read_text())
+    (paper,) = results["presets"]
+    assert [c["case"] for c in paper["cases"]] == [c.name for c in CASES]
+    assert len(paper["mirror"]) == sum(c.mirror_of is not None for c in CASES)
+    for direction in ("forward", "backward"):
+        ca = paper["ca"][direction]
+        assert [r["ca"] for r in ca["rows"]] == list(paper_runs.QUICK.ca_values)
+        assert ca["axle_cm"] > 0
+        assert {"fit", "antisymmetry", "stable_limit", "circle"} <= set(ca)
+    forward = paper["cases"][1]
+    assert forward["sim"] == pytest.approx(paper["metrics"]["cases"]["forward"]["forward_cm_s"])
+
+
+def test_unknown_preset_is_a_clear_error(capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(["bench", "paper", "--presets", "no-such-preset"])
+    assert exc.value.code == 2
+    assert "no-such-preset" in capsys.readouterr().err
+
+
+def test_missing_named_presets(tmp_path, monkeypatch):
+    monkeypatch.setattr(paper_runs, "PRESETS_DIR", tmp_path)
+    presets, notes = resolve_presets(["paper", "tuned"])
+    assert [p.name for p in presets] == ["paper"]  # paper falls back to ParameterSet()
+    assert any("tuned" in n and "skipped" in n for n in notes)
+
+
+@given(
+    speed_m_s=st.floats(-0.1, 0.1).filter(lambda v: abs(v) > 1e-3),
+    axle_m=st.floats(0.03, 0.3),
+    drift_rad_s=st.floats(-0.1, 0.1),
+)
+def test_axle_fit_recovers_a_known_axle(speed_m_s, axle_m, drift_rad_s):
+    ca = np.array([-0.1, -0.075, -0.05, -0.025, 0.0, 0.025, 0.05, 0.058, 0.075, 0.1])
+    turn = drift_rad_s + eq13_turn_rate_rad_s(ca, speed_m_s, axle_m)
+    fit = fit_axle(ca, turn, speed_m_s)
+    assert fit.axle_eff_m == pytest.approx(axle_m, rel=1e-9)
+    assert fit.drift_rad_s == pytest.approx(drift_rad_s, abs=1e-12)
+    assert fit.residual_rms_rad_s == pytest.approx(0.0, abs=1e-12)
+
+
+def test_axle_fit_needs_two_ca_values():
+    with pytest.raises(ValueError, match="two distinct"):
+        fit_axle([0.05, 0.05], [0.1, 0.1], 0.04)
+
+
+SWEEP = np.array(ca_sweep())  # -0.2..0.2 by 0.025, plus 0.058
+
+
+@pytest.mark.parametrize(
+    ("falls", "limit", "first_fall"),
+    [
+        (lambda ca: np.zeros_like(ca, dtype=bool), 0.2, None),  # nothing fell: limit beyond
+        (lambda ca: ca >= 0.15, 0.125, 0.15),  # only one sign falls
+        (lambda ca: np.isclose(ca, -0.1) | (ca >= 0.2), 0.075, 0.1),  # not monotone in |CA|
+        (lambda ca: np.isclose(ca, 0.058), 0.05, 0.058),  # the extra value counts too
+        (lambda ca: ca == 0, None, 0.0),  # even walking straight fell
+    ],
+)
+def test_largest_stable_ca(falls, limit, first_fall):
+    result = largest_stable_ca(SWEEP, falls(SWEEP))
+    assert result.limit == (None if limit is None else pytest.approx(limit))
+    assert result.first_fall == (None if first_fall is None else pytest.approx(first_fall))
+    assert result.beyond_sweep == (first_fall is None)
+    assert result.sweep_max == pytest.approx(0.2)
+
+
+def test_antisymmetry_pairs_skip_fallen_and_unpaired_runs():
+    ca = [-0.1, -0.05, 0.0, 0.05, 0.058, 0.1]
+    turn = [2.0, 1.0, 0.0, -1.1, -1.2, -3.0]
+    fell = [False, False, False, False, False, True]
+    (pair,) = antisymmetry_pairs(ca, turn, fell)
+    assert pair.ca == 0.05
+    assert pair.mismatch == pytest.approx(0.1 / 1.05)
+    assert pair.even_part == pytest.approx(-0.05)
+    assert pair.ok
+
+
+def test_full_circle_check():
+    done = CircleCheck(turned_deg=-365.0, run_s=60.0, rate_deg_s=-6.2, predicted_rate_deg_s=-5.0)
+    assert done.completed
+    short = CircleCheck(turned_deg=120.0, run_s=60.0, rate_deg_s=2.0, predicted_rate_deg_s=None)
+    assert not short.completed
+    assert short.circle_s == pytest.approx(180.0)
+    assert short.predicted_circle_s is None
+
+
+def test_cycle_mean_removes_a_sway_of_one_cycle():
+    t = np.arange(500) * 0.02
+    x = 0.01 * t + 0.03 * np.sin(2 * math.pi * t)  # 1 Hz sway of 3 cm on a 1 cm/s walk
+    smooth = cycle_mean(x, 50)
+    ok = np.isfinite(smooth)
+    assert ok.sum() == 500 - 49
+    assert np.allclose(smooth[ok], 0.01 * (t[ok] - 0.01), atol=1e-12)  # half-sample lag
+
+
+def test_table_columns_line_up():
+    lines = table(
+        [("", ("case",)), ("a long preset name", ("sim", "ok")), ("b", ("sim", "ok"))],
+        [["forward", "+0.96", "NO", "+3.80", "yes"], ["on the spot", "+0.1", "yes", "-", "no"]],
+    )
+    separator = lines[2]
+    assert set(separator) == {"-", "+"}
+    joints = [i for i, ch in enumerate(separator) if ch == "+"]
+    for line in lines[:2] + lines[3:]:  # every group separator in the same column on every line
+        assert [i for i, ch in enumerate(line) if ch == "|"] == joints
