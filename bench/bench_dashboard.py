@@ -78,7 +78,7 @@ def main() -> None:
             except httpx.TransportError:
                 if time.monotonic() > deadline:
                     raise
-                time.sleep(0.2)
+                time.sleep(0.2)  # the server is still binding its port: try again
         http.patch("/api/params", json={"motion": {"a_p": 0.07}})
         run(args, base, http, server.pid)
     finally:
