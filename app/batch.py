@@ -24,7 +24,14 @@ from mujoco import rollout
 
 from app.metrics import Trace, compute_metrics
 from app.robot import RobotModel
-from app.simulation import FALL_HEIGHT_FRACTION, FALL_TILT_RAD, FRAME_S, Simulation, plan_frames
+from app.simulation import (
+    FRAME_S,
+    Simulation,
+    has_fallen,
+    plan_frames,
+    sole_distance_m,
+    trunk_yaw,
+)
 from gait import GaitParams, Motion
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -85,8 +92,10 @@ class BatchEvaluator:
         duration_s: float,
         warmup_s: float = 5.0,
         progress: Callable[[int, int], None] | None = None,
+        traces: list[Trace] | None = None,
     ) -> list[dict[str, Any]]:
         """Metrics of each job, in order, as `artro run` would print them (wall time aside).
+        Pass a list as `traces` to also get each run's trunk trace (one sample per frame).
 
         Runs go to MuJoCo in chunks; while one chunk rolls out (MuJoCo's threads, no GIL), a
         Python worker plans the next chunk and measures the previous one.
@@ -108,7 +117,7 @@ class BatchEvaluator:
                 )
                 wall = time.perf_counter() - t0
                 if measuring is not None:
-                    results.extend(measuring.result())
+                    self._collect(measuring.result(), results, traces)
                     if progress is not None:
                         progress(len(results), len(jobs))
                 measuring = worker.submit(
@@ -116,7 +125,7 @@ class BatchEvaluator:
                     warmup_s,
                 )  # fmt: skip
             if measuring is not None:
-                results.extend(measuring.result())
+                self._collect(measuring.result(), results, traces)
                 if progress is not None:
                     progress(len(results), len(jobs))
         return results
@@ -141,16 +150,27 @@ class BatchEvaluator:
         n_frames: int,
         wall_s: float,
         warmup_s: float,
-    ) -> list[dict[str, Any]]:
+    ) -> list[tuple[dict[str, Any], Trace]]:
         out = []
         for i, job in enumerate(chunk):
-            metrics = self._measure(
+            metrics, trace = self._measure(
                 states[i], sensors[i], starts[i], job, n_frames, sims[i].steps_per_frame, warmup_s
             )
             metrics["wall_s"] = wall_s / len(chunk)
             metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
-            out.append(metrics)
+            out.append((metrics, trace))
         return out
+
+    @staticmethod
+    def _collect(
+        measured: list[tuple[dict[str, Any], Trace]],
+        results: list[dict[str, Any]],
+        traces: list[Trace] | None,
+    ) -> None:
+        for metrics, trace in measured:
+            results.append(metrics)
+            if traces is not None:
+                traces.append(trace)
 
     def _measure(
         self,
@@ -161,7 +181,7 @@ class BatchEvaluator:
         n_frames: int,
         steps: int,
         warmup_s: float,
-    ) -> dict[str, Any]:
+    ) -> tuple[dict[str, Any], Trace]:
         model, data = self.model, self._scratch
         nq = model.nq
         gyro = self.robot.gyro_adr
@@ -181,20 +201,13 @@ class BatchEvaluator:
             # step, i.e. from the state one step before the sampled one
             data.qpos[:] = states[row - 1, 1 : 1 + nq]
             mujoco.mj_kinematics(model, data)
-            w, x, y, z = qpos[3:7]
-            yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-            feet = data.site("l_sole").xpos[:2] - data.site("r_sole").xpos[:2]
-            t = frames_done * FRAME_S
             trace.append(
-                t,
-                (float(qpos[0]), float(qpos[1]), yaw),
+                frames_done * FRAME_S,
+                (float(qpos[0]), float(qpos[1]), trunk_yaw(qpos[3:7])),
                 sensors[row, gyro : gyro + 3].copy(),
-                float(np.linalg.norm(feet)),
+                sole_distance_m(data),
             )
-            up_z = 1.0 - 2.0 * (qpos[4] ** 2 + qpos[5] ** 2)
-            if qpos[2] < FALL_HEIGHT_FRACTION * start.standing_height_m or up_z < math.cos(
-                FALL_TILT_RAD
-            ):
+            if has_fallen(qpos, start.standing_height_m):
                 fell = True
                 break
         metrics: dict[str, Any] = {"fell": fell}
@@ -205,4 +218,4 @@ class BatchEvaluator:
         )
         metrics["sim_s"] = frames_done * FRAME_S
         metrics["blew_up"] = blew_up
-        return metrics
+        return metrics, trace

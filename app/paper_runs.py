@@ -4,10 +4,8 @@ For each preset (a parameter-set file; only its gait constants are used) the ben
 of `app.paper_cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA over
 a range. All runs of all presets go to one `BatchEvaluator.evaluate` call so its threads stay busy.
 
-`BatchEvaluator` returns the run metrics only; the plots need the trunk path as well. Its
-`_measure` hook is handed each run's full state history, so `TracingEvaluator` reads the path off
-it there -- one sample per 20 ms frame, the same samples the metrics are computed from -- and
-then lets the evaluator measure as usual, so the metrics stay exactly those of `artro run`.
+The plots need the trunk path as well as the metrics: the evaluator hands out each run's trace,
+one sample per 20 ms frame -- the very samples the metrics are computed from.
 """
 
 from __future__ import annotations
@@ -18,19 +16,17 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from app.batch import BatchEvaluator, Job
-from app.metrics import mean_body_velocity, whole_cycles
+from app.metrics import Trace, mean_body_velocity, whole_cycles
 from app.paper_cases import CASES, PaperCase
 from app.paramset import ParameterSet, load_parameter_set
-from app.robot import MODELS_DIR
+from app.presets import BUILTIN_DIR
 from app.simulation import FRAME_S
 from gait import GaitParams, Motion
 
-PRESETS_DIR = MODELS_DIR / "presets"
 NAMED_PRESETS = ("paper", "tuned")
 WALK_A_P = {"forward": 0.07, "backward": -0.07}  # seed 000's forward amplitude, both directions
 CIRCLE_CA = 0.058  # seed 004: the simulated Nao walks a full circle at this CA
@@ -71,7 +67,7 @@ def resolve_presets(specs: Sequence[str]) -> tuple[list[Preset], list[str]]:
     notes: list[str] = []
     for spec in specs:
         if spec in NAMED_PRESETS:
-            path = PRESETS_DIR / f"{spec}.json"
+            path = BUILTIN_DIR / f"{spec}.json"
             if path.is_file():
                 presets.append(Preset(spec, str(path), load_parameter_set(path).gait))
             elif spec == "paper":
@@ -118,6 +114,11 @@ class RunTrace:
     yaw_rad: NDArray[np.float64]
     feet_m: NDArray[np.float64]
 
+    @classmethod
+    def from_trace(cls, trace: Trace) -> RunTrace:
+        a = trace.arrays()
+        return cls(t_s=a["t"], x_m=a["x"], y_m=a["y"], yaw_rad=a["yaw"], feet_m=a["feet"])
+
     def window(self, warmup_s: float, freq_hz: float) -> slice:
         """The measured samples: whole gait cycles after the warm-up (as app.metrics)."""
         return whole_cycles(self.t_s, warmup_s, freq_hz)
@@ -155,45 +156,6 @@ class PresetRuns:
     walks: dict[str, list[Run]]  # "forward" / "backward" -> runs in CA order
 
 
-class TracingEvaluator(BatchEvaluator):
-    """A BatchEvaluator that also keeps each run's trunk path (see the module docstring)."""
-
-    def __init__(self, threads: int | None = None) -> None:
-        super().__init__(threads=threads)
-        self.traces: list[RunTrace] = []
-        self._steps = round(FRAME_S / self.model.opt.timestep)
-        self._kin = mujoco.MjData(self.model)
-
-    def _measure(self, states: np.ndarray, *args: Any, **kwargs: Any) -> dict[str, Any]:
-        metrics = super()._measure(states, *args, **kwargs)
-        frames = round(metrics["sim_s"] / FRAME_S)
-        self.traces.append(self._trace(states, frames))
-        return metrics
-
-    def _trace(self, states: np.ndarray, frames: int) -> RunTrace:
-        nq = self.model.nq
-        rows = np.arange(1, frames + 1) * self._steps - 1
-        qpos = states[rows, 1 : 1 + nq]
-        w, x, y, z = qpos[:, 3], qpos[:, 4], qpos[:, 5], qpos[:, 6]
-        yaw = np.arctan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        feet = np.full(frames, np.nan)
-        data = self._kin
-        left, right = self.model.site("l_sole").id, self.model.site("r_sole").id
-        for k, row in enumerate(rows):
-            data.qpos[:] = states[row - 1, 1 : 1 + nq]
-            if np.all(np.isfinite(data.qpos)):
-                mujoco.mj_kinematics(self.model, data)
-                feet[k] = np.linalg.norm(data.site_xpos[left, :2] - data.site_xpos[right, :2])
-        ok = np.isfinite(yaw)
-        return RunTrace(
-            t_s=(np.arange(1, frames + 1) * FRAME_S)[ok],
-            x_m=qpos[ok, 0].copy(),
-            y_m=qpos[ok, 1].copy(),
-            yaw_rad=np.unwrap(yaw[ok]),
-            feet_m=feet[ok],
-        )
-
-
 def _walk_label(direction: str, ca: float) -> str:
     return f"{direction} CA={ca:+.3f}"
 
@@ -222,18 +184,17 @@ def run_all(
     if 0.0 not in config.ca_values:
         raise ValueError("the CA sweep must contain 0: it gives V for eq (13)")
     planned = plan_jobs(presets, config)
-    evaluator = TracingEvaluator(threads=config.threads)
-    metrics = evaluator.evaluate(
+    traces: list[Trace] = []
+    metrics = BatchEvaluator(threads=config.threads).evaluate(
         [job for _, _, job in planned],
         duration_s=config.duration_s,
         warmup_s=config.warmup_s,
         progress=progress,
+        traces=traces,
     )
-    if len(evaluator.traces) != len(planned):
-        raise RuntimeError("the batch evaluator did not hand over one state history per run")
     by_label = {
-        (preset.name, label): Run(label, job.motion, m, trace)
-        for (preset, label, job), m, trace in zip(planned, metrics, evaluator.traces, strict=True)
+        (preset.name, label): Run(label, job.motion, m, RunTrace.from_trace(trace))
+        for (preset, label, job), m, trace in zip(planned, metrics, traces, strict=True)
     }
     out = []
     for preset in presets:

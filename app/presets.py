@@ -21,7 +21,7 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from app.paramset import ParameterSet, project_version
+from app.paramset import ParameterSet, load_parameter_set, project_version
 
 DATA_DIR_ENV = "ARTRO_DATA_DIR"
 NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
@@ -30,6 +30,7 @@ NAME_RULE = (
     "without '..' and not ending in '.'"
 )
 SUFFIX = ".json"
+BUILTIN_DIR = Path(__file__).resolve().parent.parent / "models" / "presets"
 
 
 class PresetError(ValueError):
@@ -117,6 +118,41 @@ def _fsync_dir(directory: Path) -> None:
         os.close(fd)
 
 
+def stamped(pset: ParameterSet, name: str) -> ParameterSet:
+    """`pset` named `name`, with provenance: created now (UTC), this project's version."""
+    return dataclasses.replace(
+        pset,
+        name=name,
+        created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
+        project_version=project_version(),
+    )
+
+
+def write_parameter_set(path: Path, pset: ParameterSet) -> None:
+    """Write a parameter-set file atomically: a crash mid-write leaves the old file intact."""
+    text = json.dumps(pset.to_dict(), indent=2, allow_nan=False) + "\n"
+    fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
+    tmp = Path(tmp_name)
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as handle:
+            handle.write(text)
+            handle.flush()
+            os.fsync(handle.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    _fsync_dir(path.parent)
+
+
+def builtin_presets() -> dict[str, ParameterSet]:
+    """The read-only presets shipped in models/presets/: 'paper' (the literal paper values)
+    first, then the others (e.g. 'tuned')."""
+    found = {p.stem: load_parameter_set(p) for p in sorted(BUILTIN_DIR.glob("*.json"))}
+    paper = found.pop("paper", ParameterSet(name="paper"))
+    return {"paper": paper, **found}
+
+
 class PresetStore:
     """Built-in presets (read-only) plus user presets in `<data_dir>/presets/`."""
 
@@ -177,26 +213,9 @@ class PresetStore:
         """
         path = self._path(name)
         self._refuse_builtin(name)
-        stored = dataclasses.replace(
-            pset,
-            name=name,
-            created=datetime.now(timezone.utc).isoformat(timespec="seconds"),
-            project_version=project_version(),
-        )
-        text = json.dumps(stored.to_dict(), indent=2, allow_nan=False) + "\n"
+        stored = stamped(pset, name)
         self.directory.mkdir(parents=True, exist_ok=True)
-        fd, tmp_name = tempfile.mkstemp(dir=self.directory, prefix=f".{name}.", suffix=".tmp")
-        tmp = Path(tmp_name)
-        try:
-            with os.fdopen(fd, "w", encoding="utf-8") as handle:
-                handle.write(text)
-                handle.flush()
-                os.fsync(handle.fileno())
-            os.replace(tmp, path)
-        except BaseException:
-            tmp.unlink(missing_ok=True)
-            raise
-        _fsync_dir(self.directory)
+        write_parameter_set(path, stored)
         return stored
 
     def delete(self, name: str) -> None:

@@ -75,6 +75,7 @@ class RealtimeSimulation:
         self._pending: tuple[int, float] | None = None
         self._status_lock = threading.Lock()
         self._poses: BodyPoses | None = None
+        self.publish_poses = False  # set by the 3D view, the only reader of body poses
         self._pose_serial = 0
         self.speed = 1.0
         self.paused = False
@@ -239,20 +240,22 @@ class RealtimeSimulation:
             return
         self.scope.publish(record, self._applied.version)
         if record.index % SAMPLE_EVERY_FRAMES == 0:
-            feet = sim.feet_xy()
-            self.paths.add(sim.time_s, sim.trunk_pose(), float(np.linalg.norm(feet[0] - feet[1])))
-        self._pose_serial += 1
-        self._poses = BodyPoses(self._pose_serial, sim.data.xpos.copy(), sim.data.xmat.copy())
+            self.paths.add(sim.time_s, sim.trunk_pose(), sim.feet_distance_m())
+        self._publish_poses()
 
     def _reset(self) -> None:
         self.sim.reset()
         self.resets += 1
         self.paths.clear()
         self.scope.clear()
-        self._pose_serial += 1
-        self._poses = BodyPoses(
-            self._pose_serial, self.sim.data.xpos.copy(), self.sim.data.xmat.copy()
-        )
+        self._publish_poses()
+
+    def _publish_poses(self) -> None:
+        """A copy of the body poses for the 3D view: made only when a view exists."""
+        if self.publish_poses:
+            self._pose_serial += 1
+            data = self.sim.data
+            self._poses = BodyPoses(self._pose_serial, data.xpos.copy(), data.xmat.copy())
 
     def _record_rtf(self) -> None:
         now = time.monotonic()

@@ -49,10 +49,7 @@ def run(
         flags["gamma_clamped_frames"] += record.gamma_clamped
         flags["guard_violation_frames"] += record.guard_violation
         np.maximum(peak_torque, np.abs(force[actuators]), out=peak_torque)
-        feet = sim.feet_xy()
-        trace.append(
-            sim.time_s, sim.trunk_pose(), sim.gyro(), float(np.linalg.norm(feet[0] - feet[1]))
-        )
+        trace.append(sim.time_s, sim.trunk_pose(), sim.gyro(), sim.feet_distance_m())
         if sim.fell:
             break
     wall_s = time.perf_counter() - wall_start

@@ -5,8 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.paramset import ParameterSet, load_parameter_set
-from app.presets import PresetStore, default_data_dir
+from app.paramset import load_parameter_set
+from app.presets import PresetStore, builtin_presets, default_data_dir
 from app.realtime import RealtimeSimulation
 from app.store import ParameterStore
 
@@ -21,16 +21,7 @@ class ServerConfig:
     viewer: bool = True  # start the viser 3D view
 
 
-PRESETS_DIR = Path(__file__).resolve().parent.parent / "models" / "presets"
 START_PRESET = "tuned"  # a new user should see a robot that walks; "paper" if it is missing
-
-
-def builtin_presets() -> dict[str, ParameterSet]:
-    """The read-only presets shipped in models/presets/: 'paper' (the literal paper values)
-    first, then the others (e.g. 'tuned')."""
-    found = {p.stem: load_parameter_set(p) for p in sorted(PRESETS_DIR.glob("*.json"))}
-    paper = found.pop("paper", ParameterSet(name="paper"))
-    return {"paper": paper, **found}
 
 
 class Runtime:

@@ -51,6 +51,26 @@ BLOW_UP = (
 )
 
 
+def trunk_yaw(quat_wxyz: NDArray[np.float64]) -> float:
+    """Heading of the trunk (counter-clockwise) from its orientation quaternion."""
+    w, x, y, z = quat_wxyz
+    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
+
+
+def has_fallen(qpos: NDArray[np.float64], standing_height_m: float) -> bool:
+    """Trunk below 60 % of its standing height, or tilted more than 50 degrees."""
+    up_z = 1.0 - 2.0 * (qpos[4] ** 2 + qpos[5] ** 2)  # trunk z axis, world z part
+    return bool(
+        qpos[2] < FALL_HEIGHT_FRACTION * standing_height_m or up_z < math.cos(FALL_TILT_RAD)
+    )
+
+
+def sole_distance_m(data: mujoco.MjData) -> float:
+    """Distance between the sole centres in the ground plane (the differential drive's b), from
+    the site positions MuJoCo last computed."""
+    return float(np.linalg.norm(data.site("l_sole").xpos[:2] - data.site("r_sole").xpos[:2]))
+
+
 @dataclass(frozen=True)
 class HardwareSetup:
     calibration: ServoCalibration = field(default_factory=ServoCalibration.default)
@@ -245,9 +265,7 @@ class Simulation:
             self.blew_up = True
             self.fell = True
             return
-        up_z = 1.0 - 2.0 * (data.qpos[4] ** 2 + data.qpos[5] ** 2)  # trunk z axis, world z part
-        too_low = data.qpos[2] < FALL_HEIGHT_FRACTION * self.standing_height_m
-        if too_low or up_z < math.cos(FALL_TILT_RAD):
+        if has_fallen(data.qpos, self.standing_height_m):
             self.fell = True
 
     # --- readings ----------------------------------------------------------------------------
@@ -258,14 +276,12 @@ class Simulation:
 
     def trunk_pose(self) -> tuple[float, float, float]:
         """(x, y, yaw) of the trunk in the world frame, yaw counter-clockwise."""
-        w, x, y, z = self.data.qpos[3:7]
-        yaw = math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-        return float(self.data.qpos[0]), float(self.data.qpos[1]), yaw
+        qpos = self.data.qpos
+        return float(qpos[0]), float(qpos[1]), trunk_yaw(qpos[3:7])
 
     def gyro(self) -> NDArray[np.float64]:
         adr = self.robot.gyro_adr
         return self.data.sensordata[adr : adr + 3].copy()
 
-    def feet_xy(self) -> NDArray[np.float64]:
-        """(2, 2): left and right sole centre, world x and y."""
-        return np.array([self.data.site("l_sole").xpos[:2], self.data.site("r_sole").xpos[:2]])
+    def feet_distance_m(self) -> float:
+        return sole_distance_m(self.data)

@@ -38,6 +38,7 @@ from app.paper_cases import (
     passes,
 )
 from app.paramset import ParameterSet
+from app.presets import stamped, write_parameter_set
 from gait import GaitParams
 from gait.params import describe_fields, group_class, merge
 
@@ -154,7 +155,8 @@ class Tuner:
         self.evaluator = evaluator or BatchEvaluator()
         self.duration_s, self.warmup_s = duration_s, warmup_s
         self.band_weight = band_weight
-        x0 = [dim.to_unit(_get(base.gait, dim.name)) for dim in self.dims]
+        start = base.gait.flat()
+        x0 = [dim.to_unit(float(start[dim.name])) for dim in self.dims]
         options = {
             "bounds": [0.0, 1.0],
             "popsize": popsize,
@@ -277,11 +279,6 @@ def meets_all_criteria(per_case: Sequence[dict[str, Any]]) -> bool:
     return True
 
 
-def _get(params: GaitParams, dotted: str) -> float:
-    group, _, field = dotted.partition(".")
-    return float(getattr(getattr(params, group), field))
-
-
 def _read_results(path: Path, settings: dict[str, Any]) -> list[list[dict[str, Any]]]:
     """Recorded evaluations grouped by generation; only whole generations count."""
     if not path.exists():
@@ -317,15 +314,6 @@ def _progress_bar(
         f"{done}/{total} runs, {time.monotonic() - started:5.0f} s, best loss {best_text}   "
     )
     stream.flush()
-
-
-def save_preset(pset: ParameterSet, path: Path, name: str) -> ParameterSet:
-    stored = dataclasses.replace(pset, name=name)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(json.dumps(stored.to_dict(), indent=2) + "\n", encoding="utf-8")
-    tmp.replace(path)
-    return stored
 
 
 # --- the command line ---------------------------------------------------------------------------
@@ -403,7 +391,9 @@ def command(args: Any) -> int:
             print("no candidate met every criterion; saving the lowest loss instead")
             chosen = tuner.best
     assert chosen is not None
-    save_preset(ParameterSet(name=args.name, gait=chosen[1]), Path(args.out), args.name)
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_parameter_set(out, stamped(ParameterSet(gait=chosen[1]), args.name))
     print(
         f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
         f"saved {args.out}"

@@ -46,6 +46,7 @@ class Viewer:
         self.runtime = runtime
         self.store = runtime.store
         self.sim = runtime.sim
+        self.sim.publish_poses = True
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.configure_theme(control_width="large")
         self.scene = mjviser.ViserMujocoScene(self.server, self.sim.sim.model, num_envs=1)

@@ -58,7 +58,7 @@ def test_unknown_preset_is_a_clear_error(capsys):
 
 
 def test_missing_named_presets(tmp_path, monkeypatch):
-    monkeypatch.setattr(paper_runs, "PRESETS_DIR", tmp_path)
+    monkeypatch.setattr(paper_runs, "BUILTIN_DIR", tmp_path)
     presets, notes = resolve_presets(["paper", "tuned"])
     assert [p.name for p in presets] == ["paper"]  # paper falls back to ParameterSet()
     assert any("tuned" in n and "skipped" in n for n in notes)

@@ -8,7 +8,8 @@ import pytest
 from app.batch import BatchEvaluator, Job
 from app.paper_cases import CASES
 from app.paramset import ParameterSet, load_parameter_set
-from app.tune import Tuner, case_loss, dimensions, save_preset, total_loss
+from app.presets import stamped, write_parameter_set
+from app.tune import Tuner, case_loss, dimensions, total_loss
 from gait import GaitParams
 
 EVALUATOR = BatchEvaluator(threads=2)
@@ -34,7 +35,8 @@ def test_a_short_run_improves_and_writes_a_loadable_preset(tmp_path):
     tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
     best = tuner.run(3, results, progress=None)
     assert tuner.best[0] < base_loss()
-    path = save_preset(best, tmp_path / "tuned.json", "tuned")
+    path = stamped(best, "tuned")
+    write_parameter_set(tmp_path / "tuned.json", path)
     loaded = load_parameter_set(tmp_path / "tuned.json")
     assert loaded.name == "tuned" and loaded.gait == path.gait
     assert loaded.gait.clock.freq_hz != 0.5 or loaded.gait.short.amp_base != 0.05
