@@ -1,8 +1,9 @@
 """Run metrics of SPEC §6, computed from a recorded trunk trace.
 
 All speeds are means over whole gait cycles after the warm-up, so the within-step sway averages
-out. Body-frame velocities follow ROS: forward = +x of the trunk, lateral = +y (to the robot's
-left), turn = counter-clockwise. `gyro_rms` is the RMS of the trunk angular-velocity magnitude in
+out; each cycle's displacement is read in that cycle's mean heading. Body-frame velocities
+follow ROS: forward = +x of the trunk, lateral = +y (to the robot's left), turn =
+counter-clockwise. `gyro_rms` is the RMS of the trunk angular-velocity magnitude in
 rad/s (seed 004's stability measure). `predicted_turn_deg_s` and `path_error_cm` come from the
 differential-drive model (gait.steering) with V = the measured forward speed and b = the measured
 mean distance between the feet.
@@ -10,6 +11,7 @@ mean distance between the feet.
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass, field
 
@@ -76,15 +78,30 @@ def whole_cycles(t: NDArray[np.float64], start_s: float, freq_hz: float) -> slic
 
 
 def mean_body_velocity(
-    t: NDArray[np.float64], x: NDArray[np.float64], y: NDArray[np.float64], yaw: NDArray[np.float64]
+    t: NDArray[np.float64],
+    x: NDArray[np.float64],
+    y: NDArray[np.float64],
+    yaw: NDArray[np.float64],
+    freq_hz: float,
 ) -> tuple[float, float, float]:
-    """Mean (forward m/s, lateral m/s, turn rad/s) in the trunk frame; yaw must be unwrapped."""
+    """Mean (forward m/s, lateral m/s, turn rad/s) in the trunk frame; yaw must be unwrapped.
+
+    The trunk frame is taken per gait cycle: each cycle's displacement is rotated by that
+    cycle's mean heading. Rotating every frame's step by the momentary heading instead would
+    let the trunk's yaw wobble, which moves in step with its sideways sway, rectify part of the
+    sway into forward speed. A part-cycle left at the end is measured in its own mean heading.
+    """
     duration = t[-1] - t[0]
-    dx, dy = np.diff(x), np.diff(y)
-    mid_yaw = 0.5 * (yaw[1:] + yaw[:-1])
-    forward = np.sum(np.cos(mid_yaw) * dx + np.sin(mid_yaw) * dy) / duration
-    lateral = np.sum(-np.sin(mid_yaw) * dx + np.cos(mid_yaw) * dy) / duration
-    return float(forward), float(lateral), float((yaw[-1] - yaw[0]) / duration)
+    bounds = np.searchsorted(t, np.arange(t[0], t[-1], 1.0 / freq_hz) - 1e-9)
+    bounds = np.append(bounds[bounds < len(t) - 1], len(t) - 1)
+    forward = lateral = 0.0
+    for a, b in itertools.pairwise(bounds):
+        span = slice(a, b + 1)
+        heading = np.trapezoid(yaw[span], t[span]) / (t[b] - t[a])
+        dx, dy = x[b] - x[a], y[b] - y[a]
+        forward += math.cos(heading) * dx + math.sin(heading) * dy
+        lateral += -math.sin(heading) * dx + math.cos(heading) * dy
+    return forward / duration, lateral / duration, float((yaw[-1] - yaw[0]) / duration)
 
 
 def compute_metrics(
@@ -96,7 +113,7 @@ def compute_metrics(
     t, x, y, yaw = (a[k][window] for k in ("t", "x", "y", "yaw"))
     if len(t) < 2:
         return dict.fromkeys(MOTION_METRICS)
-    forward, lateral, turn = mean_body_velocity(t, x, y, yaw)
+    forward, lateral, turn = mean_body_velocity(t, x, y, yaw, freq_hz)
     axle = float(np.mean(a["feet"][window]))
     predicted_turn = float(turn_rate_rad_s(ca, forward, axle)) + 0.0  # no -0.0 in reports
     predicted = predict_path(Pose2D(x[0], y[0], yaw[0]), forward, ca, axle, t - t[0])

@@ -44,27 +44,9 @@ DEFAULT_OUT = Path("out/bench-paper")
 PAPER_CA_LIMIT = {"forward": 0.15, "backward": 0.17}  # seed 004 §V, the simulated Nao
 
 
-def net_figure(metric: str, run: Run, warmup_s: float, freq_hz: float) -> float | None:
-    """The case's figure from the gait-cycle-mean path (no sway), in the metric's unit."""
-    net = run.trace.net_velocity(warmup_s, freq_hz)
-    if net is None:
-        return None
-    forward, lateral, turn = net
-    return {
-        "drift_cm_s": 100.0 * math.hypot(forward, lateral),
-        "forward_cm_s": 100.0 * forward,
-        "lateral_cm_s": 100.0 * lateral,
-        "turn_deg_s": math.degrees(turn),
-    }[metric]
-
-
 def case_rows(runs: PresetRuns, warmup_s: float) -> list[dict[str, Any]]:
-    """Per paper case: the paper's figure, the simulated one, their ratio, pass, fell, gyro.
-
-    `net` is the same figure from the gait-cycle-mean path (RunTrace.net_velocity), which is what
-    the paper's video measurement saw; pass is judged on the run metric, as `artro run` gives it.
-    """
-    freq = runs.preset.params.clock.freq_hz
+    """Per paper case: the paper's figure, the simulated one (the run metric, as `artro run`
+    gives it), their ratio, pass, fell, gyro."""
     rows = []
     for case in CASES:
         run = runs.cases[case.name]
@@ -76,7 +58,6 @@ def case_rows(runs: PresetRuns, warmup_s: float) -> list[dict[str, Any]]:
                 "metric": case.metric,
                 "paper": case.paper,
                 "sim": value,
-                "net": finite_or_none(net_figure(case.metric, run, warmup_s, freq)),
                 "ratio": value / case.paper if value is not None and case.paper else None,
                 "pass": passes(case, value, m["fell"]),
                 "fell": m["fell"],
@@ -138,14 +119,13 @@ def _walk_row(
 
 
 def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, Any]:
-    """Heading rate vs eq (13), axle fit, antisymmetry, stable limit and the full-circle check."""
+    """Heading rate vs eq (13), axle fit, antisymmetry and the stable limit of one direction."""
     ref = next(r for r in walks if r.motion.ca == 0)
     v_cm_s = finite_or_none(ref.metrics["forward_cm_s"])
     speed = None if v_cm_s is None else v_cm_s / 100.0
     feet = ref.trace.feet_m[ref.trace.window(warmup_s, freq_hz)]
     axle = float(np.nanmean(feet)) if np.isfinite(feet).any() else None
     drift = finite_or_none(ref.metrics["turn_deg_s"])
-    net = ref.trace.net_velocity(warmup_s, freq_hz)
     rows = [_walk_row(r, speed, axle, drift) for r in walks]
     usable = [r for r in rows if abs(r["ca"]) <= ca_math.FIT_CA_LIMIT + 1e-9 and not r["fell"]]
     usable = [r for r in usable if r["turn_deg_s"] is not None]
@@ -170,7 +150,6 @@ def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, A
     limit = ca_math.largest_stable_ca([r["ca"] for r in rows], [r["fell"] for r in rows])
     return {
         "speed_cm_s": v_cm_s,
-        "net_speed_cm_s": None if net is None else 100.0 * net[0],
         "axle_cm": None if axle is None else 100.0 * axle,
         "drift_deg_s": drift,
         "rows": rows,
@@ -194,15 +173,18 @@ def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, A
             "sweep_max": limit.sweep_max,
             "beyond_sweep": limit.beyond_sweep,
         },
-        "circle": _circle(walks, rows),
     }
 
 
-def _circle(walks: list[Run], rows: list[dict[str, Any]]) -> dict[str, Any] | None:
-    i = next((k for k, r in enumerate(walks) if math.isclose(r.motion.ca, CIRCLE_CA)), None)
-    if i is None or len(walks[i].trace.t_s) < 2:
+def circle_summary(run: Run, forward: dict[str, Any]) -> dict[str, Any] | None:
+    """The long CA = 0.058 walk: heading turned, measured and eq (13) rates (V and b from the
+    forward sweep's CA = 0 run), and the time a full circle takes."""
+    trace = run.trace
+    if len(trace.t_s) < 2:
         return None
-    trace, row = walks[i].trace, rows[i]
+    speed = None if forward["speed_cm_s"] is None else forward["speed_cm_s"] / 100.0
+    axle = None if forward["axle_cm"] is None else forward["axle_cm"] / 100.0
+    row = _walk_row(run, speed, axle, forward["drift_deg_s"])
     check = ca_math.CircleCheck(
         turned_deg=math.degrees(float(trace.yaw_rad[-1] - trace.yaw_rad[0])),
         run_s=float(trace.t_s[-1]),
@@ -223,6 +205,10 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
     presets = []
     for runs in all_runs:
         freq = runs.preset.params.clock.freq_hz
+        ca = {
+            d: ca_summary(runs.walks[d], config.warmup_s, freq) | {"a_p": WALK_A_P[d]}
+            for d in WALK_A_P
+        }
         presets.append(
             {
                 "name": runs.preset.name,
@@ -230,13 +216,12 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
                 "gait_freq_hz": freq,
                 "cases": case_rows(runs, config.warmup_s),
                 "mirror": mirror_rows(runs),
-                "ca": {
-                    d: ca_summary(runs.walks[d], config.warmup_s, freq) | {"a_p": WALK_A_P[d]}
-                    for d in WALK_A_P
-                },
+                "ca": ca,
+                "circle": circle_summary(runs.circle, ca["forward"]),
                 "metrics": {
                     "cases": {name: r.metrics for name, r in runs.cases.items()},
                     "walks": {d: [r.metrics for r in rs] for d, rs in runs.walks.items()},
+                    "circle": runs.circle.metrics,
                 },
             }
         )
@@ -247,6 +232,7 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
             "ca_values": list(config.ca_values),
             "paper_ca_limit": PAPER_CA_LIMIT,
             "circle_ca": CIRCLE_CA,
+            "circle_s": config.circle_s,
         },
         "notes": notes,
         "presets": presets,
@@ -304,7 +290,8 @@ def run_paper_bench(
     n_runs = len(presets) * (len(CASES) + len(WALK_A_P) * len(config.ca_values))
     progress = progress_printer(
         f"bench paper: {n_runs} runs of {config.duration_s:g} s "
-        f"({', '.join(p.name for p in presets)}) ...",
+        f"({', '.join(p.name for p in presets)}), then {len(presets)} full-circle walks of "
+        f"{config.circle_s:g} s ...",
         stderr,
     )
     all_runs = run_all(presets, config, progress)

@@ -101,14 +101,15 @@ def plot_paths(runs: PresetRuns, summary: dict[str, Any], warmup_s: float, out: 
         panels.append(
             (runs.cases[row["case"]], f"{row['case']}: {sim} {unit} (paper {row['paper']:+.1f})")
         )
-    for direction, walks in runs.walks.items():
-        run = next((r for r in walks if math.isclose(r.motion.ca, CIRCLE_CA)), None)
-        if run is not None:
-            turn = run.metrics.get("turn_deg_s")
-            turn_text = "-" if turn is None else f"{turn:+.2f} deg/s"
-            panels.append(
-                (run, f"{direction} a_p={run.motion.a_p:+.2f}, CA={CIRCLE_CA}: {turn_text}")
-            )
+    circle, turn = runs.circle, runs.circle.metrics.get("turn_deg_s")
+    turned = math.degrees(float(circle.trace.yaw_rad[-1] - circle.trace.yaw_rad[0]))
+    panels.append(
+        (
+            circle,
+            f"a_p={circle.motion.a_p:+.2f}, CA={CIRCLE_CA}, {circle.trace.t_s[-1]:.0f} s: "
+            f"turned {turned:+.0f} deg ({'-' if turn is None else f'{turn:+.2f}'} deg/s)",
+        )
+    )
     cols = 3
     rows = math.ceil(len(panels) / cols)
     fig = Figure(figsize=(4.6 * cols, 4.2 * rows), layout="constrained")

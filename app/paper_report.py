@@ -10,7 +10,12 @@ from collections.abc import Sequence
 from typing import Any
 
 from app.ca_analysis import FIT_CA_LIMIT
-from app.paper_cases import MIRROR_TOLERANCE, SPEED_TOLERANCE, SPOT_DRIFT_LIMIT_CM_S
+from app.paper_cases import (
+    MIRROR_TOLERANCE,
+    SPEED_TOLERANCE,
+    SPOT_DRIFT_LIMIT_CM_S,
+    STEERING_TOLERANCE,
+)
 
 METRIC_LABELS = {
     "drift_cm_s": "drift cm/s",
@@ -75,12 +80,11 @@ def cases_section(results: dict[str, Any]) -> list[str]:
         f"  pass: no fall, within ±{SPEED_TOLERANCE:.0%} of the paper (on the spot: drift < "
         f"{SPOT_DRIFT_LIMIT_CM_S} cm/s)",
         "  signs: fwd + = forward, lat + = left, turn + = counter-clockwise",
-        "  sim: the run metric (as `artro run`); net: the same from the gait-cycle-mean path",
-        "  (no step sway), as a video would measure it; gyro: trunk gyro RMS, rad/s",
+        "  sim: the run metric (as `artro run`); gyro: trunk gyro RMS, rad/s",
         "",
     ]
     groups: list[tuple[str, Sequence[str]]] = [("", ("case", "metric", "paper"))]
-    groups += [(p["name"], ("sim", "ratio", "pass", "fell", "gyro", "net")) for p in presets]
+    groups += [(p["name"], ("sim", "ratio", "pass", "fell", "gyro")) for p in presets]
     rows = []
     for i, case in enumerate(presets[0]["cases"]):
         row = [case["case"], METRIC_LABELS[case["metric"]], fmt(case["paper"], "+.1f")]
@@ -92,7 +96,6 @@ def cases_section(results: dict[str, Any]) -> list[str]:
                 "yes" if c["pass"] else "NO",
                 fell_text(c),
                 fmt(c["gyro_rms"], ".2f"),
-                fmt(c["net"]),
             ]
         rows.append(row)
     out += table(groups, rows)
@@ -145,6 +148,8 @@ def ca_section(results: dict[str, Any], direction: str) -> list[str]:
     out += table(groups, rows)
     for p in presets:
         lines = ca_summary_lines(p["ca"][direction], limit_paper)
+        if direction == "forward":
+            lines += circle_lines(p.get("circle"))
         out += ["", f"{p['name']}:", *(f"  {line}" for line in lines)]
     return out
 
@@ -152,8 +157,7 @@ def ca_section(results: dict[str, Any], direction: str) -> list[str]:
 def ca_summary_lines(s: dict[str, Any], paper_limit: float) -> list[str]:
     """The summary of one preset's sweep in one direction, a few lines under 100 characters."""
     lines = [
-        f"V (CA = 0) {fmt(s['speed_cm_s'])} cm/s (net, cycle-mean path: "
-        f"{fmt(s['net_speed_cm_s'])}), b (feet apart) {fmt(s['axle_cm'], '.1f')} cm, "
+        f"V (CA = 0) {fmt(s['speed_cm_s'])} cm/s, b (feet apart) {fmt(s['axle_cm'], '.1f')} cm, "
         f"drift {fmt(s['drift_deg_s'])} deg/s",
     ]
     fit = s["fit"]
@@ -172,6 +176,12 @@ def ca_summary_lines(s: dict[str, Any], paper_limit: float) -> list[str]:
         ]
         if fit["axle_eff_cm"] is not None and fit["axle_eff_cm"] < 0:
             lines.append("  b_eff < 0: CA turns the robot against the direction of eq (13)")
+        elif ratio:
+            within = abs(1.0 / ratio - 1.0) <= STEERING_TOLERANCE
+            lines.append(
+                f"  CA steers at {1.0 / ratio:.0%} of eq (13) with b = the feet distance "
+                f"(within {STEERING_TOLERANCE:.0%}: {'yes' if within else 'NO'})"
+            )
     pairs = s["antisymmetry"]
     if pairs:
         raw = [f"{q['ca']:.3f}: {pct(q['mismatch'])}{_flag(q['ok'])}" for q in pairs]
@@ -192,7 +202,7 @@ def ca_summary_lines(s: dict[str, Any], paper_limit: float) -> list[str]:
     else:
         stable = f"{lim['limit']:.3f} (first fall at |CA| = {lim['first_fall']:.3f})"
     lines.append(f"largest stable |CA|: {stable}; seed 004 (Nao): {paper_limit}")
-    return lines + circle_lines(s["circle"])
+    return lines
 
 
 def _wrapped(head: str, items: list[str], per_line: int = 4) -> list[str]:
@@ -206,8 +216,8 @@ def _flag(ok: bool) -> str:
 
 def circle_lines(c: dict[str, Any] | None) -> list[str]:
     if c is None:
-        return ["full circle: CA = 0.058 was not in the sweep"]
-    head = f"CA = {c['ca']}: turned {c['turned_deg']:+.0f} deg in {c['run_s']:.0f} s"
+        return ["full circle: the CA = 0.058 walk has no samples"]
+    head = f"full circle, CA = {c['ca']}: turned {c['turned_deg']:+.0f} deg in {c['run_s']:.0f} s"
     if c["fell"]:
         return [head + ", then FELL"]
     if c["completed"]:

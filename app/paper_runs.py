@@ -2,7 +2,9 @@
 
 For each preset (a parameter-set file; only its gait constants are used) the bench runs every case
 of `app.paper_cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA over
-a range. All runs of all presets go to one `BatchEvaluator.evaluate` call so its threads stay busy.
+a range, out to where the robot falls. All these runs of all presets go to one
+`BatchEvaluator.evaluate` call so its threads stay busy. A second call walks CA = 0.058 forward
+long enough for a full circle (seed 004, Fig. 5).
 
 The plots need the trunk path as well as the metrics: the evaluator hands out each run's trace,
 one sample per 20 ms frame -- the very samples the metrics are computed from.
@@ -20,11 +22,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.batch import BatchEvaluator, Job
-from app.metrics import Trace, mean_body_velocity, whole_cycles
+from app.metrics import Trace, whole_cycles
 from app.paper_cases import CASES, PaperCase
 from app.paramset import ParameterSet, load_parameter_set
 from app.presets import BUILTIN_DIR
-from app.simulation import FRAME_S
 from gait import GaitParams, Motion
 
 NAMED_PRESETS = ("paper", "tuned")
@@ -32,10 +33,19 @@ WALK_A_P = {"forward": 0.07, "backward": -0.07}  # seed 000's forward amplitude,
 CIRCLE_CA = 0.058  # seed 004: the simulated Nao walks a full circle at this CA
 
 
-def ca_sweep(start: float = -0.20, stop: float = 0.20, step: float = 0.025) -> tuple[float, ...]:
-    """CA values start..stop (inclusive) in steps, plus 0 and the paper's full-circle CA."""
+CA_BEYOND = (0.25, 0.3, 0.35, 0.4, 0.5)  # coarser, past seed 004's limits, to find where it falls
+
+
+def ca_sweep(
+    start: float = -0.20,
+    stop: float = 0.20,
+    step: float = 0.025,
+    beyond: Sequence[float] = CA_BEYOND,
+) -> tuple[float, ...]:
+    """CA values start..stop (inclusive) in steps, +-each of `beyond`, 0 and the full-circle CA."""
     n = round((stop - start) / step)
     values = {round(start + i * step, 6) for i in range(n + 1)} | {0.0, CIRCLE_CA}
+    values |= {sign * ca for ca in beyond for sign in (-1.0, 1.0)}
     return tuple(sorted(values))
 
 
@@ -44,10 +54,13 @@ class BenchConfig:
     duration_s: float = 60.0
     warmup_s: float = 5.0
     ca_values: tuple[float, ...] = field(default_factory=ca_sweep)
+    circle_s: float = 240.0  # the full-circle walk; eq (13) at 3.8 cm/s, b = 10 cm: ~150 s
     threads: int | None = None
 
 
-QUICK = BenchConfig(duration_s=10.0, warmup_s=2.0, ca_values=(-0.2, -0.1, 0.0, 0.058, 0.1, 0.2))
+QUICK = BenchConfig(
+    duration_s=10.0, warmup_s=2.0, ca_values=(-0.2, -0.1, 0.0, 0.058, 0.1, 0.2), circle_s=12.0
+)
 
 
 @dataclass(frozen=True)
@@ -123,23 +136,6 @@ class RunTrace:
         """The measured samples: whole gait cycles after the warm-up (as app.metrics)."""
         return whole_cycles(self.t_s, warmup_s, freq_hz)
 
-    def net_velocity(self, warmup_s: float, freq_hz: float) -> tuple[float, float, float] | None:
-        """(forward m/s, lateral m/s, turn rad/s) of the gait-cycle-mean path after the warm-up.
-
-        The run metrics integrate the body-frame velocity of the swaying trunk; when the trunk's
-        yaw oscillates with its sideways sway, that rectifies part of the sway into forward
-        speed. The cycle-mean path has no sway: this is the speed a video of the robot shows.
-        """
-        per_cycle = max(1, round(1.0 / (freq_hz * FRAME_S)))
-        means = [cycle_mean(v, per_cycle) for v in (self.x_m, self.y_m, self.yaw_rad)]
-        window = self.window(warmup_s, freq_hz)
-        ok = np.isfinite(means[0])
-        ok[: window.start] = False
-        idx = np.flatnonzero(ok)
-        if len(idx) < 2:
-            return None
-        return mean_body_velocity(self.t_s[idx], *(m[idx] for m in means))
-
 
 @dataclass
 class Run:
@@ -154,6 +150,7 @@ class PresetRuns:
     preset: Preset
     cases: dict[str, Run]  # by case name, in CASES order
     walks: dict[str, list[Run]]  # "forward" / "backward" -> runs in CA order
+    circle: Run  # forward at CIRCLE_CA for config.circle_s
 
 
 def _walk_label(direction: str, ca: float) -> str:
@@ -196,14 +193,26 @@ def run_all(
         (preset.name, label): Run(label, job.motion, m, RunTrace.from_trace(trace))
         for (preset, label, job), m, trace in zip(planned, metrics, traces, strict=True)
     }
+    circle_motion = Motion(a_p=WALK_A_P["forward"], ca=CIRCLE_CA)
+    circle_traces: list[Trace] = []
+    circle_metrics = BatchEvaluator(threads=config.threads).evaluate(
+        [Job(preset.params, circle_motion) for preset in presets],
+        duration_s=config.circle_s,
+        warmup_s=config.warmup_s,
+        traces=circle_traces,
+    )
+    circles = [
+        Run(f"circle CA={CIRCLE_CA}", circle_motion, m, RunTrace.from_trace(trace))
+        for m, trace in zip(circle_metrics, circle_traces, strict=True)
+    ]
     out = []
-    for preset in presets:
+    for preset, circle in zip(presets, circles, strict=True):
         cases = {c.name: by_label[preset.name, c.name] for c in CASES}
         walks = {
             d: [by_label[preset.name, _walk_label(d, ca)] for ca in config.ca_values]
             for d in WALK_A_P
         }
-        out.append(PresetRuns(preset, cases, walks))
+        out.append(PresetRuns(preset, cases, walks, circle))
     return out
 
 

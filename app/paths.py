@@ -3,8 +3,9 @@
 The simulation thread feeds trunk poses in; the HTTP API, the viser view and the page read
 `PathTracker.view()`. The prediction starts at an anchor pose and follows the exact unicycle of
 `gait.steering` with V = the measured walking speed (mean forward speed over the last whole gait
-cycles) unless set by hand, and b = the measured mean distance between the feet. It is re-anchored
-at the current pose when the motion vector or CA changes, and on request.
+cycles) unless set by hand, and b = the measured mean distance between the feet unless an axle is
+set (by hand, or the effective axle fitted by `app.axle_fit`). It is re-anchored at the current
+pose when the motion vector or CA changes, and on request.
 """
 
 from __future__ import annotations
@@ -42,6 +43,7 @@ class PathTracker:
         self._yaw_unwrapped = 0.0
         self._anchor: Anchor | None = None
         self._manual_speed: float | None = None
+        self._axle: tuple[float, str] | None = None  # (b in m, "manual" | "fitted")
         self._ca = 0.0
         self._freq_hz = 1.0
 
@@ -81,6 +83,13 @@ class PathTracker:
             else:
                 self._anchor = None
 
+    def set_axle(self, axle_m: float | None, source: str = "manual") -> None:
+        """Use this axle b for the prediction; None goes back to the measured feet distance."""
+        if axle_m is not None and not (math.isfinite(axle_m) and axle_m > 0.0):
+            raise ValueError(f"the axle must be a length > 0 m, got {axle_m}")
+        with self._lock:
+            self._axle = None if axle_m is None else (float(axle_m), source)
+
     # --- read by anyone ---------------------------------------------------------------------------
 
     def view(self, max_points: int = 2000) -> dict[str, Any]:
@@ -88,9 +97,11 @@ class PathTracker:
             samples = np.array(self._samples, dtype=float).reshape(-1, 4)
             feet = np.array(self._feet, dtype=float)
             anchor, manual, ca, freq = self._anchor, self._manual_speed, self._ca, self._freq_hz
+            axle_set = self._axle
         measured = _recent_motion(samples, freq)
-        axle = float(feet[-len(measured["window"]) :].mean()) if len(feet) else NOMINAL_AXLE_M
-        axle = axle if axle > 1e-3 else NOMINAL_AXLE_M
+        feet_m = float(feet[-len(measured["window"]) :].mean()) if len(feet) else NOMINAL_AXLE_M
+        feet_m = feet_m if feet_m > 1e-3 else NOMINAL_AXLE_M
+        axle, axle_source = (feet_m, "feet") if axle_set is None else axle_set
         speed = manual if manual is not None else measured["forward_m_s"]
         predicted = np.zeros((0, 4))
         if anchor is not None and len(samples):
@@ -115,6 +126,8 @@ class PathTracker:
             "speed_m_s": speed,
             "speed_source": "manual" if manual is not None else "measured",
             "axle_m": axle,
+            "axle_source": axle_source,
+            "feet_m": feet_m,
             "ca": ca,
             "turn_radius_m": None if math.isinf(radius) else radius,
             "predicted_turn_deg_s": math.degrees(float(turn_rate_rad_s(ca, speed, axle))) + 0.0,
@@ -135,6 +148,6 @@ def _recent_motion(samples: np.ndarray, freq_hz: float) -> dict[str, Any]:
     if len(window) < 2:
         window = samples[-2:]
     forward, lateral, turn = mean_body_velocity(
-        window[:, 0], window[:, 1], window[:, 2], window[:, 3]
+        window[:, 0], window[:, 1], window[:, 2], window[:, 3], freq_hz
     )
     return {"forward_m_s": forward, "lateral_m_s": lateral, "turn_rad_s": turn, "window": window}

@@ -5,6 +5,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from app.axle_fit import AxleFitter
 from app.paramset import load_parameter_set
 from app.presets import PresetStore, builtin_presets, default_data_dir
 from app.realtime import RealtimeSimulation
@@ -35,6 +36,7 @@ class Runtime:
         self.store = ParameterStore(initial)
         self.presets = PresetStore(config.data_dir, builtins)
         self.sim = RealtimeSimulation(self.store)
+        self.axle_fitter = AxleFitter()
         self.viewer = None
         if config.viewer:
             from app.viewer import Viewer  # viser is only loaded when the view is wanted

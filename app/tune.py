@@ -1,10 +1,11 @@
 """`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking.
 
-One candidate = one parameter set, evaluated on every case of `app.paper_cases` (on the spot,
-forward, sideways, turning, and their mirror images) with the batch evaluator. The loss rewards
-each case's speed being the paper's (relative error squared), walking on the spot without drift,
-not falling (a fall costs more the earlier it happens), little unwanted rotation or translation,
-and a calm trunk (gyro RMS).
+One candidate = one parameter set, evaluated on every run of `app.paper_cases.JUDGED_RUNS` (on
+the spot, forward, sideways, turning, their mirror images, and curve walking at CA = +-0.1
+forward and backward) with the batch evaluator. The loss rewards each case's speed being the
+paper's (relative error squared), walking on the spot without drift, CA steering as eq (13) says
+(the gain of `steering_gain` near 1), not falling (a fall costs more the earlier it happens),
+little unwanted rotation or translation, and a calm trunk (gyro RMS).
 
 The search runs in a box normalised to [0, 1] per parameter (the schema's range), starting from a
 base parameter set. Every evaluation is appended to a JSON-lines results file. Resuming replays
@@ -31,11 +32,17 @@ import numpy as np
 from app.batch import BatchEvaluator, Job
 from app.paper_cases import (
     CASES,
+    CURVES,
+    JUDGED_RUNS,
     MIRROR_TOLERANCE,
     SPOT_DRIFT_LIMIT_CM_S,
+    CurvePair,
     PaperCase,
+    curve_run_names,
     measured,
     passes,
+    steering_gain,
+    steering_passes,
 )
 from app.paramset import ParameterSet
 from app.presets import stamped, write_parameter_set
@@ -56,6 +63,7 @@ FALL_LOSS = 20.0  # a fall costs this much, plus as much again scaled by how ear
 CROSS_TALK_WEIGHT = 0.2  # unwanted rotation while translating, translation while turning
 GYRO_WEIGHT = 0.05
 BAND_MARGIN = 0.2  # the band penalty starts at 20 % error, inside the 25 % tolerance
+STEERING_WEIGHT = {True: 1.0, False: 0.5}  # the required (forward) pair, the backward one
 
 
 @dataclass(frozen=True)
@@ -126,13 +134,28 @@ def case_loss(
     return loss
 
 
-def total_loss(
-    per_case: Sequence[dict[str, Any]], duration_s: float, band_weight: float = 0.0
+def curve_loss(
+    pair: CurvePair, plus: dict[str, Any], minus: dict[str, Any], duration_s: float
 ) -> float:
-    loss = sum(
-        case_loss(c, m, duration_s, band_weight) for c, m in zip(CASES, per_case, strict=True)
-    )
-    gyro = [m["gyro_rms"] for m in per_case if m.get("gyro_rms") is not None]
+    """A fall as in `case_loss`; else the weighted squared distance of the steering gain from 1."""
+    falls = [m for m in (plus, minus) if m["fell"]]
+    if falls:
+        return sum(FALL_LOSS * (2.0 - m.get("fall_time_s", 0.0) / duration_s) for m in falls)
+    gain = steering_gain(plus, minus)
+    if gain is None:
+        return FALL_LOSS
+    return STEERING_WEIGHT[pair.required] * (gain - 1.0) ** 2
+
+
+def total_loss(
+    by_run: dict[str, dict[str, Any]], duration_s: float, band_weight: float = 0.0
+) -> float:
+    """The loss of one parameter set from its runs' metrics, keyed by JUDGED_RUNS names."""
+    loss = sum(case_loss(c, by_run[c.name], duration_s, band_weight) for c in CASES)
+    for pair in CURVES:
+        plus, minus = (by_run[name] for name in curve_run_names(pair))
+        loss += curve_loss(pair, plus, minus, duration_s)
+    gyro = [m["gyro_rms"] for m in by_run.values() if m.get("gyro_rms") is not None]
     return loss + GYRO_WEIGHT * (float(np.mean(gyro)) if gyro else 10.0)
 
 
@@ -172,18 +195,19 @@ class Tuner:
             "popsize": popsize,
             "sigma0": sigma0,
             "seed": seed,
+            "runs": [name for name, _motion in JUDGED_RUNS],
         }
         if band_weight:
             self.settings["band_weight"] = band_weight
-        self.best: tuple[float, GaitParams, list[dict[str, Any]]] | None = None
-        self.evaluated: list[tuple[float, GaitParams, list[dict[str, Any]]]] = []
+        self.best: tuple[float, GaitParams, dict[str, dict[str, Any]]] | None = None
+        self.evaluated: list[tuple[float, GaitParams, dict[str, dict[str, Any]]]] = []
         self.generation = 0
 
     def evaluate(
         self, candidates: Sequence[np.ndarray], progress: TextIO | None
-    ) -> list[tuple[float, list]]:
+    ) -> list[tuple[float, dict[str, dict[str, Any]]]]:
         sets = [with_values(self.base.gait, self.dims, u) for u in candidates]
-        jobs = [Job(p, case.motion) for p in sets for case in CASES]
+        jobs = [Job(p, motion) for p in sets for _name, motion in JUDGED_RUNS]
         started = time.monotonic()
 
         def report(done: int, total: int) -> None:
@@ -193,13 +217,14 @@ class Tuner:
         metrics = self.evaluator.evaluate(
             jobs, duration_s=self.duration_s, warmup_s=self.warmup_s, progress=report
         )
-        n = len(CASES)
+        n = len(JUDGED_RUNS)
         out = []
         for i, params in enumerate(sets):
-            per_case = metrics[i * n : (i + 1) * n]
-            loss = total_loss(per_case, self.duration_s, self.band_weight)
-            out.append((loss, per_case))
-            self._record(loss, params, per_case)
+            runs = zip(JUDGED_RUNS, metrics[i * n : (i + 1) * n], strict=True)
+            by_run = {name: m for (name, _motion), m in runs}
+            loss = total_loss(by_run, self.duration_s, self.band_weight)
+            out.append((loss, by_run))
+            self._record(loss, params, by_run)
         return out
 
     def run(
@@ -220,7 +245,7 @@ class Tuner:
                 else:
                     evaluated = self.evaluate(candidates, progress)
                     losses = [loss for loss, _m in evaluated]
-                    for u, (loss, per_case) in zip(candidates, evaluated, strict=True):
+                    for u, (loss, by_run) in zip(candidates, evaluated, strict=True):
                         row = {
                             "generation": self.generation,
                             "unit": [float(x) for x in u],
@@ -228,7 +253,7 @@ class Tuner:
                                 d.name: d.to_value(x) for d, x in zip(self.dims, u, strict=True)
                             },
                             "loss": loss,
-                            "metrics": {c.name: m for c, m in zip(CASES, per_case, strict=True)},
+                            "metrics": by_run,
                         }
                         log.write(json.dumps(row) + "\n")
                     log.flush()
@@ -251,25 +276,30 @@ class Tuner:
             )
         for u, r in zip(candidates, rows, strict=True):
             params = with_values(self.base.gait, self.dims, u)
-            self._record(r["loss"], params, [r["metrics"][c.name] for c in CASES])
+            self._record(r["loss"], params, r["metrics"])
         return [r["loss"] for r in rows]
 
-    def _record(self, loss: float, params: GaitParams, per_case: list[dict[str, Any]]) -> None:
-        self.evaluated.append((loss, params, per_case))
+    def _record(self, loss: float, params: GaitParams, by_run: dict[str, dict[str, Any]]) -> None:
+        self.evaluated.append((loss, params, by_run))
         if self.best is None or loss < self.best[0]:
-            self.best = (loss, params, per_case)
+            self.best = (loss, params, by_run)
 
-    def best_passing(self) -> tuple[float, GaitParams, list[dict[str, Any]]] | None:
+    def best_passing(self) -> tuple[float, GaitParams, dict[str, dict[str, Any]]] | None:
         """The lowest-loss candidate that meets every paper criterion, if any did."""
         passing = [e for e in self.evaluated if meets_all_criteria(e[2])]
         return min(passing, key=lambda e: e[0]) if passing else None
 
 
-def meets_all_criteria(per_case: Sequence[dict[str, Any]]) -> bool:
-    """No fall, every case within its tolerance, mirror pairs within 15 % of each other."""
-    values = {c.name: measured(c, m) for c, m in zip(CASES, per_case, strict=True)}
-    for case, metrics in zip(CASES, per_case, strict=True):
-        if not passes(case, values[case.name], metrics["fell"]):
+def meets_all_criteria(by_run: dict[str, dict[str, Any]]) -> bool:
+    """No fall, every case within its tolerance, mirror pairs within 15 % of each other, CA
+    steering forward within 30 % of eq (13) and backward at least the right way."""
+    values = {c.name: measured(c, by_run[c.name]) for c in CASES}
+    for case in CASES:
+        if not passes(case, values[case.name], by_run[case.name]["fell"]):
+            return False
+    for pair in CURVES:
+        plus, minus = (by_run[name] for name in curve_run_names(pair))
+        if not steering_passes(pair, steering_gain(plus, minus)):
             return False
     for case in CASES:
         if case.mirror_of:
@@ -398,8 +428,13 @@ def command(args: Any) -> int:
         f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
         f"saved {args.out}"
     )
-    for case, metrics in zip(CASES, chosen[2], strict=True):
+    for case in CASES:
+        metrics = chosen[2][case.name]
         value = measured(case, metrics)
         shown = "fell" if metrics["fell"] else f"{value:+.2f}"
         print(f"  {case.name:24s} paper {case.paper:+6.1f}  tuned {shown}")
+    for pair in CURVES:
+        gain = steering_gain(*(chosen[2][name] for name in curve_run_names(pair)))
+        shown = "fell" if gain is None else f"{gain:.2f}"
+        print(f"  {pair.name:24s} eq (13) gain 1.0  tuned {shown}")
     return 0

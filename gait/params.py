@@ -58,7 +58,7 @@ class Motion:
         doc="rotation amplitude; > 0 turns clockwise (seen from above)",
     )  # fmt: skip
     ca: float = _param(
-        0.0, -0.3, 0.3, step=0.001, unit="1", eq="seed 004 (10)-(11)",
+        0.0, -0.5, 0.5, step=0.001, unit="1", eq="seed 004 (10)-(11)",
         doc="curve amount; > 0 makes left steps longer and turns clockwise",
     )  # fmt: skip
 

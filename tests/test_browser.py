@@ -131,3 +131,21 @@ def test_a_bad_import_shows_the_servers_reason(dashboard, tmp_path):
     expect(message).to_have_class(ERROR, timeout=10_000)
     expect(message).to_contain_text("swing")
     assert http.get("/api/params").json() == before
+
+
+def test_the_prediction_axle_set_on_the_page(dashboard):
+    page, http = dashboard
+    page.locator("#axle-cm").fill("25")
+    page.locator("#axle-set").click()
+    expect(page.locator("#path-message")).to_have_class(OK, timeout=10_000)
+    assert http.get("/api/path").json()["axle_m"] == 0.25
+    expect(page.locator("#path-readout-bsrc")).to_have_text("(manual)", timeout=10_000)
+    expect(page.locator("#path-readout-b")).to_have_text("25.0 cm")
+    page.locator("#axle-cm").fill("0")  # the server refuses it and says what is allowed
+    page.locator("#axle-set").click()
+    expect(page.locator("#path-message")).to_have_class(ERROR, timeout=10_000)
+    expect(page.locator("#path-message")).to_contain_text("0.01")
+    assert http.get("/api/path").json()["axle_m"] == 0.25
+    page.locator("#axle-cm").fill("")
+    page.locator("#axle-set").click()
+    expect(page.locator("#path-readout-bsrc")).to_have_text("(feet)", timeout=10_000)

@@ -53,7 +53,7 @@ def test_human_summary_and_param_file(tmp_path):
         (["--motion", "0,0"], "expected three numbers"),
         (["--motion", "0,nan,0"], "expected three numbers"),
         (["--motion", "0,0.9,0"], "allowed: -0.3 to 0.3"),
-        (["--ca", "2"], "allowed: -0.3 to 0.3"),
+        (["--ca", "2"], "allowed: -0.5 to 0.5"),
         (["--params", "/nonexistent/p.json"], "No such file"),
         (["--duration", "-1"], "duration must be > 0"),
     ],

@@ -81,3 +81,14 @@ def test_a_run_shorter_than_the_warmup_has_no_metrics():
         make_trace(T[:10], T[:10], T[:10] * 0, T[:10] * 0), ca=0, freq_hz=1, warmup_s=5
     )
     assert m["forward_cm_s"] is None and m["gyro_rms"] is None
+
+
+def test_yaw_wobble_in_step_with_the_sway_does_not_count_as_speed():
+    # the trunk yaws left while it sways left: read frame by frame in the momentary heading this
+    # rectifies 0.39 cm/s of the sway into forward speed; per cycle it is exactly 2 cm/s
+    f = 1.25
+    w = 2 * math.pi * f
+    x, y, yaw = 0.02 * T, 0.01 * np.sin(w * T), 0.1 * np.cos(w * T)
+    m = compute_metrics(make_trace(T, x, y, yaw), ca=0, freq_hz=f, warmup_s=5.0)
+    assert m["forward_cm_s"] == pytest.approx(2.0, abs=1e-6)
+    assert m["lateral_cm_s"] == pytest.approx(0.0, abs=1e-6)

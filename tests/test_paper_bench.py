@@ -45,7 +45,11 @@ def test_quick_bench_prints_every_case_and_writes_pngs_and_json(tmp_path, capsys
         ca = paper["ca"][direction]
         assert [r["ca"] for r in ca["rows"]] == list(paper_runs.QUICK.ca_values)
         assert ca["axle_cm"] > 0
-        assert {"fit", "antisymmetry", "stable_limit", "circle"} <= set(ca)
+        assert {"fit", "antisymmetry", "stable_limit"} <= set(ca)
+    circle = paper["circle"]
+    assert circle["run_s"] == pytest.approx(paper_runs.QUICK.circle_s, abs=0.021)
+    assert circle["ca"] == 0.058 and "full circle, CA = 0.058" in printed.out
+    assert "CA steers at" in printed.out or "b_eff < 0" in printed.out
     forward = paper["cases"][1]
     assert forward["sim"] == pytest.approx(paper["metrics"]["cases"]["forward"]["forward_cm_s"])
 
@@ -83,7 +87,13 @@ def test_axle_fit_needs_two_ca_values():
         fit_axle([0.05, 0.05], [0.1, 0.1], 0.04)
 
 
-SWEEP = np.array(ca_sweep())  # -0.2..0.2 by 0.025, plus 0.058
+SWEEP = np.array(ca_sweep(beyond=()))  # -0.2..0.2 by 0.025, plus 0.058
+
+
+def test_the_default_sweep_goes_past_the_papers_limits():
+    sweep = ca_sweep()
+    assert max(sweep) == 0.5 and min(sweep) == -0.5 and 0.0 in sweep and 0.058 in sweep
+    assert all(-ca in sweep for ca in sweep if ca != 0.058)
 
 
 @pytest.mark.parametrize(

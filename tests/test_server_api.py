@@ -146,6 +146,29 @@ def test_paths(http):
         assert http.post("/api/path/anchor", json=bad).status_code == 422
 
 
+def test_the_prediction_axle_by_hand_fitted_and_back_to_the_feet(http):
+    assert http.get("/api/path").json()["axle_source"] == "feet"
+    assert http.put("/api/path/axle", json={"axle_m": 0.25}).status_code == 200
+    path = http.get("/api/path").json()
+    assert (path["axle_m"], path["axle_source"]) == (0.25, "manual")
+    for bad in ({"axle_m": 0}, {"axle_m": -0.1}, {"axle_m": "x"}, {"axle_m": 5}, {}, {"b": 1}):
+        response = http.put("/api/path/axle", json=bad)
+        assert response.status_code == 422 and response.json()["message"]
+    assert http.get("/api/path").json()["axle_m"] == 0.25  # nothing changed
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+    fit = http.post("/api/path/axle/fit", timeout=120).json()
+    assert fit["a_p"] == 0.07 and len(fit["turn_deg_s"]) == 3 and fit["feet_m"] > 0.05
+    path = http.get("/api/path").json()
+    if fit["applied"]:  # b_eff > 0: CA turns the way eq (13) says, and the view uses it
+        assert (path["axle_m"], path["axle_source"]) == (fit["axle_eff_m"], "fitted")
+        assert fit["gain"] == pytest.approx(fit["feet_m"] / fit["axle_eff_m"])
+    else:
+        assert fit["reason"] and path["axle_source"] == "manual"
+    assert http.put("/api/path/axle", json={"axle_m": None}).json()["axle_source"] == "feet"
+    assert http.get("/api/path").json()["axle_source"] == "feet"
+    http.patch("/api/params", json={"motion": {"a_p": 0.0}})
+
+
 def test_openapi_documents_the_ranges(http):
     spec = http.get("/openapi.json").json()
     swing = spec["components"]["schemas"]["SwingParams"]["properties"]["v"]

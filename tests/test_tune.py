@@ -6,10 +6,10 @@ import json
 import pytest
 
 from app.batch import BatchEvaluator, Job
-from app.paper_cases import CASES
+from app.paper_cases import CASES, CURVES, JUDGED_RUNS, steering_gain, steering_passes
 from app.paramset import ParameterSet, load_parameter_set
 from app.presets import stamped, write_parameter_set
-from app.tune import Tuner, case_loss, dimensions, total_loss
+from app.tune import Tuner, case_loss, curve_loss, dimensions, meets_all_criteria, total_loss
 from gait import GaitParams
 
 EVALUATOR = BatchEvaluator(threads=2)
@@ -25,9 +25,9 @@ SETTINGS = {"duration_s": 3.0, "warmup_s": 1.0, "popsize": 4, "seed": 3}
 
 
 def base_loss() -> float:
-    jobs = [Job(POOR.gait, case.motion) for case in CASES]
+    jobs = [Job(POOR.gait, motion) for _name, motion in JUDGED_RUNS]
     metrics = EVALUATOR.evaluate(jobs, duration_s=3.0, warmup_s=1.0)
-    return total_loss(metrics, 3.0)
+    return total_loss({name: m for (name, _), m in zip(JUDGED_RUNS, metrics, strict=True)}, 3.0)
 
 
 def test_a_short_run_improves_and_writes_a_loadable_preset(tmp_path):
@@ -42,6 +42,7 @@ def test_a_short_run_improves_and_writes_a_loadable_preset(tmp_path):
     assert loaded.gait.clock.freq_hz != 0.5 or loaded.gait.short.amp_base != 0.05
     lines = results.read_text().splitlines()
     assert json.loads(lines[0])["settings"]["popsize"] == 4 and len(lines) == 1 + 3 * 4
+    assert set(json.loads(lines[1])["metrics"]) == {name for name, _motion in JUDGED_RUNS}
 
 
 def test_resuming_replays_the_file_without_simulating(tmp_path):
@@ -78,3 +79,40 @@ def test_only_numeric_schema_fields_can_be_tuned():
     for bad in ("swing.enabled", "swing.speed", "walk.v", "freq"):
         with pytest.raises(ValueError, match="not a tunable number"):
             dimensions([bad])
+
+
+def curve_run(turn: float, predicted: float, fell: bool = False) -> dict:
+    return {"fell": fell, "turn_deg_s": turn, "predicted_turn_deg_s": predicted}
+
+
+def test_steering_gain_compares_the_ca_response_with_eq13_and_ignores_drift():
+    forward, backward = CURVES
+    # eq (13): -3 deg/s at CA = +0.1, +3 at -0.1; the robot also drifts -1 deg/s
+    follows = curve_run(-3.0 - 1.0, -3.0), curve_run(3.0 - 1.0, 3.0)
+    assert steering_gain(*follows) == pytest.approx(1.0)
+    assert curve_loss(forward, *follows, 20) == pytest.approx(0.0)
+    weak = curve_run(-1.0 - 1.0, -3.0), curve_run(1.0 - 1.0, 3.0)
+    assert steering_gain(*weak) == pytest.approx(1 / 3)
+    assert not steering_passes(forward, 1 / 3) and steering_passes(forward, 0.75)
+    assert steering_passes(backward, 1 / 3) and not steering_passes(backward, -0.1)
+    assert curve_loss(forward, *weak, 20) == pytest.approx((2 / 3) ** 2)
+    assert steering_gain(curve_run(0, -3, fell=True), curve_run(0, 3)) is None
+    assert curve_loss(forward, curve_run(0, -3, fell=True), curve_run(0, 3), 20) > 10
+
+
+def test_the_criteria_include_ca_steering():
+    speeds = {"forward_cm_s": 0.0, "lateral_cm_s": 0.0, "turn_deg_s": 0.0, "fell": False}
+    by_run = {}
+    for case in CASES:
+        m = dict(speeds)
+        if case.metric != "drift_cm_s":
+            m[case.metric] = case.paper
+        by_run[case.name] = m
+    names = [name for name, _motion in JUDGED_RUNS[len(CASES) :]]
+    for plus, minus in zip(names[::2], names[1::2], strict=True):
+        by_run[plus] = curve_run(-3.0, -3.0)
+        by_run[minus] = curve_run(3.0, 3.0)
+    assert meets_all_criteria(by_run)
+    by_run[names[0]] = curve_run(-1.0, -3.0)  # forward steering at 2/3 of eq (13)
+    by_run[names[1]] = curve_run(1.0, 3.0)
+    assert not meets_all_criteria(by_run)

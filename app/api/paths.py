@@ -2,10 +2,11 @@
 
 from typing import Any
 
-from fastapi import APIRouter
+from fastapi import APIRouter, HTTPException
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.api.deps import RuntimeDep
+from app.axle_fit import AxleFitError
 
 router = APIRouter(prefix="/api/path", tags=["paths"])
 
@@ -28,3 +29,34 @@ def reanchor(runtime: RuntimeDep, body: AnchorBody | None = None) -> dict[str, A
     """Start the prediction again at the robot's current pose."""
     runtime.sim.command("reanchor", None if body is None else body.speed_m_s)
     return {"accepted": "reanchor"}
+
+
+class AxleBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+    axle_m: float | None = Field(
+        ..., ge=0.01, le=2.0, description="axle b of the prediction; null = the feet distance"
+    )
+
+
+@router.put("/axle")
+def set_axle(runtime: RuntimeDep, body: AxleBody) -> dict[str, Any]:
+    """Predict with this axle b (m), or with the measured distance between the feet (null)."""
+    runtime.sim.paths.set_axle(body.axle_m, "manual")
+    return {"axle_m": body.axle_m, "axle_source": "feet" if body.axle_m is None else "manual"}
+
+
+@router.post("/axle/fit")
+def fit_axle(runtime: RuntimeDep) -> dict[str, Any]:
+    """Fit the effective axle b_eff of the current gait from simulated curve walks (CA = -0.1,
+    0, +0.1 at the current a_p, 20 s each, in the background) and predict with it."""
+    snap = runtime.store.snapshot()
+    try:
+        result = runtime.axle_fitter.fit(snap.gait, snap.motion)
+    except RuntimeError as exc:  # busy, or the robot fell / did not walk (AxleFitError)
+        status = 422 if isinstance(exc, AxleFitError) else 409
+        raise HTTPException(status, str(exc)) from exc
+    applied = result.axle_eff_m is not None and result.axle_eff_m > 0
+    if applied:
+        runtime.sim.paths.set_axle(result.axle_eff_m, "fitted")
+    reason = None if applied else "CA does not steer this gait the way eq (13) says (b_eff <= 0)"
+    return result.to_dict() | {"applied": applied, "reason": reason, "params_version": snap.version}

@@ -25,6 +25,8 @@ export function initPaths() {
   const canvas = $("path-canvas");
   new ResizeObserver(() => last && draw(last)).observe(canvas);
   $("path-anchor").addEventListener("click", reanchor);
+  $("axle-set").addEventListener("click", setAxle);
+  $("axle-fit").addEventListener("click", fitAxle);
   poll(async () => {
     try {
       last = await api.get("/api/path");
@@ -57,11 +59,47 @@ async function reanchor() {
   }
 }
 
+async function setAxle() {
+  const msg = $("path-message");
+  const raw = $("axle-cm").value.trim();
+  const cm = Number(raw);
+  if (raw !== "" && !Number.isFinite(cm)) {
+    setMessage(msg, "b must be a number (cm), or empty for the distance between the feet", "error");
+    return;
+  }
+  try {
+    await api.put("/api/path/axle", { axle_m: raw === "" ? null : cm / 100 });
+    setMessage(msg, raw === "" ? "b = the distance between the feet" : `b = ${raw} cm`, "ok");
+  } catch (err) {
+    setMessage(msg, err.message, "error");
+  }
+}
+
+async function fitAxle() {
+  const msg = $("path-message");
+  const button = $("axle-fit");
+  button.disabled = true;
+  setMessage(msg, "fitting: simulating CA = -0.1, 0, +0.1 for 20 s each …", "");
+  try {
+    const r = await api.post("/api/path/axle/fit", {});
+    const gain = r.gain == null ? "no steering" : `${fmt(r.gain * 100, 0)} % of eq (13)`;
+    const text = r.applied
+      ? `b_eff = ${fmt(r.axle_eff_m * 100, 1)} cm (feet ${fmt(r.feet_m * 100, 1)} cm): CA steers at ${gain}`
+      : `not applied: ${r.reason}`;
+    setMessage(msg, text, r.applied ? "ok" : "error");
+  } catch (err) {
+    setMessage(msg, err.message, "error");
+  } finally {
+    button.disabled = false;
+  }
+}
+
 function readout(p) {
   const cms = (v) => (v == null ? "—" : `${fmt(v * 100, 2)} cm/s`);
   $("path-readout-v").textContent = cms(p.speed_m_s);
   $("path-readout-vsrc").textContent = p.speed_source ? `(${p.speed_source})` : "";
   $("path-readout-b").textContent = p.axle_m == null ? "—" : `${fmt(p.axle_m * 100, 1)} cm`;
+  $("path-readout-bsrc").textContent = p.axle_source ? `(${p.axle_source})` : "";
   $("path-readout-ca").textContent = fmt(p.ca, 3);
   $("path-readout-r").textContent = p.turn_radius_m == null ? "straight" : `${fmt(p.turn_radius_m, 2)} m`;
   $("path-readout-rate-pred").textContent = `${fmt(p.predicted_turn_deg_s, 2)} °/s`;

@@ -1,0 +1,111 @@
+"""The effective axle b_eff of the current gait, fitted from simulated curve walks.
+
+Eq (13) predicts the heading rate from CA with b = the distance between the feet. A biped steers
+by skidding its feet, so its measured rate is usually weaker: the axle that makes eq (13) fit is
+longer. This runs the current parameter set at CA = -0.1, 0 and +0.1 (at the current walking
+amplitude, or forward a_p = 0.07 when it stands), fits theta_dot = drift + k CA and gives
+b_eff = -2 V / k (`app.ca_analysis`). The dashboard's predicted path can then use b_eff.
+
+The runs go to the batch evaluator with one thread, so a live simulation keeps the other core.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import threading
+from dataclasses import dataclass
+
+import numpy as np
+
+from app.batch import BatchEvaluator, Job
+from app.ca_analysis import fit_axle
+from app.metrics import Trace, whole_cycles
+from gait import GaitParams, Motion
+
+FIT_CA = (-0.1, 0.0, 0.1)
+DEFAULT_A_P = 0.07  # seed 000's forward amplitude, used when the robot is not walking
+MIN_A_P = 0.02  # below this the sagittal step is too short to steer with
+DURATION_S = 20.0
+WARMUP_S = 4.0
+
+
+@dataclass(frozen=True)
+class AxleFitResult:
+    axle_eff_m: float | None  # None when CA does not steer at all
+    feet_m: float  # measured mean distance between the feet (eq 13's b)
+    speed_m_s: float  # V: forward speed at CA = 0
+    drift_deg_s: float  # heading rate at CA = 0 (fit)
+    gain: float | None  # b / b_eff: the share of eq (13)'s rate the robot turns
+    a_p: float
+    ca: tuple[float, ...]
+    turn_deg_s: tuple[float, ...]
+    sim_s: float
+
+    def to_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+class AxleFitError(RuntimeError):
+    """The fit has no answer: the robot fell or did not walk."""
+
+
+def walking_amplitude(motion: Motion) -> float:
+    """The a_p to fit at: the current one if the robot walks sagittally, else forward 0.07."""
+    return motion.a_p if abs(motion.a_p) >= MIN_A_P else DEFAULT_A_P
+
+
+def fit_effective_axle(
+    params: GaitParams,
+    motion: Motion,
+    evaluator: BatchEvaluator | None = None,
+    duration_s: float = DURATION_S,
+    warmup_s: float = WARMUP_S,
+) -> AxleFitResult:
+    a_p = walking_amplitude(motion)
+    base = dataclasses.replace(motion, a_p=a_p)
+    jobs = [Job(params, dataclasses.replace(base, ca=ca)) for ca in FIT_CA]
+    traces: list[Trace] = []
+    evaluator = evaluator or BatchEvaluator(threads=1)
+    results = evaluator.evaluate(jobs, duration_s=duration_s, warmup_s=warmup_s, traces=traces)
+    if any(r["fell"] for r in results):
+        fell = [ca for ca, r in zip(FIT_CA, results, strict=True) if r["fell"]]
+        raise AxleFitError(f"the robot fell walking at a_p = {a_p:+.3f} with CA = {fell}")
+    straight = results[FIT_CA.index(0.0)]
+    speed = straight["forward_cm_s"] / 100.0
+    if abs(speed) < 1e-3:
+        raise AxleFitError(f"the robot does not walk at a_p = {a_p:+.3f} ({speed * 100:.2f} cm/s)")
+    turns = [math.radians(r["turn_deg_s"]) for r in results]
+    fit = fit_axle(FIT_CA, turns, speed)
+    feet_trace = traces[FIT_CA.index(0.0)].arrays()
+    window = whole_cycles(feet_trace["t"], warmup_s, params.clock.freq_hz)
+    feet = float(np.mean(feet_trace["feet"][window]))
+    gain = None if fit.axle_eff_m is None else feet / fit.axle_eff_m
+    return AxleFitResult(
+        axle_eff_m=fit.axle_eff_m,
+        feet_m=feet,
+        speed_m_s=speed,
+        drift_deg_s=math.degrees(fit.drift_rad_s),
+        gain=gain,
+        a_p=a_p,
+        ca=FIT_CA,
+        turn_deg_s=tuple(r["turn_deg_s"] for r in results),
+        sim_s=duration_s * len(jobs),
+    )
+
+
+class AxleFitter:
+    """One fit at a time for the server; a second request while one runs is refused."""
+
+    def __init__(self) -> None:
+        self._busy = threading.Lock()
+        self.last: AxleFitResult | None = None
+
+    def fit(self, params: GaitParams, motion: Motion) -> AxleFitResult:
+        if not self._busy.acquire(blocking=False):
+            raise RuntimeError("an axle fit is already running; wait for it to finish")
+        try:
+            self.last = fit_effective_axle(params, motion)
+            return self.last
+        finally:
+            self._busy.release()

@@ -1,0 +1,36 @@
+"""The effective axle fitted from simulated curve walks (real batch rollouts of the model)."""
+
+import math
+
+import pytest
+
+from app.axle_fit import AxleFitter, fit_effective_axle, walking_amplitude
+from app.paramset import load_parameter_set
+from app.presets import BUILTIN_DIR
+from gait import Motion
+
+TUNED = load_parameter_set(BUILTIN_DIR / "tuned.json").gait
+
+
+def test_standing_still_fits_at_the_papers_forward_amplitude():
+    assert walking_amplitude(Motion()) == 0.07
+    assert walking_amplitude(Motion(a_p=-0.05)) == -0.05
+
+
+def test_the_fit_is_consistent_with_its_own_runs():
+    r = fit_effective_axle(TUNED, Motion(a_p=0.07), duration_s=12.0, warmup_s=3.0)
+    assert r.ca == (-0.1, 0.0, 0.1) and r.sim_s == 36.0
+    assert 0.08 < r.feet_m < 0.13 and r.speed_m_s > 0.01
+    slope_deg = (r.turn_deg_s[2] - r.turn_deg_s[0]) / 0.2
+    if r.axle_eff_m is not None:
+        # b_eff = -2 V / k with k the slope of theta_dot over CA
+        expected = -2 * r.speed_m_s / math.radians(slope_deg)
+        assert r.axle_eff_m == pytest.approx(expected, rel=1e-6)
+        assert r.gain == pytest.approx(r.feet_m / r.axle_eff_m)
+
+
+def test_one_fit_at_a_time():
+    fitter = AxleFitter()
+    fitter._busy.acquire()  # a fit is running
+    with pytest.raises(RuntimeError, match="already running"):
+        fitter.fit(TUNED, Motion(a_p=0.07))
