@@ -26,7 +26,16 @@ from typing import Any, TextIO
 import numpy as np
 
 from app import ca_analysis as ca_math
-from app.paper_cases import CASES, MIRROR_TOLERANCE, measured, passes
+from app.paper_cases import (
+    CA_PROBE,
+    CASES,
+    MIRROR_TOLERANCE,
+    measured,
+    passes,
+    steering,
+    steers_right,
+    within_eq13,
+)
 from app.paper_runs import (
     CIRCLE_CA,
     QUICK,
@@ -149,6 +158,7 @@ def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, A
     pairs_no_drift = ca_math.antisymmetry_pairs(ca_values, turns - (drift or 0.0), fell)
     limit = ca_math.largest_stable_ca([r["ca"] for r in rows], [r["fell"] for r in rows])
     return {
+        "steering": _steering(rows),
         "speed_cm_s": v_cm_s,
         "axle_cm": None if axle is None else 100.0 * axle,
         "drift_deg_s": drift,
@@ -173,6 +183,33 @@ def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, A
             "sweep_max": limit.sweep_max,
             "beyond_sweep": limit.beyond_sweep,
         },
+    }
+
+
+def _steering(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
+    """`app.paper_cases.steering` of the sweep's CA = +-0.1 and 0 runs (eq (13) with the CA = 0
+    run's V and b), as the tuner judges it."""
+    by_ca = {round(r["ca"], 6): r for r in rows}
+    picked = [by_ca.get(ca) for ca in (CA_PROBE, -CA_PROBE, 0.0)]
+    if any(r is None for r in picked):
+        return None
+    plus, minus, straight = (
+        {
+            "fell": r["fell"],
+            "turn_deg_s": r["turn_deg_s"],
+            "predicted_turn_deg_s": r["eq13_turn_deg_s"],
+        }
+        for r in picked
+    )
+    s = steering(plus, minus, straight)
+    if s is None:
+        return None
+    return {
+        "ca": CA_PROBE,
+        "gain": s.gain,
+        "bend": s.bend,
+        "steers_right": steers_right(s),
+        "within_eq13": within_eq13(s),
     }
 
 

@@ -11,6 +11,7 @@ from typing import Any
 
 from app.ca_analysis import FIT_CA_LIMIT
 from app.paper_cases import (
+    BEND_LIMIT,
     MIRROR_TOLERANCE,
     SPEED_TOLERANCE,
     SPOT_DRIFT_LIMIT_CM_S,
@@ -177,11 +178,15 @@ def ca_summary_lines(s: dict[str, Any], paper_limit: float) -> list[str]:
         if fit["axle_eff_cm"] is not None and fit["axle_eff_cm"] < 0:
             lines.append("  b_eff < 0: CA turns the robot against the direction of eq (13)")
         elif ratio:
-            within = abs(1.0 / ratio - 1.0) <= STEERING_TOLERANCE
-            lines.append(
-                f"  CA steers at {1.0 / ratio:.0%} of eq (13) with b = the feet distance "
-                f"(within {STEERING_TOLERANCE:.0%}: {'yes' if within else 'NO'})"
-            )
+            lines.append(f"  CA steers at {1.0 / ratio:.0%} of eq (13) with b = the feet distance")
+    st = s.get("steering")
+    if st is not None:
+        right, within = ("yes" if st[k] else "NO" for k in ("steers_right", "within_eq13"))
+        lines += [
+            f"CA = +-{st['ca']:g}: gain {st['gain']:.2f} (eq (13): 1), bend {st['bend']:+.2f} "
+            f"(linear: 0, limit {BEND_LIMIT})",
+            f"  steers right: {right}; within {STEERING_TOLERANCE:.0%} of eq (13): {within}",
+        ]
     pairs = s["antisymmetry"]
     if pairs:
         raw = [f"{q['ca']:.3f}: {pct(q['mismatch'])}{_flag(q['ok'])}" for q in pairs]

@@ -54,7 +54,7 @@ class BenchConfig:
     duration_s: float = 60.0
     warmup_s: float = 5.0
     ca_values: tuple[float, ...] = field(default_factory=ca_sweep)
-    circle_s: float = 240.0  # the full-circle walk; eq (13) at 3.8 cm/s, b = 10 cm: ~150 s
+    circle_s: float = 360.0  # the full-circle walk: eq (13) at 3.8 cm/s, b = 10 cm takes ~150 s
     threads: int | None = None
 
 

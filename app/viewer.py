@@ -99,6 +99,39 @@ class Viewer:
             self._show_paths = gui.add_checkbox("Show paths", True)
             anchor = gui.add_button("Re-anchor prediction here")
             anchor.on_click(lambda _e: self.sim.command("reanchor"))
+            self._fit_button = gui.add_button(
+                "Fit the axle b from simulation",
+                hint="walk the current gait at CA = -0.1, 0, +0.1 (20 s each, in the background) "
+                "and predict with the fitted effective axle b_eff",
+            )
+            self._fit_button.on_click(lambda _e: self._start_axle_fit())
+            self._feet_button = gui.add_button("Axle b = distance between the feet")
+            self._feet_button.on_click(lambda _e: self.sim.paths.set_axle(None))
+            self._fit_text = gui.add_markdown("")
+
+    def _start_axle_fit(self) -> None:
+        self._fit_button.disabled = True
+        self._fit_text.content = "fitting: simulating CA = -0.1, 0, +0.1 for 20 s each …"
+        threading.Thread(target=self._fit_axle, name="artro-axle-fit", daemon=True).start()
+
+    def _fit_axle(self) -> None:
+        snap = self.store.snapshot()
+        try:
+            r = self.runtime.axle_fitter.fit(snap.gait, snap.motion)
+        except Exception as exc:  # a callback thread: say what went wrong instead of dying
+            self._fit_text.content = f"no fit: {exc}"
+        else:
+            if r.axle_eff_m is not None and r.axle_eff_m > 0:
+                self.sim.paths.set_axle(r.axle_eff_m, "fitted")
+                assert r.gain is not None
+                self._fit_text.content = (
+                    f"b_eff = {100 * r.axle_eff_m:.1f} cm (feet {100 * r.feet_m:.1f} cm): "
+                    f"CA steers at {100 * r.gain:.0f} % of eq (13), at a_p = {r.a_p:+.3f}"
+                )
+            else:
+                self._fit_text.content = "not applied: CA does not steer this gait as eq (13) says"
+        finally:
+            self._fit_button.disabled = False
 
     def _build_group(self, group: dict[str, Any]) -> None:
         gui = self.server.gui
@@ -189,7 +222,7 @@ class Viewer:
                 f"<span style='color:rgb{ACTUAL_RGB}'>■ actual</span> "
                 f"<span style='color:rgb{PREDICTED_RGB}'>■ predicted</span>  \n"
                 f"V = {100 * view['speed_m_s']:.2f} cm/s ({view['speed_source']}), "
-                f"b = {100 * view['axle_m']:.1f} cm  \n"
+                f"b = {100 * view['axle_m']:.1f} cm ({view['axle_source']})  \n"
                 f"turn radius: {'straight' if radius is None else f'{radius:.2f} m'}  \n"
                 f"heading rate: predicted {view['predicted_turn_deg_s']:+.1f} °/s, "
                 f"actual {view['actual_turn_deg_s']:+.1f} °/s"

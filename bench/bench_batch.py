@@ -7,6 +7,8 @@ Prints, for the same 10 s walks (a_p = 0.07, CA spread over -0.1..0.1):
   - BatchEvaluator.evaluate with 1 thread and with N threads (N = os.cpu_count()), end to end
     (planning the gait + hardware for every step, the rollout, measuring) and the rollout alone;
   - the ratio batch / (threads x single raw) (goal >= 0.85);
+  - the machine's own ceiling for that ratio: N separate processes each running the raw C loop
+    at the same time (no Python threads, no shared MuJoCo data), total / (N x single raw);
   - steps per CPU second of this process (all threads), which stays meaningful when other
     processes compete for the cores (the wall-clock ratio then only says how many were free).
 
@@ -16,6 +18,7 @@ Prints, for the same 10 s walks (a_p = 0.07, CA spread over -0.1..0.1):
 from __future__ import annotations
 
 import argparse
+import multiprocessing
 import os
 import statistics
 import time
@@ -51,6 +54,19 @@ def raw_steps_per_s(job: Job, frames: int) -> tuple[float, float]:
     return total / (time.perf_counter() - start), total / (time.process_time() - cpu_start)
 
 
+def _raw_in_process(args: tuple[Job, int]) -> tuple[float, float]:
+    return raw_steps_per_s(*args)
+
+
+def concurrent_raw_steps_per_s(job: Job, frames: int, processes: int) -> float:
+    """Total steps/s of `processes` raw C loops running at once, one per process."""
+    ctx = multiprocessing.get_context("spawn")
+    with ctx.Pool(processes) as pool:
+        pool.map(_raw_in_process, [(job, 10)] * processes)  # import and load the model first
+        results = pool.map(_raw_in_process, [(job, frames)] * processes)
+    return sum(wall for wall, _cpu in results)
+
+
 def batch_steps_per_s(
     evaluator: BatchEvaluator, jobs: list[Job], seconds: float
 ) -> tuple[float, float, float]:
@@ -76,12 +92,13 @@ def main() -> None:
     frames = round(args.seconds / 0.02)
     one, many = BatchEvaluator(threads=1), BatchEvaluator(threads=n_threads)
     load_before = os.getloadavg()[0]
-    raw, raw_cpu = [], []
+    raw, raw_cpu, raw_parallel = [], [], []
     batch: dict[int, list[tuple[float, float, float]]] = {1: [], n_threads: []}
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike
         trials = [raw_steps_per_s(j, frames) for j in jobs[:4]]
         raw.append(statistics.median(t[0] for t in trials))
         raw_cpu.append(statistics.median(t[1] for t in trials))
+        raw_parallel.append(concurrent_raw_steps_per_s(jobs[0], frames, n_threads))
         for evaluator in (one, many):
             batch[evaluator.threads].append(batch_steps_per_s(evaluator, jobs, args.seconds))
     raw_m, raw_cpu_m = statistics.median(raw), statistics.median(raw_cpu)
@@ -95,6 +112,11 @@ def main() -> None:
     print(
         f"raw mj_step, 1 thread (C loop): {raw_m:8.0f} steps/s wall, "
         f"{raw_cpu_m:8.0f} per CPU second"
+    )
+    parallel_m = statistics.median(raw_parallel)
+    print(
+        f"raw mj_step, {n_threads} processes at once: {parallel_m:8.0f} steps/s in total: "
+        f"the machine's ceiling for the ratio is {parallel_m / (n_threads * raw_m):.3f}"
     )
     ratio_n = 0.0
     for threads, results in batch.items():

@@ -6,7 +6,7 @@ import json
 import pytest
 
 from app.batch import BatchEvaluator, Job
-from app.paper_cases import CASES, CURVES, JUDGED_RUNS, steering_gain, steering_passes
+from app.paper_cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
 from app.paramset import ParameterSet, load_parameter_set
 from app.presets import stamped, write_parameter_set
 from app.tune import Tuner, case_loss, curve_loss, dimensions, meets_all_criteria, total_loss
@@ -85,34 +85,47 @@ def curve_run(turn: float, predicted: float, fell: bool = False) -> dict:
     return {"fell": fell, "turn_deg_s": turn, "predicted_turn_deg_s": predicted}
 
 
-def test_steering_gain_compares_the_ca_response_with_eq13_and_ignores_drift():
+def test_steering_compares_the_ca_response_with_eq13_and_ignores_drift():
     forward, backward = CURVES
-    # eq (13): -3 deg/s at CA = +0.1, +3 at -0.1; the robot also drifts -1 deg/s
+    straight = curve_run(-1.0, 0.0)  # the robot drifts -1 deg/s at CA = 0
+    # eq (13): -3 deg/s at CA = +0.1, +3 at -0.1, on top of the drift
     follows = curve_run(-3.0 - 1.0, -3.0), curve_run(3.0 - 1.0, 3.0)
-    assert steering_gain(*follows) == pytest.approx(1.0)
-    assert curve_loss(forward, *follows, 20) == pytest.approx(0.0)
+    s = steering(*follows, straight)
+    assert (s.gain, s.bend) == (pytest.approx(1.0), pytest.approx(0.0))
+    assert within_eq13(s) and curve_loss(forward, *follows, straight, 20) == pytest.approx(0.0)
     weak = curve_run(-1.0 - 1.0, -3.0), curve_run(1.0 - 1.0, 3.0)
-    assert steering_gain(*weak) == pytest.approx(1 / 3)
-    assert not steering_passes(forward, 1 / 3) and steering_passes(forward, 0.75)
-    assert steering_passes(backward, 1 / 3) and not steering_passes(backward, -0.1)
-    assert curve_loss(forward, *weak, 20) == pytest.approx((2 / 3) ** 2)
-    assert steering_gain(curve_run(0, -3, fell=True), curve_run(0, 3)) is None
-    assert curve_loss(forward, curve_run(0, -3, fell=True), curve_run(0, 3), 20) > 10
+    s = steering(*weak, straight)
+    assert s.gain == pytest.approx(1 / 3) and steers_right(s) and not within_eq13(s)
+    assert curve_loss(forward, *weak, straight, 20) == pytest.approx((2 / 3) ** 2)
+    wrong = curve_run(1.0 - 1.0, -3.0), curve_run(-1.0 - 1.0, 3.0)
+    assert not steers_right(steering(*wrong, straight))
+    assert steering(curve_run(0, -3, fell=True), curve_run(0, 3), straight) is None
+    assert curve_loss(backward, curve_run(0, -3, fell=True), curve_run(0, 3), straight, 20) > 10
+
+
+def test_a_gait_that_tips_into_a_turn_either_way_is_not_steering():
+    # it drifts -1.5 deg/s at CA = 0, and +-0.1 only picks between -2.3 and +1.9 deg/s
+    straight = curve_run(-1.5, 0.0)
+    tips = curve_run(-2.3, -2.6), curve_run(1.9, 2.8)
+    s = steering(*tips, straight)
+    assert s.gain == pytest.approx(4.2 / 5.4) and s.bend == pytest.approx(2.6 / 5.4)
+    assert not steers_right(s) and not within_eq13(s)
+    assert curve_loss(CURVES[0], *tips, straight, 20) > 0.9
 
 
 def test_the_criteria_include_ca_steering():
     speeds = {"forward_cm_s": 0.0, "lateral_cm_s": 0.0, "turn_deg_s": 0.0, "fell": False}
     by_run = {}
     for case in CASES:
-        m = dict(speeds)
+        m = dict(speeds) | {"predicted_turn_deg_s": 0.0}
         if case.metric != "drift_cm_s":
             m[case.metric] = case.paper
         by_run[case.name] = m
     names = [name for name, _motion in JUDGED_RUNS[len(CASES) :]]
     for plus, minus in zip(names[::2], names[1::2], strict=True):
-        by_run[plus] = curve_run(-3.0, -3.0)
-        by_run[minus] = curve_run(3.0, 3.0)
+        by_run[plus] = curve_run(-1.0, -3.0)  # a third of eq (13), the right way: accepted
+        by_run[minus] = curve_run(1.0, 3.0)
     assert meets_all_criteria(by_run)
-    by_run[names[0]] = curve_run(-1.0, -3.0)  # forward steering at 2/3 of eq (13)
-    by_run[names[1]] = curve_run(1.0, 3.0)
+    by_run[names[0]] = curve_run(1.0, -3.0)  # forward CA steers the wrong way
+    by_run[names[1]] = curve_run(-1.0, 3.0)
     assert not meets_all_criteria(by_run)

@@ -1,0 +1,99 @@
+"""Experiment: how the heading rate answers CA, on the built-in model or a variant of it.
+
+Backs the "CA steering on this model" section of models/README.md. Walks a preset at a_p with CA
+over a sweep (batch rollouts) and prints, per CA, the measured heading rate next to eq (13)'s,
+then the gain and bend of the CA = +-0.1 pair (`app.paper_cases.Steering`). Variants of the
+model, for the experiment only (the shipped model is unchanged):
+
+  --friction MU   every geom's sliding friction set to MU
+  --sole-grid     each foot plate's collision replaced by a 5 x 3 grid of 2 mm spheres under
+                  the sole (a distributed contact instead of box-plane corner points)
+
+    python bench/ca_response.py [--preset tuned] [--a-p 0.07] [--duration 30] \
+        [--friction 0.5] [--sole-grid]
+"""
+
+from __future__ import annotations
+
+import argparse
+import re
+import tempfile
+from pathlib import Path
+
+from app.batch import BatchEvaluator, Job
+from app.paper_cases import steering
+from app.paramset import load_parameter_set
+from app.presets import BUILTIN_DIR
+from app.robot import ARTRO_XML, RobotModel
+from gait import Motion
+
+SWEEP = (-0.2, -0.15, -0.1, -0.05, -0.025, 0.0, 0.025, 0.05, 0.1, 0.15, 0.2)
+GRID_X_M = (-0.056, -0.028, 0.0, 0.028, 0.056)
+GRID_Y_M = (-0.031, 0.0, 0.031)
+
+
+def sole_grid_xml(xml: str) -> str:
+    """The model with each foot plate visual only and a grid of small spheres as its sole."""
+    for side in ("l", "r"):
+        match = re.search(rf'<geom name="{side}_foot_plate"[^>]*/>', xml, re.S)
+        if match is None:
+            raise ValueError(f"no {side}_foot_plate geom in the model")
+        plate = match.group(0)
+        visual = plate.replace('class="collision" group="1"', 'group="1"')
+        if visual == plate:
+            raise ValueError("the foot plate's collision attributes are not as expected")
+        spheres = "\n".join(
+            f'<geom name="{side}_sole_{i}{j}" type="sphere" size="0.002" pos="{x} {y} -0.033" '
+            'mass="0" class="collision" group="3"/>'
+            for i, x in enumerate(GRID_X_M)
+            for j, y in enumerate(GRID_Y_M)
+        )
+        xml = xml.replace(plate, visual + "\n" + spheres)
+    return xml
+
+
+def load_robot(friction: float | None, sole_grid: bool) -> RobotModel:
+    path = Path(ARTRO_XML)
+    if sole_grid:
+        variant = Path(tempfile.mkdtemp()) / "artro_sole_grid.xml"
+        variant.write_text(sole_grid_xml(path.read_text(encoding="utf-8")), encoding="utf-8")
+        path = variant
+    robot = RobotModel.load(path)
+    if friction is not None:
+        robot.model.geom_friction[:, 0] = friction
+    return robot
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--preset", default="tuned", help="built-in preset name or a file")
+    parser.add_argument("--a-p", type=float, default=0.07)
+    parser.add_argument("--duration", type=float, default=30.0)
+    parser.add_argument("--friction", type=float, default=None)
+    parser.add_argument("--sole-grid", action="store_true")
+    args = parser.parse_args()
+    source = BUILTIN_DIR / f"{args.preset}.json"
+    params = load_parameter_set(source if source.is_file() else args.preset).gait
+    robot = load_robot(args.friction, args.sole_grid)
+    jobs = [Job(params, Motion(a_p=args.a_p, ca=ca)) for ca in SWEEP]
+    results = BatchEvaluator(robot).evaluate(jobs, duration_s=args.duration, warmup_s=4.0)
+    variant = f"friction {args.friction if args.friction is not None else 'as built'}"
+    variant += ", sole grid" if args.sole_grid else ", box soles"
+    print(f"preset {args.preset}, a_p = {args.a_p:+.3f}, {args.duration:g} s runs; {variant}")
+    print("   CA    turn    eq13  (deg/s, + = counter-clockwise)")
+    for ca, m in zip(SWEEP, results, strict=True):
+        if m["fell"]:
+            print(f"{ca:+.3f}  fell at {m['fall_time_s']} s")
+            continue
+        print(f"{ca:+.3f}  {m['turn_deg_s']:+6.2f}  {m['predicted_turn_deg_s']:+6.2f}")
+    by_ca = dict(zip(SWEEP, results, strict=True))
+    s = steering(by_ca[0.1], by_ca[-0.1], by_ca[0.0])
+    if s is None:
+        print("CA = +-0.1: no steering figure (a run fell)")
+    else:
+        print(f"CA = +-0.1: gain {s.gain:.2f} (eq (13): 1), bend {s.bend:+.2f} (linear: 0)")
+        print(f"V (CA = 0) {by_ca[0.0]['forward_cm_s']:+.2f} cm/s")
+
+
+if __name__ == "__main__":
+    main()
