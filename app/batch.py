@@ -4,8 +4,9 @@ The gait is open loop: a run's servo set-points are a pure function of the param
 So the whole run is planned up front (`plan_frames`, vectorised), turned into the control of every
 physics step -- each servo switching to its new set-point at its pulse's falling edge, exactly as
 `Simulation` does -- and rolled out by MuJoCo's C thread pool, many runs at once. The states are
-sampled once per 20 ms frame and measured with the same fall test and the same `compute_metrics`
-as `artro run`; a test checks that both give the same numbers.
+sampled once per 20 ms frame, in whole arrays (the distance between the feet from the model's
+sole-position sensors, no Python per frame), and measured with the same fall test and the same
+`compute_metrics` as `artro run`; a test checks that both give the same numbers, to the bit.
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from app.simulation import (
     Simulation,
     has_fallen,
     plan_frames,
-    sole_distance_m,
+    planar_distance_m,
     trunk_yaw,
 )
 from gait import GaitParams, Motion
@@ -83,7 +84,6 @@ class BatchEvaluator:
         self.model = self.robot.model
         self.threads = threads or min(os.cpu_count() or 1, 8)
         self._datas = [mujoco.MjData(self.model) for _ in range(self.threads)]
-        self._scratch = mujoco.MjData(self.model)
 
     def evaluate(
         self,
@@ -182,34 +182,39 @@ class BatchEvaluator:
         steps: int,
         warmup_s: float,
     ) -> tuple[dict[str, Any], Trace]:
-        model, data = self.model, self._scratch
-        nq = model.nq
-        gyro = self.robot.gyro_adr
-        trace = Trace()
-        fell = blew_up = False
-        frames_done = 0
-        for k in range(n_frames):
-            row = (k + 1) * steps - 1  # the state after the frame's last physics step
-            qpos = states[row, 1 : 1 + nq]
-            frames_done = k + 1
-            # MuJoCo resets a blown-up state itself (time restarts at 0): that is a blow-up too
-            expected_time = start.state[0] + (row + 1) * model.opt.timestep
-            if not np.all(np.isfinite(qpos)) or abs(states[row, 0] - expected_time) > 1e-6:
-                fell = blew_up = True
-                break
-            # feet as `Simulation` reads them: site positions MuJoCo computed in the frame's last
-            # step, i.e. from the state one step before the sampled one
-            data.qpos[:] = states[row - 1, 1 : 1 + nq]
-            mujoco.mj_kinematics(model, data)
-            trace.append(
-                frames_done * FRAME_S,
-                (float(qpos[0]), float(qpos[1]), trunk_yaw(qpos[3:7])),
-                sensors[row, gyro : gyro + 3].copy(),
-                sole_distance_m(data),
-            )
-            if has_fallen(qpos, start.standing_height_m):
-                fell = True
-                break
+        """The run's frames as `Simulation` samples them, in whole arrays: the state after each
+        frame's last physics step, and the sensors of that step -- whose sole positions MuJoCo
+        computed from the state one step earlier, as `Simulation` reads the sites after it."""
+        model = self.model
+        rows = np.arange(1, n_frames + 1) * steps - 1
+        qpos = states[rows, 1 : 1 + model.nq]
+        # MuJoCo resets a blown-up state itself (time restarts at 0): that is a blow-up too
+        expected_time = start.state[0] + (rows + 1) * model.opt.timestep
+        bad = ~np.all(np.isfinite(qpos), axis=1) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
+        first_bad = int(np.argmax(bad)) if bad.any() else n_frames
+        down = has_fallen(qpos[:first_bad], start.standing_height_m)
+        if down.any():  # the frame it fell in is still sampled, as in `Simulation`
+            fell, blew_up = True, False
+            samples = frames_done = int(np.argmax(down)) + 1
+        elif first_bad < n_frames:  # the blown-up frame is not
+            fell = blew_up = True
+            samples, frames_done = first_bad, first_bad + 1
+        else:
+            fell = blew_up = False
+            samples = frames_done = n_frames
+        rows, qpos = rows[:samples], qpos[:samples]
+        sens = sensors[rows]  # a copy: the trace keeps none of the chunk's arrays alive
+        gyro, (left, right) = self.robot.gyro_adr, self.robot.sole_adr
+        trace = Trace(
+            t_s=(np.arange(1, samples + 1) * FRAME_S).tolist(),
+            x_m=qpos[:, 0].tolist(),
+            y_m=qpos[:, 1].tolist(),
+            yaw_rad=[trunk_yaw(q) for q in qpos[:, 3:7]],
+            gyro_rad_s=list(sens[:, gyro : gyro + 3]),
+            feet_distance_m=planar_distance_m(
+                sens[:, left : left + 3], sens[:, right : right + 3]
+            ).tolist(),
+        )
         metrics: dict[str, Any] = {"fell": fell}
         if fell:
             metrics["fall_time_s"] = round(frames_done * FRAME_S, 3)

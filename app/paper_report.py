@@ -225,8 +225,11 @@ def circle_lines(c: dict[str, Any] | None) -> list[str]:
     head = f"full circle, CA = {c['ca']}: turned {c['turned_deg']:+.0f} deg in {c['run_s']:.0f} s"
     if c["fell"]:
         return [head + ", then FELL"]
+    rates = f"measured {fmt(c['rate_deg_s'])} deg/s, eq (13) {fmt(c['predicted_rate_deg_s'])} deg/s"
     if c["completed"]:
-        return [head + ": a full circle"]
+        rate, eq13 = c["rate_deg_s"], c["predicted_rate_deg_s"]
+        way = "" if rate is None or eq13 is None or rate * eq13 > 0 else ", AGAINST eq (13)"
+        return [f"{head}: a full circle{way}", f"  ({rates})"]
     circle_s, pred_s = c["circle_s"], c["predicted_circle_s"]
     measured = "never (no turn)" if circle_s is None else f"{circle_s:.0f} s"
     predicted = "never" if pred_s is None else f"{pred_s:.0f} s"

@@ -29,6 +29,7 @@ class RobotModel:
     actuator_ids: NDArray[np.int_]  # (12,) actuator index
     trunk_id: int
     gyro_adr: int  # sensordata index of the 3-axis trunk gyro
+    sole_adr: tuple[int, int]  # sensordata index of the left and right sole centre positions
 
     @classmethod
     def load(cls, path: Path | str = ARTRO_XML) -> RobotModel:
@@ -45,7 +46,8 @@ class RobotModel:
             dof_adr=np.array(dof),
             actuator_ids=np.array(act),
             trunk_id=int(model.body("trunk").id),
-            gyro_adr=int(model.sensor("imu_gyro").adr[0]),
+            gyro_adr=_sensor_adr(model, "imu_gyro"),
+            sole_adr=(_sensor_adr(model, "l_sole_pos"), _sensor_adr(model, "r_sole_pos")),
         )
 
     def leg_geometry(self) -> LegGeometry:
@@ -71,6 +73,10 @@ class RobotModel:
         mujoco.mj_kinematics(self.model, data)
         lowest = min(lowest_sole_z(data, side) for side in ("l", "r"))
         return -lowest
+
+
+def _sensor_adr(model: mujoco.MjModel, name: str) -> int:
+    return int(model.sensor(name).adr[0])
 
 
 def lowest_sole_z(data: mujoco.MjData, side: str) -> float:

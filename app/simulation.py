@@ -57,18 +57,26 @@ def trunk_yaw(quat_wxyz: NDArray[np.float64]) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
-def has_fallen(qpos: NDArray[np.float64], standing_height_m: float) -> bool:
-    """Trunk below 60 % of its standing height, or tilted more than 50 degrees."""
-    up_z = 1.0 - 2.0 * (qpos[4] ** 2 + qpos[5] ** 2)  # trunk z axis, world z part
-    return bool(
-        qpos[2] < FALL_HEIGHT_FRACTION * standing_height_m or up_z < math.cos(FALL_TILT_RAD)
+def has_fallen(qpos: NDArray[np.float64], standing_height_m: float) -> NDArray[np.bool_]:
+    """Trunk below 60 % of its standing height, or tilted more than 50 degrees; qpos may be one
+    state (nq,) or many (..., nq), with the same arithmetic either way."""
+    up_z = 1.0 - 2.0 * (qpos[..., 4] ** 2 + qpos[..., 5] ** 2)  # trunk z axis, world z part
+    return (qpos[..., 2] < FALL_HEIGHT_FRACTION * standing_height_m) | (
+        up_z < math.cos(FALL_TILT_RAD)
     )
+
+
+def planar_distance_m(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance in the ground plane between points (..., >= 2), elementwise arithmetic only, so
+    one point pair and many give the same bits."""
+    dx, dy = a[..., 0] - b[..., 0], a[..., 1] - b[..., 1]
+    return np.sqrt(dx * dx + dy * dy)
 
 
 def sole_distance_m(data: mujoco.MjData) -> float:
     """Distance between the sole centres in the ground plane (the differential drive's b), from
     the site positions MuJoCo last computed."""
-    return float(np.linalg.norm(data.site("l_sole").xpos[:2] - data.site("r_sole").xpos[:2]))
+    return float(planar_distance_m(data.site("l_sole").xpos, data.site("r_sole").xpos))
 
 
 @dataclass(frozen=True)

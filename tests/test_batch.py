@@ -2,6 +2,7 @@
 
 import numpy as np
 import pytest
+from mujoco import rollout
 
 from app.batch import BatchEvaluator, Job, control_sequence, start_of
 from app.metrics import MOTION_METRICS
@@ -72,3 +73,21 @@ def test_progress_is_reported():
 def test_short_runs(duration):
     (metrics,) = EVALUATOR.evaluate([Job(GaitParams(), Motion())], duration_s=duration, warmup_s=0)
     assert metrics["sim_s"] == pytest.approx(duration) and not metrics["fell"]
+
+
+def test_a_blown_up_frame_ends_the_run_unsampled():
+    # a real one-second rollout, then a NaN in the state after frame 11's last step, as a
+    # blow-up leaves it: frames 1-10 are sampled, the run counts 11 frames, fell and blew up
+    job = Job(GaitParams(), Motion(a_p=0.07))
+    sims, starts, controls, initial = EVALUATOR._plan([job], 50)
+    states, sensors = rollout.rollout(EVALUATOR.model, EVALUATOR._datas[:1], initial, controls)
+    steps = sims[0].steps_per_frame
+    original = states[0, 11 * steps - 1, 3]  # time, then qpos: the trunk's height
+    states[0, 11 * steps - 1, 3] = np.nan
+    metrics, trace = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, steps, 0.1)
+    assert metrics["fell"] and metrics["blew_up"] and "fall_time_s" in metrics
+    assert metrics["sim_s"] == pytest.approx(11 * 0.02) and len(trace.t_s) == 10
+    states[0, 11 * steps - 1, 3] = original
+    clean, whole = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, steps, 0.1)
+    assert not clean["fell"] and len(whole.t_s) == 50
+    assert whole.x_m[:10] == trace.x_m and whole.feet_distance_m[:10] == trace.feet_distance_m
