@@ -1,10 +1,10 @@
 """The runs of `artro bench paper`: presets, the job list, and batch rollouts that keep the path.
 
 For each preset (a parameter-set file; only its gait constants are used) the bench runs every case
-of `app.paper_cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA over
-a range, out to where the robot falls. All these runs of all presets go to one
-`BatchEvaluator.evaluate` call so its threads stay busy. A second call walks CA = 0.058 forward
-long enough for a full circle (seed 004, Fig. 5).
+of `app.paper_cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA up
+to the ends of its range (+-0.5), to find where the robot falls. All these runs of all presets go
+to one `BatchEvaluator.evaluate` call so its threads stay busy. A second call walks CA = 0.058
+forward long enough for a full circle (seed 004, Fig. 5).
 
 The plots need the trunk path as well as the metrics: the evaluator hands out each run's trace,
 one sample per 20 ms frame -- the very samples the metrics are computed from.

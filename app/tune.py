@@ -141,6 +141,7 @@ def curve_loss(
     minus: dict[str, Any],
     straight: dict[str, Any],
     duration_s: float,
+    steering_weight: float = 1.0,
 ) -> float:
     """A fall as in `case_loss` (the straight walk is a case of its own); else the squared
     distance of the steering gain from 1 and the squared bend (`app.paper_cases.Steering`)."""
@@ -150,17 +151,21 @@ def curve_loss(
     s = steering(plus, minus, straight)
     if s is None:
         return FALL_LOSS if not straight["fell"] else 0.0
-    return STEERING_WEIGHT[pair.required] * ((s.gain - 1.0) ** 2 + BEND_WEIGHT * s.bend**2)
+    weight = steering_weight * STEERING_WEIGHT[pair.required]
+    return weight * ((s.gain - 1.0) ** 2 + BEND_WEIGHT * s.bend**2)
 
 
 def total_loss(
-    by_run: dict[str, dict[str, Any]], duration_s: float, band_weight: float = 0.0
+    by_run: dict[str, dict[str, Any]],
+    duration_s: float,
+    band_weight: float = 0.0,
+    steering_weight: float = 1.0,
 ) -> float:
     """The loss of one parameter set from its runs' metrics, keyed by JUDGED_RUNS names."""
     loss = sum(case_loss(c, by_run[c.name], duration_s, band_weight) for c in CASES)
     for pair in CURVES:
         plus, minus = (by_run[name] for name in curve_run_names(pair))
-        loss += curve_loss(pair, plus, minus, by_run[pair.straight], duration_s)
+        loss += curve_loss(pair, plus, minus, by_run[pair.straight], duration_s, steering_weight)
     gyro = [m["gyro_rms"] for m in by_run.values() if m.get("gyro_rms") is not None]
     return loss + GYRO_WEIGHT * (float(np.mean(gyro)) if gyro else 10.0)
 
@@ -178,12 +183,14 @@ class Tuner:
         sigma0: float = 0.12,
         seed: int = 1,
         band_weight: float = 0.0,
+        steering_weight: float = 1.0,
     ) -> None:
         self.base = base
         self.dims = dimensions(names)
         self.evaluator = evaluator or BatchEvaluator()
         self.duration_s, self.warmup_s = duration_s, warmup_s
         self.band_weight = band_weight
+        self.steering_weight = steering_weight
         start = base.gait.flat()
         x0 = [dim.to_unit(float(start[dim.name])) for dim in self.dims]
         options = {
@@ -205,6 +212,8 @@ class Tuner:
         }
         if band_weight:
             self.settings["band_weight"] = band_weight
+        if steering_weight != 1.0:
+            self.settings["steering_weight"] = steering_weight
         self.best: tuple[float, GaitParams, dict[str, dict[str, Any]]] | None = None
         self.evaluated: list[tuple[float, GaitParams, dict[str, dict[str, Any]]]] = []
         self.generation = 0
@@ -228,7 +237,7 @@ class Tuner:
         for i, params in enumerate(sets):
             runs = zip(JUDGED_RUNS, metrics[i * n : (i + 1) * n], strict=True)
             by_run = {name: m for (name, _motion), m in runs}
-            loss = total_loss(by_run, self.duration_s, self.band_weight)
+            loss = total_loss(by_run, self.duration_s, self.band_weight, self.steering_weight)
             out.append((loss, by_run))
             self._record(loss, params, by_run)
         return out
@@ -381,6 +390,12 @@ def add_arguments(parser: Any) -> None:
         default=0.0,
         help="extra penalty per case for errors beyond 20 %% (the tolerance is 25 %%)",
     )
+    parser.add_argument(
+        "--steering-weight",
+        type=float,
+        default=1.0,
+        help="scale of the CA steering terms (gain toward eq (13), bend) in the loss",
+    )
     parser.add_argument("--threads", type=int, default=None)
     parser.add_argument("--results", default="out/tune/results.jsonl", help="resumable log")
     parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
@@ -417,6 +432,7 @@ def command(args: Any) -> int:
         sigma0=args.sigma,
         seed=args.seed,
         band_weight=args.band_weight,
+        steering_weight=args.steering_weight,
     )
     tuner.settings["set"] = args.set
     results = Path(args.results)
