@@ -60,7 +60,6 @@ DEFAULT_NAMES = (
     "balance.leg_roll_offset",
 )
 FALL_LOSS = 20.0  # a fall costs this much, plus as much again scaled by how early it came
-CROSS_TALK_WEIGHT = 0.2  # unwanted rotation while translating, translation while turning
 GYRO_WEIGHT = 0.05
 BAND_MARGIN = 0.2  # the band penalty starts at 20 % error, inside the 25 % tolerance
 STEERING_WEIGHT = {True: 1.0, False: 0.5}  # the required (forward) pair, the backward one
@@ -111,10 +110,30 @@ def with_values(base: GaitParams, dims: Sequence[Dimension], unit: np.ndarray) -
     return merge(base, patch)
 
 
+@dataclass(frozen=True)
+class LossWeights:
+    """The weights `artro tune` lets one change; a results file records those not at default."""
+
+    band: float = 0.0  # > 0: a steep extra penalty per case for errors beyond BAND_MARGIN
+    steering: float = 1.0  # scale of the CA steering terms (gain toward eq (13), bend)
+    cross_talk: float = 0.2  # unwanted rotation while translating, translation while turning
+
+    def settings(self) -> dict[str, float]:
+        default = LossWeights()
+        return {
+            f"{f.name}_weight": getattr(self, f.name)
+            for f in dataclasses.fields(self)
+            if getattr(self, f.name) != getattr(default, f.name)
+        }
+
+
 def case_loss(
-    case: PaperCase, metrics: dict[str, Any], duration_s: float, band_weight: float = 0.0
+    case: PaperCase,
+    metrics: dict[str, Any],
+    duration_s: float,
+    weights: LossWeights = LossWeights(),
 ) -> float:
-    """One case's loss; `band_weight` > 0 adds a steep penalty for leaving the tolerance band."""
+    """One case's loss: the relative speed error squared, plus the cross-talk terms."""
     if metrics["fell"]:
         fall_time = metrics.get("fall_time_s", 0.0)
         return FALL_LOSS * (2.0 - fall_time / duration_s)
@@ -124,14 +143,14 @@ def case_loss(
     if case.metric == "drift_cm_s":
         loss = (value / SPOT_DRIFT_LIMIT_CM_S) ** 2
         turn = metrics["turn_deg_s"] or 0.0
-        return loss + CROSS_TALK_WEIGHT * (turn / 5.0) ** 2
+        return loss + weights.cross_talk * (turn / 5.0) ** 2
     error = (value - case.paper) / case.paper
-    loss = error**2 + band_weight * max(0.0, abs(error) - BAND_MARGIN) ** 2
+    loss = error**2 + weights.band * max(0.0, abs(error) - BAND_MARGIN) ** 2
     if case.metric == "turn_deg_s":
         drift = math.hypot(metrics["forward_cm_s"], metrics["lateral_cm_s"])
-        loss += CROSS_TALK_WEIGHT * (drift / 1.0) ** 2
+        loss += weights.cross_talk * (drift / 1.0) ** 2
     else:
-        loss += CROSS_TALK_WEIGHT * ((metrics["turn_deg_s"] or 0.0) / 5.0) ** 2
+        loss += weights.cross_talk * ((metrics["turn_deg_s"] or 0.0) / 5.0) ** 2
     return loss
 
 
@@ -141,7 +160,7 @@ def curve_loss(
     minus: dict[str, Any],
     straight: dict[str, Any],
     duration_s: float,
-    steering_weight: float = 1.0,
+    weights: LossWeights = LossWeights(),
 ) -> float:
     """A fall as in `case_loss` (the straight walk is a case of its own); else the squared
     distance of the steering gain from 1 and the squared bend (`app.paper_cases.Steering`)."""
@@ -151,21 +170,18 @@ def curve_loss(
     s = steering(plus, minus, straight)
     if s is None:
         return FALL_LOSS if not straight["fell"] else 0.0
-    weight = steering_weight * STEERING_WEIGHT[pair.required]
+    weight = weights.steering * STEERING_WEIGHT[pair.required]
     return weight * ((s.gain - 1.0) ** 2 + BEND_WEIGHT * s.bend**2)
 
 
 def total_loss(
-    by_run: dict[str, dict[str, Any]],
-    duration_s: float,
-    band_weight: float = 0.0,
-    steering_weight: float = 1.0,
+    by_run: dict[str, dict[str, Any]], duration_s: float, weights: LossWeights = LossWeights()
 ) -> float:
     """The loss of one parameter set from its runs' metrics, keyed by JUDGED_RUNS names."""
-    loss = sum(case_loss(c, by_run[c.name], duration_s, band_weight) for c in CASES)
+    loss = sum(case_loss(c, by_run[c.name], duration_s, weights) for c in CASES)
     for pair in CURVES:
         plus, minus = (by_run[name] for name in curve_run_names(pair))
-        loss += curve_loss(pair, plus, minus, by_run[pair.straight], duration_s, steering_weight)
+        loss += curve_loss(pair, plus, minus, by_run[pair.straight], duration_s, weights)
     gyro = [m["gyro_rms"] for m in by_run.values() if m.get("gyro_rms") is not None]
     return loss + GYRO_WEIGHT * (float(np.mean(gyro)) if gyro else 10.0)
 
@@ -182,15 +198,13 @@ class Tuner:
         popsize: int = 10,
         sigma0: float = 0.12,
         seed: int = 1,
-        band_weight: float = 0.0,
-        steering_weight: float = 1.0,
+        weights: LossWeights = LossWeights(),
     ) -> None:
         self.base = base
         self.dims = dimensions(names)
         self.evaluator = evaluator or BatchEvaluator()
         self.duration_s, self.warmup_s = duration_s, warmup_s
-        self.band_weight = band_weight
-        self.steering_weight = steering_weight
+        self.weights = weights
         start = base.gait.flat()
         x0 = [dim.to_unit(float(start[dim.name])) for dim in self.dims]
         options = {
@@ -210,10 +224,7 @@ class Tuner:
             "seed": seed,
             "runs": [name for name, _motion in JUDGED_RUNS],
         }
-        if band_weight:
-            self.settings["band_weight"] = band_weight
-        if steering_weight != 1.0:
-            self.settings["steering_weight"] = steering_weight
+        self.settings |= weights.settings()
         self.best: tuple[float, GaitParams, dict[str, dict[str, Any]]] | None = None
         self.evaluated: list[tuple[float, GaitParams, dict[str, dict[str, Any]]]] = []
         self.generation = 0
@@ -237,7 +248,7 @@ class Tuner:
         for i, params in enumerate(sets):
             runs = zip(JUDGED_RUNS, metrics[i * n : (i + 1) * n], strict=True)
             by_run = {name: m for (name, _motion), m in runs}
-            loss = total_loss(by_run, self.duration_s, self.band_weight, self.steering_weight)
+            loss = total_loss(by_run, self.duration_s, self.weights)
             out.append((loss, by_run))
             self._record(loss, params, by_run)
         return out
@@ -396,6 +407,12 @@ def add_arguments(parser: Any) -> None:
         default=1.0,
         help="scale of the CA steering terms (gain toward eq (13), bend) in the loss",
     )
+    parser.add_argument(
+        "--cross-talk-weight",
+        type=float,
+        default=0.2,
+        help="weight of unwanted rotation while translating and translation while turning",
+    )
     parser.add_argument("--threads", type=int, default=None)
     parser.add_argument("--results", default="out/tune/results.jsonl", help="resumable log")
     parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
@@ -431,8 +448,9 @@ def command(args: Any) -> int:
         popsize=args.popsize,
         sigma0=args.sigma,
         seed=args.seed,
-        band_weight=args.band_weight,
-        steering_weight=args.steering_weight,
+        weights=LossWeights(
+            band=args.band_weight, steering=args.steering_weight, cross_talk=args.cross_talk_weight
+        ),
     )
     tuner.settings["set"] = args.set
     results = Path(args.results)
