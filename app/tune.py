@@ -310,10 +310,24 @@ class Tuner:
         if self.best is None or loss < self.best[0]:
             self.best = (loss, params, by_run)
 
-    def best_passing(self) -> tuple[float, GaitParams, dict[str, dict[str, Any]]] | None:
-        """The lowest-loss candidate that meets every paper criterion, if any did."""
+    def best_passing(
+        self, by: str = "loss"
+    ) -> tuple[float, GaitParams, dict[str, dict[str, Any]]] | None:
+        """Of the candidates that meet every paper criterion (if any did): the lowest loss
+        (by="loss"), or the one CA steers most, forward (by="steering": the highest gain)."""
         passing = [e for e in self.evaluated if meets_all_criteria(e[2])]
-        return min(passing, key=lambda e: e[0]) if passing else None
+        if not passing:
+            return None
+        if by == "steering":
+            pair = next(p for p in CURVES if p.required)
+
+            def gain(entry: tuple[float, GaitParams, dict[str, dict[str, Any]]]) -> float:
+                plus, minus = (entry[2][name] for name in curve_run_names(pair))
+                s = steering(plus, minus, entry[2][pair.straight])
+                return -math.inf if s is None else s.gain
+
+            return max(passing, key=gain)
+        return min(passing, key=lambda e: e[0])
 
 
 def meets_all_criteria(by_run: dict[str, dict[str, Any]]) -> bool:
@@ -419,9 +433,10 @@ def add_arguments(parser: Any) -> None:
     parser.add_argument("--name", default="tuned", help="name of the saved preset")
     parser.add_argument(
         "--select",
-        choices=("best", "passing"),
+        choices=("best", "passing", "steering"),
         default="best",
-        help="save the lowest loss, or the lowest loss that meets every paper criterion",
+        help="save the lowest loss; the lowest loss that meets every paper criterion; or of "
+        "those, the one CA steers most (forward)",
     )
 
 
@@ -457,8 +472,8 @@ def command(args: Any) -> int:
     results.parent.mkdir(parents=True, exist_ok=True)
     tuner.run(args.generations, results)
     chosen = tuner.best
-    if args.select == "passing":
-        chosen = tuner.best_passing()
+    if args.select in ("passing", "steering"):
+        chosen = tuner.best_passing(by="loss" if args.select == "passing" else "steering")
         if chosen is None:
             print("no candidate met every criterion; saving the lowest loss instead")
             chosen = tuner.best

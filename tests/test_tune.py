@@ -129,3 +129,24 @@ def test_the_criteria_include_ca_steering():
     by_run[names[0]] = curve_run(1.0, -3.0)  # forward CA steers the wrong way
     by_run[names[1]] = curve_run(-1.0, 3.0)
     assert not meets_all_criteria(by_run)
+
+
+def test_select_the_passing_set_with_the_lowest_loss_or_the_most_steering():
+    def judged(gain: float) -> dict:
+        by_run = {}
+        for case in CASES:
+            m = {"forward_cm_s": 0.0, "lateral_cm_s": 0.0, "turn_deg_s": 0.0, "fell": False}
+            if case.metric != "drift_cm_s":
+                m[case.metric] = case.paper
+            by_run[case.name] = m | {"predicted_turn_deg_s": 0.0}
+        names = [name for name, _motion in JUDGED_RUNS[len(CASES) :]]
+        for plus, minus in zip(names[::2], names[1::2], strict=True):
+            by_run[plus], by_run[minus] = curve_run(-3.0 * gain, -3.0), curve_run(3 * gain, 3.0)
+        return by_run
+
+    tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
+    params = POOR.gait
+    wrong_way = (0.5, params, judged(-0.2))  # the lowest loss, but CA steers the wrong way
+    tuner.evaluated = [(1.0, params, judged(0.1)), (2.0, params, judged(0.4)), wrong_way]
+    assert tuner.best_passing()[0] == 1.0
+    assert tuner.best_passing(by="steering")[0] == 2.0
