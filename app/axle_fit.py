@@ -16,14 +16,13 @@ import math
 import threading
 from dataclasses import dataclass
 
-import numpy as np
-
 from app.batch import BatchEvaluator, Job
 from app.ca_analysis import fit_axle
-from app.metrics import Trace, whole_cycles
+from app.paths import PathTracker
 from gait import GaitParams, Motion
 
 FIT_CA = (-0.1, 0.0, 0.1)
+NOT_APPLIED = "CA does not steer this gait the way eq (13) says (b_eff <= 0)"
 DEFAULT_A_P = 0.07  # seed 000's forward amplitude, used when the robot is not walking
 MIN_A_P = 0.02  # below this the sagittal step is too short to steer with
 DURATION_S = 20.0
@@ -42,8 +41,16 @@ class AxleFitResult:
     turn_deg_s: tuple[float, ...]
     sim_s: float
 
+    @property
+    def applies(self) -> bool:
+        """A prediction can use it: CA turns the robot the way eq (13) says (b_eff > 0)."""
+        return self.axle_eff_m is not None and self.axle_eff_m > 0
+
     def to_dict(self) -> dict:
-        return dataclasses.asdict(self)
+        return dataclasses.asdict(self) | {
+            "applied": self.applies,
+            "reason": None if self.applies else NOT_APPLIED,
+        }
 
 
 class AxleFitError(RuntimeError):
@@ -65,9 +72,8 @@ def fit_effective_axle(
     a_p = walking_amplitude(motion)
     base = dataclasses.replace(motion, a_p=a_p)
     jobs = [Job(params, dataclasses.replace(base, ca=ca)) for ca in FIT_CA]
-    traces: list[Trace] = []
     evaluator = evaluator or BatchEvaluator(threads=1)
-    results = evaluator.evaluate(jobs, duration_s=duration_s, warmup_s=warmup_s, traces=traces)
+    results = evaluator.evaluate(jobs, duration_s=duration_s, warmup_s=warmup_s)
     if any(r["fell"] for r in results):
         fell = [ca for ca, r in zip(FIT_CA, results, strict=True) if r["fell"]]
         raise AxleFitError(f"the robot fell walking at a_p = {a_p:+.3f} with CA = {fell}")
@@ -77,9 +83,7 @@ def fit_effective_axle(
         raise AxleFitError(f"the robot does not walk at a_p = {a_p:+.3f} ({speed * 100:.2f} cm/s)")
     turns = [math.radians(r["turn_deg_s"]) for r in results]
     fit = fit_axle(FIT_CA, turns, speed)
-    feet_trace = traces[FIT_CA.index(0.0)].arrays()
-    window = whole_cycles(feet_trace["t"], warmup_s, params.clock.freq_hz)
-    feet = float(np.mean(feet_trace["feet"][window]))
+    feet = straight["feet_distance_cm"] / 100.0
     gain = None if fit.axle_eff_m is None else feet / fit.axle_eff_m
     return AxleFitResult(
         axle_eff_m=fit.axle_eff_m,
@@ -101,11 +105,15 @@ class AxleFitter:
         self._busy = threading.Lock()
         self.last: AxleFitResult | None = None
 
-    def fit(self, params: GaitParams, motion: Motion) -> AxleFitResult:
+    def fit(self, params: GaitParams, motion: Motion, paths: PathTracker) -> AxleFitResult:
+        """Fit, and let `paths` predict with b_eff when it applies."""
         if not self._busy.acquire(blocking=False):
             raise RuntimeError("an axle fit is already running; wait for it to finish")
         try:
             self.last = fit_effective_axle(params, motion)
-            return self.last
         finally:
             self._busy.release()
+        if self.last.applies:
+            assert self.last.axle_eff_m is not None
+            paths.set_axle(self.last.axle_eff_m, "fitted")
+        return self.last

@@ -6,7 +6,7 @@ follow ROS: forward = +x of the trunk, lateral = +y (to the robot's left), turn 
 counter-clockwise. `gyro_rms` is the RMS of the trunk angular-velocity magnitude in
 rad/s (seed 004's stability measure). `predicted_turn_deg_s` and `path_error_cm` come from the
 differential-drive model (gait.steering) with V = the measured forward speed and b = the measured
-mean distance between the feet.
+mean distance between the feet, `feet_distance_cm`.
 """
 
 from __future__ import annotations
@@ -28,6 +28,7 @@ MOTION_METRICS = (
     "predicted_turn_deg_s",
     "path_error_cm",
     "gyro_rms",
+    "feet_distance_cm",
 )
 
 
@@ -126,4 +127,5 @@ def compute_metrics(
         "predicted_turn_deg_s": math.degrees(predicted_turn),
         "path_error_cm": 100.0 * float(path_error),
         "gyro_rms": float(np.sqrt(np.mean(np.sum(gyro**2, axis=1)))),
+        "feet_distance_cm": 100.0 * axle,
     }

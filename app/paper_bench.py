@@ -132,8 +132,8 @@ def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, A
     ref = next(r for r in walks if r.motion.ca == 0)
     v_cm_s = finite_or_none(ref.metrics["forward_cm_s"])
     speed = None if v_cm_s is None else v_cm_s / 100.0
-    feet = ref.trace.feet_m[ref.trace.window(warmup_s, freq_hz)]
-    axle = float(np.nanmean(feet)) if np.isfinite(feet).any() else None
+    feet_cm = finite_or_none(ref.metrics["feet_distance_cm"])
+    axle = None if feet_cm is None else feet_cm / 100.0
     drift = finite_or_none(ref.metrics["turn_deg_s"])
     rows = [_walk_row(r, speed, axle, drift) for r in walks]
     usable = [r for r in rows if abs(r["ca"]) <= ca_math.FIT_CA_LIMIT + 1e-9 and not r["fell"]]

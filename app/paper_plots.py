@@ -64,14 +64,14 @@ def _path_panel(ax: Axes, run: Run, title: str, warmup_s: float, freq_hz: float)
     )
     window = tr.window(warmup_s, freq_hz)
     speed_cm_s = run.metrics.get("forward_cm_s")
-    feet = tr.feet_m[window]
-    if window.start < len(tr.t_s) and speed_cm_s is not None and np.isfinite(feet).any():
+    feet_cm = run.metrics.get("feet_distance_cm")
+    if window.start < len(tr.t_s) and speed_cm_s is not None and feet_cm is not None:
         i0 = window.start
         if np.isfinite(x_mean[i0]):  # anchor on the cycle-mean path where it exists
             anchor = Pose2D(float(x_mean[i0]), float(y_mean[i0]), float(yaw_mean[i0]))
         else:
             anchor = Pose2D(float(tr.x_m[i0]), float(tr.y_m[i0]), float(tr.yaw_rad[i0]))
-        axle_m = float(np.nanmean(feet))
+        axle_m = feet_cm / 100.0
         t_rel_s = tr.t_s[i0:] - tr.t_s[i0]
         pred = predict_path(anchor, speed_cm_s / 100.0, run.motion.ca, axle_m, t_rel_s)
         ax.plot(

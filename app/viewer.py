@@ -18,6 +18,7 @@ import mjviser
 import numpy as np
 import viser
 
+from app.axle_fit import NOT_APPLIED
 from app.schema import schema_description
 from app.store import NothingToUndo, Snapshot
 
@@ -117,19 +118,17 @@ class Viewer:
     def _fit_axle(self) -> None:
         snap = self.store.snapshot()
         try:
-            r = self.runtime.axle_fitter.fit(snap.gait, snap.motion)
+            r = self.runtime.axle_fitter.fit(snap.gait, snap.motion, self.sim.paths)
         except Exception as exc:  # a callback thread: say what went wrong instead of dying
             self._fit_text.content = f"no fit: {exc}"
         else:
-            if r.axle_eff_m is not None and r.axle_eff_m > 0:
-                self.sim.paths.set_axle(r.axle_eff_m, "fitted")
-                assert r.gain is not None
+            if r.applies and r.axle_eff_m is not None and r.gain is not None:
                 self._fit_text.content = (
                     f"b_eff = {100 * r.axle_eff_m:.1f} cm (feet {100 * r.feet_m:.1f} cm): "
                     f"CA steers at {100 * r.gain:.0f} % of eq (13), at a_p = {r.a_p:+.3f}"
                 )
             else:
-                self._fit_text.content = "not applied: CA does not steer this gait as eq (13) says"
+                self._fit_text.content = f"not applied: {NOT_APPLIED}"
         finally:
             self._fit_button.disabled = False
 

@@ -6,6 +6,7 @@ import pytest
 
 from app.axle_fit import AxleFitter, fit_effective_axle, walking_amplitude
 from app.paramset import load_parameter_set
+from app.paths import PathTracker
 from app.presets import BUILTIN_DIR
 from gait import Motion
 
@@ -33,4 +34,4 @@ def test_one_fit_at_a_time():
     fitter = AxleFitter()
     fitter._busy.acquire()  # a fit is running
     with pytest.raises(RuntimeError, match="already running"):
-        fitter.fit(TUNED, Motion(a_p=0.07))
+        fitter.fit(TUNED, Motion(a_p=0.07), PathTracker())

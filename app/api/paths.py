@@ -51,12 +51,8 @@ def fit_axle(runtime: RuntimeDep) -> dict[str, Any]:
     0, +0.1 at the current a_p, 20 s each, in the background) and predict with it."""
     snap = runtime.store.snapshot()
     try:
-        result = runtime.axle_fitter.fit(snap.gait, snap.motion)
+        result = runtime.axle_fitter.fit(snap.gait, snap.motion, runtime.sim.paths)
     except RuntimeError as exc:  # busy, or the robot fell / did not walk (AxleFitError)
         status = 422 if isinstance(exc, AxleFitError) else 409
         raise HTTPException(status, str(exc)) from exc
-    applied = result.axle_eff_m is not None and result.axle_eff_m > 0
-    if applied:
-        runtime.sim.paths.set_axle(result.axle_eff_m, "fitted")
-    reason = None if applied else "CA does not steer this gait the way eq (13) says (b_eff <= 0)"
-    return result.to_dict() | {"applied": applied, "reason": reason, "params_version": snap.version}
+    return result.to_dict() | {"params_version": snap.version}
