@@ -8,9 +8,16 @@ model, for the experiment only (the shipped model is unchanged):
   --friction MU   every geom's sliding friction set to MU
   --sole-grid     each foot plate's collision replaced by a 5 x 3 grid of 2 mm spheres under
                   the sole (a distributed contact instead of box-plane corner points)
+  --contact-timeconst S
+                  every geom's contact time constant (solref[0]; MuJoCo's default 0.02 s):
+                  smaller is a harder floor
+  --elliptic      elliptic friction cones instead of MuJoCo's default pyramidal ones
+
+and, for the gait, --set GROUP.FIELD=VALUE (repeatable) on top of the preset.
 
     python bench/ca_response.py [--preset tuned] [--a-p 0.07] [--duration 30] \
-        [--friction 0.5] [--sole-grid]
+        [--friction 0.5] [--sole-grid] [--contact-timeconst 0.005] [--elliptic] \
+        [--set swing.v=3.0 --set swing.o=0.226]
 """
 
 from __future__ import annotations
@@ -20,12 +27,15 @@ import re
 import tempfile
 from pathlib import Path
 
+import mujoco
+
 from app.batch import BatchEvaluator, Job
 from app.paper_cases import steering
 from app.paramset import load_parameter_set
 from app.presets import BUILTIN_DIR
 from app.robot import ARTRO_XML, RobotModel
-from gait import Motion
+from gait import GaitParams, Motion
+from gait.params import merge
 
 SWEEP = (-0.2, -0.15, -0.1, -0.05, -0.025, 0.0, 0.025, 0.05, 0.1, 0.15, 0.2)
 GRID_X_M = (-0.056, -0.028, 0.0, 0.028, 0.056)
@@ -52,7 +62,12 @@ def sole_grid_xml(xml: str) -> str:
     return xml
 
 
-def load_robot(friction: float | None, sole_grid: bool) -> RobotModel:
+def load_robot(
+    friction: float | None,
+    sole_grid: bool,
+    contact_timeconst_s: float | None = None,
+    elliptic: bool = False,
+) -> RobotModel:
     path = Path(ARTRO_XML)
     if sole_grid:
         variant = Path(tempfile.mkdtemp()) / "artro_sole_grid.xml"
@@ -61,7 +76,40 @@ def load_robot(friction: float | None, sole_grid: bool) -> RobotModel:
     robot = RobotModel.load(path)
     if friction is not None:
         robot.model.geom_friction[:, 0] = friction
+    if contact_timeconst_s is not None:
+        robot.model.geom_solref[:, 0] = contact_timeconst_s
+    if elliptic:
+        robot.model.opt.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
     return robot
+
+
+def with_overrides(params: GaitParams, settings: list[str]) -> GaitParams:
+    """`params` with each "group.field=value" applied (the schema checks names and ranges)."""
+    patch: dict[str, dict[str, float]] = {}
+    for setting in settings:
+        name, sep, value = setting.partition("=")
+        group, dot, field = name.partition(".")
+        if not sep or not dot:
+            raise SystemExit(f"--set takes GROUP.FIELD=VALUE, e.g. swing.v=3.0; got {setting!r}")
+        try:
+            patch.setdefault(group, {})[field] = float(value)
+        except ValueError:
+            raise SystemExit(f"--set {name}: {value!r} is not a number") from None
+    try:
+        return merge(params, patch)
+    except ValueError as err:
+        raise SystemExit(f"--set: {err}") from None
+
+
+def describe_variant(args: argparse.Namespace) -> str:
+    parts = [f"friction {args.friction if args.friction is not None else 'as built'}"]
+    parts.append("sole grid" if args.sole_grid else "box soles")
+    if args.contact_timeconst is not None:
+        parts.append(f"contact time constant {args.contact_timeconst:g} s")
+    if args.elliptic:
+        parts.append("elliptic cones")
+    parts += [f"gait {s}" for s in args.set]
+    return ", ".join(parts)
 
 
 def main() -> None:
@@ -71,15 +119,20 @@ def main() -> None:
     parser.add_argument("--duration", type=float, default=30.0)
     parser.add_argument("--friction", type=float, default=None)
     parser.add_argument("--sole-grid", action="store_true")
+    parser.add_argument("--contact-timeconst", type=float, default=None, metavar="S")
+    parser.add_argument("--elliptic", action="store_true")
+    parser.add_argument("--set", action="append", default=[], metavar="GROUP.FIELD=VALUE")
     args = parser.parse_args()
     source = BUILTIN_DIR / f"{args.preset}.json"
     params = load_parameter_set(source if source.is_file() else args.preset).gait
-    robot = load_robot(args.friction, args.sole_grid)
+    params = with_overrides(params, args.set)
+    robot = load_robot(args.friction, args.sole_grid, args.contact_timeconst, args.elliptic)
     jobs = [Job(params, Motion(a_p=args.a_p, ca=ca)) for ca in SWEEP]
     results = BatchEvaluator(robot).evaluate(jobs, duration_s=args.duration, warmup_s=4.0)
-    variant = f"friction {args.friction if args.friction is not None else 'as built'}"
-    variant += ", sole grid" if args.sole_grid else ", box soles"
-    print(f"preset {args.preset}, a_p = {args.a_p:+.3f}, {args.duration:g} s runs; {variant}")
+    print(
+        f"preset {args.preset}, a_p = {args.a_p:+.3f}, {args.duration:g} s runs; "
+        f"{describe_variant(args)}"
+    )
     print("   CA    turn    eq13  (deg/s, + = counter-clockwise)")
     for ca, m in zip(SWEEP, results, strict=True):
         if m["fell"]:
