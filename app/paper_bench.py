@@ -30,6 +30,7 @@ from app.paper_cases import (
     CA_PROBE,
     CASES,
     MIRROR_TOLERANCE,
+    SPOT_DRIFT_LIMIT_CM_S,
     measured,
     passes,
     steering,
@@ -127,14 +128,22 @@ def _walk_row(
     }
 
 
-def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, Any]:
-    """Heading rate vs eq (13), axle fit, antisymmetry and the stable limit of one direction."""
+def _reference(walks: list[Run]) -> tuple[float | None, float | None, float | None]:
+    """V (m/s), b (m) and the drift (deg/s) of the CA = 0 walk among `walks`."""
     ref = next(r for r in walks if r.motion.ca == 0)
     v_cm_s = finite_or_none(ref.metrics["forward_cm_s"])
-    speed = None if v_cm_s is None else v_cm_s / 100.0
     feet_cm = finite_or_none(ref.metrics["feet_distance_cm"])
-    axle = None if feet_cm is None else feet_cm / 100.0
-    drift = finite_or_none(ref.metrics["turn_deg_s"])
+    return (
+        None if v_cm_s is None else v_cm_s / 100.0,
+        None if feet_cm is None else feet_cm / 100.0,
+        finite_or_none(ref.metrics["turn_deg_s"]),
+    )
+
+
+def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, Any]:
+    """Heading rate vs eq (13), axle fit, antisymmetry and the stable limit of one direction."""
+    speed, axle, drift = _reference(walks)
+    v_cm_s = None if speed is None else 100.0 * speed
     rows = [_walk_row(r, speed, axle, drift) for r in walks]
     usable = [r for r in rows if abs(r["ca"]) <= ca_math.FIT_CA_LIMIT + 1e-9 and not r["fell"]]
     usable = [r for r in usable if r["turn_deg_s"] is not None]
@@ -213,6 +222,28 @@ def _steering(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
     }
 
 
+def steering_by_amplitude(runs: PresetRuns) -> list[dict[str, Any]]:
+    """The CA = +-0.1 steering (`_steering`) at the sweep's forward a_p and every probed one."""
+    by_a_p = {WALK_A_P["forward"]: runs.walks["forward"], **runs.steer_probes}
+    out = []
+    for a_p in sorted(by_a_p):
+        speed, axle, drift = _reference(by_a_p[a_p])
+        rows = [_walk_row(r, speed, axle, drift) for r in by_a_p[a_p]]
+        probed = [r for r in rows if round(abs(r["ca"]), 6) in (0.0, CA_PROBE)]
+        v_cm_s = None if speed is None else 100.0 * speed
+        out.append(
+            {
+                "a_p": a_p,
+                "speed_cm_s": v_cm_s,
+                # slower than the on-the-spot drift limit, eq (13)'s rate is noise-sized
+                "walks": v_cm_s is not None and abs(v_cm_s) >= SPOT_DRIFT_LIMIT_CM_S,
+                "steering": _steering(rows),
+                "fell": any(r["fell"] for r in probed),
+            }
+        )
+    return out
+
+
 def circle_summary(run: Run, forward: dict[str, Any]) -> dict[str, Any] | None:
     """The long CA = 0.058 walk: heading turned, measured and eq (13) rates (V and b from the
     forward sweep's CA = 0 run), and the time a full circle takes."""
@@ -255,10 +286,14 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
                 "mirror": mirror_rows(runs),
                 "ca": ca,
                 "circle": circle_summary(runs.circle, ca["forward"]),
+                "steering_by_a_p": steering_by_amplitude(runs),
                 "metrics": {
                     "cases": {name: r.metrics for name, r in runs.cases.items()},
                     "walks": {d: [r.metrics for r in rs] for d, rs in runs.walks.items()},
                     "circle": runs.circle.metrics,
+                    "steer_probes": {
+                        f"{a_p:g}": [r.metrics for r in rs] for a_p, rs in runs.steer_probes.items()
+                    },
                 },
             }
         )
@@ -270,6 +305,7 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
             "paper_ca_limit": PAPER_CA_LIMIT,
             "circle_ca": CIRCLE_CA,
             "circle_s": config.circle_s,
+            "steer_a_p": list(config.steer_a_p),
         },
         "notes": notes,
         "presets": presets,

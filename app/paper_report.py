@@ -151,6 +151,7 @@ def ca_section(results: dict[str, Any], direction: str) -> list[str]:
         lines = ca_summary_lines(p["ca"][direction], limit_paper)
         if direction == "forward":
             lines += circle_lines(p.get("circle"))
+            lines += amplitude_lines(p.get("steering_by_a_p", []))
         out += ["", f"{p['name']}:", *(f"  {line}" for line in lines)]
     return out
 
@@ -217,6 +218,25 @@ def _wrapped(head: str, items: list[str], per_line: int = 4) -> list[str]:
 
 def _flag(ok: bool) -> str:
     return "" if ok else "!"
+
+
+def amplitude_lines(rows: list[dict[str, Any]]) -> list[str]:
+    """The CA = +-0.1 gain at each forward amplitude: does CA steer at other speeds too?"""
+    if len(rows) < 2:
+        return []
+    items = []
+    for r in rows:
+        st = r["steering"]
+        if r["fell"]:
+            result = "fell"
+        elif not r["walks"]:
+            result = f"does not walk (|V| < {SPOT_DRIFT_LIMIT_CM_S} cm/s), no gain"
+        elif st is None:
+            result = "no figure"
+        else:
+            result = f"gain {st['gain']:.2f}, bend {st['bend']:+.2f}"
+        items.append(f"a_p {r['a_p']:.3f} ({fmt(r['speed_cm_s'])} cm/s): {result}")
+    return ["CA = +-0.1 at other forward amplitudes:", *(f"  {item}" for item in items)]
 
 
 def circle_lines(c: dict[str, Any] | None) -> list[str]:

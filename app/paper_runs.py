@@ -4,7 +4,8 @@ For each preset (a parameter-set file; only its gait constants are used) the ben
 of `app.paper_cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA up
 to the ends of its range (+-0.5), to find where the robot falls. All these runs of all presets go
 to one `BatchEvaluator.evaluate` call so its threads stay busy. A second call walks CA = 0.058
-forward long enough for a full circle (seed 004, Fig. 5).
+forward long enough for a full circle (seed 004, Fig. 5). The first call also walks CA = -0.1, 0
+and +0.1 forward at other amplitudes a_p (`BenchConfig.steer_a_p`): how CA steers at other speeds.
 
 The plots need the trunk path as well as the metrics: the evaluator hands out each run's trace,
 one sample per 20 ms frame -- the very samples the metrics are computed from.
@@ -23,16 +24,22 @@ from numpy.typing import NDArray
 
 from app.batch import BatchEvaluator, Job
 from app.metrics import Trace, whole_cycles
-from app.paper_cases import CASES, PaperCase
+from app.paper_cases import CA_PROBE, CASES, PaperCase
 from app.paramset import ParameterSet, load_parameter_set
 from app.presets import BUILTIN_DIR
 from gait import GaitParams, Motion
 
 NAMED_PRESETS = ("paper", "tuned")
+PROBE_CA = (-CA_PROBE, 0.0, CA_PROBE)
 WALK_A_P = {"forward": 0.07, "backward": -0.07}  # seed 000's forward amplitude, both directions
 CIRCLE_CA = 0.058  # seed 004: the simulated Nao walks a full circle at this CA
 
 
+STEER_A_P = (
+    0.035,
+    0.05,
+    0.09,
+)  # other forward amplitudes to probe CA steering at (0.07: the sweep)
 CA_BEYOND = (0.25, 0.3, 0.35, 0.4, 0.5)  # coarser, past seed 004's limits, to find where it falls
 
 
@@ -55,11 +62,16 @@ class BenchConfig:
     warmup_s: float = 5.0
     ca_values: tuple[float, ...] = field(default_factory=ca_sweep)
     circle_s: float = 360.0  # the full-circle walk: eq (13) at 3.8 cm/s, b = 10 cm takes ~150 s
+    steer_a_p: tuple[float, ...] = STEER_A_P
     threads: int | None = None
 
 
 QUICK = BenchConfig(
-    duration_s=10.0, warmup_s=2.0, ca_values=(-0.2, -0.1, 0.0, 0.058, 0.1, 0.2), circle_s=12.0
+    duration_s=10.0,
+    warmup_s=2.0,
+    ca_values=(-0.2, -0.1, 0.0, 0.058, 0.1, 0.2),
+    circle_s=12.0,
+    steer_a_p=(0.05,),
 )
 
 
@@ -151,6 +163,11 @@ class PresetRuns:
     cases: dict[str, Run]  # by case name, in CASES order
     walks: dict[str, list[Run]]  # "forward" / "backward" -> runs in CA order
     circle: Run  # forward at CIRCLE_CA for config.circle_s
+    steer_probes: dict[float, list[Run]]  # a_p -> the runs at CA = -CA_PROBE, 0, +CA_PROBE
+
+
+def _probe_label(a_p: float, ca: float) -> str:
+    return f"steer a_p={a_p:+.3f} CA={ca:+.3f}"
 
 
 def _walk_label(direction: str, ca: float) -> str:
@@ -167,6 +184,10 @@ def plan_jobs(presets: Sequence[Preset], config: BenchConfig) -> list[tuple[Pres
             for ca in config.ca_values:
                 label = _walk_label(direction, ca)
                 planned.append((preset, label, Job(preset.params, Motion(a_p=a_p, ca=ca))))
+        for a_p in config.steer_a_p:
+            for ca in PROBE_CA:
+                job = Job(preset.params, Motion(a_p=a_p, ca=ca))
+                planned.append((preset, _probe_label(a_p, ca), job))
     return planned
 
 
@@ -212,7 +233,11 @@ def run_all(
             d: [by_label[preset.name, _walk_label(d, ca)] for ca in config.ca_values]
             for d in WALK_A_P
         }
-        out.append(PresetRuns(preset, cases, walks, circle))
+        probes = {
+            a_p: [by_label[preset.name, _probe_label(a_p, ca)] for ca in PROBE_CA]
+            for a_p in config.steer_a_p
+        }
+        out.append(PresetRuns(preset, cases, walks, circle, probes))
     return out
 
 

@@ -53,6 +53,27 @@ def test_quick_bench_prints_every_case_and_writes_pngs_and_json(tmp_path, capsys
     forward = paper["cases"][1]
     assert forward["sim"] == pytest.approx(paper["metrics"]["cases"]["forward"]["forward_cm_s"])
 
+    # CA steering at other forward amplitudes: eq (13) from each amplitude's own CA = 0 walk
+    by_a_p = paper["steering_by_a_p"]
+    assert [r["a_p"] for r in by_a_p] == sorted({0.07, *paper_runs.QUICK.steer_a_p})
+    assert "CA = +-0.1 at other forward amplitudes:" in printed.out
+    for row in by_a_p:
+        if row["a_p"] == 0.07:
+            assert row["steering"] == paper["ca"]["forward"]["steering"]
+            continue
+        minus, straight, plus = paper["metrics"]["steer_probes"][f"{row['a_p']:g}"]
+        assert row["speed_cm_s"] == pytest.approx(straight["forward_cm_s"])
+        assert row["walks"] == (abs(straight["forward_cm_s"]) >= 0.5)
+        if row["fell"]:
+            continue
+        rate = math.degrees(
+            eq13_turn_rate_rad_s(
+                0.1, straight["forward_cm_s"] / 100, straight["feet_distance_cm"] / 100
+            )
+        )
+        gain = (plus["turn_deg_s"] - minus["turn_deg_s"]) / (2 * rate)
+        assert row["steering"]["gain"] == pytest.approx(gain, rel=1e-9)
+
 
 def test_unknown_preset_is_a_clear_error(capsys):
     with pytest.raises(SystemExit) as exc:
