@@ -13,11 +13,13 @@ model, for the experiment only (the shipped model is unchanged):
                   smaller is a harder floor
   --elliptic      elliptic friction cones instead of MuJoCo's default pyramidal ones
 
-and, for the gait, --set GROUP.FIELD=VALUE (repeatable) on top of the preset.
+and, for the gait, --set GROUP.FIELD=VALUE (repeatable) on top of the preset. --yaw-per-ca K
+walks each CA with a_y = K * CA added (a_y > 0 turns clockwise, as CA > 0 does): what a yawing
+term in CA, which SPEC §4 does not have, would give.
 
     python bench/ca_response.py [--preset tuned] [--a-p 0.07] [--duration 30] \
         [--friction 0.5] [--sole-grid] [--contact-timeconst 0.005] [--elliptic] \
-        [--set swing.v=3.0 --set swing.o=0.226]
+        [--set swing.v=3.0 --set swing.o=0.226] [--yaw-per-ca 0.15]
 """
 
 from __future__ import annotations
@@ -109,6 +111,8 @@ def describe_variant(args: argparse.Namespace) -> str:
     if args.elliptic:
         parts.append("elliptic cones")
     parts += [f"gait {s}" for s in args.set]
+    if args.yaw_per_ca:
+        parts.append(f"a_y = {args.yaw_per_ca:g} CA")
     return ", ".join(parts)
 
 
@@ -122,12 +126,13 @@ def main() -> None:
     parser.add_argument("--contact-timeconst", type=float, default=None, metavar="S")
     parser.add_argument("--elliptic", action="store_true")
     parser.add_argument("--set", action="append", default=[], metavar="GROUP.FIELD=VALUE")
+    parser.add_argument("--yaw-per-ca", type=float, default=0.0, metavar="K")
     args = parser.parse_args()
     source = BUILTIN_DIR / f"{args.preset}.json"
     params = load_parameter_set(source if source.is_file() else args.preset).gait
     params = with_overrides(params, args.set)
     robot = load_robot(args.friction, args.sole_grid, args.contact_timeconst, args.elliptic)
-    jobs = [Job(params, Motion(a_p=args.a_p, ca=ca)) for ca in SWEEP]
+    jobs = [Job(params, Motion(a_p=args.a_p, a_y=args.yaw_per_ca * ca, ca=ca)) for ca in SWEEP]
     results = BatchEvaluator(robot).evaluate(jobs, duration_s=args.duration, warmup_s=4.0)
     print(
         f"preset {args.preset}, a_p = {args.a_p:+.3f}, {args.duration:g} s runs; "
