@@ -9,7 +9,7 @@ trunk can turn. The model variants of `ca_response.py` apply here too.
 
     python bench/ca_phases.py [--preset tuned] [--a-p 0.07] [--ca 0.1] [--duration 40] \
         [--bins 20] [--friction MU] [--sole-grid] [--contact-timeconst S] [--elliptic] \
-        [--set GROUP.FIELD=VALUE]
+        [--set GROUP.FIELD=VALUE] [--yaw-per-ca K]
 """
 
 from __future__ import annotations
@@ -19,10 +19,8 @@ import math
 
 import mujoco
 import numpy as np
-from ca_response import describe_variant, load_robot, with_overrides
+from ca_response import add_variant_arguments, describe_variant, load_variant, walking
 
-from app.paramset import load_parameter_set
-from app.presets import BUILTIN_DIR
 from app.robot import RobotModel
 from app.simulation import Simulation
 from gait import GaitParams, Motion
@@ -79,26 +77,17 @@ def per_bin(rows: np.ndarray, bins: int, freq_hz: float) -> np.ndarray:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--preset", default="tuned", help="built-in preset name or a file")
-    parser.add_argument("--a-p", type=float, default=0.07)
+    add_variant_arguments(parser)
     parser.add_argument("--ca", type=float, default=0.1, help="p: walks CA = -p, 0, +p")
     parser.add_argument("--duration", type=float, default=40.0)
     parser.add_argument("--bins", type=int, default=20)
-    parser.add_argument("--friction", type=float, default=None)
-    parser.add_argument("--sole-grid", action="store_true")
-    parser.add_argument("--contact-timeconst", type=float, default=None, metavar="S")
-    parser.add_argument("--elliptic", action="store_true")
-    parser.add_argument("--set", action="append", default=[], metavar="GROUP.FIELD=VALUE")
     args = parser.parse_args()
-    source = BUILTIN_DIR / f"{args.preset}.json"
-    params = load_parameter_set(source if source.is_file() else args.preset).gait
-    params = with_overrides(params, args.set)
-    robot = load_robot(args.friction, args.sole_grid, args.contact_timeconst, args.elliptic)
+    params, robot = load_variant(args)
     freq = params.clock.freq_hz
     cas = (0.0, args.ca, -args.ca)
     table = {}
     for ca in cas:
-        rows = walk(robot, params, Motion(a_p=args.a_p, ca=ca), args.duration)
+        rows = walk(robot, params, walking(args, ca), args.duration)
         table[ca] = per_bin(rows, args.bins, freq)
     print(
         f"preset {args.preset}, a_p = {args.a_p:+.3f}, {args.duration:g} s after {WARMUP_S:g} s, "

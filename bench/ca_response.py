@@ -33,12 +33,14 @@ import mujoco
 
 from app.batch import BatchEvaluator, Job
 from app.paper_cases import steering
+from app.paper_report import fmt
 from app.paramset import load_parameter_set
 from app.presets import BUILTIN_DIR
 from app.robot import ARTRO_XML, RobotModel
 from gait import GaitParams, Motion
 from gait.params import merge
 
+WARMUP_S = 4.0  # of each run's --duration, not measured
 SWEEP = (-0.2, -0.15, -0.1, -0.05, -0.025, 0.0, 0.025, 0.05, 0.1, 0.15, 0.2)
 GRID_X_M = (-0.056, -0.028, 0.0, 0.028, 0.056)
 GRID_Y_M = (-0.031, 0.0, 0.031)
@@ -116,24 +118,40 @@ def describe_variant(args: argparse.Namespace) -> str:
     return ", ".join(parts)
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+def add_variant_arguments(parser: argparse.ArgumentParser) -> None:
+    """The preset, walking amplitude and model/gait variant options both experiments share."""
     parser.add_argument("--preset", default="tuned", help="built-in preset name or a file")
     parser.add_argument("--a-p", type=float, default=0.07)
-    parser.add_argument("--duration", type=float, default=30.0)
     parser.add_argument("--friction", type=float, default=None)
     parser.add_argument("--sole-grid", action="store_true")
     parser.add_argument("--contact-timeconst", type=float, default=None, metavar="S")
     parser.add_argument("--elliptic", action="store_true")
     parser.add_argument("--set", action="append", default=[], metavar="GROUP.FIELD=VALUE")
     parser.add_argument("--yaw-per-ca", type=float, default=0.0, metavar="K")
-    args = parser.parse_args()
+
+
+def load_variant(args: argparse.Namespace) -> tuple[GaitParams, RobotModel]:
+    """The preset's gait with the --set overrides, and the model with the variant options."""
     source = BUILTIN_DIR / f"{args.preset}.json"
     params = load_parameter_set(source if source.is_file() else args.preset).gait
     params = with_overrides(params, args.set)
     robot = load_robot(args.friction, args.sole_grid, args.contact_timeconst, args.elliptic)
-    jobs = [Job(params, Motion(a_p=args.a_p, a_y=args.yaw_per_ca * ca, ca=ca)) for ca in SWEEP]
-    results = BatchEvaluator(robot).evaluate(jobs, duration_s=args.duration, warmup_s=4.0)
+    return params, robot
+
+
+def walking(args: argparse.Namespace, ca: float) -> Motion:
+    """Forward at --a-p with this CA, plus a_y = --yaw-per-ca x CA."""
+    return Motion(a_p=args.a_p, a_y=args.yaw_per_ca * ca, ca=ca)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    add_variant_arguments(parser)
+    parser.add_argument("--duration", type=float, default=30.0, help="s per run, warm-up included")
+    args = parser.parse_args()
+    params, robot = load_variant(args)
+    jobs = [Job(params, walking(args, ca)) for ca in SWEEP]
+    results = BatchEvaluator(robot).evaluate(jobs, duration_s=args.duration, warmup_s=WARMUP_S)
     print(
         f"preset {args.preset}, a_p = {args.a_p:+.3f}, {args.duration:g} s runs; "
         f"{describe_variant(args)}"
@@ -143,14 +161,17 @@ def main() -> None:
         if m["fell"]:
             print(f"{ca:+.3f}  fell at {m['fall_time_s']} s")
             continue
-        print(f"{ca:+.3f}  {m['turn_deg_s']:+6.2f}  {m['predicted_turn_deg_s']:+6.2f}")
+        if m["turn_deg_s"] is None:
+            print(f"{ca:+.3f}  nothing measured after the {WARMUP_S:g} s warm-up: run longer")
+            continue
+        print(f"{ca:+.3f}  {m['turn_deg_s']:+6.2f}  {fmt(m['predicted_turn_deg_s'], '+6.2f')}")
     by_ca = dict(zip(SWEEP, results, strict=True))
     s = steering(by_ca[0.1], by_ca[-0.1], by_ca[0.0])
     if s is None:
-        print("CA = +-0.1: no steering figure (a run fell)")
+        print("CA = +-0.1: no steering figure (a run fell, or was not measured)")
     else:
         print(f"CA = +-0.1: gain {s.gain:.2f} (eq (13): 1), bend {s.bend:+.2f} (linear: 0)")
-        print(f"V (CA = 0) {by_ca[0.0]['forward_cm_s']:+.2f} cm/s")
+        print(f"V (CA = 0) {fmt(by_ca[0.0]['forward_cm_s'])} cm/s")
 
 
 if __name__ == "__main__":

@@ -1,0 +1,55 @@
+"""The CA experiments in bench/ run end to end on the real model and refuse bad options clearly."""
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def run_script(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, *args], cwd=ROOT, capture_output=True, text=True, timeout=300
+    )
+
+
+def test_ca_response_prints_the_sweep_and_the_pair():
+    done = run_script("bench/ca_response.py", "--duration", "8", "--yaw-per-ca", "0.1")
+    assert done.returncode == 0, done.stderr
+    assert "a_y = 0.1 CA" in done.stdout.splitlines()[0]
+    rows = [line for line in done.stdout.splitlines() if re.match(r"^[+-]0\.\d{3} ", line)]
+    assert len(rows) == 11  # the SWEEP, -0.2 .. +0.2
+    assert all(re.match(r"^[+-]0\.\d{3} +[+-]\d+\.\d\d +[+-]\d+\.\d\d$", r) for r in rows), rows
+    assert re.search(r"CA = \+-0\.1: gain -?\d+\.\d\d ", done.stdout)
+
+
+def test_ca_response_says_when_a_run_is_too_short_to_measure():
+    done = run_script("bench/ca_response.py", "--duration", "4")
+    assert done.returncode == 0, done.stderr
+    assert "nothing measured after the 4 s warm-up: run longer" in done.stdout
+    assert "CA = +-0.1: no steering figure" in done.stdout
+
+
+def test_ca_phases_bins_add_up_to_the_cycle_turn():
+    done = run_script("bench/ca_phases.py", "--duration", "2", "--bins", "4", "--ca", "0.1")
+    assert done.returncode == 0, done.stderr
+    sections = re.findall(
+        r"CA = ([+-][\d.]+): trunk ([+-][\d.]+) deg per cycle\n.*\n((?: +\d+ .*\n?){4})",
+        done.stdout,
+    )
+    assert [float(ca) for ca, _total, _rows in sections] == [0.0, 0.1, -0.1]
+    for ca, total, rows in sections:
+        cells = [line.split() for line in rows.strip().splitlines()]
+        assert abs(sum(float(c[2]) for c in cells) - float(total)) < 0.05
+        if float(ca) == 0.0:
+            assert all(float(c[7]) == 0.0 for c in cells)  # CA = 0 adds nothing to itself
+
+
+def test_bad_options_are_refused_with_what_is_allowed():
+    out_of_range = run_script("bench/ca_response.py", "--set", "swing.v=9")
+    assert out_of_range.returncode != 0
+    assert "swing.v = 9.0 is out of range; allowed: 1.5 to 6.0" in out_of_range.stderr
+    not_a_number = run_script("bench/ca_phases.py", "--set", "swing.v=fast")
+    assert not_a_number.returncode != 0
+    assert "'fast' is not a number" in not_a_number.stderr
