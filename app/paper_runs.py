@@ -35,11 +35,8 @@ WALK_A_P = {"forward": 0.07, "backward": -0.07}  # seed 000's forward amplitude,
 CIRCLE_CA = 0.058  # seed 004: the simulated Nao walks a full circle at this CA
 
 
-STEER_A_P = (
-    0.035,
-    0.05,
-    0.09,
-)  # other forward amplitudes to probe CA steering at (0.07: the sweep)
+# other forward amplitudes to probe CA steering at (0.07 is the sweep's)
+STEER_A_P = (0.035, 0.05, 0.09)
 CA_BEYOND = (0.25, 0.3, 0.35, 0.4, 0.5)  # coarser, past seed 004's limits, to find where it falls
 
 
