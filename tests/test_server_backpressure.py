@@ -8,6 +8,8 @@ import socket
 import httpx
 from websockets.sync.client import connect
 
+SPEED = 2.0  # times real time
+
 
 def stalled_scope_client(host: str, port: int) -> socket.socket:
     """Open /ws/scope by hand with a tiny receive buffer, then never read again."""
@@ -31,18 +33,20 @@ def test_a_stalled_client_does_not_slow_the_simulation_or_other_clients(server):
     base_url, _app = server
     host, port = base_url.removeprefix("http://").split(":")
     http = httpx.Client(base_url=base_url, timeout=10)
-    # 4x real time fills the stalled connection's buffers within seconds
-    assert http.put("/api/sim/speed", json={"speed": 4.0}).status_code == 200
+    # 2x real time fills the stalled connection's buffers within seconds and leaves the
+    # simulation thread 40 ms a frame, so the pacing keeps up on a busy 2-core VM
+    assert http.put("/api/sim/speed", json={"speed": SPEED}).status_code == 200
+    before = http.get("/api/state").json()
     stalled = stalled_scope_client(host, int(port))
     try:
         with connect(base_url.replace("http://", "ws://") + "/ws/scope", open_timeout=10) as ws:
-            # read until the server reports the stalled client losing frames (<= 60 s at 4x)
+            # read until the server reports the stalled client losing frames (<= 60 s)
             received = 0
             while http.get("/api/state").json()["scope"]["dropped"] == 0:
                 for _ in range(100):
                     ws.recv(timeout=10)
                 received += 100
-                assert received < 60 * 200, "the stalled client never lost a frame"
+                assert received < 60 * 50 * SPEED, "the stalled client never lost a frame"
             # from now on the stalled client is losing frames: this client must lose none
             numbers = [json.loads(ws.recv(timeout=10))["frame"] for _ in range(300)]
         state = http.get("/api/state").json()
@@ -50,6 +54,11 @@ def test_a_stalled_client_does_not_slow_the_simulation_or_other_clients(server):
         stalled.close()
         http.put("/api/sim/speed", json={"speed": 1.0})
     assert numbers == list(range(numbers[0], numbers[0] + 300))
-    assert abs(state["rtf"] - 4.0) < 0.2  # the simulation kept its pace
+    assert abs(state["rtf"] - SPEED) < 0.05 * SPEED  # the simulation kept its pace
     assert state["scope"]["dropped"] > 0  # the stalled client did lose frames
-    assert state["frames_dropped"] < 20  # pacing on a busy 2-core machine: at most a few
+    # pacing on a busy 2-core VM skips a few frames now and then; a stalled client that held up
+    # the simulation thread would skip a large share of them
+    ran = state["frame"] - before["frame"]
+    skipped = state["frames_dropped"] - before["frames_dropped"]
+    assert ran > 300
+    assert skipped <= 0.05 * (ran + skipped), (skipped, ran)
