@@ -53,6 +53,9 @@ def test_quick_bench_prints_every_case_and_writes_pngs_and_json(tmp_path, capsys
     forward = paper["cases"][1]
     assert forward["sim"] == pytest.approx(paper["metrics"]["cases"]["forward"]["forward_cm_s"])
 
+    barely = [d for d in ("forward", "backward") if abs(paper["ca"][d]["speed_cm_s"]) < 0.5]
+    assert printed.out.count("the robot barely walks") == len(barely)
+
     # CA steering at other forward amplitudes: eq (13) from each amplitude's own CA = 0 walk
     by_a_p = paper["steering_by_a_p"]
     assert [r["a_p"] for r in by_a_p] == sorted({0.07, *paper_runs.QUICK.steer_a_p})
