@@ -163,10 +163,10 @@ def ca_summary_lines(s: dict[str, Any], paper_limit: float) -> list[str]:
         f"drift {fmt(s['drift_deg_s'])} deg/s",
     ]
     if s["speed_cm_s"] is not None and abs(s["speed_cm_s"]) < SPOT_DRIFT_LIMIT_CM_S:
-        lines.append(
-            f"  the robot barely walks (|V| < {SPOT_DRIFT_LIMIT_CM_S} cm/s): eq (13)'s rate is "
-            "tiny, the CA figures below are drift, not steering"
-        )
+        lines += [
+            f"  the robot barely walks (|V| < {SPOT_DRIFT_LIMIT_CM_S} cm/s):",
+            "  eq (13)'s rate is tiny, the CA figures below are drift, not steering",
+        ]
     fit = s["fit"]
     if fit is None:
         lines.append(f"axle fit: fewer than two standing runs with |CA| <= {FIT_CA_LIMIT}")
