@@ -47,7 +47,7 @@ from app.paper_cases import (
 from app.paramset import ParameterSet
 from app.presets import stamped, write_parameter_set
 from gait import GaitParams
-from gait.params import describe_fields, group_class, merge
+from gait.params import describe_fields, group_class, merge, parse_settings
 
 DEFAULT_NAMES = (
     "clock.freq_hz",
@@ -444,15 +444,7 @@ def command(args: Any) -> int:
     from app.paramset import load_parameter_set
 
     base = ParameterSet() if args.base == "paper" else load_parameter_set(args.base)
-    overrides: dict[str, dict[str, Any]] = {}
-    for item in args.set:
-        key, sep, raw = item.partition("=")
-        group, dot, field = key.partition(".")
-        if not sep or not dot:
-            raise ValueError(f"--set takes GROUP.FIELD=VALUE, got {item!r}")
-        value: Any = {"true": True, "false": False}.get(raw.lower())
-        overrides.setdefault(group, {})[field] = float(raw) if value is None else value
-    base = dataclasses.replace(base, gait=merge(base.gait, overrides))
+    base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
     tuner = Tuner(
         base,

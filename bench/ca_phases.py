@@ -22,7 +22,7 @@ import numpy as np
 from ca_response import add_variant_arguments, describe_variant, load_variant, walking
 
 from app.robot import RobotModel
-from app.simulation import Simulation
+from app.simulation import FRAME_S, Simulation
 from gait import GaitParams, Motion
 
 WARMUP_S = 5.0
@@ -49,7 +49,7 @@ def walk(robot: RobotModel, params: GaitParams, motion: Motion, seconds: float) 
     model, data = sim.model, sim.data
     feet = tuple(model.body(name).id for name in FEET)
     rows = []
-    for _ in range(round((WARMUP_S + seconds) / 0.02)):
+    for _ in range(round((WARMUP_S + seconds) / FRAME_S)):
         record = sim.step_frame()
         if sim.fell:
             raise SystemExit(f"the robot fell at CA = {motion.ca:+g} after {sim.time_s:.1f} s")
@@ -66,7 +66,7 @@ def per_bin(rows: np.ndarray, bins: int, freq_hz: float) -> np.ndarray:
     phase = rows[:-1, 0]
     turns = np.degrees(np.diff(np.unwrap(rows[:, 1:4], axis=0), axis=0))
     which = np.floor((phase + math.pi) / (2.0 * math.pi) * bins).astype(int) % bins
-    cycles = len(phase) * 0.02 * freq_hz
+    cycles = len(phase) * FRAME_S * freq_hz
     out = np.zeros((bins, 5))
     for b in range(bins):
         here = which == b

@@ -34,11 +34,10 @@ import mujoco
 from app.batch import BatchEvaluator, Job
 from app.paper_cases import steering
 from app.paper_report import fmt
-from app.paramset import load_parameter_set
-from app.presets import BUILTIN_DIR
+from app.paper_runs import resolve_presets
 from app.robot import ARTRO_XML, RobotModel
 from gait import GaitParams, Motion
-from gait.params import merge
+from gait.params import merge, parse_settings
 
 WARMUP_S = 4.0  # of each run's --duration, not measured
 SWEEP = (-0.2, -0.15, -0.1, -0.05, -0.025, 0.0, 0.025, 0.05, 0.1, 0.15, 0.2)
@@ -87,24 +86,6 @@ def load_robot(
     return robot
 
 
-def with_overrides(params: GaitParams, settings: list[str]) -> GaitParams:
-    """`params` with each "group.field=value" applied (the schema checks names and ranges)."""
-    patch: dict[str, dict[str, float]] = {}
-    for setting in settings:
-        name, sep, value = setting.partition("=")
-        group, dot, field = name.partition(".")
-        if not sep or not dot:
-            raise SystemExit(f"--set takes GROUP.FIELD=VALUE, e.g. swing.v=3.0; got {setting!r}")
-        try:
-            patch.setdefault(group, {})[field] = float(value)
-        except ValueError:
-            raise SystemExit(f"--set {name}: {value!r} is not a number") from None
-    try:
-        return merge(params, patch)
-    except ValueError as err:
-        raise SystemExit(f"--set: {err}") from None
-
-
 def describe_variant(args: argparse.Namespace) -> str:
     parts = [f"friction {args.friction if args.friction is not None else 'as built'}"]
     parts.append("sole grid" if args.sole_grid else "box soles")
@@ -132,9 +113,11 @@ def add_variant_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_variant(args: argparse.Namespace) -> tuple[GaitParams, RobotModel]:
     """The preset's gait with the --set overrides, and the model with the variant options."""
-    source = BUILTIN_DIR / f"{args.preset}.json"
-    params = load_parameter_set(source if source.is_file() else args.preset).gait
-    params = with_overrides(params, args.set)
+    try:
+        (preset,), _notes = resolve_presets([args.preset])
+        params = merge(preset.params, parse_settings(args.set))
+    except ValueError as err:
+        raise SystemExit(f"ca_response: {err}") from None
     robot = load_robot(args.friction, args.sole_grid, args.contact_timeconst, args.elliptic)
     return params, robot
 

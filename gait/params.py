@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Iterator, Mapping
+from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
@@ -267,6 +267,26 @@ def merge(params: GaitParams, patch: Mapping[str, Any]) -> GaitParams:
             )
         groups[group_name] = replace_checked(getattr(params, group_name), values, group_name)
     return dataclasses.replace(params, **groups)
+
+
+def parse_settings(items: Iterable[str]) -> dict[str, dict[str, Any]]:
+    """ "group.field=value" strings (true/false for switches) as a nested patch for `merge`."""
+    patch: dict[str, dict[str, Any]] = {}
+    for item in items:
+        key, sep, raw = item.partition("=")
+        group, dot, field = key.partition(".")
+        if not sep or not dot:
+            raise ValueError(f"a setting is GROUP.FIELD=VALUE, e.g. swing.v=3.0; got {item!r}")
+        switch = {"true": True, "false": False}.get(raw.strip().lower())
+        if switch is None:
+            try:
+                value: Any = float(raw)
+            except ValueError:
+                raise ValueError(f"{key}: {raw!r} is not a number or true/false") from None
+        else:
+            value = switch
+        patch.setdefault(group, {})[field] = value
+    return patch
 
 
 def replace_checked(obj: Any, values: Mapping[str, Any], where: str) -> Any:

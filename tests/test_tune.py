@@ -150,3 +150,16 @@ def test_select_the_passing_set_with_the_lowest_loss_or_the_most_steering():
     tuner.evaluated = [(1.0, params, judged(0.1)), (2.0, params, judged(0.4)), wrong_way]
     assert tuner.best_passing()[0] == 1.0
     assert tuner.best_passing(by="steering")[0] == 2.0
+
+
+def test_settings_parse_numbers_and_switches_and_say_the_form():
+    from gait.params import merge, parse_settings
+
+    patch = parse_settings(["swing.v=3", "leg.paper_signs=false", "short.enabled=True"])
+    assert patch == {"swing": {"v": 3.0}, "leg": {"paper_signs": False}, "short": {"enabled": True}}
+    params = merge(GaitParams(), patch)
+    assert params.swing.v == 3.0 and params.leg.paper_signs is False
+    with pytest.raises(ValueError, match=r"GROUP\.FIELD=VALUE"):
+        parse_settings(["swingv=3"])
+    with pytest.raises(ValueError, match=r"swing\.v: 'fast' is not a number or true/false"):
+        parse_settings(["swing.v=fast"])
