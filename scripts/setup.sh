@@ -10,11 +10,20 @@ extras=""
 [ -x .venv/bin/python ] || python3 -m venv .venv
 .venv/bin/pip install --quiet --disable-pip-version-check -e ".${extras}"
 
-if [ "${1:-}" = "--test" ] && ! command -v chromium >/dev/null 2>&1; then
-  echo "installing Debian's chromium for the browser tests"
+# Debian packages: the AVR tool chain and emulator for the firmware (always: `artro firmware`
+# needs them), Chromium for the browser tests (with --test).
+debs=""
+command -v avr-gcc >/dev/null 2>&1 || debs="$debs gcc-avr avr-libc"
+[ -f /usr/include/simavr/sim_avr.h ] || debs="$debs simavr libsimavr-dev libelf-dev"
+if [ "${1:-}" = "--test" ]; then
+  command -v chromium >/dev/null 2>&1 || debs="$debs chromium"
+fi
+if [ -n "$debs" ]; then
+  echo "installing Debian packages:$debs"
   sudo_cmd=""
   [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
   $sudo_cmd apt-get update -qq
-  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq chromium >/dev/null
+  # shellcheck disable=SC2086
+  DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq $debs >/dev/null
 fi
 echo "ready: .venv"
