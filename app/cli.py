@@ -17,10 +17,11 @@ import sys
 from collections.abc import Sequence
 from pathlib import Path
 
-from app import paper_bench, tune
-from app.exporting import FORMATS, export_text
-from app.paramset import ParameterSet, load_parameter_set
-from app.runner import run
+from app.core.headless import run
+from app.params.document import ParameterSet, load_parameter_set
+from app.params.formats import FORMATS, export_text
+from app.study import bench as paper_bench
+from app.study import tune
 
 
 def _motion_triple(text: str) -> tuple[float, float, float]:
@@ -121,10 +122,10 @@ def _cmd_export(args: argparse.Namespace) -> int:
 def _cmd_serve(args: argparse.Namespace) -> int:
     import uvicorn
 
-    from app.presets import default_data_dir
-    from app.runtime import ServerConfig
-    from app.server import create_app
-    from app.viewer import viser_url
+    from app.params.presets import default_data_dir
+    from app.server.app import create_app
+    from app.server.services import ServerConfig
+    from app.server.viser_view import viser_url
 
     config = ServerConfig(
         host=args.host,

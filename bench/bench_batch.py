@@ -26,8 +26,8 @@ import time
 import mujoco
 import numpy as np
 
-from app.batch import BatchEvaluator, Job
-from app.simulation import Simulation, plan_frames
+from app.core.batch import BatchEvaluator, Job
+from app.core.frame_loop import FrameLoop, plan_frames
 from gait import GaitParams, Motion
 
 GOAL = 0.85
@@ -41,7 +41,7 @@ def raw_steps_per_s(job: Job, frames: int) -> tuple[float, float]:
     """Single thread: the walk's frame set-points, MuJoCo's C loop for the 20 steps of a frame.
 
     Returns (steps per wall second, steps per CPU second of this process)."""
-    sim = Simulation(params=job.params, motion=job.motion)
+    sim = FrameLoop(params=job.params, motion=job.motion)
     plan = plan_frames(
         job.params, job.motion, sim.hardware, sim.phase, frames, sim.steps_per_frame, sim.timestep_s
     )

@@ -5,7 +5,7 @@ Prints, from one run:
     steps, replayed as plain ctrl writes and one mj_step per step from a precomputed table;
     (b) stricter: MuJoCo's own C loop, mj_step(nstep=20) per frame with the frame's set-points
     written once at its start (slightly different motion, no Python between steps);
-  - the full pipeline (`Simulation.step_frame`: gait, servo, timer, TDM-PWM, set-points switched at
+  - the full pipeline (`FrameLoop.step_frame`: gait, servo, timer, TDM-PWM, set-points switched at
     each pulse's falling edge) on the same model and motion;
   - their ratio (goal >= 0.9);
   - the cost of gait + hardware model per frame in us (goal <= 30), as the loop pays it (evaluated
@@ -23,7 +23,7 @@ import time
 import mujoco
 import numpy as np
 
-from app.simulation import Simulation, plan_frames
+from app.core.frame_loop import FrameLoop, plan_frames
 from gait import GaitParams, Motion
 
 MOTION = Motion(a_p=0.07)
@@ -35,7 +35,7 @@ def best_of(repeats: int, fn) -> float:
 
 def raw_steps_per_s(frames: int, plan) -> float:
     """Replay the plan's set-points with bare MuJoCo calls: one mj_step per physics step."""
-    sim = Simulation(motion=MOTION)
+    sim = FrameLoop(motion=MOTION)
     model, data, act = sim.model, sim.data, sim.robot.actuator_ids
     steps = sim.steps_per_frame
     # ctrl for each physics step of each frame, built before the clock starts
@@ -56,7 +56,7 @@ def raw_steps_per_s(frames: int, plan) -> float:
 
 
 def c_loop_steps_per_s(frames: int, plan) -> float:
-    sim = Simulation(motion=MOTION)
+    sim = FrameLoop(motion=MOTION)
     model, data, act = sim.model, sim.data, sim.robot.actuator_ids
     steps = sim.steps_per_frame
     start = time.perf_counter()
@@ -67,7 +67,7 @@ def c_loop_steps_per_s(frames: int, plan) -> float:
 
 
 def pipeline_steps_per_s(frames: int) -> float:
-    sim = Simulation(motion=MOTION)
+    sim = FrameLoop(motion=MOTION)
     start = time.perf_counter()
     for _ in range(frames):
         sim.step_frame()
@@ -75,7 +75,7 @@ def pipeline_steps_per_s(frames: int) -> float:
 
 
 def gait_hardware_us_per_frame(block: int, calls: int) -> float:
-    sim = Simulation(motion=MOTION)
+    sim = FrameLoop(motion=MOTION)
     params, hw = GaitParams(), sim.hardware
     start = time.perf_counter()
     for i in range(calls):
@@ -90,7 +90,7 @@ def main() -> None:
     args = parser.parse_args()
     frames = round(args.seconds / 0.02)
 
-    reference = Simulation(motion=MOTION)
+    reference = FrameLoop(motion=MOTION)
     plan = plan_frames(GaitParams(), MOTION, reference.hardware, reference.phase, frames, 20, 0.001)
     raw, c_loop, pipe = [], [], []
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike

@@ -21,8 +21,8 @@ import mujoco
 import numpy as np
 from ca_response import add_variant_arguments, describe_variant, load_variant, walking
 
-from app.robot import RobotModel
-from app.simulation import FRAME_S, Simulation
+from app.core.frame_loop import FRAME_S, FrameLoop
+from app.core.robot import RobotModel
 from gait import GaitParams, Motion
 
 WARMUP_S = 5.0
@@ -45,7 +45,7 @@ def foot_loads_n(model: mujoco.MjModel, data: mujoco.MjData, feet: tuple[int, in
 
 def walk(robot: RobotModel, params: GaitParams, motion: Motion, seconds: float) -> np.ndarray:
     """Per frame after the warm-up: phase, trunk yaw, left/right foot yaw, left/right load."""
-    sim = Simulation(robot, params, motion)
+    sim = FrameLoop(robot, params, motion)
     model, data = sim.model, sim.data
     feet = tuple(model.body(name).id for name in FEET)
     rows = []

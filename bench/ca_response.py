@@ -2,7 +2,7 @@
 
 Backs the "CA steering on this model" section of models/README.md. Walks a preset at a_p with CA
 over a sweep (batch rollouts) and prints, per CA, the measured heading rate next to eq (13)'s,
-then the gain and bend of the CA = +-0.1 pair (`app.paper_cases.Steering`). Variants of the
+then the gain and bend of the CA = +-0.1 pair (`app.study.cases.Steering`). Variants of the
 model, for the experiment only (the shipped model is unchanged):
 
   --friction MU   every geom's sliding friction set to MU
@@ -31,11 +31,11 @@ from pathlib import Path
 
 import mujoco
 
-from app.batch import BatchEvaluator, Job
-from app.paper_cases import steering
-from app.paper_report import fmt
-from app.paper_runs import resolve_presets
-from app.robot import ARTRO_XML, RobotModel
+from app.core.batch import BatchEvaluator, Job
+from app.core.robot import ARTRO_XML, RobotModel
+from app.study.cases import steering
+from app.study.report import fmt
+from app.study.runs import resolve_presets
 from gait import GaitParams, Motion
 from gait.params import merge, parse_settings
 

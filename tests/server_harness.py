@@ -11,8 +11,8 @@ from pathlib import Path
 import httpx
 import uvicorn
 
-from app.runtime import ServerConfig
-from app.server import create_app
+from app.server.app import create_app
+from app.server.services import ServerConfig
 
 
 def free_port() -> int:

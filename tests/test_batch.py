@@ -4,10 +4,10 @@ import numpy as np
 import pytest
 from mujoco import rollout
 
-from app.batch import BatchEvaluator, Job, control_sequence, start_of
-from app.metrics import MOTION_METRICS
-from app.runner import run
-from app.simulation import Simulation, plan_frames
+from app.core.batch import BatchEvaluator, Job, control_sequence, start_of
+from app.core.frame_loop import FrameLoop, plan_frames
+from app.core.headless import run
+from app.core.metrics import MOTION_METRICS
 from gait import GaitParams, Motion
 
 EVALUATOR = BatchEvaluator(threads=2)
@@ -35,7 +35,7 @@ def test_a_fall_ends_the_measurement_as_in_artro_run():
 
 
 def test_the_control_switches_at_each_falling_edge():
-    sim = Simulation(motion=Motion(a_p=0.1, a_y=0.2))
+    sim = FrameLoop(motion=Motion(a_p=0.1, a_y=0.2))
     start = start_of(sim)
     frames = 5
     ctrl = control_sequence(sim, start, frames).reshape(frames, sim.steps_per_frame, -1)

@@ -1,4 +1,4 @@
-"""Export/import of parameter sets (app.exporting): round trips, provenance, rejected uploads."""
+"""Export/import of parameter sets (app.params.formats): round trips, provenance, bad uploads."""
 
 from __future__ import annotations
 
@@ -7,7 +7,8 @@ import json
 import pytest
 import yaml
 
-from app.exporting import (
+from app.params.document import ParameterSet, project_version
+from app.params.formats import (
     FORMATS,
     MAX_IMPORT_BYTES,
     ImportTooLarge,
@@ -15,7 +16,6 @@ from app.exporting import (
     export_text,
     parse_import,
 )
-from app.paramset import ParameterSet, project_version
 from gait import GaitParams, Motion
 
 

@@ -9,7 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.paramset import ParameterSet
+from app.params.document import ParameterSet
 from gait import GaitParams, Motion
 from hardware import ICR_TOP, ChannelMap, ServoCalibration, timer_registers
 from hardware.firmware import c_float, c_header

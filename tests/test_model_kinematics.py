@@ -6,7 +6,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.robot import ARTRO_XML, RobotModel
+from app.core.robot import ARTRO_XML, RobotModel
 from gait import ARTRO_LEG, JOINT_NAMES, leg_to_joint_angles
 
 ROBOT = RobotModel.load()

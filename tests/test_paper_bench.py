@@ -8,18 +8,18 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from app import paper_runs
-from app.ca_analysis import (
+from app.cli import main
+from app.core.ca_analysis import (
     CircleCheck,
     antisymmetry_pairs,
     eq13_turn_rate_rad_s,
     fit_axle,
     largest_stable_ca,
 )
-from app.cli import main
-from app.paper_cases import CASES
-from app.paper_report import table
-from app.paper_runs import ca_sweep, cycle_mean, resolve_presets
+from app.study import runs as paper_runs
+from app.study.cases import CASES
+from app.study.report import table
+from app.study.runs import ca_sweep, cycle_mean, resolve_presets
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 

@@ -1,4 +1,4 @@
-"""Named presets on disk (app.presets): round trip, listing, names, built-ins, atomicity."""
+"""Named presets on disk (app.params.presets): round trip, listing, names, built-ins, atomicity."""
 
 from __future__ import annotations
 
@@ -9,8 +9,8 @@ from pathlib import Path
 
 import pytest
 
-from app.paramset import ParameterSet, project_version
-from app.presets import (
+from app.params.document import ParameterSet, project_version
+from app.params.presets import (
     NAME_RULE,
     PresetError,
     PresetNotFound,

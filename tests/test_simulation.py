@@ -6,14 +6,14 @@ import mujoco
 import numpy as np
 import pytest
 
-from app.robot import lowest_sole_z
-from app.simulation import FRAME_S, Simulation, plan_frames
+from app.core.frame_loop import FRAME_S, FrameLoop, plan_frames
+from app.core.robot import lowest_sole_z
 from gait import GaitParams, Motion, joint_angles
 from hardware import SLOT_TICKS, TICK_US, ServoCalibration, TdmConfig, pulses_to_angles_rad
 
 
 def test_each_set_point_takes_effect_at_its_pulse_falling_edge():
-    sim = Simulation(motion=Motion(a_p=0.1, a_y=0.2))
+    sim = FrameLoop(motion=Motion(a_p=0.1, a_y=0.2))
     for _ in range(3):
         sim.step_frame()
     plan = sim._plan
@@ -48,7 +48,7 @@ def test_each_set_point_takes_effect_at_its_pulse_falling_edge():
 
 def test_servos_receive_the_quantised_pulse_not_the_gait_angle():
     params, motion = GaitParams(), Motion(a_p=0.07)
-    hardware = Simulation(params=params, motion=motion).hardware
+    hardware = FrameLoop(params=params, motion=motion).hardware
     plan = plan_frames(params, motion, hardware, 0.3, 10, 20, 0.001)
     exact = joint_angles(params, motion, plan.phase)
     pulse = (
@@ -65,7 +65,7 @@ def test_calibration_limits_saturate_and_are_flagged():
     knee_limited = ServoCalibration(
         cal.direction, cal.trim_us, cal.min_rad, np.where(np.arange(12) == 2, 0.05, cal.max_rad)
     )
-    from app.simulation import HardwareSetup
+    from app.core.frame_loop import HardwareSetup
 
     hw = HardwareSetup(calibration=knee_limited, tdm=TdmConfig())
     plan = plan_frames(GaitParams(), Motion(), hw, 0.0, 50, 20, 0.001)
@@ -74,7 +74,7 @@ def test_calibration_limits_saturate_and_are_flagged():
 
 
 def test_a_parameter_change_reaches_the_servos_in_the_next_frame():
-    sim = Simulation(motion=Motion())
+    sim = FrameLoop(motion=Motion())
     for _ in range(5):
         sim.step_frame()
     phase = sim.phase
@@ -86,7 +86,7 @@ def test_a_parameter_change_reaches_the_servos_in_the_next_frame():
 
 
 def test_reset_stands_the_robot_on_the_floor_at_rest():
-    sim = Simulation(motion=Motion(a_p=0.07))
+    sim = FrameLoop(motion=Motion(a_p=0.07))
     lowest = min(lowest_sole_z(sim.data, side) for side in "lr")
     assert lowest == pytest.approx(1e-4, abs=1e-9)  # resting on the floor, 0.1 mm above
     assert sim.time_s == 0.0 and not sim.fell
@@ -100,7 +100,7 @@ def test_reset_stands_the_robot_on_the_floor_at_rest():
 def test_same_inputs_give_the_same_numbers():
     runs = []
     for _ in range(2):
-        sim = Simulation(motion=Motion(a_p=0.07, ca=0.05))
+        sim = FrameLoop(motion=Motion(a_p=0.07, ca=0.05))
         for _ in range(100):
             sim.step_frame()
         runs.append(sim.data.qpos.copy())
@@ -108,7 +108,7 @@ def test_same_inputs_give_the_same_numbers():
 
 
 def test_a_tilted_start_is_detected_as_a_fall():
-    sim = Simulation()
+    sim = FrameLoop()
     half = math.radians(70) / 2
     sim.data.qpos[3:7] = (math.cos(half), math.sin(half), 0.0, 0.0)  # rolled 70 degrees
     frames = 0
@@ -119,7 +119,7 @@ def test_a_tilted_start_is_detected_as_a_fall():
 
 
 def test_a_blow_up_is_reported_not_raised():
-    sim = Simulation()
+    sim = FrameLoop()
     sim.data.qvel[:] = np.nan
     sim.step_frame()
     assert sim.blew_up and sim.fell
@@ -129,7 +129,7 @@ def test_a_blow_up_is_reported_not_raised():
 
 
 def test_frame_is_twenty_milliseconds_of_physics():
-    sim = Simulation()
+    sim = FrameLoop()
     for _ in range(50):
         sim.step_frame()
     assert sim.data.time == pytest.approx(50 * FRAME_S)

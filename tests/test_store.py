@@ -4,8 +4,8 @@ import threading
 
 import pytest
 
-from app.paramset import ParameterSet
-from app.store import NothingToUndo, ParameterStore
+from app.params.document import ParameterSet
+from app.server.param_store import NothingToUndo, ParameterStore
 from gait import Motion
 
 

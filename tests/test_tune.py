@@ -5,11 +5,11 @@ import json
 
 import pytest
 
-from app.batch import BatchEvaluator, Job
-from app.paper_cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
-from app.paramset import ParameterSet, load_parameter_set
-from app.presets import stamped, write_parameter_set
-from app.tune import Tuner, case_loss, curve_loss, dimensions, meets_all_criteria, total_loss
+from app.core.batch import BatchEvaluator, Job
+from app.params.document import ParameterSet, load_parameter_set
+from app.params.presets import stamped, write_parameter_set
+from app.study.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
+from app.study.tune import Tuner, case_loss, curve_loss, dimensions, meets_all_criteria, total_loss
 from gait import GaitParams
 
 EVALUATOR = BatchEvaluator(threads=2)

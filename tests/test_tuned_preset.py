@@ -1,11 +1,11 @@
 """The shipped `tuned` preset still walks like the paper: every criterion of the issue, judged
 exactly as `artro tune --select passing` chose it (60 s runs, 5 s warm-up, on this model)."""
 
-from app.batch import BatchEvaluator, Job
-from app.paper_cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measured, steering
-from app.paramset import load_parameter_set
-from app.presets import BUILTIN_DIR
-from app.tune import meets_all_criteria
+from app.core.batch import BatchEvaluator, Job
+from app.params.document import load_parameter_set
+from app.params.presets import BUILTIN_DIR
+from app.study.cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measured, steering
+from app.study.tune import meets_all_criteria
 
 
 def test_the_tuned_preset_meets_every_criterion():

@@ -1,4 +1,4 @@
-"""ArtRo's ATmega128 firmware: the generated parameter header and (as package data) the C sources."""
+"""ArtRo's ATmega128 firmware: the generated parameter header and (as package data) its C code."""
 
 from hardware.firmware.header import HEADER_NAME, c_float, c_header
 

@@ -18,12 +18,12 @@ import mjviser
 import numpy as np
 import viser
 
-from app.axle_fit import NOT_APPLIED
-from app.schema import schema_description
-from app.store import NothingToUndo, Snapshot
+from app.core.axle_fit import NOT_APPLIED
+from app.params.schema import schema_description
+from app.server.param_store import NothingToUndo, Snapshot
 
 if TYPE_CHECKING:
-    from app.runtime import Runtime
+    from app.server.services import Services
 
 log = logging.getLogger(__name__)
 
@@ -43,7 +43,7 @@ DIRECTION_LABELS = {
 
 
 class Viewer:
-    def __init__(self, runtime: Runtime, *, host: str, port: int) -> None:
+    def __init__(self, runtime: Services, *, host: str, port: int) -> None:
         self.runtime = runtime
         self.store = runtime.store
         self.sim = runtime.sim

@@ -13,10 +13,10 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
+from app.assets import model_xml
 from gait import JOINT_NAMES, LegGeometry
 
-MODELS_DIR = Path(__file__).resolve().parent.parent / "models"
-ARTRO_XML = MODELS_DIR / "artro.xml"
+ARTRO_XML = model_xml()
 
 
 @dataclass(frozen=True)

@@ -5,9 +5,9 @@ from typing import Any, Literal
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
-from app.api.deps import RuntimeDep
-from app.paramset import project_version
-from app.realtime import SPEED_RANGE
+from app.params.document import project_version
+from app.server.api.deps import ServicesDep
+from app.server.sim_thread import SPEED_RANGE
 
 router = APIRouter(tags=["simulation"])
 
@@ -18,7 +18,7 @@ class SpeedBody(BaseModel):
 
 
 @router.get("/api/health")
-def health(runtime: RuntimeDep) -> dict[str, Any]:
+def health(runtime: ServicesDep) -> dict[str, Any]:
     return {
         "status": "ok" if runtime.sim.alive else "simulation stopped",
         "version": project_version(),
@@ -27,19 +27,19 @@ def health(runtime: RuntimeDep) -> dict[str, Any]:
 
 
 @router.get("/api/state")
-def state(runtime: RuntimeDep) -> dict[str, Any]:
+def state(runtime: ServicesDep) -> dict[str, Any]:
     """Sim time, real-time factor, fell, trunk pose, parameter version and more."""
     return runtime.sim.status()
 
 
 @router.post("/api/sim/{action}")
-def control(action: Literal["reset", "pause", "resume", "step"], runtime: RuntimeDep) -> dict:
+def control(action: Literal["reset", "pause", "resume", "step"], runtime: ServicesDep) -> dict:
     """Reset the robot, pause, resume, or advance one 20 ms frame (pauses first)."""
     runtime.sim.command(action)
     return {"accepted": action}
 
 
 @router.put("/api/sim/speed")
-def set_speed(body: SpeedBody, runtime: RuntimeDep) -> dict:
+def set_speed(body: SpeedBody, runtime: ServicesDep) -> dict:
     runtime.sim.command("speed", body.speed)
     return {"accepted": "speed", "speed": body.speed}

@@ -9,8 +9,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from app.ca_analysis import FIT_CA_LIMIT
-from app.paper_cases import (
+from app.core.ca_analysis import FIT_CA_LIMIT
+from app.study.cases import (
     BEND_LIMIT,
     MIRROR_TOLERANCE,
     SPEED_TOLERANCE,

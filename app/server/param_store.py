@@ -15,7 +15,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from app.paramset import ParameterSet
+from app.params.document import ParameterSet
 from gait import GaitParams, Motion
 from gait.params import merge, replace_checked
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.axle_fit import AxleFitter
-from app.paramset import load_parameter_set
-from app.presets import PresetStore, builtin_presets, default_data_dir
-from app.realtime import RealtimeSimulation
-from app.store import ParameterStore
+from app.server.axle_fitter import AxleFitter
+from app.params.document import load_parameter_set
+from app.params.presets import PresetStore, builtin_presets, default_data_dir
+from app.server.param_store import ParameterStore
+from app.server.sim_thread import SimThread
 
 
 @dataclass(frozen=True)
@@ -25,7 +25,7 @@ class ServerConfig:
 START_PRESET = "tuned"  # a new user should see a robot that walks; "paper" if it is missing
 
 
-class Runtime:
+class Services:
     def __init__(self, config: ServerConfig) -> None:
         self.config = config
         builtins = builtin_presets()
@@ -35,11 +35,11 @@ class Runtime:
             initial = builtins.get(START_PRESET, builtins["paper"])
         self.store = ParameterStore(initial)
         self.presets = PresetStore(config.data_dir, builtins)
-        self.sim = RealtimeSimulation(self.store)
+        self.sim = SimThread(self.store)
         self.axle_fitter = AxleFitter()
         self.viewer = None
         if config.viewer:
-            from app.viewer import Viewer  # viser is only loaded when the view is wanted
+            from app.server.viser_view import Viewer  # viser is only loaded when the view is wanted
 
             self.viewer = Viewer(self, host=config.host, port=config.viser_port)
 

@@ -4,21 +4,21 @@ from typing import Any, Literal
 
 from fastapi import APIRouter, HTTPException
 
-from app.api.deps import RuntimeDep
-from app.paramset import ParameterSet
-from app.schema import ParamsBody, ParamsPatchBody, schema_description
-from app.store import NothingToUndo
+from app.params.document import ParameterSet
+from app.params.schema import ParamsBody, ParamsPatchBody, schema_description
+from app.server.api.deps import ServicesDep
+from app.server.param_store import NothingToUndo
 
 router = APIRouter(prefix="/api", tags=["parameters"])
 
 
 @router.get("/params")
-def get_params(runtime: RuntimeDep) -> dict[str, Any]:
+def get_params(runtime: ServicesDep) -> dict[str, Any]:
     return runtime.store.snapshot().to_dict()
 
 
 @router.put("/params")
-def put_params(body: ParamsBody, runtime: RuntimeDep) -> dict[str, Any]:
+def put_params(body: ParamsBody, runtime: ServicesDep) -> dict[str, Any]:
     """Replace every parameter; invalid input changes nothing."""
     current = runtime.store.snapshot()
     pset = ParameterSet.from_dict({"name": current.name, **body.model_dump()})
@@ -26,13 +26,13 @@ def put_params(body: ParamsBody, runtime: RuntimeDep) -> dict[str, Any]:
 
 
 @router.patch("/params")
-def patch_params(body: ParamsPatchBody, runtime: RuntimeDep) -> dict[str, Any]:
+def patch_params(body: ParamsPatchBody, runtime: ServicesDep) -> dict[str, Any]:
     """Change some parameters; the rest stay. Invalid input changes nothing."""
     return runtime.store.update(body.as_patch(), "http").to_dict()
 
 
 @router.post("/params/{step}")
-def history(step: Literal["undo", "redo"], runtime: RuntimeDep) -> dict[str, Any]:
+def history(step: Literal["undo", "redo"], runtime: ServicesDep) -> dict[str, Any]:
     """Undo or redo a parameter change (409 when there is nothing to undo or redo)."""
     move = runtime.store.undo if step == "undo" else runtime.store.redo
     try:

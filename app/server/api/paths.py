@@ -5,8 +5,8 @@ from typing import Any
 from fastapi import APIRouter, HTTPException
 from pydantic import BaseModel, ConfigDict, Field
 
-from app.api.deps import RuntimeDep
-from app.axle_fit import AxleFitError
+from app.core.axle_fit import AxleFitError
+from app.server.api.deps import ServicesDep
 
 router = APIRouter(prefix="/api/path", tags=["paths"])
 
@@ -19,13 +19,13 @@ class AnchorBody(BaseModel):
 
 
 @router.get("")
-def get_path(runtime: RuntimeDep) -> dict[str, Any]:
+def get_path(runtime: ServicesDep) -> dict[str, Any]:
     """Actual and predicted paths as [t, x, y, yaw] rows, with V, b, turn radius and rates."""
     return runtime.sim.paths.view()
 
 
 @router.post("/anchor")
-def reanchor(runtime: RuntimeDep, body: AnchorBody | None = None) -> dict[str, Any]:
+def reanchor(runtime: ServicesDep, body: AnchorBody | None = None) -> dict[str, Any]:
     """Start the prediction again at the robot's current pose."""
     runtime.sim.command("reanchor", None if body is None else body.speed_m_s)
     return {"accepted": "reanchor"}
@@ -39,14 +39,14 @@ class AxleBody(BaseModel):
 
 
 @router.put("/axle")
-def set_axle(runtime: RuntimeDep, body: AxleBody) -> dict[str, Any]:
+def set_axle(runtime: ServicesDep, body: AxleBody) -> dict[str, Any]:
     """Predict with this axle b (m), or with the measured distance between the feet (null)."""
     runtime.sim.paths.set_axle(body.axle_m, "manual")
     return {"axle_m": body.axle_m, "axle_source": "feet" if body.axle_m is None else "manual"}
 
 
 @router.post("/axle/fit")
-def fit_axle(runtime: RuntimeDep) -> dict[str, Any]:
+def fit_axle(runtime: ServicesDep) -> dict[str, Any]:
     """Fit the effective axle b_eff of the current gait from simulated curve walks (CA = -0.1,
     0, +0.1 at the current a_p, 20 s each, in the background) and predict with it."""
     snap = runtime.store.snapshot()

@@ -20,14 +20,14 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import yaml
 
-from app.paramset import ParameterSet
+from app.params.document import ParameterSet
 from gait.params import Motion, describe_fields, group_class
 from hardware.firmware import HEADER_NAME, c_header
 from hardware.servo import ServoCalibration
 from hardware.tdm import DEFAULT_SELECT_CHANGE_TICKS, TdmConfig
 
 if TYPE_CHECKING:
-    from app.simulation import HardwareSetup
+    from app.core.frame_loop import HardwareSetup
 
 FORMATS = ("json", "yaml", "c")
 MEDIA_TYPES = {"json": "application/json", "yaml": "application/yaml", "c": "text/x-c"}
@@ -72,7 +72,7 @@ def export_text(
             project's version).
         fmt: one of FORMATS ("json", "yaml", "c"), case-insensitive.
         hardware: servo calibration and TDM set-up for the C header (anything with `.calibration`
-            and `.tdm`, e.g. `app.simulation.HardwareSetup`); default: uncalibrated servos, the
+            and `.tdm`, e.g. `app.core.frame_loop.HardwareSetup`); default: uncalibrated servos, the
             default channel map, select change at 4900 ticks.
 
     Returns:

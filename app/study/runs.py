@@ -1,7 +1,7 @@
 """The runs of `artro bench paper`: presets, the job list, and batch rollouts that keep the path.
 
 For each preset (a parameter-set file; only its gait constants are used) the bench runs every case
-of `app.paper_cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA up
+of `app.study.cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA up
 to the ends of its range (+-0.5), to find where the robot falls. All these runs of all presets go
 to one `BatchEvaluator.evaluate` call so its threads stay busy. A second call walks CA = 0.058
 forward long enough for a full circle (seed 004, Fig. 5). The first call also walks CA = -0.1, 0
@@ -22,11 +22,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from app.batch import BatchEvaluator, Job
-from app.metrics import Trace, whole_cycles
-from app.paper_cases import CA_PROBE, CASES, PaperCase
-from app.paramset import ParameterSet, load_parameter_set
-from app.presets import BUILTIN_DIR
+from app.core.batch import BatchEvaluator, Job
+from app.core.metrics import Trace, whole_cycles
+from app.params.document import ParameterSet, load_parameter_set
+from app.params.presets import BUILTIN_DIR
+from app.study.cases import CA_PROBE, CASES, PaperCase
 from gait import GaitParams, Motion
 
 NAMED_PRESETS = ("paper", "tuned")
@@ -142,7 +142,7 @@ class RunTrace:
         return cls(t_s=a["t"], x_m=a["x"], y_m=a["y"], yaw_rad=a["yaw"], feet_m=a["feet"])
 
     def window(self, warmup_s: float, freq_hz: float) -> slice:
-        """The measured samples: whole gait cycles after the warm-up (as app.metrics)."""
+        """The measured samples: whole gait cycles after the warm-up (as app.core.metrics)."""
         return whole_cycles(self.t_s, warmup_s, freq_hz)
 
 

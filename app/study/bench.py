@@ -2,12 +2,12 @@
 
 Seed 000 §5 (SPEC §7): walking on the spot, forward at a_p = 0.07 (3.8 cm/s), sideways at
 a_r = 0.1 (3.5 cm/s), turning at a_y = 0.2 (12.1 deg/s), and their mirror images
-(`app.paper_cases`). Seed 004 §V: curve walking forward and backward over a CA sweep -- heading
+(`app.study.cases`). Seed 004 §V: curve walking forward and backward over a CA sweep -- heading
 rate against eq (13), theta_dot = -2 CA V / b, an effective axle fitted to it, the stability
 (gyro RMS, falls) against CA as in its Fig. 6 (limits 0.15 forward, 0.17 backward on the Nao),
-and whether CA = 0.058 walks a full circle. `app.ca_analysis` has the formulas.
+and whether CA = 0.058 walks a full circle. `app.core.ca_analysis` has the formulas.
 
-Prints the tables (`app.paper_report`), writes the plots (`app.paper_plots`) and every number
+Prints the tables (`app.study.report`), writes the plots (`app.study.plots`) and every number
 to results.json in the output folder.
 """
 
@@ -25,8 +25,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from app import ca_analysis as ca_math
-from app.paper_cases import (
+from app.core import ca_analysis as ca_math
+from app.study.cases import (
     CA_PROBE,
     CASES,
     MIRROR_TOLERANCE,
@@ -37,7 +37,7 @@ from app.paper_cases import (
     steers_right,
     within_eq13,
 )
-from app.paper_runs import (
+from app.study.runs import (
     CIRCLE_CA,
     QUICK,
     WALK_A_P,
@@ -196,7 +196,7 @@ def ca_summary(walks: list[Run], warmup_s: float, freq_hz: float) -> dict[str, A
 
 
 def _steering(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
-    """`app.paper_cases.steering` of the sweep's CA = +-0.1 and 0 runs (eq (13) with the CA = 0
+    """`app.study.cases.steering` of the sweep's CA = +-0.1 and 0 runs (eq (13) with the CA = 0
     run's V and b), as the tuner judges it."""
     by_ca = {round(r["ca"], 6): r for r in rows}
     picked = [by_ca.get(ca) for ca in (CA_PROBE, -CA_PROBE, 0.0)]
@@ -354,8 +354,8 @@ def run_paper_bench(
     """
     stdout = stdout or sys.stdout
     stderr = stderr or sys.stderr
-    from app.paper_plots import write_plots
-    from app.paper_report import render_report
+    from app.study.plots import write_plots
+    from app.study.report import render_report
 
     presets, notes = resolve_presets(preset_specs)
     if not presets:

@@ -1,6 +1,6 @@
 """The real-time simulation thread of `artro serve`: paces the frame loop to the wall clock.
 
-This thread alone owns the `Simulation` (and so its MjData). Everyone else talks to it through
+This thread alone owns the `FrameLoop` (and so its MjData). Everyone else talks to it through
 the parameter store (changes are picked up at the next frame boundary) and a command queue
 (pause, resume, reset, single step, speed, re-anchor). Pacing: frame k of a run is due at
 wall time anchor + k * 20 ms / speed. When the machine falls behind by more than
@@ -26,11 +26,11 @@ from typing import Any
 
 import numpy as np
 
-from app.paths import SAMPLE_EVERY_FRAMES, PathTracker
-from app.robot import RobotModel
-from app.scope import ScopeHub
-from app.simulation import FRAME_S, HardwareSetup, Simulation
-from app.store import ParameterStore, Snapshot
+from app.core.frame_loop import FRAME_S, FrameLoop, HardwareSetup
+from app.core.robot import RobotModel
+from app.server.param_store import ParameterStore, Snapshot
+from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
+from app.server.scope_feed import ScopeFeed
 
 log = logging.getLogger(__name__)
 
@@ -49,7 +49,7 @@ class BodyPoses:
     xmat: np.ndarray
 
 
-class RealtimeSimulation:
+class SimThread:
     def __init__(
         self,
         store: ParameterStore,
@@ -60,10 +60,10 @@ class RealtimeSimulation:
         self.store = store
         self.hardware = hardware or HardwareSetup()
         snap = store.snapshot()
-        self.sim = Simulation(
+        self.sim = FrameLoop(
             robot=robot, params=snap.gait, motion=snap.motion, hardware=self.hardware
         )
-        self.scope = ScopeHub(self.hardware.tdm)
+        self.scope = ScopeFeed(self.hardware.tdm)
         self.paths = PathTracker()
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         self._commands: queue.SimpleQueue[tuple[str, Any]] = queue.SimpleQueue()

@@ -3,7 +3,7 @@
 The gait is open loop: a run's servo set-points are a pure function of the parameters and time.
 So the whole run is planned up front (`plan_frames`, vectorised), turned into the control of every
 physics step -- each servo switching to its new set-point at its pulse's falling edge, exactly as
-`Simulation` does -- and rolled out by MuJoCo's C thread pool, many runs at once. The states are
+`FrameLoop` does -- and rolled out by MuJoCo's C thread pool, many runs at once. The states are
 sampled once per 20 ms frame, in whole arrays (the distance between the feet from the model's
 sole-position sensors, no Python per frame), and measured with the same fall test and the same
 `compute_metrics` as `artro run`; a test checks that both give the same numbers, to the bit.
@@ -23,16 +23,16 @@ import mujoco
 import numpy as np
 from mujoco import rollout
 
-from app.metrics import Trace, compute_metrics
-from app.robot import RobotModel
-from app.simulation import (
+from app.core.frame_loop import (
     FRAME_S,
-    Simulation,
+    FrameLoop,
     has_fallen,
     plan_frames,
     planar_distance_m,
     trunk_yaw,
 )
+from app.core.metrics import Trace, compute_metrics
+from app.core.robot import RobotModel
 from gait import GaitParams, Motion
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -55,13 +55,13 @@ class Start:
     standing_height_m: float
 
 
-def start_of(sim: Simulation) -> Start:
+def start_of(sim: FrameLoop) -> Start:
     state = np.empty(mujoco.mj_stateSize(sim.model, STATE_SPEC))
     mujoco.mj_getState(sim.model, sim.data, state, STATE_SPEC)
     return Start(state, sim.data.ctrl.copy(), sim.phase, sim.standing_height_m)
 
 
-def control_sequence(sim: Simulation, start: Start, n_frames: int) -> np.ndarray:
+def control_sequence(sim: FrameLoop, start: Start, n_frames: int) -> np.ndarray:
     """ctrl of every physics step (n_frames * steps_per_frame, nu), as the frame loop applies it."""
     steps = sim.steps_per_frame
     plan = plan_frames(
@@ -132,8 +132,8 @@ class BatchEvaluator:
 
     def _plan(
         self, chunk: Sequence[Job], n_frames: int
-    ) -> tuple[list[Simulation], list[Start], np.ndarray, np.ndarray]:
-        sims = [Simulation(self.robot, j.params, j.motion) for j in chunk]
+    ) -> tuple[list[FrameLoop], list[Start], np.ndarray, np.ndarray]:
+        sims = [FrameLoop(self.robot, j.params, j.motion) for j in chunk]
         starts = [start_of(s) for s in sims]
         controls = np.stack(
             [control_sequence(s, st, n_frames) for s, st in zip(sims, starts, strict=True)]
@@ -143,7 +143,7 @@ class BatchEvaluator:
     def _measure_chunk(
         self,
         chunk: Sequence[Job],
-        sims: list[Simulation],
+        sims: list[FrameLoop],
         starts: list[Start],
         states: np.ndarray,
         sensors: np.ndarray,
@@ -182,9 +182,9 @@ class BatchEvaluator:
         steps: int,
         warmup_s: float,
     ) -> tuple[dict[str, Any], Trace]:
-        """The run's frames as `Simulation` samples them, in whole arrays: the state after each
+        """The run's frames as `FrameLoop` samples them, in whole arrays: the state after each
         frame's last physics step, and the sensors of that step -- whose sole positions MuJoCo
-        computed from the state one step earlier, as `Simulation` reads the sites after it."""
+        computed from the state one step earlier, as `FrameLoop` reads the sites after it."""
         model = self.model
         rows = np.arange(1, n_frames + 1) * steps - 1
         qpos = states[rows, 1 : 1 + model.nq]
@@ -193,7 +193,7 @@ class BatchEvaluator:
         bad = ~np.all(np.isfinite(qpos), axis=1) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
         first_bad = int(np.argmax(bad)) if bad.any() else n_frames
         down = has_fallen(qpos[:first_bad], start.standing_height_m)
-        if down.any():  # the frame it fell in is still sampled, as in `Simulation`
+        if down.any():  # the frame it fell in is still sampled, as in `FrameLoop`
             fell, blew_up = True, False
             samples = frames_done = int(np.argmax(down)) + 1
         elif first_bad < n_frames:  # the blown-up frame is not

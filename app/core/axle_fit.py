@@ -4,7 +4,7 @@ Eq (13) predicts the heading rate from CA with b = the distance between the feet
 by skidding its feet, so its measured rate is usually weaker: the axle that makes eq (13) fit is
 longer. This runs the current parameter set at CA = -0.1, 0 and +0.1 (at the current walking
 amplitude, or forward a_p = 0.07 when it stands), fits theta_dot = drift + k CA and gives
-b_eff = -2 V / k (`app.ca_analysis`). The dashboard's predicted path can then use b_eff.
+b_eff = -2 V / k (`app.core.ca_analysis`). The dashboard's predicted path can then use b_eff.
 
 The runs go to the batch evaluator with one thread, so a live simulation keeps the other core.
 """
@@ -13,12 +13,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import threading
 from dataclasses import dataclass
 
-from app.batch import BatchEvaluator, Job
-from app.ca_analysis import fit_axle
-from app.paths import PathTracker
+from app.core.batch import BatchEvaluator, Job
+from app.core.ca_analysis import fit_axle
 from gait import GaitParams, Motion
 
 FIT_CA = (-0.1, 0.0, 0.1)
@@ -96,24 +94,3 @@ def fit_effective_axle(
         turn_deg_s=tuple(r["turn_deg_s"] for r in results),
         sim_s=duration_s * len(jobs),
     )
-
-
-class AxleFitter:
-    """One fit at a time for the server; a second request while one runs is refused."""
-
-    def __init__(self) -> None:
-        self._busy = threading.Lock()
-        self.last: AxleFitResult | None = None
-
-    def fit(self, params: GaitParams, motion: Motion, paths: PathTracker) -> AxleFitResult:
-        """Fit, and let `paths` predict with b_eff when it applies."""
-        if not self._busy.acquire(blocking=False):
-            raise RuntimeError("an axle fit is already running; wait for it to finish")
-        try:
-            self.last = fit_effective_axle(params, motion)
-        finally:
-            self._busy.release()
-        if self.last.applies:
-            assert self.last.axle_eff_m is not None
-            paths.set_axle(self.last.axle_eff_m, "fitted")
-        return self.last

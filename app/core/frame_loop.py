@@ -1,6 +1,6 @@
 """The frame loop: gait -> servo pulses -> TDM-PWM frame -> demultiplexed set-points -> MuJoCo.
 
-One call of `Simulation.step_frame()` is one 20 ms TDM frame (SPEC §2): the walking clock gives
+One call of `FrameLoop.step_frame()` is one 20 ms TDM frame (SPEC §2): the walking clock gives
 the phase, the gait gives 12 joint angles, the servo model turns them into pulse widths, the timer
 model quantises those to OCR ticks, and each servo's new set-point -- the angle decoded from its
 quantised, demultiplexed pulse -- takes effect at that pulse's falling edge. Physics steps in
@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from app.robot import RobotModel
+from app.core.robot import RobotModel
 from gait import GaitParams, Motion, joint_angles_with_flags, pi_cut
 from hardware import (
     FRAME_TICKS,
@@ -158,7 +158,7 @@ def plan_frames(
     )
 
 
-class Simulation:
+class FrameLoop:
     """The ArtRo simulation, advanced one TDM frame at a time."""
 
     def __init__(

@@ -6,15 +6,15 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, Query, WebSocket, WebSocketDisconnect
 
-from app.api.deps import RuntimeDep, WsRuntimeDep
-from app.scope import HISTORY_FRAMES
+from app.server.api.deps import ServicesDep, WsServicesDep
+from app.server.scope_feed import HISTORY_FRAMES
 
 router = APIRouter(tags=["scope"])
 
 
 @router.get("/api/scope")
 def recent_frames(
-    runtime: RuntimeDep,
+    runtime: ServicesDep,
     frames: Annotated[int, Query(ge=1, le=HISTORY_FRAMES, description="how many")] = 1,
 ) -> dict[str, Any]:
     """The last N TDM-PWM frames: per channel the slots (servo, OCR ticks, pulse us, degrees),
@@ -23,7 +23,7 @@ def recent_frames(
 
 
 @router.websocket("/ws/scope")
-async def live_frames(websocket: WebSocket, runtime: WsRuntimeDep) -> None:
+async def live_frames(websocket: WebSocket, runtime: WsServicesDep) -> None:
     """One JSON message per 20 ms simulated frame. A client that reads too slowly loses frames."""
     await websocket.accept()
     hub = runtime.sim.scope

@@ -19,7 +19,7 @@ from typing import Any
 
 import numpy as np
 
-from app.simulation import FrameRecord
+from app.core.frame_loop import FrameRecord
 from hardware import SERVO_NAMES, TdmConfig, frame_to_dict
 
 HISTORY_FRAMES = 250  # 5 s of frames for GET /api/scope
@@ -50,7 +50,7 @@ class ScopeClient:
     dropped: int = 0
 
 
-class ScopeHub:
+class ScopeFeed:
     def __init__(self, tdm: TdmConfig) -> None:
         self.tdm = tdm
         self._history: deque[tuple[FrameRecord, int]] = deque(maxlen=HISTORY_FRAMES)

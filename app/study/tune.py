@@ -1,6 +1,6 @@
 """`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking.
 
-One candidate = one parameter set, evaluated on every run of `app.paper_cases.JUDGED_RUNS` (on
+One candidate = one parameter set, evaluated on every run of `app.study.cases.JUDGED_RUNS` (on
 the spot, forward, sideways, turning, their mirror images, and curve walking at CA = +-0.1
 forward and backward) with the batch evaluator. The loss rewards each case's speed being the
 paper's (relative error squared), walking on the spot without drift, CA steering as eq (13) says
@@ -29,8 +29,10 @@ from typing import Any, TextIO
 import cma
 import numpy as np
 
-from app.batch import BatchEvaluator, Job
-from app.paper_cases import (
+from app.core.batch import BatchEvaluator, Job
+from app.params.document import ParameterSet
+from app.params.presets import stamped, write_parameter_set
+from app.study.cases import (
     CASES,
     CURVES,
     JUDGED_RUNS,
@@ -44,8 +46,6 @@ from app.paper_cases import (
     steering,
     steers_right,
 )
-from app.paramset import ParameterSet
-from app.presets import stamped, write_parameter_set
 from gait import GaitParams
 from gait.params import describe_fields, group_class, merge, parse_settings
 
@@ -163,7 +163,7 @@ def curve_loss(
     weights: LossWeights = LossWeights(),
 ) -> float:
     """A fall as in `case_loss` (the straight walk is a case of its own); else the squared
-    distance of the steering gain from 1 and the squared bend (`app.paper_cases.Steering`)."""
+    distance of the steering gain from 1 and the squared bend (`app.study.cases.Steering`)."""
     falls = [m for m in (plus, minus) if m["fell"]]
     if falls:
         return sum(FALL_LOSS * (2.0 - m.get("fall_time_s", 0.0) / duration_s) for m in falls)
@@ -441,7 +441,7 @@ def add_arguments(parser: Any) -> None:
 
 
 def command(args: Any) -> int:
-    from app.paramset import load_parameter_set
+    from app.params.document import load_parameter_set
 
     base = ParameterSet() if args.base == "paper" else load_parameter_set(args.base)
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))

@@ -4,18 +4,18 @@ from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 
-from app.api.deps import RuntimeDep
-from app.exporting import FORMATS, MAX_IMPORT_BYTES, ImportTooLarge, export_text, parse_import
-from app.paramset import ParameterSet
-from app.presets import PresetError, PresetNotFound, diff
-from app.runtime import Runtime
+from app.params.document import ParameterSet
+from app.params.formats import FORMATS, MAX_IMPORT_BYTES, ImportTooLarge, export_text, parse_import
+from app.params.presets import PresetError, PresetNotFound, diff
+from app.server.api.deps import ServicesDep
+from app.server.services import Services
 
 router = APIRouter(prefix="/api", tags=["presets"])
 
 CURRENT = "current"  # in a diff: the parameters in use now
 
 
-def _get(runtime: Runtime, name: str) -> ParameterSet:
+def _get(runtime: Services, name: str) -> ParameterSet:
     if name == CURRENT:
         return runtime.store.snapshot().parameter_set()
     try:
@@ -27,7 +27,7 @@ def _get(runtime: Runtime, name: str) -> ParameterSet:
 
 
 @router.get("/presets")
-def list_presets(runtime: RuntimeDep) -> dict[str, Any]:
+def list_presets(runtime: ServicesDep) -> dict[str, Any]:
     infos = runtime.presets.list()
     return {
         "presets": [info.to_dict() for info in infos],
@@ -37,7 +37,7 @@ def list_presets(runtime: RuntimeDep) -> dict[str, Any]:
 
 @router.get("/presets/diff")
 def diff_presets(
-    runtime: RuntimeDep,
+    runtime: ServicesDep,
     a: Annotated[str, Query(description="preset name, or 'current'")],
     b: Annotated[str, Query(description="preset name, or 'current'")] = CURRENT,
 ) -> dict[str, Any]:
@@ -46,12 +46,12 @@ def diff_presets(
 
 
 @router.get("/presets/{name}")
-def get_preset(name: str, runtime: RuntimeDep) -> dict[str, Any]:
+def get_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
     return _get(runtime, name).to_dict()
 
 
 @router.put("/presets/{name}", status_code=201)
-def save_preset(name: str, runtime: RuntimeDep) -> dict[str, Any]:
+def save_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
     """Save the parameters in use now under this name."""
     if name == CURRENT:
         raise HTTPException(422, f"{CURRENT!r} is reserved for the parameters in use")
@@ -62,7 +62,7 @@ def save_preset(name: str, runtime: RuntimeDep) -> dict[str, Any]:
 
 
 @router.delete("/presets/{name}")
-def delete_preset(name: str, runtime: RuntimeDep) -> dict[str, Any]:
+def delete_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
     try:
         runtime.presets.delete(name)
     except PresetNotFound as exc:
@@ -73,14 +73,14 @@ def delete_preset(name: str, runtime: RuntimeDep) -> dict[str, Any]:
 
 
 @router.post("/presets/{name}/load")
-def load_preset(name: str, runtime: RuntimeDep) -> dict[str, Any]:
+def load_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
     """Make a preset the parameters in use (undoable)."""
     return runtime.store.replace(_get(runtime, name), "preset").to_dict()
 
 
 @router.get("/export")
 def export(
-    runtime: RuntimeDep,
+    runtime: ServicesDep,
     format: Annotated[str, Query(description=f"one of {', '.join(FORMATS)}")] = "json",
 ) -> Response:
     """The parameters in use as a file: JSON, YAML, or a C header for the ATmega128 firmware."""
@@ -94,7 +94,7 @@ def export(
 
 
 @router.post("/import")
-async def import_params(request: Request, runtime: RuntimeDep) -> dict[str, Any]:
+async def import_params(request: Request, runtime: ServicesDep) -> dict[str, Any]:
     """Upload a JSON or YAML parameter set (at most 64 KiB) and make it the one in use."""
     raw = bytearray()
     async for chunk in request.stream():

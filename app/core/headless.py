@@ -9,8 +9,8 @@ from typing import Any
 
 import numpy as np
 
-from app.metrics import Trace, compute_metrics
-from app.simulation import FRAME_S, HardwareSetup, Simulation
+from app.core.frame_loop import FRAME_S, FrameLoop, HardwareSetup
+from app.core.metrics import Trace, compute_metrics
 from gait import GaitParams, Motion
 from hardware import required_torque_from_loads
 
@@ -35,7 +35,7 @@ def run(
     """Simulate `duration_s` of walking (stopping early at a fall) and compute the run metrics."""
     if not duration_s > 0 or not warmup_s >= 0:
         raise ValueError("duration must be > 0 s and warm-up >= 0 s")
-    sim = Simulation(params=params, motion=motion, hardware=hardware)
+    sim = FrameLoop(params=params, motion=motion, hardware=hardware)
     trace = Trace()
     n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
     flags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}

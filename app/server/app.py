@@ -1,7 +1,7 @@
 """The FastAPI application of `artro serve`: REST + WebSocket API and the static page.
 
 `create_app()` builds the app; its lifespan starts and stops what the app owns (the simulation
-thread and the viser view, through `Runtime`). Routers live in `app/api/`, one per resource.
+thread and the viser view, through `Services`). Routers live in `app/server/api/`, one per resource.
 """
 
 from __future__ import annotations
@@ -10,7 +10,6 @@ import asyncio
 import math
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
-from pathlib import Path
 from typing import Any
 
 from fastapi import FastAPI, Request
@@ -18,11 +17,10 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from fastapi.staticfiles import StaticFiles
 
-from app.api import params, paths, presets, scope, sim
-from app.paramset import project_version
-from app.runtime import Runtime, ServerConfig
-
-STATIC_DIR = Path(__file__).resolve().parent.parent / "static"
+from app.assets import static_dir
+from app.params.document import project_version
+from app.server.api import params, paths, presets, scope, sim
+from app.server.services import ServerConfig, Services
 
 
 def create_app(config: ServerConfig | None = None) -> FastAPI:
@@ -30,7 +28,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        runtime = Runtime(config)
+        runtime = Services(config)
         runtime.sim.scope.attach_loop(asyncio.get_running_loop())
         runtime.start()
         app.state.runtime = runtime
@@ -67,7 +65,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
 
     for router in (sim.router, params.router, scope.router, paths.router, presets.router):
         app.include_router(router)
-    app.mount("/", StaticFiles(directory=STATIC_DIR, html=True), name="static")
+    app.mount("/", StaticFiles(directory=static_dir(), html=True), name="static")
     return app
 
 

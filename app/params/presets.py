@@ -21,7 +21,8 @@ from datetime import datetime, timezone
 from pathlib import Path
 from typing import Any
 
-from app.paramset import ParameterSet, load_parameter_set, project_version
+from app.assets import builtin_presets_dir
+from app.params.document import ParameterSet, load_parameter_set, project_version
 
 DATA_DIR_ENV = "ARTRO_DATA_DIR"
 NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
@@ -30,7 +31,7 @@ NAME_RULE = (
     "without '..' and not ending in '.'"
 )
 SUFFIX = ".json"
-BUILTIN_DIR = Path(__file__).resolve().parent.parent / "models" / "presets"
+BUILTIN_DIR = builtin_presets_dir()
 
 
 class PresetError(ValueError):

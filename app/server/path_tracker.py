@@ -4,7 +4,7 @@ The simulation thread feeds trunk poses in; the HTTP API, the viser view and the
 `PathTracker.view()`. The prediction starts at an anchor pose and follows the exact unicycle of
 `gait.steering` with V = the measured walking speed (mean forward speed over the last whole gait
 cycles) unless set by hand, and b = the measured mean distance between the feet unless an axle is
-set (by hand, or the effective axle fitted by `app.axle_fit`). It is re-anchored at the current
+set (by hand, or the effective axle fitted by `app.core.axle_fit`). It is re-anchored at the current
 pose when the motion vector or CA changes, and on request.
 """
 
@@ -18,7 +18,7 @@ from typing import Any
 
 import numpy as np
 
-from app.metrics import mean_body_velocity
+from app.core.metrics import mean_body_velocity
 from gait import Pose2D, predict_path, turn_radius_m, turn_rate_rad_s
 
 SAMPLE_EVERY_FRAMES = 5  # 10 Hz path samples

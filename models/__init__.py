@@ -1,0 +1,1 @@
+"""Package data (installed as `app.models`): the ArtRo MJCF, its README and the built-in presets."""

@@ -1,0 +1,1 @@
+"""Package data (installed as `app.static`): the dashboard page, served at `/`."""
