@@ -11,7 +11,6 @@ from hardware.demux import (
     Pulse,
     demultiplex,
     frame_edges,
-    frame_to_dict,
 )
 from hardware.servo import (
     PERIOD_US,
@@ -85,7 +84,6 @@ __all__ = [
     "falling_edge_ticks",
     "frame_edges",
     "frame_ocr",
-    "frame_to_dict",
     "guard_violations",
     "max_sin",
     "ocr_to_pulse_us",

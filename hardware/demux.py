@@ -6,15 +6,13 @@ TDM lines and the three select lines (Figure 7b). `demultiplex` plays the actuat
 TDM line AND select == k) and measures every pulse, as the oscilloscope of Figure 8 does. For
 in-range pulses the measured width equals (OCR + 1) * 0.5 µs exactly; a pulse cut by a select change
 (guard violation) and the remainder it spills into the next output are flagged.
-
-`frame_to_dict` packs one frame into JSON-ready data for the web oscilloscope.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from itertools import pairwise
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -25,8 +23,6 @@ from hardware.tdm import (
     SERVO_NAMES,
     TdmConfig,
     check_ocr,
-    falling_edge_ticks,
-    guard_violations,
 )
 from hardware.timer import FRAME_TICKS, OCR_IDLE, SLOT_TICKS, SLOTS_PER_FRAME, TICK_US
 
@@ -193,74 +189,3 @@ def demultiplex(edges: FrameEdges, config: TdmConfig) -> DemuxResult:
         outputs=tuple(tuple(tuple(seen) for seen in outputs) for outputs in pulses),
         stray=stray,
     )
-
-
-def frame_to_dict(
-    ocr: ArrayLike, config: TdmConfig, *, saturated: ArrayLike | None = None
-) -> dict[str, Any]:
-    """One frame (6, 8) as JSON-ready data for the web oscilloscope.
-
-    Args:
-        ocr: OCR values of one frame.
-        config: channel map and select timing.
-        saturated: optional per-servo flags (12,) from `angles_to_pulses_us`, copied per slot.
-
-    Returns:
-        {"tick_us", "slot_ticks", "frame_ticks", "select_change_ticks",
-         "channels": [{"name", "slots": [{"slot", "servo", "ocr_ticks", "pulse_us", "fall_tick",
-                       "decoded_us", "guard_violation", "glitch", "saturated"}]}]  (active slots),
-         "lines": [{"name", "initial", "edges": [[tick, level], ...]}]  (see FrameEdges),
-         "flags": {"guard_violation": bool, "glitch": [servo names], "saturated": [servo names],
-                   "stray": [[channel name, output], ...]}}
-        decoded_us is what the demultiplexer measured (null if nothing arrived).
-    """
-    frame = check_ocr(ocr)
-    sat = np.zeros(len(SERVO_NAMES), bool) if saturated is None else np.asarray(saturated, bool)
-    if sat.shape != (len(SERVO_NAMES),):
-        raise ValueError(f"saturated must have shape ({len(SERVO_NAMES)},), got {sat.shape}")
-    edges = frame_edges(frame, config)
-    decoded = demultiplex(edges, config)
-    guard = guard_violations(frame, config)
-    falls = falling_edge_ticks(frame, config)
-    cmap = config.channel_map
-
-    channels = []
-    for channel, name in enumerate(CHANNELS):
-        slots = []
-        for slot in np.flatnonzero(frame[channel] != OCR_IDLE).tolist():
-            servo = cmap.servo_at(channel, slot)
-            slot_ocr = int(frame[channel, slot])
-            slots.append(
-                {
-                    "slot": slot,
-                    "servo": None if servo is None else SERVO_NAMES[servo],
-                    "ocr_ticks": slot_ocr,
-                    "pulse_us": (slot_ocr + 1) * TICK_US,
-                    "fall_tick": None if servo is None else int(falls[servo]),
-                    "decoded_us": None
-                    if servo is None or np.isnan(decoded.pulse_us[servo])
-                    else float(decoded.pulse_us[servo]),
-                    "guard_violation": bool(guard[channel, slot]),
-                    "glitch": servo is not None and bool(decoded.glitch[servo]),
-                    "saturated": servo is not None and bool(sat[servo]),
-                }
-            )
-        channels.append({"name": name, "slots": slots})
-
-    return {
-        "tick_us": TICK_US,
-        "slot_ticks": SLOT_TICKS,
-        "frame_ticks": FRAME_TICKS,
-        "select_change_ticks": config.select_change_ticks,
-        "channels": channels,
-        "lines": [
-            {"name": name, "initial": initial, "edges": [list(edge) for edge in line]}
-            for name, initial, line in zip(edges.names, edges.initial, edges.edges, strict=True)
-        ],
-        "flags": {
-            "guard_violation": bool(guard.any()),
-            "glitch": [SERVO_NAMES[i] for i in np.flatnonzero(decoded.glitch)],
-            "saturated": [SERVO_NAMES[i] for i in np.flatnonzero(sat)],
-            "stray": [[CHANNELS[c], output] for c, output in decoded.stray],
-        },
-    }

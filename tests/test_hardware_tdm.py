@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 from hypothesis import given
@@ -20,7 +18,6 @@ from hardware import (
     falling_edge_ticks,
     frame_edges,
     frame_ocr,
-    frame_to_dict,
     guard_violations,
     ocr_to_pulse_us,
     select_value,
@@ -267,36 +264,3 @@ def test_demultiplex_agrees_with_vectorised_model(
     assert np.array_equal(result.glitch, prev_cut)
     ok = ~result.glitch
     assert np.array_equal(result.fall_ticks[ok], falling_edge_ticks(ocr, config)[ok])
-
-
-def test_frame_to_dict_is_json_ready() -> None:
-    ocr = centred_frame()
-    ocr[0, 0] = 4950
-    saturated = np.zeros(12, dtype=bool)
-    saturated[R_KNEE] = True
-    data = json.loads(json.dumps(frame_to_dict(ocr, CONFIG, saturated=saturated)))
-    assert data["select_change_ticks"] == 4900
-    assert [c["name"] for c in data["channels"]] == ["OC1A", "OC1B", "OC1C", "OC3A", "OC3B", "OC3C"]
-    oc1a = data["channels"][0]["slots"]
-    assert [s["servo"] for s in oc1a] == list(SERVO_NAMES[:5])
-    assert oc1a[0] | {"guard_violation": True} == {
-        "slot": 0,
-        "servo": "l_hip_yaw",
-        "ocr_ticks": 4950,
-        "pulse_us": 2475.5,
-        "fall_tick": 4900,
-        "decoded_us": 2450.0,
-        "guard_violation": True,
-        "glitch": False,
-        "saturated": False,
-    }
-    assert oc1a[1]["glitch"] and oc1a[1]["decoded_us"] == 25.5
-    assert data["channels"][1]["slots"][3]["saturated"]
-    assert data["channels"][4]["slots"] == []
-    assert data["flags"] == {
-        "guard_violation": True,
-        "glitch": ["l_hip_roll"],
-        "saturated": ["r_knee"],
-        "stray": [],
-    }
-    assert data["lines"][8] == {"name": "S2", "initial": 0, "edges": [[19900, 1], [39900, 0]]}

@@ -28,14 +28,14 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
-        runtime = Services(config)
-        runtime.sim.scope.attach_loop(asyncio.get_running_loop())
-        runtime.start()
-        app.state.runtime = runtime
+        services = Services(config)
+        services.sim.scope.attach_loop(asyncio.get_running_loop())
+        services.start()
+        app.state.services = services
         try:
             yield
         finally:
-            runtime.stop()
+            services.stop()
 
     app = FastAPI(
         title="ArtRo Gait Studio",

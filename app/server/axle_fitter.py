@@ -1,4 +1,4 @@
-"""The server's axle fit: one at a time, and the path tracker predicts with b_eff when it applies."""
+"""The server's axle fit: one at a time; the path tracker then predicts with b_eff if it applies."""
 
 from __future__ import annotations
 

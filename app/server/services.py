@@ -1,13 +1,13 @@
-"""What `artro serve` owns while it runs: the store, the simulation thread, presets, the 3D view."""
+"""The composition root of `artro serve`: the store, the simulation thread, presets, the 3D view."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.server.axle_fitter import AxleFitter
 from app.params.document import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
+from app.server.axle_fitter import AxleFitter
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import SimThread
 
@@ -41,7 +41,15 @@ class Services:
         if config.viewer:
             from app.server.viser_view import Viewer  # viser is only loaded when the view is wanted
 
-            self.viewer = Viewer(self, host=config.host, port=config.viser_port)
+            self.viewer = Viewer(
+                store=self.store,
+                sim=self.sim,
+                paths=self.sim.paths,
+                axle_fitter=self.axle_fitter,
+                model=self.sim.model,
+                host=config.host,
+                port=config.viser_port,
+            )
 
     def start(self) -> None:
         self.sim.start()

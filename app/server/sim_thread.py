@@ -1,19 +1,13 @@
-"""The real-time simulation thread of `artro serve`: paces the frame loop to the wall clock.
+"""The simulation thread of `artro serve`: paces the frame loop to the wall clock.
 
-This thread alone owns the `FrameLoop` (and so its MjData). Everyone else talks to it through
-the parameter store (changes are picked up at the next frame boundary) and a command queue
-(pause, resume, reset, single step, speed, re-anchor). Pacing: frame k of a run is due at
-wall time anchor + k * 20 ms / speed. When the machine falls behind by more than
-MAX_CATCHUP_FRAMES, the debt is dropped instead of chased (no spiral of death): the loop
-re-anchors, counts the dropped frames and reports that it is behind. The real-time factor is
-measured over a sliding window of wall time.
-
-The thread never dies of a frame: an exception or a physics blow-up is reported in the status
-and the robot is reset.
+It alone owns the `FrameLoop` and its MjData (docs/DESIGN.md, "Threads"). Others send `Command`s,
+change the parameter store, and read what it publishes: a `SimStatus` snapshot and body poses.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import logging
 import math
 import queue
@@ -40,6 +34,56 @@ SPEED_RANGE = (0.25, 4.0)
 BEHIND_SHOWN_S = 2.0  # "behind" stays set this long after frames were dropped
 
 
+class Command(enum.Enum):
+    """What other threads may ask of the simulation thread."""
+
+    PAUSE = "pause"
+    RESUME = "resume"
+    RESET = "reset"
+    STEP = "step"  # one 20 ms frame, pausing first
+    SPEED = "speed"  # value: x real time, within SPEED_RANGE
+    REANCHOR = "reanchor"  # value: V in m/s fixed by hand, or None to measure it
+
+
+@dataclass(frozen=True)
+class TrunkPose:
+    x_m: float
+    y_m: float
+    z_m: float
+    yaw_rad: float  # counter-clockwise
+
+
+@dataclass(frozen=True)
+class LatencySummary:
+    """Frames from a change entering the store to the first frame built with it."""
+
+    count: int = 0
+    median: int | None = None
+    max: int | None = None
+
+
+@dataclass(frozen=True)
+class SimStatus:
+    """What the simulation thread published last; any thread may read it (immutable)."""
+
+    sim_time_s: float = 0.0
+    frame: int = 0
+    rtf: float | None = None  # simulated / wall time over the last RTF_WINDOW_S, None: no window
+    speed: float = 1.0
+    paused: bool = False
+    fell: bool = False
+    behind: bool = False
+    frames_dropped: int = 0
+    trunk: TrunkPose = TrunkPose(0.0, 0.0, 0.0, 0.0)
+    params_version_applied: int = 0
+    param_latency_frames: LatencySummary = LatencySummary()
+    resets: int = 0
+    errors: tuple[str, ...] = ()
+
+    def to_dict(self) -> dict[str, Any]:
+        return dataclasses.asdict(self) | {"errors": list(self.errors)}
+
+
 @dataclass(frozen=True)
 class BodyPoses:
     """A copy of the bodies' world poses for the 3D view (never the live MjData)."""
@@ -60,20 +104,20 @@ class SimThread:
         self.store = store
         self.hardware = hardware or HardwareSetup()
         snap = store.snapshot()
-        self.sim = FrameLoop(
+        self._loop = FrameLoop(  # this thread's alone, with its MjData
             robot=robot, params=snap.gait, motion=snap.motion, hardware=self.hardware
         )
+        self.model = self._loop.model  # immutable once loaded: any thread may read it
         self.scope = ScopeFeed(self.hardware.tdm)
         self.paths = PathTracker()
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
-        self._commands: queue.SimpleQueue[tuple[str, Any]] = queue.SimpleQueue()
+        self._commands: queue.SimpleQueue[tuple[Command, Any]] = queue.SimpleQueue()
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._applied = snap
         # (frames done, wall time) when the first not yet applied change entered the store
         self._pending: tuple[int, float] | None = None
-        self._status_lock = threading.Lock()
         self._poses: BodyPoses | None = None
         self.publish_poses = False  # set by the 3D view, the only reader of body poses
         self._pose_serial = 0
@@ -85,7 +129,9 @@ class SimThread:
         self.resets = 0
         # per applied change: frames from entering the store to the frame whose pulses carry it
         self.param_latency_frames: deque[int] = deque(maxlen=100)
-        self._rtf_window: deque[tuple[float, float]] = deque()
+        self._rtf_window: deque[tuple[float, float]] = deque()  # (wall time, sim time)
+        self._status = SimStatus(params_version_applied=snap.version)
+        self._publish_status()
         self._unsubscribe = store.subscribe(self._on_params)
 
     # --- lifecycle ------------------------------------------------------------------------------
@@ -107,17 +153,23 @@ class SimThread:
 
     # --- commands (any thread) ------------------------------------------------------------------
 
-    def command(self, name: str, value: Any = None) -> None:
-        if name not in {"pause", "resume", "reset", "step", "speed", "reanchor"}:
-            raise ValueError(f"unknown command {name!r}")
-        if name == "speed" and not (SPEED_RANGE[0] <= float(value) <= SPEED_RANGE[1]):
-            raise ValueError(f"speed must be {SPEED_RANGE[0]} to {SPEED_RANGE[1]}, got {value}")
-        self._commands.put((name, value))
+    def command(self, command: Command | str, value: Any = None) -> None:
+        """Queue a command for the next frame boundary; a bad one raises ValueError at once."""
+        try:
+            command = Command(command)
+        except ValueError:
+            allowed = ", ".join(c.value for c in Command)
+            raise ValueError(f"unknown command {command!r}; allowed: {allowed}") from None
+        if command is Command.SPEED:
+            lo, hi = SPEED_RANGE
+            if not isinstance(value, int | float) or not lo <= float(value) <= hi:
+                raise ValueError(f"speed must be {lo} to {hi} (x real time), got {value!r}")
+        self._commands.put((command, value))
         self._wake.set()
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
         if self._pending is None:
-            self._pending = (self.sim.frame_index, time.monotonic())
+            self._pending = (self._status.frame, time.monotonic())
         self._wake.set()
 
     # --- reading (any thread) -------------------------------------------------------------------
@@ -125,32 +177,9 @@ class SimThread:
     def body_poses(self) -> BodyPoses | None:
         return self._poses
 
-    def status(self) -> dict[str, Any]:
-        with self._status_lock:
-            window = list(self._rtf_window)
-        rtf = None
-        if len(window) >= 2 and window[-1][0] > window[0][0]:
-            rtf = (window[-1][1] - window[0][1]) / (window[-1][0] - window[0][0])
-        sim = self.sim
-        x, y, yaw = sim.trunk_pose()
-        return {
-            "sim_time_s": sim.time_s,
-            "frame": sim.frame_index,
-            "rtf": rtf,
-            "speed": self.speed,
-            "paused": self.paused,
-            "fell": sim.fell,
-            "behind": time.monotonic() - self.last_behind_wall < BEHIND_SHOWN_S,
-            "frames_dropped": self.frames_dropped,
-            "trunk": {"x_m": x, "y_m": y, "z_m": float(sim.data.qpos[2]), "yaw_rad": yaw},
-            "params_version": self.store.snapshot().version,
-            "params_version_applied": self._applied.version,
-            "param_latency_frames": _summary(self.param_latency_frames),
-            "resets": self.resets,
-            "scope": {"clients": self.scope.client_count, "dropped": self.scope.dropped},
-            "errors": list(self.errors),
-            "running": self.alive,
-        }
+    def status(self) -> SimStatus:
+        """The last status the simulation thread published (never reads MjData)."""
+        return self._status
 
     # --- the thread -----------------------------------------------------------------------------
 
@@ -161,9 +190,9 @@ class SimThread:
             try:
                 reanchor = self._drain_commands()
                 self._apply_params()
-                if reanchor or self.paused or self.sim.fell:
+                if reanchor or self.paused or self._loop.fell:
                     wall_anchor, frames_since_anchor = time.monotonic(), 0
-                if self.paused or self.sim.fell:
+                if self.paused or self._loop.fell:
                     self._record_rtf()
                     self._wake.wait(0.1)
                     self._wake.clear()
@@ -179,7 +208,7 @@ class SimThread:
                     self._apply_params()  # also between catch-up frames: no change waits a batch
                     self._frame()
                     frames_since_anchor += 1
-                    if self.sim.fell:
+                    if self._loop.fell:
                         break
                 self._record_rtf()
                 next_due = wall_anchor + (frames_since_anchor + 1) * FRAME_S / self.speed
@@ -196,24 +225,24 @@ class SimThread:
         restart = False
         while True:
             try:
-                name, value = self._commands.get_nowait()
+                command, value = self._commands.get_nowait()
             except queue.Empty:
                 return restart
-            if name == "pause":
+            if command is Command.PAUSE:
                 self.paused = True
-            elif name == "resume":
+            elif command is Command.RESUME:
                 self.paused, restart = False, True
-            elif name == "reset":
+            elif command is Command.RESET:
                 self._reset()
                 restart = True
-            elif name == "step":
+            elif command is Command.STEP:
                 self.paused = True
                 self._apply_params()
-                if not self.sim.fell:
+                if not self._loop.fell:
                     self._frame()
-            elif name == "speed":
+            elif command is Command.SPEED:
                 self.speed, restart = float(value), True
-            elif name == "reanchor":
+            elif command is Command.REANCHOR:
                 self.paths.reanchor(value)
 
     def _apply_params(self) -> None:
@@ -221,18 +250,18 @@ class SimThread:
         if snap.version == self._applied.version:
             return
         old = self._applied
-        self.sim.set_gait(snap.gait, snap.motion)
+        self._loop.set_gait(snap.gait, snap.motion)
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         if snap.motion != old.motion:
             self.paths.reanchor()
         self._applied = snap
         if self._pending is not None:
             # the next frame (number frame_index) is the first built with the change
-            self.param_latency_frames.append(self.sim.frame_index - self._pending[0] + 1)
+            self.param_latency_frames.append(self._loop.frame_index - self._pending[0] + 1)
             self._pending = None
 
     def _frame(self) -> None:
-        sim = self.sim
+        sim = self._loop
         record = sim.step_frame()
         if sim.blew_up:
             self.errors.append(f"physics blew up at t = {sim.time_s:.2f} s; robot reset")
@@ -244,8 +273,9 @@ class SimThread:
         self._publish_poses()
 
     def _reset(self) -> None:
-        self.sim.reset()
+        self._loop.reset()
         self.resets += 1
+        self._rtf_window.clear()  # the simulated time restarts: a ratio across it means nothing
         self.paths.clear()
         self.scope.clear()
         self._publish_poses()
@@ -254,19 +284,43 @@ class SimThread:
         """A copy of the body poses for the 3D view: made only when a view exists."""
         if self.publish_poses:
             self._pose_serial += 1
-            data = self.sim.data
+            data = self._loop.data
             self._poses = BodyPoses(self._pose_serial, data.xpos.copy(), data.xmat.copy())
 
     def _record_rtf(self) -> None:
         now = time.monotonic()
-        with self._status_lock:
-            self._rtf_window.append((now, self.sim.time_s))
-            while len(self._rtf_window) > 2 and now - self._rtf_window[0][0] > RTF_WINDOW_S:
-                self._rtf_window.popleft()
+        window = self._rtf_window
+        window.append((now, self._loop.time_s))
+        while len(window) > 2 and now - window[0][0] > RTF_WINDOW_S:
+            window.popleft()
+        self._publish_status()
+
+    def _publish_status(self) -> None:
+        """Copy what others may read out of the live state (this thread only)."""
+        sim, window = self._loop, self._rtf_window
+        rtf = None
+        if len(window) >= 2 and window[-1][0] > window[0][0]:
+            rtf = (window[-1][1] - window[0][1]) / (window[-1][0] - window[0][0])
+        x, y, yaw = sim.trunk_pose()
+        self._status = SimStatus(
+            sim_time_s=sim.time_s,
+            frame=sim.frame_index,
+            rtf=rtf,
+            speed=self.speed,
+            paused=self.paused,
+            fell=sim.fell,
+            behind=time.monotonic() - self.last_behind_wall < BEHIND_SHOWN_S,
+            frames_dropped=self.frames_dropped,
+            trunk=TrunkPose(x, y, float(sim.data.qpos[2]), yaw),
+            params_version_applied=self._applied.version,
+            param_latency_frames=_summary(self.param_latency_frames),
+            resets=self.resets,
+            errors=tuple(self.errors),
+        )
 
 
-def _summary(values: deque[int]) -> dict[str, float | int | None]:
+def _summary(values: deque[int]) -> LatencySummary:
     ordered = sorted(values)
     if not ordered:
-        return {"count": 0, "median": None, "max": None}
-    return {"count": len(ordered), "median": ordered[len(ordered) // 2], "max": ordered[-1]}
+        return LatencySummary()
+    return LatencySummary(len(ordered), ordered[len(ordered) // 2], ordered[-1])

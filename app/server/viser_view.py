@@ -1,10 +1,8 @@
-"""The viser 3D view: the robot (mjviser), parameter sliders, paths on the floor, sim controls.
+"""The viser 3D view: the robot (mjviser), schema-generated sliders, paths on the floor, controls.
 
-Built once at start: the MuJoCo scene, every GUI control (generated from the parameter schema,
-never wired by hand), and the two path overlays. A refresh thread moves them at <= 30 Hz and only
-when something changed. One direction of truth: a slider callback ignores programmatic sets
-(event.client is None) and writes to the store as source "viser"; the store subscriber here
-skips changes that came from viser sliders and writes everything else into the sliders.
+Built once; a refresh thread moves it at <= 30 Hz only when something changed and someone watches.
+One direction of truth (docs/DESIGN.md, "Parameter store"): slider callbacks ignore programmatic
+sets, and the store subscriber skips changes that came from the sliders.
 """
 
 from __future__ import annotations
@@ -21,9 +19,15 @@ import viser
 from app.core.axle_fit import NOT_APPLIED
 from app.params.schema import schema_description
 from app.server.param_store import NothingToUndo, Snapshot
+from app.server.sim_thread import Command
 
 if TYPE_CHECKING:
-    from app.server.services import Services
+    import mujoco
+
+    from app.server.axle_fitter import AxleFitter
+    from app.server.param_store import ParameterStore
+    from app.server.path_tracker import PathTracker
+    from app.server.sim_thread import SimThread
 
 log = logging.getLogger(__name__)
 
@@ -43,14 +47,25 @@ DIRECTION_LABELS = {
 
 
 class Viewer:
-    def __init__(self, runtime: Services, *, host: str, port: int) -> None:
-        self.runtime = runtime
-        self.store = runtime.store
-        self.sim = runtime.sim
-        self.sim.publish_poses = True
+    def __init__(
+        self,
+        *,
+        store: ParameterStore,
+        sim: SimThread,
+        paths: PathTracker,
+        axle_fitter: AxleFitter,
+        model: mujoco.MjModel,
+        host: str,
+        port: int,
+    ) -> None:
+        self.store = store
+        self.sim = sim  # commands, published status and body poses only
+        self.paths = paths
+        self.axle_fitter = axle_fitter
+        sim.publish_poses = True
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         self.server.gui.configure_theme(control_width="large")
-        self.scene = mjviser.ViserMujocoScene(self.server, self.sim.sim.model, num_envs=1)
+        self.scene = mjviser.ViserMujocoScene(self.server, model, num_envs=1)
         # a 35 cm robot: start close, looking at the trunk from the front left
         self.server.initial_camera.position = (0.55, 0.45, 0.12)
         self.server.initial_camera.look_at = (0.0, 0.0, -0.08)
@@ -82,11 +97,11 @@ class Viewer:
             self._status = gui.add_markdown("starting…")
             self._fell_notice = gui.add_markdown("**The robot has fallen.**", visible=False)
             self._fell_reset = gui.add_button("Reset the robot", visible=False, color="red")
-            self._fell_reset.on_click(lambda _e: self.sim.command("reset"))
+            self._fell_reset.on_click(lambda _e: self.sim.command(Command.RESET))
             pause = gui.add_button_group("Run", ("Pause", "Resume", "Step", "Reset"))
-            pause.on_click(lambda e: self.sim.command(e.target.value.lower()))
+            pause.on_click(lambda e: self.sim.command(Command(e.target.value.lower())))
             speed = gui.add_slider("Speed (x real time)", 0.25, 4.0, 0.25, 1.0)
-            speed.on_update(lambda e: e.client and self.sim.command("speed", speed.value))
+            speed.on_update(lambda e: e.client and self.sim.command(Command.SPEED, speed.value))
             follow = gui.add_checkbox("Follow the robot", True)
             follow.on_update(
                 lambda _e: setattr(self.scene, "camera_tracking_enabled", follow.value)
@@ -99,7 +114,7 @@ class Viewer:
             self._path_text = gui.add_markdown("")
             self._show_paths = gui.add_checkbox("Show paths", True)
             anchor = gui.add_button("Re-anchor prediction here")
-            anchor.on_click(lambda _e: self.sim.command("reanchor"))
+            anchor.on_click(lambda _e: self.sim.command(Command.REANCHOR))
             self._fit_button = gui.add_button(
                 "Fit the axle b from simulation",
                 hint="walk the current gait at CA = -0.1, 0, +0.1 (20 s each, in the background) "
@@ -107,7 +122,7 @@ class Viewer:
             )
             self._fit_button.on_click(lambda _e: self._start_axle_fit())
             self._feet_button = gui.add_button("Axle b = distance between the feet")
-            self._feet_button.on_click(lambda _e: self.sim.paths.set_axle(None))
+            self._feet_button.on_click(lambda _e: self.paths.set_axle(None))
             self._fit_text = gui.add_markdown("")
 
     def _start_axle_fit(self) -> None:
@@ -118,7 +133,7 @@ class Viewer:
     def _fit_axle(self) -> None:
         snap = self.store.snapshot()
         try:
-            r = self.runtime.axle_fitter.fit(snap.gait, snap.motion, self.sim.paths)
+            r = self.axle_fitter.fit(snap.gait, snap.motion, self.paths)
         except Exception as exc:  # a callback thread: say what went wrong instead of dying
             self._fit_text.content = f"no fit: {exc}"
         else:
@@ -205,7 +220,7 @@ class Viewer:
         )
 
     def _update_paths(self) -> None:
-        view = self.sim.paths.view(max_points=600)
+        view = self.paths.view(max_points=600)
         visible = self._show_paths.value
         for handle, rows in ((self._actual, view["actual"]), (self._predicted, view["predicted"])):
             _assign(handle, "visible", visible and len(rows) >= 2)
@@ -255,17 +270,17 @@ class Viewer:
 
     def _update_status(self) -> None:
         s = self.sim.status()
-        rtf = "–" if s["rtf"] is None else f"{s['rtf']:.2f}"
-        behind = " — **behind real time**" if s["behind"] else ""
-        state = "paused" if s["paused"] else ("fallen" if s["fell"] else "running")
+        rtf = "–" if s.rtf is None else f"{s.rtf:.2f}"
+        behind = " — **behind real time**" if s.behind else ""
+        state = "paused" if s.paused else ("fallen" if s.fell else "running")
         _assign(
             self._status,
             "content",
-            f"t = {s['sim_time_s']:.1f} s, {state}, real-time factor {rtf} "
-            f"(target {s['speed']:g}×){behind}",
+            f"t = {s.sim_time_s:.1f} s, {state}, real-time factor {rtf} "
+            f"(target {s.speed:g}×){behind}",
         )
-        _assign(self._fell_notice, "visible", bool(s["fell"]))
-        _assign(self._fell_reset, "visible", bool(s["fell"]))
+        _assign(self._fell_notice, "visible", s.fell)
+        _assign(self._fell_reset, "visible", s.fell)
 
 
 def _assign(handle: Any, prop: str, value: Any) -> None:

@@ -8,11 +8,11 @@ from app.server.services import Services
 
 
 def get_services(request: Request) -> Services:
-    return request.app.state.runtime
+    return request.app.state.services
 
 
 def get_ws_services(websocket: WebSocket) -> Services:
-    return websocket.app.state.runtime
+    return websocket.app.state.services
 
 
 ServicesDep = Annotated[Services, Depends(get_services)]

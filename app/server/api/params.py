@@ -13,28 +13,28 @@ router = APIRouter(prefix="/api", tags=["parameters"])
 
 
 @router.get("/params")
-def get_params(runtime: ServicesDep) -> dict[str, Any]:
-    return runtime.store.snapshot().to_dict()
+def get_params(services: ServicesDep) -> dict[str, Any]:
+    return services.store.snapshot().to_dict()
 
 
 @router.put("/params")
-def put_params(body: ParamsBody, runtime: ServicesDep) -> dict[str, Any]:
+def put_params(body: ParamsBody, services: ServicesDep) -> dict[str, Any]:
     """Replace every parameter; invalid input changes nothing."""
-    current = runtime.store.snapshot()
+    current = services.store.snapshot()
     pset = ParameterSet.from_dict({"name": current.name, **body.model_dump()})
-    return runtime.store.replace(pset, "http").to_dict()
+    return services.store.replace(pset, "http").to_dict()
 
 
 @router.patch("/params")
-def patch_params(body: ParamsPatchBody, runtime: ServicesDep) -> dict[str, Any]:
+def patch_params(body: ParamsPatchBody, services: ServicesDep) -> dict[str, Any]:
     """Change some parameters; the rest stay. Invalid input changes nothing."""
-    return runtime.store.update(body.as_patch(), "http").to_dict()
+    return services.store.update(body.as_patch(), "http").to_dict()
 
 
 @router.post("/params/{step}")
-def history(step: Literal["undo", "redo"], runtime: ServicesDep) -> dict[str, Any]:
+def history(step: Literal["undo", "redo"], services: ServicesDep) -> dict[str, Any]:
     """Undo or redo a parameter change (409 when there is nothing to undo or redo)."""
-    move = runtime.store.undo if step == "undo" else runtime.store.redo
+    move = services.store.undo if step == "undo" else services.store.redo
     try:
         return move("http").to_dict()
     except NothingToUndo as exc:

@@ -7,6 +7,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.core.axle_fit import AxleFitError
 from app.server.api.deps import ServicesDep
+from app.server.sim_thread import Command
 
 router = APIRouter(prefix="/api/path", tags=["paths"])
 
@@ -19,15 +20,15 @@ class AnchorBody(BaseModel):
 
 
 @router.get("")
-def get_path(runtime: ServicesDep) -> dict[str, Any]:
+def get_path(services: ServicesDep) -> dict[str, Any]:
     """Actual and predicted paths as [t, x, y, yaw] rows, with V, b, turn radius and rates."""
-    return runtime.sim.paths.view()
+    return services.sim.paths.view()
 
 
 @router.post("/anchor")
-def reanchor(runtime: ServicesDep, body: AnchorBody | None = None) -> dict[str, Any]:
+def reanchor(services: ServicesDep, body: AnchorBody | None = None) -> dict[str, Any]:
     """Start the prediction again at the robot's current pose."""
-    runtime.sim.command("reanchor", None if body is None else body.speed_m_s)
+    services.sim.command(Command.REANCHOR, None if body is None else body.speed_m_s)
     return {"accepted": "reanchor"}
 
 
@@ -39,19 +40,19 @@ class AxleBody(BaseModel):
 
 
 @router.put("/axle")
-def set_axle(runtime: ServicesDep, body: AxleBody) -> dict[str, Any]:
+def set_axle(services: ServicesDep, body: AxleBody) -> dict[str, Any]:
     """Predict with this axle b (m), or with the measured distance between the feet (null)."""
-    runtime.sim.paths.set_axle(body.axle_m, "manual")
+    services.sim.paths.set_axle(body.axle_m, "manual")
     return {"axle_m": body.axle_m, "axle_source": "feet" if body.axle_m is None else "manual"}
 
 
 @router.post("/axle/fit")
-def fit_axle(runtime: ServicesDep) -> dict[str, Any]:
+def fit_axle(services: ServicesDep) -> dict[str, Any]:
     """Fit the effective axle b_eff of the current gait from simulated curve walks (CA = -0.1,
     0, +0.1 at the current a_p, 20 s each, in the background) and predict with it."""
-    snap = runtime.store.snapshot()
+    snap = services.store.snapshot()
     try:
-        result = runtime.axle_fitter.fit(snap.gait, snap.motion, runtime.sim.paths)
+        result = services.axle_fitter.fit(snap.gait, snap.motion, services.sim.paths)
     except RuntimeError as exc:  # busy, or the robot fell / did not walk (AxleFitError)
         status = 422 if isinstance(exc, AxleFitError) else 409
         raise HTTPException(status, str(exc)) from exc

@@ -15,11 +15,11 @@ router = APIRouter(prefix="/api", tags=["presets"])
 CURRENT = "current"  # in a diff: the parameters in use now
 
 
-def _get(runtime: Services, name: str) -> ParameterSet:
+def _get(services: Services, name: str) -> ParameterSet:
     if name == CURRENT:
-        return runtime.store.snapshot().parameter_set()
+        return services.store.snapshot().parameter_set()
     try:
-        return runtime.presets.get(name)
+        return services.presets.get(name)
     except PresetNotFound as exc:
         raise HTTPException(404, f"no preset named {name!r}") from exc
     except PresetError as exc:
@@ -27,44 +27,44 @@ def _get(runtime: Services, name: str) -> ParameterSet:
 
 
 @router.get("/presets")
-def list_presets(runtime: ServicesDep) -> dict[str, Any]:
-    infos = runtime.presets.list()
+def list_presets(services: ServicesDep) -> dict[str, Any]:
+    infos = services.presets.list()
     return {
         "presets": [info.to_dict() for info in infos],
-        "problems": [problem.to_dict() for problem in runtime.presets.problems],
+        "problems": [problem.to_dict() for problem in services.presets.problems],
     }
 
 
 @router.get("/presets/diff")
 def diff_presets(
-    runtime: ServicesDep,
+    services: ServicesDep,
     a: Annotated[str, Query(description="preset name, or 'current'")],
     b: Annotated[str, Query(description="preset name, or 'current'")] = CURRENT,
 ) -> dict[str, Any]:
     """Every field in which two parameter sets differ."""
-    return {"a": a, "b": b, "differences": diff(_get(runtime, a), _get(runtime, b))}
+    return {"a": a, "b": b, "differences": diff(_get(services, a), _get(services, b))}
 
 
 @router.get("/presets/{name}")
-def get_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
-    return _get(runtime, name).to_dict()
+def get_preset(name: str, services: ServicesDep) -> dict[str, Any]:
+    return _get(services, name).to_dict()
 
 
 @router.put("/presets/{name}", status_code=201)
-def save_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
+def save_preset(name: str, services: ServicesDep) -> dict[str, Any]:
     """Save the parameters in use now under this name."""
     if name == CURRENT:
         raise HTTPException(422, f"{CURRENT!r} is reserved for the parameters in use")
     try:
-        return runtime.presets.save(name, runtime.store.snapshot().parameter_set()).to_dict()
+        return services.presets.save(name, services.store.snapshot().parameter_set()).to_dict()
     except PresetError as exc:
         raise HTTPException(422, str(exc)) from exc
 
 
 @router.delete("/presets/{name}")
-def delete_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
+def delete_preset(name: str, services: ServicesDep) -> dict[str, Any]:
     try:
-        runtime.presets.delete(name)
+        services.presets.delete(name)
     except PresetNotFound as exc:
         raise HTTPException(404, f"no preset named {name!r}") from exc
     except PresetError as exc:
@@ -73,28 +73,28 @@ def delete_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
 
 
 @router.post("/presets/{name}/load")
-def load_preset(name: str, runtime: ServicesDep) -> dict[str, Any]:
+def load_preset(name: str, services: ServicesDep) -> dict[str, Any]:
     """Make a preset the parameters in use (undoable)."""
-    return runtime.store.replace(_get(runtime, name), "preset").to_dict()
+    return services.store.replace(_get(services, name), "preset").to_dict()
 
 
 @router.get("/export")
 def export(
-    runtime: ServicesDep,
+    services: ServicesDep,
     format: Annotated[str, Query(description=f"one of {', '.join(FORMATS)}")] = "json",
 ) -> Response:
     """The parameters in use as a file: JSON, YAML, or a C header for the ATmega128 firmware."""
     if format not in FORMATS:
         raise HTTPException(422, f"unknown format {format!r}; allowed: {', '.join(FORMATS)}")
     text, media_type, filename = export_text(
-        runtime.store.snapshot().parameter_set(), format, hardware=runtime.sim.hardware
+        services.store.snapshot().parameter_set(), format, hardware=services.sim.hardware
     )
     headers = {"Content-Disposition": f'attachment; filename="{filename}"'}
     return Response(text, media_type=media_type, headers=headers)
 
 
 @router.post("/import")
-async def import_params(request: Request, runtime: ServicesDep) -> dict[str, Any]:
+async def import_params(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Upload a JSON or YAML parameter set (at most 64 KiB) and make it the one in use."""
     raw = bytearray()
     async for chunk in request.stream():
@@ -105,4 +105,4 @@ async def import_params(request: Request, runtime: ServicesDep) -> dict[str, Any
         pset = parse_import(bytes(raw), request.headers.get("content-type"))
     except ImportTooLarge as exc:
         raise HTTPException(413, str(exc)) from exc
-    return runtime.store.replace(pset, "import").to_dict()
+    return services.store.replace(pset, "import").to_dict()

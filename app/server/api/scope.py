@@ -14,19 +14,19 @@ router = APIRouter(tags=["scope"])
 
 @router.get("/api/scope")
 def recent_frames(
-    runtime: ServicesDep,
+    services: ServicesDep,
     frames: Annotated[int, Query(ge=1, le=HISTORY_FRAMES, description="how many")] = 1,
 ) -> dict[str, Any]:
     """The last N TDM-PWM frames: per channel the slots (servo, OCR ticks, pulse us, degrees),
     the edges of the six TDM lines and three select lines, and flags."""
-    return {"frames": runtime.sim.scope.recent(frames)}
+    return {"frames": services.sim.scope.recent(frames)}
 
 
 @router.websocket("/ws/scope")
-async def live_frames(websocket: WebSocket, runtime: WsServicesDep) -> None:
+async def live_frames(websocket: WebSocket, services: WsServicesDep) -> None:
     """One JSON message per 20 ms simulated frame. A client that reads too slowly loses frames."""
     await websocket.accept()
-    hub = runtime.sim.scope
+    hub = services.sim.scope
     client = hub.connect()
     receiver = asyncio.create_task(_drain(websocket))
     try:

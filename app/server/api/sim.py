@@ -7,7 +7,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.params.document import project_version
 from app.server.api.deps import ServicesDep
-from app.server.sim_thread import SPEED_RANGE
+from app.server.sim_thread import SPEED_RANGE, Command
 
 router = APIRouter(tags=["simulation"])
 
@@ -18,28 +18,33 @@ class SpeedBody(BaseModel):
 
 
 @router.get("/api/health")
-def health(runtime: ServicesDep) -> dict[str, Any]:
+def health(services: ServicesDep) -> dict[str, Any]:
     return {
-        "status": "ok" if runtime.sim.alive else "simulation stopped",
+        "status": "ok" if services.sim.alive else "simulation stopped",
         "version": project_version(),
-        "viser_port": runtime.config.viser_port if runtime.viewer is not None else None,
+        "viser_port": services.config.viser_port if services.viewer is not None else None,
     }
 
 
 @router.get("/api/state")
-def state(runtime: ServicesDep) -> dict[str, Any]:
+def state(services: ServicesDep) -> dict[str, Any]:
     """Sim time, real-time factor, fell, trunk pose, parameter version and more."""
-    return runtime.sim.status()
+    sim = services.sim
+    return sim.status().to_dict() | {
+        "params_version": services.store.snapshot().version,
+        "scope": {"clients": sim.scope.client_count, "dropped": sim.scope.dropped},
+        "running": sim.alive,
+    }
 
 
 @router.post("/api/sim/{action}")
-def control(action: Literal["reset", "pause", "resume", "step"], runtime: ServicesDep) -> dict:
+def control(action: Literal["reset", "pause", "resume", "step"], services: ServicesDep) -> dict:
     """Reset the robot, pause, resume, or advance one 20 ms frame (pauses first)."""
-    runtime.sim.command(action)
+    services.sim.command(Command(action))
     return {"accepted": action}
 
 
 @router.put("/api/sim/speed")
-def set_speed(body: SpeedBody, runtime: ServicesDep) -> dict:
-    runtime.sim.command("speed", body.speed)
+def set_speed(body: SpeedBody, services: ServicesDep) -> dict:
+    services.sim.command(Command.SPEED, body.speed)
     return {"accepted": "speed", "speed": body.speed}
