@@ -1,11 +1,4 @@
-"""The `artro` command line.
-
-artro serve [--host 127.0.0.1] [--port 8000] [--viser-port 8080] [--params FILE] [--data-dir DIR]
-artro run --motion AR,AP,AY [--ca X] [--params FILE] [--duration S] [--warmup S] [--json]
-artro export --format json|yaml|c [--params FILE] [-o FILE]
-artro bench paper [--presets NAME_OR_FILE,...] [--duration S] [--warmup S] [--out DIR] [--quick]
-artro tune [--base FILE] [--tune a.b,...] [--generations N] [--results FILE] [--out FILE]
-"""
+"""The `artro` command line: serve, run, export, bench, tune (`artro COMMAND --help` for each)."""
 
 from __future__ import annotations
 
@@ -13,9 +6,11 @@ import argparse
 import dataclasses
 import json
 import math
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from app.core.headless import run
 from app.params.document import ParameterSet, load_parameter_set
@@ -37,17 +32,64 @@ def _motion_triple(text: str) -> tuple[float, float, float]:
     return values  # type: ignore[return-value]
 
 
+EXAMPLES = {
+    "serve": """examples:
+  artro serve                              the dashboard on http://localhost:8000
+  artro serve --params my_gait.json --port 9000""",
+    "run": """examples:
+  artro run --motion 0,0.07,0 --json       forward, the paper's case, metrics as JSON
+  artro run --motion -0.1,0,0 --params models/presets/tuned.json   step to the left
+  artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking""",
+    "export": """examples:
+  artro export --format c -o artro_params.h              the firmware header
+  artro export --format yaml --params my_gait.json""",
+    "bench": """examples:
+  artro bench paper                        both presets, 60 s runs (~4 min on 2 cores)
+  artro bench paper --quick --presets tuned""",
+    "tune": """examples:
+  artro tune --base paper --tune swing.v,short.amp_base --generations 4 --popsize 6
+  artro tune --base models/presets/tuned.json --set leg.paper_signs=false --select passing""",
+}
+_NUMBERS = re.compile(r"^-\d*\.?\d+(e[-+]?\d+)?(,[-+]?\d*\.?\d+(e[-+]?\d+)?)*$", re.IGNORECASE)
+
+
+def join_negative_values(argv: Sequence[str]) -> list[str]:
+    """`--motion -0.1,0,0` -> `--motion=-0.1,0,0`: argparse would take the value for an option."""
+    out: list[str] = []
+    for token in argv:
+        if out and out[-1].startswith("--") and "=" not in out[-1] and _NUMBERS.match(token):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
+def _subcommand(sub: Any, name: str, help_text: str) -> argparse.ArgumentParser:
+    return sub.add_parser(
+        name,
+        help=help_text,
+        description=help_text,
+        epilog=EXAMPLES.get(name),
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(prog="artro", description=__doc__.split("\n")[0])
-    sub = parser.add_subparsers(dest="command", required=True)
-    s = sub.add_parser("serve", help="the dashboard: simulation, API, 3D view and scope page")
+    parser = argparse.ArgumentParser(
+        prog="artro",
+        description="ArtRo Gait Studio: tune the ArtRo biped's gait in a MuJoCo simulation.",
+        epilog="Directions: a_p > 0 walks forward, a_r > 0 steps to the right, a_y > 0 and "
+        "CA > 0 turn clockwise.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    s = _subcommand(sub, "serve", "the dashboard: simulation, API, 3D view and scope page")
     s.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     s.add_argument("--port", type=int, default=8000, help="HTTP port of the dashboard and API")
     s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
     s.add_argument("--params", metavar="FILE", help="start with this parameter set")
     s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
-    r = sub.add_parser("run", help="simulate headless and print the run metrics")
+    r = _subcommand(sub, "run", "simulate headless and print the run metrics")
     r.add_argument(
         "--motion",
         type=_motion_triple,
@@ -61,13 +103,13 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")
     r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
-    e = sub.add_parser("export", help="write a parameter set as JSON, YAML or a firmware C header")
+    e = _subcommand(sub, "export", "write a parameter set as JSON, YAML or a firmware C header")
     e.add_argument("--format", required=True, choices=FORMATS, help="output format")
     e.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
     e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
-    b = sub.add_parser("bench", help="simulate what the papers measured and compare (tables, PNGs)")
+    b = _subcommand(sub, "bench", "simulate what the papers measured and compare (tables, PNGs)")
     paper_bench.add_arguments(b)
-    t = sub.add_parser("tune", help="CMA-ES over gait parameters toward the paper's walking")
+    t = _subcommand(sub, "tune", "CMA-ES over gait parameters toward the paper's walking")
     tune.add_arguments(t)
     return parser
 
@@ -150,7 +192,7 @@ def _cmd_serve(args: argparse.Namespace) -> int:
 
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else argv))
     try:
         if args.command == "run":
             return _cmd_run(args)

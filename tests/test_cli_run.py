@@ -89,3 +89,19 @@ def test_export_writes_each_format(tmp_path, fmt):
     else:
         assert "brisk" in text and "0.05" in text
     assert artro("export", "--format", "pdf").returncode == 2
+
+
+def test_negative_values_are_values_not_options():
+    """`--motion -0.1,0,0` steps to the left (a_r < 0): argparse alone reads it as an option."""
+    out = artro(
+        "run", "--motion", "-0.1,0,0", "--ca", "-0.05", "--duration", "6", "--warmup", "2", "--json"
+    )
+    assert out.returncode == 0, out.stderr
+    assert json.loads(out.stdout)["lateral_cm_s"] > 0.5  # left is + in the measured frame
+
+
+@pytest.mark.parametrize("command", ["serve", "run", "export", "bench", "tune"])
+def test_every_subcommand_has_help_with_an_example(command):
+    out = artro(command, "--help")
+    assert out.returncode == 0, out.stderr
+    assert "examples:" in out.stdout and f"artro {command} " in out.stdout.split("examples:")[1]
