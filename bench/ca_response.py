@@ -14,8 +14,8 @@ model, for the experiment only (the shipped model is unchanged):
   --elliptic      elliptic friction cones instead of MuJoCo's default pyramidal ones
 
 and, for the gait, --set GROUP.FIELD=VALUE (repeatable) on top of the preset. --yaw-per-ca K
-walks each CA with a_y = K * CA added (a_y > 0 turns clockwise, as CA > 0 does): what a yawing
-term in CA, which SPEC §4 does not have, would give.
+walks each CA with a_y = K * CA added (a_y > 0 turns clockwise, as CA > 0 does): the steering
+term of docs/DESIGN.md §10 (`steer.yaw_per_ca`), emulated on the motion vector.
 
     python bench/ca_response.py [--preset tuned] [--a-p 0.07] [--duration 30] \
         [--friction 0.5] [--sole-grid] [--contact-timeconst 0.005] [--elliptic] \

@@ -108,5 +108,5 @@ def joint_angles_with_flags(
 
 
 def joint_angles(params: GaitParams, motion: Motion, phi_trunk: ArrayLike) -> NDArray[np.float64]:
-    """The 12 joint angles (..., 12) of the built-in ArtRo model, in the joint order of SPEC §3."""
+    """The 12 joint angles (..., 12) of the built-in model (joint order: docs/DESIGN.md §3)."""
     return joint_angles_with_flags(params, motion, phi_trunk).values

@@ -7,8 +7,9 @@ sliders and the export formats are all generated from it (see `describe_fields`)
 The ranges of the phase speeds v and offsets o are chosen so that each phase's active window lies
 inside one gait cycle: then every joint trajectory is continuous, also where phi_Leg wraps at +-pi.
 
-Sign conventions (derived from the equations, SPEC §3): a_p > 0 walks forward, a_r > 0 steps to the
-robot's right, a_y > 0 turns clockwise, CA > 0 lengthens the left steps and so turns clockwise.
+Sign conventions (derived from the equations, docs/DESIGN.md §3): a_p > 0 walks forward,
+a_r > 0 steps to the robot's right, a_y > 0 turns clockwise, CA > 0 lengthens the left steps and
+so turns clockwise.
 """
 
 from __future__ import annotations

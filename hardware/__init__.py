@@ -12,6 +12,7 @@ from hardware.demux import (
     demultiplex,
     frame_edges,
 )
+from hardware.drive import HardwareSetup
 from hardware.servo import (
     PERIOD_US,
     PULSE_CENTER_US,
@@ -75,6 +76,7 @@ __all__ = [
     "ChannelMap",
     "DemuxResult",
     "FrameEdges",
+    "HardwareSetup",
     "Pulse",
     "ServoCalibration",
     "TdmConfig",

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from gait.leg_interface import JOINT_NAMES
 from hardware.timer import (
     OCR_IDLE,
     OCR_MAX,
@@ -33,20 +34,7 @@ from hardware.timer import (
 
 CHANNELS = ("OC1A", "OC1B", "OC1C", "OC3A", "OC3B", "OC3C")  # the six TDM lines
 SELECT_LINES = ("S0", "S1", "S2")  # demultiplexer select bits, S0 = LSB
-SERVO_NAMES = (
-    "l_hip_yaw",
-    "l_hip_roll",
-    "l_hip_pitch",
-    "l_knee",
-    "l_ankle_pitch",
-    "l_ankle_roll",
-    "r_hip_yaw",
-    "r_hip_roll",
-    "r_hip_pitch",
-    "r_knee",
-    "r_ankle_pitch",
-    "r_ankle_roll",
-)
+SERVO_NAMES = JOINT_NAMES  # one servo per joint, in the one joint order (docs/DESIGN.md)
 DEFAULT_SELECT_CHANGE_TICKS = 4900  # 2.45 ms: between a 2.4 ms pulse's end and the next slot
 
 

@@ -1,8 +1,10 @@
-"""A real uvicorn server running `create_app()` on a free loopback port, for the tests."""
+"""What the tests and benchmarks share: a real uvicorn server running `create_app()` on a free
+loopback port, and how to start Debian's Chromium for Playwright."""
 
 from __future__ import annotations
 
 import contextlib
+import shutil
 import socket
 import threading
 from collections.abc import Iterator
@@ -13,6 +15,18 @@ import uvicorn
 
 from app.server.app import create_app
 from app.server.services import ServerConfig
+
+#: Debian's Chromium, driven by Playwright through `executable_path` (never Playwright's download)
+CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
+#: headless as root on a closed network: no sandbox, no GPU, no background connections
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--no-first-run",
+    "--disable-sync",
+]
 
 
 def free_port() -> int:

@@ -3,23 +3,13 @@ real server with the viser 3D view running."""
 
 import json
 import re
-import shutil
 
 import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from tests.server_harness import running_server
+from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
-CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
-ARGS = [
-    "--no-sandbox",
-    "--disable-gpu",
-    "--disable-background-networking",
-    "--disable-component-update",
-    "--no-first-run",
-    "--disable-sync",
-]
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
 
@@ -29,7 +19,7 @@ def dashboard(tmp_path_factory):
     """(page, http client) of the dashboard page loaded in headless Chromium."""
     with running_server(tmp_path_factory.mktemp("data"), viewer=True) as (base_url, _app):
         with sync_playwright() as p, httpx.Client(base_url=base_url, timeout=10) as http:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
             context = browser.new_context(
                 viewport={"width": 1600, "height": 1000}, accept_downloads=True
             )

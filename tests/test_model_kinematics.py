@@ -1,4 +1,4 @@
-"""Forward kinematics of models/artro.xml against the leg interface (SPEC §3)."""
+"""Forward kinematics of models/artro.xml against the leg interface (docs/DESIGN.md §3)."""
 
 import mujoco
 import numpy as np

@@ -65,7 +65,7 @@ def test_calibration_limits_saturate_and_are_flagged():
     knee_limited = ServoCalibration(
         cal.direction, cal.trim_us, cal.min_rad, np.where(np.arange(12) == 2, 0.05, cal.max_rad)
     )
-    from app.core.frame_loop import HardwareSetup
+    from hardware import HardwareSetup
 
     hw = HardwareSetup(calibration=knee_limited, tdm=TdmConfig())
     plan = plan_frames(GaitParams(), Motion(), hw, 0.0, 50, 20, 0.001)

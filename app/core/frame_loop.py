@@ -1,24 +1,14 @@
 """The frame loop: gait -> servo pulses -> TDM-PWM frame -> demultiplexed set-points -> MuJoCo.
 
-One call of `FrameLoop.step_frame()` is one 20 ms TDM frame (SPEC §2): the walking clock gives
-the phase, the gait gives 12 joint angles, the servo model turns them into pulse widths, the timer
-model quantises those to OCR ticks, and each servo's new set-point -- the angle decoded from its
-quantised, demultiplexed pulse -- takes effect at that pulse's falling edge. Physics steps in
-between, so a set-point reaches the MuJoCo actuator on the first physics step starting at or
-after its edge.
-
-The gait is open loop: a frame's pulses depend only on the parameters and the frame's phase. So the
-loop evaluates the whole pipeline vectorised for a block of future frames at once and replays it;
-any change of parameters or motion discards the rest of the block, so a change reaches the servos
-in the very next frame.
-
-This object alone owns its `MjData`; nothing else may touch it.
+`FrameLoop.step_frame()` is one 20 ms TDM frame; each servo's new set-point, decoded from its
+quantised pulse, takes effect at the pulse's falling edge (docs/DESIGN.md §2). The open-loop gait
+is planned for a block of frames at once; a change of parameters discards the rest of the block.
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import mujoco
 import numpy as np
@@ -30,8 +20,7 @@ from hardware import (
     FRAME_TICKS,
     SLOT_TICKS,
     TICK_US,
-    ServoCalibration,
-    TdmConfig,
+    HardwareSetup,
     angles_to_pulses_us,
     falling_edge_ticks,
     frame_ocr,
@@ -77,12 +66,6 @@ def sole_distance_m(data: mujoco.MjData) -> float:
     """Distance between the sole centres in the ground plane (the differential drive's b), from
     the site positions MuJoCo last computed."""
     return float(planar_distance_m(data.site("l_sole").xpos, data.site("r_sole").xpos))
-
-
-@dataclass(frozen=True)
-class HardwareSetup:
-    calibration: ServoCalibration = field(default_factory=ServoCalibration.default)
-    tdm: TdmConfig = field(default_factory=TdmConfig)
 
 
 @dataclass

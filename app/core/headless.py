@@ -9,10 +9,10 @@ from typing import Any
 
 import numpy as np
 
-from app.core.frame_loop import FRAME_S, FrameLoop, HardwareSetup
+from app.core.frame_loop import FRAME_S, FrameLoop
 from app.core.metrics import Trace, compute_metrics
 from gait import GaitParams, Motion
-from hardware import required_torque_from_loads
+from hardware import HardwareSetup, required_torque_from_loads
 
 TORQUE_SAFETY_FACTOR = 0.2  # sf of eq (1) used for the servo sizing report
 

@@ -1,4 +1,4 @@
-"""Run metrics of SPEC §6, computed from a recorded trunk trace.
+"""Run metrics of docs/DESIGN.md §6, computed from a recorded trunk trace.
 
 All speeds are means over whole gait cycles after the warm-up, so the within-step sway averages
 out; each cycle's displacement is read in that cycle's mean heading. Body-frame velocities
@@ -20,7 +20,7 @@ from numpy.typing import NDArray
 
 from gait import Pose2D, predict_path, turn_rate_rad_s
 
-#: What `compute_metrics` measures (SPEC §6), besides fell and the timing of the run.
+#: What `compute_metrics` measures (docs/DESIGN.md §6), besides fell and the timing of the run.
 MOTION_METRICS = (
     "forward_cm_s",
     "lateral_cm_s",

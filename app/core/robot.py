@@ -1,7 +1,7 @@
 """The built-in ArtRo MuJoCo model: loading it, and the indices that map the gait onto it.
 
 The simulation, the tests and the viewer all go through `RobotModel`, so joint and site names of
-SPEC §3 are looked up in one place.
+docs/DESIGN.md §3 are looked up in one place.
 """
 
 from __future__ import annotations

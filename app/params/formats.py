@@ -1,4 +1,4 @@
-"""Export and import of parameter sets (SPEC §6): JSON, YAML and the ATmega128 C header.
+"""Export and import of parameter sets (docs/DESIGN.md §6): JSON, YAML and the ATmega128 C header.
 
 Every export is the same `ParameterSet.to_dict()` document, so it carries provenance (name,
 created, project version). JSON and YAML re-import to the same parameters; the C header
@@ -27,7 +27,7 @@ from hardware.servo import ServoCalibration
 from hardware.tdm import DEFAULT_SELECT_CHANGE_TICKS, TdmConfig
 
 if TYPE_CHECKING:
-    from app.core.frame_loop import HardwareSetup
+    from hardware import HardwareSetup
 
 FORMATS = ("json", "yaml", "c")
 MEDIA_TYPES = {"json": "application/json", "yaml": "application/yaml", "c": "text/x-c"}
@@ -72,7 +72,7 @@ def export_text(
             project's version).
         fmt: one of FORMATS ("json", "yaml", "c"), case-insensitive.
         hardware: servo calibration and TDM set-up for the C header (anything with `.calibration`
-            and `.tdm`, e.g. `app.core.frame_loop.HardwareSetup`); default: uncalibrated servos, the
+            and `.tdm`, e.g. `hardware.HardwareSetup`); default: uncalibrated servos, the
             default channel map, select change at 4900 ticks.
 
     Returns:

@@ -1,4 +1,4 @@
-"""Named parameter sets ("presets") on disk, next to read-only built-in ones (SPEC §6).
+"""Named parameter sets ("presets") on disk, next to read-only built-in ones (docs/DESIGN.md §6).
 
 Each user preset is one `ParameterSet.to_dict()` JSON document at `<data_dir>/presets/<name>.json`.
 Names are a short, fixed alphabet (`NAME_RULE`), so a name can never leave the presets directory.

@@ -1,4 +1,4 @@
-"""The one parameter store: an immutable snapshot plus a version number (STYLE rule 5).
+"""The one parameter store: an immutable snapshot plus a version number (docs/DESIGN.md §9).
 
 Every change -- from HTTP, from a viser slider, from a preset or an import -- goes through
 `ParameterStore.update` or `replace`: validated against the schema, diffed, applied under a lock

@@ -1,4 +1,4 @@
-"""The actual trunk path and the differential-drive prediction it is compared with (SPEC §4).
+"""The actual trunk path and the differential-drive prediction beside it (docs/DESIGN.md §4).
 
 The simulation thread feeds trunk poses in; the HTTP API, the viser view and the page read
 `PathTracker.view()`. The prediction starts at an anchor pose and follows the exact unicycle of

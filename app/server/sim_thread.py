@@ -20,11 +20,12 @@ from typing import Any
 
 import numpy as np
 
-from app.core.frame_loop import FRAME_S, FrameLoop, HardwareSetup
+from app.core.frame_loop import FRAME_S, FrameLoop
 from app.core.robot import RobotModel
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.scope_feed import ScopeFeed
+from hardware import HardwareSetup
 
 log = logging.getLogger(__name__)
 

@@ -1,6 +1,6 @@
 """`artro bench paper`: simulate what the papers measured and compare, for one or more presets.
 
-Seed 000 §5 (SPEC §7): walking on the spot, forward at a_p = 0.07 (3.8 cm/s), sideways at
+Seed 000 §5 (docs/DESIGN.md §7): walking on the spot, forward at a_p = 0.07 (3.8 cm/s), sideways at
 a_r = 0.1 (3.5 cm/s), turning at a_y = 0.2 (12.1 deg/s), and their mirror images
 (`app.study.cases`). Seed 004 §V: curve walking forward and backward over a CA sweep -- heading
 rate against eq (13), theta_dot = -2 CA V / b, an effective axle fitted to it, the stability
@@ -381,7 +381,7 @@ def run_paper_bench(
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("suite", choices=["paper"], help="which bench: 'paper' (SPEC §7)")
+    parser.add_argument("suite", choices=["paper"], help="which bench: 'paper' (docs/DESIGN.md §7)")
     parser.add_argument(
         "--presets",
         default="paper,tuned",

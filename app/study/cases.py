@@ -1,4 +1,4 @@
-"""What the papers measured, as cases to simulate (SPEC §7).
+"""What the papers measured, as cases to simulate (docs/DESIGN.md §7).
 
 Seed 000 measured ArtRo walking on the spot, forward, sideways and turning; we add the mirror image
 of each (backward, the other side, the other turning direction), which the gait equations treat

@@ -1,7 +1,7 @@
 """Plain-text report of `artro bench paper`, rendered from its results document (results.json).
 
 Tables put the presets side by side: one group of columns per preset. Signs follow our
-conventions (SPEC §3): forward +, lateral + = left, turn + = counter-clockwise.
+conventions (docs/DESIGN.md §3): forward +, lateral + = left, turn + = counter-clockwise.
 """
 
 from __future__ import annotations

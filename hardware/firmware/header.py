@@ -1,4 +1,4 @@
-"""The C header `artro_params.h` for ArtRo's ATmega128 firmware, seed 000 section 3 (SPEC §5, §6).
+"""The C header `artro_params.h` for ArtRo's ATmega128 firmware (seed 000 §3, docs/DESIGN.md §5).
 
 One header carries everything the firmware needs to reproduce a simulated gait:
 

@@ -4,7 +4,7 @@
 import { api } from "./api.js";
 import { $, fmt, fmtSigned, h, setMessage } from "./util.js";
 
-// What a positive / negative value does (SPEC §3, as the equations stand).
+// What a positive / negative value does (docs/DESIGN.md §3, as the equations stand).
 const MOTION = [
   { key: "a_p", label: "a_p", what: "sagittal", pos: "walks forward", neg: "walks backward" },
   { key: "a_r", label: "a_r", what: "lateral", pos: "steps right", neg: "steps left" },

@@ -38,7 +38,7 @@ export function setMessage(el, text, kind = "") {
   if (kind) el.classList.add(kind);
 }
 
-// The 12 servos in the joint order of SPEC §3 (left leg first).
+// The 12 servos in the joint order of docs/DESIGN.md §3 (left leg first).
 export const JOINTS = ["hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"];
 export const SERVOS = [...JOINTS.map((j) => `l_${j}`), ...JOINTS.map((j) => `r_${j}`)];
 
