@@ -12,5 +12,13 @@ def server(tmp_path_factory):
 
 @pytest.fixture
 def http(server):
+    """A client of the shared server; whatever a test changes is put back, also when it fails."""
     with client(server[0]) as c:
-        yield c
+        before = c.get("/api/params").json()
+        try:
+            yield c
+        finally:
+            c.put("/api/params", json={"motion": before["motion"], "gait": before["gait"]})
+            c.put("/api/path/axle", json={"axle_m": None})
+            c.put("/api/sim/speed", json={"speed": 1.0})
+            c.post("/api/sim/resume")
