@@ -17,7 +17,6 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Any
 
 import mujoco
 import numpy as np
@@ -31,7 +30,7 @@ from app.core.frame_loop import (
     planar_distance_m,
     trunk_yaw,
 )
-from app.core.metrics import Trace, compute_metrics
+from app.core.metrics import RunMetrics, Trace, compute_metrics
 from app.core.robot import RobotModel
 from gait import GaitParams, Motion
 
@@ -93,7 +92,7 @@ class BatchEvaluator:
         warmup_s: float = 5.0,
         progress: Callable[[int, int], None] | None = None,
         traces: list[Trace] | None = None,
-    ) -> list[dict[str, Any]]:
+    ) -> list[RunMetrics]:
         """Metrics of each job, in order, as `artro run` would print them (wall time aside).
         Pass a list as `traces` to also get each run's trunk trace (one sample per frame).
 
@@ -102,7 +101,7 @@ class BatchEvaluator:
         """
         n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
         chunks = [jobs[i : i + RUNS_PER_CALL] for i in range(0, len(jobs), RUNS_PER_CALL)]
-        results: list[dict[str, Any]] = []
+        results: list[RunMetrics] = []
         with ThreadPoolExecutor(max_workers=1) as worker:
             planned = worker.submit(self._plan, chunks[0], n_frames) if chunks else None
             measuring = None
@@ -150,7 +149,7 @@ class BatchEvaluator:
         n_frames: int,
         wall_s: float,
         warmup_s: float,
-    ) -> list[tuple[dict[str, Any], Trace]]:
+    ) -> list[tuple[RunMetrics, Trace]]:
         out = []
         for i, job in enumerate(chunk):
             metrics, trace = self._measure(
@@ -163,8 +162,8 @@ class BatchEvaluator:
 
     @staticmethod
     def _collect(
-        measured: list[tuple[dict[str, Any], Trace]],
-        results: list[dict[str, Any]],
+        measured: list[tuple[RunMetrics, Trace]],
+        results: list[RunMetrics],
         traces: list[Trace] | None,
     ) -> None:
         for metrics, trace in measured:
@@ -181,7 +180,7 @@ class BatchEvaluator:
         n_frames: int,
         steps: int,
         warmup_s: float,
-    ) -> tuple[dict[str, Any], Trace]:
+    ) -> tuple[RunMetrics, Trace]:
         """The run's frames as `FrameLoop` samples them, in whole arrays: the state after each
         frame's last physics step, and the sensors of that step -- whose sole positions MuJoCo
         computed from the state one step earlier, as `FrameLoop` reads the sites after it."""
@@ -215,7 +214,7 @@ class BatchEvaluator:
                 sens[:, left : left + 3], sens[:, right : right + 3]
             ).tolist(),
         )
-        metrics: dict[str, Any] = {"fell": fell}
+        metrics: RunMetrics = {"fell": fell}
         if fell:
             metrics["fall_time_s"] = round(frames_done * FRAME_S, 3)
         metrics |= compute_metrics(

@@ -5,12 +5,11 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field
-from typing import Any
 
 import numpy as np
 
 from app.core.frame_loop import FRAME_S, FrameLoop
-from app.core.metrics import Trace, compute_metrics
+from app.core.metrics import RunMetrics, Trace, compute_metrics
 from gait import GaitParams, Motion
 from hardware import HardwareSetup, required_torque_from_loads
 
@@ -19,7 +18,7 @@ TORQUE_SAFETY_FACTOR = 0.2  # sf of eq (1) used for the servo sizing report
 
 @dataclass
 class RunResult:
-    metrics: dict[str, Any]
+    metrics: RunMetrics
     trace: Trace = field(repr=False)
     required_torque_nm: dict[str, float] = field(default_factory=dict)
 
@@ -53,7 +52,7 @@ def run(
         if sim.fell:
             break
     wall_s = time.perf_counter() - wall_start
-    metrics: dict[str, Any] = {"fell": sim.fell}
+    metrics: RunMetrics = {"fell": sim.fell}
     if sim.fell:
         metrics["fall_time_s"] = round(sim.time_s, 3)
     metrics |= compute_metrics(trace, ca=motion.ca, freq_hz=params.clock.freq_hz, warmup_s=warmup_s)

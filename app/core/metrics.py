@@ -14,6 +14,7 @@ from __future__ import annotations
 import itertools
 import math
 from dataclasses import dataclass, field
+from typing import TypedDict
 
 import numpy as np
 from numpy.typing import NDArray
@@ -30,6 +31,40 @@ MOTION_METRICS = (
     "gyro_rms",
     "feet_distance_cm",
 )
+
+
+class MotionMetrics(TypedDict):
+    """What `compute_metrics` measures; None where the run was too short to measure."""
+
+    forward_cm_s: float | None  # mean body-frame velocity, forward +
+    lateral_cm_s: float | None  # left +
+    turn_deg_s: float | None  # counter-clockwise +
+    predicted_turn_deg_s: float | None  # eq (13) with V = forward speed, b = feet distance
+    path_error_cm: float | None  # RMS distance of the path from the differential-drive one
+    gyro_rms: float | None  # trunk angular velocity RMS, rad/s (seed 004's stability measure)
+    feet_distance_cm: float | None  # mean distance between the sole centres
+
+
+class RunFlags(TypedDict, total=False):
+    servo_saturated_frames: int
+    gamma_clamped_frames: int
+    guard_violation_frames: int
+    blew_up: bool
+
+
+class RunMetrics(MotionMetrics, total=False):
+    """One run's metrics (docs/DESIGN.md §6): `artro run --json`, the batch evaluator, the bench.
+
+    A JSON document, so it is a typed dict; `fall_time_s` only when it fell, `flags` from
+    `artro run`, `blew_up` from the batch evaluator."""
+
+    fell: bool
+    fall_time_s: float
+    sim_s: float
+    wall_s: float
+    rtf: float | None
+    flags: RunFlags
+    blew_up: bool
 
 
 @dataclass
@@ -105,27 +140,25 @@ def mean_body_velocity(
     return forward / duration, lateral / duration, float((yaw[-1] - yaw[0]) / duration)
 
 
-def compute_metrics(
-    trace: Trace, *, ca: float, freq_hz: float, warmup_s: float
-) -> dict[str, float | None]:
+def compute_metrics(trace: Trace, *, ca: float, freq_hz: float, warmup_s: float) -> MotionMetrics:
     """The motion metrics over whole gait cycles after the warm-up; None where undefined."""
     a = trace.arrays()
     window = whole_cycles(a["t"], warmup_s, freq_hz)
     t, x, y, yaw = (a[k][window] for k in ("t", "x", "y", "yaw"))
     if len(t) < 2:
-        return dict.fromkeys(MOTION_METRICS)
+        return MotionMetrics(**dict.fromkeys(MOTION_METRICS))  # type: ignore[typeddict-item]
     forward, lateral, turn = mean_body_velocity(t, x, y, yaw, freq_hz)
     axle = float(np.mean(a["feet"][window]))
     predicted_turn = float(turn_rate_rad_s(ca, forward, axle)) + 0.0  # no -0.0 in reports
     predicted = predict_path(Pose2D(x[0], y[0], yaw[0]), forward, ca, axle, t - t[0])
     path_error = np.sqrt(np.mean((predicted[:, 1] - x) ** 2 + (predicted[:, 2] - y) ** 2))
     gyro = a["gyro"][window]
-    return {
-        "forward_cm_s": 100.0 * float(forward),
-        "lateral_cm_s": 100.0 * float(lateral),
-        "turn_deg_s": math.degrees(turn),
-        "predicted_turn_deg_s": math.degrees(predicted_turn),
-        "path_error_cm": 100.0 * float(path_error),
-        "gyro_rms": float(np.sqrt(np.mean(np.sum(gyro**2, axis=1)))),
-        "feet_distance_cm": 100.0 * axle,
-    }
+    return MotionMetrics(
+        forward_cm_s=100.0 * float(forward),
+        lateral_cm_s=100.0 * float(lateral),
+        turn_deg_s=math.degrees(turn),
+        predicted_turn_deg_s=math.degrees(predicted_turn),
+        path_error_cm=100.0 * float(path_error),
+        gyro_rms=float(np.sqrt(np.mean(np.sum(gyro**2, axis=1)))),
+        feet_distance_cm=100.0 * axle,
+    )
