@@ -24,6 +24,7 @@ from app.study.runs import ca_sweep, cycle_mean, resolve_presets
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
 
+@pytest.mark.slow
 def test_quick_bench_prints_every_case_and_writes_pngs_and_json(tmp_path, capsys):
     out = tmp_path / "bench"
     assert main(["bench", "paper", "--quick", "--presets", "paper", "--out", str(out)]) == 0

@@ -6,6 +6,7 @@ import os
 import socket
 
 import httpx
+import pytest
 from websockets.sync.client import connect
 
 SPEED = 2.0  # times real time
@@ -29,6 +30,7 @@ def stalled_scope_client(host: str, port: int) -> socket.socket:
     return sock
 
 
+@pytest.mark.slow
 def test_a_stalled_client_does_not_slow_the_simulation_or_other_clients(server):
     base_url, _app = server
     host, port = base_url.removeprefix("http://").split(":")

@@ -30,6 +30,7 @@ def base_loss() -> float:
     return total_loss({name: m for (name, _), m in zip(JUDGED_RUNS, metrics, strict=True)}, 3.0)
 
 
+@pytest.mark.slow
 def test_a_short_run_improves_and_writes_a_loadable_preset(tmp_path):
     results = tmp_path / "results.jsonl"
     tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)

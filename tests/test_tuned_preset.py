@@ -1,6 +1,8 @@
 """The shipped `tuned` preset still walks like the paper: every criterion of the issue, judged
 exactly as `artro tune --select passing` chose it (60 s runs, 5 s warm-up, on this model)."""
 
+import pytest
+
 from app.core.batch import BatchEvaluator, Job
 from app.params.document import load_parameter_set
 from app.params.presets import BUILTIN_DIR
@@ -8,6 +10,7 @@ from app.study.cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measure
 from app.study.tune import meets_all_criteria
 
 
+@pytest.mark.slow
 def test_the_tuned_preset_meets_every_criterion():
     tuned = load_parameter_set(BUILTIN_DIR / "tuned.json").gait
     jobs = [Job(tuned, motion) for _name, motion in JUDGED_RUNS]
