@@ -36,7 +36,7 @@ def test_quick_bench_prints_every_case_and_writes_pngs_and_json(tmp_path, capsys
     assert "largest stable |CA|" in printed.out
     assert "runs" in printed.err  # progress went to stderr
 
-    for name in ("paths_paper.png", "ca_stability.png", "ca_heading.png"):
+    for name in ("paths_paper.png", "ca_stability.png", "ca_heading.png", "ca_limit_speed.png"):
         assert (out / name).read_bytes()[:8] == PNG_MAGIC, name
     results = json.loads((out / "results.json").read_text())
     (paper,) = results["presets"]
@@ -50,7 +50,29 @@ def test_quick_bench_prints_every_case_and_writes_pngs_and_json(tmp_path, capsys
     circle = paper["circle"]
     assert circle["run_s"] == pytest.approx(paper_runs.QUICK.circle_s, abs=0.021)
     assert circle["ca"] == 0.058 and "full circle, CA = 0.058" in printed.out
+    assert circle["predicted_radius_m"] == pytest.approx(
+        paper["ca"]["forward"]["axle_cm"] / 100 / (2 * 0.058)
+    )
+    assert "eq (13): b / (2 CA) =" in printed.out
     assert "CA steers at" in printed.out or "b_eff < 0" in printed.out
+    # the largest stable CA against speed: the quick config's amplitude and +-0.07 from the sweep
+    limits = {round(r["a_p"], 3): r for r in paper["speed_limits"]}
+    assert set(limits) == {-0.07, -0.05, 0.07}
+    quick_cas = [-0.5, -0.2, 0.0, 0.2, 0.5]
+    assert [row["ca"] for row in limits[-0.05]["rows"]] == quick_cas
+    assert [row["ca"] for row in limits[0.07]["rows"]] == [-0.2, 0.0, 0.2]  # what the sweep has
+    for r in limits.values():
+        for sign, k in (("+", 1), ("-", -1)):
+            ordered = sorted((x for x in r["rows"] if x["ca"] * k > 0), key=lambda x: abs(x["ca"]))
+            stable = [x for x in ordered if x["stable"]]
+            expected = None
+            for x in ordered:  # every |CA| up to the limit is stable, the next one is not
+                if not x["stable"]:
+                    break
+                expected = abs(x["ca"])
+            assert r["limit_stable"][sign] == expected, (r["a_p"], sign, stable)
+            assert (r["limit_no_fall"][sign] or 0) >= (r["limit_stable"][sign] or 0)
+    assert "largest stable |CA| against speed" in printed.out
     forward = paper["cases"][1]
     assert forward["sim"] == pytest.approx(paper["metrics"]["cases"]["forward"]["forward_cm_s"])
 

@@ -26,6 +26,7 @@ from typing import Any, TextIO
 import numpy as np
 
 from app.core import ca_analysis as ca_math
+from app.study import speed_limits
 from app.study.cases import (
     CA_PROBE,
     CASES,
@@ -259,7 +260,16 @@ def circle_summary(run: Run, forward: dict[str, Any]) -> dict[str, Any] | None:
         rate_deg_s=row["turn_deg_s"],
         predicted_rate_deg_s=row["eq13_turn_deg_s"],
     )
+    turned = np.abs(trace.yaw_rad - trace.yaw_rad[0])
+    full = np.flatnonzero(turned >= 2 * math.pi)
+    v = finite_or_none(run.metrics["forward_cm_s"])
+    rate = row["turn_deg_s"]
+    radius = None if v is None or not rate else abs(v / 100.0 / math.radians(rate))
     return asdict(check) | {
+        # the circle's radius from its own V and heading rate; eq (13): b / (2 |CA|)
+        "radius_m": radius,
+        "predicted_radius_m": None if axle is None else axle / (2 * abs(CIRCLE_CA)),
+        "time_to_360_s": float(trace.t_s[full[0]]) if full.size else None,
         "ca": CIRCLE_CA,
         "fell": row["fell"],
         "completed": check.completed and not row["fell"],
@@ -287,6 +297,7 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
                 "ca": ca,
                 "circle": circle_summary(runs.circle, ca["forward"]),
                 "steering_by_a_p": steering_by_amplitude(runs),
+                "speed_limits": speed_limits.summarise(runs.limit_walks),
                 "metrics": {
                     "cases": {name: r.metrics for name, r in runs.cases.items()},
                     "walks": {d: [r.metrics for r in rs] for d, rs in runs.walks.items()},
@@ -306,6 +317,10 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
             "circle_ca": CIRCLE_CA,
             "circle_s": config.circle_s,
             "steer_a_p": list(config.steer_a_p),
+            "limit_a_p": list(config.limit_a_p),
+            "limit_ca": list(config.limit_ca),
+            "limit_duration_s": config.limit_duration_s,
+            "limit_gyro_factor": speed_limits.GYRO_FACTOR,
         },
         "notes": notes,
         "presets": presets,
@@ -364,7 +379,7 @@ def run_paper_bench(
     progress = progress_printer(
         f"bench paper: {n_runs} runs of {config.duration_s:g} s "
         f"({', '.join(p.name for p in presets)}), then {len(presets)} full-circle walks of "
-        f"{config.circle_s:g} s ...",
+        f"{config.circle_s:g} s and the CA limit at {len(config.limit_a_p)} more speeds ...",
         stderr,
     )
     all_runs = run_all(presets, config, progress)

@@ -24,6 +24,7 @@ from matplotlib.figure import Figure
 
 from app.core.ca_analysis import FIT_CA_LIMIT
 from app.core.frame_loop import FRAME_S
+from app.study import speed_limits
 from app.study.runs import CIRCLE_CA, PresetRuns, Run, cycle_mean
 from gait import Pose2D, predict_path
 
@@ -232,4 +233,5 @@ def write_plots(all_runs: list[PresetRuns], results: dict[str, Any], out: Path) 
         plot_paths(runs, summary, warmup, out)
         for runs, summary in zip(all_runs, results["presets"], strict=True)
     ]
-    return [*written, plot_stability(results, out), plot_heading(results, out)]
+    limits = speed_limits.plot(results, out, COLORS)
+    return [*written, plot_stability(results, out), plot_heading(results, out), limits]

@@ -10,6 +10,7 @@ from collections.abc import Sequence
 from typing import Any
 
 from app.core.ca_analysis import FIT_CA_LIMIT
+from app.study import speed_limits
 from app.study.cases import (
     BEND_LIMIT,
     MIRROR_TOLERANCE,
@@ -152,6 +153,7 @@ def ca_section(results: dict[str, Any], direction: str) -> list[str]:
         if direction == "forward":
             lines += circle_lines(p.get("circle"))
             lines += amplitude_lines(p.get("steering_by_a_p", []))
+            lines += speed_limits.report_lines(p.get("speed_limits", []))
         out += ["", f"{p['name']}:", *(f"  {line}" for line in lines)]
     return out
 
@@ -251,10 +253,16 @@ def circle_lines(c: dict[str, Any] | None) -> list[str]:
     if c["fell"]:
         return [head + ", then FELL"]
     rates = f"measured {fmt(c['rate_deg_s'])} deg/s, eq (13) {fmt(c['predicted_rate_deg_s'])} deg/s"
+    radius = (
+        f"  radius {fmt(c.get('radius_m'), '.2f')} m, eq (13): b / (2 CA) = "
+        f"{fmt(c.get('predicted_radius_m'), '.2f')} m"
+    )
     if c["completed"]:
         rate, eq13 = c["rate_deg_s"], c["predicted_rate_deg_s"]
         way = "" if rate is None or eq13 is None or rate * eq13 > 0 else ", AGAINST eq (13)"
-        return [f"{head}: a full circle{way}", f"  ({rates})"]
+        when = c.get("time_to_360_s")
+        at = "" if when is None else f", 360 deg after {when:.0f} s"
+        return [f"{head}: a full circle{at}{way}", f"  ({rates})", radius]
     circle_s, pred_s = c["circle_s"], c["predicted_circle_s"]
     measured = "never (no turn)" if circle_s is None else f"{circle_s:.0f} s"
     predicted = "never" if pred_s is None else f"{pred_s:.0f} s"
@@ -262,6 +270,7 @@ def circle_lines(c: dict[str, Any] | None) -> list[str]:
         f"{head}: no full circle",
         f"  one takes {measured} at the measured {fmt(c['rate_deg_s'])} deg/s; "
         f"eq (13): {predicted} at {fmt(c['predicted_rate_deg_s'])} deg/s",
+        radius,
     ]
 
 

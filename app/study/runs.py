@@ -26,6 +26,7 @@ from app.core.batch import BatchEvaluator, Job
 from app.core.metrics import Trace, whole_cycles
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import BUILTIN_DIR
+from app.study import speed_limits
 from app.study.cases import CA_PROBE, CASES, PaperCase
 from gait import GaitParams, Motion
 
@@ -60,6 +61,9 @@ class BenchConfig:
     ca_values: tuple[float, ...] = field(default_factory=ca_sweep)
     circle_s: float = 360.0  # the full-circle walk: eq (13) at 3.8 cm/s, b = 10 cm takes ~150 s
     steer_a_p: tuple[float, ...] = STEER_A_P
+    limit_a_p: tuple[float, ...] = speed_limits.LIMIT_A_P  # the largest stable CA vs speed
+    limit_ca: tuple[float, ...] = speed_limits.LIMIT_CA
+    limit_duration_s: float = 30.0
     threads: int | None = None
 
 
@@ -69,6 +73,9 @@ QUICK = BenchConfig(
     ca_values=(-0.2, -0.1, 0.0, 0.058, 0.1, 0.2),
     circle_s=12.0,
     steer_a_p=(0.05,),
+    limit_a_p=(-0.05,),
+    limit_ca=(0.2, 0.5),
+    limit_duration_s=10.0,
 )
 
 
@@ -161,6 +168,7 @@ class PresetRuns:
     walks: dict[str, list[Run]]  # "forward" / "backward" -> runs in CA order
     circle: Run  # forward at CIRCLE_CA for config.circle_s
     steer_probes: dict[float, list[Run]]  # a_p -> the runs at CA = -CA_PROBE, 0, +CA_PROBE
+    limit_walks: dict[float, list[Run]] = field(default_factory=dict)  # a_p -> runs, CA order
 
 
 def _probe_label(a_p: float, ca: float) -> str:
@@ -223,6 +231,25 @@ def run_all(
         Run(f"circle CA={CIRCLE_CA}", circle_motion, m, RunTrace.from_trace(trace))
         for m, trace in zip(circle_metrics, circle_traces, strict=True)
     ]
+    limit_planned = [
+        item
+        for preset in presets
+        for item in speed_limits.plan(preset, config.limit_a_p, config.limit_ca)
+    ]
+    limit_traces: list[Trace] = []
+    limit_metrics = BatchEvaluator(threads=config.threads).evaluate(
+        [job for _, _, job in limit_planned],
+        duration_s=config.limit_duration_s,
+        warmup_s=config.warmup_s,
+        traces=limit_traces,
+    )
+    by_label |= {
+        (preset.name, label): Run(label, job.motion, m, RunTrace.from_trace(trace))
+        for (preset, label, job), m, trace in zip(
+            limit_planned, limit_metrics, limit_traces, strict=True
+        )
+    }
+    limit_cas = speed_limits.limit_ca_values(config.limit_ca)
     out = []
     for preset, circle in zip(presets, circles, strict=True):
         cases = {c.name: by_label[preset.name, c.name] for c in CASES}
@@ -234,7 +261,16 @@ def run_all(
             a_p: [by_label[preset.name, _probe_label(a_p, ca)] for ca in PROBE_CA]
             for a_p in config.steer_a_p
         }
-        out.append(PresetRuns(preset, cases, walks, circle, probes))
+        limits = {
+            a_p: [by_label[preset.name, speed_limits.label(a_p, ca)] for ca in limit_cas]
+            for a_p in config.limit_a_p
+        }
+        # seed 000's +-0.07 from the CA sweep, at the same |CA| values where it has them
+        for direction, a_p in WALK_A_P.items():
+            sweep = [r for r in walks[direction] if round(r.motion.ca, 6) in limit_cas]
+            if any(r.motion.ca == 0.0 for r in sweep):
+                limits[a_p] = sweep
+        out.append(PresetRuns(preset, cases, walks, circle, probes, limits))
     return out
 
 
