@@ -132,7 +132,8 @@ def c_schema_header() -> str:
     switch_bits = sum(1 << s.pid for s in specs if s.is_switch)
     words = [(switch_bits >> (32 * i)) & 0xFFFFFFFF for i in range((len(specs) + 31) // 32)]
     out.append("/* bit i of word i/32: parameter i is a switch */")
-    out.append("#define ARTRO_PARAM_SWITCH_BITS { " + ", ".join(f"0x{w:08X}UL" for w in words) + " }")
+    bits = ", ".join(f"0x{w:08X}UL" for w in words)
+    out.append(f"#define ARTRO_PARAM_SWITCH_BITS {{ {bits} }}")
     out += ["", "#endif /* ARTRO_SCHEMA_H */", ""]
     return "\n".join(out)
 
