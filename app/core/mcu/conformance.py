@@ -12,15 +12,17 @@ docs/DESIGN.md, Firmware.
 
 from __future__ import annotations
 
+import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
 
-from app.core.frame_loop import START_PHASE_RAD, HardwareSetup, plan_frames
+from app.core.frame_loop import FRAME_S, START_PHASE_RAD, HardwareSetup, plan_frames
 from app.core.mcu.emulator import CYCLES_PER_TICK, LINE_NAMES, Edges, Mcu, read_active_plan
-from gait import GaitParams, Motion
+from gait import GaitParams, Motion, pi_cut
 from hardware import CHANNELS, FRAME_TICKS, SLOT_TICKS, FrameEdges, frame_edges
 
 ANGLE_TOLERANCE_RAD = 1e-4
@@ -35,15 +37,35 @@ class ModelFrames:
 
 
 def model_frames(
-    doc: dict[str, Any], n_frames: int, hardware: HardwareSetup | None = None
+    doc: dict[str, Any],
+    n_frames: int,
+    hardware: HardwareSetup | None = None,
+    *,
+    changes: Sequence[tuple[int, dict[str, Any]]] = (),
 ) -> ModelFrames:
-    """The Python frame loop's first n frames for a parameter-set document."""
-    params = GaitParams.from_dict(doc["gait"])
-    motion = Motion(**doc["motion"])
-    plan = plan_frames(
-        params, motion, hardware or HardwareSetup(), START_PHASE_RAD, n_frames, 10, 0.002
+    """The Python frame loop's first n frames for a parameter-set document.
+
+    `changes` lists (frame, document) switches, as `FrameLoop.set_gait` between frames: the
+    new set's first frame keeps the phase step of the old one, as the loop's walking clock does.
+    """
+    hardware = hardware or HardwareSetup()
+    segments = [(0, doc), *sorted(changes, key=lambda change: change[0])]
+    phase, parts = START_PHASE_RAD, []
+    ends = [start for start, _ in segments[1:]] + [n_frames]
+    for (start, seg_doc), end in zip(segments, ends, strict=True):
+        if end <= start:
+            continue
+        params = GaitParams.from_dict(seg_doc["gait"])
+        motion = Motion(**seg_doc["motion"])
+        plan = plan_frames(params, motion, hardware, phase, end - start, 10, 0.002)
+        parts.append(plan)
+        step = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
+        phase = float(pi_cut(plan.phase[-1] + step))
+    return ModelFrames(
+        np.concatenate([p.phase for p in parts]),
+        np.concatenate([p.angles for p in parts]),
+        np.concatenate([p.ocr for p in parts]),
     )
-    return ModelFrames(plan.phase, plan.angles, plan.ocr)
 
 
 def split_frames(edges: Edges, t0_cycle: int, n_frames: int) -> list[FrameEdges]:
@@ -141,20 +163,19 @@ def compare_frame(
 
 def run_comparison(
     mcu: Mcu,
-    doc: dict[str, Any],
-    n_frames: int,
+    model: ModelFrames,
     hardware: HardwareSetup | None = None,
     *,
     first_frame: int = 0,
 ) -> Comparison:
-    """Run the emulator through frames first_frame..n_frames-1 and compare with the model.
+    """Run the emulator through frames first_frame..len(model)-1 and compare with the model.
 
-    The firmware must have booted with `doc` (or been sent it before `first_frame` was planned).
+    The edges recorded before `first_frame` are dropped; angles are read from the firmware's
+    plan of each frame (so the run goes frame by frame).
     """
     hardware = hardware or HardwareSetup()
-    model = model_frames(doc, n_frames, hardware)
+    n_frames = len(model.phase)
     result = Comparison()
-    angle_error = 0.0
     busy_before = None
     for k in range(first_frame, n_frames):
         mcu.run_to_frame(k, _DUMP_TICK)
@@ -162,7 +183,7 @@ def run_comparison(
         if plan.frame != k:
             result.mismatches.append(f"frame {k}: the firmware outputs its plan of {plan.frame}")
         error = float(np.max(np.abs(plan.angles.astype(np.float64) - model.angles[k])))
-        angle_error = max(angle_error, error)
+        result.max_angle_error_rad = max(result.max_angle_error_rad, error)
         busy = mcu.busy_cycles
         if busy_before is not None:
             result.busy_cycles.append(busy - busy_before)
@@ -173,5 +194,4 @@ def run_comparison(
         want = frame_edges(model.ocr[k], hardware.tdm)
         compare_frame(edges[k], want, k, result, hardware.tdm.select_change_ticks)
     result.frames = n_frames - first_frame
-    result.max_angle_error_rad = angle_error
     return result
