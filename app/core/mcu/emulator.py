@@ -96,17 +96,22 @@ def elf_symbols(elf: Path) -> dict[str, tuple[int, int]]:
 class Mcu:
     """One emulated ATmega128 running the ArtRo firmware."""
 
-    def __init__(self, elf: Path | str, *, fix_mode14: bool = True) -> None:
+    def __init__(
+        self, elf: Path | str, *, fix_mode14: bool = True, fix_ocr_high_byte: bool = True
+    ) -> None:
         """Load `elf` and run until the firmware has started its timers (frame 0 begins).
 
         Args:
             fix_mode14: correct simavr's Timer1/Timer3 waveform mode 14 (fast PWM, TOP = ICRn)
                 before the firmware runs. False shows the emulator's bug: OCR writes ignored.
+            fix_ocr_high_byte: make simavr take a 16-bit OCR write whose low byte is unchanged
+                (it drops it). False shows that bug: some pulses off by multiples of 256 ticks.
         """
         self.elf = Path(elf)
         self._lib = _library()
         error = ctypes.create_string_buffer(256)
-        handle = self._lib.artro_mcu_new(str(self.elf).encode(), int(fix_mode14), error, 256)
+        fixes = (1 if fix_mode14 else 0) | (2 if fix_ocr_high_byte else 0)
+        handle = self._lib.artro_mcu_new(str(self.elf).encode(), fixes, error, 256)
         if not handle:
             raise EmulatorError(error.value.decode() or "simavr could not load the firmware")
         self._h = ctypes.c_void_p(handle)

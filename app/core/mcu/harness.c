@@ -6,9 +6,15 @@
  * bytes for the firmware are queued and fed following simavr's XON/XOFF flow control (its receive
  * FIFO drops what comes while it is full).
  *
- * simavr maps waveform mode 14 of Timer1/Timer3 to phase-correct PWM on this core, which ignores
- * OCR writes (upstream issue buserror/simavr#579); artro_mcu_new corrects the table entry to fast
- * PWM with TOP = ICRn unless asked not to (to show what the bug does). docs/DESIGN.md, Firmware.
+ * Two corrections of simavr's timer model, each can be left out to show what it does:
+ *  - FIX_MODE14: simavr maps waveform mode 14 of Timer1/Timer3 to phase-correct PWM on this core,
+ *    which ignores OCR writes (upstream issue buserror/simavr#579); the table entry is set to
+ *    fast PWM with TOP = ICRn.
+ *  - FIX_OCR_HIGH_BYTE: in PWM modes simavr takes a new OCRnx only if the 16-bit value differs
+ *    once the low byte is written, comparing with the high byte already stored -- so a change of
+ *    the high byte alone is lost. On the chip the high byte waits in TEMP and both bytes change
+ *    together; the harness makes simavr see such a write as the change it is.
+ * docs/DESIGN.md, Firmware.
  */
 #include <stdint.h>
 #include <stdio.h>
@@ -24,6 +30,9 @@
 #include <simavr/sim_irq.h>
 
 #define NUM_LINES 9
+#define FIX_MODE14 1
+#define FIX_OCR_HIGH_BYTE 2
+#define NUM_OCR 6
 #define F_CPU_HZ 16000000u
 
 typedef struct {
@@ -38,6 +47,14 @@ typedef struct {
 } uart_byte_t;
 
 typedef struct harness harness_t;
+
+/* simavr's write handler of an OCRnxL register, wrapped */
+typedef struct {
+    avr_io_write_t write;
+    void *param;
+    avr_io_addr_t high;
+    uint8_t last_high;
+} ocr_wrap_t;
 
 typedef struct {
     harness_t *h;
@@ -59,6 +76,7 @@ struct harness {
     int xoff;
     avr_irq_t *uart_input;
     uint64_t busy_cycles;
+    ocr_wrap_t ocr[NUM_OCR];
 };
 
 static const struct {
@@ -132,6 +150,34 @@ static void on_xoff(struct avr_irq_t *irq, uint32_t value, void *param)
     ((harness_t *)param)->xoff = 1;
 }
 
+static void ocr_low_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    ocr_wrap_t *w = param;
+    uint8_t high = avr->data[w->high];
+    if (avr->data[addr] == v && high != w->last_high)
+        avr->data[addr] = (uint8_t)~v; /* let simavr see the 16-bit value change */
+    w->last_high = high;
+    w->write(avr, addr, v, w->param);
+}
+
+static void wrap_ocr_writes(harness_t *h)
+{
+    avr_timer_t *timers[2] = {h->timer1, h->timer3};
+    for (int t = 0; t < 2; t++) {
+        for (int c = 0; c < 3; c++) {
+            avr_timer_comp_t *comp = &timers[t]->comp[c];
+            ocr_wrap_t *w = &h->ocr[3 * t + c];
+            avr_io_addr_t io = AVR_DATA_TO_IO(comp->r_ocr);
+            w->write = h->avr->io[io].w.c;
+            w->param = h->avr->io[io].w.param;
+            w->high = comp->r_ocrh;
+            w->last_high = h->avr->data[comp->r_ocrh];
+            h->avr->io[io].w.c = ocr_low_write;
+            h->avr->io[io].w.param = w;
+        }
+    }
+}
+
 static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
 {
     (void)avr;
@@ -152,7 +198,7 @@ static void find_timers(harness_t *h)
     }
 }
 
-harness_t *artro_mcu_new(const char *elf_path, int fix_mode14, char *error, int error_len)
+harness_t *artro_mcu_new(const char *elf_path, int fixes, char *error, int error_len)
 {
     elf_firmware_t firmware;
     memset(&firmware, 0, sizeof firmware);
@@ -183,7 +229,9 @@ harness_t *artro_mcu_new(const char *elf_path, int fix_mode14, char *error, int 
         free(h);
         return NULL;
     }
-    if (fix_mode14) {
+    if (fixes & FIX_OCR_HIGH_BYTE)
+        wrap_ocr_writes(h);
+    if (fixes & FIX_MODE14) {
         /* mode 14 = WGMn3:0 1110: fast PWM, TOP = ICRn, OCRnx taken at the period end */
         const avr_timer_wgm_t fast_pwm_icr = AVR_TIMER_WGM_ICFASTPWM();
         h->timer1->wgm_op[14] = fast_pwm_icr;
