@@ -21,7 +21,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.core.frame_loop import FRAME_S, START_PHASE_RAD, HardwareSetup, plan_frames
-from app.core.mcu.emulator import CYCLES_PER_TICK, LINE_NAMES, Edges, Mcu, read_active_plan
+from app.core.mcu.emulator import (
+    CYCLES_PER_TICK,
+    FRAME_CYCLES,
+    LINE_NAMES,
+    Edges,
+    Mcu,
+    read_active_plan,
+)
 from gait import GaitParams, Motion, pi_cut
 from hardware import CHANNELS, FRAME_TICKS, SLOT_TICKS, FrameEdges, frame_edges
 
@@ -171,13 +178,14 @@ def run_comparison(
     """Run the emulator through frames first_frame..len(model)-1 and compare with the model.
 
     The edges recorded before `first_frame` are dropped; angles are read from the firmware's
-    plan of each frame (so the run goes frame by frame).
+    plan of each frame not yet begun (so the run goes frame by frame).
     """
     hardware = hardware or HardwareSetup()
     n_frames = len(model.phase)
     result = Comparison()
     busy_before = None
-    for k in range(first_frame, n_frames):
+    begun = (mcu.cycle - mcu.t0_cycle) // FRAME_CYCLES + 1  # frames whose plans we missed
+    for k in range(max(first_frame, begun), n_frames):
         mcu.run_to_frame(k, _DUMP_TICK)
         plan = read_active_plan(mcu)
         if plan.frame != k:
