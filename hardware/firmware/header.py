@@ -7,7 +7,8 @@ One header carries everything the firmware needs to reproduce a simulated gait:
   TCCRnA/TCCRnB bytes), the TDM slot and frame lengths in ticks and the select-line change tick;
 - the servo mapping of `hardware.servo` (1500 µs = 0 rad, 10 µs per degree, 600..2400 µs);
 - the channel map (`ARTRO_SERVO_CHANNEL[12]`, `ARTRO_SERVO_SLOT[12]`) and the per-servo
-  calibration (direction, trim in ticks, limits in centidegrees);
+  calibration (direction, trim in ticks, limits in centidegrees; and exactly, as floats: trim in
+  µs, limits in rad);
 - the motion vector, CA and every gait constant as `ARTRO_<GROUP>_<FIELD>` float literals
   (booleans as 0/1), plus the gait clock and the phase advance per 20 ms frame, eqs (10)–(11).
 
@@ -95,6 +96,14 @@ def _array(ctype: str, name: str, values: Iterable[int], labels: Iterable[str]) 
     return [*lines, "};"]
 
 
+def _float_array(name: str, values: Iterable[float], labels: Iterable[str]) -> list[str]:
+    items = [c_float(value, name) for value in values]
+    lines = [f"static const float {name}[{len(items)}] = {{"]
+    for value, label in zip(items, labels, strict=True):
+        lines.append(f"    {f'{value},':<24} /* {label} */")
+    return [*lines, "};"]
+
+
 def _timer_section(select_change_ticks: int) -> list[str]:
     regs = timer_registers()
     return [
@@ -161,6 +170,10 @@ def _servo_section(
     lines += _array("int16_t", "ARTRO_SERVO_TRIM_TICKS", trim_ticks, SERVO_NAMES)
     lines += _array("int16_t", "ARTRO_SERVO_MIN_CDEG", min_cdeg, SERVO_NAMES)
     lines += _array("int16_t", "ARTRO_SERVO_MAX_CDEG", max_cdeg, SERVO_NAMES)
+    lines += ["", "/* The same calibration exactly, as the firmware computes pulses in float */"]
+    lines += _float_array("ARTRO_SERVO_TRIM_US", calibration.trim_us, SERVO_NAMES)
+    lines += _float_array("ARTRO_SERVO_MIN_RAD", calibration.min_rad, SERVO_NAMES)
+    lines += _float_array("ARTRO_SERVO_MAX_RAD", calibration.max_rad, SERVO_NAMES)
     return lines
 
 

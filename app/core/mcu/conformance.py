@@ -1,0 +1,205 @@
+"""Conformance of the emulated firmware to the Python model, frame by frame.
+
+The Python side is the simulation's own frame pipeline (`app.core.frame_loop.plan_frames`: walking
+clock, gait, servo model, TDM table) and `hardware.frame_edges`, the edges on the wires. The
+firmware side is what simavr's pins carried, cut into 20 ms frames from the moment Timer1 started,
+and the joint angles the firmware computed (its frame plan in SRAM).
+
+Edges must agree tick for tick. The only allowed difference is a falling edge one tick off where
+float32 (firmware) and float64 (model) round a pulse to neighbouring ticks; those are counted.
+docs/DESIGN.md, Firmware.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.core.frame_loop import FRAME_S, START_PHASE_RAD, HardwareSetup, plan_frames
+from app.core.mcu.emulator import (
+    CYCLES_PER_TICK,
+    FRAME_CYCLES,
+    LINE_NAMES,
+    Edges,
+    Mcu,
+    read_active_plan,
+)
+from gait import GaitParams, Motion, pi_cut
+from hardware import CHANNELS, FRAME_TICKS, SLOT_TICKS, FrameEdges, frame_edges
+
+ANGLE_TOLERANCE_RAD = 1e-4
+_DUMP_TICK = 100  # read the frame's plan this far into the frame (after the latch, at tick 0)
+
+
+@dataclass(frozen=True)
+class ModelFrames:
+    phase: NDArray[np.float64]  # (n,)
+    angles: NDArray[np.float64]  # (n, 12)
+    ocr: NDArray[np.int32]  # (n, 6, 8)
+
+
+def model_frames(
+    doc: dict[str, Any],
+    n_frames: int,
+    hardware: HardwareSetup | None = None,
+    *,
+    changes: Sequence[tuple[int, dict[str, Any]]] = (),
+) -> ModelFrames:
+    """The Python frame loop's first n frames for a parameter-set document.
+
+    `changes` lists (frame, document) switches, as `FrameLoop.set_gait` between frames: the
+    new set's first frame keeps the phase step of the old one, as the loop's walking clock does.
+    """
+    hardware = hardware or HardwareSetup()
+    segments = [(0, doc), *sorted(changes, key=lambda change: change[0])]
+    phase, parts = START_PHASE_RAD, []
+    ends = [start for start, _ in segments[1:]] + [n_frames]
+    for (start, seg_doc), end in zip(segments, ends, strict=True):
+        if end <= start:
+            continue
+        params = GaitParams.from_dict(seg_doc["gait"])
+        motion = Motion(**seg_doc["motion"])
+        plan = plan_frames(params, motion, hardware, phase, end - start, 10, 0.002)
+        parts.append(plan)
+        step = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
+        phase = float(pi_cut(plan.phase[-1] + step))
+    return ModelFrames(
+        np.concatenate([p.phase for p in parts]),
+        np.concatenate([p.angles for p in parts]),
+        np.concatenate([p.ocr for p in parts]),
+    )
+
+
+def split_frames(edges: Edges, t0_cycle: int, n_frames: int) -> list[FrameEdges]:
+    """Cut recorded edges into FrameEdges of frames 0..n-1 (ticks from each frame's start)."""
+    ticks = (edges.cycle.astype(np.int64) - t0_cycle) // CYCLES_PER_TICK
+    per_line = []
+    for line in range(len(LINE_NAMES)):
+        mask = edges.line == line
+        per_line.append((ticks[mask], edges.level[mask].astype(np.int64)))
+    frames = []
+    for k in range(n_frames):
+        start, end = k * FRAME_TICKS, (k + 1) * FRAME_TICKS
+        initial, lines = [], []
+        for line_ticks, levels in per_line:
+            before = np.flatnonzero(line_ticks <= start)
+            initial.append(int(levels[before[-1]]) if len(before) else 0)
+            inside = (line_ticks > start) & (line_ticks < end)
+            lines.append(
+                tuple(
+                    (int(t - start), int(v))
+                    for t, v in zip(line_ticks[inside], levels[inside], strict=True)
+                )
+            )
+        frames.append(FrameEdges(LINE_NAMES, tuple(initial), tuple(lines)))
+    return frames
+
+
+@dataclass
+class Comparison:
+    """How the emulated pins and angles compare with the model over some frames."""
+
+    frames: int = 0
+    pulses: int = 0  # pulses (falling edges on the TDM lines) compared
+    exact: int = 0
+    one_tick: int = 0
+    mismatches: list[str] = field(default_factory=list)
+    select_outside_guard: int = 0  # select-line edges not at the guard's change tick
+    max_angle_error_rad: float = 0.0
+    busy_cycles: list[int] = field(default_factory=list)  # per frame, CPU not asleep
+
+    @property
+    def ok(self) -> bool:
+        return (
+            not self.mismatches
+            and self.select_outside_guard == 0
+            and self.max_angle_error_rad <= ANGLE_TOLERANCE_RAD
+        )
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            "frames": self.frames,
+            "pulses_compared": self.pulses,
+            "exact": self.exact,
+            "one_tick": self.one_tick,
+            "mismatches": len(self.mismatches),
+            "select_outside_guard": self.select_outside_guard,
+            "max_angle_error_rad": self.max_angle_error_rad,
+            "cycles_per_frame_max": max(self.busy_cycles, default=0),
+            "cycles_per_frame_mean": float(np.mean(self.busy_cycles)) if self.busy_cycles else 0,
+        }
+
+
+def compare_frame(
+    got: FrameEdges, want: FrameEdges, frame: int, result: Comparison, select_tick: int
+) -> None:
+    """Add one frame's comparison to `result`."""
+    for name in LINE_NAMES:
+        got_initial, got_edges = got.line(name)
+        want_initial, want_edges = want.line(name)
+        is_channel = name in CHANNELS
+        if is_channel:
+            result.pulses += sum(1 for _, level in want_edges if level == 0)
+        else:
+            result.select_outside_guard += sum(
+                1 for tick, _ in got_edges if tick % SLOT_TICKS != select_tick
+            )
+        if got_initial != want_initial or len(got_edges) != len(want_edges):
+            result.mismatches.append(
+                f"frame {frame} {name}: got {got_initial} {got_edges}, want {want_initial} "
+                f"{want_edges}"
+            )
+            continue
+        for (t_got, v_got), (t_want, v_want) in zip(got_edges, want_edges, strict=True):
+            if v_got != v_want:
+                result.mismatches.append(f"frame {frame} {name}: level {v_got} != {v_want}")
+            elif t_got == t_want:
+                result.exact += is_channel and v_want == 0
+            elif is_channel and v_want == 0 and abs(t_got - t_want) == 1:
+                result.one_tick += 1
+            else:
+                result.mismatches.append(
+                    f"frame {frame} {name}: edge to {v_want} at tick {t_got}, model {t_want}"
+                )
+
+
+def run_comparison(
+    mcu: Mcu,
+    model: ModelFrames,
+    hardware: HardwareSetup | None = None,
+    *,
+    first_frame: int = 0,
+) -> Comparison:
+    """Run the emulator through frames first_frame..len(model)-1 and compare with the model.
+
+    The edges recorded before `first_frame` are dropped; angles are read from the firmware's
+    plan of each frame not yet begun (so the run goes frame by frame).
+    """
+    hardware = hardware or HardwareSetup()
+    n_frames = len(model.phase)
+    result = Comparison()
+    busy_before = None
+    begun = (mcu.cycle - mcu.t0_cycle) // FRAME_CYCLES + 1  # frames whose plans we missed
+    for k in range(max(first_frame, begun), n_frames):
+        mcu.run_to_frame(k, _DUMP_TICK)
+        plan = read_active_plan(mcu)
+        if plan.frame != k:
+            result.mismatches.append(f"frame {k}: the firmware outputs its plan of {plan.frame}")
+        error = float(np.max(np.abs(plan.angles.astype(np.float64) - model.angles[k])))
+        result.max_angle_error_rad = max(result.max_angle_error_rad, error)
+        busy = mcu.busy_cycles
+        if busy_before is not None:
+            result.busy_cycles.append(busy - busy_before)
+        busy_before = busy
+    mcu.run_to_frame(n_frames)
+    edges = split_frames(mcu.take_edges(), mcu.t0_cycle, n_frames)
+    for k in range(first_frame, n_frames):
+        want = frame_edges(model.ocr[k], hardware.tdm)
+        compare_frame(edges[k], want, k, result, hardware.tdm.select_change_ticks)
+    result.frames = n_frames - first_frame
+    return result

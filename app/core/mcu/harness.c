@@ -1,0 +1,367 @@
+/* harness.c -- the ArtRo firmware on simavr's ATmega128 core, as a small C library for Python.
+ *
+ * Loads the firmware ELF into simavr, records every level change of the six TDM lines
+ * (OC1A/B/C = PB5/6/7, OC3A/B/C = PE3/4/5) and the three select lines (PC0..2) with its CPU
+ * cycle, and bridges UART0 both ways: bytes the firmware sends are recorded with their cycle,
+ * bytes for the firmware are queued and fed following simavr's XON/XOFF flow control (its receive
+ * FIFO drops what comes while it is full).
+ *
+ * Two corrections of simavr's timer model, each can be left out to show what it does:
+ *  - FIX_MODE14: simavr maps waveform mode 14 of Timer1/Timer3 to phase-correct PWM on this core,
+ *    which ignores OCR writes (upstream issue buserror/simavr#579); the table entry is set to
+ *    fast PWM with TOP = ICRn.
+ *  - FIX_OCR_HIGH_BYTE: in PWM modes simavr takes a new OCRnx only if the 16-bit value differs
+ *    once the low byte is written, comparing with the high byte already stored -- so a change of
+ *    the high byte alone is lost. On the chip the high byte waits in TEMP and both bytes change
+ *    together; the harness makes simavr see such a write as the change it is.
+ * docs/DESIGN.md, Firmware.
+ */
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <simavr/avr_ioport.h>
+#include <simavr/avr_timer.h>
+#include <simavr/avr_uart.h>
+#include <simavr/sim_avr.h>
+#include <simavr/sim_elf.h>
+#include <simavr/sim_io.h>
+#include <simavr/sim_irq.h>
+
+#define NUM_LINES 9
+#define FIX_MODE14 1
+#define FIX_OCR_HIGH_BYTE 2
+#define NUM_OCR 6
+#define F_CPU_HZ 16000000u
+
+typedef struct {
+    uint64_t cycle;
+    uint8_t line;
+    uint8_t level;
+} edge_t;
+
+typedef struct {
+    uint64_t cycle;
+    uint8_t byte;
+} uart_byte_t;
+
+typedef struct harness harness_t;
+
+/* simavr's write handler of an OCRnxL register, wrapped */
+typedef struct {
+    avr_io_write_t write;
+    void *param;
+    avr_io_addr_t high;
+    uint8_t last_high;
+} ocr_wrap_t;
+
+typedef struct {
+    harness_t *h;
+    uint8_t line;
+} line_ref_t;
+
+struct harness {
+    avr_t *avr;
+    avr_timer_t *timer1, *timer3;
+    int64_t timer_start[2]; /* cycle at which Timer1 / Timer3 started counting, -1 before */
+    uint8_t level[NUM_LINES];
+    line_ref_t refs[NUM_LINES];
+    edge_t *edges;
+    size_t n_edges, cap_edges;
+    uart_byte_t *out;
+    size_t n_out, cap_out;
+    uint8_t *in;
+    size_t in_head, in_tail, cap_in;
+    int xoff;
+    avr_irq_t *uart_input;
+    uint64_t busy_cycles;
+    ocr_wrap_t ocr[NUM_OCR];
+};
+
+static const struct {
+    char port;
+    uint8_t pin;
+} LINE_PINS[NUM_LINES] = {
+    {'B', 5}, {'B', 6}, {'B', 7}, {'E', 3}, {'E', 4}, {'E', 5}, {'C', 0}, {'C', 1}, {'C', 2},
+};
+
+static int grow(void **buf, size_t *cap, size_t need, size_t item)
+{
+    if (need <= *cap)
+        return 0;
+    size_t cap2 = *cap ? *cap * 2 : 4096;
+    while (cap2 < need)
+        cap2 *= 2;
+    void *p = realloc(*buf, cap2 * item);
+    if (!p)
+        return -1;
+    *buf = p;
+    *cap = cap2;
+    return 0;
+}
+
+static void on_line(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    line_ref_t *ref = param;
+    harness_t *h = ref->h;
+    uint8_t level = value ? 1 : 0;
+    if (level == h->level[ref->line])
+        return;
+    h->level[ref->line] = level;
+    if (grow((void **)&h->edges, &h->cap_edges, h->n_edges + 1, sizeof(edge_t)))
+        return;
+    h->edges[h->n_edges++] = (edge_t){h->avr->cycle, ref->line, level};
+}
+
+static void pump(harness_t *h)
+{
+    while (!h->xoff && h->in_head != h->in_tail) {
+        uint8_t byte = h->in[h->in_tail++];
+        avr_raise_irq(h->uart_input, byte); /* may raise XOFF, re-entrantly */
+    }
+    if (h->in_head == h->in_tail)
+        h->in_head = h->in_tail = 0;
+}
+
+static void on_uart_out(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    harness_t *h = param;
+    if (grow((void **)&h->out, &h->cap_out, h->n_out + 1, sizeof(uart_byte_t)))
+        return;
+    h->out[h->n_out++] = (uart_byte_t){h->avr->cycle, (uint8_t)value};
+}
+
+static void on_xon(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)value;
+    harness_t *h = param;
+    h->xoff = 0;
+    pump(h);
+}
+
+static void on_xoff(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    (void)value;
+    ((harness_t *)param)->xoff = 1;
+}
+
+static void ocr_low_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    ocr_wrap_t *w = param;
+    uint8_t high = avr->data[w->high];
+    if (avr->data[addr] == v && high != w->last_high)
+        avr->data[addr] = (uint8_t)~v; /* let simavr see the 16-bit value change */
+    w->last_high = high;
+    w->write(avr, addr, v, w->param);
+}
+
+static void wrap_ocr_writes(harness_t *h)
+{
+    avr_timer_t *timers[2] = {h->timer1, h->timer3};
+    for (int t = 0; t < 2; t++) {
+        for (int c = 0; c < 3; c++) {
+            avr_timer_comp_t *comp = &timers[t]->comp[c];
+            ocr_wrap_t *w = &h->ocr[3 * t + c];
+            avr_io_addr_t io = AVR_DATA_TO_IO(comp->r_ocr);
+            w->write = h->avr->io[io].w.c;
+            w->param = h->avr->io[io].w.param;
+            w->high = comp->r_ocrh;
+            w->last_high = h->avr->data[comp->r_ocrh];
+            h->avr->io[io].w.c = ocr_low_write;
+            h->avr->io[io].w.param = w;
+        }
+    }
+}
+
+static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
+{
+    (void)avr;
+    (void)how_long; /* run as fast as the host can: no real-time pacing */
+}
+
+/* Timer1 and Timer3: the avr_timer_t instances registered with the core. */
+static void find_timers(harness_t *h)
+{
+    for (avr_io_t *io = h->avr->io_port; io; io = io->next) {
+        if (!io->kind || strcmp(io->kind, "timer") != 0)
+            continue;
+        avr_timer_t *timer = (avr_timer_t *)io; /* avr_io_t is its first member */
+        if (timer->name == '1')
+            h->timer1 = timer;
+        else if (timer->name == '3')
+            h->timer3 = timer;
+    }
+}
+
+harness_t *artro_mcu_new(const char *elf_path, int fixes, char *error, int error_len)
+{
+    elf_firmware_t firmware;
+    memset(&firmware, 0, sizeof firmware);
+    if (elf_read_firmware(elf_path, &firmware) != 0) {
+        snprintf(error, error_len, "cannot read firmware ELF %s", elf_path);
+        return NULL;
+    }
+    harness_t *h = calloc(1, sizeof *h);
+    if (!h)
+        return NULL;
+    h->avr = avr_make_mcu_by_name("atmega128");
+    if (!h->avr) {
+        snprintf(error, error_len, "simavr has no atmega128 core");
+        free(h);
+        return NULL;
+    }
+    avr_init(h->avr);
+    h->avr->log = LOG_ERROR;
+    h->avr->sleep = no_sleep;
+    firmware.frequency = F_CPU_HZ;
+    avr_load_firmware(h->avr, &firmware);
+    h->avr->frequency = F_CPU_HZ;
+
+    find_timers(h);
+    if (!h->timer1 || !h->timer3) {
+        snprintf(error, error_len, "Timer1/Timer3 not found in the simavr core");
+        avr_terminate(h->avr);
+        free(h);
+        return NULL;
+    }
+    if (fixes & FIX_OCR_HIGH_BYTE)
+        wrap_ocr_writes(h);
+    if (fixes & FIX_MODE14) {
+        /* mode 14 = WGMn3:0 1110: fast PWM, TOP = ICRn, OCRnx taken at the period end */
+        const avr_timer_wgm_t fast_pwm_icr = AVR_TIMER_WGM_ICFASTPWM();
+        h->timer1->wgm_op[14] = fast_pwm_icr;
+        h->timer3->wgm_op[14] = fast_pwm_icr;
+    }
+    h->timer_start[0] = h->timer_start[1] = -1;
+
+    for (uint8_t i = 0; i < NUM_LINES; i++) {
+        h->refs[i] = (line_ref_t){h, i};
+        avr_irq_t *irq =
+            avr_io_getirq(h->avr, AVR_IOCTL_IOPORT_GETIRQ(LINE_PINS[i].port), LINE_PINS[i].pin);
+        avr_irq_register_notify(irq, on_line, &h->refs[i]);
+    }
+
+    uint32_t flags = 0; /* no console echo of UART bytes, no polling sleeps */
+    avr_ioctl(h->avr, AVR_IOCTL_UART_SET_FLAGS('0'), &flags);
+    h->uart_input = avr_io_getirq(h->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_INPUT);
+    avr_irq_register_notify(
+        avr_io_getirq(h->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUTPUT), on_uart_out, h);
+    avr_irq_register_notify(
+        avr_io_getirq(h->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XON), on_xon, h);
+    avr_irq_register_notify(
+        avr_io_getirq(h->avr, AVR_IOCTL_UART_GETIRQ('0'), UART_IRQ_OUT_XOFF), on_xoff, h);
+    h->xoff = 1; /* until the firmware enables its receiver */
+    return h;
+}
+
+void artro_mcu_free(harness_t *h)
+{
+    if (!h)
+        return;
+    avr_terminate(h->avr);
+    free(h->edges);
+    free(h->out);
+    free(h->in);
+    free(h);
+}
+
+static void note_timer_start(harness_t *h)
+{
+    avr_timer_t *timers[2] = {h->timer1, h->timer3};
+    for (int i = 0; i < 2; i++)
+        if (h->timer_start[i] < 0 && timers[i]->tov_cycles)
+            h->timer_start[i] = (int64_t)timers[i]->tov_base;
+}
+
+/* Run until the cycle counter reaches `cycle`. Returns simavr's CPU state (cpu_Done and
+ * cpu_Crashed end the run). */
+int artro_mcu_run_until(harness_t *h, uint64_t cycle)
+{
+    avr_t *avr = h->avr;
+    int state = avr->state;
+    while (avr->cycle < cycle) {
+        uint64_t before = avr->cycle;
+        int running = avr->state == cpu_Running;
+        state = avr_run(avr);
+        if (running)
+            h->busy_cycles += avr->cycle - before;
+        if (h->timer_start[1] < 0)
+            note_timer_start(h);
+        if (state == cpu_Done || state == cpu_Crashed)
+            break;
+    }
+    return state;
+}
+
+uint64_t artro_mcu_cycle(harness_t *h)
+{
+    return h->avr->cycle;
+}
+
+/* Cycles the CPU spent executing (not sleeping) since the start. */
+uint64_t artro_mcu_busy_cycles(harness_t *h)
+{
+    return h->busy_cycles;
+}
+
+int64_t artro_mcu_timer_start(harness_t *h, int which)
+{
+    return h->timer_start[which == 3 ? 1 : 0];
+}
+
+/* Move up to `max` recorded edges out (oldest first); returns how many. */
+size_t artro_mcu_take_edges(harness_t *h, uint64_t *cycles, uint8_t *lines, uint8_t *levels,
+                            size_t max)
+{
+    size_t n = h->n_edges < max ? h->n_edges : max;
+    for (size_t i = 0; i < n; i++) {
+        cycles[i] = h->edges[i].cycle;
+        lines[i] = h->edges[i].line;
+        levels[i] = h->edges[i].level;
+    }
+    memmove(h->edges, h->edges + n, (h->n_edges - n) * sizeof(edge_t));
+    h->n_edges -= n;
+    return n;
+}
+
+size_t artro_mcu_take_uart(harness_t *h, uint64_t *cycles, uint8_t *bytes, size_t max)
+{
+    size_t n = h->n_out < max ? h->n_out : max;
+    for (size_t i = 0; i < n; i++) {
+        cycles[i] = h->out[i].cycle;
+        bytes[i] = h->out[i].byte;
+    }
+    memmove(h->out, h->out + n, (h->n_out - n) * sizeof(uart_byte_t));
+    h->n_out -= n;
+    return n;
+}
+
+/* Queue bytes for the firmware's receiver; they go in as its FIFO makes room. */
+int artro_mcu_uart_send(harness_t *h, const uint8_t *bytes, size_t n)
+{
+    if (grow((void **)&h->in, &h->cap_in, h->in_head + n, 1))
+        return -1;
+    memcpy(h->in + h->in_head, bytes, n);
+    h->in_head += n;
+    pump(h);
+    return 0;
+}
+
+size_t artro_mcu_uart_queued(harness_t *h)
+{
+    return h->in_head - h->in_tail;
+}
+
+/* Copy n bytes of data memory (SRAM and registers) from `addr` (data space, 0 = r0). */
+int artro_mcu_read(harness_t *h, uint32_t addr, uint8_t *out, uint32_t n)
+{
+    if ((uint64_t)addr + n > (uint64_t)h->avr->ramend + 1)
+        return -1;
+    memcpy(out, h->avr->data + addr, n);
+    return 0;
+}

@@ -1,0 +1,70 @@
+"""Benchmark: CPU cycles the ArtRo firmware spends per 20 ms frame, on simavr's ATmega128.
+
+For the `paper` and `tuned` presets and a few motion vectors, runs the real firmware (avr-gcc -Os)
+for one gait cycle and counts the cycles per frame in which the CPU was not asleep: the gait
+(eqs 2-45), the servo model and TDM table for the next frame, the Timer2 ticks and guards with
+their wait for the select tick, and the UART. Prints the worst and mean frame against the budget
+(goal <= 80 000 cycles = 25 % of the 320 000-cycle frame) and the flash and SRAM use (avr-size).
+
+    python bench/bench_firmware.py [--cycles 1.0]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+import numpy as np
+
+from app.assets import builtin_presets_dir
+from app.core.mcu.build import build_firmware
+from app.core.mcu.emulator import FRAME_CYCLES, Mcu
+
+BUDGET_CYCLES = 80_000
+MOTIONS = {
+    "forward": {"a_p": 0.07},
+    "sideways": {"a_r": 0.1},
+    "turn": {"a_y": 0.2},
+    "curve": {"a_p": 0.07, "ca": 0.1},
+}
+
+
+def frame_cycles(doc: dict, gait_cycles: float) -> np.ndarray:
+    """Busy cycles of each frame over `gait_cycles` cycles (frame 0, with start-up, excluded)."""
+    n = int(gait_cycles / (doc["gait"]["clock"]["freq_hz"] * 0.02)) + 2
+    with Mcu(build_firmware(doc).elf) as mcu:
+        busy = []
+        for k in range(1, n + 1):
+            mcu.run_to_frame(k)
+            busy.append(mcu.busy_cycles)
+    return np.diff(busy)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--cycles", type=float, default=1.0, help="gait cycles per case")
+    args = parser.parse_args()
+    worst_all = 0
+    for name in ("paper", "tuned"):
+        base = json.loads((builtin_presets_dir() / f"{name}.json").read_text())
+        for label, motion in MOTIONS.items():
+            doc = {**base, "motion": {**base["motion"], **motion}}
+            cycles = frame_cycles(doc, args.cycles)
+            worst_all = max(worst_all, int(cycles.max()))
+            print(
+                f"{name:6s} {label:9s} cycles/frame: worst {cycles.max():6d}  "
+                f"mean {cycles.mean():8.0f}  ({100 * cycles.max() / FRAME_CYCLES:4.1f} % of the "
+                f"frame, {len(cycles)} frames)"
+            )
+    build = build_firmware(json.loads((builtin_presets_dir() / "paper.json").read_text()))
+    verdict = "within" if worst_all <= BUDGET_CYCLES else "OVER"
+    print(f"worst frame {worst_all} cycles: {verdict} the {BUDGET_CYCLES}-cycle budget")
+    print(
+        f"flash {build.flash_bytes} B of {build.flash_size} ({100 * build.flash_bytes / build.flash_size:.1f} %), "
+        f"SRAM {build.sram_bytes} B of {build.sram_size} "
+        f"({100 * build.sram_bytes / build.sram_size:.1f} %) without the stack"
+    )
+
+
+if __name__ == "__main__":
+    main()

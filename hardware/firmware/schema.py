@@ -1,0 +1,157 @@
+"""The firmware's parameter table `artro_schema.h`, generated from the one parameter schema.
+
+The ATmega128 firmware keeps every tunable value (the motion vector, CA and every gait constant of
+`gait.params`) in SRAM, addressed over the UART link by a one-byte parameter id. This module numbers
+the fields of the schema (motion first, then the gait groups in schema order, fields in declaration
+order) and writes, for the firmware:
+
+- `ARTRO_PID_<GROUP>_<FIELD>` ids and `ARTRO_PARAM_COUNT`;
+- per id the allowed range and whether it is a switch (0/1), copied from the field metadata;
+- `ARTRO_PARAM_DEFAULTS`, an initialiser naming the `ARTRO_<GROUP>_<FIELD>` values of the
+  generated `artro_params.h`, so the defaults come from the exported parameter set;
+- `ARTRO_SCHEMA_HASH`, a CRC-32 of the ordered names and kinds: host and firmware compare it
+  (protocol message INFO) before they exchange parameters by id;
+- the leg geometry the gait's leg interface uses (eqs 3–6).
+
+Python tools use `param_specs()` for the same numbering (docs/DESIGN.md, Firmware).
+"""
+
+from __future__ import annotations
+
+import math
+import zlib
+from dataclasses import dataclass, fields
+
+from gait.leg_interface import ARTRO_LEG
+from gait.params import GaitParams, Motion, describe_fields, group_class
+from hardware.firmware.header import c_float, c_identifier
+
+SCHEMA_HEADER_NAME = "artro_schema.h"
+MAX_PARAMS = 250  # ids are one byte; 0xFF is reserved
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One tunable value as the firmware sees it."""
+
+    pid: int
+    group: str  # "motion" or a gait group
+    name: str
+    is_switch: bool
+    lo: float
+    hi: float
+    unit: str
+
+    @property
+    def dotted(self) -> str:
+        return f"{self.group}.{self.name}"
+
+    @property
+    def c_name(self) -> str:
+        """The value's define in artro_params.h, e.g. ARTRO_SWING_V."""
+        return c_identifier(self.group, self.name)
+
+    @property
+    def c_pid(self) -> str:
+        return c_identifier("PID", self.group, self.name)
+
+    def check(self, value: float) -> None:
+        """ValueError unless the firmware would accept `value` for this id."""
+        if not math.isfinite(value):
+            raise ValueError(f"{self.dotted} must be finite, got {value!r}")
+        if self.is_switch and value not in (0.0, 1.0):
+            raise ValueError(f"{self.dotted} is a switch: 0 or 1, got {value!r}")
+        if not self.lo <= value <= self.hi:
+            raise ValueError(f"{self.dotted} = {value!r} is out of range {self.lo}..{self.hi}")
+
+
+def param_specs() -> tuple[ParamSpec, ...]:
+    """Every tunable value with its id: motion (a_r, a_p, a_y, ca), then the gait groups."""
+    groups: list[tuple[str, type]] = [("motion", Motion)]
+    groups += [(f.name, group_class(f.name)) for f in fields(GaitParams)]
+    specs: list[ParamSpec] = []
+    for group, cls in groups:
+        for name, _default, meta in describe_fields(cls):
+            switch = meta.get("unit") == "bool"
+            lo, hi = (0.0, 1.0) if switch else (float(meta["min"]), float(meta["max"]))
+            specs.append(ParamSpec(len(specs), group, name, switch, lo, hi, meta["unit"]))
+    if len(specs) > MAX_PARAMS:
+        raise ValueError(f"{len(specs)} parameters do not fit one-byte ids (max {MAX_PARAMS})")
+    return tuple(specs)
+
+
+def schema_hash(specs: tuple[ParamSpec, ...] | None = None) -> int:
+    """CRC-32 of 'group.name:kind' lines in id order: equal on both ends of the link."""
+    specs = param_specs() if specs is None else specs
+    text = "\n".join(f"{s.dotted}:{'bool' if s.is_switch else 'float'}" for s in specs)
+    return zlib.crc32(text.encode("ascii"))
+
+
+def values_from_document(doc: dict) -> list[float]:
+    """The id-ordered values of a parameter-set document (ParameterSet.to_dict())."""
+    values = []
+    for spec in param_specs():
+        source = doc["motion"] if spec.group == "motion" else doc["gait"][spec.group]
+        values.append(float(source[spec.name]))
+    return values
+
+
+def c_schema_header() -> str:
+    """The text of artro_schema.h (independent of the parameter set)."""
+    specs = param_specs()
+    out = [
+        f"/* {SCHEMA_HEADER_NAME} -- parameter ids, ranges and switches of the ArtRo gait,",
+        " * generated from the project's parameter schema; do not edit by hand.",
+        " * The default values come from artro_params.h (ARTRO_<GROUP>_<FIELD>). */",
+        "#ifndef ARTRO_SCHEMA_H",
+        "#define ARTRO_SCHEMA_H",
+        "",
+        "#include <stdint.h>",
+        "",
+        f"#define ARTRO_PARAM_COUNT {len(specs)}",
+        f"#define ARTRO_SCHEMA_HASH 0x{schema_hash(specs):08X}UL",
+        "",
+        "/* leg segments, hip -> knee -> ankle, eqs (3)-(6) */",
+        f"#define ARTRO_GEOM_UPPER_LEG_M {c_float(ARTRO_LEG.upper_m)}",
+        f"#define ARTRO_GEOM_LOWER_LEG_M {c_float(ARTRO_LEG.lower_m)}",
+        "",
+        "enum artro_param_id {",
+    ]
+    out += [f"    {s.c_pid} = {s.pid}, /* {s.dotted} [{s.unit}] */" for s in specs]
+    out += ["};", ""]
+    out.append("/* defaults: the values of the exported parameter set, in id order */")
+    out.append("#define ARTRO_PARAM_DEFAULTS { \\")
+    out += [f"    (float)({s.c_name}), \\" for s in specs]
+    out += ["}", ""]
+    out.append("/* allowed range per id (switches: 0..1, and only 0 or 1) */")
+    out.append("#define ARTRO_PARAM_MIN { \\")
+    out += [f"    {c_float(s.lo)}, \\" for s in specs]
+    out += ["}", "#define ARTRO_PARAM_MAX { \\"]
+    out += [f"    {c_float(s.hi)}, \\" for s in specs]
+    out += ["}", ""]
+    switch_bits = sum(1 << s.pid for s in specs if s.is_switch)
+    words = [(switch_bits >> (32 * i)) & 0xFFFFFFFF for i in range((len(specs) + 31) // 32)]
+    out.append("/* bit i of word i/32: parameter i is a switch */")
+    bits = ", ".join(f"0x{w:08X}UL" for w in words)
+    out.append(f"#define ARTRO_PARAM_SWITCH_BITS {{ {bits} }}")
+    out += ["", "#endif /* ARTRO_SCHEMA_H */", ""]
+    return "\n".join(out)
+
+
+def describe() -> list[dict]:
+    """JSON-ready table of the ids (for PROTOCOL.md and host tools)."""
+    return [
+        {"id": s.pid, "name": s.dotted, "switch": s.is_switch, "min": s.lo, "max": s.hi}
+        for s in param_specs()
+    ]
+
+
+__all__ = [
+    "SCHEMA_HEADER_NAME",
+    "ParamSpec",
+    "c_schema_header",
+    "describe",
+    "param_specs",
+    "schema_hash",
+    "values_from_document",
+]

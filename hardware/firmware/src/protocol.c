@@ -1,0 +1,313 @@
+/* protocol.c -- message framing, checking and the commands of PROTOCOL.md (docs/DESIGN.md,
+ * Firmware). Runs in the main loop only; the receive interrupt just queues bytes (uart.c). */
+#include "protocol.h"
+
+#include <string.h>
+#include <util/atomic.h>
+#include <util/crc16.h>
+
+#include "artro_schema.h"
+#include "config.h"
+#include "control.h"
+#include "params.h"
+#include "tdm.h"
+#include "uart.h"
+
+enum { RX_SYNC, RX_LEN, RX_BODY, RX_CRC_LO, RX_CRC_HI };
+
+static uint8_t s_state = RX_SYNC;
+static uint8_t s_len, s_pos, s_crc_lo;
+static uint16_t s_crc;
+static uint16_t s_last_slot;
+static uint8_t s_msg[PROTO_MAX_LEN]; /* TYPE + PAYLOAD */
+static uint8_t s_telemetry_on;
+static uint8_t s_sticky; /* TELEM_* flags since the last TELEMETRY */
+
+/* ---- sending ------------------------------------------------------------------------------ */
+
+static void send(uint8_t type, const void *payload, uint8_t n)
+{
+    uint8_t frame[PROTO_MAX_LEN + 4];
+    frame[0] = PROTO_SYNC;
+    frame[1] = (uint8_t)(n + 1u);
+    frame[2] = type;
+    memcpy(&frame[3], payload, n);
+    uint16_t crc = 0xFFFFu;
+    for (uint8_t i = 1; i < n + 3u; i++)
+        crc = _crc_xmodem_update(crc, frame[i]);
+    frame[n + 3u] = (uint8_t)crc;
+    frame[n + 4u] = (uint8_t)(crc >> 8);
+    if (!uart_write(frame, (uint8_t)(n + 5u)))
+        s_sticky |= TELEM_TX_DROPPED;
+}
+
+static void send_ack(uint8_t type)
+{
+    uint8_t p[5];
+    uint32_t effective = control_effective_frame();
+    p[0] = type;
+    memcpy(&p[1], &effective, 4);
+    send(MSG_ACK, p, sizeof p);
+}
+
+static void send_nak(uint8_t type, uint8_t reason, uint8_t detail)
+{
+    uint8_t p[3] = {type, reason, detail};
+    send(MSG_NAK, p, sizeof p);
+}
+
+static void send_info(void)
+{
+    uint8_t p[11];
+    uint32_t hash = ARTRO_SCHEMA_HASH;
+    uint32_t frame = control_frame();
+    p[0] = PROTO_VERSION;
+    p[1] = ARTRO_PARAM_COUNT;
+    memcpy(&p[2], &hash, 4);
+    memcpy(&p[6], &frame, 4);
+    p[10] = control_state();
+    send(MSG_INFO, p, sizeof p);
+}
+
+static void send_telemetry(void)
+{
+    uint8_t p[36];
+    const plan_t *plan = control_current_plan();
+    float phase = gait_phase_rad(plan->phase_acc);
+    uint8_t flags = s_sticky;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+    {
+        if (g_tdm_flags & TDM_OVERRUN)
+            flags |= TELEM_OVERRUN;
+        if (g_tdm_flags & TDM_SYNC_LOST)
+            flags |= TELEM_SYNC_LOST;
+        g_tdm_flags = 0;
+    }
+    if (plan->flags & PLAN_SATURATED)
+        flags |= TELEM_SATURATED;
+    if (plan->flags & PLAN_GAMMA_CLAMPED)
+        flags |= TELEM_GAMMA_CLAMPED;
+    memcpy(&p[0], &plan->frame, 4);
+    memcpy(&p[4], &phase, 4);
+    memcpy(&p[8], plan->servo_ocr, 24);
+    memcpy(&p[32], &plan->saturated, 2);
+    p[34] = flags;
+    p[35] = plan->state;
+    s_sticky = 0;
+    send(MSG_TELEMETRY, p, sizeof p);
+}
+
+static void send_angles(void)
+{
+    uint8_t p[52];
+    const plan_t *plan = control_current_plan();
+    memcpy(&p[0], &plan->frame, 4);
+    memcpy(&p[4], plan->angle, 48);
+    send(MSG_ANGLES, p, sizeof p);
+}
+
+static void send_params(void)
+{
+    uint8_t p[2 + 4 * ARTRO_PARAM_COUNT];
+    p[0] = 0;
+    p[1] = ARTRO_PARAM_COUNT;
+    memcpy(&p[2], g_params, sizeof g_params);
+    send(MSG_PARAMS, p, sizeof p);
+}
+
+/* ---- commands ----------------------------------------------------------------------------- */
+
+/* Payload length each message type must have; -1 for SET_PARAMS (checked by itself). */
+static int16_t expected_length(uint8_t type)
+{
+    switch (type) {
+    case MSG_PING:
+    case MSG_GET_PARAMS:
+    case MSG_START:
+    case MSG_STOP:
+    case MSG_TORQUE_OFF:
+    case MSG_GET_TELEMETRY:
+    case MSG_GET_ANGLES:
+    case MSG_RESET_PARAMS:
+        return 0;
+    case MSG_GET_PARAM:
+    case MSG_TELEMETRY_ON:
+        return 1;
+    case MSG_SET_PARAM:
+        return 5;
+    case MSG_SET_MOTION:
+        return 16;
+    case MSG_SET_PARAMS:
+        return -1;
+    default:
+        return -2; /* unknown type */
+    }
+}
+
+static void nak_param(uint8_t type, uint8_t status, uint8_t id)
+{
+    send_nak(type, status == PARAM_UNKNOWN_ID ? NAK_UNKNOWN_ID : NAK_OUT_OF_RANGE, id);
+}
+
+static void dispatch(void)
+{
+    const uint8_t type = s_msg[0];
+    const uint8_t *body = &s_msg[1];
+    const uint8_t n = (uint8_t)(s_len - 1u);
+    int16_t expected = expected_length(type);
+    if (expected == -2) {
+        send_nak(type, NAK_UNKNOWN_TYPE, 0);
+        return;
+    }
+    if (expected >= 0 && n != expected) {
+        send_nak(type, NAK_BAD_LENGTH, n);
+        return;
+    }
+
+    float values[ARTRO_PARAM_COUNT];
+    uint8_t status, bad;
+    switch (type) {
+    case MSG_PING:
+        send_info();
+        break;
+    case MSG_SET_MOTION:
+        memcpy(values, body, 16);
+        status = params_set_many(ARTRO_PID_MOTION_A_R, 4, values, &bad);
+        if (status != PARAM_OK)
+            nak_param(type, status, bad);
+        else
+            send_ack(type);
+        break;
+    case MSG_SET_PARAM:
+        memcpy(&values[0], &body[1], 4);
+        status = params_set(body[0], values[0]);
+        if (status != PARAM_OK)
+            nak_param(type, status, body[0]);
+        else
+            send_ack(type);
+        break;
+    case MSG_SET_PARAMS: {
+        uint8_t first = n >= 2 ? body[0] : 0, count = n >= 2 ? body[1] : 0;
+        if (n < 2 || count == 0 || count > ARTRO_PARAM_COUNT || n != 2u + 4u * count) {
+            send_nak(type, NAK_BAD_LENGTH, n);
+            break;
+        }
+        memcpy(values, &body[2], 4u * count);
+        status = params_set_many(first, count, values, &bad);
+        if (status != PARAM_OK)
+            nak_param(type, status, bad);
+        else
+            send_ack(type);
+        break;
+    }
+    case MSG_GET_PARAM:
+        if (body[0] >= ARTRO_PARAM_COUNT) {
+            send_nak(type, NAK_UNKNOWN_ID, body[0]);
+        } else {
+            uint8_t p[5];
+            p[0] = body[0];
+            memcpy(&p[1], &g_params[body[0]], 4);
+            send(MSG_PARAM, p, sizeof p);
+        }
+        break;
+    case MSG_GET_PARAMS:
+        send_params();
+        break;
+    case MSG_START:
+    case MSG_STOP:
+    case MSG_TORQUE_OFF:
+        control_set_state(type == MSG_START ? RUN_WALK : type == MSG_STOP ? RUN_STOP : RUN_TORQUE_OFF);
+        send_ack(type);
+        break;
+    case MSG_TELEMETRY_ON:
+        if (body[0] > 1) {
+            send_nak(type, NAK_OUT_OF_RANGE, body[0]);
+            break;
+        }
+        s_telemetry_on = body[0];
+        send_ack(type);
+        break;
+    case MSG_GET_TELEMETRY:
+        send_telemetry();
+        break;
+    case MSG_GET_ANGLES:
+        send_angles();
+        break;
+    case MSG_RESET_PARAMS:
+        params_reset();
+        send_ack(type);
+        break;
+    }
+}
+
+/* ---- receiving ---------------------------------------------------------------------------- */
+
+static void receive(uint8_t byte)
+{
+    switch (s_state) {
+    case RX_SYNC:
+        if (byte == PROTO_SYNC)
+            s_state = RX_LEN;
+        break; /* anything else between messages is line noise: skipped */
+    case RX_LEN:
+        if (byte == 0 || byte > PROTO_MAX_LEN) {
+            send_nak(0, NAK_BAD_LENGTH, byte);
+            s_state = RX_SYNC;
+            break;
+        }
+        s_len = byte;
+        s_pos = 0;
+        s_crc = _crc_xmodem_update(0xFFFFu, byte);
+        s_state = RX_BODY;
+        break;
+    case RX_BODY:
+        s_msg[s_pos++] = byte;
+        s_crc = _crc_xmodem_update(s_crc, byte);
+        if (s_pos == s_len)
+            s_state = RX_CRC_LO;
+        break;
+    case RX_CRC_LO:
+        s_crc_lo = byte;
+        s_state = RX_CRC_HI;
+        break;
+    case RX_CRC_HI:
+        s_state = RX_SYNC;
+        if ((uint16_t)(s_crc_lo | (uint16_t)byte << 8) != s_crc)
+            send_nak(s_msg[0], NAK_BAD_CRC, 0);
+        else
+            dispatch();
+        break;
+    }
+}
+
+void protocol_poll(void)
+{
+    int16_t byte;
+    uint16_t now;
+    ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
+    {
+        now = g_slot_count;
+    }
+    uint8_t uart_flags = uart_take_flags();
+    if (uart_flags)
+        s_sticky |= TELEM_RX_ERROR;
+    if (uart_flags & UART_RX_OVERFLOW) {
+        if (s_state != RX_SYNC)
+            send_nak(s_state >= RX_BODY && s_pos > 0 ? s_msg[0] : 0, NAK_RX_OVERFLOW, 0);
+        s_state = RX_SYNC; /* the message lost bytes: drop it */
+    }
+    while ((byte = uart_getc()) >= 0) {
+        receive((uint8_t)byte);
+        s_last_slot = now;
+    }
+    if (s_state != RX_SYNC && (uint16_t)(now - s_last_slot) >= RX_TIMEOUT_SLOTS) {
+        send_nak(s_state >= RX_BODY && s_pos > 0 ? s_msg[0] : 0, NAK_TIMEOUT, 0);
+        s_state = RX_SYNC;
+    }
+}
+
+void protocol_frame(void)
+{
+    if (s_telemetry_on)
+        send_telemetry();
+}

@@ -1,0 +1,29 @@
+"""Shared helpers of the firmware tests: preset documents, builds and emulators."""
+
+from __future__ import annotations
+
+import copy
+import json
+from typing import Any
+
+from app.assets import builtin_presets_dir
+from app.core.mcu.build import build_firmware
+from app.core.mcu.emulator import Mcu
+
+
+def preset(name: str, **motion: float) -> dict[str, Any]:
+    """A built-in preset's document, with motion-vector entries replaced."""
+    doc = json.loads((builtin_presets_dir() / f"{name}.json").read_text(encoding="utf-8"))
+    doc = copy.deepcopy(doc)
+    doc["motion"].update(motion)
+    return doc
+
+
+def emulator(doc: dict[str, Any], **kwargs: Any) -> Mcu:
+    """The firmware built for `doc` (cached), booted on simavr."""
+    return Mcu(build_firmware(doc).elf, **kwargs)
+
+
+def frames_for_cycles(doc: dict[str, Any], cycles: float) -> int:
+    """Frames that cover `cycles` gait cycles at the document's clock frequency."""
+    return int(cycles / (doc["gait"]["clock"]["freq_hz"] * 0.02)) + 1
