@@ -36,7 +36,7 @@ class MotionMetrics(TypedDict):
     turn_deg_s: float | None  # counter-clockwise +
     predicted_turn_deg_s: float | None  # eq (13) with V = forward speed, b = feet distance
     path_error_cm: float | None  # RMS distance of the path from the differential-drive one
-    gyro_rms: float | None  # RMS of the trunk angular-velocity magnitude, rad/s (seed 004)
+    gyro_rms: float | None  # RMS of |trunk angular velocity|, rad/s (seed 004's stability measure)
     feet_distance_cm: float | None  # mean distance between the sole centres
 
 
