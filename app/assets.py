@@ -1,9 +1,7 @@
 """The package data: the ArtRo model, the built-in presets and the dashboard page.
 
-In a checkout they are `models/` and `static/`; installed, the same files are the packages
-`app.models` and `app.static` (pyproject.toml maps them). Both are found with importlib.resources,
-so `artro` works from a wheel as from the source tree. The files must be on disk (MuJoCo and the
-static file server open paths), which every non-zip install gives.
+`models/` and `static/` of a checkout install as `app.models` and `app.static`, found with
+importlib.resources, so a wheel works as the source tree does (docs/DESIGN.md §10).
 """
 
 from __future__ import annotations
@@ -13,6 +11,8 @@ from pathlib import Path
 
 
 def _package_dir(package: str) -> Path:
+    """The folder of `package` on disk. MuJoCo and the static file server open paths, which every
+    non-zip install gives; RuntimeError otherwise."""
     found = files(package)
     if not isinstance(found, Path):
         raise RuntimeError(f"{package} is not on disk ({found!r}); install the package unzipped")
@@ -25,7 +25,7 @@ def models_dir() -> Path:
 
 
 def model_xml() -> Path:
-    """The built-in ArtRo scene (floor and robot), docs/DESIGN.md "The model"."""
+    """The built-in ArtRo scene (floor and robot), described in `models/README.md`."""
     return models_dir() / "artro.xml"
 
 

@@ -1,15 +1,7 @@
-"""Leg interface of the ArtRo gait: leg parameters -> the 12 joint angles, eqs (2)–(9) of seed 000.
+"""Leg interface of the ArtRo gait, seed 000 eqs (2)–(9): leg parameters -> the 12 joint angles.
 
-ArtRo's hip-yaw servo sits above the crossed hip roll/pitch axes and all leg axes meet one line
-when standing (the "one-line axis design"), so the joint angles follow from the leg angle, foot
-angle and leg extension without rotation matrices:
-
-    hip   = (leg_roll, leg_pitch + alpha2, leg_yaw)              eq (7)
-    knee  = alpha1 - pi  (<= 0)                                   eq (8)
-    ankle = (foot_roll - leg_roll, alpha3 + foot_pitch - leg_pitch)  eq (9)
-
-with alpha1..alpha3 the angles of the hip-knee-ankle triangle for the leg length eta*(L_UL + L_LL).
-Joint order per leg (left leg first): hip_yaw, hip_roll, hip_pitch, knee, ankle_pitch, ankle_roll.
+The one-line axis design needs no rotation matrices (see `leg_to_joint_angles`); joint order and
+angle signs: docs/DESIGN.md §3, the gait: §4.
 """
 
 from __future__ import annotations
@@ -44,6 +36,7 @@ class LegGeometry:
 
     @property
     def max_length_m(self) -> float:
+        """L_max = L_UL + L_LL in m, the leg length at eta = 1 (eq 3)."""
         return self.upper_m + self.lower_m  # L_max
 
 
@@ -52,6 +45,8 @@ ARTRO_LEG = LegGeometry(upper_m=0.09, lower_m=0.09)
 
 
 class JointAngles(NamedTuple):
+    """Joint angles and where eq (45)'s gamma had to be clamped (see `joint_angles_with_flags`)."""
+
     values: NDArray[np.float64]  # (..., 12) in JOINT_NAMES order, rad
     gamma_clamped: NDArray[np.bool_]  # (..., 2) per leg: eq (45) exceeded [-1, 0]
 
@@ -76,7 +71,25 @@ def knee_triangle(
 def leg_to_joint_angles(
     legs: ArrayLike, eta_min: float, geometry: LegGeometry = ARTRO_LEG
 ) -> NDArray[np.float64]:
-    """Leg parameters (..., 2, 6) -> joint angles (..., 12), eqs (2)–(9)."""
+    """Leg parameters -> joint angles, eqs (2)–(9).
+
+    ArtRo's hip-yaw servo sits above the crossed hip roll/pitch axes and all leg axes meet one line
+    when standing (the "one-line axis design"), so the joint angles follow from the leg angle, foot
+    angle and leg extension without rotation matrices, with alpha1..alpha3 the angles of the
+    hip-knee-ankle triangle for the leg length eta * (L_UL + L_LL) (`knee_triangle`):
+
+        hip   = (leg_roll, leg_pitch + alpha2, leg_yaw)                  eq (7)
+        knee  = alpha1 - pi  (<= 0)                                       eq (8)
+        ankle = (foot_roll - leg_roll, alpha3 + foot_pitch - leg_pitch)   eq (9)
+
+    Args:
+        legs: leg parameters (..., 2, 6) as `leg_parameters` gives them (rad; gamma in [-1, 0]).
+        eta_min: relative leg length at gamma = -1 (`LegParams.eta_min`).
+        geometry: thigh and shank lengths.
+
+    Returns:
+        (..., 12) joint angles in rad, JOINT_NAMES order (left leg first).
+    """
     legs = np.asarray(legs, dtype=float)
     eta = 1.0 + (1.0 - eta_min) * legs[..., GAMMA]  # eq (2)
     alpha1, alpha2, alpha3 = knee_triangle(eta, geometry)
@@ -101,6 +114,17 @@ def joint_angles_with_flags(
     phi_trunk: ArrayLike,
     geometry: LegGeometry = ARTRO_LEG,
 ) -> JointAngles:
+    """The 12 joint angles at trunk phase(s) `phi_trunk`, eqs (2)–(45), with the gamma flags.
+
+    Args:
+        params: the gait constants; motion: the motion vector with CA.
+        phi_trunk: trunk phase in rad, a scalar or any array of shape S.
+        geometry: the leg lengths (default: the built-in model's).
+
+    Returns:
+        `JointAngles`: `values` (*S, 12) in rad, JOINT_NAMES order; `gamma_clamped` (*S, 2), per
+        leg, True where eq (45) summed below -1 and was clamped.
+    """
     legs = leg_parameters_with_flags(params, motion, phi_trunk)
     return JointAngles(
         leg_to_joint_angles(legs.values, params.leg.eta_min, geometry), legs.gamma_clamped

@@ -1,15 +1,7 @@
 """The gait's parameters: the motion vector and every constant of eqs (12)–(39), paper defaults.
 
-This is the one parameter schema of the project. Each field carries, in its metadata, its range,
-slider step, unit, the equation it comes from and a description; the HTTP validation, the viser
-sliders and the export formats are all generated from it (see `describe_fields`).
-
-The ranges of the phase speeds v and offsets o are chosen so that each phase's active window lies
-inside one gait cycle: then every joint trajectory is continuous, also where phi_Leg wraps at +-pi.
-
-Sign conventions (derived from the equations, docs/DESIGN.md §3): a_p > 0 walks forward,
-a_r > 0 steps to the robot's right, a_y > 0 turns clockwise, CA > 0 lengthens the left steps and
-so turns clockwise.
+The one parameter schema of the project (docs/DESIGN.md §4): validation, sliders and exports are
+generated from its field metadata (`describe_fields`); signs of the motion vector: §3.
 """
 
 from __future__ import annotations
@@ -44,7 +36,11 @@ def _switch(doc: str, default: bool = True) -> Any:
 
 @dataclass(frozen=True)
 class Motion:
-    """The motion vector a_Robot = (a_r, a_p, a_y) and the curve amount CA (seed 004, eqs 10–11)."""
+    """The motion vector a_Robot = (a_r, a_p, a_y) and the curve amount CA (seed 004, eqs 10–11).
+
+    a_r, a_p, a_y in rad, CA unitless; signs as in docs/DESIGN.md §3. Construction checks every
+    range: ValueError names the field and what is allowed.
+    """
 
     a_r: float = _param(
         0.0, -0.3, 0.3, step=0.005, unit="rad", eq="(13)",
@@ -222,7 +218,11 @@ class LegParams:
 
 @dataclass(frozen=True)
 class GaitParams:
-    """Every walking-phase constant, grouped by phase, with the paper's values as defaults."""
+    """Every walking-phase constant, grouped by phase, with the paper's values as defaults.
+
+    Frozen; each group checks its ranges on construction (ValueError naming `group.field` and the
+    allowed range). As a dict: `{group: {field: value}}`, groups as the attributes below.
+    """
 
     clock: ClockParams = field(default_factory=ClockParams)
     shift: ShiftParams = field(default_factory=ShiftParams)
@@ -233,6 +233,7 @@ class GaitParams:
     leg: LegParams = field(default_factory=LegParams)
 
     def to_dict(self) -> dict[str, dict[str, float | bool]]:
+        """`{group: {field: value}}` with every field, e.g. {'swing': {'v': 2.0, ...}, ...}."""
         return dataclasses.asdict(self)
 
     @classmethod
@@ -257,7 +258,11 @@ _GROUP_CLASSES = {
 
 
 def merge(params: GaitParams, patch: Mapping[str, Any]) -> GaitParams:
-    """Return `params` with the fields named in a nested partial dict replaced (validated)."""
+    """Return `params` with the fields named in a nested partial dict replaced (validated).
+
+    `patch` is `{group: {field: value}}` with any subset of groups and fields; ValueError
+    for an unknown group or field, a wrong type or a value out of range.
+    """
     if not isinstance(patch, Mapping):
         raise ValueError(f"gait parameters must be an object of groups {sorted(_GROUP_CLASSES)}")
     groups: dict[str, Any] = {}
@@ -271,7 +276,11 @@ def merge(params: GaitParams, patch: Mapping[str, Any]) -> GaitParams:
 
 
 def parse_settings(items: Iterable[str]) -> dict[str, dict[str, Any]]:
-    """ "group.field=value" strings (true/false for switches) as a nested patch for `merge`."""
+    """ "group.field=value" strings (true/false for switches) as a nested patch for `merge`.
+
+    ValueError if an item is not GROUP.FIELD=VALUE or its value is no number or true/false; names
+    and ranges are checked later, by `merge`.
+    """
     patch: dict[str, dict[str, Any]] = {}
     for item in items:
         key, sep, raw = item.partition("=")
@@ -291,7 +300,16 @@ def parse_settings(items: Iterable[str]) -> dict[str, dict[str, Any]]:
 
 
 def replace_checked(obj: Any, values: Mapping[str, Any], where: str) -> Any:
-    """dataclasses.replace with type checks and a clear error for unknown names."""
+    """dataclasses.replace with type checks and a clear error for unknown names.
+
+    Args:
+        obj: a parameter group (or `Motion`) instance.
+        values: field name -> new value (bool for switches, int or float otherwise).
+        where: the group's user-facing name for messages, e.g. "swing" or "motion".
+
+    Returns:
+        A new instance, range-checked. ValueError names the field and what is allowed.
+    """
     if not isinstance(values, Mapping):
         raise ValueError(f"{where} must be an object, got {type(values).__name__}")
     known = {f.name: f for f in fields(obj)}
@@ -329,11 +347,15 @@ _GROUP_KEYS = {cls.__name__: key for key, cls in _GROUP_CLASSES.items()} | {"Mot
 
 
 def describe_fields(cls: type) -> Iterator[tuple[str, Any, Mapping[str, Any]]]:
-    """(name, default, metadata) for each field of a parameter group: what UIs are built from."""
+    """(name, default, metadata) for each field of a parameter group: what UIs are built from.
+
+    metadata: min, max, step, unit, eq, doc for numbers; unit "bool", eq "", doc for switches.
+    """
     defaults = cls()
     for f in fields(cls):
         yield f.name, getattr(defaults, f.name), f.metadata
 
 
 def group_class(name: str) -> type:
+    """The dataclass of parameter group `name` ("clock", "shift", ..., "leg"); KeyError if none."""
     return _GROUP_CLASSES[name]

@@ -1,11 +1,7 @@
-"""Walking-phase layer of the ArtRo gait: motion vector -> leg parameters, seed 000 eqs (10)–(45).
+"""Walking-phase layer of the ArtRo gait, seed 000 eqs (10)–(45): motion vector -> leg parameters.
 
-Everything is vectorised over the trunk phase: `phi_trunk` may be a scalar or any array, and the
-result gains two trailing axes (leg, value), left leg first. The leg parameters per leg are
-`[leg_roll, leg_pitch, leg_yaw, foot_roll, foot_pitch, gamma]` (eqs 40–45), angles in rad in the
-per-leg convention of the paper (roll > 0 outwards, pitch > 0 forwards / toe up, yaw > 0 foot
-outwards). The curve amount CA of seed 004 scales the left leg's sagittal swing terms by (1 + CA)
-and the right leg's by (1 - CA).
+Vectorised over the trunk phase (shapes: `LegParameters`); CA scales each leg's sagittal swing
+terms, seed 004 eqs (10)–(11) (docs/DESIGN.md §4).
 """
 
 from __future__ import annotations
@@ -29,7 +25,13 @@ LEG_ROLL, LEG_PITCH, LEG_YAW, FOOT_ROLL, FOOT_PITCH, GAMMA = range(6)
 
 
 class LegParameters(NamedTuple):
-    """Leg parameters for both legs, shape (..., 2, 6), and where gamma had to be clamped."""
+    """Leg parameters for both legs, and where gamma had to be clamped.
+
+    For a trunk phase of shape S, `values` is (*S, 2, 6): per leg (left first) `[leg_roll,
+    leg_pitch, leg_yaw, foot_roll, foot_pitch, gamma]` (eqs 40–45), angles in rad in the per-leg
+    convention of docs/DESIGN.md §3 (roll > 0 outwards, pitch > 0 forwards / toe up, yaw > 0 foot
+    outwards), gamma in [-1, 0].
+    """
 
     values: NDArray[np.float64]
     gamma_clamped: NDArray[np.bool_]  # (..., 2): eq (45) summed below -1 and was clamped
@@ -72,7 +74,7 @@ def swing_profile(phi_swing: ArrayLike, v_swing: float) -> NDArray[np.float64]:
 def leg_parameters_with_flags(
     params: GaitParams, motion: Motion, phi_trunk: ArrayLike
 ) -> LegParameters:
-    """Eqs (10)–(45) for both legs at every given trunk phase."""
+    """Eqs (10)–(45) for both legs at every given trunk phase (rad, any shape): `LegParameters`."""
     a_r, a_p, a_y, ca = motion.a_r, motion.a_p, motion.a_y, motion.ca
     speed = float(np.hypot(a_r, a_p))  # ||(a_r, a_p)||
     phi_leg = leg_phases(phi_trunk)  # (..., 2)

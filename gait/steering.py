@@ -1,16 +1,7 @@
-"""Differential steering of a biped (seed 004): curve amount CA -> heading rate and predicted path.
+"""Differential steering of a biped, seed 004 eqs (9), (12)–(13): CA -> heading rate and path.
 
-The legs are the wheels of a differential drive: V_L = (1 + CA) V, V_R = (1 - CA) V, axle b = the
-distance between the feet, so the centre moves at V and turns at
-
-    theta_dot = (V_R - V_L) / b = -2 CA V / b          (eq 9 with eqs 12–13)
-
-i.e. CA > 0 turns clockwise, on a circle of signed radius R = V / theta_dot = -b / (2 CA).
-
-The closed forms printed in seed 004, eqs (7)–(8) and (14)–(15), are wrong: their radius lacks a
-factor 1/2 and theta_0 is missing inside the sine and cosine. `predict_path` is the exact solution
-of the unicycle x' = V cos(theta), y' = V sin(theta), theta' = omega, written with sinc so that it
-stays exact and finite at omega = 0; a test checks it against numerical integration.
+V_L,R = (1 ± CA)·V on an axle b gives θ̇ = −2·CA·V/b (CA > 0 turns clockwise); `predict_path` is
+the exact unicycle, not the printed closed forms (7)–(8), (14)–(15) (docs/DESIGN.md §4, §10).
 """
 
 from __future__ import annotations
@@ -22,13 +13,18 @@ from numpy.typing import ArrayLike, NDArray
 
 
 class Pose2D(NamedTuple):
+    """A pose in the world's ground plane (docs/DESIGN.md §3): x, y in m, yaw in rad."""
+
     x_m: float
     y_m: float
     yaw_rad: float  # counter-clockwise positive
 
 
 def turn_rate_rad_s(ca: ArrayLike, speed_m_s: ArrayLike, axle_m: float) -> NDArray[np.float64]:
-    """Heading rate of the differential-drive model, counter-clockwise positive."""
+    """Heading rate -2 CA V / b in rad/s, counter-clockwise positive (eq 13 solved for it).
+
+    `ca` and `speed_m_s` (V, m/s, > 0 forward) broadcast; `axle_m` is b in m. ValueError if b <= 0.
+    """
     if axle_m <= 0:
         raise ValueError(f"axle length must be > 0 m, got {axle_m}")
     return -2.0 * np.asarray(ca, dtype=float) * np.asarray(speed_m_s, dtype=float) / axle_m
@@ -42,7 +38,7 @@ def curve_amount_for(turn_rate: ArrayLike, speed_m_s: float, axle_m: float) -> N
 
 
 def turn_radius_m(ca: float, axle_m: float) -> float:
-    """Signed turn radius -b / (2 CA): > 0 turns left (counter-clockwise), inf when straight."""
+    """Signed turn radius -b / (2 CA) in m (b = `axle_m`): > 0 turns left, inf when CA = 0."""
     if ca == 0:
         return float("inf")
     return -axle_m / (2.0 * ca)
@@ -51,7 +47,19 @@ def turn_radius_m(ca: float, axle_m: float) -> float:
 def predict_path(
     start: Pose2D, speed_m_s: float, ca: float, axle_m: float, t_s: ArrayLike
 ) -> NDArray[np.float64]:
-    """Exact differential-drive poses at times t after `start`: rows [t, x, y, yaw]."""
+    """Exact differential-drive poses at times t after `start`: rows [t, x, y, yaw].
+
+    The solution of the unicycle x' = V cos(theta), y' = V sin(theta), theta' = omega with
+    omega = `turn_rate_rad_s(ca, V, b)`, written with sinc so that it stays exact and finite at
+    omega = 0; a test checks it against numerical integration.
+
+    Args:
+        start: the anchor pose (m, m, rad). speed_m_s: V in m/s (> 0 forward). ca: curve amount.
+        axle_m: b in m (> 0). t_s: times in s after the anchor, a scalar or any array of shape S.
+
+    Returns:
+        (*S, 4) array of [t_s, x_m, y_m, yaw_rad] (yaw not wrapped). ValueError if b <= 0.
+    """
     t = np.asarray(t_s, dtype=float)
     omega = float(turn_rate_rad_s(ca, speed_m_s, axle_m))
     half_turn = 0.5 * omega * t

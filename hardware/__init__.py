@@ -1,8 +1,7 @@
-"""ArtRo's servo drive hardware, seed 000 sections 2 and 3: pure numpy models.
+"""ArtRo's servo drive hardware, seed 000 §2–3 and eq (1): pure numpy models (docs/DESIGN.md §5).
 
-joint angle -> servo pulse (servo) -> ATmega128 timer OCR ticks (timer) -> TDM-PWM frame of six
-lines and shared select lines (tdm) -> edges on the wires and demultiplexed servo pulses (demux);
-plus servo torque sizing, eq (1) (torque).
+joint angle -> servo pulse (servo) -> timer OCR ticks (timer) -> TDM-PWM frame of six lines and
+three shared select lines (tdm) -> wire edges and demultiplexed pulses (demux); eq (1) (torque).
 """
 
 from hardware.demux import (

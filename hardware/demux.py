@@ -1,11 +1,7 @@
-"""Signals on the wires of ArtRo's TDM-PWM drive and their demultiplexing, seed 000 section 3.B.
+"""Signals on the wires of ArtRo's TDM-PWM drive and their demultiplexing, seed 000 §3.B.
 
-`frame_edges` turns one frame of OCR values into the edges an oscilloscope would show on the six
-TDM lines and the three select lines (Figure 7b). `demultiplex` plays the actuator driver circuit
-(Figure 10b): from those edges alone it rebuilds each demultiplexer output (output k of a channel =
-TDM line AND select == k) and measures every pulse, as the oscilloscope of Figure 8 does. For
-in-range pulses the measured width equals (OCR + 1) * 0.5 µs exactly; a pulse cut by a select change
-(guard violation) and the remainder it spills into the next output are flagged.
+`frame_edges` gives one frame's edges on the nine wires (Figure 7b); `demultiplex` rebuilds each
+servo's pulse from them alone, as the actuator driver circuit does (docs/DESIGN.md §5).
 """
 
 from __future__ import annotations
@@ -91,7 +87,12 @@ def _select_line(bit: int, config: TdmConfig) -> tuple[int, tuple[Edge, ...]]:
 
 
 def frame_edges(ocr: ArrayLike, config: TdmConfig) -> FrameEdges:
-    """Edges of the six TDM lines and three select lines for ONE frame of OCR values (6, 8)."""
+    """Edges of the six TDM lines and three select lines for ONE frame of OCR values (6, 8).
+
+    What an oscilloscope would show on the nine wires (Figure 7b): each TDM line high from an
+    active slot's start for OCR + 1 ticks, the select lines changing at `select_change_ticks`.
+    ValueError if `ocr` is not one valid frame (see `check_ocr`).
+    """
     frame = check_ocr(ocr)
     if frame.shape != (len(CHANNELS), SLOTS_PER_FRAME):
         raise ValueError(f"frame_edges takes one frame of shape (6, 8), got {frame.shape}")
@@ -159,7 +160,20 @@ def _output_pulses(edges: FrameEdges) -> list[list[list[Pulse]]]:
 
 
 def demultiplex(edges: FrameEdges, config: TdmConfig) -> DemuxResult:
-    """Decode one frame's edges the way the actuator driver circuit does. See `DemuxResult`."""
+    """Decode one frame's edges the way the actuator driver circuit does (Figure 10b).
+
+    From the edges alone it rebuilds each demultiplexer output (output k of a channel = TDM line
+    AND select == k) and measures every pulse, as the oscilloscope of Figure 8 does. For in-range
+    pulses the measured width equals (OCR + 1) * 0.5 µs exactly; a pulse cut by a select change
+    (guard violation) and the remainder it spills into the next output are flagged.
+
+    Args:
+        edges: one frame, as `frame_edges` gives it.
+        config: its channel map says which output feeds which servo.
+
+    Returns:
+        `DemuxResult`, per servo in SERVO_NAMES order.
+    """
     pulses = _output_pulses(edges)
     n_servos = len(SERVO_NAMES)
     pulse_us = np.full(n_servos, np.nan)

@@ -10,7 +10,12 @@ from hardware.tdm import TdmConfig
 
 @dataclass(frozen=True)
 class HardwareSetup:
-    """What the firmware needs to know about the wiring: calibration and channel map."""
+    """What the firmware needs to know about the wiring: calibration and channel map.
+
+    Attributes:
+        calibration: the 12 servos' calibration in SERVO_NAMES order (default: uncalibrated).
+        tdm: channel map and select-change tick (default: `ChannelMap.default()`, 4900 ticks).
+    """
 
     calibration: ServoCalibration = field(default_factory=ServoCalibration.default)
     tdm: TdmConfig = field(default_factory=TdmConfig)

@@ -1,16 +1,7 @@
-"""Hobby-servo model: joint angle <-> control pulse width, seed 000 section 3.B (Figure 7a).
+"""Hobby-servo model, seed 000 §3.B (Figure 7a): joint angle <-> control pulse width.
 
-ArtRo's servos take a PWM signal with period T = 20 ms and high time 0.6 ms <= t_H <= 2.4 ms; the
-axle angle is linear in t_H. We use the usual mapping: 1.5 ms = 0 rad and 10 µs per degree, so
-0.6 ms = -90° and 2.4 ms = +90°.
-
-Each servo has a calibration (mounting direction, trim in µs, angle limits):
-
-    pulse_us = PULSE_CENTER_US + direction * degrees(angle) * US_PER_DEG + trim_us
-
-Angles outside the servo's limits and pulses outside [0.6, 2.4] ms are clipped, and the clip is
-reported in a `saturated` flag (never silently). Arrays are shape (..., n): one servo per column,
-any number of leading dimensions (time steps, frames).
+20 ms period, 0.6–2.4 ms pulse, 1.5 ms = 0 rad, 10 µs per degree, a calibration per servo;
+saturation is flagged, never silent (docs/DESIGN.md §5). Arrays are (..., n), one servo a column.
 """
 
 from __future__ import annotations
@@ -50,6 +41,9 @@ class ServoCalibration:
         trim_us: pulse offset in µs added after the angle mapping (within ±200 µs).
         min_rad: lower angle limit in rad (>= -pi/2).
         max_rad: upper angle limit in rad (<= +pi/2, > min_rad).
+
+    Raises:
+        ValueError: on unequal lengths, a direction not +-1, or a trim or limit out of range.
     """
 
     direction: NDArray[np.int64]
@@ -121,6 +115,12 @@ def angles_to_pulses_us(
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Joint angles -> servo pulse widths, with saturation flags. Vectorised.
 
+    The axle angle is linear in the pulse width: after clipping the angle to the servo's limits,
+
+        pulse_us = PULSE_CENTER_US + direction * degrees(angle) * US_PER_DEG + trim_us
+
+    and the pulse is clipped to [600, 2400] µs; either clip is reported, never silent.
+
     Args:
         angles_rad: joint angles, shape (..., n).
         cal: the calibration of the n servos.
@@ -151,6 +151,12 @@ def pulses_to_angles_rad(pulse_us: ArrayLike, cal: ServoCalibration) -> NDArray[
     Args:
         pulse_us: pulse widths in µs, shape (..., n). NaN (no pulse decoded) gives NaN.
         cal: the calibration of the n servos.
+
+    Returns:
+        Joint angles in rad, shape (..., n).
+
+    Raises:
+        ValueError: on a wrong last dimension.
     """
     pulse = np.asarray(pulse_us, dtype=np.float64)
     _check_last_axis(pulse, cal, "pulse_us")

@@ -1,18 +1,7 @@
-"""TDM-PWM frame of ArtRo's servo drive, seed 000 section 3.B (Figures 7b, 8 and 9).
+"""TDM-PWM frame of ArtRo's servo drive, seed 000 §3.B (Figures 7b, 8, 9; docs/DESIGN.md §5).
 
-Each of the six timer outputs (OC1A/B/C, OC3A/B/C) is a TDM line: one 20 ms frame is 8 slots of
-2.5 ms, and slot k carries the pulse of the servo routed to demultiplexer output k. The paper uses 5
-slots per line (slots 5–7 idle), so 6 x 5 = 30 servo outputs, of which ArtRo uses 12.
-
-Three select lines from an I/O port, shared by all six demultiplexers, hold the index of the slot
-being routed (S0 = least significant bit). The firmware moves them to the next slot's value at
-`select_change_ticks` into each slot: after the longest servo pulse (2.4 ms = 4800 ticks) has ended
-and before the next slot starts (5000 ticks); the default 4900 ticks (2.45 ms) sits in the middle of
-that 100 µs guard. If a line is still high when the select lines change, the demultiplexer cuts the
-pulse there and routes the rest of it to the next output: a guard violation, flagged here.
-
-Arrays: OCR values per frame have shape (..., 6, 8) = (channel, slot), -1 for idle slots; per-servo
-arrays have shape (..., 12) in SERVO_NAMES order (= the joint order of the gait).
+OCR frames are (..., 6, 8) = (channel, slot), -1 for idle slots; per-servo arrays are (..., 12) in
+SERVO_NAMES order (= the gait's joint order). Select-line timing and the guard: `TdmConfig`.
 """
 
 from __future__ import annotations
@@ -42,7 +31,11 @@ DEFAULT_SELECT_CHANGE_TICKS = 4900  # 2.45 ms: between a 2.4 ms pulse's end and 
 class ChannelMap:
     """Where each servo's pulse travels: per servo in SERVO_NAMES order, (channel index, slot).
 
-    Channel indexes refer to CHANNELS (0 = OC1A ... 5 = OC3C); slots are 0..SLOTS_USED-1.
+    Channel indexes refer to CHANNELS (0 = OC1A ... 5 = OC3C); slots are 0..SLOTS_USED-1. Slot k
+    of a channel carries the pulse of the servo on that channel's demultiplexer output k.
+
+    Raises:
+        ValueError: not one pair per servo, a channel or slot out of range, or a pair used twice.
     """
 
     assignments: tuple[tuple[int, int], ...]
@@ -104,10 +97,21 @@ class ChannelMap:
 class TdmConfig:
     """The TDM-PWM set-up: channel map and select-line timing.
 
+    Three select lines from an I/O port, shared by all six demultiplexers, hold the index of the
+    slot being routed (S0 = least significant bit). The firmware moves them to the next slot's value
+    at `select_change_ticks` into each slot: after the longest servo pulse (2.4 ms = 4800 ticks) has
+    ended and before the next slot starts (5000 ticks); the default 4900 ticks (2.45 ms) sits in the
+    middle of that 100 µs guard. If a line is still high when the select lines change, the
+    demultiplexer cuts the pulse there and routes the rest of it to the next output: a guard
+    violation (`guard_violations`).
+
     Attributes:
         channel_map: which (channel, slot) carries which servo.
         select_change_ticks: tick within each slot (0.5 µs ticks from the slot start) at which the
             select lines switch to the next slot's value; must be in (0, SLOT_TICKS).
+
+    Raises:
+        ValueError: if `select_change_ticks` is no integer or outside the slot.
     """
 
     channel_map: ChannelMap = field(default_factory=ChannelMap.default)
@@ -125,7 +129,10 @@ class TdmConfig:
 
 
 def check_ocr(ocr: ArrayLike) -> NDArray[np.int64]:
-    """Validate OCR frames: integers of shape (..., 6, 8), each -1 (idle) or 0..OCR_MAX."""
+    """Validate OCR frames: integers of shape (..., 6, 8), each -1 (idle) or 0..OCR_MAX.
+
+    Returns the frames as int64; ValueError on a wrong shape, a non-integer dtype or a bad value.
+    """
     array = np.asarray(ocr)
     if array.ndim < 2 or array.shape[-2:] != (len(CHANNELS), SLOTS_PER_FRAME):
         raise ValueError(
@@ -168,6 +175,10 @@ def falling_edge_ticks(ocr: ArrayLike, config: TdmConfig) -> NDArray[np.int64]:
     fall = slot * SLOT_TICKS + min(OCR + 1, select_change_ticks): a pulse still high when the select
     lines switch is cut there. This is when the servo has received its new set-point.
 
+    Args:
+        ocr: OCR frames (..., 6, 8), checked as by `check_ocr` (ValueError).
+        config: channel map and select-change tick.
+
     Returns:
         int64 array (..., 12); -1 for a servo whose slot is idle.
     """
@@ -180,6 +191,10 @@ def falling_edge_ticks(ocr: ArrayLike, config: TdmConfig) -> NDArray[np.int64]:
 
 def guard_violations(ocr: ArrayLike, config: TdmConfig) -> NDArray[np.bool_]:
     """True where a line is still high when the select lines switch (OCR + 1 > change). Vectorised.
+
+    Args:
+        ocr: OCR frames (..., 6, 8), checked as by `check_ocr` (ValueError).
+        config: its `select_change_ticks` is the switch tick.
 
     Returns:
         bool array (..., 6, 8) per channel and slot.

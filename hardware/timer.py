@@ -1,20 +1,7 @@
-"""ATmega128 16-bit Timer1/Timer3 as ArtRo's TDM-PWM generator, seed 000 section 3.A and 3.B.
+"""ATmega128 16-bit Timer1/Timer3 as ArtRo's TDM-PWM generator, seed 000 §3.A–3.B (Figure 7b).
 
-The paper says only that the two 16-bit timers (three output compare units each: OC1A/B/C,
-OC3A/B/C) generate six PWM signals, each carrying 5 servo pulses per 20 ms (Figure 7b). We model the
-faithful set-up that makes one timer period equal one 2.5 ms TDM slot:
-
-- clock 16 MHz, prescaler 8 -> one tick = 0.5 µs;
-- fast PWM mode 14 (WGMn3:0 = 1110, TOP = ICRn), ICRn = 4999 -> period 5000 ticks = 2.5 ms;
-- 8 periods (slots) make one 20 ms servo frame; the paper uses 5 slots per channel.
-
-Non-inverting compare output (COMnx1:0 = 10): the pin goes high at BOTTOM (slot start) and low on
-the compare match TCNTn == OCRnx, so the high time is (OCRnx + 1) ticks. OCRnx is double-buffered in
-PWM modes: a value written during a slot is latched at the next BOTTOM, i.e. it takes effect at the
-start of the next slot. The firmware therefore writes slot k+1's value during slot k. An idle slot
-has its compare output disconnected (COMnx1:0 = 00) so the line stays low; we encode it as
-OCR = -1. Valid OCR values for a pulse are 0..ICR_TOP-1 (OCR = TOP would hold the line high for the
-whole slot).
+Fast PWM mode 14, prescaler 8 (0.5 µs tick), ICRn = 4999: one timer period is one 2.5 ms slot,
+8 slots one 20 ms frame; high time = (OCR + 1) ticks (docs/DESIGN.md §5).
 """
 
 from __future__ import annotations
@@ -22,6 +9,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+# The paper says only that the two 16-bit timers (three output compare units each: OC1A/B/C,
+# OC3A/B/C) generate six PWM signals, each carrying 5 servo pulses per 20 ms (Figure 7b). We model
+# the faithful set-up that makes one timer period equal one 2.5 ms TDM slot.
 F_CPU_HZ = 16_000_000  # ATmega128 system clock
 PRESCALER = 8  # clk_I/O / 8
 TICK_US = 0.5  # 1e6 * PRESCALER / F_CPU_HZ
@@ -31,6 +21,11 @@ SLOT_TICKS = ICR_TOP + 1  # 5000 ticks = 2.5 ms, one TDM slot
 SLOTS_PER_FRAME = 8  # 8 x 2.5 ms = 20 ms servo period
 FRAME_TICKS = SLOT_TICKS * SLOTS_PER_FRAME  # 40000 ticks = 20 ms
 SLOTS_USED = 5  # the paper multiplexes 5 servos per channel (Figure 7b)
+# Non-inverting compare output (COMnx1:0 = 10): the pin goes high at BOTTOM (slot start) and low on
+# the compare match TCNTn == OCRnx, so the high time is (OCRnx + 1) ticks. OCRnx is double-buffered
+# in PWM modes: a value written during a slot is latched at the next BOTTOM, so the firmware writes
+# slot k+1's value during slot k. An idle slot has its compare output disconnected (COMnx1:0 = 00)
+# so the line stays low; OCR = TOP would hold the line high for the whole slot.
 OCR_IDLE = -1  # idle slot: compare output disconnected, line low
 OCR_MAX = ICR_TOP - 1  # longest pulse that still ends inside its slot (4999 ticks)
 

@@ -1,15 +1,7 @@
-"""Servo torque sizing, equation (1) of seed 000 (section 2).
+"""Servo torque sizing, equation (1) of seed 000 (section 2; docs/DESIGN.md §5).
 
-Before choosing a servo type for a joint, the paper estimates the torque it must deliver from the
-load weight W, the distance l from the joint axle to the load's centre of mass, the joint's range of
-motion alpha_min <= alpha <= alpha_max and a safety factor sf:
-
-    tau = (1 + sf) * W * l * max(sin alpha),  alpha in [alpha_min, alpha_max]      eq (1)
-
-alpha is the angle between the lever (joint -> load centre of mass) and the vertical, so the load
-torque peaks at alpha = pi/2 (lever horizontal). The paper then refines the estimate with
-"mechanical simulation software"; `required_torque_from_loads` is that refinement: the peak of the
-joint torques measured in our simulation, with the same safety factor.
+tau = (1 + sf) * W * l * max(sin alpha) over the joint's range (`required_torque_nm`), refined, as
+the paper does, from simulated joint torques (`required_torque_from_loads`).
 """
 
 from __future__ import annotations
@@ -59,12 +51,17 @@ def required_torque_nm(
     Args:
         weight_n: load weight W in newtons (>= 0).
         lever_m: distance l from the joint axle to the load's centre of mass in metres (>= 0).
-        alpha_min_rad: lower end of the joint's range of motion.
+        alpha_min_rad: lower end of the joint's range of motion, in rad; alpha is the angle
+            between the lever (joint -> load centre of mass) and the vertical, so the load torque
+            peaks at alpha = pi/2 (lever horizontal).
         alpha_max_rad: upper end (>= alpha_min_rad).
         safety_factor: sf >= 0, e.g. 0.3 for a 30 % margin.
 
     Returns:
         The torque in N·m. As in the paper, it is negative if sin(alpha) < 0 over the whole range.
+
+    Raises:
+        ValueError: on a negative or non-finite weight, lever or safety factor, or a bad range.
     """
     weight = np.asarray(weight_n, dtype=np.float64)
     lever = np.asarray(lever_m, dtype=np.float64)
@@ -81,12 +78,18 @@ def required_torque_from_loads(
 ) -> NDArray[np.float64]:
     """Required torque per joint from simulated loads: (1 + sf) * max over time of |tau|.
 
+    The paper refines eq (1) with "mechanical simulation software"; this is that refinement: the
+    peak of the joint torques measured in our simulation, with the same safety factor.
+
     Args:
         joint_torques_nm: simulated joint torques, shape (T, n): T samples of n joints.
         safety_factor: sf >= 0, a scalar or one per joint (n,).
 
     Returns:
         shape (n,), in N·m.
+
+    Raises:
+        ValueError: not (T >= 1, n) finite samples, or a negative safety factor.
     """
     torques = np.asarray(joint_torques_nm, dtype=np.float64)
     if torques.ndim != 2 or torques.shape[0] == 0:

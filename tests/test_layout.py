@@ -1,5 +1,5 @@
-"""The house rules of docs/DESIGN.md ("Layers"), read from the source: who may import whom, one
-joint order everywhere, and no citation of a file outside the repository."""
+"""The house rules of docs/DESIGN.md (§2, §3), read from the source: who may import whom, one joint
+order everywhere, short module docstrings, and no citation of a file outside the repository."""
 
 from __future__ import annotations
 
@@ -104,6 +104,24 @@ def test_no_code_cites_a_file_outside_the_repository() -> None:
         if pattern.search(line) and p.name != "test_layout.py"
     ]
     assert not cited, f"cite docs/DESIGN.md instead: {cited}"
+
+
+def test_module_docstrings_are_short() -> None:
+    """Every module says in 1-5 lines (opening to closing quotes) what it is, which equations it
+    implements and where docs/DESIGN.md describes it; the detail lives at the code it explains."""
+    missing, long = [], []
+    for path in SOURCES:
+        tree = ast.parse(path.read_text(encoding="utf-8"))
+        if ast.get_docstring(tree, clean=False) is None:
+            missing.append(str(path.relative_to(ROOT)))
+            continue
+        first = tree.body[0]
+        assert first.end_lineno is not None
+        lines = first.end_lineno - first.lineno + 1
+        if lines > 5:
+            long.append(f"{path.relative_to(ROOT)} ({lines} lines)")
+    assert not missing, f"modules without a docstring: {missing}"
+    assert not long, f"module docstrings longer than 5 lines: {long}"
 
 
 def test_one_joint_order_in_the_gait_the_hardware_the_model_and_the_page() -> None:

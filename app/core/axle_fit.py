@@ -1,12 +1,7 @@
-"""The effective axle b_eff of the current gait, fitted from simulated curve walks.
+"""The effective axle b_eff of the current gait, fitted from simulated curve walks (seed 004 eq 13).
 
-Eq (13) predicts the heading rate from CA with b = the distance between the feet. A biped steers
-by skidding its feet, so its measured rate is usually weaker: the axle that makes eq (13) fit is
-longer. This runs the current parameter set at CA = -0.1, 0 and +0.1 (at the current walking
-amplitude, or forward a_p = 0.07 when it stands), fits theta_dot = drift + k CA and gives
-b_eff = -2 V / k (`app.core.ca_analysis`). The dashboard's predicted path can then use b_eff.
-
-The runs go to the batch evaluator with one thread, so a live simulation keeps the other core.
+A biped steers by skidding its feet, so the axle that makes eq (13) fit is usually longer than the
+feet distance b; the predicted path can use b_eff (docs/DESIGN.md §4, §10).
 """
 
 from __future__ import annotations
@@ -29,6 +24,8 @@ WARMUP_S = 4.0
 
 @dataclass(frozen=True)
 class AxleFitResult:
+    """What `fit_effective_axle` found: lengths in m, speed in m/s, heading rates in deg/s (CCW)."""
+
     axle_eff_m: float | None  # None when CA does not steer at all
     feet_m: float  # measured mean distance between the feet (eq 13's b)
     speed_m_s: float  # V: forward speed at CA = 0
@@ -45,6 +42,7 @@ class AxleFitResult:
         return self.axle_eff_m is not None and self.axle_eff_m > 0
 
     def to_dict(self) -> dict:
+        """The fields as a JSON-ready dict, plus `applied` and, when not, the `reason`."""
         return dataclasses.asdict(self) | {
             "applied": self.applies,
             "reason": None if self.applies else NOT_APPLIED,
@@ -67,6 +65,20 @@ def fit_effective_axle(
     duration_s: float = DURATION_S,
     warmup_s: float = WARMUP_S,
 ) -> AxleFitResult:
+    """Fit b_eff for `params` from walks at CA = -0.1, 0 and +0.1 (`FIT_CA`).
+
+    The walks use the current sagittal amplitude, or forward a_p = 0.07 when the robot stands
+    (`walking_amplitude`); they fit theta_dot = drift + k CA and give b_eff = -2 V / k
+    (`app.core.ca_analysis.fit_axle`). Without an `evaluator` the runs go to a batch evaluator with
+    one thread, so a live simulation keeps the other core.
+
+    Args:
+        params, motion: the gait and motion vector to fit (the motion's CA is replaced).
+        duration_s, warmup_s: simulated length of each walk and the part not measured, in s.
+
+    Raises:
+        AxleFitError: the robot fell in a walk, or does not walk at CA = 0 (|V| < 1 mm/s).
+    """
     a_p = walking_amplitude(motion)
     base = dataclasses.replace(motion, a_p=a_p)
     jobs = [Job(params, dataclasses.replace(base, ca=ca)) for ca in FIT_CA]

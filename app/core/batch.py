@@ -1,12 +1,7 @@
 """Batch evaluation of parameter sets with `mujoco.rollout`, metrics identical to `artro run`.
 
-The gait is open loop: a run's servo set-points are a pure function of the parameters and time.
-So the whole run is planned up front (`plan_frames`, vectorised), turned into the control of every
-physics step -- each servo switching to its new set-point at its pulse's falling edge, exactly as
-`FrameLoop` does -- and rolled out by MuJoCo's C thread pool, many runs at once. The states are
-sampled once per 20 ms frame, in whole arrays (the distance between the feet from the model's
-sole-position sensors, no Python per frame), and measured with the same fall test and the same
-`compute_metrics` as `artro run`; a test checks that both give the same numbers, to the bit.
+The open-loop gait is planned up front and rolled out by MuJoCo's thread pool, many runs at once,
+with the frame loop's timing, fall test and metrics (docs/DESIGN.md §2, §6); see `BatchEvaluator`.
 """
 
 from __future__ import annotations
@@ -40,6 +35,8 @@ RUNS_PER_CALL = 8  # bounds memory: a 60 s run's states take ~18 MB
 
 @dataclass(frozen=True)
 class Job:
+    """One run: gait constants and the motion vector with CA, constant for the whole run."""
+
     params: GaitParams
     motion: Motion
 
@@ -55,6 +52,7 @@ class Start:
 
 
 def start_of(sim: FrameLoop) -> Start:
+    """The rollout start of `sim` as it stands (freshly reset: standing in the gait's pose)."""
     state = np.empty(mujoco.mj_stateSize(sim.model, STATE_SPEC))
     mujoco.mj_getState(sim.model, sim.data, state, STATE_SPEC)
     return Start(state, sim.data.ctrl.copy(), sim.phase, sim.standing_height_m)
@@ -76,7 +74,21 @@ def control_sequence(sim: FrameLoop, start: Start, n_frames: int) -> np.ndarray:
 
 
 class BatchEvaluator:
-    """Evaluates many (parameters, motion) runs in parallel on one model."""
+    """Evaluates many (parameters, motion) runs in parallel on one model.
+
+    The gait is open loop: a run's servo set-points are a pure function of the parameters and time.
+    So the whole run is planned up front (`plan_frames`, vectorised), turned into the control of
+    every physics step -- each servo switching to its new set-point at its pulse's falling edge,
+    exactly as `FrameLoop` does (`control_sequence`) -- and rolled out by MuJoCo's C thread pool.
+    The states are sampled once per 20 ms frame, in whole arrays (the distance between the feet
+    from the model's sole-position sensors, no Python per frame), and measured with the same fall
+    test and the same `compute_metrics` as `artro run`; a test checks both give the same numbers,
+    to the bit.
+
+    Args:
+        robot: the model (default: the built-in one).
+        threads: rollout threads (default: the CPU count, at most 8).
+    """
 
     def __init__(self, robot: RobotModel | None = None, threads: int | None = None) -> None:
         self.robot = robot or RobotModel.load()
@@ -95,6 +107,13 @@ class BatchEvaluator:
     ) -> list[RunMetrics]:
         """Metrics of each job, in order, as `artro run` would print them (wall time aside).
         Pass a list as `traces` to also get each run's trunk trace (one sample per frame).
+
+        Args:
+            jobs: the runs; each starts standing at the frame loop's start phase.
+            duration_s: simulated time per run in s (a fall ends a run early, `fell` says so).
+            warmup_s: the first seconds, left out of the motion metrics.
+            progress: called with (runs done, runs in all) after each chunk.
+            traces: if given, each run's `Trace` is appended to it, in job order.
 
         Runs go to MuJoCo in chunks; while one chunk rolls out (MuJoCo's threads, no GIL), a
         Python worker plans the next chunk and measures the previous one.

@@ -1,23 +1,7 @@
-"""Analysis of curve walking against seed 004: heading rate vs CA, axle fit, stability limit.
+"""Curve walking against seed 004 eqs (9), (12)–(13): heading rate vs CA, axle fit, stability.
 
-Seed 004's differential-drive model of a biped (eqs 9, 12–13): with V_L = (1 + CA) V and
-V_R = (1 - CA) V the heading rate is
-
-    theta_dot = -2 CA V / b          (eq 13 solved for theta_dot; CCW positive)
-
-with V the straight-walking (CA = 0) speed and b the distance between the feet. A simulated robot
-also turns a little when walking straight (drift), so the fit allows a constant term:
-
-    theta_dot = theta_dot_0 + k CA,   b_eff = -2 V / k        (least squares)
-
-b_eff is the axle length that makes eq (13) match the measured slope; b_eff = b means the biped
-steers exactly like the differential drive. On a sweep symmetric about CA = 0 the constant term
-does not change k.
-
-Stability (seed 004, Fig. 6): a CA is stable when its run did not fall; the stable limit is the
-largest |CA| of the sweep such that no run with |CA| up to it fell (either sign).
-
-Everything here is pure numpy on plain arrays, so it is tested on synthetic data.
+Pure numpy on plain arrays, so it is tested on synthetic data (docs/DESIGN.md §4, §10); the fit is
+`fit_axle`, the stability limit (seed 004 Fig. 6) `largest_stable_ca`.
 """
 
 from __future__ import annotations
@@ -34,7 +18,11 @@ FULL_CIRCLE_DEG = 360.0
 
 
 def eq13_turn_rate_rad_s(ca: ArrayLike, speed_m_s: float, axle_m: float) -> np.ndarray:
-    """theta_dot = -2 CA V / b, eq (13) of seed 004 solved for theta_dot (CCW positive)."""
+    """theta_dot = -2 CA V / b, eq (13) of seed 004 solved for theta_dot (CCW positive).
+
+    V_L = (1 + CA) V, V_R = (1 - CA) V with V the straight-walking (CA = 0) speed in m/s and b the
+    distance between the feet in m; `ca` may be an array; returns rad/s of the same shape.
+    """
     return -2.0 * np.asarray(ca, dtype=float) * speed_m_s / axle_m
 
 
@@ -50,7 +38,20 @@ class AxleFit:
 
 
 def fit_axle(ca: ArrayLike, turn_rad_s: ArrayLike, speed_m_s: float) -> AxleFit:
-    """Fit theta_dot = drift + k CA and return b_eff = -2 V / k (needs two distinct CA values)."""
+    """Fit theta_dot = drift + k CA and return b_eff = -2 V / k (needs two distinct CA values).
+
+    A simulated robot also turns a little when walking straight (drift), so the least-squares fit
+    has a constant term; on a sweep symmetric about CA = 0 it does not change k. b_eff is the axle
+    that makes eq (13) match the measured slope: b_eff = b means the biped steers exactly like the
+    differential drive.
+
+    Args:
+        ca: the CA of each run. turn_rad_s: its measured heading rate (rad/s, CCW), same shape.
+        speed_m_s: V, the straight-walking speed in m/s.
+
+    Raises:
+        ValueError: shapes differ, or fewer than two distinct CA values.
+    """
     ca_a = np.asarray(ca, dtype=float)
     turn = np.asarray(turn_rad_s, dtype=float)
     if ca_a.shape != turn.shape or len(np.unique(ca_a)) < 2:
@@ -82,7 +83,11 @@ class StableLimit:
 
 
 def largest_stable_ca(ca: ArrayLike, fell: ArrayLike) -> StableLimit:
-    """Largest m in |CA| such that every run with |CA| <= m did not fall."""
+    """Largest m in |CA| such that every run with |CA| <= m did not fall.
+
+    Stability as seed 004, Fig. 6: a CA is stable when its run did not fall; the limit holds for
+    either sign. `ca` and `fell` are one entry per run; ValueError if they differ or are empty.
+    """
     magnitude = np.abs(np.asarray(ca, dtype=float))
     fell_a = np.asarray(fell, dtype=bool)
     if magnitude.shape != fell_a.shape or magnitude.size == 0:

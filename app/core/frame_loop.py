@@ -1,8 +1,7 @@
 """The frame loop: gait -> servo pulses -> TDM-PWM frame -> demultiplexed set-points -> MuJoCo.
 
-`FrameLoop.step_frame()` is one 20 ms TDM frame; each servo's new set-point, decoded from its
-quantised pulse, takes effect at the pulse's falling edge (docs/DESIGN.md §2). The open-loop gait
-is planned for a block of frames at once; a change of parameters discards the rest of the block.
+One `FrameLoop.step_frame()` is one 20 ms TDM frame of eqs (2)–(45) and the hardware model; each
+servo's decoded set-point takes effect at its pulse's falling edge (docs/DESIGN.md §2).
 """
 
 from __future__ import annotations
@@ -116,7 +115,17 @@ def plan_frames(
     steps_per_frame: int,
     timestep_s: float,
 ) -> FramePlan:
-    """Run gait and hardware model for n consecutive frames starting at phase0 (vectorised)."""
+    """Run gait and hardware model for n consecutive frames starting at phase0 (vectorised).
+
+    Args:
+        params, motion, hardware: the gait, the motion vector with CA, the servo drive set-up.
+        phase0: phi_Trunk at the first frame's start, rad.
+        n_frames: frames to plan; steps_per_frame, timestep_s: the physics steps of one frame.
+
+    Returns:
+        `FramePlan` with a leading frame axis; each set-point takes effect at the first physics
+        step starting at or after its pulse's falling edge.
+    """
     step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
     phase = pi_cut(phase0 + step_rad * np.arange(n_frames))
     angles, gamma_clamped = joint_angles_with_flags(params, motion, phase)
@@ -142,7 +151,13 @@ def plan_frames(
 
 
 class FrameLoop:
-    """The ArtRo simulation, advanced one TDM frame at a time."""
+    """The ArtRo simulation, advanced one TDM frame at a time.
+
+    The open-loop gait is planned for a block of `block_frames` frames at once; a change of
+    parameters, motion or hardware discards the rest of the block. A `FrameLoop` and its `MjData`
+    belong to one thread (docs/DESIGN.md §8). ValueError if the model's timestep does not divide
+    the 20 ms frame. Defaults: the built-in model, `GaitParams()`, `Motion()`, `HardwareSetup()`.
+    """
 
     def __init__(
         self,
@@ -193,12 +208,14 @@ class FrameLoop:
         self._plan = None
 
     def set_hardware(self, hardware: HardwareSetup) -> None:
+        """New calibration or channel map: in effect from the next frame on."""
         self.hardware = hardware
         self._plan = None
 
     # --- the loop ----------------------------------------------------------------------------
 
     def step_frame(self) -> FrameRecord:
+        """Simulate the next 20 ms frame; returns its record. Sets `fell` / `blew_up` when so."""
         plan = self._plan
         if plan is None or plan.next_index >= len(plan):
             plan = self._plan = plan_frames(
@@ -263,6 +280,7 @@ class FrameLoop:
 
     @property
     def time_s(self) -> float:
+        """Simulated time since the last reset, s (whole frames)."""
         return self.frame_index * FRAME_S
 
     def trunk_pose(self) -> tuple[float, float, float]:
@@ -271,8 +289,10 @@ class FrameLoop:
         return float(qpos[0]), float(qpos[1]), trunk_yaw(qpos[3:7])
 
     def gyro(self) -> NDArray[np.float64]:
+        """The trunk gyro's angular velocity (3,), rad/s, in the IMU's frame."""
         adr = self.robot.gyro_adr
         return self.data.sensordata[adr : adr + 3].copy()
 
     def feet_distance_m(self) -> float:
+        """Distance between the sole centres in the ground plane, m (the drive's axle b)."""
         return sole_distance_m(self.data)

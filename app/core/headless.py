@@ -18,6 +18,8 @@ TORQUE_SAFETY_FACTOR = 0.2  # sf of eq (1) used for the servo sizing report
 
 @dataclass
 class RunResult:
+    """A headless run: its metrics, trace and eq (1) torque per actuator (N·m, sf = 0.2)."""
+
     metrics: RunMetrics
     trace: Trace = field(repr=False)
     required_torque_nm: dict[str, float] = field(default_factory=dict)
@@ -31,7 +33,11 @@ def run(
     warmup_s: float = 5.0,
     hardware: HardwareSetup | None = None,
 ) -> RunResult:
-    """Simulate `duration_s` of walking (stopping early at a fall) and compute the run metrics."""
+    """Simulate `duration_s` of walking (stopping early at a fall) and compute the run metrics.
+
+    The first `warmup_s` seconds are left out of the motion metrics; `hardware` defaults to
+    uncalibrated servos and the default channel map. ValueError if duration <= 0 or warm-up < 0.
+    """
     if not duration_s > 0 or not warmup_s >= 0:
         raise ValueError("duration must be > 0 s and warm-up >= 0 s")
     sim = FrameLoop(params=params, motion=motion, hardware=hardware)

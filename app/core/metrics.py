@@ -1,12 +1,7 @@
 """Run metrics of docs/DESIGN.md §6, computed from a recorded trunk trace.
 
-All speeds are means over whole gait cycles after the warm-up, so the within-step sway averages
-out; each cycle's displacement is read in that cycle's mean heading. Body-frame velocities
-follow ROS: forward = +x of the trunk, lateral = +y (to the robot's left), turn =
-counter-clockwise. `gyro_rms` is the RMS of the trunk angular-velocity magnitude in
-rad/s (seed 004's stability measure). `predicted_turn_deg_s` and `path_error_cm` come from the
-differential-drive model (gait.steering) with V = the measured forward speed and b = the measured
-mean distance between the feet, `feet_distance_cm`.
+Means over whole gait cycles after the warm-up in the trunk's ROS axes (§3); the prediction is
+seed 004's differential drive, eqs (9), (12)–(13), with the measured V and b (`compute_metrics`).
 """
 
 from __future__ import annotations
@@ -41,7 +36,7 @@ class MotionMetrics(TypedDict):
     turn_deg_s: float | None  # counter-clockwise +
     predicted_turn_deg_s: float | None  # eq (13) with V = forward speed, b = feet distance
     path_error_cm: float | None  # RMS distance of the path from the differential-drive one
-    gyro_rms: float | None  # trunk angular velocity RMS, rad/s (seed 004's stability measure)
+    gyro_rms: float | None  # RMS of |trunk angular velocity|, rad/s (seed 004's stability measure)
     feet_distance_cm: float | None  # mean distance between the sole centres
 
 
@@ -81,6 +76,7 @@ class Trace:
     def append(
         self, t: float, pose: tuple[float, float, float], gyro: NDArray, feet_m: float
     ) -> None:
+        """One sample: time s, trunk (x m, y m, yaw rad), gyro (3,) rad/s, feet distance m."""
         self.t_s.append(t)
         self.x_m.append(pose[0])
         self.y_m.append(pose[1])
@@ -89,6 +85,7 @@ class Trace:
         self.feet_distance_m.append(feet_m)
 
     def arrays(self) -> dict[str, NDArray[np.float64]]:
+        """t, x, y, yaw (unwrapped), feet as (n,) arrays; gyro as (n, 3)."""
         return {
             "t": np.asarray(self.t_s),
             "x": np.asarray(self.x_m),
@@ -122,6 +119,8 @@ def mean_body_velocity(
 ) -> tuple[float, float, float]:
     """Mean (forward m/s, lateral m/s, turn rad/s) in the trunk frame; yaw must be unwrapped.
 
+    t (s, increasing), x, y (m) and yaw (rad) are (n,) samples, n >= 2; freq_hz is the gait's.
+
     The trunk frame is taken per gait cycle: each cycle's displacement is rotated by that
     cycle's mean heading. Rotating every frame's step by the momentary heading instead would
     let the trunk's yaw wobble, which moves in step with its sideways sway, rectify part of the
@@ -141,7 +140,14 @@ def mean_body_velocity(
 
 
 def compute_metrics(trace: Trace, *, ca: float, freq_hz: float, warmup_s: float) -> MotionMetrics:
-    """The motion metrics over whole gait cycles after the warm-up; None where undefined."""
+    """The motion metrics over whole gait cycles after the warm-up; None where undefined.
+
+    Velocities are in the trunk's axes (ROS: forward = +x, lateral = +y to the robot's left, turn
+    counter-clockwise). `predicted_turn_deg_s` and `path_error_cm` come from the differential drive
+    (`gait.steering`) with V = the measured forward speed and b = the measured mean distance between
+    the feet, `feet_distance_cm`. `ca` is the run's CA, `freq_hz` its gait frequency, `warmup_s`
+    the time left out; all None if under two samples remain.
+    """
     a = trace.arrays()
     window = whole_cycles(a["t"], warmup_s, freq_hz)
     t, x, y, yaw = (a[k][window] for k in ("t", "x", "y", "yaw"))

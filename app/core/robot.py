@@ -33,6 +33,8 @@ class RobotModel:
 
     @classmethod
     def load(cls, path: Path | str = ARTRO_XML) -> RobotModel:
+        """Compile the MJCF at `path` (default: the built-in model) and look up its joints,
+        actuators, trunk and sensors; ValueError or KeyError if one is missing or it fails."""
         model = mujoco.MjModel.from_xml_path(str(path))
         qpos, dof, act = [], [], []
         for name in JOINT_NAMES:
@@ -62,6 +64,7 @@ class RobotModel:
         )
 
     def total_mass_kg(self) -> float:
+        """Mass of the whole robot (the trunk body's subtree), kg."""
         return float(self.model.body_subtreemass[self.trunk_id])
 
     def standing_height_m(self, joint_angles: NDArray[np.float64]) -> float:

@@ -1,10 +1,6 @@
 """Parameter sets on disk: one JSON document with the motion vector, CA and every gait constant.
 
-    {"schema_version": 1, "name": "...", "created": "ISO time", "project_version": "0.1.0",
-     "motion": {"a_r": 0, "a_p": 0.07, "a_y": 0, "ca": 0},
-     "gait": {"clock": {...}, "shift": {...}, ..., "leg": {...}}}
-
-Groups or fields left out take the paper's value; unknown keys are errors that name what is allowed.
+The document's layout and its checks are `ParameterSet`'s (docs/DESIGN.md §6).
 """
 
 from __future__ import annotations
@@ -25,6 +21,7 @@ TOP_LEVEL_KEYS = ("schema_version", "name", "created", "project_version", "motio
 
 
 def project_version() -> str:
+    """The installed artro-gait-studio version, or "unknown" when it is not installed."""
     try:
         return metadata.version("artro-gait-studio")
     except metadata.PackageNotFoundError:
@@ -33,6 +30,18 @@ def project_version() -> str:
 
 @dataclass(frozen=True)
 class ParameterSet:
+    """One parameter set: provenance, the motion vector with CA, and every gait constant.
+
+    As a document (`to_dict`, `from_dict`, docs/DESIGN.md §6):
+
+        {"schema_version": 1, "name": "...", "created": "ISO time", "project_version": "0.1.0",
+         "motion": {"a_r": 0, "a_p": 0.07, "a_y": 0, "ca": 0},
+         "gait": {"clock": {...}, "shift": {...}, ..., "leg": {...}}}
+
+    Groups or fields left out take the paper's value; unknown keys are errors that name what is
+    allowed.
+    """
+
     name: str = "paper"
     motion: Motion = field(default_factory=Motion)
     gait: GaitParams = field(default_factory=GaitParams)
@@ -40,6 +49,7 @@ class ParameterSet:
     project_version: str = ""
 
     def to_dict(self) -> dict[str, Any]:
+        """The document; an empty `created` / `project_version` becomes now (UTC) / ours."""
         return {
             "schema_version": SCHEMA_VERSION,
             "name": self.name,
@@ -51,6 +61,8 @@ class ParameterSet:
 
     @classmethod
     def from_dict(cls, data: Any) -> ParameterSet:
+        """Check and build from a document (e.g. parsed JSON); ValueError says what is wrong and
+        what is allowed (unknown keys, schema version, types, ranges)."""
         if not isinstance(data, dict):
             raise ValueError("a parameter set must be a JSON object")
         unknown = sorted(set(data) - set(TOP_LEVEL_KEYS))

@@ -1,14 +1,7 @@
 """Export and import of parameter sets (docs/DESIGN.md §6): JSON, YAML and the ATmega128 C header.
 
-Every export is the same `ParameterSet.to_dict()` document, so it carries provenance (name,
-created, project version). JSON and YAML re-import to the same parameters; the C header
-(`hardware.firmware.c_header`) is export-only.
-
-Imports are untrusted input (HTTP uploads, CLI files) and are validated at the edge: a size limit,
-UTF-8 only, JSON or YAML (chosen from the content type, then the file name, then the first
-character), a mapping of plain values only (no YAML tags, anchors or aliases), finite numbers, no
-duplicate keys, and then everything `ParameterSet.from_dict` checks. Each failure raises a
-`ParameterImportError` (a ValueError) whose message says what was wrong and what is allowed.
+Exports are the same `ParameterSet.to_dict()` document; JSON and YAML re-import to the same
+parameters, the C header is export-only. Imports are untrusted: see `parse_import`.
 """
 
 from __future__ import annotations
@@ -237,10 +230,18 @@ def parse_import(
 ) -> ParameterSet:
     """Parse and validate an uploaded parameter set (JSON or YAML).
 
+    Imports are untrusted input (HTTP uploads, CLI files) and are validated here, at the edge: a
+    size limit, UTF-8 only, JSON or YAML (chosen from the content type, then the file name, then
+    the first character), a mapping of plain values only (no YAML tags, anchors or aliases), finite
+    numbers, no duplicate keys, and then everything `ParameterSet.from_dict` checks.
+
     Args:
         raw: the file's bytes, at most MAX_IMPORT_BYTES.
         content_type: the upload's media type, if known (e.g. 'application/json').
         filename: the upload's file name, if known (its suffix picks the format).
+
+    Returns:
+        The parameter set, provenance as uploaded.
 
     Raises:
         ImportTooLarge: over MAX_IMPORT_BYTES.

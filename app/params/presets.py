@@ -1,11 +1,7 @@
 """Named parameter sets ("presets") on disk, next to read-only built-in ones (docs/DESIGN.md §6).
 
-Each user preset is one `ParameterSet.to_dict()` JSON document at `<data_dir>/presets/<name>.json`.
-Names are a short, fixed alphabet (`NAME_RULE`), so a name can never leave the presets directory.
-Saving is atomic: the document is written to a temporary file in the same directory, flushed and
-fsync'ed, renamed over the target with `os.replace`, and the directory is fsync'ed; a crash at any
-point leaves either the old file or the new one, never a torn one. Files that cannot be read are
-skipped by `list()` and reported in `problems`, so one bad file never hides the others.
+User presets are `<data_dir>/presets/<name>.json` documents, names of a fixed alphabet
+(`NAME_RULE`), written atomically (`write_parameter_set`); see `PresetStore`.
 """
 
 from __future__ import annotations
@@ -25,6 +21,7 @@ from app.assets import builtin_presets_dir
 from app.params.document import ParameterSet, load_parameter_set, project_version
 
 DATA_DIR_ENV = "ARTRO_DATA_DIR"
+# a short, fixed alphabet, so a name can never leave the presets directory
 NAME_PATTERN = re.compile(r"[A-Za-z0-9][A-Za-z0-9_.-]{0,63}")
 NAME_RULE = (
     "1 to 64 characters: letters, digits, '_', '.' and '-', starting with a letter or digit, "
@@ -130,7 +127,12 @@ def stamped(pset: ParameterSet, name: str) -> ParameterSet:
 
 
 def write_parameter_set(path: Path, pset: ParameterSet) -> None:
-    """Write a parameter-set file atomically: a crash mid-write leaves the old file intact."""
+    """Write a parameter-set file atomically: a crash mid-write leaves the old file intact.
+
+    The document goes to a temporary file in the same directory, is flushed and fsync'ed, renamed
+    over `path` with `os.replace`, and the directory is fsync'ed: a crash at any point leaves
+    either the old file or the new one, never a torn one. OSError if the folder is not writable.
+    """
     text = json.dumps(pset.to_dict(), indent=2, allow_nan=False) + "\n"
     fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
     tmp = Path(tmp_name)
@@ -155,7 +157,11 @@ def builtin_presets() -> dict[str, ParameterSet]:
 
 
 class PresetStore:
-    """Built-in presets (read-only) plus user presets in `<data_dir>/presets/`."""
+    """Built-in presets (read-only) plus user presets in `<data_dir>/presets/`.
+
+    Each user preset is one `ParameterSet.to_dict()` JSON document, `<name>.json`. `builtins`
+    maps name -> set in display order (e.g. `builtin_presets()`); PresetError for a bad name.
+    """
 
     diff = staticmethod(diff)
 
@@ -166,6 +172,7 @@ class PresetStore:
         self.problems: ProblemList = []  # from the latest list()
 
     def is_builtin(self, name: str) -> bool:
+        """True for a built-in (read-only) preset name."""
         return name in self._builtins
 
     def _path(self, name: str) -> Path:
@@ -211,6 +218,9 @@ class PresetStore:
 
         The stored document gets provenance: name = `name`, created = now (UTC), this project's
         version. Built-in names are refused.
+
+        Raises:
+            PresetError: invalid or built-in name. OSError: the file cannot be written.
         """
         path = self._path(name)
         self._refuse_builtin(name)
@@ -220,7 +230,11 @@ class PresetStore:
         return stored
 
     def delete(self, name: str) -> None:
-        """Remove the saved preset `name`; built-ins are refused, a missing one is not found."""
+        """Remove the saved preset `name`; built-ins are refused, a missing one is not found.
+
+        Raises:
+            PresetError: invalid or built-in name. PresetNotFound: no such saved preset.
+        """
         path = self._path(name)
         self._refuse_builtin(name)
         try:
@@ -232,7 +246,8 @@ class PresetStore:
     def list(self) -> PresetList:
         """Built-ins (in the given order), then saved presets sorted by name.
 
-        Files that are not valid presets are skipped and recorded in `self.problems`.
+        Files that are not valid presets are skipped and recorded in `self.problems`, so one bad
+        file never hides the others.
         """
         infos = [
             PresetInfo(name, True, pset.created, dataclasses.asdict(pset.motion))

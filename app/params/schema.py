@@ -1,9 +1,6 @@
 """Pydantic models for the HTTP API, generated from the one parameter schema in `gait.params`.
 
-Nothing here lists a parameter by hand: each group dataclass of `gait.params` becomes a model whose
-fields carry the range, unit and description of the dataclass metadata. The full model requires
-every field (a PUT is a whole parameter set); the patch model makes every field optional. Both
-forbid unknown fields, NaN and inf, and take no strings for numbers.
+Nothing here lists a parameter by hand (docs/DESIGN.md §4): see `ParamsBody`, `ParamsPatchBody`.
 """
 
 from __future__ import annotations
@@ -28,6 +25,7 @@ GROUP_TITLES = {
     "leg": "Leg",
 }
 
+# forbid unknown fields, NaN and inf, and take no strings for numbers
 STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
 
@@ -43,6 +41,8 @@ def _field_args(meta: dict[str, Any]) -> dict[str, Any]:
 
 
 def _model_for(cls: type, name: str, *, partial: bool) -> type[BaseModel]:
+    """A model of one parameter group whose fields carry the range, unit and description of the
+    dataclass metadata; every field required, or (`partial`) every field optional."""
     definitions: dict[str, Any] = {}
     for field_name, _default, meta in describe_fields(cls):
         kind = bool if meta.get("unit") == "bool" else float
@@ -68,7 +68,11 @@ GaitPatch = create_model("GaitPatch", __config__=STRICT, **_groups_patch)
 
 
 class ParamsBody(BaseModel):
-    """A full parameter set: the motion vector with CA, and every gait constant."""
+    """A full parameter set: the motion vector with CA, and every gait constant.
+
+    Every field is required (a PUT is a whole parameter set); unknown fields, NaN, inf and strings
+    for numbers are refused, and every range of `gait.params` applies.
+    """
 
     model_config = STRICT
     motion: MotionModel  # type: ignore[valid-type]
@@ -76,7 +80,7 @@ class ParamsBody(BaseModel):
 
 
 class ParamsPatchBody(BaseModel):
-    """Any subset of the parameters; what is left out stays as it is."""
+    """Any subset of the parameters; what is left out stays as it is (checks as `ParamsBody`)."""
 
     model_config = STRICT
     motion: MotionPatch | None = None  # type: ignore[valid-type]
@@ -89,7 +93,12 @@ class ParamsPatchBody(BaseModel):
 
 def schema_description() -> list[dict[str, Any]]:
     """Every group and field with label, default, range, step, unit, equation and description:
-    what user interfaces build their controls from."""
+    what user interfaces build their controls from.
+
+    Returns `[{"group": "motion", "title": "Motion", "fields": [{"name", "default", "min", "max",
+    "step", "unit", "eq", "doc"}, ...]}, ...]`: motion first, then the gait groups in order
+    (switches have unit "bool" and no min, max or step).
+    """
     groups = [("motion", "Motion", Motion)] + [
         (g, GROUP_TITLES[g], group_class(g)) for g in GROUP_NAMES
     ]

@@ -1,10 +1,7 @@
 """The one parameter store: an immutable snapshot plus a version number (docs/DESIGN.md §9).
 
-Every change -- from HTTP, from a viser slider, from a preset or an import -- goes through
-`ParameterStore.update` or `replace`: validated against the schema, diffed, applied under a lock
-as a new snapshot with the next version, and then announced to subscribers *outside* the lock as
-(snapshot, changed field names, source). An update that changes nothing creates no version.
-Undo and redo walk a bounded history of snapshots and are announced like any other change.
+Every change goes through `ParameterStore.update` or `replace` (validated, diffed, applied under a
+lock, announced outside it); undo and redo walk a bounded history of snapshots.
 """
 
 from __future__ import annotations

@@ -1,11 +1,7 @@
 """The actual trunk path and the differential-drive prediction beside it (docs/DESIGN.md §4).
 
-The simulation thread feeds trunk poses in; the HTTP API, the viser view and the page read
-`PathTracker.view()`. The prediction starts at an anchor pose and follows the exact unicycle of
-`gait.steering` with V = the measured walking speed (mean forward speed over the last whole gait
-cycles) unless set by hand, and b = the measured mean distance between the feet unless an axle is
-set (by hand, or the effective axle fitted by `app.core.axle_fit`). It is re-anchored at the current
-pose when the motion vector or CA changes, and on request.
+Fed by the simulation thread, read with `PathTracker.view()`; the prediction is `gait.steering`'s
+exact unicycle, seed 004 eqs (9), (12)–(13), with V, b and its anchor as §4 says.
 """
 
 from __future__ import annotations

@@ -1,8 +1,7 @@
 """The live oscilloscope feed: recent TDM-PWM frames for `GET /api/scope`, fan-out to WebSockets.
 
-The simulation thread publishes each frame (a deque append); the event loop formats it once for
-all clients, each of which has a small queue and loses its oldest frames when slow (docs/DESIGN.md,
-"Threads"). The client set is replaced, never changed in place, so any thread may read it.
+The simulation thread appends, the event loop formats once and feeds per-client queues that drop
+their oldest frames; the client set is replaced, never changed in place (docs/DESIGN.md §8).
 """
 
 from __future__ import annotations

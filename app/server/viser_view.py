@@ -1,8 +1,7 @@
 """The viser 3D view: the robot (mjviser), schema-generated sliders, paths on the floor, controls.
 
-Built once; a refresh thread moves it at <= 30 Hz only when something changed and someone watches.
-One direction of truth (docs/DESIGN.md, "Parameter store"): slider callbacks ignore programmatic
-sets, and the store subscriber skips changes that came from the sliders.
+Built once, refreshed at <= 30 Hz only when something changed and someone watches (docs/DESIGN.md
+§8); sliders and store keep one direction of truth (§9).
 """
 
 from __future__ import annotations

@@ -1,14 +1,7 @@
 """`artro bench paper`: simulate what the papers measured and compare, for one or more presets.
 
-Seed 000 §5 (docs/DESIGN.md §7): walking on the spot, forward at a_p = 0.07 (3.8 cm/s), sideways at
-a_r = 0.1 (3.5 cm/s), turning at a_y = 0.2 (12.1 deg/s), and their mirror images
-(`app.study.cases`). Seed 004 §V: curve walking forward and backward over a CA sweep -- heading
-rate against eq (13), theta_dot = -2 CA V / b, an effective axle fitted to it, the stability
-(gyro RMS, falls) against CA as in its Fig. 6 (limits 0.15 forward, 0.17 backward on the Nao),
-and whether CA = 0.058 walks a full circle. `app.core.ca_analysis` has the formulas.
-
-Prints the tables (`app.study.report`), writes the plots (`app.study.plots`) and every number
-to results.json in the output folder.
+Seed 000's cases and seed 004's curve walks (docs/DESIGN.md §7) against eq (13), the fitted axle
+and the stability limits; what it runs, prints and writes: `run_paper_bench`.
 """
 
 from __future__ import annotations
@@ -364,6 +357,13 @@ def run_paper_bench(
     stderr: TextIO | None = None,
 ) -> dict[str, Any]:
     """Run, print the report, write results.json and the PNGs; returns the results document.
+
+    Seed 000 §5: walking on the spot, forward, sideways and turning, and their mirror images
+    (`app.study.cases`). Seed 004 §V: curve walking forward and backward over a CA sweep -- heading
+    rate against eq (13), theta_dot = -2 CA V / b, an effective axle fitted to it, the stability
+    (gyro RMS, falls) against CA as in its Fig. 6, and whether CA = 0.058 walks a full circle
+    (`app.core.ca_analysis` has the formulas). Prints the tables (`app.study.report`), writes the
+    plots (`app.study.plots`) and every number to results.json in `out_dir`.
 
     The report goes to stdout, progress to stderr (default: the sys streams at call time).
     """

@@ -1,10 +1,6 @@
 """What the papers measured, as cases to simulate (docs/DESIGN.md §7).
 
-Seed 000 measured ArtRo walking on the spot, forward, sideways and turning; we add the mirror image
-of each (backward, the other side, the other turning direction), which the gait equations treat
-alike. Targets are signed in our conventions: lateral > 0 is to the left, turn > 0 is
-counter-clockwise; so a_r = +0.1 (a step to the right) targets -3.5 cm/s and a_y = +0.2
-(clockwise) targets -12.1 deg/s.
+Seed 000's four walks and the mirror image of each, with targets signed in our conventions (§3).
 """
 
 from __future__ import annotations
@@ -27,6 +23,11 @@ class PaperCase:
     mirror_of: str | None = None
 
 
+# Seed 000 measured ArtRo walking on the spot, forward, sideways and turning; we add the mirror
+# image of each (backward, the other side, the other turning direction), which the gait equations
+# treat alike. Targets are signed in our conventions: lateral > 0 is to the left, turn > 0 is
+# counter-clockwise; so a_r = +0.1 (a step to the right) targets -3.5 cm/s and a_y = +0.2
+# (clockwise) targets -12.1 deg/s.
 CASES: tuple[PaperCase, ...] = (
     PaperCase("on the spot", Motion(), "drift_cm_s", 0.0),
     PaperCase("forward", Motion(a_p=0.07), "forward_cm_s", 3.8),

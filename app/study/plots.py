@@ -1,13 +1,7 @@
 """Plots of `artro bench paper` (matplotlib, Agg backend, no pyplot state).
 
-- paths_<preset>.png: the trunk path of every paper case and of the CA = 0.058 walks (raw, and
-  its moving mean over one gait cycle, which removes the sway of each step), against the
-  differential-drive prediction (gait.steering.predict_path, the exact unicycle of seed 004
-  eq 9 with V_L,R = (1 +- CA) V) anchored on the mean path at the end of the warm-up, with that
-  run's measured V (mean forward speed) and b (mean distance between the feet).
-- ca_stability.png: trunk gyro RMS against CA, forward and backward (seed 004, Fig. 6).
-- ca_heading.png: heading rate against CA with eq (13), theta_dot = -2 CA V / b, and the line of
-  the fitted effective axle b_eff.
+paths_<preset>.png, ca_stability.png (seed 004 Fig. 6) and ca_heading.png (eq (13), fitted axle);
+see `plot_paths`, `plot_stability`, `plot_heading`.
 """
 
 from __future__ import annotations
@@ -94,6 +88,13 @@ def _path_panel(ax: Axes, run: Run, title: str, warmup_s: float, freq_hz: float)
 
 
 def plot_paths(runs: PresetRuns, summary: dict[str, Any], warmup_s: float, out: Path) -> Path:
+    """paths_<preset>.png: the trunk path of every paper case and of the CA = 0.058 walk.
+
+    Each path raw and as its moving mean over one gait cycle (which removes the sway of each
+    step), against the differential-drive prediction (`gait.steering.predict_path`, the exact
+    unicycle of seed 004 eq 9 with V_L,R = (1 +- CA) V) anchored on the mean path at the end of the
+    warm-up, with that run's measured V (mean forward speed) and b (mean distance between the feet).
+    """
     freq = runs.preset.params.clock.freq_hz
     panels: list[tuple[Run, str]] = []
     for row in summary["cases"]:
@@ -133,6 +134,7 @@ def plot_paths(runs: PresetRuns, summary: dict[str, Any], warmup_s: float, out: 
 
 
 def plot_stability(results: dict[str, Any], out: Path) -> Path:
+    """ca_stability.png: trunk gyro RMS against CA, forward and backward (seed 004, Fig. 6)."""
     fig = Figure(figsize=(11, 4.2), layout="constrained")
     axes = fig.subplots(1, 2, sharey=True)
     for ax, direction in zip(axes, ("forward", "backward"), strict=True):
@@ -176,6 +178,8 @@ def plot_stability(results: dict[str, Any], out: Path) -> Path:
 
 
 def plot_heading(results: dict[str, Any], out: Path) -> Path:
+    """ca_heading.png: heading rate against CA with eq (13), theta_dot = -2 CA V / b, and the line
+    of the fitted effective axle b_eff."""
     fig = Figure(figsize=(11, 4.4), layout="constrained")
     axes = fig.subplots(1, 2)
     for ax, direction in zip(axes, ("forward", "backward"), strict=True):

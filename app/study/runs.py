@@ -1,14 +1,7 @@
 """The runs of `artro bench paper`: presets, the job list, and batch rollouts that keep the path.
 
-For each preset (a parameter-set file; only its gait constants are used) the bench runs every case
-of `app.study.cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with CA up
-to the ends of its range (+-0.5), to find where the robot falls. All these runs of all presets go
-to one `BatchEvaluator.evaluate` call so its threads stay busy. A second call walks CA = 0.058
-forward long enough for a full circle (seed 004, Fig. 5). The first call also walks CA = -0.1, 0
-and +0.1 forward at other amplitudes a_p (`BenchConfig.steer_a_p`): how CA steers at other speeds.
-
-The plots need the trunk path as well as the metrics: the evaluator hands out each run's trace,
-one sample per 20 ms frame -- the very samples the metrics are computed from.
+All runs of all presets go to one batch call (`run_all`); each keeps its trunk trace, one sample
+per 20 ms frame -- the very samples its metrics come from -- for the plots.
 """
 
 from __future__ import annotations
@@ -201,7 +194,15 @@ def run_all(
     config: BenchConfig,
     progress: Callable[[int, int], None] | None = None,
 ) -> list[PresetRuns]:
-    """Simulate everything in one batch and sort the runs back by preset."""
+    """Simulate everything in one batch and sort the runs back by preset.
+
+    For each preset (a parameter-set file; only its gait constants are used) the bench runs every
+    case of `app.study.cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with
+    CA up to the ends of its range (+-0.5), to find where the robot falls; and CA = -0.1, 0 and
+    +0.1 forward at other amplitudes a_p (`BenchConfig.steer_a_p`): how CA steers at other speeds.
+    All these runs of all presets go to one `BatchEvaluator.evaluate` call so its threads stay
+    busy. A second call walks CA = 0.058 forward long enough for a full circle (seed 004, Fig. 5).
+    """
     if not presets:
         raise ValueError("no presets to run")
     if 0.0 not in config.ca_values:

@@ -1,17 +1,7 @@
 """`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking.
 
-One candidate = one parameter set, evaluated on every run of `app.study.cases.JUDGED_RUNS` (on
-the spot, forward, sideways, turning, their mirror images, and curve walking at CA = +-0.1
-forward and backward) with the batch evaluator. The loss rewards each case's speed being the
-paper's (relative error squared), walking on the spot without drift, CA steering as eq (13) says
-(the gain of `steering_gain` near 1), not falling (a fall costs more the earlier it happens),
-little unwanted rotation or translation, and a calm trunk (gyro RMS).
-
-The search runs in a box normalised to [0, 1] per parameter (the schema's range), starting from a
-base parameter set. Every evaluation is appended to a JSON-lines results file. Resuming replays
-that file through the same seeded CMA-ES: the optimiser proposes the same candidates again, takes
-the recorded losses instead of simulating, and carries on where the file ends. The best set found
-is written as a parameter-set file with provenance.
+Each candidate is scored on `app.study.cases.JUDGED_RUNS` by `total_loss`; the search, its
+resumable results file and its output are described at `Tuner`.
 """
 
 from __future__ import annotations
@@ -177,7 +167,14 @@ def curve_loss(
 def total_loss(
     by_run: dict[str, dict[str, Any]], duration_s: float, weights: LossWeights = LossWeights()
 ) -> float:
-    """The loss of one parameter set from its runs' metrics, keyed by JUDGED_RUNS names."""
+    """The loss of one parameter set from its runs' metrics, keyed by JUDGED_RUNS names.
+
+    JUDGED_RUNS: on the spot, forward, sideways, turning, their mirror images, and curve walking at
+    CA = +-0.1 forward and backward. The loss rewards each case's speed being the paper's (relative
+    error squared), walking on the spot without drift, CA steering as eq (13) says (the gain of
+    `steering` near 1), not falling (a fall costs more the earlier it happens), little unwanted
+    rotation or translation, and a calm trunk (gyro RMS).
+    """
     loss = sum(case_loss(c, by_run[c.name], duration_s, weights) for c in CASES)
     for pair in CURVES:
         plus, minus = (by_run[name] for name in curve_run_names(pair))
@@ -187,6 +184,15 @@ def total_loss(
 
 
 class Tuner:
+    """CMA-ES over `names` (dotted gait fields), starting from `base`, scored by `total_loss`.
+
+    The search runs in a box normalised to [0, 1] per parameter (the schema's range). Every
+    evaluation is appended to a JSON-lines results file. Resuming replays that file through the
+    same seeded CMA-ES: the optimiser proposes the same candidates again, takes the recorded losses
+    instead of simulating, and carries on where the file ends. `artro tune` (`command`) writes the
+    best set found as a parameter-set file with provenance.
+    """
+
     def __init__(
         self,
         base: ParameterSet,

@@ -1,20 +1,7 @@
 """The C header `artro_params.h` for ArtRo's ATmega128 firmware (seed 000 §3, docs/DESIGN.md §5).
 
-One header carries everything the firmware needs to reproduce a simulated gait:
-
-- provenance of the parameter set (name, created, project version, motion vector);
-- the Timer1/Timer3 set-up of `hardware.timer` (fast PWM mode 14, prescaler 8, ICRn = 4999, the
-  TCCRnA/TCCRnB bytes), the TDM slot and frame lengths in ticks and the select-line change tick;
-- the servo mapping of `hardware.servo` (1500 µs = 0 rad, 10 µs per degree, 600..2400 µs);
-- the channel map (`ARTRO_SERVO_CHANNEL[12]`, `ARTRO_SERVO_SLOT[12]`) and the per-servo
-  calibration (direction, trim in ticks, limits in centidegrees; and exactly, as floats: trim in
-  µs, limits in rad);
-- the motion vector, CA and every gait constant as `ARTRO_<GROUP>_<FIELD>` float literals
-  (booleans as 0/1), plus the gait clock and the phase advance per 20 ms frame, eqs (10)–(11).
-
-Pure: it takes the plain `ParameterSet.to_dict()` document, not the app's objects. Floats are
-written with `repr`, the shortest text that round-trips the double; the compiler rounds that once
-to the target's float.
+Pure: from a plain `ParameterSet.to_dict()` document it writes provenance, timer set-up, servo and
+channel maps, calibration and every gait constant of eqs (10)–(39); contents: see `c_header`.
 """
 
 from __future__ import annotations
@@ -57,7 +44,11 @@ _C_IDENTIFIER = re.compile(r"[A-Z_][A-Z0-9_]*")
 
 
 def c_float(value: Any, where: str = "value") -> str:
-    """A C float literal that round-trips `value`: '0.07f', '(-0.15f)', '2.0f', '1e-05f'."""
+    """A C float literal that round-trips `value`: '0.07f', '(-0.15f)', '2.0f', '1e-05f'.
+
+    Written with `repr`, the shortest text that round-trips the double; the compiler rounds that
+    once to the target's float. ValueError for a bool, a non-number or a non-finite value.
+    """
     if isinstance(value, bool) or not isinstance(value, int | float | np.floating | np.integer):
         raise ValueError(f"{where} must be a number, got {value!r}")
     number = float(value)
@@ -220,6 +211,17 @@ def c_header(
     comments: Mapping[str, str] | None = None,
 ) -> str:
     """The include-guarded C99 header `artro_params.h` for one parameter set.
+
+    It carries everything the firmware needs to reproduce a simulated gait:
+
+    - provenance of the parameter set (name, created, project version, motion vector);
+    - the Timer1/Timer3 set-up of `hardware.timer` (fast PWM mode 14, prescaler 8, ICRn = 4999, the
+      TCCRnA/TCCRnB bytes), the TDM slot and frame lengths in ticks and the select-line change tick;
+    - the servo mapping of `hardware.servo` (1500 µs = 0 rad, 10 µs per degree, 600..2400 µs);
+    - the channel map (`ARTRO_SERVO_CHANNEL[12]`, `ARTRO_SERVO_SLOT[12]`) and the per-servo
+      calibration (direction, trim in ticks, limits in centidegrees);
+    - the motion vector, CA and every gait constant as `ARTRO_<GROUP>_<FIELD>` float literals
+      (booleans as 0/1), plus the gait clock and the phase advance per 20 ms frame, eqs (10)–(11).
 
     Args:
         pset: a `ParameterSet.to_dict()` document (name, created, project_version, motion, gait).
