@@ -219,7 +219,8 @@ def c_header(
       TCCRnA/TCCRnB bytes), the TDM slot and frame lengths in ticks and the select-line change tick;
     - the servo mapping of `hardware.servo` (1500 µs = 0 rad, 10 µs per degree, 600..2400 µs);
     - the channel map (`ARTRO_SERVO_CHANNEL[12]`, `ARTRO_SERVO_SLOT[12]`) and the per-servo
-      calibration (direction, trim in ticks, limits in centidegrees);
+      calibration (direction, trim in ticks, limits in centidegrees; and exactly, as floats:
+      trim in µs, limits in rad);
     - the motion vector, CA and every gait constant as `ARTRO_<GROUP>_<FIELD>` float literals
       (booleans as 0/1), plus the gait clock and the phase advance per 20 ms frame, eqs (10)–(11).
 
