@@ -23,7 +23,7 @@ ALLOWED = {
     "gait": {"gait", "numpy"},
     "hardware": {"hardware", "gait", "numpy"},
     "app.assets": set(),
-    "app.core": {"app.core", "app.assets", "gait", "hardware", "numpy", "mujoco"},
+    "app.core": {"app.core", "app.assets", "gait", "hardware", "numpy", "mujoco", "serial"},
     "app.params": {"app.params", "app.assets", "gait", "hardware", "numpy", "pydantic", "yaml"},
 }
 FORBIDDEN = {  # package -> project packages it must never import
