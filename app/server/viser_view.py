@@ -63,7 +63,11 @@ class Viewer:
         self.axle_fitter = axle_fitter
         sim.publish_poses = True
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
-        self.server.gui.configure_theme(control_width="large")
+        # the panel is docked at the right edge and starts minimized: it never covers the robot,
+        # which the follow camera keeps in the middle (the page has the motion controls)
+        self.server.gui.configure_theme(control_width="medium", show_share_button=False)
+        self.server.gui.main_panel.dock_right()
+        self.server.gui.main_panel.minimize()
         self.scene = mjviser.ViserMujocoScene(self.server, model, num_envs=1)
         # a 35 cm robot: start close, looking at the trunk from the front left
         self.server.initial_camera.position = (0.55, 0.45, 0.12)
@@ -269,15 +273,16 @@ class Viewer:
 
     def _update_status(self) -> None:
         s = self.sim.status()
-        rtf = "–" if s.rtf is None else f"{s.rtf:.2f}"
-        behind = " — **behind real time**" if s.behind else ""
-        state = "paused" if s.paused else ("fallen" if s.fell else "running")
-        _assign(
-            self._status,
-            "content",
-            f"t = {s.sim_time_s:.1f} s, {state}, real-time factor {rtf} "
-            f"(target {s.speed:g}×){behind}",
-        )
+        if s.fell:
+            text = f"t = {s.sim_time_s:.1f} s, **fallen — stopped**"
+        elif s.paused:
+            text = f"t = {s.sim_time_s:.1f} s, paused"
+        else:
+            rtf = "–" if s.rtf is None else f"{s.rtf:.2f}"
+            behind = " — **behind real time**" if s.behind else ""
+            text = f"t = {s.sim_time_s:.1f} s, running, real-time factor {rtf} "
+            text += f"(target {s.speed:g}×){behind}"
+        _assign(self._status, "content", text)
         _assign(self._fell_notice, "visible", s.fell)
         _assign(self._fell_reset, "visible", s.fell)
 

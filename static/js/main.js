@@ -1,5 +1,6 @@
 // Entry point: wire up every panel of the dashboard.
 
+import { initMotion } from "./motion.js";
 import { initParams, refreshParams } from "./params.js";
 import { initPaths } from "./paths.js";
 import { initPresets } from "./presets.js";
@@ -13,6 +14,7 @@ initViser();
 initScope();
 initPaths();
 initParams();
+initMotion();
 initPresets();
 initTransfer();
 refreshParams();
