@@ -283,3 +283,34 @@ def test_the_first_steps_line_goes_once_the_robot_walks(server, browser):
         expect(hint).to_be_hidden(timeout=10_000)
         assert http.get("/api/params").json()["motion"]["a_p"] == 0.005
     http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+
+
+# --- falls ----------------------------------------------------------------------------------------
+
+
+def test_a_fall_is_shown_and_reset_with_motion_0_recovers(dashboard):
+    page, http = dashboard
+    # from standing, this throws `tuned` within ~1 s (`artro run --motion 0.3,0.3,0.6`)
+    http.patch("/api/params", json={"motion": {"a_p": 0.3, "a_r": 0.3, "a_y": 0.6, "ca": 0.0}})
+    http.post("/api/sim/reset")
+    notice = page.locator("#fall-notice")
+    wait_until(page, lambda: http.get("/api/state").json()["fell"], "the robot falls", 150)
+    expect(notice).to_be_visible(timeout=10_000)  # a_r = 0.3 throws `tuned` within ~1 s
+    expect(page.locator("#sim-rtf")).to_have_text("fallen — stopped")
+    expect(page.locator("#fall-what")).to_contain_text("a_r +0.300, a_y +0.600")
+    expect(page.locator("#path-readout-v")).to_have_text("—")
+    expect(page.locator("#path-readout-lat")).to_have_text("—")
+    # undoing the motion that threw it: the notice names the motion now in use
+    page.locator("#params-undo").click()
+    expect(page.locator("#fall-now")).to_contain_text("a_r 0.000", timeout=10_000)
+    expect(page.locator("#fall-reset")).to_contain_text("new motion")
+    page.locator("#params-redo").click()
+    expect(page.locator("#fall-now")).to_be_hidden(timeout=10_000)
+    page.locator("#fall-reset-zero").click()
+    expect(notice).to_be_hidden(timeout=15_000)
+    expect(page.locator("#sim-rtf")).to_contain_text("running", timeout=10_000)
+    motion = http.get("/api/params").json()["motion"]
+    assert motion == {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
+    state = http.get("/api/state").json()
+    assert not state["fell"] and state["resets"] >= 1
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})

@@ -1,5 +1,6 @@
 // Entry point: wire up every panel of the dashboard.
 
+import { initFall } from "./fall.js";
 import { initMotion } from "./motion.js";
 import { initParams, refreshParams } from "./params.js";
 import { initPaths } from "./paths.js";
@@ -15,6 +16,7 @@ initScope();
 initPaths();
 initParams();
 initMotion();
+initFall();
 initPresets();
 initTransfer();
 refreshParams();

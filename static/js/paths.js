@@ -20,6 +20,7 @@ const PAD = { l: 44, r: 12, t: 26, b: 26 };
 const MIN_SPAN_M = 0.4;
 
 let last = null;
+let fallen = false; // after a fall the measured speeds are the fall's: the readouts go blank
 
 export function initPaths() {
   const canvas = $("path-canvas");
@@ -27,6 +28,10 @@ export function initPaths() {
   $("path-anchor").addEventListener("click", reanchor);
   $("axle-set").addEventListener("click", setAxle);
   $("axle-fit").addEventListener("click", fitAxle);
+  document.addEventListener("artro:state", (e) => {
+    fallen = !!e.detail.fell;
+    if (last) readout(last);
+  });
   poll(async () => {
     try {
       last = await api.get("/api/path");
@@ -95,6 +100,10 @@ async function fitAxle() {
 }
 
 function readout(p) {
+  if (fallen) {
+    for (const dd of $("path-readout").querySelectorAll("dd")) dd.textContent = "—";
+    return;
+  }
   const cms = (v) => (v == null ? "—" : `${fmt(v * 100, 2)} cm/s`);
   $("path-readout-v").textContent = cms(p.speed_m_s);
   $("path-readout-vsrc").textContent = p.speed_source ? `(${p.speed_source})` : "";
