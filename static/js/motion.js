@@ -3,7 +3,7 @@
 // on the track (rule in data/safe-bands.json), arrow keys on a focused slider.
 // A change is PATCHed at once (one request in flight, the latest value wins). Values the server
 // reports are shown unless the user is holding that control; the page never writes back what it
-// was told, so nothing echoes (docs/DESIGN.md, "Parameter store").
+// was told, so nothing echoes (docs/DESIGN.md §9).
 
 import { api } from "./api.js";
 import { $, fmtSigned, h, setMessage } from "./util.js";
