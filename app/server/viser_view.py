@@ -232,6 +232,10 @@ class Viewer:
                 pts = np.concatenate([xy, np.full((len(xy), 1), PATH_Z_M, np.float32)], axis=1)
                 handle.points = np.stack([pts[:-1], pts[1:]], axis=1)
         radius = view["turn_radius_m"]
+        gait = self.store.snapshot().gait
+        stale = (
+            ", stale: the gait changed" if self.axle_fitter.stale(view["axle_source"], gait) else ""
+        )
         _assign(
             self._path_text,
             "content",
@@ -239,7 +243,7 @@ class Viewer:
                 f"<span style='color:rgb{ACTUAL_RGB}'>■ actual</span> "
                 f"<span style='color:rgb{PREDICTED_RGB}'>■ predicted</span>  \n"
                 f"V = {100 * view['speed_m_s']:.2f} cm/s ({view['speed_source']}), "
-                f"b = {100 * view['axle_m']:.1f} cm ({view['axle_source']})  \n"
+                f"b = {100 * view['axle_m']:.1f} cm ({view['axle_source']}{stale})  \n"
                 f"turn radius: {'straight' if radius is None else f'{radius:.2f} m'}  \n"
                 f"heading rate: predicted {view['predicted_turn_deg_s']:+.1f} °/s, "
                 f"actual {view['actual_turn_deg_s']:+.1f} °/s"
