@@ -314,3 +314,19 @@ def test_a_fall_is_shown_and_reset_with_motion_0_recovers(dashboard):
     state = http.get("/api/state").json()
     assert not state["fell"] and state["resets"] >= 1
     http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+
+
+# --- the path view --------------------------------------------------------------------------------
+
+
+def test_clear_empties_the_path_plot(dashboard):
+    page, http = dashboard
+    page.wait_for_function("window.artro.path && window.artro.path.actual > 20", timeout=30_000)
+    before = http.get("/api/state").json()["sim_time_s"]
+    page.locator("#path-clear").click()
+    expect(page.locator("#path-message")).to_have_class(OK, timeout=10_000)
+    page.wait_for_function("window.artro.path.actual < 10", timeout=10_000)
+    path = http.get("/api/path").json()
+    assert path["actual"] and path["actual"][0][0] >= before
+    # the plot fills again as the robot walks on, and the page shows the per-cycle means
+    page.wait_for_function("window.artro.path.actual > 20", timeout=30_000)
