@@ -330,3 +330,22 @@ def test_clear_empties_the_path_plot(dashboard):
     assert path["actual"] and path["actual"][0][0] >= before
     # the plot fills again as the robot walks on, and the page shows the per-cycle means
     page.wait_for_function("window.artro.path.actual > 20", timeout=30_000)
+
+
+def test_an_import_with_four_errors_shows_them_all_with_the_file_name(dashboard, tmp_path):
+    page, http = dashboard
+    before = http.get("/api/params").json()
+    bad = tmp_path / "four-wrong.json"
+    wrong = {"motion": {"a_p": 2}, "gait": {"swing": {"v": 99}, "short": {"v": "x"}}}
+    wrong["gait"]["load"] = {"v": -1}
+    bad.write_text(json.dumps(wrong))
+    page.locator("#import-file").set_input_files(str(bad))
+    message = page.locator("#import-message")
+    expect(message).to_have_class(ERROR, timeout=10_000)
+    expect(message).to_contain_text("four-wrong.json")
+    expect(message).to_contain_text("4 problems")
+    problems = page.locator("#import-problems li")
+    expect(problems).to_have_count(4)
+    for path in ("motion.a_p", "gait.swing.v", "gait.short.v", "gait.load.v"):
+        expect(page.locator("#import-problems")).to_contain_text(path)
+    assert http.get("/api/params").json() == before

@@ -5,7 +5,14 @@ from typing import Annotated, Any
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 
 from app.params.document import ParameterSet
-from app.params.formats import FORMATS, MAX_IMPORT_BYTES, ImportTooLarge, export_text, parse_import
+from app.params.formats import (
+    FORMATS,
+    MAX_IMPORT_BYTES,
+    ImportTooLarge,
+    ParameterImportError,
+    export_text,
+    parse_import,
+)
 from app.params.presets import PresetError, PresetNotFound, diff
 from app.server.api.deps import ServicesDep
 from app.server.services import Services
@@ -105,4 +112,7 @@ async def import_params(request: Request, services: ServicesDep) -> dict[str, An
         pset = parse_import(bytes(raw), request.headers.get("content-type"))
     except ImportTooLarge as exc:
         raise HTTPException(413, str(exc)) from exc
+    except ParameterImportError as exc:  # every wrong field, with its path, when there are several
+        detail = exc.problems if len(exc.problems) > 1 else str(exc)
+        raise HTTPException(422, detail) from exc
     return services.store.replace(pset, "import").to_dict()
