@@ -349,3 +349,26 @@ def test_an_import_with_four_errors_shows_them_all_with_the_file_name(dashboard,
     for path in ("motion.a_p", "gait.swing.v", "gait.short.v", "gait.load.v"):
         expect(page.locator("#import-problems")).to_contain_text(path)
     assert http.get("/api/params").json() == before
+
+
+def test_the_api_docs_render_with_the_network_blocked(server, browser):
+    base_url, _http = server
+    context = browser.new_context(viewport={"width": 1280, "height": 720})
+    blocked: list[str] = []
+
+    def only_localhost(route):
+        if route.request.url.startswith(("http://127.0.0.1", "http://localhost", "data:")):
+            route.continue_()
+        else:
+            blocked.append(route.request.url)
+            route.abort()
+
+    context.route("**/*", only_localhost)
+    page = context.new_page()
+    page.goto(base_url + "/docs")
+    expect(page.locator(".swagger-ui .info .title")).to_contain_text(
+        "ArtRo Gait Studio", timeout=20_000
+    )
+    expect(page.locator(".opblock-summary-path", has_text="/api/params").first).to_be_visible()
+    context.close()
+    assert blocked == [], f"/docs asked the network for {blocked}"
