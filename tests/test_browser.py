@@ -372,3 +372,17 @@ def test_the_api_docs_render_with_the_network_blocked(server, browser):
     expect(page.locator(".opblock-summary-path", has_text="/api/params").first).to_be_visible()
     context.close()
     assert blocked == [], f"/docs asked the network for {blocked}"
+
+
+def test_a_builtin_preset_loads_with_the_current_motion_kept(dashboard):
+    page, http = dashboard
+    http.patch("/api/params", json={"motion": {"a_p": 0.05, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    expect(page.locator("#preset-keep-motion")).to_be_checked()
+    page.locator('button[data-preset="paper"]', has_text="Load").click()
+    expect(page.locator("#preset-message")).to_have_class(OK, timeout=10_000)
+    expect(page.locator("#preset-message")).to_contain_text("motion kept")
+    params = http.get("/api/params").json()
+    assert params["name"] == "paper" and params["motion"]["a_p"] == 0.05
+    expect(page.locator("#params-name")).to_have_text("paper", timeout=10_000)
+    http.post("/api/presets/tuned/load", params={"keep_motion": "true"})
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})

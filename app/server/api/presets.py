@@ -1,5 +1,6 @@
 """Named presets, their diff, and export/import of parameter sets (JSON, YAML, C header)."""
 
+import dataclasses
 from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response
@@ -80,9 +81,18 @@ def delete_preset(name: str, services: ServicesDep) -> dict[str, Any]:
 
 
 @router.post("/presets/{name}/load")
-def load_preset(name: str, services: ServicesDep) -> dict[str, Any]:
+def load_preset(
+    name: str,
+    services: ServicesDep,
+    keep_motion: Annotated[
+        bool, Query(description="keep the motion vector and CA in use; load only the gait")
+    ] = False,
+) -> dict[str, Any]:
     """Make a preset the parameters in use (undoable)."""
-    return services.store.replace(_get(services, name), "preset").to_dict()
+    pset = _get(services, name)
+    if keep_motion:
+        pset = dataclasses.replace(pset, motion=services.store.snapshot().motion)
+    return services.store.replace(pset, "preset").to_dict()
 
 
 @router.get("/export")
