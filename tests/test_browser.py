@@ -386,3 +386,32 @@ def test_a_builtin_preset_loads_with_the_current_motion_kept(dashboard):
     expect(page.locator("#params-name")).to_have_text("paper", timeout=10_000)
     http.post("/api/presets/tuned/load", params={"keep_motion": "true"})
     http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+
+
+NESTED_SCROLL = """() => {
+  // every visible control whose way to the page passes through a box that scrolls on its own
+  const bad = [];
+  for (const el of document.querySelectorAll("button, input, select, a.button, label.file")) {
+    if (!el.offsetParent) continue;
+    for (let p = el.parentElement; p && p !== document.body; p = p.parentElement) {
+      const style = getComputedStyle(p);
+      if (/(auto|scroll)/.test(style.overflowY) && p.scrollHeight > p.clientHeight + 1) {
+        bad.push(el.id || el.textContent.trim());
+        break;
+      }
+    }
+  }
+  return bad;
+}"""
+
+
+@pytest.mark.parametrize(("width", "height"), SIZES, ids=lambda v: str(v))
+def test_every_control_is_reachable_without_nested_scroll_bars(server, browser, width, height):
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        expect(page.locator("#motion-a_p")).to_be_visible(timeout=10_000)
+        page.wait_for_function("window.artro.path && window.artro.path.actual > 0")
+        assert page.evaluate(NESTED_SCROLL) == []
+        for button in ("#axle-set", "#axle-fit", "#path-clear", "#path-anchor"):
+            page.locator(button).scroll_into_view_if_needed()
+            expect(page.locator(button)).to_be_in_viewport()
