@@ -415,3 +415,24 @@ def test_every_control_is_reachable_without_nested_scroll_bars(server, browser, 
         for button in ("#axle-set", "#axle-fit", "#path-clear", "#path-anchor"):
             page.locator(button).scroll_into_view_if_needed()
             expect(page.locator(button)).to_be_in_viewport()
+
+
+def test_the_roll_view_plots_pulse_widths_with_cursors(dashboard):
+    page, _http = dashboard
+    page.locator("#scope-mode-roll").click()
+    page.wait_for_function("window.artro.roll && window.artro.roll.points > 50", timeout=20_000)
+    assert page.evaluate("window.artro.roll.series") == 4  # the default servo lanes
+    expect(page.locator("#roll-legend")).to_contain_text("l_hip_pitch")
+    plot = page.locator("#roll-plot .u-over")
+    box = plot.bounding_box()
+    assert box is not None
+    plot.click(position={"x": box["width"] * 0.3, "y": box["height"] / 2})
+    plot.click(position={"x": box["width"] * 0.7, "y": box["height"] / 2})
+    cursors = page.locator("#scope-cursors")
+    expect(cursors).to_contain_text("Δt")
+    expect(cursors).to_contain_text("Hz")
+    page.locator("#scope-freeze").click()
+    expect(page.locator("#scope-run")).to_have_text("STOP")
+    page.locator("#scope-freeze").click()
+    page.locator("#scope-mode-single").click()
+    expect(page.locator("#scope-canvas")).to_be_visible()
