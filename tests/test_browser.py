@@ -436,3 +436,23 @@ def test_the_roll_view_plots_pulse_widths_with_cursors(dashboard):
     page.locator("#scope-freeze").click()
     page.locator("#scope-mode-single").click()
     expect(page.locator("#scope-canvas")).to_be_visible()
+
+
+def test_the_cycle_view_lays_the_right_leg_over_the_left(dashboard):
+    page, http = dashboard
+    http.patch("/api/params", json={"motion": {"a_p": 0.07, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    page.locator("#scope-mode-cycle").click()
+    expect(page.locator("#roll-unit")).to_have_value("deg")
+    page.wait_for_function("window.artro.cycle && window.artro.cycle.cycles >= 3", timeout=30_000)
+    expect(page.locator("#cycle-info")).to_contain_text("whole cycles folded")
+    means = page.evaluate("window.artro.cycle.means")
+    assert set(means) == {"l_hip_pitch", "l_knee", "r_hip_pitch", "r_knee"}
+    left = np.array(means["l_knee"], dtype=float)
+    right = np.array(means["r_knee"], dtype=float)
+    swing = np.nanmax(left) - np.nanmin(left)
+    assert swing > 10  # degrees: the knee bends in every step
+    # `tuned` walks mirror-symmetrically: shifted by half a cycle, the right knee follows the left
+    assert np.sqrt(np.nanmean((left - right) ** 2)) < 0.25 * swing
+    # unshifted, they would be half a cycle apart
+    assert np.sqrt(np.nanmean((left - np.roll(right, 25)) ** 2)) > 0.25 * swing
+    page.locator("#scope-mode-single").click()

@@ -4,6 +4,7 @@
 
 import { api } from "./api.js";
 import { RollBuffer } from "./roll.js";
+import { CyclePlot } from "./cycle-plot.js";
 import { RollPlot } from "./roll-plot.js";
 import { drawSingleFrame, singleFrameMinHeight } from "./scope.js";
 import { ScopeFeed } from "./scope-feed.js";
@@ -27,6 +28,7 @@ const state = {
 const buffer = new RollBuffer(Math.ceil((ROLL_WINDOW_S / 0.02) * 1.2));
 let feed;
 let roll;
+let cycle;
 let drawPending = false;
 
 export function initScope() {
@@ -47,6 +49,8 @@ export function initScope() {
   });
   $("scope-canvas").addEventListener("click", onCanvasClick);
   roll = new RollPlot($("roll-plot"), $("roll-legend"), setCursor);
+  cycle = new CyclePlot($("cycle-plot"), $("cycle-info"));
+  $("scope-mode-cycle").addEventListener("click", () => setMode("cycle"));
   new ResizeObserver(() => requestDraw()).observe($("scope-wrap"));
 
   feed = new ScopeFeed({
@@ -129,11 +133,15 @@ function buildServoPicker() {
 function setMode(mode) {
   state.mode = mode;
   state.cursors = { a: null, b: null };
-  $("scope-mode-single").classList.toggle("active", mode === "single");
-  $("scope-mode-roll").classList.toggle("active", mode === "roll");
-  $("scope-mode-single").setAttribute("aria-pressed", String(mode === "single"));
-  $("scope-mode-roll").setAttribute("aria-pressed", String(mode === "roll"));
-  $("roll-unit-wrap").hidden = mode !== "roll";
+  for (const m of ["single", "roll", "cycle"]) {
+    $(`scope-mode-${m}`).classList.toggle("active", mode === m);
+    $(`scope-mode-${m}`).setAttribute("aria-pressed", String(mode === m));
+  }
+  $("roll-unit-wrap").hidden = mode === "single";
+  if (mode === "cycle" && state.unit === "us") {
+    state.unit = "deg"; // angles compare left with right; pulse widths carry each servo's direction
+    $("roll-unit").value = "deg";
+  }
   updateCursorReadout();
   requestDraw();
 }
@@ -168,6 +176,13 @@ function draw() {
   const opts = { servos: state.servos, cursors: state.cursors, unit: state.unit, windowS: ROLL_WINDOW_S };
   canvas.hidden = state.mode !== "single";
   $("roll-wrap").hidden = state.mode !== "roll";
+  $("cycle-wrap").hidden = state.mode !== "cycle";
+  if (state.mode === "cycle") {
+    cycle.update(state.frozen ? state.frozenSamples || [] : buffer.toArray(), opts, state.frozen);
+    state.axis = null;
+    updateFrameInfo(frame);
+    return;
+  }
   if (state.mode === "roll") {
     roll.update(state.frozen ? state.frozenSamples || [] : buffer.toArray(), opts);
     state.axis = null; // the roll plot reports its clicks itself
@@ -229,7 +244,7 @@ function updateCursorReadout() {
   const { a, b } = state.cursors;
   const el = $("scope-cursors");
   if (a == null && b == null) {
-    el.textContent = "cursors: click = A, shift-click or 2nd click = B";
+    el.textContent = state.mode === "cycle" ? "cycle view: hover for values" : "cursors: click = A, shift-click or 2nd click = B";
     el.classList.add("dim");
     return;
   }
