@@ -101,6 +101,8 @@ class Viewer:
             self._fell_notice = gui.add_markdown("**The robot has fallen.**", visible=False)
             self._fell_reset = gui.add_button("Reset the robot", visible=False, color="red")
             self._fell_reset.on_click(lambda _e: self.sim.command(Command.RESET))
+            self._fell_reset_zero = gui.add_button("Reset with motion 0", visible=False)
+            self._fell_reset_zero.on_click(lambda _e: self._reset_with_motion_zero())
             pause = gui.add_button_group("Run", ("Pause", "Resume", "Step", "Reset"))
             pause.on_click(lambda e: self.sim.command(Command(e.target.value.lower())))
             speed = gui.add_slider("Speed (x real time)", 0.25, 4.0, 0.25, 1.0)
@@ -127,6 +129,11 @@ class Viewer:
             self._feet_button = gui.add_button("Axle b = distance between the feet")
             self._feet_button.on_click(lambda _e: self.paths.set_axle(None))
             self._fit_text = gui.add_markdown("")
+
+    def _reset_with_motion_zero(self) -> None:
+        zero = {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
+        self.store.update({"motion": zero}, BUTTON_SOURCE)
+        self.sim.command(Command.RESET)
 
     def _start_axle_fit(self) -> None:
         self._fit_button.disabled = True
@@ -289,6 +296,7 @@ class Viewer:
         _assign(self._status, "content", text)
         _assign(self._fell_notice, "visible", s.fell)
         _assign(self._fell_reset, "visible", s.fell)
+        _assign(self._fell_reset_zero, "visible", s.fell)
 
 
 def _assign(handle: Any, prop: str, value: Any) -> None:
