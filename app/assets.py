@@ -6,8 +6,11 @@ importlib.resources, so a wheel works as the source tree does (docs/DESIGN.md §
 
 from __future__ import annotations
 
+import os
 from importlib.resources import files
 from pathlib import Path
+
+STATIC_DIR_ENV = "ARTRO_STATIC_DIR"  # serve the page from this folder instead (development)
 
 
 def _package_dir(package: str) -> Path:
@@ -35,5 +38,12 @@ def builtin_presets_dir() -> Path:
 
 
 def static_dir() -> Path:
-    """The dashboard page served at `/`."""
+    """The dashboard page served at `/`; `$ARTRO_STATIC_DIR`, when set, overrides it (a page
+    being edited in another checkout, served by an installed `artro`)."""
+    override = os.environ.get(STATIC_DIR_ENV)
+    if override:
+        path = Path(override)
+        if not (path / "index.html").is_file():
+            raise RuntimeError(f"{STATIC_DIR_ENV}={override!r} has no index.html")
+        return path
     return _package_dir("app.static")

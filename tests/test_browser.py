@@ -1,12 +1,17 @@
 """The dashboard in a real headless Chromium (Debian's `chromium`, driven by Playwright), against a
 real server with the viser 3D view running."""
 
+import contextlib
+import io
 import json
 import re
+from collections.abc import Iterator
 
 import httpx
+import numpy as np
 import pytest
-from playwright.sync_api import expect, sync_playwright
+from PIL import Image
+from playwright.sync_api import FrameLocator, Page, expect, sync_playwright
 
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
@@ -14,23 +19,60 @@ ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
 
 
+SIZES = [(1600, 1000), (1280, 720)]
+
+
 @pytest.fixture(scope="module")
-def dashboard(tmp_path_factory):
-    """(page, http client) of the dashboard page loaded in headless Chromium."""
+def server(tmp_path_factory):
+    """(base_url, http client) of a live server with the viser 3D view."""
     with running_server(tmp_path_factory.mktemp("data"), viewer=True) as (base_url, _app):
-        with sync_playwright() as p, httpx.Client(base_url=base_url, timeout=10) as http:
-            browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-            context = browser.new_context(
-                viewport={"width": 1600, "height": 1000}, accept_downloads=True
-            )
-            page = context.new_page()
-            errors: list[str] = []
-            page.on("pageerror", lambda exc: errors.append(str(exc)))
-            http.patch("/api/params", json={"motion": {"a_p": 0.07}})  # walk: pulses change
-            page.goto(base_url + "/")
-            yield page, http
-            assert errors == [], f"JavaScript errors on the page: {errors}"
-            browser.close()
+        with httpx.Client(base_url=base_url, timeout=10) as http:
+            yield base_url, http
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        yield browser
+        browser.close()
+
+
+@contextlib.contextmanager
+def open_page(browser, base_url: str, width: int, height: int) -> Iterator[Page]:
+    """A fresh page of the dashboard at this window size; fails on any JavaScript error."""
+    context = browser.new_context(viewport={"width": width, "height": height})
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(base_url + "/")
+    yield page
+    context.close()
+    assert errors == [], f"JavaScript errors on the page: {errors}"
+
+
+@pytest.fixture(scope="module")
+def dashboard(server, browser):
+    """(page, http client) of the dashboard page at 1600 x 1000, the robot walking."""
+    base_url, http = server
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})  # walk: pulses change
+    context = browser.new_context(viewport={"width": 1600, "height": 1000}, accept_downloads=True)
+    page = context.new_page()
+    errors: list[str] = []
+    page.on("pageerror", lambda exc: errors.append(str(exc)))
+    page.goto(base_url + "/")
+    yield page, http
+    context.close()
+    assert errors == [], f"JavaScript errors on the page: {errors}"
+
+
+def expand_viser_panel(viser: FrameLocator) -> None:
+    """The 3D view's control panel starts minimized at the right edge: open it."""
+    rail = viser.locator('[data-dock-tab="viser-control-panel"]')
+    label = viser.locator("label", has_text="(+ forward)")
+    expect(rail.or_(label).first).to_be_visible(timeout=30_000)
+    if not label.is_visible():
+        rail.click()
 
 
 def test_the_scope_redraws_with_changing_pulse_widths(dashboard):
@@ -62,6 +104,7 @@ def test_the_scope_redraws_with_changing_pulse_widths(dashboard):
 def test_a_parameter_changed_through_the_api_moves_the_viser_slider(dashboard):
     page, http = dashboard
     viser = page.frame_locator("#viser-frame")
+    expand_viser_panel(viser)
     label = viser.locator("label", has_text="(+ forward)")
     expect(label).to_be_visible(timeout=30_000)
     slider = viser.locator(f'[id="{label.get_attribute("for")}"] [role="slider"]')
@@ -74,6 +117,7 @@ def test_a_parameter_changed_through_the_api_moves_the_viser_slider(dashboard):
 def test_a_viser_slider_change_reaches_the_store_once_without_echo(dashboard):
     page, http = dashboard
     viser = page.frame_locator("#viser-frame")
+    expand_viser_panel(viser)
     label = viser.locator("label", has_text="(+ steps right)")
     expect(label).to_be_visible(timeout=30_000)
     row = label.locator("xpath=ancestor::div[contains(@class, 'mantine-Flex-root')][1]")
@@ -81,8 +125,9 @@ def test_a_viser_slider_change_reaches_the_store_once_without_echo(dashboard):
     version = http.get("/api/params").json()["version"]
     number.fill("0.05")
     number.press("Enter")
-    # the page's own parameter panel polls the API: it shows the value once the store has it
-    expect(page.locator("#param-a_r")).to_contain_text("0.050", timeout=10_000)
+    # the page's motion controls poll the API: they show the value once the store has it
+    expect(page.locator("#motion-a_r-number")).to_have_value("0.05", timeout=10_000)
+    expect(page.locator("#motion-a_r")).to_have_value("0.05")
     after = http.get("/api/params").json()
     assert after["motion"]["a_r"] == pytest.approx(0.05)
     assert after["version"] == version + 1  # one change, no echo back from the slider
@@ -139,3 +184,275 @@ def test_the_prediction_axle_set_on_the_page(dashboard):
     page.locator("#axle-cm").fill("")
     page.locator("#axle-set").click()
     expect(page.locator("#path-readout-bsrc")).to_have_text("(feet)", timeout=10_000)
+
+
+# --- the first ten minutes (issue 9) --------------------------------------------------------------
+
+ROBOT_MIN_PIXELS = 100  # the box is ~380 px at both sizes; covered by a panel: 0-4
+
+
+def robot_pixels(png: bytes) -> int:
+    """Pixels of the brown box on the robot's trunk (MJCF material "dummy", rgba 0.55 0.35 0.20):
+    no other colour in the 3D view is like it, and the follow camera keeps it in the middle."""
+    img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    r, g, b = img[..., 0], img[..., 1], img[..., 2]
+    brown = (r - b > 45) & (r > g + 15) & (g > b + 10) & (r > 70) & (r < 230)
+    return int(brown.sum())
+
+
+def wait_until(page: Page, condition, what: str, attempts: int = 100):
+    """Poll `condition()` (every 200 ms of page time) until it returns something truthy."""
+    for _ in range(attempts):
+        result = condition()
+        if result:
+            return result
+        page.wait_for_timeout(200)
+    raise AssertionError(f"never happened: {what}")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("width", "height"), SIZES, ids=lambda v: str(v))
+def test_the_robot_and_the_motion_controls_are_in_view_at_once(server, browser, width, height):
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        for key in ("a_p", "a_r", "a_y", "ca"):
+            expect(page.locator(f"#motion-{key}")).to_be_in_viewport(timeout=10_000)
+        frame = page.locator("#viser-frame")
+        expect(frame).to_be_in_viewport()
+        box = frame.bounding_box()
+        assert box and box["width"] >= 576, "narrower, viser switches to its phone layout"
+        viser = page.frame_locator("#viser-frame")
+        expect(viser.locator('[data-dock-tab="viser-control-panel"]')).to_be_visible(timeout=30_000)
+        wait_until(
+            page,
+            lambda: robot_pixels(frame.screenshot()) >= ROBOT_MIN_PIXELS,
+            f"the robot drawn in the middle of the 3D view at {width}x{height}",
+        )
+
+
+def test_the_page_motion_controls_drive_the_simulation(dashboard):
+    page, http = dashboard
+    http.patch("/api/params", json={"motion": {"a_p": 0.0, "ca": 0.0}})
+    slider = page.locator("#motion-a_p")
+    expect(slider).to_have_value("0", timeout=10_000)
+    slider.focus()
+    for _ in range(4):
+        slider.press("ArrowRight")  # a step of 0.005 each
+    expect(page.locator("#motion-a_p-number")).to_have_value("0.02")
+    params = wait_until(
+        page,
+        lambda: (p := http.get("/api/params").json())["motion"]["a_p"] == 0.02 and p,
+        "a_p = 0.02 in the store",
+    )
+    wait_until(
+        page,
+        lambda: http.get("/api/state").json()["params_version_applied"] >= params["version"],
+        "the simulation runs with the new motion",
+    )
+    # the 3D view follows, and nothing echoes back: the version stays
+    viser = page.frame_locator("#viser-frame")
+    expand_viser_panel(viser)
+    label = viser.locator("label", has_text="(+ forward)")
+    vslider = viser.locator(f'[id="{label.get_attribute("for")}"] [role="slider"]')
+    expect(vslider).to_have_attribute("aria-valuenow", "0.02", timeout=10_000)
+    expect(page.locator("#sim-version")).to_have_text(f"v{params['version']}", timeout=10_000)
+    assert http.get("/api/params").json()["version"] == params["version"]
+    # a typed value, then one outside the preset's known-good band: applied, and marked
+    number = page.locator("#motion-ca-number")
+    number.fill("0.05")
+    number.press("Enter")
+    wait_until(page, lambda: http.get("/api/params").json()["motion"]["ca"] == 0.05, "CA 0.05")
+    expect(page.locator("#motion-ca-band")).to_contain_text("safe")
+    number.fill("0.3")
+    number.press("Enter")
+    wait_until(page, lambda: http.get("/api/params").json()["motion"]["ca"] == 0.3, "CA 0.3")
+    expect(page.locator("#motion-ca-band")).to_contain_text("outside")
+    expect(page.locator("#motion-row-ca")).to_have_class(re.compile(r"\boutside\b"))
+    http.patch("/api/params", json={"motion": {"a_p": 0.07, "ca": 0.0}})
+
+
+def test_the_first_steps_line_goes_once_the_robot_walks(server, browser):
+    base_url, http = server
+    http.patch("/api/params", json={"motion": {"a_p": 0.0, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    with open_page(browser, base_url, 1280, 720) as page:
+        hint = page.locator("#first-steps")
+        expect(hint).to_be_visible(timeout=10_000)
+        expect(hint).to_be_in_viewport()
+        page.locator("#motion-a_p").focus()
+        page.locator("#motion-a_p").press("ArrowRight")
+        expect(hint).to_be_hidden(timeout=10_000)
+        assert http.get("/api/params").json()["motion"]["a_p"] == 0.005
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+
+
+# --- falls ----------------------------------------------------------------------------------------
+
+
+def test_a_fall_is_shown_and_reset_with_motion_0_recovers(dashboard):
+    page, http = dashboard
+    # from standing, this throws `tuned` within ~1 s (`artro run --motion 0.3,0.3,0.6`)
+    http.patch("/api/params", json={"motion": {"a_p": 0.3, "a_r": 0.3, "a_y": 0.6, "ca": 0.0}})
+    http.post("/api/sim/reset")
+    notice = page.locator("#fall-notice")
+    wait_until(page, lambda: http.get("/api/state").json()["fell"], "the robot falls", 150)
+    expect(notice).to_be_visible(timeout=10_000)  # a_r = 0.3 throws `tuned` within ~1 s
+    expect(page.locator("#sim-rtf")).to_have_text("fallen — stopped")
+    expect(page.locator("#fall-what")).to_contain_text("a_r +0.300, a_y +0.600")
+    expect(page.locator("#path-readout-v")).to_have_text("—")
+    expect(page.locator("#path-readout-lat")).to_have_text("—")
+    # undoing the motion that threw it: the notice names the motion now in use
+    page.locator("#params-undo").click()
+    expect(page.locator("#fall-now")).to_contain_text("a_r 0.000", timeout=10_000)
+    expect(page.locator("#fall-reset")).to_contain_text("new motion")
+    page.locator("#params-redo").click()
+    expect(page.locator("#fall-now")).to_be_hidden(timeout=10_000)
+    page.locator("#fall-reset-zero").click()
+    expect(notice).to_be_hidden(timeout=15_000)
+    expect(page.locator("#sim-rtf")).to_contain_text("running", timeout=10_000)
+    motion = http.get("/api/params").json()["motion"]
+    assert motion == {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
+    state = http.get("/api/state").json()
+    assert not state["fell"] and state["resets"] >= 1
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+
+
+# --- the path view --------------------------------------------------------------------------------
+
+
+def test_clear_empties_the_path_plot(dashboard):
+    page, http = dashboard
+    page.wait_for_function("window.artro.path && window.artro.path.actual > 20", timeout=30_000)
+    before = http.get("/api/state").json()["sim_time_s"]
+    page.locator("#path-clear").click()
+    expect(page.locator("#path-message")).to_have_class(OK, timeout=10_000)
+    page.wait_for_function("window.artro.path.actual < 10", timeout=10_000)
+    path = http.get("/api/path").json()
+    assert path["actual"] and path["actual"][0][0] >= before
+    # the plot fills again as the robot walks on, and the page shows the per-cycle means
+    page.wait_for_function("window.artro.path.actual > 20", timeout=30_000)
+
+
+def test_an_import_with_four_errors_shows_them_all_with_the_file_name(dashboard, tmp_path):
+    page, http = dashboard
+    before = http.get("/api/params").json()
+    bad = tmp_path / "four-wrong.json"
+    wrong = {"motion": {"a_p": 2}, "gait": {"swing": {"v": 99}, "short": {"v": "x"}}}
+    wrong["gait"]["load"] = {"v": -1}
+    bad.write_text(json.dumps(wrong))
+    page.locator("#import-file").set_input_files(str(bad))
+    message = page.locator("#import-message")
+    expect(message).to_have_class(ERROR, timeout=10_000)
+    expect(message).to_contain_text("four-wrong.json")
+    expect(message).to_contain_text("4 problems")
+    problems = page.locator("#import-problems li")
+    expect(problems).to_have_count(4)
+    for path in ("motion.a_p", "gait.swing.v", "gait.short.v", "gait.load.v"):
+        expect(page.locator("#import-problems")).to_contain_text(path)
+    assert http.get("/api/params").json() == before
+
+
+def test_the_api_docs_render_with_the_network_blocked(server, browser):
+    base_url, _http = server
+    context = browser.new_context(viewport={"width": 1280, "height": 720})
+    blocked: list[str] = []
+
+    def only_localhost(route):
+        if route.request.url.startswith(("http://127.0.0.1", "http://localhost", "data:")):
+            route.continue_()
+        else:
+            blocked.append(route.request.url)
+            route.abort()
+
+    context.route("**/*", only_localhost)
+    page = context.new_page()
+    page.goto(base_url + "/docs")
+    expect(page.locator(".swagger-ui .info .title")).to_contain_text(
+        "ArtRo Gait Studio", timeout=20_000
+    )
+    expect(page.locator(".opblock-summary-path", has_text="/api/params").first).to_be_visible()
+    context.close()
+    assert blocked == [], f"/docs asked the network for {blocked}"
+
+
+def test_a_builtin_preset_loads_with_the_current_motion_kept(dashboard):
+    page, http = dashboard
+    http.patch("/api/params", json={"motion": {"a_p": 0.05, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    expect(page.locator("#preset-keep-motion")).to_be_checked()
+    page.locator('button[data-preset="paper"]', has_text="Load").click()
+    expect(page.locator("#preset-message")).to_have_class(OK, timeout=10_000)
+    expect(page.locator("#preset-message")).to_contain_text("motion kept")
+    params = http.get("/api/params").json()
+    assert params["name"] == "paper" and params["motion"]["a_p"] == 0.05
+    expect(page.locator("#params-name")).to_have_text("paper", timeout=10_000)
+    http.post("/api/presets/tuned/load", params={"keep_motion": "true"})
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+
+
+NESTED_SCROLL = """() => {
+  // every visible control whose way to the page passes through a box that scrolls on its own
+  const bad = [];
+  for (const el of document.querySelectorAll("button, input, select, a.button, label.file")) {
+    if (!el.offsetParent) continue;
+    for (let p = el.parentElement; p && p !== document.body; p = p.parentElement) {
+      const style = getComputedStyle(p);
+      if (/(auto|scroll)/.test(style.overflowY) && p.scrollHeight > p.clientHeight + 1) {
+        bad.push(el.id || el.textContent.trim());
+        break;
+      }
+    }
+  }
+  return bad;
+}"""
+
+
+@pytest.mark.parametrize(("width", "height"), SIZES, ids=lambda v: str(v))
+def test_every_control_is_reachable_without_nested_scroll_bars(server, browser, width, height):
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        expect(page.locator("#motion-a_p")).to_be_visible(timeout=10_000)
+        page.wait_for_function("window.artro.path && window.artro.path.actual > 0")
+        assert page.evaluate(NESTED_SCROLL) == []
+        for button in ("#axle-set", "#axle-fit", "#path-clear", "#path-anchor"):
+            page.locator(button).scroll_into_view_if_needed()
+            expect(page.locator(button)).to_be_in_viewport()
+
+
+def test_the_roll_view_plots_pulse_widths_with_cursors(dashboard):
+    page, _http = dashboard
+    page.locator("#scope-mode-roll").click()
+    page.wait_for_function("window.artro.roll && window.artro.roll.points > 50", timeout=20_000)
+    assert page.evaluate("window.artro.roll.series") == 4  # the default servo lanes
+    expect(page.locator("#roll-legend")).to_contain_text("l_hip_pitch")
+    plot = page.locator("#roll-plot .u-over")
+    box = plot.bounding_box()
+    assert box is not None
+    plot.click(position={"x": box["width"] * 0.3, "y": box["height"] / 2})
+    plot.click(position={"x": box["width"] * 0.7, "y": box["height"] / 2})
+    cursors = page.locator("#scope-cursors")
+    expect(cursors).to_contain_text("Δt")
+    expect(cursors).to_contain_text("Hz")
+    page.locator("#scope-freeze").click()
+    expect(page.locator("#scope-run")).to_have_text("STOP")
+    page.locator("#scope-freeze").click()
+    page.locator("#scope-mode-single").click()
+    expect(page.locator("#scope-canvas")).to_be_visible()
+
+
+def test_the_cycle_view_lays_the_right_leg_over_the_left(dashboard):
+    page, http = dashboard
+    http.patch("/api/params", json={"motion": {"a_p": 0.07, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    page.locator("#scope-mode-cycle").click()
+    expect(page.locator("#roll-unit")).to_have_value("deg")
+    page.wait_for_function("window.artro.cycle && window.artro.cycle.cycles >= 3", timeout=30_000)
+    expect(page.locator("#cycle-info")).to_contain_text("whole cycles folded")
+    means = page.evaluate("window.artro.cycle.means")
+    assert set(means) == {"l_hip_pitch", "l_knee", "r_hip_pitch", "r_knee"}
+    left = np.array(means["l_knee"], dtype=float)
+    right = np.array(means["r_knee"], dtype=float)
+    swing = np.nanmax(left) - np.nanmin(left)
+    assert swing > 10  # degrees: the knee bends in every step
+    # `tuned` walks mirror-symmetrically: shifted by half a cycle, the right knee follows the left
+    assert np.sqrt(np.nanmean((left - right) ** 2)) < 0.25 * swing
+    # unshifted, they would be half a cycle apart
+    assert np.sqrt(np.nanmean((left - np.roll(right, 25)) ** 2)) > 0.25 * swing
+    page.locator("#scope-mode-single").click()

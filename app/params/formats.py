@@ -31,7 +31,14 @@ _TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
 
 
 class ParameterImportError(ValueError):
-    """An imported parameter set was rejected; the message says why and what is allowed."""
+    """An imported parameter set was rejected; the message says why and what is allowed.
+
+    `problems` lists every field that is wrong, as {"loc": [...], "msg": ...}, when the document
+    could be read at all (the message then names them all too)."""
+
+    def __init__(self, message: str, problems: list[dict[str, Any]] | None = None) -> None:
+        super().__init__(message)
+        self.problems = problems or []
 
 
 class ImportTooLarge(ParameterImportError):
@@ -280,7 +287,49 @@ def parse_import(
             raise ParameterImportError(f"{key} must be a string, got {data[key]!r}")
     try:
         return ParameterSet.from_dict(data)
-    except ValueError as exc:
-        raise ParameterImportError(f"invalid parameter set: {exc}") from exc
-    except (TypeError, OverflowError) as exc:
-        raise ParameterImportError(f"invalid parameter set: {exc}") from exc
+    except (ValueError, TypeError, OverflowError) as exc:
+        problems = every_problem(data)
+        if len(problems) > 1:
+            listed = "; ".join(f"{'.'.join(map(str, p['loc']))}: {p['msg']}" for p in problems)
+            message = f"invalid parameter set, {len(problems)} problems: {listed}"
+            raise ParameterImportError(message, problems) from exc
+        raise ParameterImportError(f"invalid parameter set: {exc}", problems) from exc
+
+
+def every_problem(data: dict[str, Any]) -> list[dict[str, Any]]:
+    """Every wrong field of a parameter-set document, not only the first: unknown top-level keys,
+    then what the schema's patch model (app/params/schema.py) finds in `motion` and `gait`."""
+    from pydantic import ValidationError
+
+    from app.params.document import TOP_LEVEL_KEYS
+    from app.params.schema import ParamsPatchBody
+
+    problems: list[dict[str, Any]] = [
+        {"loc": [key], "msg": f"unknown key; allowed: {', '.join(TOP_LEVEL_KEYS)}"}
+        for key in data
+        if key not in TOP_LEVEL_KEYS
+    ]
+    try:
+        ParamsPatchBody.model_validate({k: data[k] for k in ("motion", "gait") if k in data})
+    except ValidationError as exc:
+        problems += [
+            {"loc": list(e["loc"]), "msg": e["msg"] + _allowed(e["loc"])} for e in exc.errors()
+        ]
+    return problems
+
+
+def _allowed(loc: tuple[Any, ...]) -> str:
+    """' (allowed: 1.5 to 6.0)' for a numeric field at ('gait', 'swing', 'v'), ('motion', 'a_p')."""
+    cls = Motion if loc[:1] == ("motion",) and len(loc) == 2 else None
+    if loc[:1] == ("gait",) and len(loc) == 3:
+        try:
+            cls = group_class(str(loc[1]))
+        except (KeyError, ValueError):
+            return ""
+    if cls is None:
+        return ""
+    for name, _default, meta in describe_fields(cls):
+        if name == loc[-1] and "min" in meta:
+            unit = "" if meta["unit"] == "1" else f" {meta['unit']}"
+            return f" (allowed: {meta['min']} to {meta['max']}{unit})"
+    return ""

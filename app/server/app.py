@@ -14,13 +14,17 @@ from typing import Any
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.openapi.docs import get_swagger_ui_html
+from fastapi.responses import HTMLResponse, JSONResponse
 from fastapi.staticfiles import StaticFiles
 
 from app.assets import static_dir
 from app.params.document import project_version
 from app.server.api import params, paths, presets, scope, sim
 from app.server.services import ServerConfig, Services
+
+VENDOR = "/vendor"  # third-party files served with the page (static/vendor/)
+FAVICON = "data:image/svg+xml,%3Csvg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 16 16'%3E%3Cpath d='M1 12h3V4h4v8h3V4h4' fill='none' stroke='%23f2d04b' stroke-width='2'/%3E%3C/svg%3E"  # noqa: E501
 
 
 def create_app(config: ServerConfig | None = None) -> FastAPI:
@@ -42,7 +46,20 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
         version=project_version(),
         description="Tune the ArtRo biped's gait in a real-time MuJoCo simulation.",
         lifespan=lifespan,
+        docs_url=None,  # served below from the page's own files: /docs works offline
+        redoc_url=None,
     )
+
+    @app.get("/docs", include_in_schema=False)
+    async def docs() -> HTMLResponse:
+        """Swagger UI from static/vendor/swagger-ui (no CDN)."""
+        return get_swagger_ui_html(
+            openapi_url=app.openapi_url or "/openapi.json",
+            title=f"{app.title} — API",
+            swagger_js_url=f"{VENDOR}/swagger-ui/swagger-ui-bundle.js",
+            swagger_css_url=f"{VENDOR}/swagger-ui/swagger-ui.css",
+            swagger_favicon_url=FAVICON,
+        )
 
     @app.exception_handler(RequestValidationError)
     async def invalid_request(_request: Request, exc: RequestValidationError) -> JSONResponse:

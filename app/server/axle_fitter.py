@@ -15,6 +15,7 @@ class AxleFitter:
     def __init__(self) -> None:
         self._busy = threading.Lock()
         self.last: AxleFitResult | None = None
+        self.fitted_gait: GaitParams | None = None  # the gait whose b_eff the paths use
 
     def fit(self, params: GaitParams, motion: Motion, paths: PathTracker) -> AxleFitResult:
         """Fit, and let `paths` predict with b_eff when it applies."""
@@ -26,5 +27,10 @@ class AxleFitter:
             self._busy.release()
         if self.last.applies:
             assert self.last.axle_eff_m is not None
+            self.fitted_gait = params
             paths.set_axle(self.last.axle_eff_m, "fitted")
         return self.last
+
+    def stale(self, axle_source: str, gait: GaitParams) -> bool:
+        """A fitted axle belongs to the gait it was fitted for: another gait makes it stale."""
+        return axle_source == "fitted" and self.fitted_gait not in (None, gait)

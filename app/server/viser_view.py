@@ -63,7 +63,11 @@ class Viewer:
         self.axle_fitter = axle_fitter
         sim.publish_poses = True
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
-        self.server.gui.configure_theme(control_width="large")
+        # the panel is docked at the right edge and starts minimized: it never covers the robot,
+        # which the follow camera keeps in the middle (the page has the motion controls)
+        self.server.gui.configure_theme(control_width="medium", show_share_button=False)
+        self.server.gui.main_panel.dock_right()
+        self.server.gui.main_panel.minimize()
         self.scene = mjviser.ViserMujocoScene(self.server, model, num_envs=1)
         # a 35 cm robot: start close, looking at the trunk from the front left
         self.server.initial_camera.position = (0.55, 0.45, 0.12)
@@ -97,6 +101,8 @@ class Viewer:
             self._fell_notice = gui.add_markdown("**The robot has fallen.**", visible=False)
             self._fell_reset = gui.add_button("Reset the robot", visible=False, color="red")
             self._fell_reset.on_click(lambda _e: self.sim.command(Command.RESET))
+            self._fell_reset_zero = gui.add_button("Reset with motion 0", visible=False)
+            self._fell_reset_zero.on_click(lambda _e: self._reset_with_motion_zero())
             pause = gui.add_button_group("Run", ("Pause", "Resume", "Step", "Reset"))
             pause.on_click(lambda e: self.sim.command(Command(e.target.value.lower())))
             speed = gui.add_slider("Speed (x real time)", 0.25, 4.0, 0.25, 1.0)
@@ -123,6 +129,11 @@ class Viewer:
             self._feet_button = gui.add_button("Axle b = distance between the feet")
             self._feet_button.on_click(lambda _e: self.paths.set_axle(None))
             self._fit_text = gui.add_markdown("")
+
+    def _reset_with_motion_zero(self) -> None:
+        zero = {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
+        self.store.update({"motion": zero}, BUTTON_SOURCE)
+        self.sim.command(Command.RESET)
 
     def _start_axle_fit(self) -> None:
         self._fit_button.disabled = True
@@ -228,6 +239,10 @@ class Viewer:
                 pts = np.concatenate([xy, np.full((len(xy), 1), PATH_Z_M, np.float32)], axis=1)
                 handle.points = np.stack([pts[:-1], pts[1:]], axis=1)
         radius = view["turn_radius_m"]
+        gait = self.store.snapshot().gait
+        stale = (
+            ", stale: the gait changed" if self.axle_fitter.stale(view["axle_source"], gait) else ""
+        )
         _assign(
             self._path_text,
             "content",
@@ -235,7 +250,7 @@ class Viewer:
                 f"<span style='color:rgb{ACTUAL_RGB}'>■ actual</span> "
                 f"<span style='color:rgb{PREDICTED_RGB}'>■ predicted</span>  \n"
                 f"V = {100 * view['speed_m_s']:.2f} cm/s ({view['speed_source']}), "
-                f"b = {100 * view['axle_m']:.1f} cm ({view['axle_source']})  \n"
+                f"b = {100 * view['axle_m']:.1f} cm ({view['axle_source']}{stale})  \n"
                 f"turn radius: {'straight' if radius is None else f'{radius:.2f} m'}  \n"
                 f"heading rate: predicted {view['predicted_turn_deg_s']:+.1f} °/s, "
                 f"actual {view['actual_turn_deg_s']:+.1f} °/s"
@@ -269,17 +284,19 @@ class Viewer:
 
     def _update_status(self) -> None:
         s = self.sim.status()
-        rtf = "–" if s.rtf is None else f"{s.rtf:.2f}"
-        behind = " — **behind real time**" if s.behind else ""
-        state = "paused" if s.paused else ("fallen" if s.fell else "running")
-        _assign(
-            self._status,
-            "content",
-            f"t = {s.sim_time_s:.1f} s, {state}, real-time factor {rtf} "
-            f"(target {s.speed:g}×){behind}",
-        )
+        if s.fell:
+            text = f"t = {s.sim_time_s:.1f} s, **fallen — stopped**"
+        elif s.paused:
+            text = f"t = {s.sim_time_s:.1f} s, paused"
+        else:
+            rtf = "–" if s.rtf is None else f"{s.rtf:.2f}"
+            behind = " — **behind real time**" if s.behind else ""
+            text = f"t = {s.sim_time_s:.1f} s, running, real-time factor {rtf} "
+            text += f"(target {s.speed:g}×){behind}"
+        _assign(self._status, "content", text)
         _assign(self._fell_notice, "visible", s.fell)
         _assign(self._fell_reset, "visible", s.fell)
+        _assign(self._fell_reset_zero, "visible", s.fell)
 
 
 def _assign(handle: Any, prop: str, value: Any) -> None:

@@ -3,12 +3,16 @@
 // server's human-readable `detail` (a string, or FastAPI's list of validation errors).
 
 export class ApiError extends Error {
-  constructor(status, detail) {
+  constructor(status, detail, raw = null) {
     super(detail);
     this.status = status;
     this.detail = detail;
+    this.raw = raw; // the server's `detail` as sent: a list of {loc, msg} for validation errors
   }
 }
+
+/** "gait.swing.v" for a FastAPI / import problem's `loc`. */
+export const locText = (loc) => (Array.isArray(loc) ? loc.filter((p) => p !== "body").join(".") : "");
 
 /** Turn FastAPI's `detail` (string | [{loc, msg}, ...] | object) into one readable line. */
 export function formatDetail(detail) {
@@ -50,7 +54,7 @@ async function request(method, path, { json, body, headers } = {}) {
   }
   if (!res.ok) {
     const detail = data && typeof data === "object" && "detail" in data ? data.detail : data;
-    throw new ApiError(res.status, formatDetail(detail) || `${res.status} ${res.statusText}`);
+    throw new ApiError(res.status, formatDetail(detail) || `${res.status} ${res.statusText}`, detail);
   }
   return data;
 }

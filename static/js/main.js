@@ -1,5 +1,7 @@
 // Entry point: wire up every panel of the dashboard.
 
+import { initFall } from "./fall.js";
+import { initMotion } from "./motion.js";
 import { initParams, refreshParams } from "./params.js";
 import { initPaths } from "./paths.js";
 import { initPresets } from "./presets.js";
@@ -13,6 +15,8 @@ initViser();
 initScope();
 initPaths();
 initParams();
+initMotion();
+initFall();
 initPresets();
 initTransfer();
 refreshParams();

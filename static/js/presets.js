@@ -54,9 +54,11 @@ function row(p) {
 }
 
 async function load_(name) {
+  const keep = $("preset-keep-motion").checked;
   try {
-    const p = await api.post(`/api/presets/${encodeURIComponent(name)}/load`);
-    setMessage($("preset-message"), `loaded '${name}' (parameters v${p.version})`, "ok");
+    const p = await api.post(`/api/presets/${encodeURIComponent(name)}/load?keep_motion=${keep}`);
+    const how = keep ? "its gait, the motion kept" : "its gait and motion";
+    setMessage($("preset-message"), `loaded '${name}': ${how} (parameters v${p.version})`, "ok");
     refreshParams();
   } catch (err) {
     setMessage($("preset-message"), err.message, "error");

@@ -3,7 +3,9 @@
 // animation frame, with the newest frame (or the frozen one).
 
 import { api } from "./api.js";
-import { RollBuffer, drawRoll } from "./roll.js";
+import { RollBuffer } from "./roll.js";
+import { CyclePlot } from "./cycle-plot.js";
+import { RollPlot } from "./roll-plot.js";
 import { drawSingleFrame, singleFrameMinHeight } from "./scope.js";
 import { ScopeFeed } from "./scope-feed.js";
 import { $, fitCanvas, h, JOINTS, SERVOS, servoColor } from "./util.js";
@@ -25,6 +27,8 @@ const state = {
 };
 const buffer = new RollBuffer(Math.ceil((ROLL_WINDOW_S / 0.02) * 1.2));
 let feed;
+let roll;
+let cycle;
 let drawPending = false;
 
 export function initScope() {
@@ -44,6 +48,9 @@ export function initScope() {
     requestDraw();
   });
   $("scope-canvas").addEventListener("click", onCanvasClick);
+  roll = new RollPlot($("roll-plot"), $("roll-legend"), setCursor);
+  cycle = new CyclePlot($("cycle-plot"), $("cycle-info"));
+  $("scope-mode-cycle").addEventListener("click", () => setMode("cycle"));
   new ResizeObserver(() => requestDraw()).observe($("scope-wrap"));
 
   feed = new ScopeFeed({
@@ -126,11 +133,15 @@ function buildServoPicker() {
 function setMode(mode) {
   state.mode = mode;
   state.cursors = { a: null, b: null };
-  $("scope-mode-single").classList.toggle("active", mode === "single");
-  $("scope-mode-roll").classList.toggle("active", mode === "roll");
-  $("scope-mode-single").setAttribute("aria-pressed", String(mode === "single"));
-  $("scope-mode-roll").setAttribute("aria-pressed", String(mode === "roll"));
-  $("roll-unit-wrap").hidden = mode !== "roll";
+  for (const m of ["single", "roll", "cycle"]) {
+    $(`scope-mode-${m}`).classList.toggle("active", mode === m);
+    $(`scope-mode-${m}`).setAttribute("aria-pressed", String(mode === m));
+  }
+  $("roll-unit-wrap").hidden = mode === "single";
+  if (mode === "cycle" && state.unit === "us") {
+    state.unit = "deg"; // angles compare left with right; pulse widths carry each servo's direction
+    $("roll-unit").value = "deg";
+  }
   updateCursorReadout();
   requestDraw();
 }
@@ -162,23 +173,32 @@ function draw() {
   const canvas = $("scope-canvas");
   const wrap = $("scope-wrap");
   const frame = state.frozen ? state.frozenFrame : state.latest;
+  const opts = { servos: state.servos, cursors: state.cursors, unit: state.unit, windowS: ROLL_WINDOW_S };
+  canvas.hidden = state.mode !== "single";
+  $("roll-wrap").hidden = state.mode !== "roll";
+  $("cycle-wrap").hidden = state.mode !== "cycle";
+  if (state.mode === "cycle") {
+    cycle.update(state.frozen ? state.frozenSamples || [] : buffer.toArray(), opts, state.frozen);
+    state.axis = null;
+    updateFrameInfo(frame);
+    return;
+  }
+  if (state.mode === "roll") {
+    roll.update(state.frozen ? state.frozenSamples || [] : buffer.toArray(), opts);
+    state.axis = null; // the roll plot reports its clicks itself
+    updateFrameInfo(frame);
+    return;
+  }
   // the single-frame view grows taller than the panel when many servo lanes are chosen
-  const need = state.mode === "single" ? singleFrameMinHeight(frame, state.servos.length) : 0;
+  const need = singleFrameMinHeight(frame, state.servos.length);
   canvas.style.height = `${Math.max(wrap.clientHeight, need)}px`;
   const { ctx, w, h: hgt } = fitCanvas(canvas);
-  const opts = { servos: state.servos, cursors: state.cursors, unit: state.unit, windowS: ROLL_WINDOW_S };
-  if (state.mode === "single") {
-    if (!frame) {
-      placeholder(ctx, w, hgt, "waiting for TDM-PWM frames…");
-      state.axis = null;
-    } else {
-      const ax = drawSingleFrame(ctx, w, hgt, frame, opts);
-      state.axis = { x0: ax.x0, x1: ax.x1, toTime: ax.toUs };
-    }
+  if (!frame) {
+    placeholder(ctx, w, hgt, "waiting for TDM-PWM frames…");
+    state.axis = null;
   } else {
-    const samples = state.frozen ? state.frozenSamples || [] : buffer.toArray();
-    const ax = drawRoll(ctx, w, hgt, samples, opts);
-    state.axis = { x0: ax.x0, x1: ax.x1, toTime: ax.toT };
+    const ax = drawSingleFrame(ctx, w, hgt, frame, opts);
+    state.axis = { x0: ax.x0, x1: ax.x1, toTime: ax.toUs };
   }
   updateFrameInfo(frame);
 }
@@ -200,9 +220,13 @@ function onCanvasClick(ev) {
   const rect = ev.currentTarget.getBoundingClientRect();
   const x = ev.clientX - rect.left;
   if (x < ax.x0 || x > ax.x1) return;
-  const t = ax.toTime(x);
+  setCursor(ax.toTime(x), ev.shiftKey);
+}
+
+/** Cursor A at `t`, or B if A is set and B is not (or with shift). */
+function setCursor(t, shiftKey) {
   const c = state.cursors;
-  if (ev.shiftKey || (c.a != null && c.b == null)) c.b = t;
+  if (shiftKey || (c.a != null && c.b == null)) c.b = t;
   else {
     c.a = t;
     c.b = null;
@@ -220,7 +244,7 @@ function updateCursorReadout() {
   const { a, b } = state.cursors;
   const el = $("scope-cursors");
   if (a == null && b == null) {
-    el.textContent = "cursors: click = A, shift-click or 2nd click = B";
+    el.textContent = state.mode === "cycle" ? "cycle view: hover for values" : "cursors: click = A, shift-click or 2nd click = B";
     el.classList.add("dim");
     return;
   }

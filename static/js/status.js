@@ -1,16 +1,20 @@
-// Header: simulation status from GET /api/state (polled at 2 Hz) and the sim controls.
+// Header: simulation status from GET /api/state (polled at 2 Hz, announced as "artro:state") and
+// the sim controls. The state reads "running 1.00× (target 1×)", "paused" or "fallen — stopped":
+// a real-time factor only while the simulation runs, and once its 2 s window has filled.
 
 import { api, poll } from "./api.js";
 import { $, fmt } from "./util.js";
 
 let lastVersion = null;
 let speedBusyUntil = 0; // don't overwrite the speed select right after the user changed it
+const RTF_WINDOW_S = 2; // the server's real-time-factor window (app/server/sim_thread.py)
+const NOTE_MS = 8000; // a status note goes away after this long
+let noteTimer = null;
 
 export function initStatus() {
   for (const action of ["pause", "resume", "step", "reset"]) {
     $(`sim-${action}`).addEventListener("click", () => control(action));
   }
-  $("fallen-reset").addEventListener("click", () => control("reset"));
   $("speed-select").addEventListener("change", async (e) => {
     speedBusyUntil = performance.now() + 1500;
     try {
@@ -36,6 +40,8 @@ async function control(action) {
 function note(text) {
   $("status-note").textContent = text;
   $("status-note").hidden = !text;
+  clearTimeout(noteTimer);
+  if (text) noteTimer = setTimeout(() => note(""), NOTE_MS);
 }
 
 async function refresh() {
@@ -45,18 +51,16 @@ async function refresh() {
   } catch (err) {
     show("link-badge", true, "server offline");
     // what we knew about the simulation is stale now
-    for (const id of ["behind-badge", "fallen-badge", "fallen-reset", "paused-badge", "errors-badge"]) show(id, false);
+    for (const id of ["behind-badge", "paused-badge", "errors-badge"]) show(id, false);
     $("sim-rtf").textContent = "—";
     throw err;
   }
   show("link-badge", false);
   $("sim-time").textContent = `${fmt(s.sim_time_s, 2)} s`;
-  const rtf = s.rtf == null ? "—" : `${fmt(s.rtf, 2)}×`;
-  $("sim-rtf").textContent = `${rtf} / ${fmt(s.speed, 2)}×`;
-  $("sim-rtf").title = "real-time factor achieved / target speed";
-  show("behind-badge", !!s.behind);
-  show("fallen-badge", !!s.fell);
-  show("fallen-reset", !!s.fell);
+  $("sim-rtf").textContent = stateText(s);
+  $("sim-rtf").classList.toggle("bad", !!s.fell);
+  $("sim-rtf").title = "real-time factor achieved (target speed), while the simulation runs";
+  show("behind-badge", !!s.behind && !s.fell && !s.paused);
   show("paused-badge", !!s.paused);
   $("sim-pause").hidden = !!s.paused;
   $("sim-resume").hidden = !s.paused;
@@ -69,10 +73,18 @@ async function refresh() {
     if ([...sel.options].some((o) => o.value === v)) sel.value = v;
   }
   $("sim-version").textContent = `v${s.params_version}`;
+  document.dispatchEvent(new CustomEvent("artro:state", { detail: s }));
   if (s.params_version !== lastVersion) {
     lastVersion = s.params_version;
     document.dispatchEvent(new CustomEvent("artro:params-version", { detail: s.params_version }));
   }
+}
+
+function stateText(s) {
+  if (s.fell) return "fallen — stopped";
+  if (s.paused) return "paused";
+  const rtf = s.rtf == null || s.sim_time_s < RTF_WINDOW_S ? "—" : `${fmt(s.rtf, 2)}×`;
+  return `running ${rtf} (target ${Number(s.speed)}×)`;
 }
 
 function show(id, visible, text) {

@@ -31,11 +31,19 @@ export function fmtSigned(x, digits = 3) {
   return x > 0 ? `+${s}` : s;
 }
 
-/** Set a message element's text and state class ("ok" | "error" | "" for neutral). */
+const EXPIRE_MS = 8000; // an "ok" or "quiet" message goes away after this long
+const expiry = new WeakMap();
+
+/** Set a message element's text and state class ("ok" | "error" | "quiet" | "" for neutral).
+ *  Success and quiet messages expire; errors and progress lines stay until replaced. */
 export function setMessage(el, text, kind = "") {
   el.textContent = text;
   el.classList.remove("ok", "error", "quiet");
   if (kind) el.classList.add(kind);
+  clearTimeout(expiry.get(el));
+  if (text && (kind === "ok" || kind === "quiet")) {
+    expiry.set(el, setTimeout(() => setMessage(el, "", ""), EXPIRE_MS));
+  }
 }
 
 // The 12 servos in the joint order of docs/DESIGN.md §3 (left leg first).

@@ -21,8 +21,18 @@ class AnchorBody(BaseModel):
 
 @router.get("")
 def get_path(services: ServicesDep) -> dict[str, Any]:
-    """Actual and predicted paths as [t, x, y, yaw] rows, with V, b, turn radius and rates."""
-    return services.sim.paths.view()
+    """Actual and predicted paths as [t, x, y, yaw] rows, with V, b, turn radius and rates;
+    `axle_stale` when b is a fitted b_eff of another gait than the one in use."""
+    view = services.sim.paths.view()
+    gait = services.store.snapshot().gait
+    return view | {"axle_stale": services.axle_fitter.stale(view["axle_source"], gait)}
+
+
+@router.post("/clear")
+def clear(services: ServicesDep) -> dict[str, Any]:
+    """Forget the path walked so far; the prediction starts again at the robot's next pose."""
+    services.sim.paths.clear()
+    return {"accepted": "clear"}
 
 
 @router.post("/anchor")

@@ -1,11 +1,19 @@
 """Named presets, their diff, and export/import of parameter sets (JSON, YAML, C header)."""
 
+import dataclasses
 from typing import Annotated, Any
 
 from fastapi import APIRouter, HTTPException, Query, Request, Response
 
 from app.params.document import ParameterSet
-from app.params.formats import FORMATS, MAX_IMPORT_BYTES, ImportTooLarge, export_text, parse_import
+from app.params.formats import (
+    FORMATS,
+    MAX_IMPORT_BYTES,
+    ImportTooLarge,
+    ParameterImportError,
+    export_text,
+    parse_import,
+)
 from app.params.presets import PresetError, PresetNotFound, diff
 from app.server.api.deps import ServicesDep
 from app.server.services import Services
@@ -73,9 +81,18 @@ def delete_preset(name: str, services: ServicesDep) -> dict[str, Any]:
 
 
 @router.post("/presets/{name}/load")
-def load_preset(name: str, services: ServicesDep) -> dict[str, Any]:
+def load_preset(
+    name: str,
+    services: ServicesDep,
+    keep_motion: Annotated[
+        bool, Query(description="keep the motion vector and CA in use; load only the gait")
+    ] = False,
+) -> dict[str, Any]:
     """Make a preset the parameters in use (undoable)."""
-    return services.store.replace(_get(services, name), "preset").to_dict()
+    pset = _get(services, name)
+    if keep_motion:
+        pset = dataclasses.replace(pset, motion=services.store.snapshot().motion)
+    return services.store.replace(pset, "preset").to_dict()
 
 
 @router.get("/export")
@@ -105,4 +122,7 @@ async def import_params(request: Request, services: ServicesDep) -> dict[str, An
         pset = parse_import(bytes(raw), request.headers.get("content-type"))
     except ImportTooLarge as exc:
         raise HTTPException(413, str(exc)) from exc
+    except ParameterImportError as exc:  # every wrong field, with its path, when there are several
+        detail = exc.problems if len(exc.problems) > 1 else str(exc)
+        raise HTTPException(422, detail) from exc
     return services.store.replace(pset, "import").to_dict()

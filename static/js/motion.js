@@ -1,0 +1,168 @@
+// The motion vector and CA as real controls: a slider and a number per field, labelled with what
+// a negative and a positive value does (docs/DESIGN.md §3), the known-good band of the loaded preset shaded
+// on the track (rule in data/safe-bands.json), arrow keys on a focused slider.
+// A change is PATCHed at once (one request in flight, the latest value wins). Values the server
+// reports are shown unless the user is holding that control; the page never writes back what it
+// was told, so nothing echoes (docs/DESIGN.md §9).
+
+import { api } from "./api.js";
+import { $, fmtSigned, h, setMessage } from "./util.js";
+
+const FIELDS = [
+  { key: "a_p", label: "a_p", neg: "◀ backward", pos: "forward ▶" },
+  { key: "a_r", label: "a_r", neg: "◀ steps left", pos: "steps right ▶" },
+  { key: "a_y", label: "a_y", neg: "↺ turns counter-cw", pos: "turns clockwise ↻" },
+  { key: "ca", label: "CA", neg: "↺ right steps longer", pos: "left steps longer ↻" },
+];
+const HOLD_MS = 800; // after a local edit, server values for that field wait this long
+
+const rows = {}; // key -> {range, number, value, field}
+const pending = {};
+const lastLocal = {};
+let holding = null;
+let inFlight = false;
+let bands = null;
+let current = null; // the last parameters the server reported
+let walked = false;
+
+export async function initMotion() {
+  const [schema, bandFile] = await Promise.all([
+    api.get("/api/schema"),
+    api.get("/data/safe-bands.json").catch(() => null),
+  ]);
+  bands = bandFile;
+  const fields = Object.fromEntries(schema.find((g) => g.group === "motion").fields.map((f) => [f.name, f]));
+  $("motion-rows").replaceChildren(...FIELDS.map((f) => buildRow(f, fields[f.key])));
+  $("motion-stop").addEventListener("click", () => FIELDS.forEach((f) => send(f.key, 0)));
+  window.addEventListener("pointerup", () => (holding = null));
+  document.addEventListener("artro:params", (e) => render(e.detail));
+  if (current) render(current);
+}
+
+function buildRow(f, field) {
+  const decimals = Math.max(0, -Math.floor(Math.log10(field.step) + 1e-9));
+  const range = h("input", {
+    type: "range",
+    id: `motion-${f.key}`,
+    min: field.min,
+    max: field.max,
+    step: field.step,
+    value: 0,
+    "aria-label": `${f.label}: ${f.neg} / ${f.pos}`,
+    title: `${field.doc} — eq ${field.eq} [${field.unit}]`,
+  });
+  const number = h("input", {
+    type: "number",
+    id: `motion-${f.key}-number`,
+    min: field.min,
+    max: field.max,
+    step: field.step,
+    value: 0,
+    "aria-label": `${f.label} value`,
+  });
+  const value = h("span", { class: "motion-band dim", id: `motion-${f.key}-band` });
+  const round = (v) => Number(Number(v).toFixed(decimals));
+  range.addEventListener("pointerdown", () => (holding = f.key));
+  range.addEventListener("input", () => {
+    number.value = round(range.value);
+    send(f.key, round(range.value));
+  });
+  number.addEventListener("change", () => {
+    if (number.value === "" || !Number.isFinite(Number(number.value))) return;
+    range.value = number.value;
+    send(f.key, round(number.value));
+  });
+  rows[f.key] = { range, number, value, field, decimals };
+  return h(
+    "div",
+    { class: "motion-row", id: `motion-row-${f.key}` },
+    h("label", { for: `motion-${f.key}`, class: "motion-label", title: range.title }, f.label),
+    h("span", { class: "motion-dir neg" }, f.neg),
+    range,
+    h("span", { class: "motion-dir pos" }, f.pos),
+    number,
+    value,
+  );
+}
+
+function send(key, v) {
+  lastLocal[key] = performance.now();
+  pending[key] = v;
+  markBand(key, v);
+  flush();
+}
+
+async function flush() {
+  if (inFlight || !Object.keys(pending).length) return;
+  const motion = { ...pending };
+  for (const k of Object.keys(pending)) delete pending[k];
+  inFlight = true;
+  try {
+    const p = await api.patch("/api/params", { motion });
+    setMessage($("motion-message"), "", "");
+    document.dispatchEvent(new CustomEvent("artro:params", { detail: p }));
+  } catch (err) {
+    setMessage($("motion-message"), `not applied: ${err.message}`, "error");
+    for (const k of Object.keys(motion)) lastLocal[k] = 0; // show the server's value again
+    if (current) render(current);
+  } finally {
+    inFlight = false;
+    flush();
+  }
+}
+
+function render(p) {
+  if (current && p.version < current.version) return; // an older answer overtaken by a newer one
+  current = p;
+  const now = performance.now();
+  for (const f of FIELDS) {
+    const row = rows[f.key];
+    if (!row) return; // not built yet: initMotion renders `current` when it is
+    const v = p.motion?.[f.key] ?? 0;
+    const busy = holding === f.key || now - (lastLocal[f.key] ?? 0) < HOLD_MS || f.key in pending;
+    if (!busy) {
+      row.range.value = v;
+      if (document.activeElement !== row.number) row.number.value = v;
+      markBand(f.key, v);
+    }
+  }
+  shadeBands(p.name);
+  const m = p.motion || {};
+  if (m.a_p || m.a_r || m.a_y) walked = true;
+  $("first-steps").hidden = walked;
+}
+
+function bandFor(name) {
+  if (!bands) return null;
+  return bands[name] ? { ...bands[name], preset: name } : { ...bands.default, preset: name };
+}
+
+function shadeBands(name) {
+  const band = bandFor(name);
+  for (const f of FIELDS) {
+    const { range, value, field } = rows[f.key];
+    const [lo, hi] = band?.[f.key] ?? [field.min, field.max];
+    const pct = (x) => `${(100 * (x - field.min)) / (field.max - field.min)}%`;
+    range.style.setProperty("--lo", pct(lo));
+    range.style.setProperty("--hi", pct(hi));
+    value.dataset.lo = lo;
+    value.dataset.hi = hi;
+    value.title = band?.verified
+      ? `known-good band of '${band.preset}': ${fmtSigned(lo, 2)} … ${fmtSigned(hi, 2)} (artro bench paper)`
+      : `'${name}' has no measured band: the shaded ${fmtSigned(lo, 2)} … ${fmtSigned(hi, 2)} is where the built-in presets walk`;
+    markBand(f.key, Number(range.value));
+  }
+}
+
+/** Say whether a value is inside the shaded band. */
+function markBand(key, v) {
+  const { value } = rows[key];
+  const lo = Number(value.dataset.lo);
+  const hi = Number(value.dataset.hi);
+  if (!Number.isFinite(lo)) return;
+  const inside = v >= lo - 1e-9 && v <= hi + 1e-9;
+  const band = lo === -hi ? `±${hi}` : `${fmtSigned(lo, 2)}…${fmtSigned(hi, 2)}`;
+  value.textContent = inside ? `safe ${band}` : `⚠ outside ${band}`;
+  value.classList.toggle("outside", !inside);
+  $(`motion-row-${key}`).classList.toggle("outside", !inside);
+}
