@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import subprocess
 import sys
 import sysconfig
@@ -112,6 +113,12 @@ def test_artro_serve_from_another_directory(installed, tmp_path):
             page = http.get("/")
             assert page.status_code == 200 and "<title>" in page.text
             assert http.get("/js/main.js").status_code == 200
+            assert http.get("/vendor/uplot/uPlot.iife.min.js").status_code == 200
+            assert http.get("/data/safe-bands.json").status_code == 200
+            docs = http.get("/docs")
+            assert docs.status_code == 200
+            for asset in re.findall(r'(?:src|href)="(/[^"]+swagger-ui[^"]+)"', docs.text):
+                assert http.get(asset).status_code == 200, asset  # served from the wheel
             frames = http.get("/api/scope", params={"frames": 1}).json()["frames"]
             assert len(frames) == 1 and len(frames[0]["channels"]) == 6
             presets = {p["name"] for p in http.get("/api/presets").json()["presets"]}
