@@ -117,7 +117,9 @@ def test_artro_serve_from_another_directory(installed, tmp_path):
             assert http.get("/data/safe-bands.json").status_code == 200
             docs = http.get("/docs")
             assert docs.status_code == 200
-            for asset in re.findall(r'(?:src|href)="(/[^"]+swagger-ui[^"]+)"', docs.text):
+            assets = re.findall(r'(?:src|href)="(/[^"]+swagger-ui[^"]+)"', docs.text)
+            assert len(assets) >= 2, docs.text  # the bundle and its CSS
+            for asset in assets:
                 assert http.get(asset).status_code == 200, asset  # served from the wheel
             frames = http.get("/api/scope", params={"frames": 1}).json()["frames"]
             assert len(frames) == 1 and len(frames[0]["channels"]) == 6
