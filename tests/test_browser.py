@@ -456,3 +456,18 @@ def test_the_cycle_view_lays_the_right_leg_over_the_left(dashboard):
     # unshifted, they would be half a cycle apart
     assert np.sqrt(np.nanmean((left - np.roll(right, 25)) ** 2)) > 0.25 * swing
     page.locator("#scope-mode-single").click()
+
+
+def test_the_servo_load_budget_lists_every_servo_coloured_by_margin(dashboard):
+    page, http = dashboard
+    rows = page.locator("#servo-body tr")
+    expect(rows).to_have_count(12, timeout=30_000)
+    page.wait_for_function(
+        "parseInt(document.getElementById('servo-frames').textContent) > 25", timeout=30_000
+    )
+    report = http.get("/api/servos/load").json()
+    names = [rows.nth(i).get_attribute("data-servo") for i in range(12)]
+    assert names == [j["joint"] for j in report["joints"]]
+    for i in range(12):
+        assert rows.nth(i).get_attribute("class") in ("level-ok", "level-warn", "level-critical")
+    assert "eq (1)" in (page.locator("#servo-table thead").text_content() or "")

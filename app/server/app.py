@@ -20,7 +20,7 @@ from fastapi.staticfiles import StaticFiles
 
 from app.assets import static_dir
 from app.params.document import project_version
-from app.server.api import params, paths, presets, scope, sim
+from app.server.api import params, paths, presets, scope, servos, sim
 from app.server.services import ServerConfig, Services
 
 VENDOR = "/vendor"  # third-party files served with the page (static/vendor/)
@@ -80,7 +80,8 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
     async def value_error(_request: Request, exc: ValueError) -> JSONResponse:
         return JSONResponse(status_code=422, content={"detail": str(exc)})
 
-    for router in (sim.router, params.router, scope.router, paths.router, presets.router):
+    routers = (sim.router, params.router, scope.router, paths.router, presets.router, servos.router)
+    for router in routers:
         app.include_router(router)
     app.mount("/", StaticFiles(directory=static_dir(), html=True), name="static")
     return app

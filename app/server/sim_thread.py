@@ -22,6 +22,7 @@ import numpy as np
 
 from app.core.frame_loop import FRAME_S, FrameLoop
 from app.core.robot import RobotModel
+from app.core.servo_load import ServoLoadMeter, ServoLoadReport
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.scope_feed import ScopeFeed
@@ -33,6 +34,7 @@ MAX_CATCHUP_FRAMES = 5  # at most 100 ms of simulated time is run back to back
 RTF_WINDOW_S = 2.0
 SPEED_RANGE = (0.25, 4.0)
 BEHIND_SHOWN_S = 2.0  # "behind" stays set this long after frames were dropped
+LOAD_PUBLISH_FRAMES = 25  # the servo load budget is published twice a second
 
 
 class Command(enum.Enum):
@@ -109,6 +111,8 @@ class SimThread:
             robot=robot, params=snap.gait, motion=snap.motion, hardware=self.hardware
         )
         self.model = self._loop.model  # immutable once loaded: any thread may read it
+        self._load = ServoLoadMeter(self._loop.robot)  # the servo budget of the current gait
+        self._load_report = self._load.report()
         self.scope = ScopeFeed(self.hardware.tdm)
         self.paths = PathTracker()
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
@@ -177,6 +181,10 @@ class SimThread:
 
     def body_poses(self) -> BodyPoses | None:
         return self._poses
+
+    def servo_load(self) -> ServoLoadReport:
+        """The servo load budget since the last reset or parameter change (published)."""
+        return self._load_report
 
     def status(self) -> SimStatus:
         """The last status the simulation thread published (never reads MjData)."""
@@ -252,6 +260,7 @@ class SimThread:
             return
         old = self._applied
         self._loop.set_gait(snap.gait, snap.motion)
+        self._load.clear()  # the budget belongs to one gait
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         if snap.motion != old.motion:
             self.paths.reanchor()
@@ -269,6 +278,9 @@ class SimThread:
             self._reset()
             return
         self.scope.publish(record, self._applied.version)
+        self._load.add(self._loop.data, record.saturated_servos)
+        if record.index % LOAD_PUBLISH_FRAMES == 0:
+            self._load_report = self._load.report()
         if record.index % SAMPLE_EVERY_FRAMES == 0:
             self.paths.add(sim.time_s, sim.trunk_pose(), sim.feet_distance_m())
         self._publish_poses()
@@ -277,6 +289,7 @@ class SimThread:
         self._loop.reset()
         self.resets += 1
         self._rtf_window.clear()  # the simulated time restarts: a ratio across it means nothing
+        self._load.clear()
         self.paths.clear()
         self.scope.clear()
         self._publish_poses()

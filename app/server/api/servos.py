@@ -1,0 +1,19 @@
+"""The servo load budget route: torque and speed against each servo, eq (1) (docs/DESIGN.md §5)."""
+
+from dataclasses import asdict
+from typing import Any
+
+from fastapi import APIRouter
+
+from app.server.api.deps import ServicesDep
+
+router = APIRouter(prefix="/api/servos", tags=["servos"])
+
+
+@router.get("/load")
+def servo_load(services: ServicesDep) -> dict[str, Any]:
+    """Per joint since the last reset or parameter change, sampled once per 20 ms frame: peak
+    and RMS torque against the stall torque, eq (1)'s required torque (1 + sf) peak |tau| and its
+    margin, peak speed against the no-load speed, frames with a saturated pulse, and a level
+    (ok, warn below 30 % margin, critical below 10 %)."""
+    return asdict(services.sim.servo_load())

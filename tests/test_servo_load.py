@@ -1,0 +1,72 @@
+"""The servo load budget: the meter on the real model, and its route on a real server."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.core.frame_loop import FrameLoop
+from app.core.servo_load import SAFETY_FACTOR, ServoLimits, ServoLoadMeter, level
+from gait import JOINT_NAMES, GaitParams, Motion
+
+
+def test_the_limits_come_from_the_model():
+    loop = FrameLoop()
+    limits = ServoLimits.of(loop.robot)
+    # models/README.md: 1.08 N m stall torque, no-load speed 1.08 / 0.144 = 7.5 rad/s
+    np.testing.assert_allclose(limits.stall_torque_nm, 1.08)
+    np.testing.assert_allclose(limits.no_load_speed_rad_s, 1.08 / 0.144)
+
+
+def test_the_meter_follows_the_frames_it_is_given():
+    loop = FrameLoop(params=GaitParams(), motion=Motion(a_p=0.07))
+    meter = ServoLoadMeter(loop.robot)
+    peaks, speeds, saturated = [], [], np.zeros(12, int)
+    for _ in range(50):
+        record = loop.step_frame()
+        forced = record.saturated_servos.copy()
+        forced[3] = True  # count a saturated knee pulse in every frame
+        meter.add(loop.data, forced)
+        peaks.append(np.abs(loop.data.actuator_force[loop.robot.actuator_ids]))
+        speeds.append(np.abs(loop.data.qvel[loop.robot.dof_adr]))
+        saturated += forced
+    report = meter.report()
+    assert report.frames == 50 and [j.joint for j in report.joints] == list(JOINT_NAMES)
+    peak = np.max(peaks, axis=0)
+    for i, j in enumerate(report.joints):
+        assert j.peak_torque_nm == pytest.approx(peak[i])
+        assert j.rms_torque_nm == pytest.approx(np.sqrt(np.mean(np.square(peaks)[:, i])))
+        assert j.rms_torque_nm <= j.peak_torque_nm + 1e-12
+        assert j.required_torque_nm == pytest.approx((1 + SAFETY_FACTOR) * peak[i])
+        assert j.torque_margin == pytest.approx(1 - j.required_torque_nm / j.stall_torque_nm)
+        assert j.peak_speed_rad_s == pytest.approx(np.max(speeds, axis=0)[i])
+        assert j.saturated_frames == saturated[i]
+        assert j.level == level(min(j.torque_margin, j.speed_margin))
+    assert report.joints[3].saturated_frames == 50
+    assert max(j.peak_torque_nm for j in report.joints) > 0.05  # walking loads the legs
+    meter.clear()
+    assert meter.report().frames == 0 and meter.report().joints[0].peak_torque_nm == 0.0
+
+
+LEVELS = [
+    (0.5, "ok"),
+    (0.3, "ok"),
+    (0.29, "warn"),
+    (0.1, "warn"),
+    (0.09, "critical"),
+    (-1, "critical"),
+]
+
+
+@pytest.mark.parametrize(("margin", "expected"), LEVELS)
+def test_levels(margin, expected):
+    assert level(margin) == expected
+
+
+def test_the_route_reports_the_live_gait(http):
+    report = http.get("/api/servos/load").json()
+    assert [j["joint"] for j in report["joints"]] == list(JOINT_NAMES)
+    assert report["safety_factor"] == SAFETY_FACTOR
+    for j in report["joints"]:
+        assert j["level"] in ("ok", "warn", "critical")
+        assert j["stall_torque_nm"] == pytest.approx(1.08)
