@@ -181,3 +181,25 @@ def harness_library() -> Path:
         _run([*command, "-lsimavr", "-lelf"], Path(tmp))
         os.replace(out, target)
     return target
+
+
+def export_firmware_folder(
+    doc: dict[str, Any],
+    out_dir: Path | str,
+    *,
+    calibration: ServoCalibration | None = None,
+    tdm: TdmConfig | None = None,
+) -> Path:
+    """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
+    programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
+    headers), Makefile, PROTOCOL.md, parameters.json (the document). Returns the folder."""
+    out = Path(out_dir)
+    (out / "src").mkdir(parents=True, exist_ok=True)
+    (out / "gen").mkdir(exist_ok=True)
+    for name, data in source_files().items():
+        (out / name).write_bytes(data)
+    shutil.copyfile(FIRMWARE_DIR / "PROTOCOL.md", out / "PROTOCOL.md")
+    for name, text in generated_headers(doc, calibration=calibration, tdm=tdm).items():
+        (out / "gen" / name).write_text(text, encoding="ascii")
+    (out / "parameters.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return out

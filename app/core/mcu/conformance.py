@@ -112,6 +112,7 @@ class Comparison:
     select_outside_guard: int = 0  # select-line edges not at the guard's change tick
     max_angle_error_rad: float = 0.0
     busy_cycles: list[int] = field(default_factory=list)  # per frame, CPU not asleep
+    edges: Edges | None = None  # the recorded edges, if asked to keep them
 
     @property
     def ok(self) -> bool:
@@ -174,6 +175,7 @@ def run_comparison(
     hardware: HardwareSetup | None = None,
     *,
     first_frame: int = 0,
+    keep_edges: bool = False,
 ) -> Comparison:
     """Run the emulator through frames first_frame..len(model)-1 and compare with the model.
 
@@ -197,7 +199,10 @@ def run_comparison(
             result.busy_cycles.append(busy - busy_before)
         busy_before = busy
     mcu.run_to_frame(n_frames)
-    edges = split_frames(mcu.take_edges(), mcu.t0_cycle, n_frames)
+    recorded = mcu.take_edges()
+    if keep_edges:
+        result.edges = recorded
+    edges = split_frames(recorded, mcu.t0_cycle, n_frames)
     for k in range(first_frame, n_frames):
         want = frame_edges(model.ocr[k], hardware.tdm)
         compare_frame(edges[k], want, k, result, hardware.tdm.select_change_ticks)
