@@ -4,7 +4,7 @@
         a self-contained firmware folder (sources, generated headers, Makefile with a `flash`
         target) built with avr-gcc; prints the folder, flash and SRAM use
     artro firmware run [--params FILE] [--motion AR,AP,AY] [--ca X] [--frames N] [--vcd FILE]
-                       [--json]
+                       [--json] [--pty]
         runs the firmware on simavr's ATmega128 and compares its pins, frame by frame, with the
         Python model: pulses compared, exact, one tick off, CPU cycles per frame, flash, SRAM
 
@@ -28,7 +28,8 @@ from app.core.mcu.vcd import write_vcd
 EPILOG = """examples:
   artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
   artro firmware run --motion 0,0.07,0 --frames 250 --json
-  artro firmware run --params models/presets/tuned.json --ca 0.1 --vcd walk.vcd"""
+  artro firmware run --params models/presets/tuned.json --ca 0.1 --vcd walk.vcd
+  artro firmware run --pty                 the emulated robot on a serial pseudo-terminal"""
 
 
 def _motion(text: str) -> tuple[float, float, float]:
@@ -61,6 +62,12 @@ def add_firmware_parser(subparsers: Any) -> argparse.ArgumentParser:
     run.add_argument("--frames", type=int, default=250, metavar="N", help="20 ms frames")
     run.add_argument("--vcd", metavar="FILE", help="write the nine drive lines as VCD")
     run.add_argument("--json", action="store_true", help="print one JSON object")
+    run.add_argument(
+        "--pty",
+        action="store_true",
+        help="instead: serve the emulated robot's UART on a pseudo-terminal in real time until "
+        "Ctrl-C (57600 baud, PROTOCOL.md)",
+    )
     return fw
 
 
@@ -93,6 +100,23 @@ def firmware_run(doc: dict[str, Any], frames: int, vcd: str | None = None) -> di
     }
 
 
+def _serve_pty(doc: dict[str, Any]) -> int:
+    import threading
+
+    from app.core.mcu.pty_bridge import PtyBridge
+
+    with Mcu(build_firmware(doc).elf) as mcu:
+        bridge = PtyBridge(mcu)
+        print(f"emulated robot on {bridge.port} (57600 8N1); Ctrl-C ends", flush=True)
+        try:
+            bridge.serve(threading.Event())
+        except KeyboardInterrupt:
+            pass
+        finally:
+            bridge.close()
+    return 0
+
+
 def cmd_firmware(args: argparse.Namespace) -> int:
     doc = _document(args)
     if args.firmware_command == "build":
@@ -103,6 +127,8 @@ def cmd_firmware(args: argparse.Namespace) -> int:
             f"SRAM {build.sram_bytes} B (without the stack); `make -C {folder} flash` programs it"
         )
         return 0
+    if args.pty:
+        return _serve_pty(doc)
     if args.frames < 2:
         raise ValueError("--frames must be at least 2")
     summary = firmware_run(doc, args.frames, args.vcd)

@@ -1,0 +1,35 @@
+"""The emulated robot behind a pseudo-terminal, reached with pyserial like the real one."""
+
+from __future__ import annotations
+
+import threading
+
+from app.core.mcu import protocol as proto
+from app.core.mcu.link import SerialLink
+from app.core.mcu.protocol import Ack, Info, Msg, Params
+from app.core.mcu.pty_bridge import PtyBridge
+from hardware.firmware.schema import param_specs, schema_hash
+from tests.firmware_support import emulator, preset
+
+
+def test_pyserial_talks_to_the_emulated_robot_through_a_pty() -> None:
+    stop = threading.Event()
+    with emulator(preset("paper")) as mcu:
+        bridge = PtyBridge(mcu, realtime=False)
+        thread = threading.Thread(target=bridge.serve, args=(stop, 60.0), daemon=True)
+        thread.start()
+        link = SerialLink(bridge.port, timeout_s=30.0)
+        try:
+            (info,) = link.request(proto.command(Msg.PING))
+            a_p = next(s.pid for s in param_specs() if s.dotted == "motion.a_p")
+            (ack,) = link.request(proto.set_param(a_p, 0.05))
+            (params,) = link.request(proto.get_param(a_p))
+        finally:
+            link.close()
+            stop.set()
+            thread.join()
+            bridge.close()
+    assert isinstance(info, Info) and info.schema_hash == schema_hash()
+    assert isinstance(ack, Ack) and ack.acked == Msg.SET_PARAM
+    assert isinstance(params, Params) and abs(params.values[0] - 0.05) < 1e-7
+    assert bridge.bytes_in > 0 and bridge.bytes_out > 0
