@@ -192,13 +192,15 @@ def export_firmware_folder(
 ) -> Path:
     """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
     programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
-    headers), Makefile, PROTOCOL.md, parameters.json (the document). Returns the folder."""
+    headers), Makefile, PROTOCOL.md, README.md, parameters.json (the document). Returns the
+    folder."""
     out = Path(out_dir)
     (out / "src").mkdir(parents=True, exist_ok=True)
     (out / "gen").mkdir(exist_ok=True)
     for name, data in source_files().items():
         (out / name).write_bytes(data)
-    shutil.copyfile(FIRMWARE_DIR / "PROTOCOL.md", out / "PROTOCOL.md")
+    for doc_name in ("PROTOCOL.md", "README.md"):
+        shutil.copyfile(FIRMWARE_DIR / doc_name, out / doc_name)
     for name, text in generated_headers(doc, calibration=calibration, tdm=tdm).items():
         (out / "gen" / name).write_text(text, encoding="ascii")
     (out / "parameters.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
