@@ -5,6 +5,7 @@ from __future__ import annotations
 import threading
 
 import numpy as np
+import serial
 
 from app.core.mcu import protocol as proto
 from app.core.mcu.link import SerialLink
@@ -20,7 +21,7 @@ def test_pyserial_talks_to_the_emulated_robot_through_a_pty() -> None:
         bridge = PtyBridge(mcu, realtime=False)
         thread = threading.Thread(target=bridge.serve, args=(stop, 60.0), daemon=True)
         thread.start()
-        link = SerialLink(bridge.port, timeout_s=30.0)
+        link = SerialLink(serial.Serial(bridge.port, 57600, timeout=0.02), timeout_s=30.0)
         try:
             (info,) = link.request(proto.command(Msg.PING))
             a_p = next(s.pid for s in param_specs() if s.dotted == "motion.a_p")

@@ -15,6 +15,7 @@ The lead's `app/cli.py` wires it: `add_firmware_parser(sub)` and, for `args.comm
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 from pathlib import Path
@@ -24,6 +25,8 @@ from app.core.mcu.build import build_firmware, export_firmware_folder
 from app.core.mcu.conformance import model_frames, run_comparison
 from app.core.mcu.emulator import Mcu
 from app.core.mcu.vcd import write_vcd
+from gait import GaitParams, Motion
+from gait.params import replace_checked
 
 EPILOG = """examples:
   artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
@@ -71,16 +74,34 @@ def add_firmware_parser(subparsers: Any) -> argparse.ArgumentParser:
     return fw
 
 
-def _document(args: argparse.Namespace) -> dict[str, Any]:
-    from app.params.document import ParameterSet, load_parameter_set
+def load_document(path: str | None) -> dict[str, Any]:
+    """A parameter-set document (as `ParameterSet.to_dict()` writes it), validated by the gait
+    schema; the paper values without a file."""
+    data: dict[str, Any] = {"name": "paper"}
+    if path:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: a parameter set is a JSON object")
+    motion = replace_checked(Motion(), data.get("motion", {}), "motion")
+    return {
+        "schema_version": data.get("schema_version", 1),
+        "name": str(data.get("name", "unnamed")),
+        "created": str(data.get("created", "")),
+        "project_version": str(data.get("project_version", "")),
+        "motion": dataclasses.asdict(motion),
+        "gait": GaitParams.from_dict(data.get("gait", {})).to_dict(),
+    }
 
-    pset = load_parameter_set(args.params) if args.params else ParameterSet()
-    doc = pset.to_dict()
+
+def _document(args: argparse.Namespace) -> dict[str, Any]:
+    doc = load_document(args.params)
+    motion = dict(doc["motion"])
     if getattr(args, "motion", None) is not None:
-        doc["motion"].update(zip(("a_r", "a_p", "a_y"), args.motion, strict=True))
+        motion.update(zip(("a_r", "a_p", "a_y"), args.motion, strict=True))
     if getattr(args, "ca", None) is not None:
-        doc["motion"]["ca"] = args.ca
-    return ParameterSet.from_dict(doc).to_dict()  # validated
+        motion["ca"] = args.ca
+    doc["motion"] = dataclasses.asdict(Motion(**motion))  # validated
+    return doc
 
 
 def firmware_run(doc: dict[str, Any], frames: int, vcd: str | None = None) -> dict[str, Any]:
