@@ -1,12 +1,5 @@
-"""Building the ArtRo firmware (avr-gcc) and the simavr harness (cc), cached by content.
-
-`build_firmware` writes the two generated headers for a parameter-set document -- `artro_params.h`
-(`hardware.firmware.c_header`: the set's values, timer set-up, channel map, calibration) and
-`artro_schema.h` (`hardware.firmware.schema`: parameter ids and ranges) -- and runs the firmware
-Makefile. `harness_library` compiles `harness.c` against libsimavr into a shared library.
-Both land in a cache directory keyed by a hash of everything that went in, so a second call with
-the same inputs costs nothing. docs/DESIGN.md, Firmware.
-"""
+"""Building the ArtRo firmware (avr-gcc, its two generated headers for a parameter set) and the
+simavr harness library (cc), each cached by a hash of its inputs (docs/DESIGN.md, Firmware)."""
 
 from __future__ import annotations
 

@@ -1,16 +1,6 @@
-"""`artro firmware build|run`: the ATmega128 firmware for a parameter set, built and emulated.
-
-    artro firmware build [--params FILE] [-o DIR]
-        a self-contained firmware folder (sources, generated headers, Makefile with a `flash`
-        target) built with avr-gcc; prints the folder, flash and SRAM use
-    artro firmware run [--params FILE] [--motion AR,AP,AY] [--ca X] [--frames N] [--vcd FILE]
-                       [--json] [--pty]
-        runs the firmware on simavr's ATmega128 and compares its pins, frame by frame, with the
-        Python model: pulses compared, exact, one tick off, CPU cycles per frame, flash, SRAM
-
-The lead's `app/cli.py` wires it: `add_firmware_parser(sub)` and, for `args.command ==
-"firmware"`, `return cmd_firmware(args)`. docs/DESIGN.md, Firmware.
-"""
+"""`artro firmware build|run` (docs/DESIGN.md, Firmware): a firmware folder for a parameter set,
+and the firmware emulated on simavr and compared with the Python model. `app/cli.py` wires it:
+`add_firmware_parser(sub)`, then `cmd_firmware(args)` for the `firmware` command."""
 
 from __future__ import annotations
 

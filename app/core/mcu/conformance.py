@@ -1,14 +1,6 @@
-"""Conformance of the emulated firmware to the Python model, frame by frame.
-
-The Python side is the simulation's own frame pipeline (`app.core.frame_loop.plan_frames`: walking
-clock, gait, servo model, TDM table) and `hardware.frame_edges`, the edges on the wires. The
-firmware side is what simavr's pins carried, cut into 20 ms frames from the moment Timer1 started,
-and the joint angles the firmware computed (its frame plan in SRAM).
-
-Edges must agree tick for tick. The only allowed difference is a falling edge one tick off where
-float32 (firmware) and float64 (model) round a pulse to neighbouring ticks; those are counted.
-docs/DESIGN.md, Firmware.
-"""
+"""Emulated firmware against the Python model, frame by frame (docs/DESIGN.md, Firmware): pin edges
+against `hardware.frame_edges` of the frame loop's `plan_frames`, tick for tick (a falling edge one
+tick off where float32 and float64 round a pulse apart is counted), angles within 1e-4 rad."""
 
 from __future__ import annotations
 

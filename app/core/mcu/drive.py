@@ -1,11 +1,6 @@
-"""The emulated firmware as the servo drive of the simulation ("firmware" drive mode).
-
-`FirmwareDrive.next_frame()` runs the MCU through one 20 ms frame and returns what its pins
-carried as the frame loop's data: OCR per (channel, slot) decoded from the edges (-1 where a slot
-stayed low), the edges themselves for the scope, and the firmware's joint angles and phase.
-Parameter changes go over the emulated UART, exactly as a PC would send them to the robot; they
-reach the pins from the frame the ACK names. docs/DESIGN.md, Firmware.
-"""
+"""The emulated firmware as the simulation's servo drive, one 20 ms frame per call: OCR decoded
+from the pins, the edges, the firmware's angles and phase; parameter sets go over the emulated
+UART (docs/DESIGN.md, Firmware)."""
 
 from __future__ import annotations
 

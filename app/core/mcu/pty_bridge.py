@@ -1,9 +1,5 @@
-"""The emulated UART0 on a pseudo-terminal: any serial program (pyserial, minicom, the
-dashboard's link) talks to the emulated robot as to the real one. docs/DESIGN.md, Firmware.
-
-    bridge = PtyBridge(mcu)            # bridge.port is e.g. /dev/pts/7
-    bridge.serve(stop_event)           # runs the MCU slot by slot, paced to wall time
-"""
+"""The emulated UART0 on a pseudo-terminal, so any serial program talks to the emulated robot as
+to the real one (docs/DESIGN.md, Firmware): `PtyBridge(mcu).port`, then `serve(stop_event)`."""
 
 from __future__ import annotations
 
