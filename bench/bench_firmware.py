@@ -59,10 +59,11 @@ def main() -> None:
     build = build_firmware(json.loads((builtin_presets_dir() / "paper.json").read_text()))
     verdict = "within" if worst_all <= BUDGET_CYCLES else "OVER"
     print(f"worst frame {worst_all} cycles: {verdict} the {BUDGET_CYCLES}-cycle budget")
+    flash_pct = 100 * build.flash_bytes / build.flash_size
+    sram_pct = 100 * build.sram_bytes / build.sram_size
     print(
-        f"flash {build.flash_bytes} B of {build.flash_size} ({100 * build.flash_bytes / build.flash_size:.1f} %), "
-        f"SRAM {build.sram_bytes} B of {build.sram_size} "
-        f"({100 * build.sram_bytes / build.sram_size:.1f} %) without the stack"
+        f"flash {build.flash_bytes} B of {build.flash_size} ({flash_pct:.1f} %), "
+        f"SRAM {build.sram_bytes} B of {build.sram_size} ({sram_pct:.1f} %) without the stack"
     )
 
 

@@ -15,6 +15,8 @@ extras=""
 debs=""
 command -v avr-gcc >/dev/null 2>&1 || debs="$debs gcc-avr avr-libc"
 [ -f /usr/include/simavr/sim_avr.h ] || debs="$debs simavr libsimavr-dev libelf-dev"
+command -v cc >/dev/null 2>&1 || debs="$debs gcc"     # compiles the simavr harness
+command -v make >/dev/null 2>&1 || debs="$debs make"  # the firmware Makefile
 if [ "${1:-}" = "--test" ]; then
   command -v chromium >/dev/null 2>&1 || debs="$debs chromium"
 fi

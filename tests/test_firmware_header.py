@@ -151,3 +151,9 @@ def test_header_refuses_a_different_f_cpu(tmp_path: Path) -> None:
         text=True,
     )
     assert result.returncode != 0 and "generated for F_CPU = 16000000" in result.stderr
+
+
+def test_c_float_flushes_what_float32_cannot_hold() -> None:
+    """1e-300 is a valid schema value (0..x); as float32 it is 0, and the literal says so."""
+    assert c_float(1e-300) == "0.0f" and c_float(-1e-300) == "0.0f"
+    assert c_float(1e-40) == "1e-40f"  # a float32 subnormal stays as written

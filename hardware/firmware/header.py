@@ -54,6 +54,8 @@ def c_float(value: Any, where: str = "value") -> str:
     number = float(value)
     if not math.isfinite(number):
         raise ValueError(f"{where} must be finite, got {number!r}")
+    if np.float32(number) == 0.0:
+        number = 0.0  # below float32's smallest subnormal: the target's value is 0 (no warning)
     text = repr(number) + "f"  # repr always has '.' or 'e', so the 'f' suffix is valid C
     return f"({text})" if number < 0 else text
 

@@ -1,20 +1,7 @@
-"""The firmware's parameter table `artro_schema.h`, generated from the one parameter schema.
-
-The ATmega128 firmware keeps every tunable value (the motion vector, CA and every gait constant of
-`gait.params`) in SRAM, addressed over the UART link by a one-byte parameter id. This module numbers
-the fields of the schema (motion first, then the gait groups in schema order, fields in declaration
-order) and writes, for the firmware:
-
-- `ARTRO_PID_<GROUP>_<FIELD>` ids and `ARTRO_PARAM_COUNT`;
-- per id the allowed range and whether it is a switch (0/1), copied from the field metadata;
-- `ARTRO_PARAM_DEFAULTS`, an initialiser naming the `ARTRO_<GROUP>_<FIELD>` values of the
-  generated `artro_params.h`, so the defaults come from the exported parameter set;
-- `ARTRO_SCHEMA_HASH`, a CRC-32 of the ordered names and kinds: host and firmware compare it
-  (protocol message INFO) before they exchange parameters by id;
-- the leg geometry the gait's leg interface uses (eqs 3–6).
-
-Python tools use `param_specs()` for the same numbering (docs/DESIGN.md, Firmware).
-"""
+"""The firmware's parameter table `artro_schema.h`, generated from the one parameter schema
+(`gait.params`): one-byte ids (motion, then the gait groups in schema order), ranges, switches, the
+leg geometry and a schema hash the host checks (docs/DESIGN.md, Firmware). The defaults in it
+name the `ARTRO_<GROUP>_<FIELD>` values of `artro_params.h`, i.e. the exported parameter set."""
 
 from __future__ import annotations
 

@@ -1,10 +1,4 @@
-"""The ArtRo ATmega128 firmware, built with avr-gcc and run on simavr (docs/DESIGN.md, Firmware).
-
-- `build`: generate the firmware headers for a parameter set and compile (cached); compile the
-  simavr harness;
-- `emulator`: `Mcu`, the firmware on simavr's ATmega128 core: pin edges, UART, SRAM;
-- `protocol`: the host side of the UART protocol (hardware/firmware/PROTOCOL.md);
-- `conformance`: emulated edges and angles against the Python model, frame by frame;
-- `vcd`: traces as Value Change Dump files;
-- `cli`: `artro firmware build|run`.
-"""
+"""The ArtRo ATmega128 firmware built with avr-gcc and run on simavr (docs/DESIGN.md, Firmware):
+`build` (headers, compile, cache), `emulator` (`Mcu`: pins, UART, SRAM), `protocol` and `link`
+(the UART protocol), `conformance` (pins and angles against the Python model), `drive`, `vcd`,
+`pty_bridge` and `cli` (`artro firmware build|run`)."""

@@ -1,12 +1,5 @@
-"""Building the ArtRo firmware (avr-gcc) and the simavr harness (cc), cached by content.
-
-`build_firmware` writes the two generated headers for a parameter-set document -- `artro_params.h`
-(`hardware.firmware.c_header`: the set's values, timer set-up, channel map, calibration) and
-`artro_schema.h` (`hardware.firmware.schema`: parameter ids and ranges) -- and runs the firmware
-Makefile. `harness_library` compiles `harness.c` against libsimavr into a shared library.
-Both land in a cache directory keyed by a hash of everything that went in, so a second call with
-the same inputs costs nothing. docs/DESIGN.md, Firmware.
-"""
+"""Building the ArtRo firmware (avr-gcc, its two generated headers for a parameter set) and the
+simavr harness library (cc), each cached by a hash of its inputs (docs/DESIGN.md, Firmware)."""
 
 from __future__ import annotations
 
@@ -181,3 +174,27 @@ def harness_library() -> Path:
         _run([*command, "-lsimavr", "-lelf"], Path(tmp))
         os.replace(out, target)
     return target
+
+
+def export_firmware_folder(
+    doc: dict[str, Any],
+    out_dir: Path | str,
+    *,
+    calibration: ServoCalibration | None = None,
+    tdm: TdmConfig | None = None,
+) -> Path:
+    """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
+    programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
+    headers), Makefile, PROTOCOL.md, README.md, parameters.json (the document). Returns the
+    folder."""
+    out = Path(out_dir)
+    (out / "src").mkdir(parents=True, exist_ok=True)
+    (out / "gen").mkdir(exist_ok=True)
+    for name, data in source_files().items():
+        (out / name).write_bytes(data)
+    for doc_name in ("PROTOCOL.md", "README.md"):
+        shutil.copyfile(FIRMWARE_DIR / doc_name, out / doc_name)
+    for name, text in generated_headers(doc, calibration=calibration, tdm=tdm).items():
+        (out / "gen" / name).write_text(text, encoding="ascii")
+    (out / "parameters.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return out

@@ -1,14 +1,6 @@
-"""Conformance of the emulated firmware to the Python model, frame by frame.
-
-The Python side is the simulation's own frame pipeline (`app.core.frame_loop.plan_frames`: walking
-clock, gait, servo model, TDM table) and `hardware.frame_edges`, the edges on the wires. The
-firmware side is what simavr's pins carried, cut into 20 ms frames from the moment Timer1 started,
-and the joint angles the firmware computed (its frame plan in SRAM).
-
-Edges must agree tick for tick. The only allowed difference is a falling edge one tick off where
-float32 (firmware) and float64 (model) round a pulse to neighbouring ticks; those are counted.
-docs/DESIGN.md, Firmware.
-"""
+"""Emulated firmware against the Python model, frame by frame (docs/DESIGN.md, Firmware): pin edges
+against `hardware.frame_edges` of the frame loop's `plan_frames`, tick for tick (a falling edge one
+tick off where float32 and float64 round a pulse apart is counted), angles within 1e-4 rad."""
 
 from __future__ import annotations
 
@@ -112,6 +104,7 @@ class Comparison:
     select_outside_guard: int = 0  # select-line edges not at the guard's change tick
     max_angle_error_rad: float = 0.0
     busy_cycles: list[int] = field(default_factory=list)  # per frame, CPU not asleep
+    edges: Edges | None = None  # the recorded edges, if asked to keep them
 
     @property
     def ok(self) -> bool:
@@ -174,6 +167,7 @@ def run_comparison(
     hardware: HardwareSetup | None = None,
     *,
     first_frame: int = 0,
+    keep_edges: bool = False,
 ) -> Comparison:
     """Run the emulator through frames first_frame..len(model)-1 and compare with the model.
 
@@ -197,7 +191,10 @@ def run_comparison(
             result.busy_cycles.append(busy - busy_before)
         busy_before = busy
     mcu.run_to_frame(n_frames)
-    edges = split_frames(mcu.take_edges(), mcu.t0_cycle, n_frames)
+    recorded = mcu.take_edges()
+    if keep_edges:
+        result.edges = recorded
+    edges = split_frames(recorded, mcu.t0_cycle, n_frames)
     for k in range(first_frame, n_frames):
         want = frame_edges(model.ocr[k], hardware.tdm)
         compare_frame(edges[k], want, k, result, hardware.tdm.select_change_ticks)

@@ -1,13 +1,7 @@
-"""The ArtRo firmware running on simavr's ATmega128 core, driven from Python (ctypes).
-
-`Mcu` loads a firmware ELF into the harness library (`harness.c`), runs it by CPU cycles or by
-20 ms frames, and hands back every level change of the nine drive lines (OC1A..OC3C, S0..S2)
-with its cycle, the UART bytes the firmware sent, and reads of its SRAM by symbol.
-
-Time: the firmware starts Timer1 and Timer3 together; `t0_cycle` is the cycle Timer1 started,
-the start of frame 0. Frame k is [t0 + k * FRAME_CYCLES, t0 + (k + 1) * FRAME_CYCLES); a timer
-tick is 8 cycles (prescaler 8). docs/DESIGN.md, Firmware.
-"""
+"""The ArtRo firmware on simavr's ATmega128 core, driven from Python through the harness library
+(`harness.c`, ctypes): run by cycles or 20 ms frames, pin edges with their CPU cycle, UART bytes,
+SRAM by symbol. Frame k starts at t0 + k * FRAME_CYCLES, t0 = when Timer1 started; a timer tick
+is 8 cycles (docs/DESIGN.md, Firmware)."""
 
 from __future__ import annotations
 

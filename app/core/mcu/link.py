@@ -1,5 +1,6 @@
 """Talking to the firmware: the emulated UART (`EmulatedLink`) and the robot's serial port
-(`SerialLink`), both with `request(message) -> replies`. docs/DESIGN.md, Firmware.
+(`SerialLink`, over any port object with read/write such as pyserial's), both with
+`request(message) -> replies`. docs/DESIGN.md, Firmware.
 """
 
 from __future__ import annotations
@@ -56,13 +57,22 @@ def _answers(message: bytes, reply: Reply) -> bool:
     return not isinstance(reply, Telemetry) or message[2] == Msg.GET_TELEMETRY
 
 
+class SerialPort(Protocol):
+    """What SerialLink needs of a port, e.g. `serial.Serial(port, 57600, timeout=0.02)`."""
+
+    def read(self, size: int = 1) -> bytes: ...
+    def write(self, data: bytes) -> int | None: ...
+    def close(self) -> None: ...
+
+
 class SerialLink:
-    """The protocol over a serial port (pyserial), e.g. the robot or `artro firmware run --pty`."""
+    """The protocol over a serial port: the robot, or `artro firmware run --pty`.
 
-    def __init__(self, port: str, baud: int = 57600, timeout_s: float = 0.5) -> None:
-        import serial  # pyserial; imported here so the emulator needs no serial port
+    The caller opens the port (pyserial's `serial.Serial(port, 57600, timeout=0.02)` in the
+    CLI and server), so this module needs no serial library."""
 
-        self.serial = serial.Serial(port, baud, timeout=0.02)
+    def __init__(self, port: SerialPort, timeout_s: float = 0.5) -> None:
+        self.serial = port
         self.timeout_s = timeout_s
         self.decoder = Decoder()
         self.telemetry: list[Telemetry] = []

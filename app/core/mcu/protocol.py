@@ -1,12 +1,6 @@
-"""The host side of the ArtRo UART protocol (hardware/firmware/PROTOCOL.md).
-
-    0xA5 | LEN | TYPE | PAYLOAD (LEN - 1 bytes) | CRC16 (little-endian)
-
-CRC-16/CCITT-FALSE (poly 0x1021, init 0xFFFF) over LEN, TYPE and PAYLOAD; numbers little-endian,
-values float32. `encode` builds messages, `Decoder` splits a byte stream back into them and
-`parse` turns the robot's replies into typed records. Parameter ids follow
-`hardware.firmware.schema.param_specs`. docs/DESIGN.md, Firmware.
-"""
+"""The host side of the ArtRo UART protocol (hardware/firmware/PROTOCOL.md; docs/DESIGN.md,
+Firmware): `0xA5 | LEN | TYPE | PAYLOAD | CRC-16/CCITT-FALSE`, little-endian, float32 values;
+`encode` builds messages, `Decoder` splits a byte stream, `parse` types the robot's replies."""
 
 from __future__ import annotations
 

@@ -59,9 +59,8 @@ static float raised_cosine(float phase, float amplitude)
 }
 
 /* theta_Swing, eq (25): a sine swing, then a linear reverse at speed b of eq (26) */
-static float swing_profile(float phi, float v)
+static float swing_profile(float phi, float b)
 {
-    float b = -2.0f / (TWO_PI_F * v - PI_F); /* eq (26) */
     if (phi >= HALF_PI_F)
         return b * (phi - HALF_PI_F) + 1.0f;
     if (phi >= -HALF_PI_F)
@@ -69,34 +68,73 @@ static float swing_profile(float phi, float v)
     return b * (phi + HALF_PI_F) - 1.0f;
 }
 
-/* Leg parameters of one leg, eqs (12)-(39) summed as in (40)-(45).
- * i_s: I_s of eq (32), -1 left, +1 right. ca_scale: 1 + CA left, 1 - CA right. */
-static void leg_parameters(float phi_leg, float i_s, float ca_scale, float *leg)
+/* What eqs (12)-(39) share between the legs in one frame: amplitudes that depend on the motion
+ * vector only, and the cosines that the half-cycle offset of the legs relates (phi_R = phi_L - pi,
+ * eqs 10-11: cos(phi_R + x) = -cos(phi_L + x) and cos(2 phi_R + x) = cos(2 phi_L + x)). */
+typedef struct {
+    float a_r, a_p, a_y, ca;
+    float theta_shift_left;  /* eqs (12)-(13) for the left leg */
+    float a_short;           /* eq (20) */
+    float b_swing;           /* eq (26) */
+    float a_load;            /* eq (36) */
+    float load_offset;       /* -pi / v_short + o_short, eq (33) */
+    float roll_cos_left;     /* cos(phi_L + balance phase), eq (37) */
+    float pitch_balance;     /* eq (38), the same for both legs */
+} frame_terms_t;
+
+static void frame_terms(float phi_left, frame_terms_t *t)
 {
-    const float a_r = P(MOTION_A_R), a_p = P(MOTION_A_P), a_y = P(MOTION_A_Y);
-    const float speed = sqrtf(a_r * a_r + a_p * a_p); /* ||(a_r, a_p)|| */
+    t->theta_shift_left = t->roll_cos_left = t->pitch_balance = 0.0f;
+    t->a_r = P(MOTION_A_R);
+    t->a_p = P(MOTION_A_P);
+    t->a_y = P(MOTION_A_Y);
+    t->ca = P(MOTION_CA);
+    const float speed = sqrtf(t->a_r * t->a_r + t->a_p * t->a_p); /* ||(a_r, a_p)|| */
+    if (SWITCH(SHIFT_ENABLED)) {
+        float a_shift = P(SHIFT_AMP_BASE) + P(SHIFT_AMP_SPEED) * speed
+            + P(SHIFT_AMP_LATERAL) * fabsf(t->a_r);                      /* eq (13) */
+        t->theta_shift_left = a_shift * cosf(phi_left + HALF_PI_F);     /* eq (12) */
+    }
+    t->a_short = P(SHORT_AMP_BASE) + P(SHORT_AMP_SPEED) * speed;        /* eq (20) */
+    t->b_swing = -2.0f / (TWO_PI_F * P(SWING_V) - PI_F);                /* eq (26) */
+    t->a_load = P(LOAD_AMP_BASE) + P(LOAD_AMP_PITCH) * (1.0f - cosf(fabsf(t->a_p))); /* (36) */
+    t->load_offset = -PI_F / P(SHORT_V) + P(SHORT_O);                   /* eq (33) */
+    if (SWITCH(BALANCE_ENABLED)) {
+        t->roll_cos_left = cosf(phi_left + P(BALANCE_FOOT_ROLL_PHASE)); /* eq (37) */
+        t->pitch_balance = P(BALANCE_FOOT_PITCH_OFFSET) + P(BALANCE_FOOT_PITCH_SPEED) * t->a_p
+            - P(BALANCE_FOOT_PITCH_AMP) * t->a_p
+                * cosf(2.0f * phi_left + P(BALANCE_FOOT_PITCH_PHASE));  /* eq (38) */
+    }
+}
+
+/* Leg parameters of one leg, eqs (12)-(39) summed as in (40)-(45).
+ * i_s: I_s of eq (32), -1 left, +1 right; it also flips the cosines related between the legs.
+ * ca_scale: 1 + CA left, 1 - CA right. */
+static void leg_parameters(float phi_leg, float i_s, float ca_scale, const frame_terms_t *t,
+                           float *leg)
+{
+    const float a_r = t->a_r, a_p = t->a_p, a_y = t->a_y;
+    const float mirror = -i_s; /* +1 left, -1 right: cos(phi_R + x) = -cos(phi_L + x) */
     const uint8_t paper_signs = SWITCH(LEG_PAPER_SIGNS);
     for (uint8_t i = 0; i < LEG_VALUES; i++)
         leg[i] = 0.0f;
 
     if (SWITCH(SHIFT_ENABLED)) {
-        float a_shift = P(SHIFT_AMP_BASE) + P(SHIFT_AMP_SPEED) * speed
-            + P(SHIFT_AMP_LATERAL) * fabsf(a_r);                     /* eq (13) */
-        float theta_shift = a_shift * cosf(phi_leg + HALF_PI_F);      /* eq (12) */
-        leg[LEG_ROLL] += theta_shift;                                 /* eq (14) */
-        leg[FOOT_ROLL] += -P(SHIFT_FOOT_RATIO) * theta_shift;         /* eq (15) */
+        float theta_shift = mirror * t->theta_shift_left;              /* eq (12) */
+        leg[LEG_ROLL] += theta_shift;                                   /* eq (14) */
+        leg[FOOT_ROLL] += -P(SHIFT_FOOT_RATIO) * theta_shift;           /* eq (15) */
     }
 
     if (SWITCH(SHORT_ENABLED)) {
         float phi_short = P(SHORT_V) * (phi_leg + HALF_PI_F + P(SHORT_O));  /* eq (16) */
-        float a_short = P(SHORT_AMP_BASE) + P(SHORT_AMP_SPEED) * speed;     /* eq (20) */
-        leg[GAMMA] += raised_cosine(phi_short, a_short);                    /* eq (19) */
-        leg[FOOT_PITCH] += raised_cosine(phi_short, 2.0f * P(SHORT_FOOT_LIFT) * a_p); /* (21) */
+        float shape = raised_cosine(phi_short, 1.0f);               /* eqs (19), (21) */
+        leg[GAMMA] += shape * t->a_short;                           /* eq (19) */
+        leg[FOOT_PITCH] += shape * (2.0f * P(SHORT_FOOT_LIFT) * a_p);   /* eq (21) */
     }
 
     if (SWITCH(SWING_ENABLED)) {
         float phi_swing = P(SWING_V) * (phi_leg + HALF_PI_F + P(SWING_O)); /* eq (22) */
-        float theta_swing = swing_profile(phi_swing, P(SWING_V));          /* eqs (25)-(26) */
+        float theta_swing = swing_profile(phi_swing, t->b_swing);          /* eqs (25)-(26) */
         float roll_sign = paper_signs ? 1.0f : i_s;
         float pitch_sign = paper_signs ? i_s : 1.0f;
         leg[LEG_ROLL] += i_s * a_r * theta_swing;                          /* eq (27) */
@@ -108,18 +146,14 @@ static void leg_parameters(float phi_leg, float i_s, float ca_scale, float *leg)
     }
 
     if (SWITCH(LOAD_ENABLED)) {
-        float phi_load = P(LOAD_V) * pi_cut(phi_leg + HALF_PI_F - PI_F / P(SHORT_V) + P(SHORT_O))
-            - PI_F;                                                        /* eq (33) */
-        float a_load = P(LOAD_AMP_BASE) + P(LOAD_AMP_PITCH) * (1.0f - cosf(fabsf(a_p))); /* (36) */
-        leg[GAMMA] += raised_cosine(phi_load, a_load);                     /* eq (35) */
+        float phi_load = P(LOAD_V) * pi_cut(phi_leg + HALF_PI_F + t->load_offset) - PI_F; /* (33) */
+        leg[GAMMA] += raised_cosine(phi_load, t->a_load);                  /* eq (35) */
     }
 
     if (SWITCH(BALANCE_ENABLED)) {
         leg[FOOT_ROLL] += P(BALANCE_FOOT_ROLL_AMP) * i_s * a_r
-            * cosf(phi_leg + P(BALANCE_FOOT_ROLL_PHASE));                  /* eq (37) */
-        leg[FOOT_PITCH] += P(BALANCE_FOOT_PITCH_OFFSET) + P(BALANCE_FOOT_PITCH_SPEED) * a_p
-            - P(BALANCE_FOOT_PITCH_AMP) * a_p
-                * cosf(2.0f * phi_leg + P(BALANCE_FOOT_PITCH_PHASE));      /* eq (38) */
+            * (mirror * t->roll_cos_left);                                 /* eq (37) */
+        leg[FOOT_PITCH] += t->pitch_balance;                               /* eq (38) */
         float yaw_term = paper_signs ? a_y : fabsf(a_y);
         leg[LEG_ROLL] += P(BALANCE_LEG_ROLL_OFFSET) + i_s * a_r + fabsf(a_r)
             + P(BALANCE_LEG_ROLL_YAW) * yaw_term;                          /* eq (39) */
@@ -145,11 +179,15 @@ static void leg_to_joints(const float *leg, float *joint)
     if (s2 > 1.0f)
         s2 = 1.0f;
     const float s = sqrtf(s2);                    /* sin(beta/2) = cos(alpha1/2) */
-    const float beta = 2.0f * asinf(s);           /* pi - alpha1, eq (4) */
-    float sin_a2 = ll / length * 2.0f * s * sqrtf(1.0f - s2); /* eq (5), sin alpha1 = sin beta */
-    if (sin_a2 > 1.0f)
-        sin_a2 = 1.0f;
-    const float alpha2 = asinf(sin_a2);           /* eq (5) */
+    const float half_beta = asinf(s);
+    const float beta = 2.0f * half_beta;          /* pi - alpha1, eq (4) */
+    float alpha2;
+    if (lu == ll) {
+        alpha2 = half_beta; /* eq (5) for equal thigh and shank: the triangle is isosceles */
+    } else {
+        float sin_a2 = ll / length * 2.0f * s * sqrtf(1.0f - s2); /* sin alpha1 = sin beta */
+        alpha2 = asinf(sin_a2 > 1.0f ? 1.0f : sin_a2);            /* eq (5) */
+    }
     const float alpha3 = beta - alpha2;           /* pi - (alpha1 + alpha2), eq (6) */
 
     joint[0] = leg[LEG_YAW];                                /* hip yaw, eq (7) */
@@ -163,7 +201,9 @@ static void leg_to_joints(const float *leg, float *joint)
 void gait_joint_angles(int32_t phase_acc, gait_output_t *out)
 {
     float leg[LEG_VALUES];
+    frame_terms_t terms;
     const float ca = P(MOTION_CA);
+    frame_terms(gait_phase_rad((int32_t)((uint32_t)phase_acc + GAIT_PHASE_QUARTER)), &terms);
     out->gamma_clamped = 0;
     for (uint8_t side = 0; side < 2; side++) {
         /* phi_L = phi_Trunk + pi/2, phi_R = phi_Trunk - pi/2, wrapped (eqs 10-11): the int32
@@ -172,7 +212,7 @@ void gait_joint_angles(int32_t phase_acc, gait_output_t *out)
                                 : (int32_t)((uint32_t)phase_acc - GAIT_PHASE_QUARTER);
         float i_s = side == 0 ? -1.0f : 1.0f;                  /* eq (32) */
         float ca_scale = side == 0 ? 1.0f + ca : 1.0f - ca;    /* CA on the sagittal swing */
-        leg_parameters(gait_phase_rad(acc), i_s, ca_scale, leg);
+        leg_parameters(gait_phase_rad(acc), i_s, ca_scale, &terms, leg);
         if (leg[GAMMA] < -1.0f) {                              /* eq (45): gamma in [-1, 0] */
             leg[GAMMA] = -1.0f;
             out->gamma_clamped |= (uint8_t)(1u << side);

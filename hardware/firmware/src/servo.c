@@ -1,8 +1,6 @@
 /* servo.c -- the servo model of the hardware layer in the firmware (docs/DESIGN.md, Hardware). */
 #include "servo.h"
 
-#include <math.h>
-
 #include "artro_params.h"
 
 /* pulse ticks per rad: 10 us per degree, 2 ticks per us */
@@ -31,5 +29,6 @@ uint16_t servo_ocr(uint8_t servo, float angle_rad, uint8_t *saturated)
         ticks = PULSE_MAX_TICKS;
         *saturated = 1;
     }
-    return (uint16_t)floorf(ticks + 0.5f) - 1u; /* rounded half up, then high time - 1 */
+    /* rounded half up (ticks > 0: truncation is floor), then high time - 1 */
+    return (uint16_t)(ticks + 0.5f) - 1u;
 }

@@ -1,0 +1,151 @@
+"""`artro firmware build|run` (docs/DESIGN.md, Firmware): a firmware folder for a parameter set,
+and the firmware emulated on simavr and compared with the Python model. `app/cli.py` wires it:
+`add_firmware_parser(sub)`, then `cmd_firmware(args)` for the `firmware` command."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+from pathlib import Path
+from typing import Any
+
+from app.core.mcu.build import build_firmware, export_firmware_folder
+from app.core.mcu.conformance import model_frames, run_comparison
+from app.core.mcu.emulator import Mcu
+from app.core.mcu.vcd import write_vcd
+from gait import GaitParams, Motion
+from gait.params import replace_checked
+
+EPILOG = """examples:
+  artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
+  artro firmware run --motion 0,0.07,0 --frames 250 --json
+  artro firmware run --params models/presets/tuned.json --ca 0.1 --vcd walk.vcd
+  artro firmware run --pty                 the emulated robot on a serial pseudo-terminal"""
+
+
+def _motion(text: str) -> tuple[float, float, float]:
+    try:
+        values = tuple(float(p) for p in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(f"expected a_r,a_p,a_y such as 0,0.07,0; got {text!r}")
+    return values  # type: ignore[return-value]
+
+
+def add_firmware_parser(subparsers: Any) -> argparse.ArgumentParser:
+    """Add `firmware` with `build` and `run` to an argparse subparsers object."""
+    fw = subparsers.add_parser(
+        "firmware",
+        help="the ATmega128 firmware: build it, run it emulated against the model",
+        description=__doc__.splitlines()[0],
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    sub = fw.add_subparsers(dest="firmware_command", required=True, metavar="ACTION")
+    build = sub.add_parser("build", help="write and build a firmware folder")
+    build.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
+    build.add_argument("-o", "--output", metavar="DIR", default="artro_firmware")
+    run = sub.add_parser("run", help="emulate on simavr and compare with the model")
+    run.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
+    run.add_argument("--motion", type=_motion, metavar="AR,AP,AY", help="motion vector")
+    run.add_argument("--ca", type=float, help="curve amount")
+    run.add_argument("--frames", type=int, default=250, metavar="N", help="20 ms frames")
+    run.add_argument("--vcd", metavar="FILE", help="write the nine drive lines as VCD")
+    run.add_argument("--json", action="store_true", help="print one JSON object")
+    run.add_argument(
+        "--pty",
+        action="store_true",
+        help="instead: serve the emulated robot's UART on a pseudo-terminal in real time until "
+        "Ctrl-C (57600 baud, PROTOCOL.md)",
+    )
+    return fw
+
+
+def load_document(path: str | None) -> dict[str, Any]:
+    """A parameter-set document (as `ParameterSet.to_dict()` writes it), validated by the gait
+    schema; the paper values without a file."""
+    data: dict[str, Any] = {"name": "paper"}
+    if path:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: a parameter set is a JSON object")
+    motion = replace_checked(Motion(), data.get("motion", {}), "motion")
+    return {
+        "schema_version": data.get("schema_version", 1),
+        "name": str(data.get("name", "unnamed")),
+        "created": str(data.get("created", "")),
+        "project_version": str(data.get("project_version", "")),
+        "motion": dataclasses.asdict(motion),
+        "gait": GaitParams.from_dict(data.get("gait", {})).to_dict(),
+    }
+
+
+def _document(args: argparse.Namespace) -> dict[str, Any]:
+    doc = load_document(args.params)
+    motion = dict(doc["motion"])
+    if getattr(args, "motion", None) is not None:
+        motion.update(zip(("a_r", "a_p", "a_y"), args.motion, strict=True))
+    if getattr(args, "ca", None) is not None:
+        motion["ca"] = args.ca
+    doc["motion"] = dataclasses.asdict(Motion(**motion))  # validated
+    return doc
+
+
+def firmware_run(doc: dict[str, Any], frames: int, vcd: str | None = None) -> dict[str, Any]:
+    """Emulate `frames` frames of the firmware built for `doc`; the comparison as a dict."""
+    build = build_firmware(doc)
+    model = model_frames(doc, frames)
+    with Mcu(build.elf) as mcu:
+        result = run_comparison(mcu, model, keep_edges=vcd is not None)
+        if vcd:
+            write_vcd(vcd, result.edges, mcu.t0_cycle, comment=f"parameter set {doc['name']}")
+        lag = mcu.timer3_lag_cycles
+    return {
+        **result.summary(),
+        "flash_bytes": build.flash_bytes,
+        "sram_bytes": build.sram_bytes,
+        "timer3_start_lag_cycles": lag,
+    }
+
+
+def _serve_pty(doc: dict[str, Any]) -> int:
+    import threading
+
+    from app.core.mcu.pty_bridge import PtyBridge
+
+    with Mcu(build_firmware(doc).elf) as mcu:
+        bridge = PtyBridge(mcu)
+        print(f"emulated robot on {bridge.port} (57600 8N1); Ctrl-C ends", flush=True)
+        try:
+            bridge.serve(threading.Event())
+        except KeyboardInterrupt:
+            pass
+        finally:
+            bridge.close()
+    return 0
+
+
+def cmd_firmware(args: argparse.Namespace) -> int:
+    doc = _document(args)
+    if args.firmware_command == "build":
+        folder = export_firmware_folder(doc, Path(args.output))
+        build = build_firmware(doc, out_dir=folder)
+        print(
+            f"{folder}: {build.hex.relative_to(folder)} built; flash {build.flash_bytes} B, "
+            f"SRAM {build.sram_bytes} B (without the stack); `make -C {folder} flash` programs it"
+        )
+        return 0
+    if args.pty:
+        return _serve_pty(doc)
+    if args.frames < 2:
+        raise ValueError("--frames must be at least 2")
+    summary = firmware_run(doc, args.frames, args.vcd)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for key, value in summary.items():
+            print(f"{key:24s} {value}")
+    return 0 if summary["mismatches"] == 0 else 1

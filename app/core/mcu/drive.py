@@ -1,0 +1,103 @@
+"""The emulated firmware as the simulation's servo drive, one 20 ms frame per call: OCR decoded
+from the pins, the edges, the firmware's angles and phase; parameter sets go over the emulated
+UART (docs/DESIGN.md, Firmware)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.core.mcu import protocol as proto
+from app.core.mcu.build import build_firmware
+from app.core.mcu.conformance import split_frames
+from app.core.mcu.emulator import Edges, Mcu, read_active_plan
+from app.core.mcu.link import EmulatedLink
+from hardware import CHANNELS, OCR_IDLE, SLOT_TICKS, SLOTS_PER_FRAME, FrameEdges
+from hardware.firmware.schema import values_from_document
+
+
+@dataclass(frozen=True)
+class FirmwareFrame:
+    index: int
+    phase_rad: float  # the firmware's phi_Trunk (float32)
+    angles_rad: NDArray[np.float32]  # (12,) the firmware's joint angles
+    ocr: NDArray[np.int32]  # (6, 8) decoded from the pins; -1 = idle
+    edges: FrameEdges  # the nine lines as recorded, ticks from the frame start
+    busy_cycles: int  # CPU cycles not asleep during the frame
+
+
+def ocr_from_edges(edges: FrameEdges) -> NDArray[np.int32]:
+    """(6, 8) OCR values of the pulses on the TDM lines: high time - 1 per slot, -1 if none."""
+    ocr = np.full((len(CHANNELS), SLOTS_PER_FRAME), OCR_IDLE, np.int32)
+    for c, name in enumerate(CHANNELS):
+        initial, line = edges.line(name)
+        rise = 0 if initial else None
+        for tick, level in line:
+            if level:
+                rise = tick
+            elif rise is not None:
+                slot = rise // SLOT_TICKS
+                ocr[c, slot] = tick - rise - 1
+                rise = None
+    return ocr
+
+
+_PLAN_TICK = 100  # the frame's plan is latched at its start: read it just after
+
+
+def _concat(a: Edges, b: Edges) -> Edges:
+    return Edges(
+        *(
+            np.concatenate([x, y])
+            for x, y in zip((a.cycle, a.line, a.level), (b.cycle, b.line, b.level), strict=True)
+        )
+    )
+
+
+def _since(edges: Edges, cycle: int) -> Edges:
+    keep = edges.cycle >= cycle
+    return Edges(edges.cycle[keep], edges.line[keep], edges.level[keep])
+
+
+class FirmwareDrive:
+    """One emulated robot controller, advanced frame by frame."""
+
+    def __init__(self, doc: dict[str, Any]) -> None:
+        self.build = build_firmware(doc)
+        self.mcu = Mcu(self.build.elf)
+        self.link = EmulatedLink(self.mcu)
+        self.frame = 0
+        self._busy = self.mcu.busy_cycles
+        self._recent: Edges | None = None  # edges of the last two frames: levels carry over
+
+    def next_frame(self) -> FirmwareFrame:
+        k = self.frame
+        self.mcu.run_to_frame(k, _PLAN_TICK)
+        plan = read_active_plan(self.mcu)
+        self.mcu.run_to_frame(k + 1, _PLAN_TICK)  # past the edges at the next frame's start
+        self.link.poll()  # keep the UART drained
+        new = self.mcu.take_edges()
+        recent = new if self._recent is None else _concat(self._recent, new)
+        keep_from = self.mcu.frame_start(max(k - 1, 0))
+        self._recent = _since(recent, keep_from)
+        edges = split_frames(recent, self.mcu.t0_cycle, k + 1)[k]
+        busy = self.mcu.busy_cycles
+        frame = FirmwareFrame(
+            k, plan.phase_rad, plan.angles, ocr_from_edges(edges), edges, busy - self._busy
+        )
+        self._busy = busy
+        self.frame += 1
+        return frame
+
+    def set_parameters(self, doc: dict[str, Any]) -> int:
+        """Send a whole parameter set; returns the first frame it reaches (from the ACK)."""
+        (reply,) = self.link.request(proto.set_params(values_from_document(doc)))
+        if not isinstance(reply, proto.Ack):
+            raise ValueError(f"the firmware rejected the parameter set: {reply}")
+        return reply.effective_frame
+
+    def close(self) -> None:
+        self.mcu.close()

@@ -1,0 +1,57 @@
+"""`artro firmware build|run` (app.core.mcu.cli) and the exported firmware folder."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from app.core.mcu.build import export_firmware_folder, memory_use
+from app.core.mcu.cli import add_firmware_parser, cmd_firmware
+from tests.firmware_support import preset
+
+
+def parse(argv: list[str]) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(prog="artro")
+    add_firmware_parser(parser.add_subparsers(dest="command", required=True))
+    return parser.parse_args(argv)
+
+
+def test_exported_folder_builds_with_make_alone(tmp_path: Path) -> None:
+    folder = export_firmware_folder(preset("tuned", a_p=0.05), tmp_path / "fw")
+    assert (folder / "gen" / "artro_params.h").exists() and (folder / "PROTOCOL.md").exists()
+    subprocess.run(["make"], cwd=folder, check=True, capture_output=True)
+    flash, sram = memory_use(folder / "build" / "artro.elf")
+    assert (folder / "build" / "artro.hex").stat().st_size > 0
+    assert 0 < flash < 128 * 1024 and 0 < sram < 4 * 1024
+    assert "flash:" in subprocess.run(
+        ["make", "-n", "flash"], cwd=folder, check=True, capture_output=True, text=True
+    ).stdout.replace("flash:w", "flash:")
+
+
+def test_firmware_run_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    vcd = tmp_path / "walk.vcd"
+    args = parse(["firmware", "run", "--motion", "0,0.07,0", "--frames", "12", "--json",
+                  "--vcd", str(vcd)])  # fmt: skip
+    assert cmd_firmware(args) == 0
+    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    assert out["frames"] == 12 and out["pulses_compared"] == 144
+    assert out["exact"] + out["one_tick"] == 144 and out["mismatches"] == 0
+    assert 0 < out["cycles_per_frame_max"] < 320_000
+    assert 0 < out["flash_bytes"] < 128 * 1024 and 0 < out["sram_bytes"] < 4096
+    text = vcd.read_text()
+    for name in ("OC1A", "OC1B", "OC1C", "OC3A", "OC3B", "OC3C", "SEL0", "SEL1", "SEL2"):
+        assert f" {name} $end" in text
+    # SEL0 rises in the first guard's tick 4900: from 39 200 cycles = 2 450 000 000 ps on
+    rise = int(re.search(r"#(\d+)\n1'", text).group(1))
+    assert 2_450_000_000 <= rise < 2_450_000_000 + 8 * 62_500
+
+
+def test_firmware_build_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert cmd_firmware(parse(["firmware", "build", "-o", str(tmp_path / "out")])) == 0
+    assert (tmp_path / "out" / "build" / "artro.hex").exists()
+    assert "flash" in capsys.readouterr().out
