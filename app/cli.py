@@ -13,8 +13,11 @@ from pathlib import Path
 from typing import Any
 
 from app.core.headless import run
+from app.core.mcu.build import export_firmware_folder
+from app.core.mcu.cli import add_firmware_parser, cmd_firmware
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.formats import FORMATS, export_text
+from app.robot_link import add_link_parser, cmd_link
 from app.study import bench as paper_bench
 from app.study import tune
 
@@ -42,10 +45,19 @@ EXAMPLES = {
   artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking""",
     "export": """examples:
   artro export --format c -o artro_params.h              the firmware header
-  artro export --format yaml --params my_gait.json""",
+  artro export --format yaml --params my_gait.json
+  artro export --format firmware --params my_gait.json -o my_robot   then: make -C my_robot""",
     "bench": """examples:
   artro bench paper                        both presets, 60 s runs (~4 min on 2 cores)
   artro bench paper --quick --presets tuned""",
+    "firmware": """examples:
+  artro firmware build -o artro_firmware     sources, generated headers, Makefile; built
+  artro firmware run --motion 0,0.07,0 --frames 251 --json   pins against the model
+  artro firmware run --pty                   the emulated robot on a pseudo-terminal""",
+    "link": """examples:
+  artro link --port /dev/ttyUSB0             follow the dashboard on http://127.0.0.1:8000
+  artro link --port /dev/pts/5 --params models/presets/tuned.json   send one set
+  artro link --dry-run                       print the messages it would send""",
     "tune": """examples:
   artro tune --base paper --tune swing.v,short.amp_base --generations 4 --popsize 6
   artro tune --base models/presets/tuned.json --set leg.paper_signs=false --select passing""",
@@ -104,13 +116,22 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     e = _subcommand(sub, "export", "write a parameter set as JSON, YAML or a firmware C header")
-    e.add_argument("--format", required=True, choices=FORMATS, help="output format")
+    e.add_argument(
+        "--format",
+        required=True,
+        choices=(*FORMATS, "firmware"),
+        help="output format; firmware: a folder with the C sources, this set's header and a "
+        "Makefile (make, make flash) -- needs -o DIR",
+    )
     e.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
     e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
     b = _subcommand(sub, "bench", "simulate what the papers measured and compare (tables, PNGs)")
     paper_bench.add_arguments(b)
     t = _subcommand(sub, "tune", "CMA-ES over gait parameters toward the paper's walking")
     tune.add_arguments(t)
+    fw = add_firmware_parser(sub)
+    fw.epilog = EXAMPLES["firmware"]
+    add_link_parser(sub, EXAMPLES["link"])
     return parser
 
 
@@ -153,6 +174,12 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 def _cmd_export(args: argparse.Namespace) -> int:
     pset = load_parameter_set(args.params) if args.params else ParameterSet()
+    if args.format == "firmware":
+        if not args.output:
+            raise ValueError("--format firmware writes a folder: give it with -o DIR")
+        folder = export_firmware_folder(pset.to_dict(), Path(args.output))
+        print(f"{folder}: the firmware for {pset.name or 'the paper set'}; `make` builds it")
+        return 0
     text, _media_type, _filename = export_text(pset, args.format)
     if args.output:
         Path(args.output).write_text(text, encoding="utf-8")
@@ -204,7 +231,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             return paper_bench.cmd_bench(args)
         if args.command == "tune":
             return tune.command(args)
-    except (ValueError, OSError) as exc:
+        if args.command == "firmware":
+            return cmd_firmware(args)
+        if args.command == "link":
+            return cmd_link(args, sys.stdout)
+    except (ValueError, OSError, RuntimeError) as exc:  # BuildError, EmulatorError, LinkError
         parser.exit(2, f"artro {args.command}: error: {exc}\n")
     return 1
 

@@ -1,9 +1,7 @@
 """The servo load budget: per joint, torque and speed against the servo's limits, and eq (1).
 
-Sampled once per 20 ms frame from the actuator forces and joint speeds (docs/DESIGN.md §5): the
-peak and RMS torque against the stall torque, the peak speed against the no-load speed, the
-frames a servo's pulse saturated, and eq (1)'s required torque (1 + sf) x peak |tau|.
-"""
+Sampled once per 20 ms frame (docs/DESIGN.md §5): peak and RMS |torque| against the stall torque,
+peak speed against the no-load speed, saturated frames, eq (1)'s (1 + sf) x peak |tau|."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """The simulation thread of `artro serve`: paces the frame loop to the wall clock.
 
-It alone owns the `FrameLoop` and its MjData (docs/DESIGN.md, "Threads"). Others send `Command`s,
+It alone owns the `FrameLoop` and its MjData (docs/DESIGN.md §8). Others send `Command`s,
 change the parameter store, and read what it publishes: a `SimStatus` snapshot and body poses.
 """
 

@@ -1,6 +1,6 @@
 """The firmware's parameter table `artro_schema.h`, generated from the one parameter schema
 (`gait.params`): one-byte ids (motion, then the gait groups in schema order), ranges, switches, the
-leg geometry and a schema hash the host checks (docs/DESIGN.md, Firmware). The defaults in it
+leg geometry and a schema hash the host checks (docs/DESIGN.md §5). The defaults in it
 name the `ARTRO_<GROUP>_<FIELD>` values of `artro_params.h`, i.e. the exported parameter set."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Building the ArtRo firmware (avr-gcc, its two generated headers for a parameter set) and the
-simavr harness library (cc), each cached by a hash of its inputs (docs/DESIGN.md, Firmware)."""
+simavr harness library (cc), each cached by a hash of its inputs (docs/DESIGN.md §5)."""
 
 from __future__ import annotations
 

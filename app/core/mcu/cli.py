@@ -1,4 +1,4 @@
-"""`artro firmware build|run` (docs/DESIGN.md, Firmware): a firmware folder for a parameter set,
+"""`artro firmware build|run` (docs/DESIGN.md §5): a firmware folder for a parameter set,
 and the firmware emulated on simavr and compared with the Python model. `app/cli.py` wires it:
 `add_firmware_parser(sub)`, then `cmd_firmware(args)` for the `firmware` command."""
 

@@ -1,4 +1,4 @@
-"""Emulated firmware against the Python model, frame by frame (docs/DESIGN.md, Firmware): pin edges
+"""Emulated firmware against the Python model, frame by frame (docs/DESIGN.md §5): pin edges
 against `hardware.frame_edges` of the frame loop's `plan_frames`, tick for tick (a falling edge one
 tick off where float32 and float64 round a pulse apart is counted), angles within 1e-4 rad."""
 

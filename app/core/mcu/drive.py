@@ -1,6 +1,6 @@
 """The emulated firmware as the simulation's servo drive, one 20 ms frame per call: OCR decoded
 from the pins, the edges, the firmware's angles and phase; parameter sets go over the emulated
-UART (docs/DESIGN.md, Firmware)."""
+UART (docs/DESIGN.md §5)."""
 
 from __future__ import annotations
 

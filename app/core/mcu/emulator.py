@@ -1,7 +1,7 @@
 """The ArtRo firmware on simavr's ATmega128 core, driven from Python through the harness library
 (`harness.c`, ctypes): run by cycles or 20 ms frames, pin edges with their CPU cycle, UART bytes,
 SRAM by symbol. Frame k starts at t0 + k * FRAME_CYCLES, t0 = when Timer1 started; a timer tick
-is 8 cycles (docs/DESIGN.md, Firmware)."""
+is 8 cycles (docs/DESIGN.md §5)."""
 
 from __future__ import annotations
 

@@ -14,7 +14,7 @@
  *    once the low byte is written, comparing with the high byte already stored -- so a change of
  *    the high byte alone is lost. On the chip the high byte waits in TEMP and both bytes change
  *    together; the harness makes simavr see such a write as the change it is.
- * docs/DESIGN.md, Firmware.
+ * docs/DESIGN.md §5.
  */
 #include <stdint.h>
 #include <stdio.h>

@@ -1,6 +1,6 @@
 """Talking to the firmware: the emulated UART (`EmulatedLink`) and the robot's serial port
 (`SerialLink`, over any port object with read/write such as pyserial's), both with
-`request(message) -> replies`. docs/DESIGN.md, Firmware.
+`request(message) -> replies`. docs/DESIGN.md §5.
 """
 
 from __future__ import annotations

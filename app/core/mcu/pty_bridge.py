@@ -1,5 +1,5 @@
 """The emulated UART0 on a pseudo-terminal, so any serial program talks to the emulated robot as
-to the real one (docs/DESIGN.md, Firmware): `PtyBridge(mcu).port`, then `serve(stop_event)`."""
+to the real one (docs/DESIGN.md §5): `PtyBridge(mcu).port`, then `serve(stop_event)`."""
 
 from __future__ import annotations
 

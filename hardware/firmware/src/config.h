@@ -1,4 +1,4 @@
-/* config.h -- board wiring and timing choices of the ArtRo firmware (docs/DESIGN.md, Firmware).
+/* config.h -- board wiring and timing choices of the ArtRo firmware (docs/DESIGN.md §5).
  *
  * Everything a board builder may want to change lives here; the gait constants, servo
  * calibration and channel map come from the generated artro_params.h / artro_schema.h.

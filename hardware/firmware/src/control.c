@@ -1,4 +1,4 @@
-/* control.c -- the main loop's side of the frame pipeline (docs/DESIGN.md, Firmware).
+/* control.c -- the main loop's side of the frame pipeline (docs/DESIGN.md §5).
  *
  * Frame F+1 is planned in the idle slots of frame F with the parameters in force then, so a
  * parameter message handled before that point reaches the servos in frame F+1, one handled after

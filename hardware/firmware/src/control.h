@@ -1,4 +1,4 @@
-/* control.h -- run state and frame planning of the main loop (docs/DESIGN.md, Firmware). */
+/* control.h -- run state and frame planning of the main loop (docs/DESIGN.md §5). */
 #ifndef ARTRO_CONTROL_H
 #define ARTRO_CONTROL_H
 

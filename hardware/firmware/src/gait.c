@@ -1,6 +1,6 @@
 /* gait.c -- walking phases, eqs (10)-(39), and leg interface, eqs (2)-(9) and (40)-(45).
  *
- * The same arithmetic as the project's Python gait (docs/DESIGN.md, Gait), one leg at a time and
+ * The same arithmetic as the project's Python gait (docs/DESIGN.md §4), one leg at a time and
  * in float32. CA (curve amount) scales the left leg's sagittal swing terms by (1 + CA) and the
  * right leg's by (1 - CA). Each phase can be switched off; `leg.paper_signs` selects the printed
  * signs of eqs (30), (31), (39) or their mirror-symmetric form.

@@ -1,7 +1,7 @@
 /* gait.h -- the ArtRo gait in float32: walking phases (eqs 10-39), leg interface (40-45, 2-9).
  *
  * A stateless function of the parameters (params.h) and the trunk phase, as in the project's
- * Python gait (docs/DESIGN.md, Gait and Firmware). The trunk phase is a 32-bit phase accumulator:
+ * Python gait (docs/DESIGN.md §4, §5). The trunk phase is a 32-bit phase accumulator:
  * 2^32 counts are one gait cycle, so phi_Leg = phi_Trunk +- pi/2 and piCut are exact integer
  * wrap-arounds and the walking clock keeps no rounding drift.
  */

@@ -1,4 +1,4 @@
-/* main.c -- ArtRo servo biped firmware for the ATmega128 at 16 MHz (docs/DESIGN.md, Firmware).
+/* main.c -- ArtRo servo biped firmware for the ATmega128 at 16 MHz (docs/DESIGN.md §5).
  *
  * Interrupts drive the servos (tdm.c: Timer1/Timer3 TDM-PWM, Timer2 walking-clock tick and guard)
  * and move UART bytes (uart.c). The main loop handles messages (protocol.c), plans each next

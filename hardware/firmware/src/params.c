@@ -1,4 +1,4 @@
-/* params.c -- the SRAM parameter store with the schema's ranges (docs/DESIGN.md, Firmware). */
+/* params.c -- the SRAM parameter store with the schema's ranges (docs/DESIGN.md §5). */
 #include "params.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* params.h -- every tunable gait value as a run-time parameter in SRAM (docs/DESIGN.md, Firmware).
+/* params.h -- every tunable gait value as a run-time parameter in SRAM (docs/DESIGN.md §5).
  *
  * Values are addressed by the ids of the generated artro_schema.h (motion vector, CA, clock and
  * every walking-phase constant); defaults are the exported parameter set (artro_params.h).

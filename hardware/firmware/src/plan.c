@@ -1,4 +1,4 @@
-/* plan.c -- walking clock, gait, servo model and TDM table of one frame (docs/DESIGN.md, Firmware).
+/* plan.c -- walking clock, gait, servo model and TDM table of one frame (docs/DESIGN.md §5).
  *
  * Walking clock (eqs 10-11): phi_Trunk advances by 2*pi*f*20 ms per frame, the step of the
  * frequency in force when the frame was planned (as the simulation's frame loop does), kept in

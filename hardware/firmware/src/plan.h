@@ -1,7 +1,7 @@
 /* plan.h -- one frame of the servo drive, computed ahead: walking clock, gait, servos, TDM table.
  *
  * The main loop fills the spare plan for frame F+1 during the idle slots of frame F; the Timer2
- * guard interrupt (tdm.c) latches it at the end of slot 7 (docs/DESIGN.md, Firmware).
+ * guard interrupt (tdm.c) latches it at the end of slot 7 (docs/DESIGN.md §5).
  */
 #ifndef ARTRO_PLAN_H
 #define ARTRO_PLAN_H

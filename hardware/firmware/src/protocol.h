@@ -1,4 +1,4 @@
-/* protocol.h -- the framed, checksummed UART protocol (see ../PROTOCOL.md; docs/DESIGN.md, Firmware).
+/* protocol.h -- the framed, checksummed UART protocol (see ../PROTOCOL.md; docs/DESIGN.md §5).
  *
  *   0xA5 | LEN | TYPE | PAYLOAD (LEN - 1 bytes) | CRC16 low | CRC16 high
  *

@@ -1,4 +1,4 @@
-/* servo.c -- the servo model of the hardware layer in the firmware (docs/DESIGN.md, Hardware). */
+/* servo.c -- the servo model of the hardware layer in the firmware (docs/DESIGN.md §5). */
 #include "servo.h"
 
 #include "artro_params.h"

@@ -1,4 +1,4 @@
-/* servo.h -- joint angle -> servo pulse -> timer OCR ticks (docs/DESIGN.md, Hardware).
+/* servo.h -- joint angle -> servo pulse -> timer OCR ticks (docs/DESIGN.md §5).
  *
  * pulse_us = 1500 + direction * degrees(angle) * 10 + trim_us, the angle first limited to the
  * servo's calibrated range and the pulse to 600..2400 us; both clips are reported. OCR is the

@@ -1,6 +1,6 @@
 /* tdm.c -- Timer1/Timer3 TDM-PWM, select lines and the Timer2 guard interrupt.
  *
- * docs/DESIGN.md, Firmware. Time base: Timer1, Timer2 and Timer3 share the prescaler and are
+ * docs/DESIGN.md §5. Time base: Timer1, Timer2 and Timer3 share the prescaler and are
  * started together (SFIOR.TSM), so Timer2 (CTC, clk/64, 1000 Timer1 ticks per period) ticks at
  * fixed Timer1 counts: 848, 1848, ..., 4848 of every slot. Timer2 is the walking-clock tick; its
  * fifth tick in a slot opens the guard:

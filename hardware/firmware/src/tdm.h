@@ -1,4 +1,4 @@
-/* tdm.h -- TDM-PWM on Timer1/Timer3 with the demultiplexer select lines (docs/DESIGN.md, Firmware).
+/* tdm.h -- TDM-PWM on Timer1/Timer3 with the demultiplexer select lines (docs/DESIGN.md §5).
  *
  * Timer1 and Timer3 run fast PWM mode 14 (TOP = ICRn = 4999, clk/8): one period = one 2.5 ms slot,
  * eight slots = one 20 ms frame. Each of the six compare outputs (OC1A/B/C = PB5/6/7,

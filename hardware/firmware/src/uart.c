@@ -1,5 +1,5 @@
 /* uart.c -- UART0, 8N1, interrupt driven: the receive interrupt only stores the byte, so it never
- * delays the TDM guard interrupt by more than a few dozen cycles (docs/DESIGN.md, Firmware). */
+ * delays the TDM guard interrupt by more than a few dozen cycles (docs/DESIGN.md §5). */
 #include "uart.h"
 
 #include <avr/interrupt.h>

@@ -1,4 +1,4 @@
-/* uart.h -- interrupt-driven UART0 with receive and transmit rings (docs/DESIGN.md, Firmware). */
+/* uart.h -- interrupt-driven UART0 with receive and transmit rings (docs/DESIGN.md §5). */
 #ifndef ARTRO_UART_H
 #define ARTRO_UART_H
 

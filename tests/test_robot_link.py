@@ -1,0 +1,107 @@
+"""`artro link` against the emulated robot behind a pseudo-terminal and a real dashboard server:
+the dashboard's set arrives whole, a change follows, the servos go off at the end."""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+import pytest
+import serial
+
+from app.core.mcu import protocol as proto
+from app.core.mcu.link import SerialLink
+from app.core.mcu.pty_bridge import PtyBridge
+from app.robot_link import LinkError, RobotLink, _plain, cmd_link, follow
+from hardware.firmware.schema import values_from_document
+from tests.firmware_support import emulator, preset
+from tests.server_harness import client, running_server
+
+
+@pytest.fixture
+def robot_on_a_pty():
+    """(pty path, mcu): the emulated robot served on a pseudo-terminal until the test ends."""
+    stop = threading.Event()
+    with emulator(preset("paper")) as mcu:
+        bridge = PtyBridge(mcu, realtime=False)
+        thread = threading.Thread(target=bridge.serve, args=(stop, 120.0), daemon=True)
+        thread.start()
+        try:
+            yield bridge.port
+        finally:
+            stop.set()
+            thread.join()
+            bridge.close()
+
+
+def test_the_dashboards_set_and_its_change_reach_the_robot(robot_on_a_pty, tmp_path):
+    sent: list[str] = []
+    first_sent = threading.Event()
+
+    def log(line: str) -> None:
+        sent.append(line)
+        if line.startswith("sent"):
+            first_sent.set()
+
+    link = SerialLink(serial.Serial(robot_on_a_pty, 57600, timeout=0.02), timeout_s=30.0)
+    robot = RobotLink(link, log=log)
+    with running_server(tmp_path) as (base_url, _app), client(base_url) as http:
+        robot.hello()
+        stop = threading.Event()
+        done: list[int] = []
+        worker = threading.Thread(
+            target=lambda: done.append(follow(robot, base_url, stop, max_updates=1)), daemon=True
+        )
+        worker.start()
+        assert first_sent.wait(60), sent
+        changed = http.patch("/api/params", json={"motion": {"a_p": 0.05, "ca": -0.02}}).json()
+        worker.join(60)
+        assert done == [2], sent
+        # the robot holds exactly the dashboard's new set (as float32)
+        (params,) = link.request(proto.encode(proto.Msg.GET_PARAMS))
+        expected = np.float32(values_from_document(_plain(changed)))
+        np.testing.assert_array_equal(np.float32(params.values), expected)
+        (info,) = link.request(proto.encode(proto.Msg.PING))
+        assert info.state == proto.RunState.WALK
+        robot.torque_off()
+        (info,) = link.request(proto.encode(proto.Msg.PING))
+        assert info.state == proto.RunState.TORQUE_OFF
+    link.close()
+    assert any("dashboard version" in line for line in sent)
+
+
+def test_a_port_where_no_robot_answers_is_a_clear_error(tmp_path):
+    class Silent:
+        def write(self, data: bytes) -> int:
+            return len(data)
+
+        def read(self, size: int = 1) -> bytes:
+            return b""
+
+        def close(self) -> None:
+            pass
+
+    robot = RobotLink(SerialLink(Silent(), timeout_s=0.05))
+    with pytest.raises(LinkError, match="no answer from the robot"):
+        robot.hello()
+
+
+def test_dry_run_prints_the_messages_and_switches_off(tmp_path):
+    import argparse
+    import io
+
+    out = io.StringIO()
+    (tmp_path / "set.json").write_text('{"motion": {"a_p": 0.07}}')
+    args = argparse.Namespace(
+        dry_run=True,
+        port=None,
+        baud=57600,
+        server="http://127.0.0.1:9",
+        params=str(tmp_path / "set.json"),
+    )
+    assert cmd_link(args, out) == 0
+    lines = out.getvalue().splitlines()
+    kinds = [line.split()[1] for line in lines if line.startswith("->")]
+    assert kinds == ["PING", "SET_PARAMS", "START", "TORQUE_OFF"]
+    with pytest.raises(ValueError, match="--port is needed"):
+        cmd_link(argparse.Namespace(dry_run=False, port=None, baud=57600), io.StringIO())
