@@ -217,6 +217,25 @@ class LegParams:
 
 
 @dataclass(frozen=True)
+class SteerParams:
+    """The steering term (docs/DESIGN.md §4, §10): CA also feeds the leg-yaw swing of eq (29).
+
+    (1 +- CA) on the sagittal swing turns a biped whose hips do not yaw only as far as its feet
+    twist on the floor; a_y,eff = a_y + K*CA adds the yaw that eq (13) assumes. K = 0 is the
+    literal paper gait.
+    """
+
+    yaw_per_ca: float = _param(
+        0.0, -1.0, 1.0, step=0.005, unit="rad", eq="(29), seed 004 (13)",
+        doc="K: leg-yaw swing amplitude per unit CA (a_y,eff = a_y + K*CA); 0 = the paper; "
+        "> 0 turns the same way as CA (clockwise for CA > 0)",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
 class GaitParams:
     """Every walking-phase constant, grouped by phase, with the paper's values as defaults.
 
@@ -231,6 +250,7 @@ class GaitParams:
     load: LoadParams = field(default_factory=LoadParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     leg: LegParams = field(default_factory=LegParams)
+    steer: SteerParams = field(default_factory=SteerParams)
 
     def to_dict(self) -> dict[str, dict[str, float | bool]]:
         """`{group: {field: value}}` with every field, e.g. {'swing': {'v': 2.0, ...}, ...}."""
@@ -254,6 +274,7 @@ _GROUP_CLASSES = {
     "load": LoadParams,
     "balance": BalanceParams,
     "leg": LegParams,
+    "steer": SteerParams,
 }
 
 

@@ -23,6 +23,7 @@ GROUP_TITLES = {
     "load": "Loading",
     "balance": "Balancing",
     "leg": "Leg",
+    "steer": "Steering (CA)",
 }
 
 # forbid unknown fields, NaN and inf, and take no strings for numbers
