@@ -1,7 +1,8 @@
 """The ArtRo gait: Behnke's omnidirectional walk as adapted in seed 000, CA steering of seed 004.
 
 Pure numpy. Motion vector -> walking phases (eqs 10–39) -> leg parameters (40–45) -> joint angles
-(2–9); plus the differential-drive path predictor. Everything is vectorised over the trunk phase.
+(2–9); plus the differential-drive path predictor and the motion ramp (seed 004's start-up
+phase). Everything is vectorised over the trunk phase.
 """
 
 from gait.leg_interface import (
@@ -22,8 +23,10 @@ from gait.params import (
     LegParams,
     LoadParams,
     Motion,
+    RampParams,
     ShiftParams,
     ShortParams,
+    SteerParams,
     SwingParams,
     describe_fields,
     merge,
@@ -37,6 +40,7 @@ from gait.phases import (
     pi_cut,
     swing_profile,
 )
+from gait.ramp import ramp_motion, ramp_steps
 from gait.steering import (
     Pose2D,
     curve_amount_for,
@@ -59,8 +63,10 @@ __all__ = [
     "LoadParams",
     "Motion",
     "Pose2D",
+    "RampParams",
     "ShiftParams",
     "ShortParams",
+    "SteerParams",
     "SwingParams",
     "advance_phase",
     "curve_amount_for",
@@ -75,6 +81,8 @@ __all__ = [
     "merge",
     "pi_cut",
     "predict_path",
+    "ramp_motion",
+    "ramp_steps",
     "swing_profile",
     "turn_radius_m",
     "turn_rate_rad_s",

@@ -236,6 +236,32 @@ class SteerParams:
 
 
 @dataclass(frozen=True)
+class RampParams:
+    """Motion changes are ramped (seed 004's start-up phase, its Fig. 3; docs/DESIGN.md §4).
+
+    The motion vector and CA reach the gait through a rate limit, so that a sudden slider move
+    does not throw the robot: each component moves toward its target by at most rate * dt.
+    """
+
+    enabled: bool = _switch("rate-limit the motion vector and CA on their way to the gait")
+    amp_rad_s: float = _param(
+        0.05, 0.005, 1.0, step=0.005, unit="rad/s", eq="seed 004 Fig. 3",
+        doc="largest change of a_r and a_p per second (0 to 0.07 in 1.4 s)",
+    )  # fmt: skip
+    yaw_rad_s: float = _param(
+        0.1, 0.005, 2.0, step=0.005, unit="rad/s", eq="seed 004 Fig. 3",
+        doc="largest change of a_y per second (0 to 0.2 in 2 s)",
+    )  # fmt: skip
+    ca_per_s: float = _param(
+        0.1, 0.005, 2.0, step=0.005, unit="1/s", eq="seed 004 Fig. 3",
+        doc="largest change of CA per second (0 to 0.1 in 1 s)",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
 class GaitParams:
     """Every walking-phase constant, grouped by phase, with the paper's values as defaults.
 
@@ -251,6 +277,7 @@ class GaitParams:
     balance: BalanceParams = field(default_factory=BalanceParams)
     leg: LegParams = field(default_factory=LegParams)
     steer: SteerParams = field(default_factory=SteerParams)
+    ramp: RampParams = field(default_factory=RampParams)
 
     def to_dict(self) -> dict[str, dict[str, float | bool]]:
         """`{group: {field: value}}` with every field, e.g. {'swing': {'v': 2.0, ...}, ...}."""
@@ -275,6 +302,7 @@ _GROUP_CLASSES = {
     "balance": BalanceParams,
     "leg": LegParams,
     "steer": SteerParams,
+    "ramp": RampParams,
 }
 
 

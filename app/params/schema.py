@@ -24,6 +24,7 @@ GROUP_TITLES = {
     "balance": "Balancing",
     "leg": "Leg",
     "steer": "Steering (CA)",
+    "ramp": "Motion ramp",
 }
 
 # forbid unknown fields, NaN and inf, and take no strings for numbers
