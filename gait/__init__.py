@@ -1,21 +1,25 @@
 """The ArtRo gait: Behnke's omnidirectional walk as adapted in seed 000, CA steering of seed 004.
 
-Pure numpy. Motion vector -> walking phases (eqs 10–39) -> leg parameters (40–45) -> joint angles
-(2–9); plus the differential-drive path predictor and the motion ramp (seed 004's start-up
-phase). Everything is vectorised over the trunk phase.
+Pure numpy. Two engines behind `joint_angles` (`gait.engine`, chosen by `GaitParams.engine`):
+`behnke` -- motion vector -> walking phases (eqs 10–39) -> leg parameters (40–45) -> joint angles
+(2–9) -- and `pfs`, seed 004's oscillator per joint (eqs 1–3, 10–11). Plus the differential-drive
+path predictor and the motion ramp (seed 004's start-up phase). Everything is vectorised over the
+trunk phase.
 """
 
+from gait.engine import joint_angles, joint_angles_with_flags, startup_gain
 from gait.leg_interface import (
     ARTRO_LEG,
     JOINT_NAMES,
     JointAngles,
     LegGeometry,
-    joint_angles,
-    joint_angles_with_flags,
+    behnke_joint_angles_with_flags,
     knee_triangle,
     leg_to_joint_angles,
 )
 from gait.params import (
+    ENGINES,
+    GROUP_NAMES,
     PHASE_GROUPS,
     BalanceParams,
     ClockParams,
@@ -23,14 +27,17 @@ from gait.params import (
     LegParams,
     LoadParams,
     Motion,
+    PfsParams,
     RampParams,
     ShiftParams,
     ShortParams,
     SteerParams,
     SwingParams,
     describe_fields,
+    engine_groups,
     merge,
 )
+from gait.pfs import pfs_joint_angles_with_flags
 from gait.phases import (
     LegParameters,
     advance_phase,
@@ -51,6 +58,8 @@ from gait.steering import (
 
 __all__ = [
     "ARTRO_LEG",
+    "ENGINES",
+    "GROUP_NAMES",
     "JOINT_NAMES",
     "PHASE_GROUPS",
     "BalanceParams",
@@ -62,6 +71,7 @@ __all__ = [
     "LegParams",
     "LoadParams",
     "Motion",
+    "PfsParams",
     "Pose2D",
     "RampParams",
     "ShiftParams",
@@ -69,8 +79,10 @@ __all__ = [
     "SteerParams",
     "SwingParams",
     "advance_phase",
+    "behnke_joint_angles_with_flags",
     "curve_amount_for",
     "describe_fields",
+    "engine_groups",
     "joint_angles",
     "joint_angles_with_flags",
     "knee_triangle",
@@ -79,10 +91,12 @@ __all__ = [
     "leg_phases",
     "leg_to_joint_angles",
     "merge",
+    "pfs_joint_angles_with_flags",
     "pi_cut",
     "predict_path",
     "ramp_motion",
     "ramp_steps",
+    "startup_gain",
     "swing_profile",
     "turn_radius_m",
     "turn_rate_rad_s",
