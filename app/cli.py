@@ -20,6 +20,7 @@ from app.params.formats import FORMATS, export_text
 from app.robot_link import add_link_parser, cmd_link
 from app.study import bench as paper_bench
 from app.study import tune
+from gait import ENGINES, Motion
 
 
 def _motion_triple(text: str) -> tuple[float, float, float]:
@@ -42,7 +43,8 @@ EXAMPLES = {
     "run": """examples:
   artro run --motion 0,0.07,0 --json       forward, the paper's case, metrics as JSON
   artro run --motion -0.1,0,0 --params models/presets/tuned.json   step to the left
-  artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking""",
+  artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking
+  artro run --motion 0,0.07,0 --engine pfs --from-rest    seed 004's gait, from standing""",
     "export": """examples:
   artro export --format c -o artro_params.h              the firmware header
   artro export --format yaml --params my_gait.json
@@ -114,6 +116,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
     r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")
     r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
+    r.add_argument(
+        "--engine", choices=ENGINES, default=None, help="gait engine (default: the parameter set's)"
+    )
+    r.add_argument(
+        "--from-rest",
+        action="store_true",
+        help="start standing (motion 0, CA 0) and ramp to the motion (the ramp parameters)",
+    )
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     e = _subcommand(sub, "export", "write a parameter set as JSON, YAML or a firmware C header")
     e.add_argument(
@@ -143,14 +153,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
         motion = dataclasses.replace(motion, a_r=a_r, a_p=a_p, a_y=a_y)
     if args.ca is not None:
         motion = dataclasses.replace(motion, ca=args.ca)
-    result = run(pset.gait, motion, duration_s=args.duration, warmup_s=args.warmup)
+    gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
+    start = Motion() if args.from_rest else None
+    result = run(gait, motion, duration_s=args.duration, warmup_s=args.warmup, start_motion=start)
     m = result.metrics
     if args.json:
         print(json.dumps(m, allow_nan=False))
         return 0
     print(
-        f"parameter set {pset.name!r}, motion a_r={motion.a_r} a_p={motion.a_p} "
-        f"a_y={motion.a_y} CA={motion.ca}"
+        f"parameter set {pset.name!r} ({gait.engine}), motion a_r={motion.a_r} a_p={motion.a_p} "
+        f"a_y={motion.a_y} CA={motion.ca}" + (", ramped from rest" if args.from_rest else "")
     )
     if m["fell"]:
         print(f"FELL after {m['fall_time_s']} s")
