@@ -84,7 +84,7 @@ class SimStatus:
     resets: int = 0
     errors: tuple[str, ...] = ()
     #: the motion the gait got in the last frame: the requested one, or the ramp on its way there
-    motion_applied: Motion = Motion()
+    motion_applied: Motion = dataclasses.field(default_factory=Motion)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self) | {"errors": list(self.errors)}
