@@ -50,3 +50,12 @@ def test_the_c_header_names_the_engine() -> None:
     assert "#define ARTRO_PFS_KNEE_A 0.15f" in text
     behnke, _media, _name = export_text(ParameterSet(), "c")
     assert "#define ARTRO_ENGINE ARTRO_ENGINE_BEHNKE" in behnke
+
+
+def test_a_version_1_document_reads_as_the_behnke_gait_it_was() -> None:
+    tuned = ParameterSet.from_dict(
+        {"schema_version": 1, "motion": {"a_p": 0.07}, "gait": {"swing": {"v": 2.5}}}
+    )
+    assert tuned.gait.engine == "behnke" and tuned.gait.steer.yaw_per_ca == 0.0
+    assert tuned.gait.swing.v == 2.5 and tuned.gait.ramp == GaitParams().ramp
+    assert ParameterSet().to_dict()["schema_version"] == 2
