@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import dataclasses
 import math
 from typing import Any
 
@@ -28,8 +27,7 @@ from hardware import (
 
 def frame_message(record: FrameRecord, tdm: TdmConfig, params_version: int) -> dict[str, Any]:
     """One scope frame: frame_to_dict plus frame number, time, phase, the version of the
-    parameters that produced it, the motion the gait got (after the ramp) and each slot's
-    angle."""
+    parameters that produced it, and each slot's angle."""
     data = frame_to_dict(record.ocr, tdm, saturated=record.saturated_servos)
     angles = zip(SERVO_NAMES, record.setpoint.tolist(), strict=True)
     degrees = {name: math.degrees(a) for name, a in angles}
@@ -41,7 +39,6 @@ def frame_message(record: FrameRecord, tdm: TdmConfig, params_version: int) -> d
         "t_s": round(record.time_s, 6),
         "phase_rad": record.phase,
         "params_version": params_version,
-        "motion": dataclasses.asdict(record.motion),
         **data,
     }
 

@@ -26,7 +26,6 @@ from app.core.servo_load import ServoLoadMeter, ServoLoadReport
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.scope_feed import ScopeFeed
-from gait import Motion
 from hardware import HardwareSetup
 
 log = logging.getLogger(__name__)
@@ -83,8 +82,6 @@ class SimStatus:
     param_latency_frames: LatencySummary = LatencySummary()
     resets: int = 0
     errors: tuple[str, ...] = ()
-    #: the motion the gait got in the last frame: the requested one, or the ramp on its way there
-    motion_applied: Motion = dataclasses.field(default_factory=Motion)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self) | {"errors": list(self.errors)}
@@ -333,7 +330,6 @@ class SimThread:
             param_latency_frames=_summary(self.param_latency_frames),
             resets=self.resets,
             errors=tuple(self.errors),
-            motion_applied=sim.motion_now,
         )
 
 
