@@ -1,11 +1,6 @@
-"""The ArtRo gait: Behnke's omnidirectional walk as adapted in seed 000, CA steering of seed 004.
-
-Pure numpy. Two engines behind `joint_angles` (`gait.engine`, chosen by `GaitParams.engine`):
-`behnke` -- motion vector -> walking phases (eqs 10–39) -> leg parameters (40–45) -> joint angles
-(2–9) -- and `pfs`, seed 004's oscillator per joint (eqs 1–3, 10–11). Plus the differential-drive
-path predictor and the motion ramp (seed 004's start-up phase). Everything is vectorised over the
-trunk phase.
-"""
+"""The ArtRo gait, pure numpy: two engines behind `joint_angles` -- `behnke` (seed 000 eqs 2–45, CA
+of seed 004) and `pfs` (seed 004's oscillators, eqs 1–3, 10–11) -- the differential-drive path
+predictor and the motion ramp, vectorised over the trunk phase (docs/DESIGN.md §4)."""
 
 from gait.engine import joint_angles, joint_angles_with_flags, startup_gain
 from gait.leg_interface import (

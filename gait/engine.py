@@ -1,11 +1,6 @@
-"""The gait engines behind one call: a parameter set names its engine (docs/DESIGN.md §4).
-
-`joint_angles(params, motion, phi_trunk)` gives the 12 joint angles of whichever engine
-`params.engine` names -- `behnke` (seed 000's walking phases, eqs 10–45, with seed 004's CA on
-the sagittal swing) or `pfs` (seed 004's oscillators, eqs 1–3 and 10–11, `gait.pfs`) -- so the
-simulation frame loop, the batch evaluator and the exports all run the active engine. Both
-engines share the walking clock phi_Trunk, the steering term and the motion ramp.
-"""
+"""The gait engines behind one call (docs/DESIGN.md §4): `joint_angles` runs the engine that
+`params.engine` names, behnke (seed 000 eqs 2–45) or pfs (seed 004 eqs 1–3, 10–11, `gait.pfs`), so
+the frame loop, the batch evaluator and the exports all get the active one."""
 
 from __future__ import annotations
 

@@ -1,39 +1,6 @@
-"""Seed 004's own gait: one oscillator per joint, eqs (1)–(3) and (10)–(11) (docs/DESIGN.md §4).
-
-Seed 004 builds its walk from a Partial Fourier Series (eq 1) cut to its first term: every joint
-follows
-
-    f_x(t) = C_x + A_x * sin(2*pi*t/T + phi_x)                                eq (2)
-
-and "the right and left feet alternately perform swing and support roles ... by adding a shift of
-pi". In the per-leg convention of ArtRo's leg interface (roll > 0 outwards, pitch > 0 forwards,
-knee <= 0) the lateral sway is anti-phase too, so here the whole right leg runs pi later, as eq
-(11) writes it for any joint x. The curve amount scales each leg's whole joint function:
-
-    f_xL(t) = (C_x + A_x sin(2*pi*t/T + phi_x)) * (1 + CA)                      eq (10)
-    f_xR(t) = (C_x + A_x sin(2*pi*t/T + phi_x + pi)) * (1 - CA)                 eq (11)
-
--- offset and oscillation alike, as printed, not only the amplitude.
-
-What is ArtRo's and not the paper's (the paper lists Nao's joints and gives no values):
-
-- 2*pi*t/T is the walking clock phi_Trunk of seed 000 (T = 1/`clock.freq_hz`), so both engines
-  share one clock, and the left leg's oscillators run at phi_Trunk + phi_x.
-- Five joints per leg have an oscillator of their own (`pfs` group: hip roll, hip pitch, knee,
-  ankle pitch, ankle roll); the hip yaw has none.
-- The motion vector drives stride oscillators s = sin(phi_leg + phi_s) with the signs of seed
-  000's swing, eqs (27)–(29): hip pitch += a_p*s and ankle pitch -= a_p*s (the sole keeps its
-  pitch: a_p > 0 walks forward, < 0 backward); hip roll += I_s*a_r*s and ankle roll -= I_s*a_r*s;
-  hip yaw += I_s*a_y,eff*s with the steering term a_y,eff = a_y + K*CA. I_s = -1 left, +1 right
-  (eq (32)). These are sinusoids of the same period, so each joint is still of the form (2).
-- Seed 004's start-up phase (its Fig. 3: the knee oscillation grows from nothing) is a gain in
-  [0, 1] on every sine term, `startup_gain`, rising over `pfs.startup_s` after a start; the
-  offsets C hold from the first frame (the robot starts in the gait's mean pose).
-- A knee above 0 (C + A > 0 is inside the ranges) is clamped to 0 and reported, like gamma.
-
-Eq (3), the joint speed control Speed*(theta_target - theta_current), is the servo's job here
-(the position servos of the model), not the gait's.
-"""
+"""Seed 004's own gait (docs/DESIGN.md §4): per joint C + A*sin(2*pi*t/T + phi), eqs (1)–(2), the
+right leg pi later, CA scaling each leg's whole joint function, eqs (10)–(11), and the start-up
+phase of its Fig. 3; mapped onto ArtRo's 12 joints (`pfs_joint_angles_with_flags`)."""
 
 from __future__ import annotations
 
@@ -72,8 +39,32 @@ def pfs_joint_angles_with_flags(
     """Joint angles (..., 12) of seed 004's oscillator gait at trunk phase(s) `phi_trunk`, and per
     leg (..., 2) whether the knee had to be clamped to 0.
 
-    `startup` is the start-up gain on every sine term (`startup_gain`); it broadcasts against
-    `phi_trunk`.
+    Every joint follows f_x(t) = C_x + A_x sin(2 pi t/T + phi_x), eq (2). Seed 004 alternates the
+    feet "by adding a shift of pi for pitch joints of the right foot"; in the per-leg convention
+    used here (roll > 0 outwards, pitch > 0 forwards, knee <= 0) the lateral sway is anti-phase
+    too, so the whole right leg runs pi later, as eq (11) writes it for any joint x. CA scales
+    each leg's *whole* joint function, offset and oscillation alike, as eqs (10)–(11) print it:
+
+        f_xL = (C_x + A_x sin(2 pi t/T + phi_x)) (1 + CA)
+        f_xR = (C_x + A_x sin(2 pi t/T + phi_x + pi)) (1 - CA)
+
+    What is ArtRo's, not the paper's (which lists Nao's joints and gives no values):
+
+    - 2 pi t/T is the walking clock phi_Trunk (T = 1/`clock.freq_hz`), shared with behnke; the
+      left leg's oscillators run at phi_Trunk + phi_x.
+    - Hip roll, hip pitch, knee, ankle pitch and ankle roll have oscillators (`pfs` group); the
+      hip yaw has none.
+    - The motion vector drives stride oscillators s = sin(phi_leg + phi_s) with the signs of the
+      swing, seed 000 eqs (27)–(29): hip pitch += a_p s, ankle pitch -= a_p s (the sole keeps its
+      pitch; a_p > 0 walks forward, < 0 backward); hip roll += I_s a_r s, ankle roll -= I_s a_r s;
+      hip yaw += I_s a_y,eff s with the steering term a_y,eff = a_y + K CA. I_s = -1 left, +1
+      right. Sines of one period add up to one sine, so each joint keeps the form of eq (2).
+    - `startup` is the start-up gain of Fig. 3 (`startup_gain`) on every sine term; it broadcasts
+      against `phi_trunk`. The offsets C hold from the first frame.
+    - A knee above 0 (C + A > 0 lies inside the ranges) is clamped to 0 and reported.
+
+    Eq (3), the joint speed control Speed (theta_target - theta_current), is the position
+    servos' job here, not the gait's.
     """
     p = params.pfs
     phi, gain = np.broadcast_arrays(np.asarray(phi_trunk, float), np.asarray(startup, float))

@@ -1,12 +1,5 @@
-"""The motion ramp: seed 004's start-up phase (its Fig. 3) for every change of motion.
-
-Seed 004 starts its walk with a phase "in which the speed is increased constantly during the time
-until it reaches its maximum ... to prevent robot's instability due to initial acceleration". Here
-every change of the motion vector (a_r, a_p, a_y) and of CA is treated so (docs/DESIGN.md §4): the
-gait receives a motion that moves toward the requested one by at most rate * dt per step, with the
-rates of the `ramp` parameter group. A pure function of (current, target, parameters, dt); the
-caller keeps the current motion, e.g. the frame loop once per 20 ms frame.
-"""
+"""The motion ramp, seed 004's start-up phase (its Fig. 3) for every change of the motion vector
+and CA (docs/DESIGN.md §4): each component moves toward its target by at most rate * dt per step."""
 
 from __future__ import annotations
 
@@ -37,6 +30,10 @@ def ramp_rates(params: GaitParams) -> dict[str, float]:
 
 def ramp_motion(current: Motion, target: Motion, params: GaitParams, dt_s: float) -> Motion:
     """The motion the gait gets `dt_s` after `current` when `target` is requested.
+
+    Seed 004 starts its walk with a phase "in which the speed is increased constantly ... to
+    prevent robot's instability due to initial acceleration"; here every change of motion is
+    treated so. Pure: the caller keeps the current motion (the frame loop, once per frame).
 
     Each component moves toward its target by at most its rate (`params.ramp`) times `dt_s`,
     never past it, and lands on it exactly. With `ramp.enabled` off the target passes at once.

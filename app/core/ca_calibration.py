@@ -1,21 +1,6 @@
-"""Calibrating CA steering: the steering term K and the effective axle b_eff (docs/DESIGN.md §4).
-
-CA scales the step lengths (seed 004 eqs (10)–(11)); eq (13) says that turns the robot at
-theta_dot = -2 CA V / b. A biped turns only as far as its feet skid, so the steering term
-a_y,eff = a_y + K*CA (`steer.yaw_per_ca`) adds leg yaw. This fits K for the current gait from short
-curve walks on the batch evaluator, so that the heading rate per CA matches eq (13) with b = the
-measured distance between the feet, and then measures the effective axle b_eff = -2 V / slope with
-that K (1 when it matches), which the predicted path can use.
-
-The heading rate is close to linear in CA, and the term acts like an a_y of K*CA, so the slope
-d theta_dot / d CA is close to linear in K:
-
-1. one batch: K = 0 at CA = -c, 0, +c and K = K_probe at CA = -c, +c (the CA = 0 run is the same
-   gait for every K) -> slopes s_0 and s_probe, V and b from the straight walk;
-2. K = K_probe (s* - s_0) / (s_probe - s_0) with the target slope s* = -2 V / b;
-3. a check at that K (CA = +-c); while the slope misses s* by more than the tolerance, a secant
-   step through the two nearest measurements, up to `iterations` checks.
-"""
+"""Calibrating CA steering (docs/DESIGN.md §4): the steering term K = `steer.yaw_per_ca` that makes
+the heading rate per CA match eq (13), and the effective axle b_eff with it, fitted from short
+curve walks on the batch evaluator (`calibrate_ca`)."""
 
 from __future__ import annotations
 
@@ -111,7 +96,20 @@ def calibrate_ca(
 ) -> CaCalibration:
     """Fit K and b_eff for `params` walking at `motion`'s a_p (0.07 forward if it stands).
 
-    `say` gets one line per stage and per finished run (progress for a terminal or a log).
+    CA scales the step lengths (seed 004 eqs (10)–(11)) and eq (13) says that turns the robot at
+    theta_dot = -2 CA V / b; a biped turns only as far as its feet skid, and a_y,eff = a_y + K*CA
+    adds leg yaw. The heading rate is close to linear in CA and the term acts like an a_y of K*CA,
+    so the slope d theta_dot / d CA is close to linear in K:
+
+    1. one batch: K = 0 at CA = -c, 0, +c and K = `probe_k` at CA = -c, +c (the CA = 0 walk is the
+       same gait for every K) -> the slopes, and V and b (feet distance) from the straight walk;
+    2. a secant step toward the slope of eq (13), s* = -2 V / b, through the two nearest trials;
+    3. a check walk at that K (CA = +-c); steps 2–3 repeat up to `iterations` times while the
+       slope misses s* by more than TOLERANCE.
+
+    The K nearest eq (13) is returned with b_eff = -2 V / slope at it (b when it matches).
+    `say` gets one line per stage and per finished batch (progress for a terminal or a log).
+    CalibrationError if the robot falls, does not walk, or K does not change its turning.
     """
     if not probe_k:
         raise ValueError("probe_k must not be 0")

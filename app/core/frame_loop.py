@@ -1,8 +1,7 @@
 """The frame loop: gait -> servo pulses -> TDM-PWM frame -> demultiplexed set-points -> MuJoCo.
 
-One `FrameLoop.step_frame()` is one 20 ms TDM frame of the gait engine the parameters name and the
-hardware model; each servo's decoded set-point takes effect at its pulse's falling edge
-(docs/DESIGN.md §2); motion changes reach the gait through the motion ramp (§4).
+One `FrameLoop.step_frame()` is one 20 ms TDM frame of the named gait engine and the hardware model;
+set-points act at their pulses' falling edges (docs/DESIGN.md §2), motion changes via the ramp (§4).
 """
 
 from __future__ import annotations

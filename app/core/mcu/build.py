@@ -17,7 +17,7 @@ from typing import Any
 import hardware.firmware as firmware_package
 from hardware import ChannelMap, ServoCalibration, TdmConfig
 from hardware.firmware import HEADER_NAME, c_header
-from hardware.firmware.schema import SCHEMA_HEADER_NAME, c_schema_header
+from hardware.firmware.schema import SCHEMA_HEADER_NAME, c_schema_header, complete_document
 
 FIRMWARE_DIR = Path(firmware_package.__file__).resolve().parent
 SOURCE_DIR = FIRMWARE_DIR / "src"
@@ -71,7 +71,7 @@ def generated_headers(
     """{file name: text} of the two generated headers for a parameter-set document."""
     tdm = tdm or TdmConfig()
     params_h = c_header(
-        doc,
+        complete_document(doc),  # a define for every id of artro_schema.h
         calibration=calibration or ServoCalibration.default(),
         channel_map=tdm.channel_map or ChannelMap.default(),
         select_change_ticks=tdm.select_change_ticks,

@@ -1,0 +1,36 @@
+"""The firmware and the gait engines: it runs behnke with the steering term, and refuses pfs."""
+
+from __future__ import annotations
+
+import pytest
+
+from app.core.mcu.build import BuildError, build_firmware
+from app.core.mcu.conformance import model_frames, run_comparison
+from hardware.firmware.schema import param_specs, values_from_document
+from tests.firmware_support import emulator, frames_for_cycles, preset
+
+
+def test_the_firmware_turns_with_the_steering_term_as_the_model_does() -> None:
+    """K = 0.15 at CA = 0.1: eq (29)'s leg yaw a_y + K*CA, in float32, tick for tick."""
+    doc = preset("paper", a_p=0.07, ca=0.1)
+    doc["gait"]["steer"] = {"yaw_per_ca": 0.15}
+    n_frames = frames_for_cycles(doc, 2)
+    with emulator(doc) as mcu:
+        result = run_comparison(mcu, model_frames(doc, n_frames))
+    assert result.mismatches == [], result.mismatches[:5]
+    assert result.one_tick <= 0.01 * result.pulses
+
+
+def test_a_version_1_document_gets_every_id_and_pfs_is_not_among_them() -> None:
+    names = [s.dotted for s in param_specs()]
+    assert "steer.yaw_per_ca" in names and "ramp.amp_rad_s" in names
+    assert not any(n.startswith("pfs.") for n in names)
+    values = values_from_document(preset("paper"))  # a v1 file: no steer, no ramp
+    assert len(values) == len(names) and values[names.index("steer.yaw_per_ca")] == 0.0
+
+
+def test_a_pfs_parameter_set_does_not_build() -> None:
+    doc = preset("paper")
+    doc["gait"]["engine"] = "pfs"
+    with pytest.raises(BuildError, match="does not run"):
+        build_firmware(doc)
