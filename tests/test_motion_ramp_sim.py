@@ -72,3 +72,19 @@ def test_the_pfs_engine_starts_in_its_mean_pose_and_grows_its_oscillation():
     knee = 3
     assert np.ptp([q[knee] for q in early]) < 0.5 * np.ptp([q[knee] for q in late])
     assert not sim.fell
+
+
+@pytest.mark.parametrize("ramp", [True, False])
+def test_the_ramp_keeps_a_sudden_sideways_step_from_throwing_the_robot(ramp):
+    """From stepping on the spot to a_r = 0.15 in one frame: thrown over within a second and a
+    half without the ramp; with it (3 s to get there) the robot walks on."""
+    params = GaitParams.from_dict({"ramp": {"enabled": ramp}})
+    sim = FrameLoop(params=params, motion=Motion())
+    for _ in range(50):
+        sim.step_frame()
+    sim.set_gait(motion=Motion(a_r=0.15))
+    for _ in range(400 if ramp else 75):
+        sim.step_frame()
+        if sim.fell:
+            break
+    assert sim.fell is not ramp
