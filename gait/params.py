@@ -438,15 +438,19 @@ def merge(params: GaitParams, patch: Mapping[str, Any]) -> GaitParams:
     return dataclasses.replace(params, **groups)
 
 
-def parse_settings(items: Iterable[str]) -> dict[str, dict[str, Any]]:
-    """ "group.field=value" strings (true/false for switches) as a nested patch for `merge`.
+def parse_settings(items: Iterable[str]) -> dict[str, Any]:
+    """ "group.field=value" strings (true/false for switches), and "engine=NAME", as a nested
+    patch for `merge`.
 
     ValueError if an item is not GROUP.FIELD=VALUE or its value is no number or true/false; names
     and ranges are checked later, by `merge`.
     """
-    patch: dict[str, dict[str, Any]] = {}
+    patch: dict[str, Any] = {}
     for item in items:
         key, sep, raw = item.partition("=")
+        if key.strip() == "engine" and sep:
+            patch["engine"] = raw.strip()
+            continue
         group, dot, field = key.partition(".")
         if not sep or not dot:
             raise ValueError(f"a setting is GROUP.FIELD=VALUE, e.g. swing.v=3.0; got {item!r}")

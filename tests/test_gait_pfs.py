@@ -19,7 +19,7 @@ from gait import (
     pfs_joint_angles_with_flags,
     startup_gain,
 )
-from gait.params import SteerParams, describe_fields
+from gait.params import SteerParams, describe_fields, merge, parse_settings
 from gait.phases import leg_phases, swing_profile
 
 LEFT, RIGHT = slice(0, 6), slice(6, 12)
@@ -76,6 +76,15 @@ def test_the_engine_is_validated_and_round_trips() -> None:
     assert GaitParams.from_dict(p.to_dict()) == p
     flat = p.flat()
     assert flat["engine"] == "pfs" and flat["pfs.knee_a"] == 0.2 and flat["swing.v"] == 2.0
+
+
+def test_a_setting_can_name_the_engine() -> None:
+    patch = parse_settings(["engine=pfs", "pfs.knee_a=0.2"])
+    assert merge(GaitParams(), patch) == GaitParams.from_dict(
+        {"engine": "pfs", "pfs": {"knee_a": 0.2}}
+    )
+    with pytest.raises(ValueError, match="allowed: behnke, pfs"):
+        merge(GaitParams(), parse_settings(["engine=zmp"]))
 
 
 def test_engine_groups_list_what_each_engine_reads() -> None:
