@@ -314,8 +314,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_firmware(args)
         if args.command == "link":
             return cmd_link(args, sys.stdout)
-    except (ValueError, OSError, RuntimeError) as exc:  # BuildError, EmulatorError, LinkError,
-        # CalibrationError
+    # RuntimeError: BuildError, EmulatorError, LinkError, CalibrationError
+    except (ValueError, OSError, RuntimeError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")
     return 1
 
