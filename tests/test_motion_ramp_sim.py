@@ -88,3 +88,21 @@ def test_the_ramp_keeps_a_sudden_sideways_step_from_throwing_the_robot(ramp):
         if sim.fell:
             break
     assert sim.fell is not ramp
+
+
+def test_switching_to_pfs_mid_walk_starts_its_start_up_phase():
+    """The first pfs frame after a switch from behnke is the pfs mean pose (gain 0), not the full
+    oscillation; it then grows as after a reset."""
+    sim = FrameLoop(motion=Motion(a_p=0.05))
+    for _ in range(60):
+        sim.step_frame()
+    pfs = GaitParams(engine="pfs")
+    sim.set_gait(params=pfs)
+    first = sim.step_frame()
+    mean_pose = joint_angles(pfs, Motion(a_p=0.05), first.phase, startup=0.0)
+    np.testing.assert_allclose(first.setpoint, mean_pose, atol=np.radians(0.1))
+    assert sim.engine_start_frame == 60
+    for _ in range(40):
+        record = sim.step_frame()
+    half = joint_angles(pfs, Motion(a_p=0.05), record.phase, startup=40 * FRAME_S / 2.0)
+    np.testing.assert_allclose(record.setpoint, half, atol=np.radians(0.1))

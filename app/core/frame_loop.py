@@ -173,7 +173,8 @@ def plan_frames(
         n_frames: frames to plan; steps_per_frame, timestep_s: the physics steps of one frame.
         motion_now: the motion the gait got in the frame before; from it each frame takes one
             `ramp_motion` step toward `motion` (default: `motion`, nothing to ramp).
-        frame0: the first frame's index since the reset, for the pfs engine's start-up gain.
+        frame0: the first frame's index since the reset (or the switch to this engine), for the
+            pfs engine's start-up gain.
 
     Returns:
         `FramePlan` with a leading frame axis; each set-point takes effect at the first physics
@@ -251,6 +252,7 @@ class FrameLoop:
         mujoco.mj_resetData(self.model, self.data)
         self.phase = float(phase)
         self.frame_index = 0
+        self.engine_start_frame = 0  # the start-up gain counts from here (reset, engine switch)
         self.fell = False
         self.blew_up = False
         self.motion_now = self.motion if start_motion is None else start_motion
@@ -266,8 +268,11 @@ class FrameLoop:
 
     def set_gait(self, params: GaitParams | None = None, motion: Motion | None = None) -> None:
         """New parameters or motion vector: they reach the servos from the next frame on, a new
-        motion through the ramp (`ramp` parameters)."""
+        motion through the ramp (`ramp` parameters). A switch of engine starts that engine's
+        start-up phase (pfs: the oscillation grows from the mean pose)."""
         if params is not None:
+            if params.engine != self.params.engine:
+                self.engine_start_frame = self.frame_index
             self.params = params
         if motion is not None:
             self.motion = motion
@@ -293,7 +298,7 @@ class FrameLoop:
                 self.steps_per_frame,
                 self.timestep_s,
                 motion_now=self.motion_now,
-                frame0=self.frame_index,
+                frame0=self.frame_index - self.engine_start_frame,
             )
         k = plan.next_index
         plan.next_index += 1
