@@ -59,3 +59,14 @@ def test_a_version_1_document_reads_as_the_behnke_gait_it_was() -> None:
     assert tuned.gait.engine == "behnke" and tuned.gait.steer.yaw_per_ca == 0.0
     assert tuned.gait.swing.v == 2.5 and tuned.gait.ramp == GaitParams().ramp
     assert ParameterSet().to_dict()["schema_version"] == 2
+
+
+def test_the_engine_switches_over_http_and_a_bad_one_changes_nothing(http) -> None:
+    before = http.get("/api/params").json()
+    assert before["gait"]["engine"] == "behnke" and "pfs" in before["gait"]
+    bad = http.patch("/api/params", json={"gait": {"engine": "zmp", "pfs": {"knee_a": 0.2}}})
+    assert bad.status_code == 422 and "behnke" in json.dumps(bad.json()["detail"])
+    assert http.get("/api/params").json() == before
+    done = http.patch("/api/params", json={"gait": {"engine": "pfs"}})
+    assert done.status_code == 200 and done.json()["gait"]["engine"] == "pfs"
+    assert http.get("/api/state").json()["running"]
