@@ -12,6 +12,8 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from app.core.batch import BatchEvaluator
+from app.core.ca_calibration import calibrate_ca
 from app.core.headless import run
 from app.core.mcu.build import export_firmware_folder
 from app.core.mcu.cli import add_firmware_parser, cmd_firmware
@@ -20,6 +22,8 @@ from app.params.formats import FORMATS, export_text
 from app.robot_link import add_link_parser, cmd_link
 from app.study import bench as paper_bench
 from app.study import tune
+from gait import ENGINES, Motion
+from gait.params import SteerParams
 
 
 def _motion_triple(text: str) -> tuple[float, float, float]:
@@ -42,11 +46,15 @@ EXAMPLES = {
     "run": """examples:
   artro run --motion 0,0.07,0 --json       forward, the paper's case, metrics as JSON
   artro run --motion -0.1,0,0 --params models/presets/tuned.json   step to the left
-  artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking""",
+  artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking
+  artro run --motion 0,0.07,0 --engine pfs --from-rest    seed 004's gait, from standing""",
     "export": """examples:
   artro export --format c -o artro_params.h              the firmware header
   artro export --format yaml --params my_gait.json
   artro export --format firmware --params my_gait.json -o my_robot   then: make -C my_robot""",
+    "calibrate-ca": """examples:
+  artro calibrate-ca                       the paper gait, forward at a_p = 0.07
+  artro calibrate-ca --params models/presets/tuned.json -o tuned_steered.json""",
     "bench": """examples:
   artro bench paper                        both presets, 60 s runs (~4 min on 2 cores)
   artro bench paper --quick --presets tuned""",
@@ -114,6 +122,14 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
     r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")
     r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
+    r.add_argument(
+        "--engine", choices=ENGINES, default=None, help="gait engine (default: the parameter set's)"
+    )
+    r.add_argument(
+        "--from-rest",
+        action="store_true",
+        help="start standing (motion 0, CA 0) and ramp to the motion (the ramp parameters)",
+    )
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     e = _subcommand(sub, "export", "write a parameter set as JSON, YAML or a firmware C header")
     e.add_argument(
@@ -125,6 +141,22 @@ def build_parser() -> argparse.ArgumentParser:
     )
     e.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
     e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
+    c = _subcommand(
+        sub,
+        "calibrate-ca",
+        "fit the steering term K (steer.yaw_per_ca) and the effective axle b_eff from curve walks",
+    )
+    c.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    c.add_argument("--engine", choices=ENGINES, default=None, help="gait engine to calibrate")
+    c.add_argument(
+        "--a-p", type=float, default=None, help="forward amplitude to walk at (default: the set's)"
+    )
+    c.add_argument("--duration", type=float, default=20.0, metavar="S", help="seconds per walk")
+    c.add_argument("--warmup", type=float, default=4.0, metavar="S", help="seconds not measured")
+    c.add_argument("--iterations", type=int, default=2, help="checks of a fitted K (default 2)")
+    c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
+    c.add_argument("-o", "--output", metavar="FILE", help="write the parameter set with K here")
+    c.add_argument("--json", action="store_true", help="print the result as one JSON object")
     b = _subcommand(sub, "bench", "simulate what the papers measured and compare (tables, PNGs)")
     paper_bench.add_arguments(b)
     t = _subcommand(sub, "tune", "CMA-ES over gait parameters toward the paper's walking")
@@ -143,14 +175,16 @@ def _cmd_run(args: argparse.Namespace) -> int:
         motion = dataclasses.replace(motion, a_r=a_r, a_p=a_p, a_y=a_y)
     if args.ca is not None:
         motion = dataclasses.replace(motion, ca=args.ca)
-    result = run(pset.gait, motion, duration_s=args.duration, warmup_s=args.warmup)
+    gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
+    start = Motion() if args.from_rest else None
+    result = run(gait, motion, duration_s=args.duration, warmup_s=args.warmup, start_motion=start)
     m = result.metrics
     if args.json:
         print(json.dumps(m, allow_nan=False))
         return 0
     print(
-        f"parameter set {pset.name!r}, motion a_r={motion.a_r} a_p={motion.a_p} "
-        f"a_y={motion.a_y} CA={motion.ca}"
+        f"parameter set {pset.name!r} ({gait.engine}), motion a_r={motion.a_r} a_p={motion.a_p} "
+        f"a_y={motion.a_y} CA={motion.ca}" + (", ramped from rest" if args.from_rest else "")
     )
     if m["fell"]:
         print(f"FELL after {m['fall_time_s']} s")
@@ -169,6 +203,49 @@ def _cmd_run(args: argparse.Namespace) -> int:
     flags = {k: v for k, v in m["flags"].items() if v}
     if flags:
         print(f"flags: {flags}")
+    return 0
+
+
+def _cmd_calibrate_ca(args: argparse.Namespace) -> int:
+    pset = load_parameter_set(args.params) if args.params else ParameterSet()
+    gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
+    motion = pset.motion if args.a_p is None else dataclasses.replace(pset.motion, a_p=args.a_p)
+    log = sys.stderr if args.json else sys.stdout
+    result = calibrate_ca(
+        gait,
+        motion,
+        BatchEvaluator(threads=args.threads),
+        duration_s=args.duration,
+        warmup_s=args.warmup,
+        iterations=args.iterations,
+        say=lambda line: print(line, file=log, flush=True),
+    )
+    if args.output:
+        steered = dataclasses.replace(gait, steer=SteerParams(yaw_per_ca=result.yaw_per_ca))
+        out = dataclasses.replace(pset, gait=steered, created="", project_version="")
+        text, _media, _name = export_text(out, "json")
+        Path(args.output).write_text(text, encoding="utf-8")
+    if args.json:
+        print(json.dumps(result.to_dict(), allow_nan=False))
+        return 0
+
+    def cm(m: float | None) -> str:
+        if m is None:
+            return "none (CA does not turn it)"
+        return f"{100 * m:.1f} cm" + (" (CA turns it the other way)" if m < 0 else "")
+
+    print(
+        f"steer.yaw_per_ca = K = {result.yaw_per_ca:+.4f} for {pset.name!r} ({gait.engine}) at "
+        f"a_p = {result.a_p:+.3f}: CA turns it at {100 * result.gain:.0f} % of eq (13)"
+        + ("" if result.converged else " (not within 10 %)")
+    )
+    print(
+        f"b_eff = {cm(result.axle_eff_m)} with K (feet {100 * result.feet_m:.1f} cm apart; "
+        f"without K: {cm(result.axle_eff_without_m)}), V = {100 * result.speed_m_s:.2f} cm/s, "
+        f"{result.sim_s:.0f} s simulated"
+    )
+    if args.output:
+        print(f"wrote {args.output}")
     return 0
 
 
@@ -227,6 +304,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _cmd_serve(args)
         if args.command == "export":
             return _cmd_export(args)
+        if args.command == "calibrate-ca":
+            return _cmd_calibrate_ca(args)
         if args.command == "bench":
             return paper_bench.cmd_bench(args)
         if args.command == "tune":
@@ -235,7 +314,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_firmware(args)
         if args.command == "link":
             return cmd_link(args, sys.stdout)
-    except (ValueError, OSError, RuntimeError) as exc:  # BuildError, EmulatorError, LinkError
+    # RuntimeError: BuildError, EmulatorError, LinkError, CalibrationError
+    except (ValueError, OSError, RuntimeError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")
     return 1
 

@@ -1,20 +1,20 @@
-"""The ArtRo gait: Behnke's omnidirectional walk as adapted in seed 000, CA steering of seed 004.
+"""The ArtRo gait, pure numpy: two engines behind `joint_angles` -- `behnke` (seed 000 eqs 2–45, CA
+of seed 004) and `pfs` (seed 004's oscillators, eqs 1–3, 10–11) -- the differential-drive path
+predictor and the motion ramp, vectorised over the trunk phase (docs/DESIGN.md §4)."""
 
-Pure numpy. Motion vector -> walking phases (eqs 10–39) -> leg parameters (40–45) -> joint angles
-(2–9); plus the differential-drive path predictor. Everything is vectorised over the trunk phase.
-"""
-
+from gait.engine import joint_angles, joint_angles_with_flags, startup_gain
 from gait.leg_interface import (
     ARTRO_LEG,
     JOINT_NAMES,
     JointAngles,
     LegGeometry,
-    joint_angles,
-    joint_angles_with_flags,
+    behnke_joint_angles_with_flags,
     knee_triangle,
     leg_to_joint_angles,
 )
 from gait.params import (
+    ENGINES,
+    GROUP_NAMES,
     PHASE_GROUPS,
     BalanceParams,
     ClockParams,
@@ -22,12 +22,17 @@ from gait.params import (
     LegParams,
     LoadParams,
     Motion,
+    PfsParams,
+    RampParams,
     ShiftParams,
     ShortParams,
+    SteerParams,
     SwingParams,
     describe_fields,
+    engine_groups,
     merge,
 )
+from gait.pfs import pfs_joint_angles_with_flags
 from gait.phases import (
     LegParameters,
     advance_phase,
@@ -37,6 +42,7 @@ from gait.phases import (
     pi_cut,
     swing_profile,
 )
+from gait.ramp import ramp_motion, ramp_steps
 from gait.steering import (
     Pose2D,
     curve_amount_for,
@@ -47,6 +53,8 @@ from gait.steering import (
 
 __all__ = [
     "ARTRO_LEG",
+    "ENGINES",
+    "GROUP_NAMES",
     "JOINT_NAMES",
     "PHASE_GROUPS",
     "BalanceParams",
@@ -58,13 +66,18 @@ __all__ = [
     "LegParams",
     "LoadParams",
     "Motion",
+    "PfsParams",
     "Pose2D",
+    "RampParams",
     "ShiftParams",
     "ShortParams",
+    "SteerParams",
     "SwingParams",
     "advance_phase",
+    "behnke_joint_angles_with_flags",
     "curve_amount_for",
     "describe_fields",
+    "engine_groups",
     "joint_angles",
     "joint_angles_with_flags",
     "knee_triangle",
@@ -73,8 +86,12 @@ __all__ = [
     "leg_phases",
     "leg_to_joint_angles",
     "merge",
+    "pfs_joint_angles_with_flags",
     "pi_cut",
     "predict_path",
+    "ramp_motion",
+    "ramp_steps",
+    "startup_gain",
     "swing_profile",
     "turn_radius_m",
     "turn_rate_rad_s",

@@ -45,10 +45,12 @@ ARTRO_LEG = LegGeometry(upper_m=0.09, lower_m=0.09)
 
 
 class JointAngles(NamedTuple):
-    """Joint angles and where eq (45)'s gamma had to be clamped (see `joint_angles_with_flags`)."""
+    """Joint angles and where the leg-extension limit was clamped (`joint_angles_with_flags`)."""
 
     values: NDArray[np.float64]  # (..., 12) in JOINT_NAMES order, rad
-    gamma_clamped: NDArray[np.bool_]  # (..., 2) per leg: eq (45) exceeded [-1, 0]
+    #: (..., 2) per leg: the leg-extension limit was hit and clamped -- gamma of eq (45) outside
+    #: [-1, 0] (behnke), the knee above 0 (pfs)
+    gamma_clamped: NDArray[np.bool_]
 
 
 def knee_triangle(
@@ -108,13 +110,14 @@ def leg_to_joint_angles(
     return per_leg.reshape(*per_leg.shape[:-2], 12)
 
 
-def joint_angles_with_flags(
+def behnke_joint_angles_with_flags(
     params: GaitParams,
     motion: Motion,
     phi_trunk: ArrayLike,
     geometry: LegGeometry = ARTRO_LEG,
 ) -> JointAngles:
-    """The 12 joint angles at trunk phase(s) `phi_trunk`, eqs (2)–(45), with the gamma flags.
+    """The `behnke` engine's 12 joint angles at trunk phase(s) `phi_trunk`, eqs (2)–(45), with
+    the gamma flags (`gait.joint_angles_with_flags` dispatches here for engine "behnke").
 
     Args:
         params: the gait constants; motion: the motion vector with CA.
@@ -129,8 +132,3 @@ def joint_angles_with_flags(
     return JointAngles(
         leg_to_joint_angles(legs.values, params.leg.eta_min, geometry), legs.gamma_clamped
     )
-
-
-def joint_angles(params: GaitParams, motion: Motion, phi_trunk: ArrayLike) -> NDArray[np.float64]:
-    """The 12 joint angles (..., 12) of the built-in model (joint order: docs/DESIGN.md §3)."""
-    return joint_angles_with_flags(params, motion, phi_trunk).values

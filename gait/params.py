@@ -13,6 +13,9 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 PHASE_GROUPS = ("shift", "short", "swing", "load", "balance")
+#: The gait engines a parameter set can name (docs/DESIGN.md §4): Behnke's walking phases of
+#: seed 000 (eqs 10–45) and seed 004's own oscillator gait (eqs 1–3, 10–11, `gait.pfs`).
+ENGINES = ("behnke", "pfs")
 
 
 def _param(
@@ -217,13 +220,138 @@ class LegParams:
 
 
 @dataclass(frozen=True)
+class SteerParams:
+    """The steering term (docs/DESIGN.md §4, §10): CA also feeds the leg-yaw swing of eq (29).
+
+    (1 +- CA) on the sagittal swing turns a biped whose hips do not yaw only as far as its feet
+    twist on the floor; a_y,eff = a_y + K*CA adds the yaw that eq (13) assumes. K = 0 is the
+    literal paper gait.
+    """
+
+    yaw_per_ca: float = _param(
+        0.0, -1.0, 1.0, step=0.005, unit="rad", eq="(29), seed 004 (13)",
+        doc="K: leg-yaw swing amplitude per unit CA (a_y,eff = a_y + K*CA); 0 = the paper; "
+        "> 0 turns the same way as CA (clockwise for CA > 0)",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class RampParams:
+    """Motion changes are ramped (seed 004's start-up phase, its Fig. 3; docs/DESIGN.md §4).
+
+    The motion vector and CA reach the gait through a rate limit, so that a sudden slider move
+    does not throw the robot: each component moves toward its target by at most rate * dt.
+    """
+
+    enabled: bool = _switch("rate-limit the motion vector and CA on their way to the gait")
+    amp_rad_s: float = _param(
+        0.05, 0.005, 1.0, step=0.005, unit="rad/s", eq="seed 004 Fig. 3",
+        doc="largest change of a_r and a_p per second (0 to 0.07 in 1.4 s)",
+    )  # fmt: skip
+    yaw_rad_s: float = _param(
+        0.1, 0.005, 2.0, step=0.005, unit="rad/s", eq="seed 004 Fig. 3",
+        doc="largest change of a_y per second (0 to 0.2 in 2 s)",
+    )  # fmt: skip
+    ca_per_s: float = _param(
+        0.1, 0.005, 2.0, step=0.005, unit="1/s", eq="seed 004 Fig. 3",
+        doc="largest change of CA per second (0 to 0.1 in 1 s)",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+_PHASE_RANGE = (-3.15, 3.15)
+
+
+def _offset(default: float, lo: float, hi: float, joint: str) -> Any:
+    return _param(
+        default, lo, hi, step=0.005, unit="rad", eq="seed 004 (2)", doc=f"C: {joint} offset"
+    )
+
+
+def _amplitude(default: float, joint: str, hi: float = 0.5) -> Any:
+    return _param(
+        default, 0.0, hi, step=0.005, unit="rad", eq="seed 004 (2)",
+        doc=f"A: {joint} oscillation amplitude",
+    )  # fmt: skip
+
+
+def _phase(default: float, joint: str) -> Any:
+    return _param(
+        default, *_PHASE_RANGE, step=0.01, unit="rad", eq="seed 004 (2)",
+        doc=f"phi: {joint} phase (left leg; the right leg is pi later, eq (11))",
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class PfsParams:
+    """Seed 004's own gait (eqs 1–3, 10–11): per joint C + A*sin(2*pi*t/T + phi), T = 1/f of
+    `clock.freq_hz`, the right leg pi later; see `gait.pfs` and docs/DESIGN.md §4.
+
+    Angles in the per-leg convention of the leg interface (roll > 0 outwards, pitch > 0 forwards,
+    knee <= 0). The paper gives no values for a robot like ArtRo; the defaults are the first
+    Fourier harmonic of the `behnke` engine's paper gait stepping on the spot, made exact where
+    a harmonic would break a rule: the knee oscillates in [-2A, 0] (C = -A), and hip and ankle
+    pitch take half the knee bend each (thigh and shank are equally long), so the sole stays
+    level; the ankle adds the paper's 0.02 rad toe-up of eq (38).
+    """
+
+    startup_s: float = _param(
+        2.0, 0.0, 10.0, step=0.1, unit="s", eq="seed 004 Fig. 3",
+        doc="start-up phase: every oscillation amplitude grows linearly from 0 over this time "
+        "after a start or reset (0 = at once)",
+    )  # fmt: skip
+    hip_roll_c: float = _offset(0.05, -0.3, 0.3, "hip roll (leg spread, eq (39)'s 0.05)")
+    hip_roll_a: float = _amplitude(0.12, "hip roll (lateral shift, eq (13)'s 0.12)")
+    hip_roll_phi: float = _phase(-1.57, "hip roll")
+    hip_pitch_c: float = _offset(0.075, -0.5, 0.8, "hip pitch")
+    hip_pitch_a: float = _amplitude(0.075, "hip pitch")
+    hip_pitch_phi: float = _phase(-1.97, "hip pitch")
+    knee_c: float = _offset(-0.15, -1.2, 0.0, "knee (<= 0; knee <= 0 needs C + A <= 0)")
+    knee_a: float = _amplitude(0.15, "knee", hi=0.6)
+    knee_phi: float = _phase(1.17, "knee")
+    ankle_pitch_c: float = _offset(0.095, -0.5, 0.8, "ankle pitch (toe up > 0)")
+    ankle_pitch_a: float = _amplitude(0.075, "ankle pitch")
+    ankle_pitch_phi: float = _phase(-1.97, "ankle pitch")
+    ankle_roll_c: float = _offset(-0.05, -0.3, 0.3, "ankle roll (keeps the sole level)")
+    ankle_roll_a: float = _amplitude(0.18, "ankle roll")
+    ankle_roll_phi: float = _phase(1.57, "ankle roll")
+    stride_phi: float = _param(
+        2.99, *_PHASE_RANGE, step=0.01, unit="rad", eq="seed 004 (2); (27)–(29)",
+        doc="phase of the stride oscillators a*sin(2*pi*t/T + phi_s) that a_r, a_p and a_y "
+        "drive (default: the first harmonic of the swing of eq (25), forward while lifted)",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
 class GaitParams:
     """Every walking-phase constant, grouped by phase, with the paper's values as defaults.
 
     Frozen; each group checks its ranges on construction (ValueError naming `group.field` and the
-    allowed range). As a dict: `{group: {field: value}}`, groups as the attributes below.
+    allowed range). As a dict: `{"engine": name, group: {field: value}}`, groups as the
+    attributes below.
+
+    `engine` names the gait engine that turns these into joint angles (one of ENGINES): `behnke`
+    uses the walking-phase groups of seed 000, `pfs` the `pfs` group; `clock`, `steer` and `ramp`
+    serve both (`engine_groups`).
     """
 
+    engine: str = field(
+        default="behnke",
+        metadata={
+            "unit": "enum",
+            "choices": ENGINES,
+            "eq": "",
+            "doc": "gait engine: behnke (seed 000 eqs 10–45) or pfs (seed 004 eqs 1–3)",
+        },
+    )
     clock: ClockParams = field(default_factory=ClockParams)
     shift: ShiftParams = field(default_factory=ShiftParams)
     short: ShortParams = field(default_factory=ShortParams)
@@ -231,9 +359,17 @@ class GaitParams:
     load: LoadParams = field(default_factory=LoadParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     leg: LegParams = field(default_factory=LegParams)
+    steer: SteerParams = field(default_factory=SteerParams)
+    ramp: RampParams = field(default_factory=RampParams)
+    pfs: PfsParams = field(default_factory=PfsParams)
 
-    def to_dict(self) -> dict[str, dict[str, float | bool]]:
-        """`{group: {field: value}}` with every field, e.g. {'swing': {'v': 2.0, ...}, ...}."""
+    def __post_init__(self) -> None:
+        if self.engine not in ENGINES:
+            raise ValueError(f"engine {self.engine!r} is unknown; allowed: {', '.join(ENGINES)}")
+
+    def to_dict(self) -> dict[str, Any]:
+        """`{"engine": "behnke", group: {field: value}}` with every field, e.g.
+        {'engine': 'behnke', 'swing': {'v': 2.0, ...}, ...}."""
         return dataclasses.asdict(self)
 
     @classmethod
@@ -241,9 +377,14 @@ class GaitParams:
         """Build from a (possibly partial) nested dict; unknown groups or fields are errors."""
         return merge(cls(), data)
 
-    def flat(self) -> dict[str, float | bool]:
-        """Dotted names, e.g. {'swing.v': 2.0, ...}: the form optimisers and diffs use."""
-        return {f"{g}.{k}": v for g, group in self.to_dict().items() for k, v in group.items()}
+    def flat(self) -> dict[str, str | float | bool]:
+        """{'engine': 'behnke', 'clock.freq_hz': 1.0, 'swing.v': 2.0, ...}: the form optimisers and
+        diffs use (dotted names for the group fields)."""
+        groups = {g: getattr(self, g) for g in GROUP_NAMES}
+        return {"engine": self.engine} | {
+            f"{g}.{f.name}": getattr(group, f.name) for g, group in groups.items()
+            for f in fields(group)
+        }  # fmt: skip
 
 
 _GROUP_CLASSES = {
@@ -254,7 +395,23 @@ _GROUP_CLASSES = {
     "load": LoadParams,
     "balance": BalanceParams,
     "leg": LegParams,
+    "steer": SteerParams,
+    "ramp": RampParams,
+    "pfs": PfsParams,
 }
+#: Every parameter group, in schema order (the fields of GaitParams but `engine`).
+GROUP_NAMES: tuple[str, ...] = tuple(_GROUP_CLASSES)
+#: Groups every engine uses.
+COMMON_GROUPS = ("clock", "steer", "ramp")
+_ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg"), "pfs": ("pfs",)}
+
+
+def engine_groups(engine: str) -> tuple[str, ...]:
+    """The parameter groups `engine` reads, in schema order: what a UI shows for it."""
+    if engine not in ENGINES:
+        raise ValueError(f"engine {engine!r} is unknown; allowed: {', '.join(ENGINES)}")
+    used = set(COMMON_GROUPS) | set(_ENGINE_ONLY[engine])
+    return tuple(g for g in GROUP_NAMES if g in used)
 
 
 def merge(params: GaitParams, patch: Mapping[str, Any]) -> GaitParams:
@@ -267,23 +424,33 @@ def merge(params: GaitParams, patch: Mapping[str, Any]) -> GaitParams:
         raise ValueError(f"gait parameters must be an object of groups {sorted(_GROUP_CLASSES)}")
     groups: dict[str, Any] = {}
     for group_name, values in patch.items():
+        if group_name == "engine":
+            if not isinstance(values, str) or values not in ENGINES:
+                raise ValueError(f"engine {values!r} is unknown; allowed: {', '.join(ENGINES)}")
+            groups["engine"] = values
+            continue
         if group_name not in _GROUP_CLASSES:
             raise ValueError(
-                f"unknown parameter group {group_name!r}; allowed: {sorted(_GROUP_CLASSES)}"
+                f"unknown parameter group {group_name!r}; allowed: 'engine' and groups "
+                f"{sorted(_GROUP_CLASSES)}"
             )
         groups[group_name] = replace_checked(getattr(params, group_name), values, group_name)
     return dataclasses.replace(params, **groups)
 
 
-def parse_settings(items: Iterable[str]) -> dict[str, dict[str, Any]]:
-    """ "group.field=value" strings (true/false for switches) as a nested patch for `merge`.
+def parse_settings(items: Iterable[str]) -> dict[str, Any]:
+    """ "group.field=value" strings (true/false for switches), and "engine=NAME", as a nested
+    patch for `merge`.
 
     ValueError if an item is not GROUP.FIELD=VALUE or its value is no number or true/false; names
     and ranges are checked later, by `merge`.
     """
-    patch: dict[str, dict[str, Any]] = {}
+    patch: dict[str, Any] = {}
     for item in items:
         key, sep, raw = item.partition("=")
+        if key.strip() == "engine" and sep:
+            patch["engine"] = raw.strip()
+            continue
         group, dot, field = key.partition(".")
         if not sep or not dot:
             raise ValueError(f"a setting is GROUP.FIELD=VALUE, e.g. swing.v=3.0; got {item!r}")

@@ -1,7 +1,7 @@
 """Walking-phase layer of the ArtRo gait, seed 000 eqs (10)–(45): motion vector -> leg parameters.
 
 Vectorised over the trunk phase (shapes: `LegParameters`); CA scales each leg's sagittal swing
-terms, seed 004 eqs (10)–(11) (docs/DESIGN.md §4).
+terms, seed 004 eqs (10)–(11), and feeds eq (29) through a_y + K*CA (docs/DESIGN.md §4).
 """
 
 from __future__ import annotations
@@ -110,7 +110,8 @@ def leg_parameters_with_flags(
         theta_swing = swing_profile(phi_swing, sw.v)  # eqs (25)–(26)
         leg_roll += i_s * a_r * theta_swing  # eq (27)
         leg_pitch += ca_scale * a_p * theta_swing  # eq (28)
-        leg_yaw += i_s * a_y * theta_swing  # eq (29)
+        a_y_eff = a_y + params.steer.yaw_per_ca * ca  # eq (29) with the steering term
+        leg_yaw += i_s * a_y_eff * theta_swing  # eq (29)
         roll_sign = 1.0 if paper_signs else i_s
         pitch_sign = i_s if paper_signs else 1.0
         foot_roll += roll_sign * sw.foot_roll * a_r * theta_swing  # eq (30)

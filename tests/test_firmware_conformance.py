@@ -71,7 +71,7 @@ def parameter_sets(draw: st.DrawFn) -> dict:
             value = draw(st.floats(0.8, spec.hi))
         else:
             value = draw(st.floats(spec.lo, spec.hi, allow_subnormal=False))
-        target = doc["motion"] if spec.group == "motion" else doc["gait"][spec.group]
+        target = doc["motion"] if spec.group == "motion" else doc["gait"].setdefault(spec.group, {})
         target[spec.name] = value
     return doc
 

@@ -73,14 +73,19 @@ def test_calibration_limits_saturate_and_are_flagged():
     assert plan.setpoint[:, 2].max() <= 0.05 + 1e-9
 
 
-def test_a_parameter_change_reaches_the_servos_in_the_next_frame():
-    sim = FrameLoop(motion=Motion())
+@pytest.mark.parametrize("ramp", [False, True])
+def test_a_parameter_change_reaches_the_servos_in_the_next_frame(ramp):
+    """With the motion ramp off the new motion arrives whole; with it on, its first step."""
+    params = GaitParams.from_dict({"ramp": {"enabled": ramp}})
+    sim = FrameLoop(params=params, motion=Motion())
     for _ in range(5):
         sim.step_frame()
     phase = sim.phase
     sim.set_gait(motion=Motion(a_p=0.2))
     sim.step_frame()
-    expected = joint_angles(sim.params, Motion(a_p=0.2), phase)
+    applied = Motion(a_p=0.05 * 0.02) if ramp else Motion(a_p=0.2)
+    assert sim.motion_now == applied
+    expected = joint_angles(sim.params, applied, phase)
     ctrl = sim.data.ctrl[sim.robot.actuator_ids]
     np.testing.assert_allclose(ctrl, expected, atol=math.radians(0.03))
 

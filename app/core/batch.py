@@ -39,6 +39,8 @@ class Job:
 
     params: GaitParams
     motion: Motion
+    #: the motion the run starts in and ramps from (default: `motion`), as `FrameLoop` takes it
+    start_motion: Motion | None = None
 
 
 @dataclass(frozen=True)
@@ -62,7 +64,15 @@ def control_sequence(sim: FrameLoop, start: Start, n_frames: int) -> np.ndarray:
     """ctrl of every physics step (n_frames * steps_per_frame, nu), as the frame loop applies it."""
     steps = sim.steps_per_frame
     plan = plan_frames(
-        sim.params, sim.motion, sim.hardware, start.phase, n_frames, steps, sim.timestep_s
+        sim.params,
+        sim.motion,
+        sim.hardware,
+        start.phase,
+        n_frames,
+        steps,
+        sim.timestep_s,
+        motion_now=sim.motion_now,
+        frame0=sim.frame_index,
     )
     act = sim.robot.actuator_ids
     previous = np.vstack([start.ctrl[act][None, :], plan.setpoint[:-1]])  # (n, 12)
@@ -151,7 +161,9 @@ class BatchEvaluator:
     def _plan(
         self, chunk: Sequence[Job], n_frames: int
     ) -> tuple[list[FrameLoop], list[Start], np.ndarray, np.ndarray]:
-        sims = [FrameLoop(self.robot, j.params, j.motion) for j in chunk]
+        sims = [
+            FrameLoop(self.robot, j.params, j.motion, start_motion=j.start_motion) for j in chunk
+        ]
         starts = [start_of(s) for s in sims]
         controls = np.stack(
             [control_sequence(s, st, n_frames) for s, st in zip(sims, starts, strict=True)]

@@ -1,7 +1,7 @@
 """The frame loop: gait -> servo pulses -> TDM-PWM frame -> demultiplexed set-points -> MuJoCo.
 
-One `FrameLoop.step_frame()` is one 20 ms TDM frame of eqs (2)–(45) and the hardware model; each
-servo's decoded set-point takes effect at its pulse's falling edge (docs/DESIGN.md §2).
+One `FrameLoop.step_frame()` is one 20 ms TDM frame of the named gait engine and the hardware model;
+set-points act at their pulses' falling edges (docs/DESIGN.md §2), motion changes via the ramp (§4).
 """
 
 from __future__ import annotations
@@ -14,7 +14,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.core.robot import RobotModel
-from gait import GaitParams, Motion, joint_angles_with_flags, pi_cut
+from gait import (
+    GaitParams,
+    Motion,
+    joint_angles_with_flags,
+    pi_cut,
+    ramp_motion,
+    startup_gain,
+)
 from hardware import (
     FRAME_TICKS,
     SLOT_TICKS,
@@ -79,6 +86,7 @@ class FramePlan:
     saturated: NDArray[np.bool_]  # (n, 12) servo angle or pulse limited
     gamma_clamped: NDArray[np.bool_]  # (n, 2)
     guard: NDArray[np.bool_]  # (n, 6, 8) select change while a line was high
+    motions: list[Motion]  # (n,) the motion the gait got in each frame (after the ramp)
     next_index: int = 0
 
     def __post_init__(self) -> None:
@@ -104,6 +112,44 @@ class FrameRecord:
     saturated: bool
     gamma_clamped: bool
     guard_violation: bool
+    motion: Motion  # what the gait got: the requested motion, or a step of the ramp toward it
+
+
+def frame_motions(
+    params: GaitParams, target: Motion, current: Motion, n_frames: int
+) -> list[Motion]:
+    """The motion the gait gets in each of `n_frames` frames: one ramp step per frame from
+    `current` (the last frame's) toward `target`, then `target` itself."""
+    out: list[Motion] = []
+    motion = current
+    while len(out) < n_frames and motion != target:
+        motion = ramp_motion(motion, target, params, FRAME_S)
+        out.append(motion)
+    return out + [target] * (n_frames - len(out))
+
+
+def _gait(
+    params: GaitParams,
+    motions: list[Motion],
+    phase: NDArray[np.float64],
+    startup: NDArray[np.float64],
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Joint angles and clamp flags of each frame; one vectorised call per run of equal motions
+    (the whole block when nothing is ramping)."""
+    angles, clamped = [], []
+    start = 0
+    while start < len(motions):
+        end = start + 1
+        while end < len(motions) and motions[end] == motions[start]:
+            end += 1
+        part = slice(start, end)
+        out = joint_angles_with_flags(params, motions[start], phase[part], startup=startup[part])
+        angles.append(out.values)
+        clamped.append(out.gamma_clamped)
+        start = end
+    if len(angles) == 1:
+        return angles[0], clamped[0]
+    return np.concatenate(angles), np.concatenate(clamped)
 
 
 def plan_frames(
@@ -114,21 +160,31 @@ def plan_frames(
     n_frames: int,
     steps_per_frame: int,
     timestep_s: float,
+    *,
+    motion_now: Motion | None = None,
+    frame0: int = 0,
 ) -> FramePlan:
     """Run gait and hardware model for n consecutive frames starting at phase0 (vectorised).
 
     Args:
-        params, motion, hardware: the gait, the motion vector with CA, the servo drive set-up.
+        params, motion, hardware: the gait, the requested motion vector with CA, the servo drive
+            set-up.
         phase0: phi_Trunk at the first frame's start, rad.
         n_frames: frames to plan; steps_per_frame, timestep_s: the physics steps of one frame.
+        motion_now: the motion the gait got in the frame before; from it each frame takes one
+            `ramp_motion` step toward `motion` (default: `motion`, nothing to ramp).
+        frame0: the first frame's index since the reset (or the switch to this engine), for the
+            pfs engine's start-up gain.
 
     Returns:
         `FramePlan` with a leading frame axis; each set-point takes effect at the first physics
-        step starting at or after its pulse's falling edge.
+        step starting at or after its pulse's falling edge; `motions` is what the gait got.
     """
     step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
     phase = pi_cut(phase0 + step_rad * np.arange(n_frames))
-    angles, gamma_clamped = joint_angles_with_flags(params, motion, phase)
+    motions = frame_motions(params, motion, motion if motion_now is None else motion_now, n_frames)
+    startup = startup_gain(params, (frame0 + np.arange(n_frames)) * FRAME_S)
+    angles, gamma_clamped = _gait(params, motions, phase, startup)
     pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
     ocr = frame_ocr(pulse_us, hardware.tdm)
     fall_ticks = falling_edge_ticks(ocr, hardware.tdm)
@@ -147,6 +203,7 @@ def plan_frames(
         saturated=saturated,
         gamma_clamped=gamma_clamped,
         guard=guard_violations(ocr, hardware.tdm),
+        motions=motions,
     )
 
 
@@ -157,6 +214,10 @@ class FrameLoop:
     parameters, motion or hardware discards the rest of the block. A `FrameLoop` and its `MjData`
     belong to one thread (docs/DESIGN.md §8). ValueError if the model's timestep does not divide
     the 20 ms frame. Defaults: the built-in model, `GaitParams()`, `Motion()`, `HardwareSetup()`.
+
+    `motion` is the requested motion vector and CA. The run starts in it, or in `start_motion`;
+    from then on the gait gets one `ramp_motion` step toward the requested motion per frame
+    (`motion_now`, docs/DESIGN.md §4), so `set_gait(motion=...)` is ramped too.
     """
 
     def __init__(
@@ -166,6 +227,7 @@ class FrameLoop:
         motion: Motion | None = None,
         hardware: HardwareSetup | None = None,
         block_frames: int = 50,
+        start_motion: Motion | None = None,
     ) -> None:
         self.robot = robot or RobotModel.load()
         self.model = self.robot.model
@@ -180,18 +242,23 @@ class FrameLoop:
             raise ValueError(f"model timestep {self.timestep_s} s must divide the 20 ms frame")
         self.steps_per_frame = round(steps)
         self._plan: FramePlan | None = None
-        self.reset()
+        self.reset(start_motion=start_motion)
 
     # --- control -----------------------------------------------------------------------------
 
-    def reset(self, phase: float = START_PHASE_RAD) -> None:
-        """Stand the robot on the floor in the gait's pose at `phase`, feet flat, at rest."""
+    def reset(self, phase: float = START_PHASE_RAD, *, start_motion: Motion | None = None) -> None:
+        """Stand the robot on the floor in the gait's pose at `phase`, feet flat, at rest: the
+        pose of `start_motion` (default: the requested motion), from which the ramp starts."""
         mujoco.mj_resetData(self.model, self.data)
         self.phase = float(phase)
         self.frame_index = 0
+        self.engine_start_frame = 0  # the start-up gain counts from here (reset, engine switch)
         self.fell = False
         self.blew_up = False
-        pose = joint_angles_with_flags(self.params, self.motion, self.phase).values
+        self.motion_now = self.motion if start_motion is None else start_motion
+        pose = joint_angles_with_flags(
+            self.params, self.motion_now, self.phase, startup=startup_gain(self.params, 0.0)
+        ).values
         self.data.qpos[self.robot.qpos_adr] = pose
         self.data.qpos[2] = self.robot.standing_height_m(pose) + 1e-4
         self.data.ctrl[self.robot.actuator_ids] = pose
@@ -200,8 +267,12 @@ class FrameLoop:
         self._plan = None
 
     def set_gait(self, params: GaitParams | None = None, motion: Motion | None = None) -> None:
-        """New parameters or motion vector: they reach the servos from the next frame on."""
+        """New parameters or motion vector: they reach the servos from the next frame on, a new
+        motion through the ramp (`ramp` parameters). A switch of engine starts that engine's
+        start-up phase (pfs: the oscillation grows from the mean pose)."""
         if params is not None:
+            if params.engine != self.params.engine:
+                self.engine_start_frame = self.frame_index
             self.params = params
         if motion is not None:
             self.motion = motion
@@ -226,6 +297,8 @@ class FrameLoop:
                 self.block_frames,
                 self.steps_per_frame,
                 self.timestep_s,
+                motion_now=self.motion_now,
+                frame0=self.frame_index - self.engine_start_frame,
             )
         k = plan.next_index
         plan.next_index += 1
@@ -240,7 +313,9 @@ class FrameLoop:
             saturated=plan.any_saturated[k],
             gamma_clamped=plan.any_gamma_clamped[k],
             guard_violation=plan.any_guard[k],
+            motion=plan.motions[k],
         )
+        self.motion_now = plan.motions[k]
         self.frame_index += 1
         next_phase = float(plan.phase[k]) + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # piCut, in floats

@@ -32,15 +32,17 @@ def run(
     duration_s: float = 30.0,
     warmup_s: float = 5.0,
     hardware: HardwareSetup | None = None,
+    start_motion: Motion | None = None,
 ) -> RunResult:
     """Simulate `duration_s` of walking (stopping early at a fall) and compute the run metrics.
 
     The first `warmup_s` seconds are left out of the motion metrics; `hardware` defaults to
-    uncalibrated servos and the default channel map. ValueError if duration <= 0 or warm-up < 0.
+    uncalibrated servos and the default channel map. The run starts in `motion`, or in
+    `start_motion` and ramps from there to `motion`. ValueError if duration <= 0 or warm-up < 0.
     """
     if not duration_s > 0 or not warmup_s >= 0:
         raise ValueError("duration must be > 0 s and warm-up >= 0 s")
-    sim = FrameLoop(params=params, motion=motion, hardware=hardware)
+    sim = FrameLoop(params=params, motion=motion, hardware=hardware, start_motion=start_motion)
     trace = Trace()
     n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
     flags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}

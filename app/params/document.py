@@ -16,7 +16,10 @@ from typing import Any
 from gait import GaitParams, Motion
 from gait.params import replace_checked
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: Versions `ParameterSet.from_dict` reads (see the module docstring for what 1 lacks).
+READABLE_VERSIONS = (1, 2)
+V2_GROUPS = ("steer", "ramp", "pfs")
 TOP_LEVEL_KEYS = ("schema_version", "name", "created", "project_version", "motion", "gait")
 
 
@@ -34,12 +37,15 @@ class ParameterSet:
 
     As a document (`to_dict`, `from_dict`, docs/DESIGN.md §6):
 
-        {"schema_version": 1, "name": "...", "created": "ISO time", "project_version": "0.1.0",
+        {"schema_version": 2, "name": "...", "created": "ISO time", "project_version": "0.1.0",
          "motion": {"a_r": 0, "a_p": 0.07, "a_y": 0, "ca": 0},
-         "gait": {"clock": {...}, "shift": {...}, ..., "leg": {...}}}
+         "gait": {"engine": "behnke", "clock": {...}, "shift": {...}, ..., "leg": {...},
+                  "steer": {...}, "ramp": {...}, "pfs": {...}}}
 
     Groups or fields left out take the paper's value; unknown keys are errors that name what is
-    allowed.
+    allowed. Schema version 2 added the engine, `steer`, `ramp` and `pfs` (docs/DESIGN.md §4); a
+    version 1 document reads as what it meant: the behnke engine, K = 0, the other new groups at
+    their defaults (the ramp only shapes changes of motion, so a v1 set's runs measure as before).
     """
 
     name: str = "paper"
@@ -69,17 +75,23 @@ class ParameterSet:
         if unknown:
             raise ValueError(f"unknown keys {unknown}; allowed: {list(TOP_LEVEL_KEYS)}")
         version = data.get("schema_version", SCHEMA_VERSION)
-        if version != SCHEMA_VERSION:
+        if isinstance(version, bool) or version not in READABLE_VERSIONS:
             raise ValueError(
-                f"schema_version {version!r} is not supported; this is {SCHEMA_VERSION}"
+                f"schema_version {version!r} is not supported; this is {SCHEMA_VERSION}, "
+                f"and it reads {', '.join(map(str, READABLE_VERSIONS))}"
             )
+        gait = data.get("gait", {})
+        if version == 1 and isinstance(gait, dict):
+            newer = sorted(set(gait) & {"engine", *V2_GROUPS})
+            if newer:
+                raise ValueError(f"schema_version 1 has no {newer}; write schema_version 2")
         name = data.get("name", "unnamed")
         if not isinstance(name, str):
             raise ValueError("name must be a string")
         return cls(
             name=name,
             motion=replace_checked(Motion(), data.get("motion", {}), "motion"),
-            gait=GaitParams.from_dict(data.get("gait", {})),
+            gait=GaitParams.from_dict(gait),
             created=str(data.get("created", "")),
             project_version=str(data.get("project_version", "")),
         )

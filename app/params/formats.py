@@ -14,7 +14,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 import yaml
 
 from app.params.document import ParameterSet
-from gait.params import Motion, describe_fields, group_class
+from gait.params import GROUP_NAMES, Motion, describe_fields, group_class
 from hardware.firmware import HEADER_NAME, c_header
 from hardware.servo import ServoCalibration
 from hardware.tdm import DEFAULT_SELECT_CHANGE_TICKS, TdmConfig
@@ -50,7 +50,7 @@ def _field_comments() -> dict[str, str]:
     comments: dict[str, str] = {}
     for name, _, meta in describe_fields(Motion):
         comments[name] = f"{meta['unit']}, eq {meta['eq']}: {meta['doc']}"
-    for group in ParameterSet().gait.to_dict():
+    for group in GROUP_NAMES:
         for name, _, meta in describe_fields(group_class(group)):
             where = f", eq {meta['eq']}" if meta.get("eq") else ""
             comments[f"{group}.{name}"] = f"{meta['unit']}{where}: {meta['doc']}"

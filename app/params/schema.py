@@ -5,14 +5,22 @@ Nothing here lists a parameter by hand (docs/DESIGN.md §4): see `ParamsBody`, `
 
 from __future__ import annotations
 
-from dataclasses import fields
-from typing import Any
+from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, create_model
 
-from gait.params import GaitParams, Motion, describe_fields, group_class
+from gait.params import (
+    ENGINES,
+    GROUP_NAMES,
+    GaitParams,
+    Motion,
+    describe_fields,
+    engine_groups,
+    group_class,
+)
 
-GROUP_NAMES: tuple[str, ...] = tuple(f.name for f in fields(GaitParams))
+EngineName = Literal["behnke", "pfs"]  # gait.params.ENGINES; tests/test_schema_engine.py checks
+ENGINE_DOC: str = GaitParams.__dataclass_fields__["engine"].metadata["doc"]
 
 #: Folder titles for user interfaces, in display order.
 GROUP_TITLES = {
@@ -23,6 +31,9 @@ GROUP_TITLES = {
     "load": "Loading",
     "balance": "Balancing",
     "leg": "Leg",
+    "steer": "Steering (CA)",
+    "ramp": "Motion ramp",
+    "pfs": "PFS oscillators",
 }
 
 # forbid unknown fields, NaN and inf, and take no strings for numbers
@@ -63,8 +74,18 @@ _groups_patch = {
     g: (_model_for(group_class(g), f"{g.title()}Patch", partial=True) | None, None)
     for g in GROUP_NAMES
 }
-GaitModel = create_model("Gait", __config__=STRICT, **_groups_full)
-GaitPatch = create_model("GaitPatch", __config__=STRICT, **_groups_patch)
+GaitModel = create_model(
+    "Gait",
+    __config__=STRICT,
+    engine=(EngineName, Field("behnke", description=ENGINE_DOC)),
+    **_groups_full,
+)
+GaitPatch = create_model(
+    "GaitPatch",
+    __config__=STRICT,
+    engine=(EngineName | None, Field(None, description=ENGINE_DOC)),
+    **_groups_patch,
+)
 
 
 class ParamsBody(BaseModel):
@@ -95,9 +116,11 @@ def schema_description() -> list[dict[str, Any]]:
     """Every group and field with label, default, range, step, unit, equation and description:
     what user interfaces build their controls from.
 
-    Returns `[{"group": "motion", "title": "Motion", "fields": [{"name", "default", "min", "max",
-    "step", "unit", "eq", "doc"}, ...]}, ...]`: motion first, then the gait groups in order
-    (switches have unit "bool" and no min, max or step).
+    Returns `[{"group": "motion", "title": "Motion", "engines": ["behnke", "pfs"], "fields":
+    [{"name", "default", "min", "max", "step", "unit", "eq", "doc"}, ...]}, ...]`: motion first,
+    then the gait groups in order (switches have unit "bool" and no min, max or step); `engines`
+    lists the engines that use the group (`gait.params.engine_groups`), so a UI can show the
+    active engine's groups only. The engine itself is `GaitModel.engine`.
     """
     groups = [("motion", "Motion", Motion)] + [
         (g, GROUP_TITLES[g], group_class(g)) for g in GROUP_NAMES
@@ -108,5 +131,6 @@ def schema_description() -> list[dict[str, Any]]:
         for name, default, meta in describe_fields(cls):
             entry = {"name": name, "default": default, **dict(meta)}
             entries.append(entry)
-        out.append({"group": key, "title": title, "fields": entries})
+        engines = [e for e in ENGINES if key == "motion" or key in engine_groups(e)]
+        out.append({"group": key, "title": title, "engines": engines, "fields": entries})
     return out

@@ -404,7 +404,7 @@ def add_arguments(parser: Any) -> None:
         action="append",
         default=[],
         metavar="GROUP.FIELD=VALUE",
-        help="change the base before tuning, e.g. leg.paper_signs=false (repeatable)",
+        help="change the base before tuning, e.g. leg.paper_signs=false or engine=pfs (repeatable)",
     )
     parser.add_argument(
         "--tune", default=",".join(DEFAULT_NAMES), help="comma-separated parameters to tune"

@@ -1,7 +1,7 @@
 """The C header `artro_params.h` for ArtRo's ATmega128 firmware (seed 000 §3, docs/DESIGN.md §5).
 
 Pure: from a plain `ParameterSet.to_dict()` document it writes provenance, timer set-up, servo and
-channel maps, calibration and every gait constant of eqs (10)–(39); contents: see `c_header`.
+channel maps, calibration, the gait engine and every gait constant; contents: see `c_header`.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from typing import Any
 
 import numpy as np
 
+from gait.params import ENGINES
 from hardware.servo import (
     PERIOD_US,
     PULSE_CENTER_US,
@@ -178,7 +179,10 @@ def _parameter_section(
         _define(c_identifier("MOTION", key), c_float(value, f"motion.{key}"), comments.get(key, ""))
         for key, value in motion.items()
     ]
+    lines += ["", *_engine_section(gait.get("engine", "behnke"))]
     for group, values in gait.items():
+        if group == "engine":
+            continue
         if not isinstance(values, Mapping):
             raise ValueError(f"gait.{group} must be an object, got {type(values).__name__}")
         lines += ["", f"/* ---- gait: {group} ---- */"]
@@ -186,6 +190,16 @@ def _parameter_section(
             dotted = f"{group}.{key}"
             literal = str(int(value)) if isinstance(value, bool) else c_float(value, dotted)
             lines.append(_define(c_identifier(group, key), literal, comments.get(dotted, "")))
+    return lines
+
+
+def _engine_section(engine: Any) -> list[str]:
+    """ARTRO_ENGINE: which gait the firmware runs, one number per engine of gait.ENGINES."""
+    if engine not in ENGINES:
+        raise ValueError(f"gait.engine {engine!r} is unknown; allowed: {', '.join(ENGINES)}")
+    lines = ["/* ---- Gait engine (docs/DESIGN.md, section 4) ---- */"]
+    lines += [_define(c_identifier("ENGINE", e), str(i)) for i, e in enumerate(ENGINES)]
+    lines.append(_define("ARTRO_ENGINE", c_identifier("ENGINE", engine), f"gait.engine {engine}"))
     return lines
 
 
@@ -223,7 +237,8 @@ def c_header(
     - the channel map (`ARTRO_SERVO_CHANNEL[12]`, `ARTRO_SERVO_SLOT[12]`) and the per-servo
       calibration (direction, trim in ticks, limits in centidegrees; and exactly, as floats:
       trim in µs, limits in rad);
-    - the motion vector, CA and every gait constant as `ARTRO_<GROUP>_<FIELD>` float literals
+    - the gait engine (`ARTRO_ENGINE`, one of `ARTRO_ENGINE_BEHNKE`, `ARTRO_ENGINE_PFS`), the
+      motion vector, CA and every gait constant as `ARTRO_<GROUP>_<FIELD>` float literals
       (booleans as 0/1), plus the gait clock and the phase advance per 20 ms frame, eqs (10)–(11).
 
     Args:

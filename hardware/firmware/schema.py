@@ -5,16 +5,18 @@ name the `ARTRO_<GROUP>_<FIELD>` values of `artro_params.h`, i.e. the exported p
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import zlib
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 
 from gait.leg_interface import ARTRO_LEG
-from gait.params import GaitParams, Motion, describe_fields, group_class
+from gait.params import GaitParams, Motion, describe_fields, engine_groups, group_class, merge
 from hardware.firmware.header import c_float, c_identifier
 
 SCHEMA_HEADER_NAME = "artro_schema.h"
 MAX_PARAMS = 250  # ids are one byte; 0xFF is reserved
+FIRMWARE_ENGINE = "behnke"  # the gait engine gait.c implements; artro_params.h must name it
 
 
 @dataclass(frozen=True)
@@ -53,9 +55,10 @@ class ParamSpec:
 
 
 def param_specs() -> tuple[ParamSpec, ...]:
-    """Every tunable value with its id: motion (a_r, a_p, a_y, ca), then the gait groups."""
+    """Every tunable value with its id: motion (a_r, a_p, a_y, ca), then the gait groups of the
+    engine the firmware runs, behnke (`gait.params.engine_groups`; no `pfs`), in schema order."""
     groups: list[tuple[str, type]] = [("motion", Motion)]
-    groups += [(f.name, group_class(f.name)) for f in fields(GaitParams)]
+    groups += [(g, group_class(g)) for g in engine_groups(FIRMWARE_ENGINE)]
     specs: list[ParamSpec] = []
     for group, cls in groups:
         for name, _default, meta in describe_fields(cls):
@@ -74,11 +77,21 @@ def schema_hash(specs: tuple[ParamSpec, ...] | None = None) -> int:
     return zlib.crc32(text.encode("ascii"))
 
 
+def complete_document(doc: dict) -> dict:
+    """A copy of a parameter-set document with every motion and gait field, the schema's
+    defaults where `doc` leaves one out (e.g. a schema-version-1 document has no `steer`)."""
+    motion = dataclasses.replace(Motion(), **doc.get("motion", {}))
+    gait = merge(GaitParams(), doc.get("gait", {}))
+    return {**doc, "motion": dataclasses.asdict(motion), "gait": gait.to_dict()}
+
+
 def values_from_document(doc: dict) -> list[float]:
-    """The id-ordered values of a parameter-set document (ParameterSet.to_dict())."""
+    """The id-ordered values of a parameter-set document (ParameterSet.to_dict(); fields left
+    out take the schema's defaults)."""
+    full = complete_document(doc)
     values = []
     for spec in param_specs():
-        source = doc["motion"] if spec.group == "motion" else doc["gait"][spec.group]
+        source = full["motion"] if spec.group == "motion" else full["gait"][spec.group]
         values.append(float(source[spec.name]))
     return values
 
@@ -134,9 +147,11 @@ def describe() -> list[dict]:
 
 
 __all__ = [
+    "FIRMWARE_ENGINE",
     "SCHEMA_HEADER_NAME",
     "ParamSpec",
     "c_schema_header",
+    "complete_document",
     "describe",
     "param_specs",
     "schema_hash",

@@ -17,7 +17,12 @@ from typing import Any
 import hardware.firmware as firmware_package
 from hardware import ChannelMap, ServoCalibration, TdmConfig
 from hardware.firmware import HEADER_NAME, c_header
-from hardware.firmware.schema import SCHEMA_HEADER_NAME, c_schema_header
+from hardware.firmware.schema import (
+    FIRMWARE_ENGINE,
+    SCHEMA_HEADER_NAME,
+    c_schema_header,
+    complete_document,
+)
 
 FIRMWARE_DIR = Path(firmware_package.__file__).resolve().parent
 SOURCE_DIR = FIRMWARE_DIR / "src"
@@ -68,10 +73,17 @@ def generated_headers(
     calibration: ServoCalibration | None = None,
     tdm: TdmConfig | None = None,
 ) -> dict[str, str]:
-    """{file name: text} of the two generated headers for a parameter-set document."""
+    """{file name: text} of the two generated headers for a parameter-set document (fields left
+    out take the schema's defaults); ValueError if it names an engine the firmware does not run."""
     tdm = tdm or TdmConfig()
+    full = complete_document(doc)  # a define for every id of artro_schema.h
+    if full["gait"]["engine"] != FIRMWARE_ENGINE:
+        raise ValueError(
+            f"the firmware runs the {FIRMWARE_ENGINE} gait engine; this parameter set names "
+            f"{full['gait']['engine']!r} (docs/DESIGN.md §4)"
+        )
     params_h = c_header(
-        doc,
+        full,
         calibration=calibration or ServoCalibration.default(),
         channel_map=tdm.channel_map or ChannelMap.default(),
         select_change_ticks=tdm.select_change_ticks,

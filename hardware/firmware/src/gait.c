@@ -2,8 +2,9 @@
  *
  * The same arithmetic as the project's Python gait (docs/DESIGN.md §4), one leg at a time and
  * in float32. CA (curve amount) scales the left leg's sagittal swing terms by (1 + CA) and the
- * right leg's by (1 - CA). Each phase can be switched off; `leg.paper_signs` selects the printed
- * signs of eqs (30), (31), (39) or their mirror-symmetric form.
+ * right leg's by (1 - CA), and feeds eq (29) through a_y + K*CA (K = steer.yaw_per_ca). Each
+ * phase can be switched off; `leg.paper_signs` selects the printed signs of eqs (30), (31), (39)
+ * or their mirror-symmetric form.
  */
 #include "gait.h"
 
@@ -139,7 +140,8 @@ static void leg_parameters(float phi_leg, float i_s, float ca_scale, const frame
         float pitch_sign = paper_signs ? i_s : 1.0f;
         leg[LEG_ROLL] += i_s * a_r * theta_swing;                          /* eq (27) */
         leg[LEG_PITCH] += ca_scale * a_p * theta_swing;                    /* eq (28) */
-        leg[LEG_YAW] += i_s * a_y * theta_swing;                           /* eq (29) */
+        float a_y_eff = a_y + P(STEER_YAW_PER_CA) * P(MOTION_CA);      /* steering term */
+        leg[LEG_YAW] += i_s * a_y_eff * theta_swing;                       /* eq (29) */
         leg[FOOT_ROLL] += roll_sign * P(SWING_FOOT_ROLL) * a_r * theta_swing;  /* eq (30) */
         leg[FOOT_PITCH] +=
             ca_scale * pitch_sign * P(SWING_FOOT_PITCH) * a_p * theta_swing; /* eq (31) */

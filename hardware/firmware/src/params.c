@@ -5,6 +5,10 @@
 
 #include "artro_params.h"
 
+#if ARTRO_ENGINE != ARTRO_ENGINE_BEHNKE
+#error "artro_params.h names a gait engine this firmware does not run (gait.c is behnke's)"
+#endif
+
 float g_params[ARTRO_PARAM_COUNT];
 
 static const float DEFAULTS[ARTRO_PARAM_COUNT] = ARTRO_PARAM_DEFAULTS;
