@@ -12,8 +12,9 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
+from app.core.axle_fit import walking_amplitude
 from app.core.batch import BatchEvaluator
-from app.core.ca_calibration import calibrate_ca
+from app.core.ca_calibration import CalibrationError, calibrate_ca, with_k
 from app.core.headless import run
 from app.core.mcu.build import export_firmware_folder
 from app.core.mcu.cli import add_firmware_parser, cmd_firmware
@@ -23,7 +24,6 @@ from app.robot_link import add_link_parser, cmd_link
 from app.study import bench as paper_bench
 from app.study import tune
 from gait import ENGINES, Motion
-from gait.params import SteerParams
 
 
 def _motion_triple(text: str) -> tuple[float, float, float]:
@@ -154,6 +154,13 @@ def build_parser() -> argparse.ArgumentParser:
     c.add_argument("--duration", type=float, default=20.0, metavar="S", help="seconds per walk")
     c.add_argument("--warmup", type=float, default=4.0, metavar="S", help="seconds not measured")
     c.add_argument("--iterations", type=int, default=2, help="checks of a fitted K (default 2)")
+    c.add_argument(
+        "--direction",
+        choices=("forward", "backward", "both"),
+        default="both",
+        help="which K to fit: walking forward (steer.yaw_per_ca), backward "
+        "(steer.yaw_per_ca_backward), or both (default; a given --a-p picks its own)",
+    )
     c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
     c.add_argument("-o", "--output", metavar="FILE", help="write the parameter set with K here")
     c.add_argument("--json", action="store_true", help="print the result as one JSON object")
@@ -210,23 +217,42 @@ def _cmd_calibrate_ca(args: argparse.Namespace) -> int:
     pset = load_parameter_set(args.params) if args.params else ParameterSet()
     gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
     motion = pset.motion if args.a_p is None else dataclasses.replace(pset.motion, a_p=args.a_p)
+    size = abs(walking_amplitude(motion))
+    signs = {"forward": (1.0,), "backward": (-1.0,), "both": (1.0, -1.0)}[args.direction]
+    if args.a_p is not None and args.direction == "both":
+        signs = (1.0 if args.a_p >= 0 else -1.0,)  # a given a_p names its direction
     log = sys.stderr if args.json else sys.stdout
-    result = calibrate_ca(
-        gait,
-        motion,
-        BatchEvaluator(threads=args.threads),
-        duration_s=args.duration,
-        warmup_s=args.warmup,
-        iterations=args.iterations,
-        say=lambda line: print(line, file=log, flush=True),
-    )
+    results, failed = {}, {}
+    for sign in signs:
+        a_p, direction = sign * size, "forward" if sign > 0 else "backward"
+        try:
+            result = calibrate_ca(
+                gait,
+                dataclasses.replace(motion, a_p=a_p),
+                BatchEvaluator(threads=args.threads),
+                duration_s=args.duration,
+                warmup_s=args.warmup,
+                iterations=args.iterations,
+                say=lambda line: print(line, file=log, flush=True),
+            )
+        except CalibrationError as exc:
+            if len(signs) == 1:
+                raise
+            failed[direction] = str(exc)  # the other direction may still calibrate
+            print(f"{direction}: no calibration, K left as it was: {exc}", file=log, flush=True)
+            continue
+        gait = with_k(gait, a_p, result.yaw_per_ca)
+        results[direction] = result
+    if not results:
+        raise CalibrationError("; ".join(f"{d}: {e}" for d, e in failed.items()))
     if args.output:
-        steered = dataclasses.replace(gait, steer=SteerParams(yaw_per_ca=result.yaw_per_ca))
-        out = dataclasses.replace(pset, gait=steered, created="", project_version="")
+        out = dataclasses.replace(pset, gait=gait, created="", project_version="")
         text, _media, _name = export_text(out, "json")
         Path(args.output).write_text(text, encoding="utf-8")
     if args.json:
-        print(json.dumps(result.to_dict(), allow_nan=False))
+        document = {d: r.to_dict() for d, r in results.items()}
+        document |= {d: {"error": e} for d, e in failed.items()}
+        print(json.dumps(document, allow_nan=False))
         return 0
 
     def cm(m: float | None) -> str:
@@ -234,16 +260,18 @@ def _cmd_calibrate_ca(args: argparse.Namespace) -> int:
             return "none (CA does not turn it)"
         return f"{100 * m:.1f} cm" + (" (CA turns it the other way)" if m < 0 else "")
 
-    print(
-        f"steer.yaw_per_ca = K = {result.yaw_per_ca:+.4f} for {pset.name!r} ({gait.engine}) at "
-        f"a_p = {result.a_p:+.3f}: CA turns it at {100 * result.gain:.0f} % of eq (13)"
-        + ("" if result.converged else " (not within 10 %)")
-    )
-    print(
-        f"b_eff = {cm(result.axle_eff_m)} with K (feet {100 * result.feet_m:.1f} cm apart; "
-        f"without K: {cm(result.axle_eff_without_m)}), V = {100 * result.speed_m_s:.2f} cm/s, "
-        f"{result.sim_s:.0f} s simulated"
-    )
+    for direction, result in results.items():
+        print(
+            f"{direction}: steer.{result.field} = K = {result.yaw_per_ca:+.4f} for {pset.name!r} "
+            f"({gait.engine}) at a_p = {result.a_p:+.3f}: CA turns it at "
+            f"{100 * result.gain:.0f} % of eq (13)"
+            + ("" if result.converged else " (not within 10 %)")
+        )
+        print(
+            f"  b_eff = {cm(result.axle_eff_m)} with K (feet {100 * result.feet_m:.1f} cm apart; "
+            f"without K: {cm(result.axle_eff_without_m)}), V = {100 * result.speed_m_s:.2f} cm/s, "
+            f"{result.sim_s:.0f} s simulated"
+        )
     if args.output:
         print(f"wrote {args.output}")
     return 0

@@ -223,19 +223,33 @@ class LegParams:
 class SteerParams:
     """The steering term (docs/DESIGN.md §4, §10): CA also feeds the leg-yaw swing of eq (29).
 
-    (1 +- CA) on the sagittal swing turns a biped whose hips do not yaw only as far as its feet
-    twist on the floor; a_y,eff = a_y + K*CA adds the yaw that eq (13) assumes. K = 0 is the
-    literal paper gait.
-    """
+    a_y,eff = a_y + K*CA*s(a_p), K = `yaw_per_ca` walking forward, `yaw_per_ca_backward` backward;
+    s = clip(a_p / `full_at_a_p`, -1, 1) turns it as eq (13) does (V < 0: the other way; V = 0:
+    none). K = 0 both ways is the literal paper gait."""
 
     yaw_per_ca: float = _param(
         0.0, -1.0, 1.0, step=0.005, unit="rad", eq="(29), seed 004 (13)",
-        doc="K: leg-yaw swing amplitude per unit CA (a_y,eff = a_y + K*CA); 0 = the paper; "
-        "> 0 turns the same way as CA (clockwise for CA > 0)",
+        doc="K walking forward: leg-yaw swing amplitude per unit CA (a_y,eff = a_y + K*CA); "
+        "0 = the paper; > 0 turns the same way as CA (clockwise for CA > 0)",
+    )  # fmt: skip
+    yaw_per_ca_backward: float = _param(
+        0.0, -1.0, 1.0, step=0.005, unit="rad", eq="(29), seed 004 (13)",
+        doc="K walking backward (a_p < 0): > 0 turns as eq (13) says there, counter-clockwise "
+        "for CA > 0 (a_y,eff = a_y - K*CA)",
+    )  # fmt: skip
+    full_at_a_p: float = _param(
+        0.02, 0.005, 0.1, step=0.005, unit="rad", eq="seed 004 (13)",
+        doc="|a_p| from which the steering term is whole; below it fades to none on the spot, "
+        "where eq (13) has V = 0",
     )  # fmt: skip
 
     def __post_init__(self) -> None:
         _check_ranges(self)
+
+    def yaw_amplitude(self, a_p: float, ca: float) -> float:
+        """K*CA*s(a_p): what the term adds to a_y in eq (29), rad."""
+        k = self.yaw_per_ca if a_p >= 0 else self.yaw_per_ca_backward
+        return k * ca * min(max(a_p / self.full_at_a_p, -1.0), 1.0)
 
 
 @dataclass(frozen=True)

@@ -57,7 +57,7 @@ def pfs_joint_angles_with_flags(
     - The motion vector drives stride oscillators s = sin(phi_leg + phi_s) with the signs of the
       swing, seed 000 eqs (27)–(29): hip pitch += a_p s, ankle pitch -= a_p s (the sole keeps its
       pitch; a_p > 0 walks forward, < 0 backward); hip roll += I_s a_r s, ankle roll -= I_s a_r s;
-      hip yaw += I_s a_y,eff s with the steering term a_y,eff = a_y + K CA. I_s = -1 left, +1
+      hip yaw += I_s a_y,eff s with the steering term a_y,eff = a_y + K CA s(a_p). I_s = -1 left, +1
       right. Sines of one period add up to one sine, so each joint keeps the form of eq (2).
     - `startup` is the start-up gain of Fig. 3 (`startup_gain`) on every sine term; it broadcasts
       against `phi_trunk`. The offsets C hold from the first frame.
@@ -75,7 +75,7 @@ def pfs_joint_angles_with_flags(
         c, a, phase = (getattr(p, f"{name}_{part}") for part in ("c", "a", "phi"))
         joints[..., index] = c + gain * a * np.sin(phi_leg + phase)  # eq (2)
     stride = gain * np.sin(phi_leg + p.stride_phi)
-    a_y_eff = motion.a_y + params.steer.yaw_per_ca * motion.ca  # eq (29)'s steering term
+    a_y_eff = motion.a_y + params.steer.yaw_amplitude(motion.a_p, motion.ca)  # steering term
     joints[..., HIP_PITCH] += motion.a_p * stride  # cf. eq (28)
     joints[..., ANKLE_PITCH] -= motion.a_p * stride
     joints[..., HIP_ROLL] += LEG_SIGN * motion.a_r * stride  # cf. eq (27)

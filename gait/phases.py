@@ -110,7 +110,7 @@ def leg_parameters_with_flags(
         theta_swing = swing_profile(phi_swing, sw.v)  # eqs (25)–(26)
         leg_roll += i_s * a_r * theta_swing  # eq (27)
         leg_pitch += ca_scale * a_p * theta_swing  # eq (28)
-        a_y_eff = a_y + params.steer.yaw_per_ca * ca  # eq (29) with the steering term
+        a_y_eff = a_y + params.steer.yaw_amplitude(a_p, ca)  # eq (29) with the steering term
         leg_yaw += i_s * a_y_eff * theta_swing  # eq (29)
         roll_sign = 1.0 if paper_signs else i_s
         pitch_sign = i_s if paper_signs else 1.0

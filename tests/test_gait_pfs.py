@@ -124,8 +124,8 @@ def test_ca_scales_each_legs_whole_joint_function(
 ) -> None:
     """Eqs (10)–(11): offset and oscillation alike, left by (1 + CA), right by (1 - CA); the
     steering term enters as the a_y it stands for."""
-    k = params.steer.yaw_per_ca
-    straight = Motion(motion.a_r, motion.a_p, motion.a_y + k * motion.ca, 0.0)
+    term = params.steer.yaw_amplitude(motion.a_p, motion.ca)
+    straight = Motion(motion.a_r, motion.a_p, motion.a_y + term, 0.0)
     curved = joint_angles(params, motion, phi)
     base = joint_angles(params, straight, phi)
     base[[KNEE, 6 + KNEE]] = np.minimum(base[[KNEE, 6 + KNEE]], 0.0)

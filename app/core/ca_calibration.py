@@ -15,7 +15,6 @@ from app.core.batch import Job
 from app.core.ca_analysis import fit_axle
 from app.core.metrics import RunMetrics
 from gait import GaitParams, Motion
-from gait.params import SteerParams
 
 CA_STEP = 0.1  # c: the curve walks are at CA = -c, 0, +c (the steering search's pair)
 PROBE_K = 0.15  # the first K tried (models/README.md: this made tuned follow eq (13) at 0.07)
@@ -52,6 +51,7 @@ class Trial:
 @dataclass(frozen=True)
 class CaCalibration:
     yaw_per_ca: float  # K, the fitted steering term (the trial nearest eq (13))
+    field: str  # which K: "yaw_per_ca" (forward) or "yaw_per_ca_backward" (a_p < 0)
     axle_eff_m: float | None  # b_eff with that K: -2 V / slope (None: CA does not turn it)
     axle_eff_without_m: float | None  # b_eff with K = 0, CA's own steering
     feet_m: float  # b of eq (13): the mean distance between the feet, straight walk
@@ -75,8 +75,14 @@ class CaCalibration:
         return dataclasses.asdict(self) | {"gain": self.gain, "converged": self.converged}
 
 
-def _with_k(params: GaitParams, k: float) -> GaitParams:
-    return dataclasses.replace(params, steer=SteerParams(yaw_per_ca=k))
+def k_field(a_p: float) -> str:
+    """The steering term's K that a walk at a_p uses: forward or backward (SteerParams)."""
+    return "yaw_per_ca" if a_p >= 0 else "yaw_per_ca_backward"
+
+
+def with_k(params: GaitParams, a_p: float, k: float) -> GaitParams:
+    """`params` with the K that a walk at a_p uses set to k (the other one kept)."""
+    return dataclasses.replace(params, steer=dataclasses.replace(params.steer, **{k_field(a_p): k}))
 
 
 def _clip_k(k: float) -> float:
@@ -129,19 +135,25 @@ def calibrate_ca(
             warmup_s=warmup_s,
             progress=lambda done, total: say(f"  {done}/{total} runs done"),
         )
-        fell = [(j.params.steer.yaw_per_ca, j.motion.ca) for j, r in zip(jobs, results, strict=True)
-                if r["fell"]]  # fmt: skip
+        fell = [
+            (getattr(j.params.steer, k_field(a_p)), j.motion.ca)
+            for j, r in zip(jobs, results, strict=True)
+            if r["fell"]
+        ]
         if fell:
             raise CalibrationError(f"the robot fell at (K, CA) = {fell}, a_p = {a_p:+.3f}")
         sim_s += duration_s * len(jobs)
         return results
 
     def curve(k: float) -> list[Job]:
-        return [Job(_with_k(params, k), dataclasses.replace(base, ca=c)) for c in (ca[0], ca[2])]
+        return [
+            Job(with_k(params, a_p, k), dataclasses.replace(base, ca=c)) for c in (ca[0], ca[2])
+        ]
 
     first = walks(
         f"K = 0 and K = {probe_k:g}",
-        [Job(_with_k(params, 0.0), dataclasses.replace(base, ca=c)) for c in ca] + curve(probe_k),
+        [Job(with_k(params, a_p, 0.0), dataclasses.replace(base, ca=c)) for c in ca]
+        + curve(probe_k),
     )
     straight = first[1]
     speed = (straight["forward_cm_s"] or 0.0) / 100.0
@@ -182,6 +194,7 @@ def calibrate_ca(
     slope = math.radians(best.slope_deg_s)
     return CaCalibration(
         yaw_per_ca=best.yaw_per_ca,
+        field=k_field(a_p),
         axle_eff_m=None if slope == 0 else -2.0 * speed / slope,
         axle_eff_without_m=without,
         feet_m=feet,

@@ -2,7 +2,7 @@
  *
  * The same arithmetic as the project's Python gait (docs/DESIGN.md §4), one leg at a time and
  * in float32. CA (curve amount) scales the left leg's sagittal swing terms by (1 + CA) and the
- * right leg's by (1 - CA), and feeds eq (29) through a_y + K*CA (K = steer.yaw_per_ca). Each
+ * right leg's by (1 - CA), and feeds eq (29) through a_y + K*CA*s(a_p) (frame_terms). Each
  * phase can be switched off; `leg.paper_signs` selects the printed signs of eqs (30), (31), (39)
  * or their mirror-symmetric form.
  */
@@ -74,6 +74,7 @@ static float swing_profile(float phi, float b)
  * eqs 10-11: cos(phi_R + x) = -cos(phi_L + x) and cos(2 phi_R + x) = cos(2 phi_L + x)). */
 typedef struct {
     float a_r, a_p, a_y, ca;
+    float a_y_eff;           /* a_y plus the steering term, eq (29) */
     float theta_shift_left;  /* eqs (12)-(13) for the left leg */
     float a_short;           /* eq (20) */
     float b_swing;           /* eq (26) */
@@ -90,6 +91,12 @@ static void frame_terms(float phi_left, frame_terms_t *t)
     t->a_p = P(MOTION_A_P);
     t->a_y = P(MOTION_A_Y);
     t->ca = P(MOTION_CA);
+    /* the steering term of eq (29), docs/DESIGN.md §4: K * CA * clip(a_p / full_at_a_p, -1, 1)
+     * with the forward or the backward K, so that CA turns the robot as eq (13) says both ways */
+    float steer = t->a_p / P(STEER_FULL_AT_A_P);
+    steer = steer > 1.0f ? 1.0f : (steer < -1.0f ? -1.0f : steer);
+    const float k = t->a_p >= 0.0f ? P(STEER_YAW_PER_CA) : P(STEER_YAW_PER_CA_BACKWARD);
+    t->a_y_eff = t->a_y + k * t->ca * steer;
     const float speed = sqrtf(t->a_r * t->a_r + t->a_p * t->a_p); /* ||(a_r, a_p)|| */
     if (SWITCH(SHIFT_ENABLED)) {
         float a_shift = P(SHIFT_AMP_BASE) + P(SHIFT_AMP_SPEED) * speed
@@ -140,8 +147,7 @@ static void leg_parameters(float phi_leg, float i_s, float ca_scale, const frame
         float pitch_sign = paper_signs ? i_s : 1.0f;
         leg[LEG_ROLL] += i_s * a_r * theta_swing;                          /* eq (27) */
         leg[LEG_PITCH] += ca_scale * a_p * theta_swing;                    /* eq (28) */
-        float a_y_eff = a_y + P(STEER_YAW_PER_CA) * P(MOTION_CA);      /* steering term */
-        leg[LEG_YAW] += i_s * a_y_eff * theta_swing;                       /* eq (29) */
+        leg[LEG_YAW] += i_s * t->a_y_eff * theta_swing;                    /* eq (29) */
         leg[FOOT_ROLL] += roll_sign * P(SWING_FOOT_ROLL) * a_r * theta_swing;  /* eq (30) */
         leg[FOOT_PITCH] +=
             ca_scale * pitch_sign * P(SWING_FOOT_PITCH) * a_p * theta_swing; /* eq (31) */
