@@ -7,34 +7,21 @@ generated from its field metadata (`describe_fields`); signs of the motion vecto
 from __future__ import annotations
 
 import dataclasses
-import math
 from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
+
+from gait.motion_params import RampParams, SteerParams
+from gait.pfs_params import PfsParams
+from gait.schema_fields import GROUP_KEYS
+from gait.schema_fields import check_ranges as _check_ranges
+from gait.schema_fields import switch as _switch
+from gait.schema_fields import tunable as _param
 
 PHASE_GROUPS = ("shift", "short", "swing", "load", "balance")
 #: The gait engines a parameter set can name (docs/DESIGN.md §4): Behnke's walking phases of
 #: seed 000 (eqs 10–45) and seed 004's own oscillator gait (eqs 1–3, 10–11, `gait.pfs`).
 ENGINES = ("behnke", "pfs")
-
-
-def _param(
-    default: float,
-    lo: float,
-    hi: float,
-    *,
-    step: float,
-    unit: str,
-    eq: str,
-    doc: str,
-) -> Any:
-    """A tunable float field: its paper default plus the metadata the UI and validation use."""
-    meta = {"min": lo, "max": hi, "step": step, "unit": unit, "eq": eq, "doc": doc}
-    return field(default=default, metadata=meta)
-
-
-def _switch(doc: str, default: bool = True) -> Any:
-    return field(default=default, metadata={"unit": "bool", "doc": doc, "eq": ""})
 
 
 @dataclass(frozen=True)
@@ -220,131 +207,6 @@ class LegParams:
 
 
 @dataclass(frozen=True)
-class SteerParams:
-    """The steering term (docs/DESIGN.md §4, §10): CA also feeds the leg-yaw swing of eq (29).
-
-    a_y,eff = a_y + K*CA*s(a_p), K = `yaw_per_ca` walking forward, `yaw_per_ca_backward` backward;
-    s = clip(a_p / `full_at_a_p`, -1, 1) turns it as eq (13) does (V < 0: the other way; V = 0:
-    none). K = 0 both ways is the literal paper gait."""
-
-    yaw_per_ca: float = _param(
-        0.0, -1.0, 1.0, step=0.005, unit="rad", eq="(29), seed 004 (13)",
-        doc="K walking forward: leg-yaw swing amplitude per unit CA (a_y,eff = a_y + K*CA); "
-        "0 = the paper; > 0 turns the same way as CA (clockwise for CA > 0)",
-    )  # fmt: skip
-    yaw_per_ca_backward: float = _param(
-        0.0, -1.0, 1.0, step=0.005, unit="rad", eq="(29), seed 004 (13)",
-        doc="K walking backward (a_p < 0): > 0 turns as eq (13) says there, counter-clockwise "
-        "for CA > 0 (a_y,eff = a_y - K*CA)",
-    )  # fmt: skip
-    full_at_a_p: float = _param(
-        0.02, 0.005, 0.1, step=0.005, unit="rad", eq="seed 004 (13)",
-        doc="|a_p| from which the steering term is whole; below it fades to none on the spot, "
-        "where eq (13) has V = 0",
-    )  # fmt: skip
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-    def yaw_amplitude(self, a_p: float, ca: float) -> float:
-        """K*CA*s(a_p): what the term adds to a_y in eq (29), rad."""
-        k = self.yaw_per_ca if a_p >= 0 else self.yaw_per_ca_backward
-        return k * ca * min(max(a_p / self.full_at_a_p, -1.0), 1.0)
-
-
-@dataclass(frozen=True)
-class RampParams:
-    """Motion changes are ramped (seed 004's start-up phase, its Fig. 3; docs/DESIGN.md §4).
-
-    The motion vector and CA reach the gait through a rate limit, so that a sudden slider move
-    does not throw the robot: each component moves toward its target by at most rate * dt.
-    """
-
-    enabled: bool = _switch("rate-limit the motion vector and CA on their way to the gait")
-    amp_rad_s: float = _param(
-        0.05, 0.005, 1.0, step=0.005, unit="rad/s", eq="seed 004 Fig. 3",
-        doc="largest change of a_r and a_p per second (0 to 0.07 in 1.4 s)",
-    )  # fmt: skip
-    yaw_rad_s: float = _param(
-        0.1, 0.005, 2.0, step=0.005, unit="rad/s", eq="seed 004 Fig. 3",
-        doc="largest change of a_y per second (0 to 0.2 in 2 s)",
-    )  # fmt: skip
-    ca_per_s: float = _param(
-        0.1, 0.005, 2.0, step=0.005, unit="1/s", eq="seed 004 Fig. 3",
-        doc="largest change of CA per second (0 to 0.1 in 1 s)",
-    )  # fmt: skip
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-_PHASE_RANGE = (-3.15, 3.15)
-
-
-def _offset(default: float, lo: float, hi: float, joint: str) -> Any:
-    return _param(
-        default, lo, hi, step=0.005, unit="rad", eq="seed 004 (2)", doc=f"C: {joint} offset"
-    )
-
-
-def _amplitude(default: float, joint: str, hi: float = 0.5) -> Any:
-    return _param(
-        default, 0.0, hi, step=0.005, unit="rad", eq="seed 004 (2)",
-        doc=f"A: {joint} oscillation amplitude",
-    )  # fmt: skip
-
-
-def _phase(default: float, joint: str) -> Any:
-    return _param(
-        default, *_PHASE_RANGE, step=0.01, unit="rad", eq="seed 004 (2)",
-        doc=f"phi: {joint} phase (left leg; the right leg is pi later, eq (11))",
-    )  # fmt: skip
-
-
-@dataclass(frozen=True)
-class PfsParams:
-    """Seed 004's own gait (eqs 1–3, 10–11): per joint C + A*sin(2*pi*t/T + phi), T = 1/f of
-    `clock.freq_hz`, the right leg pi later; see `gait.pfs` and docs/DESIGN.md §4.
-
-    Angles in the per-leg convention of the leg interface (roll > 0 outwards, pitch > 0 forwards,
-    knee <= 0). The paper gives no values for a robot like ArtRo; the defaults are the first
-    Fourier harmonic of the `behnke` engine's paper gait stepping on the spot, made exact where
-    a harmonic would break a rule: the knee oscillates in [-2A, 0] (C = -A), and hip and ankle
-    pitch take half the knee bend each (thigh and shank are equally long), so the sole stays
-    level; the ankle adds the paper's 0.02 rad toe-up of eq (38).
-    """
-
-    startup_s: float = _param(
-        2.0, 0.0, 10.0, step=0.1, unit="s", eq="seed 004 Fig. 3",
-        doc="start-up phase: every oscillation amplitude grows linearly from 0 over this time "
-        "after a start or reset (0 = at once)",
-    )  # fmt: skip
-    hip_roll_c: float = _offset(0.05, -0.3, 0.3, "hip roll (leg spread, eq (39)'s 0.05)")
-    hip_roll_a: float = _amplitude(0.12, "hip roll (lateral shift, eq (13)'s 0.12)")
-    hip_roll_phi: float = _phase(-1.57, "hip roll")
-    hip_pitch_c: float = _offset(0.075, -0.5, 0.8, "hip pitch")
-    hip_pitch_a: float = _amplitude(0.075, "hip pitch")
-    hip_pitch_phi: float = _phase(-1.97, "hip pitch")
-    knee_c: float = _offset(-0.15, -1.2, 0.0, "knee (<= 0; knee <= 0 needs C + A <= 0)")
-    knee_a: float = _amplitude(0.15, "knee", hi=0.6)
-    knee_phi: float = _phase(1.17, "knee")
-    ankle_pitch_c: float = _offset(0.095, -0.5, 0.8, "ankle pitch (toe up > 0)")
-    ankle_pitch_a: float = _amplitude(0.075, "ankle pitch")
-    ankle_pitch_phi: float = _phase(-1.97, "ankle pitch")
-    ankle_roll_c: float = _offset(-0.05, -0.3, 0.3, "ankle roll (keeps the sole level)")
-    ankle_roll_a: float = _amplitude(0.18, "ankle roll")
-    ankle_roll_phi: float = _phase(1.57, "ankle roll")
-    stride_phi: float = _param(
-        2.99, *_PHASE_RANGE, step=0.01, unit="rad", eq="seed 004 (2); (27)–(29)",
-        doc="phase of the stride oscillators a*sin(2*pi*t/T + phi_s) that a_r, a_p and a_y "
-        "drive (default: the first harmonic of the swing of eq (25), forward while lifted)",
-    )  # fmt: skip
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-@dataclass(frozen=True)
 class GaitParams:
     """Every walking-phase constant, grouped by phase, with the paper's values as defaults.
 
@@ -413,6 +275,7 @@ _GROUP_CLASSES = {
     "ramp": RampParams,
     "pfs": PfsParams,
 }
+GROUP_KEYS.update({cls.__name__: key for key, cls in _GROUP_CLASSES.items()})  # for errors
 #: Every parameter group, in schema order (the fields of GaitParams but `engine`).
 GROUP_NAMES: tuple[str, ...] = tuple(_GROUP_CLASSES)
 #: Groups every engine uses.
@@ -506,25 +369,6 @@ def replace_checked(obj: Any, values: Mapping[str, Any], where: str) -> Any:
             raise ValueError(f"{where}.{name} must be a number, got {value!r}")
         clean[name] = value if is_bool else float(value)
     return dataclasses.replace(obj, **clean)
-
-
-def _check_ranges(obj: Any) -> None:
-    for f in fields(obj):
-        meta = f.metadata
-        if "min" not in meta:
-            continue
-        value = getattr(obj, f.name)
-        where = f"{_GROUP_KEYS.get(type(obj).__name__, type(obj).__name__)}.{f.name}"
-        if not isinstance(value, int | float) or isinstance(value, bool):
-            raise ValueError(f"{where} must be a number, got {value!r}")
-        if not math.isfinite(value) or not meta["min"] <= value <= meta["max"]:
-            unit = "" if meta["unit"] == "1" else f" {meta['unit']}"
-            allowed = f"{meta['min']} to {meta['max']}{unit}"
-            raise ValueError(f"{where} = {value!r} is out of range; allowed: {allowed}")
-
-
-#: user-facing group names, for error messages ("swing.v", not "SwingParams.v")
-_GROUP_KEYS = {cls.__name__: key for key, cls in _GROUP_CLASSES.items()} | {"Motion": "motion"}
 
 
 def describe_fields(cls: type) -> Iterator[tuple[str, Any, Mapping[str, Any]]]:
