@@ -19,6 +19,7 @@ from app.core.axle_fit import NOT_APPLIED
 from app.params.schema import schema_description
 from app.server.param_store import NothingToUndo, Snapshot
 from app.server.sim_thread import Command
+from gait.params import ENGINES
 
 if TYPE_CHECKING:
     import mujoco
@@ -113,8 +114,19 @@ class Viewer:
             )
             history = gui.add_button_group("Parameters", ("Undo", "Redo"))
             history.on_click(lambda e: self._history(e.target.value))
+        self._folders: list[tuple[Any, list[str]]] = []  # (folder, engines that use its group)
+        engine = self.store.snapshot().gait.engine
+        self._engine = gui.add_dropdown(
+            "Gait engine",
+            ENGINES,
+            initial_value=engine,
+            hint="behnke: seed 000's walking phases; pfs: seed 004's oscillators. Each shows "
+            "its own folders; switching is undoable like any change",
+        )
+        self._engine.on_update(self._engine_callback)
         for group in schema_description():
             self._build_group(group)
+        self._show_engine(engine)
         with gui.add_folder("Paths"):
             self._path_text = gui.add_markdown("")
             self._show_paths = gui.add_checkbox("Show paths", True)
@@ -161,7 +173,9 @@ class Viewer:
         gui = self.server.gui
         key = group["group"]
         snapshot = self.store.snapshot().flat()
-        with gui.add_folder(group["title"], expand_by_default=key in ("motion", "clock")):
+        folder = gui.add_folder(group["title"], expand_by_default=key in ("motion", "clock"))
+        self._folders.append((folder, group["engines"]))
+        with folder:
             for field in group["fields"]:
                 name = field["name"]
                 dotted = f"{key}.{name}"
@@ -206,7 +220,25 @@ class Viewer:
         except NothingToUndo:
             pass
 
+    def _engine_callback(self, event: viser.GuiEvent) -> None:
+        if event.client is None:  # a programmatic set: the store already has it
+            return
+        try:
+            self.store.update({"gait": {"engine": event.target.value}}, SLIDER_SOURCE)
+        except ValueError as exc:
+            event.client.add_notification("Not applied", str(exc), color="red")
+        self._show_engine(self.store.snapshot().gait.engine)
+
+    def _show_engine(self, engine: str) -> None:
+        """Only the folders of the groups the active engine reads."""
+        for folder, engines in self._folders:
+            _assign(folder, "visible", engine in engines)
+
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
+        if "engine" in changed:
+            engine = self.store.snapshot().gait.engine
+            _assign(self._engine, "value", engine)
+            self._show_engine(engine)
         if source != SLIDER_SOURCE:
             self._show(self.store.snapshot(), changed)
 
