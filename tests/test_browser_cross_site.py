@@ -30,7 +30,8 @@ function probe(url, protocols) {
 async function attack(studio, viserUrl, viserVersion) {
   const r = window.results;
   const body = JSON.stringify({ motion: { a_p: 0.11 }, gait: {} });
-  for (const path of ["/api/import", "/api/presets/paper/load", "/api/sim/pause", "/api/sim/reset"]) {
+  const paths = ["/api/import", "/api/presets/paper/load", "/api/sim/pause", "/api/sim/reset"];
+  for (const path of paths) {
     try {
       await fetch(studio + path, { method: "POST", mode: "no-cors",
                                    headers: { "Content-Type": "text/plain" }, body });
