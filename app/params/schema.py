@@ -88,14 +88,33 @@ GaitPatch = create_model(
 )
 
 
+MAX_VERSION = 2**53  # JSON-safe integer
+BaseVersion = Field(
+    None,
+    ge=1,
+    le=MAX_VERSION,
+    description="the version this change is based on (what GET returned); if another change "
+    "came first, 409 with the current version and nothing changed",
+)
+NAME_FIELD = Field(None, min_length=1, max_length=64, description="the parameter set's name")
+
+
 class ParamsBody(BaseModel):
     """A full parameter set: the motion vector with CA, and every gait constant.
 
-    Every field is required (a PUT is a whole parameter set); unknown fields, NaN, inf and strings
-    for numbers are refused, and every range of `gait.params` applies.
+    The motion and every gait field are required (a PUT is a whole parameter set); unknown fields,
+    NaN, inf and strings for numbers are refused, and every range of `gait.params` applies. What
+    `GET /api/params` returns and an exported JSON file are both accepted as they are.
     """
 
     model_config = STRICT
+    version: int | None = BaseVersion
+    name: str | None = NAME_FIELD
+    schema_version: Literal[1] | None = Field(None, description="of an exported file")
+    created: str | None = Field(None, max_length=64, description="of an exported file; ignored")
+    project_version: str | None = Field(
+        None, max_length=64, description="of an exported file; ignored"
+    )
     motion: MotionModel  # type: ignore[valid-type]
     gait: GaitModel  # type: ignore[valid-type]
 
@@ -104,12 +123,14 @@ class ParamsPatchBody(BaseModel):
     """Any subset of the parameters; what is left out stays as it is (checks as `ParamsBody`)."""
 
     model_config = STRICT
+    version: int | None = BaseVersion
+    name: str | None = NAME_FIELD
     motion: MotionPatch | None = None  # type: ignore[valid-type]
     gait: GaitPatch | None = None  # type: ignore[valid-type]
 
     def as_patch(self) -> dict[str, Any]:
-        """Nested dict of only the fields the client sent."""
-        return self.model_dump(exclude_none=True, exclude_unset=True)
+        """Nested dict of only the parameters the client sent (not the version)."""
+        return self.model_dump(exclude_none=True, exclude_unset=True, exclude={"version"})
 
 
 def schema_description() -> list[dict[str, Any]]:
