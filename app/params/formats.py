@@ -155,7 +155,13 @@ def _json_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return result
 
 
-def _load_json(text: str) -> Any:
+def load_json_strict(text: str | bytes) -> Any:
+    """JSON with the one rule of the whole project: duplicate keys and NaN/Infinity are refused
+    (ParameterImportError naming the key), never silently resolved."""
+    return _load_json(text)
+
+
+def _load_json(text: str | bytes) -> Any:
     try:
         return json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_json_pairs)
     except json.JSONDecodeError as exc:
@@ -282,6 +288,8 @@ def parse_import(
             f"and 'gait', got {kind}"
         )
     _check_plain(data)
+    if type(data.get("version")) is int:  # a document as GET /api/params gives it
+        data = {k: v for k, v in data.items() if k != "version"}
     for key in ("created", "project_version"):
         if key in data and not isinstance(data[key], str):
             raise ParameterImportError(f"{key} must be a string, got {data[key]!r}")

@@ -14,7 +14,7 @@ from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
-from starlette.routing import Match, Route
+from starlette.routing import Match, Mount
 
 MAX_ITEMS = 10
 MAX_TEXT = 300
@@ -47,10 +47,13 @@ class ApiError(Exception):
         loc: Sequence[str | int] = (),
         headers: Mapping[str, str] | None = None,
         version: int | None = None,
+        items: Sequence[Mapping[str, Any]] = (),
     ) -> None:
+        """`items`: several problems ({loc, msg, type}); by default the one of msg, type, loc."""
         super().__init__(msg)
         self.status, self.msg, self.type, self.loc = status, msg, type, list(loc)
         self.headers, self.version = dict(headers or {}), version
+        self.items = list(items) or [{"loc": self.loc, "msg": msg, "type": type}]
 
 
 def _cap(text: str, limit: int = MAX_TEXT) -> str:
@@ -106,23 +109,24 @@ _HTTP_TYPES = {
 }
 
 
+METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE")
+
+
 def allowed_methods(app: Any, scope: Mapping[str, Any]) -> list[str]:
     """Every method some route answers at this path (the true `Allow` of a 405)."""
-    methods: set[str] = set()
-    for route in app.routes:
-        if isinstance(route, Route) and route.methods:
-            match, _ = route.matches({**scope, "method": next(iter(route.methods))})
-            if match is Match.FULL:
-                methods |= route.methods
-    return sorted(methods)
+    routes = [r for r in app.routes if not isinstance(r, Mount)]
+    return [
+        method
+        for method in METHODS
+        if any(r.matches({**scope, "method": method})[0] is Match.FULL for r in routes)
+    ]
 
 
 def install_handlers(app: FastAPI) -> None:
     @app.exception_handler(ApiError)
     async def api_error(_request: Request, exc: ApiError) -> JSONResponse:
-        return error_response(
-            exc.status, exc.msg, exc.type, loc=exc.loc, headers=exc.headers, version=exc.version
-        )
+        content = error_content(exc.items, exc.version, total=len(exc.items))
+        return JSONResponse(content, status_code=exc.status, headers=exc.headers)
 
     @app.exception_handler(StarletteHTTPException)
     async def http_error(request: Request, exc: StarletteHTTPException) -> JSONResponse:

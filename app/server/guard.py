@@ -16,6 +16,7 @@ from urllib.parse import urlsplit
 from starlette.datastructures import Headers
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
+from app.params.formats import MAX_IMPORT_BYTES
 from app.server.errors import error_content
 
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
@@ -23,7 +24,7 @@ JSON_TYPES = frozenset({"application/json"})
 YAML_TYPES = frozenset({"application/yaml", "application/x-yaml", "text/yaml"})
 IMPORT_PATH = "/api/import"
 MAX_BODY_BYTES = 16 * 1024  # a parameter set is about 4 KiB
-MAX_IMPORT_BODY_BYTES = 64 * 1024  # app.params.formats.MAX_IMPORT_BYTES
+MAX_IMPORT_BODY_BYTES = MAX_IMPORT_BYTES
 GUARDED_PREFIXES = ("/api/", "/ws/")
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})

@@ -38,7 +38,7 @@ class Services:
         self.store = ParameterStore(initial)
         self.presets = PresetStore(config.data_dir, builtins)
         self.sim = SimThread(self.store)
-        self.axle_fitter = AxleFitter()
+        self.axle_fitter = AxleFitter()  # its jobs: GET /api/jobs/{id}
         self.viewer = None
         if config.viewer:
             from app.server.viser_guard import guard_viser

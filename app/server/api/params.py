@@ -12,11 +12,14 @@ from fastapi import APIRouter, Header, Response
 
 from app.params.document import ParameterSet
 from app.params.schema import ParamsBody, ParamsPatchBody, schema_description
-from app.server.api.deps import ServicesDep
+from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.param_store import Check, NothingToUndo, Snapshot
+from app.server.services import Services
 
-router = APIRouter(prefix="/api", tags=["parameters"], responses=GUARD_RESPONSES)
+router = APIRouter(
+    prefix="/api", tags=["parameters"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+)
 
 IfMatch = Annotated[
     str | None,
@@ -101,17 +104,24 @@ def patch_params(
     return _tagged(response, services.store.update(body.as_patch(), "http", check=check))
 
 
-@router.post("/params/{step}", responses=responses(409, 412, 422))
-def history(
-    step: Literal["undo", "redo"],
-    services: ServicesDep,
-    response: Response,
-    if_match: IfMatch = None,
-) -> dict[str, Any]:
-    """Undo or redo the latest change of the one shared history, whoever made it; `reverted`
+@router.post("/params/undo", responses=responses(409, 412, 422))
+def undo(services: ServicesDep, response: Response, if_match: IfMatch = None) -> dict[str, Any]:
+    """Undo the latest change of the one shared history, whoever made it (see redo)."""
+    return _history("undo", services, response, if_match)
+
+
+@router.post("/params/redo", responses=responses(409, 412, 422))
+def redo(services: ServicesDep, response: Response, if_match: IfMatch = None) -> dict[str, Any]:
+    """Redo the latest undone change. Undo and redo act on the one shared history; `reverted`
     says whose change (version, source) was replaced. To undo only your own latest change, send
     `If-Match` with the version it gave you (412 if someone changed something since).
     409 when there is nothing to undo or redo."""
+    return _history("redo", services, response, if_match)
+
+
+def _history(
+    step: Literal["undo", "redo"], services: Services, response: Response, if_match: str | None
+) -> dict[str, Any]:
     replaced: list[Snapshot] = []
     guard = versions_check(None, if_match)
 

@@ -4,22 +4,38 @@ import asyncio
 import contextlib
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query, WebSocket, WebSocketDisconnect
+from fastapi import APIRouter, Query, Response, WebSocket, WebSocketDisconnect
 
 from app.server.api.deps import ServicesDep, WsServicesDep
+from app.server.errors import GUARD_RESPONSES, responses
 from app.server.scope_feed import HISTORY_FRAMES
 
-router = APIRouter(tags=["scope"])
+router = APIRouter(tags=["scope"], responses=GUARD_RESPONSES)
+FRAMES_RESPONSE: dict[int | str, dict[str, Any]] = {
+    200: {
+        "description": "the frames, oldest first",
+        "content": {
+            "application/json": {
+                "schema": {
+                    "type": "object",
+                    "required": ["frames"],
+                    "properties": {"frames": {"type": "array", "items": {"type": "object"}}},
+                }
+            }
+        },
+    }
+}
 
 
-@router.get("/api/scope")
+@router.get("/api/scope", responses=FRAMES_RESPONSE | responses(422))
 def recent_frames(
     services: ServicesDep,
     frames: Annotated[int, Query(ge=1, le=HISTORY_FRAMES, description="how many")] = 1,
-) -> dict[str, Any]:
+) -> Response:
     """The last N TDM-PWM frames: per channel the slots (servo, OCR ticks, pulse us, degrees),
-    the edges of the six TDM lines and three select lines, and flags."""
-    return {"frames": services.sim.scope.recent(frames)}
+    the edges of the six TDM lines and three select lines, and flags. Each frame is serialised
+    once for every client (app/server/scope_feed.py)."""
+    return Response(services.sim.scope.recent_json(frames), media_type="application/json")
 
 
 @router.websocket("/ws/scope")
