@@ -101,9 +101,23 @@ def test_an_unknown_api_path_is_a_404_of_the_api_not_the_page(http):
 @pytest.mark.parametrize("name", ["diff", "current", "Diff"])
 def test_route_names_are_reserved_for_presets(http, name):
     response = http.put(f"/api/presets/{name}")
-    assert response.status_code == 422 and "reserved" in response.json()["message"]
+    if name == "diff":  # the diff's own path: it answers GET only
+        assert response.status_code == 405 and response.headers["allow"] == "GET"
+    else:
+        assert response.status_code == 422 and "reserved" in response.json()["message"]
     names = [p["name"] for p in http.get("/api/presets").json()["presets"]]
     assert name not in names
+
+
+def test_a_preset_file_named_diff_is_reported_not_shadowed(http, server):
+    presets = server[1].state.services.presets.directory
+    presets.mkdir(parents=True, exist_ok=True)
+    (presets / "diff.json").write_text(json.dumps({"name": "diff"}))
+    try:
+        problems = http.get("/api/presets").json()["problems"]
+        assert any(p["file"] == "diff.json" for p in problems)
+    finally:
+        (presets / "diff.json").unlink()
 
 
 def test_stale_temp_files_of_a_crashed_save_are_removed_at_start(tmp_path):

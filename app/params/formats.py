@@ -27,6 +27,7 @@ MEDIA_TYPES = {"json": "application/json", "yaml": "application/yaml", "c": "tex
 MAX_IMPORT_BYTES = 64 * 1024
 MAX_DEPTH = 8  # a parameter set is 3 levels deep (document -> gait -> group)
 _YAML_SUFFIXES = (".yaml", ".yml")
+_OPTIONAL_KEYS = ("schema_version", "name", "created", "project_version")
 _TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
 
 
@@ -288,8 +289,11 @@ def parse_import(
             f"and 'gait', got {kind}"
         )
     _check_plain(data)
-    if type(data.get("version")) is int:  # a document as GET /api/params gives it
-        data = {k: v for k, v in data.items() if k != "version"}
+    version = data.get("version", 0)
+    if version is None or type(version) is int or (type(version) is float and version.is_integer()):
+        data = {k: v for k, v in data.items() if k != "version"}  # as GET /api/params gives it
+    # null provenance means "not given", as in the API's documents (app/params/schema.py)
+    data = {k: v for k, v in data.items() if not (v is None and k in _OPTIONAL_KEYS)}
     for key in ("created", "project_version"):
         if key in data and not isinstance(data[key], str):
             raise ParameterImportError(f"{key} must be a string, got {data[key]!r}")

@@ -5,9 +5,9 @@ Nothing here lists a parameter by hand (docs/DESIGN.md §4): see `ParamsBody`, `
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, create_model
 
 from gait.params import (
     ENGINES,
@@ -51,13 +51,16 @@ def _field_args(meta: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _model_for(cls: type, name: str, *, partial: bool) -> type[BaseModel]:
+def _model_for(cls: type, name: str, *, partial: bool, defaults: bool = False) -> type[BaseModel]:
     """A model of one parameter group whose fields carry the range, unit and description of the
-    dataclass metadata; every field required, or (`partial`) every field optional."""
+    dataclass metadata; every field required, or (`partial`) every field optional (null allowed),
+    or (`defaults`) every field optional with the paper's value."""
     definitions: dict[str, Any] = {}
-    for field_name, _default, meta in describe_fields(cls):
+    for field_name, default, meta in describe_fields(cls):
         kind = bool if meta.get("unit") == "bool" else float
-        if partial:
+        if defaults:
+            definitions[field_name] = (kind, Field(default, **_field_args(meta)))
+        elif partial:
             definitions[field_name] = (kind | None, Field(None, **_field_args(meta)))
         else:
             definitions[field_name] = (kind, Field(..., **_field_args(meta)))  # required
@@ -88,11 +91,31 @@ GaitPatch = create_model(
 )
 
 
+_groups_import = {
+    g: (_model_for(group_class(g), f"{g.title()}Import", partial=True, defaults=True), None)
+    for g in GROUP_NAMES
+}
+MotionImport = _model_for(Motion, "MotionImport", partial=True, defaults=True)
+GaitImport = create_model(
+    "GaitImport",
+    __config__=STRICT,
+    engine=(EngineName, Field("behnke", description=ENGINE_DOC)),
+    **_groups_import,
+)
+
 MAX_VERSION = 2**53  # JSON-safe integer
+
+
+def _whole_float_to_int(value: Any) -> Any:
+    """JSON has one number type: 12.0 is the integer 12 (JSON Schema agrees); 12.5 stays wrong."""
+    if isinstance(value, float) and value.is_integer() and abs(value) <= MAX_VERSION:
+        return int(value)
+    return value
+
+
+Version = Annotated[int, Field(ge=1, le=MAX_VERSION), BeforeValidator(_whole_float_to_int)]
 BaseVersion = Field(
     None,
-    ge=1,
-    le=MAX_VERSION,
     description="the version this change is based on (what GET returned); if another change "
     "came first, 409 with the current version and nothing changed",
 )
@@ -108,9 +131,9 @@ class ParamsBody(BaseModel):
     """
 
     model_config = STRICT
-    version: int | None = BaseVersion
+    version: Version | None = BaseVersion
     name: str | None = NAME_FIELD
-    schema_version: Literal[1] | None = Field(None, description="of an exported file")
+    schema_version: Literal[1] = Field(1, description="of an exported file")
     created: str | None = Field(None, max_length=64, description="of an exported file; ignored")
     project_version: str | None = Field(
         None, max_length=64, description="of an exported file; ignored"
@@ -123,7 +146,7 @@ class ParamsPatchBody(BaseModel):
     """Any subset of the parameters; what is left out stays as it is (checks as `ParamsBody`)."""
 
     model_config = STRICT
-    version: int | None = BaseVersion
+    version: Version | None = BaseVersion
     name: str | None = NAME_FIELD
     motion: MotionPatch | None = None  # type: ignore[valid-type]
     gait: GaitPatch | None = None  # type: ignore[valid-type]
@@ -155,3 +178,37 @@ def schema_description() -> list[dict[str, Any]]:
         engines = [e for e in ENGINES if key == "motion" or key in engine_groups(e)]
         out.append({"group": key, "title": title, "engines": engines, "fields": entries})
     return out
+
+
+class ImportBody(BaseModel):
+    """An imported parameter set (`POST /api/import`, JSON or YAML): an exported file or what
+    `GET /api/params` returns; groups and fields left out take the paper's values."""
+
+    model_config = STRICT
+    version: Annotated[int, BeforeValidator(_whole_float_to_int)] | None = Field(
+        None, description="ignored (a document from GET /api/params)"
+    )
+    name: str | None = None
+    schema_version: Literal[1] | None = None
+    created: str | None = None
+    project_version: str | None = None
+    motion: MotionImport = None  # type: ignore[valid-type,assignment]
+    gait: GaitImport = None  # type: ignore[valid-type,assignment]
+
+
+def inline_schema(model: type[BaseModel]) -> dict[str, Any]:
+    """The model's JSON schema with its definitions inlined (for an OpenAPI `openapi_extra`)."""
+    schema = model.model_json_schema()
+    defs = schema.pop("$defs", {})
+
+    def resolve(node: Any) -> Any:
+        if isinstance(node, dict):
+            ref = node.get("$ref", "")
+            if ref.startswith("#/$defs/"):
+                return resolve(defs[ref.removeprefix("#/$defs/")])
+            return {k: resolve(v) for k, v in node.items()}
+        if isinstance(node, list):
+            return [resolve(v) for v in node]
+        return node
+
+    return resolve(schema)

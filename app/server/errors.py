@@ -113,13 +113,29 @@ METHODS = ("GET", "HEAD", "POST", "PUT", "PATCH", "DELETE")
 
 
 def allowed_methods(app: Any, scope: Mapping[str, Any]) -> list[str]:
-    """Every method some route answers at this path (the true `Allow` of a 405)."""
-    routes = [r for r in app.routes if not isinstance(r, Mount)]
-    return [
-        method
-        for method in METHODS
-        if any(r.matches({**scope, "method": method})[0] is Match.FULL for r in routes)
-    ]
+    """Every method some route answers at this path (the true `Allow` of a 405). A path of its
+    own (`/api/presets/diff`) shadows a template (`/api/presets/{name}`): only its methods count;
+    the template's routes refuse that name with a 405."""
+    routes = list(_flat_routes(app.routes))
+    literal: set[str] = set()
+    templated: set[str] = set()
+    for method in METHODS:
+        for route in routes:
+            match, child = route.matches({**scope, "method": method})
+            if match is Match.FULL:
+                (templated if child.get("path_params") else literal).add(method)
+    found = literal or templated
+    return [m for m in METHODS if m in found]
+
+
+def _flat_routes(routes: Iterable[Any]) -> Iterable[Any]:
+    """The routes of the app and of the routers it includes (FastAPI keeps those nested)."""
+    for route in routes:
+        included = getattr(route, "original_router", None)
+        if included is not None:
+            yield from _flat_routes(included.routes)
+        elif not isinstance(route, Mount):
+            yield route
 
 
 def install_handlers(app: FastAPI) -> None:

@@ -3,8 +3,10 @@
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Response
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.axle_fitter import KIND
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.jobs import JobBusy
 
@@ -35,6 +37,8 @@ def get_job(
     services: ServicesDep,
 ) -> dict[str, Any]:
     """A job: status (running, done, failed), progress 0..1, and its result or error."""
+    if job_id == KIND:  # /api/jobs/axle-fit starts jobs (POST), it is not one
+        raise StarletteHTTPException(405)
     job = services.axle_fitter.jobs.get(job_id)
     if job is None:
         raise ApiError(404, f"no job {job_id[:64]!r} (the latest 20 are kept)", "not_found")

@@ -1,21 +1,22 @@
 """Named presets, their diff, and export/import of parameter sets (JSON, YAML, C header)."""
 
 import dataclasses
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Path, Query, Request, Response
 from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.params.document import ParameterSet
 from app.params.formats import (
-    FORMATS,
     MAX_IMPORT_BYTES,
     ImportTooLarge,
     ParameterImportError,
     export_text,
     parse_import,
 )
-from app.params.presets import PresetError, PresetNotFound, diff
+from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
+from app.params.schema import ImportBody, inline_schema
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.guard import JSON_TYPES, YAML_TYPES
@@ -26,8 +27,22 @@ router = APIRouter(
 )
 
 CURRENT = "current"  # in a diff: the parameters in use now
-Name = Annotated[str, Path(max_length=64, description="a preset name")]
-Other = Annotated[str, Query(max_length=64, description="preset name, or 'current'")]
+# NAME_RULE as a JSON-schema pattern (no '..', no trailing '.'): clients see what is allowed
+NAME_SCHEMA_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$"
+Name = Annotated[
+    str, Path(max_length=64, pattern=NAME_SCHEMA_PATTERN, description=f"a preset name: {NAME_RULE}")
+]
+Other = Annotated[
+    str,
+    Query(max_length=64, pattern=NAME_SCHEMA_PATTERN, description="preset name, or 'current'"),
+]
+DIFF = "diff"  # GET /api/presets/diff is the diff, never a preset
+
+
+def _not_the_diff(name: str) -> None:
+    """/api/presets/diff answers GET only: other methods there get 405 with that Allow."""
+    if name == DIFF:
+        raise StarletteHTTPException(405)
 
 
 def _get(services: Services, name: str) -> ParameterSet:
@@ -64,6 +79,7 @@ def get_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
 @router.put("/presets/{name}", status_code=201, responses=responses(422))
 def save_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     """Save the parameters in use now under this name (not a built-in or reserved one)."""
+    _not_the_diff(name)
     try:
         return services.presets.save(name, services.store.snapshot().parameter_set()).to_dict()
     except PresetError as exc:
@@ -72,6 +88,7 @@ def save_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
 
 @router.delete("/presets/{name}", responses=responses(404, 422))
 def delete_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
+    _not_the_diff(name)
     try:
         services.presets.delete(name)
     except PresetNotFound as exc:
@@ -98,7 +115,7 @@ def load_preset(
 
 EXPORT_CONTENT = {
     "application/json": {"schema": {"type": "object"}},
-    "application/yaml": {"schema": {"type": "string"}},
+    "application/yaml": {"schema": {"type": "object"}},
     "text/x-c": {"schema": {"type": "string"}},
 }
 
@@ -110,14 +127,9 @@ EXPORT_CONTENT = {
 )
 def export(
     services: ServicesDep,
-    format: Annotated[
-        str, Query(max_length=16, description=f"one of {', '.join(FORMATS)}")
-    ] = "json",
+    format: Annotated[Literal["json", "yaml", "c"], Query(description="the file format")] = "json",
 ) -> Response:
     """The parameters in use as a file: JSON, YAML, or a C header for the ATmega128 firmware."""
-    if format not in FORMATS:
-        msg = f"unknown format {format!r}; allowed: {', '.join(FORMATS)}"
-        raise ApiError(422, msg, "invalid_format", loc=["query", "format"])
     text, media_type, filename = export_text(
         services.store.snapshot().parameter_set(), format, hardware=services.sim.hardware
     )
@@ -125,7 +137,7 @@ def export(
     return Response(text, media_type=media_type, headers=headers)
 
 
-_DOCUMENT = {"$ref": "#/components/schemas/ParamsBody"}
+_DOCUMENT = inline_schema(ImportBody)
 IMPORT_BODY = {
     "requestBody": {
         "required": True,
