@@ -121,7 +121,7 @@ def allowed_methods(app: Any, scope: Mapping[str, Any]) -> list[str]:
     templated: set[str] = set()
     for method in METHODS:
         for route in routes:
-            match, child = route.matches({**scope, "method": method})
+            match, child = route.matches({**scope, "method": method, "path_params": {}})
             if match is Match.FULL:
                 (templated if child.get("path_params") else literal).add(method)
     found = literal or templated
