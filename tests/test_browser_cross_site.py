@@ -98,12 +98,33 @@ def test_the_studio_page_still_works(studio):
     page = browser.new_page()
     page.goto(base_url + "/")
     page.wait_for_function("window.artro && window.artro.framesReceived > 5", timeout=30_000)
-    label = page.frame_locator("#viser-frame").locator("label", has_text="(+ forward)")
-    expect(label).to_be_visible(timeout=30_000)  # the 3D view's own socket is served
+    # the 3D view's own socket is served: its (docked) control panel arrives over it
+    panel = page.frame_locator("#viser-frame").locator('[data-dock-tab="viser-control-panel"]')
+    expect(panel).to_be_visible(timeout=30_000)
     status = page.evaluate(
         """async () => (await fetch('/api/sim/pause', {method: 'POST',
              headers: {'Content-Type': 'application/json'}})).status"""
     )
     assert status == 200 and client.get("/api/state").json()["paused"] is True
     assert client.post("/api/sim/resume").status_code == 200
+    page.close()
+
+
+def test_the_fit_button_runs_the_axle_fit_as_a_background_job(studio):
+    """The page's "Fit b" starts POST /api/jobs/axle-fit (202) and follows the job to its end;
+    the server answers other requests meanwhile."""
+    base_url, app, _evil, browser, client = studio
+    assert client.patch("/api/params", json={"motion": {"a_p": 0.07}}).status_code == 200
+    page = browser.new_page()
+    page.goto(base_url + "/")
+    with page.expect_response(lambda r: r.url.endswith("/api/jobs/axle-fit")) as started:
+        page.locator("#axle-fit").click()
+    assert started.value.status == 202
+    job_id = started.value.json()["id"]
+    assert client.get("/api/health").status_code == 200
+    app.state.services.axle_fitter.jobs.get(job_id).finished.wait(300)
+    job = client.get(f"/api/jobs/{job_id}").json()
+    assert job["status"] == "done", job
+    expected = "b_eff" if job["result"]["applied"] else "not applied"
+    expect(page.locator("#path-message")).to_contain_text(expected, timeout=10_000)
     page.close()
