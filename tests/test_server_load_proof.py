@@ -180,3 +180,20 @@ def test_openapi_documents_every_status_and_the_import_body(http):
                 assert schema == {"$ref": "#/components/schemas/ErrorBody"}, (method, path, status)
     put = spec["paths"]["/api/params"]["put"]["responses"]
     assert {"409", "412", "422"} <= set(put)
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        ("items:\n" + "- 1\n" * 16000).encode(),  # once 1.6 s of the GIL in PyYAML's scanner
+        "".join(f"k{i}: {i}\n" for i in range(6000)).encode(),
+        ("a: " + "[" * 7 + "1, " * 20000 + "]" * 7).encode(),
+    ],
+    ids=["long list", "many keys", "flow nesting"],
+)
+def test_a_big_yaml_import_is_refused_by_counting_not_by_checking(http, body):
+    before = http.get("/api/params").json()
+    response = http.post("/api/import", content=body[:65536], headers={"content-type": "text/yaml"})
+    assert response.status_code == 422
+    assert "more than 1000 keys and values" in response.json()["message"]
+    assert http.get("/api/params").json() == before
