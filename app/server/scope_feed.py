@@ -47,7 +47,7 @@ class ScopeFeed:
     def __init__(self, tdm: TdmConfig) -> None:
         self.tdm = tdm
         self._history: deque[_Frame] = deque(maxlen=HISTORY_FRAMES)
-        self._recent: tuple[int, int, str] = (-1, 0, "")  # (published, n, the joined JSON)
+        self._recent: tuple[int, int, bytes] = (-1, 0, b"")  # (published, n, the JSON answer)
         self._clients: frozenset[ScopeClient] = frozenset()  # replaced on the event loop
         self._loop: asyncio.AbstractEventLoop | None = None
         self._lock = threading.Lock()
@@ -76,17 +76,23 @@ class ScopeFeed:
 
     # --- event loop -----------------------------------------------------------------------------
 
-    def recent_json(self, n: int) -> str:
-        """`{"frames": [the last n frames]}` as JSON text: each frame serialised once, and the
+    def recent_json(self, n: int) -> bytes:
+        """`{"frames": [the last n frames]}` as UTF-8 JSON: each frame serialised once, and the
         whole answer shared by every client asking for the same n before the next frame."""
         with self._lock:
             published, frames = self.published, list(self._history)[-n:]
         cached = self._recent
         if cached[0] == published and cached[1] == n:
             return cached[2]
-        text = '{"frames": [' + ", ".join(f.json(self.tdm) for f in frames) + "]}"
+        text = ('{"frames": [' + ", ".join(f.json(self.tdm) for f in frames) + "]}").encode()
         self._recent = (published, n, text)
         return text
+
+    def unformatted(self, n: int) -> int:
+        """How many of the last n frames have no JSON text yet (the work `recent_json` would do)."""
+        with self._lock:
+            frames = list(self._history)[-n:]
+        return sum(f.text is None for f in frames)
 
     def recent(self, n: int) -> list[dict[str, Any]]:
         return json.loads(self.recent_json(n))["frames"]
