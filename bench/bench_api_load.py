@@ -79,7 +79,9 @@ def main() -> None:
     base = f"http://127.0.0.1:{port}"
     env = os.environ | {"PYTHONPATH": args.pythonpath}
     with TemporaryDirectory() as data:
-        server = subprocess.Popen([sys.executable, "-c", SERVER, str(port), data], env=env)
+        server = subprocess.Popen(  # cwd too: `python -c` puts it first on sys.path
+            [sys.executable, "-c", SERVER, str(port), data], env=env, cwd=args.pythonpath
+        )
         try:
             wait_ready(base)
             time.sleep(args.warmup)  # the simulation settles, the first frames fill the history
