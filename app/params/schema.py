@@ -5,10 +5,11 @@ Nothing here lists a parameter by hand (docs/DESIGN.md §4): see `ParamsBody`, `
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, create_model
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, create_model
 
+from app.params.document import V2_GROUPS
 from gait.params import (
     ENGINES,
     GROUP_NAMES,
@@ -103,6 +104,12 @@ GaitImport = create_model(
     **_groups_import,
 )
 
+GaitImportV1 = create_model(
+    "GaitImportV1",
+    __config__=STRICT,
+    **{g: spec for g, spec in _groups_import.items() if g not in V2_GROUPS},
+)
+
 MAX_VERSION = 2**53  # JSON-safe integer
 
 
@@ -133,7 +140,7 @@ class ParamsBody(BaseModel):
     model_config = STRICT
     version: Version | None = BaseVersion
     name: str | None = NAME_FIELD
-    schema_version: Literal[1] = Field(1, description="of an exported file")
+    schema_version: Literal[1, 2] = Field(2, description="of an exported file")
     created: str | None = Field(None, max_length=64, description="of an exported file; ignored")
     project_version: str | None = Field(
         None, max_length=64, description="of an exported file; ignored"
@@ -180,25 +187,36 @@ def schema_description() -> list[dict[str, Any]]:
     return out
 
 
-class ImportBody(BaseModel):
-    """An imported parameter set (`POST /api/import`, JSON or YAML): an exported file or what
-    `GET /api/params` returns; groups and fields left out take the paper's values."""
-
+class _ImportFields(BaseModel):
     model_config = STRICT
     version: Annotated[int, BeforeValidator(_whole_float_to_int)] | None = Field(
         None, description="ignored (a document from GET /api/params)"
     )
     name: str | None = None
-    schema_version: Literal[1] | None = None
     created: str | None = None
     project_version: str | None = None
     motion: MotionImport = None  # type: ignore[valid-type,assignment]
+
+
+class ImportBody(_ImportFields):
+    """An imported parameter set (`POST /api/import`, JSON or YAML): an exported file or what
+    `GET /api/params` returns; groups and fields left out take the paper's values."""
+
+    schema_version: Literal[2] | None = None
     gait: GaitImport = None  # type: ignore[valid-type,assignment]
 
 
-def inline_schema(model: type[BaseModel]) -> dict[str, Any]:
-    """The model's JSON schema with its definitions inlined (for an OpenAPI `openapi_extra`)."""
-    schema = model.model_json_schema()
+class ImportBodyV1(_ImportFields):
+    """A parameter set of schema version 1 (before the engine and the steer, ramp and pfs
+    groups; app/params/document.py)."""
+
+    schema_version: Literal[1]
+    gait: GaitImportV1 = None  # type: ignore[valid-type,assignment]
+
+
+def inline_schema(*models: type[BaseModel]) -> dict[str, Any]:
+    """The JSON schema of one of `models`, definitions inlined (for an OpenAPI `openapi_extra`)."""
+    schema = TypeAdapter(Union[models]).json_schema()  # noqa: UP007 (a runtime tuple)
     defs = schema.pop("$defs", {})
 
     def resolve(node: Any) -> Any:

@@ -16,7 +16,7 @@ from app.params.formats import (
     parse_import,
 )
 from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
-from app.params.schema import ImportBody, inline_schema
+from app.params.schema import ImportBody, ImportBodyV1, inline_schema
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.guard import JSON_TYPES, YAML_TYPES
@@ -137,7 +137,7 @@ def export(
     return Response(text, media_type=media_type, headers=headers)
 
 
-_DOCUMENT = inline_schema(ImportBody)
+_DOCUMENT = inline_schema(ImportBody, ImportBodyV1)
 IMPORT_BODY = {
     "requestBody": {
         "required": True,
