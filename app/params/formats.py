@@ -135,7 +135,7 @@ class _StrictYamlLoader(_StrictRules, yaml.SafeLoader):
 
 class _StrictCYamlLoader(_StrictRules, getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
     """The same rules on libyaml's C parser when PyYAML has it: a 64 KiB upload parses in
-    milliseconds instead of seconds of the GIL (docs/DESIGN.md, "HTTP API")."""
+    milliseconds instead of seconds of the GIL (docs/DESIGN.md §6)."""
 
 
 _LOADER = _StrictCYamlLoader if hasattr(yaml, "CSafeLoader") else _StrictYamlLoader

@@ -1,4 +1,4 @@
-"""One error shape for every refusal of the API (docs/DESIGN.md, "HTTP API"):
+"""One error shape for every refusal of the API (docs/DESIGN.md §6):
 `{"detail": [{"loc": [...], "msg": "...", "type": "..."}], "message": "...", "version": n|null}`.
 
 Nothing the client sent is echoed beyond a few hundred bytes: locations and messages are capped.

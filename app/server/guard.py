@@ -1,4 +1,4 @@
-"""The guard in front of the app, a pure ASGI middleware (docs/DESIGN.md, "HTTP API"):
+"""The guard in front of the app, a pure ASGI middleware (docs/DESIGN.md §6):
 a Host allow-list against DNS rebinding; API and WebSocket requests from other sites refused
 (Origin, Sec-Fetch-Site); state-changing requests only as JSON (or YAML for the import);
 bodies counted, a 413 as soon as one is too large.

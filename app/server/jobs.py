@@ -1,5 +1,5 @@
 """Background jobs of the server (the axle fit): started by a request that answers 202 at once,
-run in a thread, read back with their progress and result (docs/DESIGN.md, "HTTP API")."""
+run in a thread, read back with their progress and result (docs/DESIGN.md §6)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The guard of app/server/guard.py for the viser port (docs/DESIGN.md, "HTTP API").
+"""The guard of app/server/guard.py for the viser port (docs/DESIGN.md §6).
 
 viser 1.1 has no origin option: its WebsockServer runs our check as the first connect callback,
 where the handshake's Host and Origin are known and nothing has been sent or received yet; a foreign

@@ -2,7 +2,7 @@
 
 `StrictJsonRoute` parses every JSON body with the project's one rule (duplicate keys and
 NaN/Infinity refused, naming the key: `app.params.formats.load_json_strict`), off the event loop
-when the body is not tiny (docs/DESIGN.md, "HTTP API").
+when the body is not tiny (docs/DESIGN.md §6).
 """
 
 import json

@@ -1,6 +1,6 @@
 """The parameter set: read, replace, patch, undo, redo; and the schema it follows.
 
-Optimistic concurrency (docs/DESIGN.md, "HTTP API"): GET gives the version (also as the ETag);
+Optimistic concurrency (docs/DESIGN.md §6): GET gives the version (also as the ETag);
 a change may name the version it is based on, in the body (`version`, stale: 409) or as
 `If-Match` (stale: 412); either way the current version comes back and nothing changes.
 Undo and redo act on the one shared history and say whose change they reverted.
