@@ -1,15 +1,8 @@
-"""Benchmark: the server under API load (issue 13) -- does the simulation keep real time?
+"""Benchmark (issue 13): eight clients polling `GET /api/scope?frames=250` and two scope sockets
+against a real server process for N s; prints the real-time factor (min/mean of `/api/state`,
+goal >= 0.98), skipped and lost frames, polls answered and the server's CPU.
 
-Starts `artro serve`'s app (no 3D view) in its own process on a loopback port, then for N seconds
-runs eight clients polling `GET /api/scope?frames=250` back to back and two WebSocket scope
-clients, and prints:
-  - the real-time factor from `/api/state` (sampled every 0.5 s): min and mean (goal >= 0.98);
-  - the simulation's skipped frames (pacing fell behind) and frames lost by the WebSocket clients
-    (gaps in their frame numbers), and the scope polls answered;
-  - the server process's CPU (user + system, % of one core).
-
-    python bench/bench_api_load.py [--seconds 20] [--pollers 8] [--sockets 2] [--frames 250]
-        [--pythonpath DIR]   # serve another checkout's code, to compare
+    python bench/bench_api_load.py [--seconds 20] [--pollers 8] [--sockets 2] [--pythonpath DIR]
 """
 
 from __future__ import annotations

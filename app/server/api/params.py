@@ -1,10 +1,8 @@
 """The parameter set: read, replace, patch, undo, redo; and the schema it follows.
 
-Optimistic concurrency (docs/DESIGN.md §6): GET gives the version (also as the ETag);
-a change may name the version it is based on, in the body (`version`, stale: 409) or as
-`If-Match` (stale: 412); either way the current version comes back and nothing changes.
-Undo and redo act on the one shared history and say whose change they reverted.
-"""
+Optimistic concurrency (docs/DESIGN.md §6): GET gives the version, also as ETag; a change naming
+a stale one in the body (409) or in If-Match (412) changes nothing. Undo/redo say whose change
+they reverted."""
 
 from typing import Annotated, Any, Literal
 
