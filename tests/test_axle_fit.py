@@ -34,6 +34,7 @@ def test_the_fit_is_consistent_with_its_own_runs():
 
 def test_one_fit_at_a_time():
     fitter = AxleFitter()
-    fitter._busy.acquire()  # a fit is running
+    first = fitter.start(TUNED, Motion(a_p=0.07), PathTracker())
     with pytest.raises(RuntimeError, match="already running"):
         fitter.fit(TUNED, Motion(a_p=0.07), PathTracker())
+    first.finished.wait()

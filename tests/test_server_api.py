@@ -102,7 +102,9 @@ def test_sim_control_pause_step_resume_reset_speed(http, server):
         response = http.put("/api/sim/speed", json=bad)
         assert response.status_code == 422, bad
     assert http.put("/api/sim/speed", json={"speed": 1.0}).status_code == 200
-    assert http.post("/api/sim/jump").status_code == 422
+    assert http.post("/api/sim/jump").status_code == 404
+    wrong = http.post("/api/sim/speed", json={"speed": 1.0})
+    assert wrong.status_code == 405 and wrong.headers["allow"] == "PUT"
     assert http.post("/api/sim/reset").status_code == 200
     assert frames(server[0], 1)[0]["frame"] < 100  # the robot restarted from frame 0
 
@@ -162,7 +164,7 @@ def test_paths(http):
         assert http.post("/api/path/anchor", json=bad).status_code == 422
 
 
-def test_the_prediction_axle_by_hand_fitted_and_back_to_the_feet(http):
+def test_the_prediction_axle_by_hand_fitted_and_back_to_the_feet(http, server):
     assert http.get("/api/path").json()["axle_source"] == "feet"
     assert http.put("/api/path/axle", json={"axle_m": 0.25}).status_code == 200
     path = http.get("/api/path").json()
@@ -172,7 +174,16 @@ def test_the_prediction_axle_by_hand_fitted_and_back_to_the_feet(http):
         assert response.status_code == 422 and response.json()["message"]
     assert http.get("/api/path").json()["axle_m"] == 0.25  # nothing changed
     http.patch("/api/params", json={"motion": {"a_p": 0.07}})
-    fit = http.post("/api/path/axle/fit", timeout=120).json()
+    started = http.post("/api/jobs/axle-fit")
+    assert started.status_code == 202 and started.json()["status"] == "running"
+    job_url = started.headers["location"]
+    busy = http.post("/api/jobs/axle-fit")  # one fit at a time
+    assert busy.status_code == 409 and started.json()["id"] in busy.json()["message"]
+    assert http.get("/api/health").status_code == 200  # the server answers meanwhile
+    server[1].state.services.axle_fitter.jobs.get(started.json()["id"]).finished.wait(300)
+    job = http.get(job_url).json()
+    assert job["status"] == "done" and job["progress"] == 1.0, job
+    fit = job["result"]
     assert fit["a_p"] == 0.07 and len(fit["turn_deg_s"]) == 3 and fit["feet_m"] > 0.05
     path = http.get("/api/path").json()
     if fit["applied"]:  # b_eff > 0: CA turns the way eq (13) says, and the view uses it

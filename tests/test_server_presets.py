@@ -84,7 +84,9 @@ BAD_IMPORTS = [
     (b'{"gait": {"swing": {"v": NaN}}}', "application/json", 422),
     (b'{"gait": {"swing": {"speed": 2}}}', "application/json", 422),
     (b'{"motion": {"a_p": 5}}', "application/json", 422),
-    (b"\xff\xfe\x00garbage", "application/octet-stream", 422),
+    (b"\xff\xfe\x00garbage", "application/json", 422),
+    (b"\xff\xfe\x00garbage", "application/octet-stream", 415),
+    (b'{"motion": {"a_p": 0.1}}', "text/plain", 415),
     (b"a: &a [1]\nb: *a\n", "application/yaml", 422),
     (b'{"name": "' + b"x" * 70_000 + b'"}', "application/json", 413),
 ]

@@ -26,7 +26,9 @@ FORMATS = ("json", "yaml", "c")
 MEDIA_TYPES = {"json": "application/json", "yaml": "application/yaml", "c": "text/x-c"}
 MAX_IMPORT_BYTES = 64 * 1024
 MAX_DEPTH = 8  # a parameter set is 3 levels deep (document -> gait -> group)
+MAX_VALUES = 1000  # a parameter set has about 70 keys and values: refused before any work on more
 _YAML_SUFFIXES = (".yaml", ".yml")
+_OPTIONAL_KEYS = ("schema_version", "name", "created", "project_version")
 _TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
 
 
@@ -107,8 +109,8 @@ def export_text(
     return text, MEDIA_TYPES[key], HEADER_NAME
 
 
-class _StrictYamlLoader(yaml.SafeLoader):
-    """SafeLoader that keeps unquoted dates as strings and rejects duplicate keys."""
+class _StrictRules:
+    """For a SafeLoader: keep unquoted dates as strings and reject duplicate keys."""
 
     yaml_implicit_resolvers: ClassVar[dict[Any, Any]] = {
         first: [(tag, rx) for tag, rx in resolvers if tag != _TIMESTAMP_TAG]
@@ -124,7 +126,19 @@ class _StrictYamlLoader(yaml.SafeLoader):
                     None, None, f"duplicate key {key!r}", key_node.start_mark
                 )
             seen.add(key if isinstance(key, str) else id(key_node))
-        return super().construct_mapping(node, deep=deep)
+        return super().construct_mapping(node, deep=deep)  # type: ignore[misc]
+
+
+class _StrictYamlLoader(_StrictRules, yaml.SafeLoader):
+    """SafeLoader (pure Python) with the strict rules."""
+
+
+class _StrictCYamlLoader(_StrictRules, getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
+    """The same rules on libyaml's C parser when PyYAML has it: a 64 KiB upload parses in
+    milliseconds instead of seconds of the GIL (docs/DESIGN.md §6)."""
+
+
+_LOADER = _StrictCYamlLoader if hasattr(yaml, "CSafeLoader") else _StrictYamlLoader
 
 
 def _detect_format(text: str, content_type: str | None, filename: str | None) -> str:
@@ -155,7 +169,13 @@ def _json_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
     return result
 
 
-def _load_json(text: str) -> Any:
+def load_json_strict(text: str | bytes) -> Any:
+    """JSON with the one rule of the whole project: duplicate keys and NaN/Infinity are refused
+    (ParameterImportError naming the key), never silently resolved."""
+    return _load_json(text)
+
+
+def _load_json(text: str | bytes) -> Any:
     try:
         return json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_json_pairs)
     except json.JSONDecodeError as exc:
@@ -177,7 +197,9 @@ def _where(mark: Any) -> str:
 def _load_yaml(text: str) -> Any:
     try:
         depth = 0  # checked while streaming: PyYAML's scanner is slow on deep flow nesting
-        for event in yaml.parse(text, Loader=_StrictYamlLoader):
+        for count, event in enumerate(yaml.parse(text, Loader=_LOADER)):
+            if count > 2 * MAX_VALUES:
+                raise ParameterImportError(_too_many(event.start_mark))
             if isinstance(event, yaml.CollectionStartEvent):
                 depth += 1
                 if depth > MAX_DEPTH:
@@ -193,7 +215,7 @@ def _load_yaml(text: str) -> Any:
                     f"YAML anchors and aliases (&{anchor} / *{anchor}) are not allowed in a "
                     f"parameter set{_where(event.start_mark)}"
                 )
-        return yaml.load(text, Loader=_StrictYamlLoader)  # a SafeLoader subclass: no objects
+        return yaml.load(text, Loader=_LOADER)  # a SafeLoader subclass: no objects
     except yaml.MarkedYAMLError as exc:
         mark = exc.problem_mark or exc.context_mark
         raise ParameterImportError(f"malformed YAML{_where(mark)}: {exc.problem}") from exc
@@ -201,6 +223,28 @@ def _load_yaml(text: str) -> Any:
         raise ParameterImportError(f"malformed YAML: {exc}") from exc
     except RecursionError as exc:
         raise ParameterImportError("YAML nested too deeply (a parameter set is 3 levels)") from exc
+
+
+def _too_many(mark: Any = None) -> str:
+    return (
+        f"more than {MAX_VALUES} keys and values{_where(mark)}: a parameter set has about 70 "
+        "(motion, clock and the phase groups)"
+    )
+
+
+def _count_values(value: Any) -> None:
+    """Refuse a document with more than MAX_VALUES keys and values before checking any."""
+    count, todo = 0, [value]
+    while todo:
+        item = todo.pop()
+        count += 1
+        if isinstance(item, dict):
+            count += len(item)
+            todo.extend(item.values())
+        elif isinstance(item, list):
+            todo.extend(item)
+        if count > MAX_VALUES:
+            raise ParameterImportError(_too_many())
 
 
 def _check_plain(value: Any, path: str = "document", depth: int = 0) -> None:
@@ -281,7 +325,13 @@ def parse_import(
             f"a parameter set must be a {fmt.upper()} object (mapping) with keys like 'motion' "
             f"and 'gait', got {kind}"
         )
+    _count_values(data)
     _check_plain(data)
+    version = data.get("version", 0)
+    if version is None or type(version) is int or (type(version) is float and version.is_integer()):
+        data = {k: v for k, v in data.items() if k != "version"}  # as GET /api/params gives it
+    # null provenance means "not given", as in the API's documents (app/params/schema.py)
+    data = {k: v for k, v in data.items() if not (v is None and k in _OPTIONAL_KEYS)}
     for key in ("created", "project_version"):
         if key in data and not isinstance(data[key], str):
             raise ParameterImportError(f"{key} must be a string, got {data[key]!r}")

@@ -1,7 +1,8 @@
 """Named parameter sets ("presets") on disk, next to read-only built-in ones (docs/DESIGN.md §6).
 
 User presets are `<data_dir>/presets/<name>.json` documents, names of a fixed alphabet
-(`NAME_RULE`), written atomically (`write_parameter_set`); see `PresetStore`.
+(`NAME_RULE`), written atomically (`write_parameter_set`); see `PresetStore`. A crash's stale
+temporary files are removed at start; names the API needs ("diff", "current") are reserved.
 """
 
 from __future__ import annotations
@@ -11,6 +12,7 @@ import json
 import os
 import re
 import tempfile
+import time
 from collections.abc import Mapping
 from dataclasses import dataclass
 from datetime import datetime, timezone
@@ -28,6 +30,9 @@ NAME_RULE = (
     "without '..' and not ending in '.'"
 )
 SUFFIX = ".json"
+#: Names the HTTP API uses next to preset names (`GET /api/presets/diff`, "current" in a diff).
+RESERVED_NAMES = frozenset({"current", "diff"})
+STALE_TMP_S = 60.0  # a temporary file this old is left over from a crash mid-save
 BUILTIN_DIR = builtin_presets_dir()
 
 
@@ -83,7 +88,10 @@ def check_name(name: object) -> str:
     if not isinstance(name, str):
         raise PresetError(f"a preset name must be a string of {NAME_RULE}")
     if not NAME_PATTERN.fullmatch(name) or ".." in name or name.endswith("."):
-        raise PresetError(f"invalid preset name {name!r}; allowed: {NAME_RULE}")
+        raise PresetError(f"invalid preset name {name[:80]!r}; allowed: {NAME_RULE}")
+    if name.lower() in RESERVED_NAMES:
+        reserved = ", ".join(sorted(RESERVED_NAMES))
+        raise PresetError(f"{name!r} is reserved ({reserved}); choose another name")
     return name
 
 
@@ -170,6 +178,23 @@ class PresetStore:
         self.directory = self.data_dir / "presets"
         self._builtins = {check_name(name): pset for name, pset in builtins.items()}
         self.problems: ProblemList = []  # from the latest list()
+        self.removed_tmp = self.clear_stale_tmp()
+
+    def clear_stale_tmp(self, older_than_s: float = STALE_TMP_S) -> list[str]:
+        """Remove temporary files of saves that a crash (SIGKILL, power loss) interrupted;
+        recent ones may belong to a save running now in another process."""
+        if not self.directory.is_dir():
+            return []
+        removed = []
+        now = time.time()
+        for path in self.directory.glob(".*.tmp"):
+            try:
+                if now - path.stat().st_mtime >= older_than_s:
+                    path.unlink()
+                    removed.append(path.name)
+            except OSError:
+                continue  # gone already, or not ours to remove: list() never shows it anyway
+        return removed
 
     def is_builtin(self, name: str) -> bool:
         """True for a built-in (read-only) preset name."""

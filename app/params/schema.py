@@ -5,10 +5,11 @@ Nothing here lists a parameter by hand (docs/DESIGN.md §4): see `ParamsBody`, `
 
 from __future__ import annotations
 
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, Union
 
-from pydantic import BaseModel, ConfigDict, Field, create_model
+from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, create_model
 
+from app.params.document import V2_GROUPS
 from gait.params import (
     ENGINES,
     GROUP_NAMES,
@@ -51,13 +52,16 @@ def _field_args(meta: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def _model_for(cls: type, name: str, *, partial: bool) -> type[BaseModel]:
+def _model_for(cls: type, name: str, *, partial: bool, defaults: bool = False) -> type[BaseModel]:
     """A model of one parameter group whose fields carry the range, unit and description of the
-    dataclass metadata; every field required, or (`partial`) every field optional."""
+    dataclass metadata; every field required, or (`partial`) every field optional (null allowed),
+    or (`defaults`) every field optional with the paper's value."""
     definitions: dict[str, Any] = {}
-    for field_name, _default, meta in describe_fields(cls):
+    for field_name, default, meta in describe_fields(cls):
         kind = bool if meta.get("unit") == "bool" else float
-        if partial:
+        if defaults:
+            definitions[field_name] = (kind, Field(default, **_field_args(meta)))
+        elif partial:
             definitions[field_name] = (kind | None, Field(None, **_field_args(meta)))
         else:
             definitions[field_name] = (kind, Field(..., **_field_args(meta)))  # required
@@ -88,14 +92,59 @@ GaitPatch = create_model(
 )
 
 
+_groups_import = {
+    g: (_model_for(group_class(g), f"{g.title()}Import", partial=True, defaults=True), None)
+    for g in GROUP_NAMES
+}
+MotionImport = _model_for(Motion, "MotionImport", partial=True, defaults=True)
+GaitImport = create_model(
+    "GaitImport",
+    __config__=STRICT,
+    engine=(EngineName, Field("behnke", description=ENGINE_DOC)),
+    **_groups_import,
+)
+
+GaitImportV1 = create_model(
+    "GaitImportV1",
+    __config__=STRICT,
+    **{g: spec for g, spec in _groups_import.items() if g not in V2_GROUPS},
+)
+
+MAX_VERSION = 2**53  # JSON-safe integer
+
+
+def _whole_float_to_int(value: Any) -> Any:
+    """JSON has one number type: 12.0 is the integer 12 (JSON Schema agrees); 12.5 stays wrong."""
+    if isinstance(value, float) and value.is_integer() and abs(value) <= MAX_VERSION:
+        return int(value)
+    return value
+
+
+Version = Annotated[int, Field(ge=1, le=MAX_VERSION), BeforeValidator(_whole_float_to_int)]
+BaseVersion = Field(
+    None,
+    description="the version this change is based on (what GET returned); if another change "
+    "came first, 409 with the current version and nothing changed",
+)
+NAME_FIELD = Field(None, min_length=1, max_length=64, description="the parameter set's name")
+
+
 class ParamsBody(BaseModel):
     """A full parameter set: the motion vector with CA, and every gait constant.
 
-    Every field is required (a PUT is a whole parameter set); unknown fields, NaN, inf and strings
-    for numbers are refused, and every range of `gait.params` applies.
+    The motion and every gait field are required (a PUT is a whole parameter set); unknown fields,
+    NaN, inf and strings for numbers are refused, and every range of `gait.params` applies. What
+    `GET /api/params` returns and an exported JSON file are both accepted as they are.
     """
 
     model_config = STRICT
+    version: Version | None = BaseVersion
+    name: str | None = NAME_FIELD
+    schema_version: Literal[1, 2] = Field(2, description="of an exported file")
+    created: str | None = Field(None, max_length=64, description="of an exported file; ignored")
+    project_version: str | None = Field(
+        None, max_length=64, description="of an exported file; ignored"
+    )
     motion: MotionModel  # type: ignore[valid-type]
     gait: GaitModel  # type: ignore[valid-type]
 
@@ -104,12 +153,14 @@ class ParamsPatchBody(BaseModel):
     """Any subset of the parameters; what is left out stays as it is (checks as `ParamsBody`)."""
 
     model_config = STRICT
+    version: Version | None = BaseVersion
+    name: str | None = NAME_FIELD
     motion: MotionPatch | None = None  # type: ignore[valid-type]
     gait: GaitPatch | None = None  # type: ignore[valid-type]
 
     def as_patch(self) -> dict[str, Any]:
-        """Nested dict of only the fields the client sent."""
-        return self.model_dump(exclude_none=True, exclude_unset=True)
+        """Nested dict of only the parameters the client sent (not the version)."""
+        return self.model_dump(exclude_none=True, exclude_unset=True, exclude={"version"})
 
 
 def schema_description() -> list[dict[str, Any]]:
@@ -134,3 +185,48 @@ def schema_description() -> list[dict[str, Any]]:
         engines = [e for e in ENGINES if key == "motion" or key in engine_groups(e)]
         out.append({"group": key, "title": title, "engines": engines, "fields": entries})
     return out
+
+
+class _ImportFields(BaseModel):
+    model_config = STRICT
+    version: Annotated[int, BeforeValidator(_whole_float_to_int)] | None = Field(
+        None, description="ignored (a document from GET /api/params)"
+    )
+    name: str | None = None
+    created: str | None = None
+    project_version: str | None = None
+    motion: MotionImport = None  # type: ignore[valid-type,assignment]
+
+
+class ImportBody(_ImportFields):
+    """An imported parameter set (`POST /api/import`, JSON or YAML): an exported file or what
+    `GET /api/params` returns; groups and fields left out take the paper's values."""
+
+    schema_version: Literal[2] | None = None
+    gait: GaitImport = None  # type: ignore[valid-type,assignment]
+
+
+class ImportBodyV1(_ImportFields):
+    """A parameter set of schema version 1 (before the engine and the steer, ramp and pfs
+    groups; app/params/document.py)."""
+
+    schema_version: Literal[1]
+    gait: GaitImportV1 = None  # type: ignore[valid-type,assignment]
+
+
+def inline_schema(*models: type[BaseModel]) -> dict[str, Any]:
+    """The JSON schema of one of `models`, definitions inlined (for an OpenAPI `openapi_extra`)."""
+    schema = TypeAdapter(Union[models]).json_schema()  # noqa: UP007 (a runtime tuple)
+    defs = schema.pop("$defs", {})
+
+    def resolve(node: Any) -> Any:
+        if isinstance(node, dict):
+            ref = node.get("$ref", "")
+            if ref.startswith("#/$defs/"):
+                return resolve(defs[ref.removeprefix("#/$defs/")])
+            return {k: resolve(v) for k, v in node.items()}
+        if isinstance(node, list):
+            return [resolve(v) for v in node]
+        return node
+
+    return resolve(schema)

@@ -7,20 +7,21 @@ thread and the viser view, through `Services`). Routers live in `app/server/api/
 from __future__ import annotations
 
 import asyncio
-import math
 from collections.abc import AsyncIterator
 from contextlib import asynccontextmanager
-from typing import Any
 
-from fastapi import FastAPI, Request
-from fastapi.exceptions import RequestValidationError
+from fastapi import FastAPI
 from fastapi.openapi.docs import get_swagger_ui_html
-from fastapi.responses import HTMLResponse, JSONResponse
+from fastapi.responses import HTMLResponse
 from fastapi.staticfiles import StaticFiles
+from starlette.routing import Match, Mount
+from starlette.types import Scope
 
 from app.assets import static_dir
 from app.params.document import project_version
-from app.server.api import params, paths, presets, scope, servos, sim
+from app.server.api import jobs, params, paths, presets, scope, servos, sim
+from app.server.errors import install_handlers
+from app.server.guard import GUARDED_PREFIXES, Guard, served_hosts
 from app.server.services import ServerConfig, Services
 
 VENDOR = "/vendor"  # third-party files served with the page (static/vendor/)
@@ -61,40 +62,24 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
             swagger_favicon_url=FAVICON,
         )
 
-    @app.exception_handler(RequestValidationError)
-    async def invalid_request(_request: Request, exc: RequestValidationError) -> JSONResponse:
-        errors = [
-            {
-                "loc": list(e.get("loc", ())),
-                "msg": e.get("msg", ""),
-                "input": _json_safe(e.get("input")),
-            }
-            for e in exc.errors()
-        ]
-        summary = "; ".join(
-            f"{'.'.join(str(p) for p in e['loc'] if p != 'body')}: {e['msg']}" for e in errors
-        )
-        return JSONResponse(status_code=422, content={"detail": errors, "message": summary})
-
-    @app.exception_handler(ValueError)
-    async def value_error(_request: Request, exc: ValueError) -> JSONResponse:
-        return JSONResponse(status_code=422, content={"detail": str(exc)})
-
-    routers = (sim.router, params.router, scope.router, paths.router, presets.router, servos.router)
-    for router in routers:
+    install_handlers(app)
+    routers = (sim.router, params.router, scope.router, paths.router, presets.router)
+    for router in (*routers, servos.router, jobs.router):
         app.include_router(router)
-    app.mount("/", StaticFiles(directory=static_dir(), html=True), name="static")
+    # the page is served under every path but the API's: a wrong method or path under /api/
+    # gets the API's 405/404, never the static files' answer
+    app.router.routes.append(_PageMount(StaticFiles(directory=static_dir(), html=True)))
+    app.add_middleware(Guard, hosts=served_hosts(config.host, config.allowed_hosts))
     return app
 
 
-def _json_safe(value: Any) -> Any:
-    """Echo a rejected input back without breaking JSON (NaN, inf, bytes, odd types)."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return repr(value)
-    if isinstance(value, str | int | float | bool) or value is None:
-        return value
-    if isinstance(value, dict):
-        return {str(k): _json_safe(v) for k, v in value.items()}
-    if isinstance(value, list | tuple):
-        return [_json_safe(v) for v in value]
-    return repr(value)[:200]
+class _PageMount(Mount):
+    """The static page at `/`, except under the API prefixes."""
+
+    def __init__(self, app: StaticFiles) -> None:
+        super().__init__("/", app=app, name="static")
+
+    def matches(self, scope: Scope) -> tuple[Match, Scope]:
+        if scope["path"].startswith(GUARDED_PREFIXES) or scope["path"] == "/api":
+            return Match.NONE, {}
+        return super().matches(scope)

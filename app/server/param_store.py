@@ -25,6 +25,7 @@ class Snapshot:
     name: str
     motion: Motion
     gait: GaitParams
+    source: str = "start"  # who made this version: "http", "viser", "preset", "import", "undo"...
 
     def flat(self) -> dict[str, float | bool]:
         """Dotted field names -> values: 'motion.a_p', 'swing.v', ..."""
@@ -44,6 +45,9 @@ class Snapshot:
 
 
 Subscriber = Callable[[Snapshot, frozenset[str], str], None]
+#: Called with the current snapshot under the store's lock before a change; raising refuses it
+#: with nothing changed (optimistic concurrency: "only if the version is still n").
+Check = Callable[[Snapshot], None]
 
 
 class NothingToUndo(LookupError):
@@ -76,7 +80,9 @@ class ParameterStore:
 
     # --- changes -------------------------------------------------------------------------------
 
-    def update(self, patch: Mapping[str, Any], source: str) -> Snapshot:
+    def update(
+        self, patch: Mapping[str, Any], source: str, *, check: Check | None = None
+    ) -> Snapshot:
         """Merge a partial {'motion': {...}, 'gait': {group: {...}}}; ValueError changes nothing."""
         unknown = set(patch) - {"motion", "gait", "name"}
         if unknown:
@@ -89,17 +95,19 @@ class ParameterStore:
             gait = merge(current.gait, patch["gait"]) if "gait" in patch else current.gait
             return patch.get("name", current.name), motion, gait
 
-        return self._commit(build, source)
+        return self._commit(build, source, check)
 
-    def replace(self, pset: ParameterSet, source: str) -> Snapshot:
+    def replace(self, pset: ParameterSet, source: str, *, check: Check | None = None) -> Snapshot:
         """Replace every parameter (a PUT, a loaded preset, an import)."""
-        return self._commit(lambda _current: (pset.name, pset.motion, pset.gait), source)
+        return self._commit(lambda _current: (pset.name, pset.motion, pset.gait), source, check)
 
-    def undo(self, source: str) -> Snapshot:
-        return self._step_history(self._undo, self._redo, source)
+    def undo(self, source: str, *, check: Check | None = None) -> Snapshot:
+        """Go back one change (whoever made it: `check` sees the snapshot being replaced)."""
+        return self._step_history(self._undo, self._redo, source, check)
 
-    def redo(self, source: str) -> Snapshot:
-        return self._step_history(self._redo, self._undo, source)
+    def redo(self, source: str, *, check: Check | None = None) -> Snapshot:
+        """Go forward one undone change."""
+        return self._step_history(self._redo, self._undo, source, check)
 
     @property
     def can_undo(self) -> bool:
@@ -112,12 +120,17 @@ class ParameterStore:
     # --- internals ------------------------------------------------------------------------------
 
     def _commit(
-        self, build: Callable[[Snapshot], tuple[str, Motion, GaitParams]], source: str
+        self,
+        build: Callable[[Snapshot], tuple[str, Motion, GaitParams]],
+        source: str,
+        check: Check | None,
     ) -> Snapshot:
         with self._lock:
             current = self._snapshot
+            if check is not None:
+                check(current)  # raises before anything changes
             name, motion, gait = build(current)  # raises before anything changes
-            candidate = Snapshot(current.version + 1, name, motion, gait)
+            candidate = Snapshot(current.version + 1, name, motion, gait, source)
             changed = _changed(current, candidate)
             if not changed:
                 return current
@@ -129,14 +142,20 @@ class ParameterStore:
         self._announce(subscribers, candidate, changed, source)
         return candidate
 
-    def _step_history(self, take: list[Snapshot], give: list[Snapshot], source: str) -> Snapshot:
+    def _step_history(
+        self, take: list[Snapshot], give: list[Snapshot], source: str, check: Check | None
+    ) -> Snapshot:
         with self._lock:
+            current = self._snapshot
+            if check is not None:
+                check(current)
             if not take:
                 raise NothingToUndo("nothing to undo" if take is self._undo else "nothing to redo")
-            current = self._snapshot
             previous = take.pop()
             give.append(current)
-            candidate = Snapshot(current.version + 1, previous.name, previous.motion, previous.gait)
+            candidate = Snapshot(
+                current.version + 1, previous.name, previous.motion, previous.gait, source
+            )
             self._snapshot = candidate
             changed = _changed(current, candidate)
             subscribers = list(self._subscribers)

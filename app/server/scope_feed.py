@@ -1,7 +1,8 @@
 """The live oscilloscope feed: recent TDM-PWM frames for `GET /api/scope`, fan-out to WebSockets.
 
-The simulation thread appends, the event loop formats once and feeds per-client queues that drop
-their oldest frames; the client set is replaced, never changed in place (docs/DESIGN.md §8).
+The simulation thread appends; each frame's JSON is made once, when first wanted, and shared by
+every WebSocket and `GET /api/scope`; per-client queues drop their oldest frames; the client set is
+replaced, never changed in place (docs/DESIGN.md §8).
 """
 
 from __future__ import annotations
@@ -24,6 +25,19 @@ CLIENT_QUEUE_FRAMES = 10
 
 
 @dataclass(eq=False)
+class _Frame:
+    record: FrameRecord
+    params_version: int
+    text: str | None = None  # the JSON message, made once (a race makes it twice, both equal)
+
+    def json(self, tdm: TdmConfig) -> str:
+        if self.text is None:
+            message = frame_message(self.record, tdm, self.params_version)
+            self.text = json.dumps(message, default=_json_default)
+        return self.text
+
+
+@dataclass(eq=False)
 class ScopeClient:
     queue: asyncio.Queue[str]
     dropped: int = 0
@@ -32,7 +46,8 @@ class ScopeClient:
 class ScopeFeed:
     def __init__(self, tdm: TdmConfig) -> None:
         self.tdm = tdm
-        self._history: deque[tuple[FrameRecord, int]] = deque(maxlen=HISTORY_FRAMES)
+        self._history: deque[_Frame] = deque(maxlen=HISTORY_FRAMES)
+        self._recent: tuple[int, int, bytes] = (-1, 0, b"")  # (published, n, the JSON answer)
         self._clients: frozenset[ScopeClient] = frozenset()  # replaced on the event loop
         self._loop: asyncio.AbstractEventLoop | None = None
         self._lock = threading.Lock()
@@ -45,12 +60,13 @@ class ScopeFeed:
     # --- simulation thread ----------------------------------------------------------------------
 
     def publish(self, record: FrameRecord, params_version: int) -> None:
+        frame = _Frame(record, params_version)
         with self._lock:
-            self._history.append((record, params_version))
+            self._history.append(frame)
             self.published += 1
         if self._clients and self._loop is not None and not self._loop.is_closed():
             try:
-                self._loop.call_soon_threadsafe(self._fan_out, record, params_version)
+                self._loop.call_soon_threadsafe(self._fan_out, frame)
             except RuntimeError:  # the loop closed between the check and the call
                 pass
 
@@ -60,10 +76,26 @@ class ScopeFeed:
 
     # --- event loop -----------------------------------------------------------------------------
 
-    def recent(self, n: int) -> list[dict[str, Any]]:
+    def recent_json(self, n: int) -> bytes:
+        """`{"frames": [the last n frames]}` as UTF-8 JSON: each frame serialised once, and the
+        whole answer shared by every client asking for the same n before the next frame."""
         with self._lock:
-            records = list(self._history)[-n:]
-        return [frame_message(r, self.tdm, v) for r, v in records]
+            published, frames = self.published, list(self._history)[-n:]
+        cached = self._recent
+        if cached[0] == published and cached[1] == n:
+            return cached[2]
+        text = ('{"frames": [' + ", ".join(f.json(self.tdm) for f in frames) + "]}").encode()
+        self._recent = (published, n, text)
+        return text
+
+    def unformatted(self, n: int) -> int:
+        """How many of the last n frames have no JSON text yet (the work `recent_json` would do)."""
+        with self._lock:
+            frames = list(self._history)[-n:]
+        return sum(f.text is None for f in frames)
+
+    def recent(self, n: int) -> list[dict[str, Any]]:
+        return json.loads(self.recent_json(n))["frames"]
 
     def connect(self) -> ScopeClient:
         client = ScopeClient(asyncio.Queue(maxsize=CLIENT_QUEUE_FRAMES))
@@ -85,11 +117,11 @@ class ScopeFeed:
         clients = self._clients
         return self._dropped_gone + sum(c.dropped for c in clients)
 
-    def _fan_out(self, record: FrameRecord, params_version: int) -> None:
+    def _fan_out(self, frame: _Frame) -> None:
         clients = self._clients
         if not clients:
             return
-        text = json.dumps(frame_message(record, self.tdm, params_version), default=_json_default)
+        text = frame.json(self.tdm)
         for client in clients:
             if client.queue.full():
                 client.queue.get_nowait()  # lose the oldest frame, never wait

@@ -8,6 +8,7 @@ from pathlib import Path
 from app.params.document import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.server.axle_fitter import AxleFitter
+from app.server.guard import served_hosts
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import SimThread
 
@@ -20,6 +21,7 @@ class ServerConfig:
     params_file: Path | None = None
     data_dir: Path = field(default_factory=default_data_dir)
     viewer: bool = True  # start the viser 3D view
+    allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/guard.py)
 
 
 START_PRESET = "tuned"  # a new user should see a robot that walks; "paper" if it is missing
@@ -36,9 +38,10 @@ class Services:
         self.store = ParameterStore(initial)
         self.presets = PresetStore(config.data_dir, builtins)
         self.sim = SimThread(self.store)
-        self.axle_fitter = AxleFitter()
+        self.axle_fitter = AxleFitter()  # its jobs: GET /api/jobs/{id}
         self.viewer = None
         if config.viewer:
+            from app.server.viser_guard import guard_viser
             from app.server.viser_view import Viewer  # viser is only loaded when the view is wanted
 
             self.viewer = Viewer(
@@ -50,6 +53,7 @@ class Services:
                 host=config.host,
                 port=config.viser_port,
             )
+            guard_viser(self.viewer.server, served_hosts(config.host, config.allowed_hosts))
 
     def start(self) -> None:
         self.sim.start()

@@ -97,7 +97,15 @@ async function fitAxle() {
   button.disabled = true;
   setMessage(msg, "fitting: simulating CA = -0.1, 0, +0.1 for 20 s each …", "");
   try {
-    const r = await api.post("/api/path/axle/fit", {});
+    // a background job (202 at once); its progress is polled, never a minute-long request
+    let job = await api.post("/api/jobs/axle-fit", {});
+    while (job.status === "running") {
+      setMessage(msg, `fitting: simulating CA = -0.1, 0, +0.1 … ${fmt(job.progress * 100, 0)} %`, "");
+      await new Promise((resolve) => setTimeout(resolve, 500));
+      job = await api.get(`/api/jobs/${job.id}`);
+    }
+    if (job.status !== "done") throw new Error(`no fit: ${job.error}`);
+    const r = job.result;
     const gain = r.gain == null ? "no steering" : `${fmt(r.gain * 100, 0)} % of eq (13)`;
     const text = r.applied
       ? `b_eff = ${fmt(r.axle_eff_m * 100, 1)} cm (feet ${fmt(r.feet_m * 100, 1)} cm): CA steers at ${gain}`

@@ -1,44 +1,140 @@
-"""The parameter set: read, replace, patch, undo, redo; and the schema it follows."""
+"""The parameter set: read, replace, patch, undo, redo; and the schema it follows.
 
-from typing import Any, Literal
+Optimistic concurrency (docs/DESIGN.md §6): GET gives the version, also as ETag; a change naming
+a stale one in the body (409) or in If-Match (412) changes nothing. Undo/redo say whose change
+they reverted."""
 
-from fastapi import APIRouter, HTTPException
+from typing import Annotated, Any, Literal
+
+from fastapi import APIRouter, Header, Response
 
 from app.params.document import ParameterSet
 from app.params.schema import ParamsBody, ParamsPatchBody, schema_description
-from app.server.api.deps import ServicesDep
-from app.server.param_store import NothingToUndo
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.param_store import Check, NothingToUndo, Snapshot
+from app.server.services import Services
 
-router = APIRouter(prefix="/api", tags=["parameters"])
+router = APIRouter(
+    prefix="/api", tags=["parameters"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+)
 
-
-@router.get("/params")
-def get_params(services: ServicesDep) -> dict[str, Any]:
-    return services.store.snapshot().to_dict()
-
-
-@router.put("/params")
-def put_params(body: ParamsBody, services: ServicesDep) -> dict[str, Any]:
-    """Replace every parameter; invalid input changes nothing."""
-    current = services.store.snapshot()
-    pset = ParameterSet.from_dict({"name": current.name, **body.model_dump()})
-    return services.store.replace(pset, "http").to_dict()
-
-
-@router.patch("/params")
-def patch_params(body: ParamsPatchBody, services: ServicesDep) -> dict[str, Any]:
-    """Change some parameters; the rest stay. Invalid input changes nothing."""
-    return services.store.update(body.as_patch(), "http").to_dict()
+IfMatch = Annotated[
+    str | None,
+    Header(
+        max_length=200,
+        description='change only if the current version is this ETag (e.g. "12"); '
+        "otherwise 412 with the current version",
+    ),
+]
+ETAG_HEADER = {"ETag": {"description": 'the version, e.g. "12"', "schema": {"type": "string"}}}
 
 
-@router.post("/params/{step}")
-def history(step: Literal["undo", "redo"], services: ServicesDep) -> dict[str, Any]:
-    """Undo or redo a parameter change (409 when there is nothing to undo or redo)."""
+def etag(snapshot: Snapshot) -> str:
+    return f'"{snapshot.version}"'
+
+
+def _tagged(response: Response, snapshot: Snapshot) -> dict[str, Any]:
+    response.headers["ETag"] = etag(snapshot)
+    return snapshot.to_dict()
+
+
+def versions_check(body_version: int | None, if_match: str | None) -> Check:
+    """Refuse (409 body version / 412 If-Match) unless the current version is the named one."""
+
+    def check(current: Snapshot) -> None:
+        if if_match is not None:
+            tags = {t.strip().removeprefix("W/") for t in if_match.split(",")}
+            if "*" not in tags and etag(current) not in tags:
+                raise ApiError(
+                    412,
+                    f"If-Match {if_match[:60]!r} is not the current version {etag(current)}; "
+                    "GET /api/params and try again",
+                    "precondition_failed",
+                    loc=["header", "if-match"],
+                    version=current.version,
+                )
+        if body_version is not None and body_version != current.version:
+            raise ApiError(
+                409,
+                f"version {body_version} is not the current version {current.version} (changed "
+                f"by {current.source}); GET /api/params and try again",
+                "version_conflict",
+                loc=["body", "version"],
+                version=current.version,
+            )
+
+    return check
+
+
+@router.get("/params", responses={200: {"headers": ETAG_HEADER}})
+def get_params(services: ServicesDep, response: Response) -> dict[str, Any]:
+    """The parameters in use, with their version (also the `ETag`)."""
+    return _tagged(response, services.store.snapshot())
+
+
+@router.put("/params", responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}})
+def put_params(
+    body: ParamsBody, services: ServicesDep, response: Response, if_match: IfMatch = None
+) -> dict[str, Any]:
+    """Replace every parameter; invalid input or a stale version changes nothing."""
+    store = services.store
+    name = body.name or store.snapshot().name
+    pset = ParameterSet.from_dict(
+        {"name": name, "motion": body.motion.model_dump(), "gait": body.gait.model_dump()}
+    )
+    check = versions_check(body.version, if_match)
+    if body.name is None:  # keep the name in use at the moment of the change
+        return _tagged(response, store.update(pset_patch(pset), "http", check=check))
+    return _tagged(response, store.replace(pset, "http", check=check))
+
+
+def pset_patch(pset: ParameterSet) -> dict[str, Any]:
+    return {"motion": pset.to_dict()["motion"], "gait": pset.gait.to_dict()}
+
+
+@router.patch("/params", responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}})
+def patch_params(
+    body: ParamsPatchBody, services: ServicesDep, response: Response, if_match: IfMatch = None
+) -> dict[str, Any]:
+    """Change some parameters; the rest stay. Invalid input or a stale version changes nothing."""
+    check = versions_check(body.version, if_match)
+    return _tagged(response, services.store.update(body.as_patch(), "http", check=check))
+
+
+@router.post("/params/undo", responses=responses(409, 412, 422))
+def undo(services: ServicesDep, response: Response, if_match: IfMatch = None) -> dict[str, Any]:
+    """Undo the latest change of the one shared history, whoever made it (see redo)."""
+    return _history("undo", services, response, if_match)
+
+
+@router.post("/params/redo", responses=responses(409, 412, 422))
+def redo(services: ServicesDep, response: Response, if_match: IfMatch = None) -> dict[str, Any]:
+    """Redo the latest undone change. Undo and redo act on the one shared history; `reverted`
+    says whose change (version, source) was replaced. To undo only your own latest change, send
+    `If-Match` with the version it gave you (412 if someone changed something since).
+    409 when there is nothing to undo or redo."""
+    return _history("redo", services, response, if_match)
+
+
+def _history(
+    step: Literal["undo", "redo"], services: Services, response: Response, if_match: str | None
+) -> dict[str, Any]:
+    replaced: list[Snapshot] = []
+    guard = versions_check(None, if_match)
+
+    def check(current: Snapshot) -> None:
+        guard(current)
+        replaced.append(current)
+
     move = services.store.undo if step == "undo" else services.store.redo
     try:
-        return move("http").to_dict()
+        snapshot = move("http", check=check)
     except NothingToUndo as exc:
-        raise HTTPException(409, str(exc)) from exc
+        current = services.store.snapshot()
+        raise ApiError(409, str(exc), "nothing_to_" + step, version=current.version) from exc
+    reverted = {"version": replaced[0].version, "source": replaced[0].source}
+    return _tagged(response, snapshot) | {"reverted": reverted}
 
 
 @router.get("/schema")

@@ -1,15 +1,17 @@
-"""The actual trunk path and the differential-drive prediction."""
+"""The actual trunk path and the differential-drive prediction (the axle fit: api/jobs.py)."""
 
 from typing import Any
 
-from fastapi import APIRouter, HTTPException
+from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
-from app.core.axle_fit import AxleFitError
-from app.server.api.deps import ServicesDep
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES, responses
 from app.server.sim_thread import Command
 
-router = APIRouter(prefix="/api/path", tags=["paths"])
+router = APIRouter(
+    prefix="/api/path", tags=["paths"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+)
 
 
 class AnchorBody(BaseModel):
@@ -35,7 +37,7 @@ def clear(services: ServicesDep) -> dict[str, Any]:
     return {"accepted": "clear"}
 
 
-@router.post("/anchor")
+@router.post("/anchor", responses=responses(422))
 def reanchor(services: ServicesDep, body: AnchorBody | None = None) -> dict[str, Any]:
     """Start the prediction again at the robot's current pose."""
     services.sim.command(Command.REANCHOR, None if body is None else body.speed_m_s)
@@ -49,21 +51,8 @@ class AxleBody(BaseModel):
     )
 
 
-@router.put("/axle")
+@router.put("/axle", responses=responses(422))
 def set_axle(services: ServicesDep, body: AxleBody) -> dict[str, Any]:
     """Predict with this axle b (m), or with the measured distance between the feet (null)."""
     services.sim.paths.set_axle(body.axle_m, "manual")
     return {"axle_m": body.axle_m, "axle_source": "feet" if body.axle_m is None else "manual"}
-
-
-@router.post("/axle/fit")
-def fit_axle(services: ServicesDep) -> dict[str, Any]:
-    """Fit the effective axle b_eff of the current gait from simulated curve walks (CA = -0.1,
-    0, +0.1 at the current a_p, 20 s each, in the background) and predict with it."""
-    snap = services.store.snapshot()
-    try:
-        result = services.axle_fitter.fit(snap.gait, snap.motion, services.sim.paths)
-    except RuntimeError as exc:  # busy, or the robot fell / did not walk (AxleFitError)
-        status = 422 if isinstance(exc, AxleFitError) else 409
-        raise HTTPException(status, str(exc)) from exc
-    return result.to_dict() | {"params_version": snap.version}

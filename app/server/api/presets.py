@@ -1,26 +1,48 @@
 """Named presets, their diff, and export/import of parameter sets (JSON, YAML, C header)."""
 
 import dataclasses
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter, HTTPException, Query, Request, Response
+from fastapi import APIRouter, Path, Query, Request, Response
+from starlette.concurrency import run_in_threadpool
+from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.params.document import ParameterSet
 from app.params.formats import (
-    FORMATS,
     MAX_IMPORT_BYTES,
     ImportTooLarge,
     ParameterImportError,
     export_text,
     parse_import,
 )
-from app.params.presets import PresetError, PresetNotFound, diff
-from app.server.api.deps import ServicesDep
+from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
+from app.params.schema import ImportBody, ImportBodyV1, inline_schema
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.guard import JSON_TYPES, YAML_TYPES
 from app.server.services import Services
 
-router = APIRouter(prefix="/api", tags=["presets"])
+router = APIRouter(
+    prefix="/api", tags=["presets"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+)
 
 CURRENT = "current"  # in a diff: the parameters in use now
+# NAME_RULE as a JSON-schema pattern (no '..', no trailing '.'): clients see what is allowed
+NAME_SCHEMA_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$"
+Name = Annotated[
+    str, Path(max_length=64, pattern=NAME_SCHEMA_PATTERN, description=f"a preset name: {NAME_RULE}")
+]
+Other = Annotated[
+    str,
+    Query(max_length=64, pattern=NAME_SCHEMA_PATTERN, description="preset name, or 'current'"),
+]
+DIFF = "diff"  # GET /api/presets/diff is the diff, never a preset
+
+
+def _not_the_diff(name: str) -> None:
+    """/api/presets/diff answers GET only: other methods there get 405 with that Allow."""
+    if name == DIFF:
+        raise StarletteHTTPException(405)
 
 
 def _get(services: Services, name: str) -> ParameterSet:
@@ -29,9 +51,9 @@ def _get(services: Services, name: str) -> ParameterSet:
     try:
         return services.presets.get(name)
     except PresetNotFound as exc:
-        raise HTTPException(404, f"no preset named {name!r}") from exc
+        raise ApiError(404, f"no preset named {name[:64]!r}", "not_found", loc=["path"]) from exc
     except PresetError as exc:
-        raise HTTPException(422, str(exc)) from exc
+        raise ApiError(422, str(exc), "invalid_preset", loc=["path"]) from exc
 
 
 @router.get("/presets")
@@ -43,46 +65,42 @@ def list_presets(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-@router.get("/presets/diff")
-def diff_presets(
-    services: ServicesDep,
-    a: Annotated[str, Query(description="preset name, or 'current'")],
-    b: Annotated[str, Query(description="preset name, or 'current'")] = CURRENT,
-) -> dict[str, Any]:
-    """Every field in which two parameter sets differ."""
+@router.get("/presets/diff", responses=responses(404, 422))
+def diff_presets(services: ServicesDep, a: Other, b: Other = CURRENT) -> dict[str, Any]:
+    """Every field in which two parameter sets differ ("diff" is not a preset name)."""
     return {"a": a, "b": b, "differences": diff(_get(services, a), _get(services, b))}
 
 
-@router.get("/presets/{name}")
-def get_preset(name: str, services: ServicesDep) -> dict[str, Any]:
+@router.get("/presets/{name}", responses=responses(404, 422))
+def get_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     return _get(services, name).to_dict()
 
 
-@router.put("/presets/{name}", status_code=201)
-def save_preset(name: str, services: ServicesDep) -> dict[str, Any]:
-    """Save the parameters in use now under this name."""
-    if name == CURRENT:
-        raise HTTPException(422, f"{CURRENT!r} is reserved for the parameters in use")
+@router.put("/presets/{name}", status_code=201, responses=responses(422))
+def save_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
+    """Save the parameters in use now under this name (not a built-in or reserved one)."""
+    _not_the_diff(name)
     try:
         return services.presets.save(name, services.store.snapshot().parameter_set()).to_dict()
     except PresetError as exc:
-        raise HTTPException(422, str(exc)) from exc
+        raise ApiError(422, str(exc), "invalid_preset", loc=["path"]) from exc
 
 
-@router.delete("/presets/{name}")
-def delete_preset(name: str, services: ServicesDep) -> dict[str, Any]:
+@router.delete("/presets/{name}", responses=responses(404, 422))
+def delete_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
+    _not_the_diff(name)
     try:
         services.presets.delete(name)
     except PresetNotFound as exc:
-        raise HTTPException(404, f"no preset named {name!r}") from exc
+        raise ApiError(404, f"no preset named {name!r}", "not_found", loc=["path"]) from exc
     except PresetError as exc:
-        raise HTTPException(422, str(exc)) from exc
+        raise ApiError(422, str(exc), "invalid_preset", loc=["path"]) from exc
     return {"deleted": name}
 
 
-@router.post("/presets/{name}/load")
+@router.post("/presets/{name}/load", responses=responses(404, 422))
 def load_preset(
-    name: str,
+    name: Name,
     services: ServicesDep,
     keep_motion: Annotated[
         bool, Query(description="keep the motion vector and CA in use; load only the gait")
@@ -95,14 +113,23 @@ def load_preset(
     return services.store.replace(pset, "preset").to_dict()
 
 
-@router.get("/export")
+EXPORT_CONTENT = {
+    "application/json": {"schema": {"type": "object"}},
+    "application/yaml": {"schema": {"type": "object"}},
+    "text/x-c": {"schema": {"type": "string"}},
+}
+
+
+@router.get(
+    "/export",
+    response_class=Response,
+    responses={200: {"content": EXPORT_CONTENT}, **responses(422)},
+)
 def export(
     services: ServicesDep,
-    format: Annotated[str, Query(description=f"one of {', '.join(FORMATS)}")] = "json",
+    format: Annotated[Literal["json", "yaml", "c"], Query(description="the file format")] = "json",
 ) -> Response:
     """The parameters in use as a file: JSON, YAML, or a C header for the ATmega128 firmware."""
-    if format not in FORMATS:
-        raise HTTPException(422, f"unknown format {format!r}; allowed: {', '.join(FORMATS)}")
     text, media_type, filename = export_text(
         services.store.snapshot().parameter_set(), format, hardware=services.sim.hardware
     )
@@ -110,19 +137,32 @@ def export(
     return Response(text, media_type=media_type, headers=headers)
 
 
-@router.post("/import")
+_DOCUMENT = inline_schema(ImportBody, ImportBodyV1)
+IMPORT_BODY = {
+    "requestBody": {
+        "required": True,
+        "description": f"a parameter set, at most {MAX_IMPORT_BYTES // 1024} KiB: an exported "
+        "file or what GET /api/params returns; groups or fields left out take the paper's value",
+        "content": {media: {"schema": _DOCUMENT} for media in sorted(JSON_TYPES | YAML_TYPES)},
+    }
+}
+
+
+@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(413, 422))
 async def import_params(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Upload a JSON or YAML parameter set (at most 64 KiB) and make it the one in use."""
     raw = bytearray()
-    async for chunk in request.stream():
+    async for chunk in request.stream():  # the guard has refused bodies over the limit
         raw += chunk
-        if len(raw) > MAX_IMPORT_BYTES:
-            raise HTTPException(413, f"import larger than {MAX_IMPORT_BYTES} bytes")
-    try:
-        pset = parse_import(bytes(raw), request.headers.get("content-type"))
+    try:  # parsing (YAML especially) takes milliseconds: never on the event loop
+        pset = await run_in_threadpool(
+            parse_import, bytes(raw), request.headers.get("content-type")
+        )
     except ImportTooLarge as exc:
-        raise HTTPException(413, str(exc)) from exc
+        raise ApiError(413, str(exc), "body_too_large", loc=["body"]) from exc
     except ParameterImportError as exc:  # every wrong field, with its path, when there are several
-        detail = exc.problems if len(exc.problems) > 1 else str(exc)
-        raise HTTPException(422, detail) from exc
+        items = [p | {"type": "invalid_import"} for p in exc.problems]
+        raise ApiError(422, str(exc), "invalid_import", loc=["body"], items=items) from exc
+    except ValueError as exc:
+        raise ApiError(422, str(exc), "invalid_import", loc=["body"]) from exc
     return services.store.replace(pset, "import").to_dict()

@@ -4,22 +4,46 @@ import asyncio
 import contextlib
 from typing import Annotated, Any
 
-from fastapi import APIRouter, Query, WebSocket, WebSocketDisconnect
+from fastapi import APIRouter, Query, Response, WebSocket, WebSocketDisconnect
+from starlette.concurrency import run_in_threadpool
 
 from app.server.api.deps import ServicesDep, WsServicesDep
+from app.server.errors import GUARD_RESPONSES, responses
 from app.server.scope_feed import HISTORY_FRAMES
 
-router = APIRouter(tags=["scope"])
+router = APIRouter(tags=["scope"], responses=GUARD_RESPONSES)
+INLINE_FORMAT_FRAMES = 2  # about 0.3 ms each
+FRAMES_RESPONSE: dict[int | str, dict[str, Any]] = {
+    200: {
+        "description": "the frames, oldest first",
+        "content": {
+            "application/json": {
+                "schema": {
+                    "type": "object",
+                    "required": ["frames"],
+                    "properties": {"frames": {"type": "array", "items": {"type": "object"}}},
+                }
+            }
+        },
+    }
+}
 
 
-@router.get("/api/scope")
-def recent_frames(
+@router.get("/api/scope", responses=FRAMES_RESPONSE | responses(422))
+async def recent_frames(
     services: ServicesDep,
     frames: Annotated[int, Query(ge=1, le=HISTORY_FRAMES, description="how many")] = 1,
-) -> dict[str, Any]:
+) -> Response:
     """The last N TDM-PWM frames: per channel the slots (servo, OCR ticks, pulse us, degrees),
-    the edges of the six TDM lines and three select lines, and flags."""
-    return {"frames": services.sim.scope.recent(frames)}
+    the edges of the six TDM lines and three select lines, and flags. Each frame is serialised
+    once for every client (app/server/scope_feed.py): with at most a few new frames to format
+    this answers on the event loop, else in the thread pool."""
+    feed = services.sim.scope
+    if feed.unformatted(frames) <= INLINE_FORMAT_FRAMES:
+        body = feed.recent_json(frames)
+    else:
+        body = await run_in_threadpool(feed.recent_json, frames)
+    return Response(body, media_type="application/json")
 
 
 @router.websocket("/ws/scope")

@@ -5,9 +5,12 @@ from typing import Any
 
 from fastapi import APIRouter
 
-from app.server.api.deps import ServicesDep
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES
 
-router = APIRouter(prefix="/api/servos", tags=["servos"])
+router = APIRouter(
+    prefix="/api/servos", tags=["servos"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+)
 
 
 @router.get("/load")

@@ -1,15 +1,18 @@
 """Health, state and simulation control."""
 
-from typing import Any, Literal
+from collections.abc import Callable
+from typing import Any
 
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.params.document import project_version
-from app.server.api.deps import ServicesDep
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES, responses
+from app.server.services import Services
 from app.server.sim_thread import SPEED_RANGE, Command
 
-router = APIRouter(tags=["simulation"])
+router = APIRouter(tags=["simulation"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute)
 
 
 class SpeedBody(BaseModel):
@@ -37,14 +40,32 @@ def state(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-@router.post("/api/sim/{action}")
-def control(action: Literal["reset", "pause", "resume", "step"], services: ServicesDep) -> dict:
-    """Reset the robot, pause, resume, or advance one 20 ms frame (pauses first)."""
-    services.sim.command(Command(action))
-    return {"accepted": action}
+def _control(command: Command, doc: str) -> Callable[[Services], dict[str, str]]:
+    def control(services: ServicesDep) -> dict[str, str]:
+        services.sim.command(command)
+        return {"accepted": command.value}
+
+    control.__doc__ = doc
+    return control
 
 
-@router.put("/api/sim/speed")
+# one route per action (not /api/sim/{action}): a wrong method gets 405 with its true Allow
+for _command, _doc in (
+    (Command.RESET, "Put the robot back at the start; the real-time factor restarts."),
+    (Command.PAUSE, "Pause the simulation."),
+    (Command.RESUME, "Resume the simulation."),
+    (Command.STEP, "Advance one 20 ms frame (pausing first)."),
+):
+    router.add_api_route(
+        f"/api/sim/{_command.value}",
+        _control(_command, _doc),
+        methods=["POST"],
+        name=f"sim_{_command.value}",
+        summary=f"{_command.value.title()}",
+    )
+
+
+@router.put("/api/sim/speed", responses=responses(422))
 def set_speed(body: SpeedBody, services: ServicesDep) -> dict:
     services.sim.command(Command.SPEED, body.speed)
     return {"accepted": "speed", "speed": body.speed}

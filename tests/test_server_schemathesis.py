@@ -1,0 +1,44 @@
+"""schemathesis runs every check against the live server's OpenAPI: statuses, error shapes,
+content types, Allow headers, schema-valid input accepted and invalid input refused; 0 failures.
+Bounded by the example count (and a fixed seed), not by the clock."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.server_harness import client, running_server
+
+CONFIG = Path(__file__).with_name("schemathesis.toml")
+SCHEMATHESIS = Path(sys.executable).with_name("schemathesis")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("seed", [1, 7])
+def test_schemathesis_finds_nothing(tmp_path, seed):
+    with running_server(tmp_path) as (base_url, _app):
+        command = [
+            str(SCHEMATHESIS),
+            "--config-file",
+            str(CONFIG),
+            "run",
+            f"{base_url}/openapi.json",
+            "--checks",
+            "all",
+            "--max-examples",
+            "10",
+            "--seed",
+            str(seed),
+            "--workers",
+            "1",
+            "--suppress-health-check",
+            "all",
+            "--no-color",
+        ]
+        run = subprocess.run(command, capture_output=True, text=True, cwd=tmp_path, timeout=900)
+        with client(base_url) as http:  # and the server is still well
+            assert http.get("/api/health").json()["status"] == "ok"
+    summary = run.stdout[run.stdout.rfind("SUMMARY") :]
+    assert run.returncode == 0, run.stdout[-6000:]
+    assert "generated" in summary and "failure" not in summary, summary
