@@ -109,6 +109,14 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--params", metavar="FILE", help="start with this parameter set")
     s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
+    s.add_argument(
+        "--allowed-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="also serve requests for this Host name (repeatable); localhost, 127.0.0.1, ::1 "
+        "and the bind host always are, others are refused against DNS rebinding",
+    )
     r = _subcommand(sub, "run", "simulate headless and print the run metrics")
     r.add_argument(
         "--motion",
@@ -308,6 +316,7 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         params_file=Path(args.params) if args.params else None,
         data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
         viewer=not args.no_viewer,
+        allowed_hosts=tuple(args.allowed_host),
     )
     if config.params_file:
         load_parameter_set(config.params_file)  # fail here, clearly, not inside the server
@@ -318,7 +327,8 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         f"API docs: {url}/docs)",
         flush=True,
     )
-    uvicorn.run(app, host=args.host, port=args.port, log_level="warning")
+    # WebSocket clients only listen: a message larger than this closes their socket
+    uvicorn.run(app, host=args.host, port=args.port, log_level="warning", ws_max_size=65536)
     return 0
 
 

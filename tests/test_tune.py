@@ -164,3 +164,14 @@ def test_settings_parse_numbers_and_switches_and_say_the_form():
         parse_settings(["swingv=3"])
     with pytest.raises(ValueError, match=r"swing\.v: 'fast' is not a number or true/false"):
         parse_settings(["swing.v=fast"])
+
+
+def test_a_tuner_limited_to_some_cases_walks_only_those_and_their_ca_pairs():
+    from app.study.tune import judged_runs
+
+    runs = [name for name, _motion in judged_runs(["forward", "backward"])]
+    assert runs[:2] == ["forward", "backward"]
+    assert set(runs) == {"forward", "backward", *(n for n in runs if "CA=" in n)}
+    assert any("CA=" in n for n in runs)  # the curve pairs at the forward/backward speed
+    with pytest.raises(ValueError, match="allowed: on the spot"):
+        judged_runs(["forwards"])
