@@ -54,8 +54,8 @@ def pfs_joint_angles_with_flags(
       left leg's oscillators run at phi_Trunk + phi_x.
     - Hip roll, hip pitch, knee, ankle pitch and ankle roll have oscillators (`pfs` group); the
       hip yaw has none.
-    - The motion vector drives stride oscillators s = sin(phi_leg + phi_s) with the signs of the
-      swing, seed 000 eqs (27)–(29): hip pitch += a_p s, ankle pitch -= a_p s (the sole keeps its
+    - The motion vector drives stride oscillators s = g sin(phi_leg + phi_s) (g: `stride_gain`)
+      with the signs of the swing, seed 000 eqs (27)–(29): hip pitch += a_p s, ankle pitch -= a_p s (the sole keeps its
       pitch; a_p > 0 walks forward, < 0 backward); hip roll += I_s a_r s, ankle roll -= I_s a_r s;
       hip yaw += I_s a_y,eff s with the steering term a_y,eff = a_y + K CA s(a_p). I_s = -1 left, +1
       right. Sines of one period add up to one sine, so each joint keeps the form of eq (2).
@@ -74,7 +74,7 @@ def pfs_joint_angles_with_flags(
     for index, name in OSCILLATORS:
         c, a, phase = (getattr(p, f"{name}_{part}") for part in ("c", "a", "phi"))
         joints[..., index] = c + gain * a * np.sin(phi_leg + phase)  # eq (2)
-    stride = gain * np.sin(phi_leg + p.stride_phi)
+    stride = gain * p.stride_gain * np.sin(phi_leg + p.stride_phi)
     a_y_eff = motion.a_y + params.steer.yaw_amplitude(motion.a_p, motion.ca)  # steering term
     joints[..., HIP_PITCH] += motion.a_p * stride  # cf. eq (28)
     joints[..., ANKLE_PITCH] -= motion.a_p * stride

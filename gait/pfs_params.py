@@ -71,6 +71,11 @@ class PfsParams:
         doc="phase of the stride oscillators a*sin(2*pi*t/T + phi_s) that a_r, a_p and a_y "
         "drive (default: the first harmonic of the swing of eq (25), forward while lifted)",
     )  # fmt: skip
+    stride_gain: float = _param(
+        1.0, 0.0, 6.0, step=0.05, unit="1", eq="seed 004 (2); (27)–(29)",
+        doc="stride amplitude per rad of the motion vector: the stride oscillators are "
+        "gain * a * sin(...) (1: a_p itself, as the swing of eq (28) peaks)",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         _check_ranges(self)

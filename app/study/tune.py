@@ -515,11 +515,15 @@ def command(args: Any) -> int:
         f"saved {args.out}"
     )
     for case in CASES:
+        if case.name not in chosen[2]:
+            continue  # not judged (--cases)
         metrics = chosen[2][case.name]
         value = measured(case, metrics)
         shown = "fell" if metrics["fell"] else f"{value:+.2f}"
         print(f"  {case.name:24s} paper {case.paper:+6.1f}  tuned {shown}")
     for pair in CURVES:
+        if not _judged(pair, chosen[2]):
+            continue
         plus, minus = (chosen[2][name] for name in curve_run_names(pair))
         s = steering(plus, minus, chosen[2][pair.straight])
         shown = "fell" if s is None else f"gain {s.gain:.2f}, bend {s.bend:+.2f}"
