@@ -56,7 +56,8 @@ def pfs_joint_angles_with_flags(
       hip yaw has none.
     - The motion vector drives stride oscillators s = g sin(phi_leg + phi_s) (g: `stride_gain`)
       with the signs of the swing, seed 000 eqs (27)–(29): hip pitch += a_p s, ankle pitch
-      -= a_p s (the sole keeps its pitch; a_p > 0 walks forward, < 0 backward); hip roll += I_s a_r s, ankle roll -= I_s a_r s;
+      -= a_p s (the sole keeps its pitch; a_p > 0 walks forward, < 0 backward); hip roll
+      += I_s a_r s, ankle roll -= I_s a_r s;
       hip yaw += I_s a_y,eff s with the steering term a_y,eff = a_y + K CA s(a_p). I_s = -1 left, +1
       right. Sines of one period add up to one sine, so each joint keeps the form of eq (2).
     - `startup` is the start-up gain of Fig. 3 (`startup_gain`) on every sine term; it broadcasts
