@@ -8,6 +8,7 @@ from pathlib import Path
 from app.params.document import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.server.axle_fitter import AxleFitter
+from app.server.ca_calibrator import CaCalibrator
 from app.server.guard import served_hosts
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import SimThread
@@ -39,6 +40,7 @@ class Services:
         self.presets = PresetStore(config.data_dir, builtins)
         self.sim = SimThread(self.store)
         self.axle_fitter = AxleFitter()  # its jobs: GET /api/jobs/{id}
+        self.ca_calibrator = CaCalibrator(self.axle_fitter.jobs, self.store, self.sim.paths)
         self.viewer = None
         if config.viewer:
             from app.server.viser_guard import guard_viser
@@ -49,6 +51,7 @@ class Services:
                 sim=self.sim,
                 paths=self.sim.paths,
                 axle_fitter=self.axle_fitter,
+                ca_calibrator=self.ca_calibrator,
                 model=self.sim.model,
                 host=config.host,
                 port=config.viser_port,

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     import mujoco
 
     from app.server.axle_fitter import AxleFitter
+    from app.server.ca_calibrator import CaCalibrator
     from app.server.param_store import ParameterStore
     from app.server.path_tracker import PathTracker
     from app.server.sim_thread import SimThread
@@ -54,6 +55,7 @@ class Viewer:
         sim: SimThread,
         paths: PathTracker,
         axle_fitter: AxleFitter,
+        ca_calibrator: CaCalibrator,
         model: mujoco.MjModel,
         host: str,
         port: int,
@@ -62,6 +64,7 @@ class Viewer:
         self.sim = sim  # commands, published status and body poses only
         self.paths = paths
         self.axle_fitter = axle_fitter
+        self.ca_calibrator = ca_calibrator
         sim.publish_poses = True
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         # the panel is docked at the right edge and starts minimized: it never covers the robot,
@@ -138,6 +141,12 @@ class Viewer:
                 "and predict with the fitted effective axle b_eff",
             )
             self._fit_button.on_click(lambda _e: self._start_axle_fit())
+            self._calibrate_button = gui.add_button(
+                "Calibrate CA (steering term K)",
+                hint="fit steer.yaw_per_ca forward and backward so that CA turns this gait as "
+                "eq (13) says (curve walks in the background); applied as one undoable change",
+            )
+            self._calibrate_button.on_click(lambda _e: self._start_calibration())
             self._feet_button = gui.add_button("Axle b = distance between the feet")
             self._feet_button.on_click(lambda _e: self.paths.set_axle(None))
             self._fit_text = gui.add_markdown("")
@@ -146,6 +155,30 @@ class Viewer:
         zero = {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
         self.store.update({"motion": zero}, BUTTON_SOURCE)
         self.sim.command(Command.RESET)
+
+    def _start_calibration(self) -> None:
+        self._calibrate_button.disabled = True
+        self._fit_text.content = "calibrating CA: curve walks forward and backward …"
+        threading.Thread(target=self._calibrate, name="artro-ca-calibration", daemon=True).start()
+
+    def _calibrate(self) -> None:
+        try:
+            job = self.ca_calibrator.start()
+            job.finished.wait()
+            if job.status != "done" or job.result is None:
+                raise RuntimeError(job.error)
+            parts = [
+                f"{d}: K = {r['yaw_per_ca']:+.3f} ({100 * r['gain']:.0f} % of eq (13))"
+                if "error" not in r
+                else f"{d}: {r['error']}"
+                for d in ("forward", "backward")
+                if (r := job.result.get(d))
+            ]
+            self._fit_text.content = "  \n".join(parts)
+        except Exception as exc:  # a callback thread: say what went wrong instead of dying
+            self._fit_text.content = f"no calibration: {exc}"
+        finally:
+            self._calibrate_button.disabled = False
 
     def _start_axle_fit(self) -> None:
         self._fit_button.disabled = True

@@ -19,6 +19,7 @@ export function initPaths() {
   $("path-clear").addEventListener("click", clearPath);
   $("axle-set").addEventListener("click", setAxle);
   $("axle-fit").addEventListener("click", fitAxle);
+  $("ca-calibrate").addEventListener("click", calibrateCa);
   $("path-cycles").addEventListener("change", () => last && show(last));
   document.addEventListener("artro:state", (e) => {
     fallen = !!e.detail.fell;
@@ -88,6 +89,36 @@ async function setAxle() {
     setMessage(msg, raw === "" ? "b = the distance between the feet" : `b = ${raw} cm`, "ok");
   } catch (err) {
     setMessage(msg, err.message, "error");
+  }
+}
+
+/** Follow a background job (202 at once) to its end, showing its progress in `msg`. */
+async function followJob(job, msg, label) {
+  while (job.status === "running") {
+    setMessage(msg, `${label} … ${fmt(job.progress * 100, 0)} %`, "");
+    await new Promise((resolve) => setTimeout(resolve, 500));
+    job = await api.get(`/api/jobs/${job.id}`);
+  }
+  if (job.status !== "done") throw new Error(`${label}: ${job.error}`);
+  return job.result;
+}
+
+async function calibrateCa() {
+  const msg = $("path-message");
+  const button = $("ca-calibrate");
+  button.disabled = true;
+  try {
+    const label = "calibrating CA: curve walks forward and backward";
+    const r = await followJob(await api.post("/api/jobs/calibrate-ca", {}), msg, label);
+    const part = (name, d) =>
+      !d ? "" : d.error ? `${name}: ${d.error}` :
+        `${name} K = ${fmt(d.yaw_per_ca, 3)} (${fmt(d.gain * 100, 0)} % of eq (13))`;
+    const text = [part("forward", r.forward), part("backward", r.backward)].filter(Boolean).join("; ");
+    setMessage(msg, `${text} — applied as version ${r.params_version} (undoable)`, "ok");
+  } catch (err) {
+    setMessage(msg, err.message, "error");
+  } finally {
+    button.disabled = false;
   }
 }
 
