@@ -207,19 +207,7 @@ def run_all(
         raise ValueError("no presets to run")
     if 0.0 not in config.ca_values:
         raise ValueError("the CA sweep must contain 0: it gives V for eq (13)")
-    planned = plan_jobs(presets, config)
-    traces: list[Trace] = []
-    metrics = BatchEvaluator(threads=config.threads).evaluate(
-        [job for _, _, job in planned],
-        duration_s=config.duration_s,
-        warmup_s=config.warmup_s,
-        progress=progress,
-        traces=traces,
-    )
-    by_label = {
-        (preset.name, label): Run(label, job.motion, m, RunTrace.from_trace(trace))
-        for (preset, label, job), m, trace in zip(planned, metrics, traces, strict=True)
-    }
+    by_label = _walk(plan_jobs(presets, config), config.duration_s, config, progress)
     circle_motion = Motion(a_p=WALK_A_P["forward"], ca=CIRCLE_CA)
     circle_traces: list[Trace] = []
     circle_metrics = BatchEvaluator(threads=config.threads).evaluate(
@@ -237,19 +225,7 @@ def run_all(
         for preset in presets
         for item in speed_limits.plan(preset, config.limit_a_p, config.limit_ca)
     ]
-    limit_traces: list[Trace] = []
-    limit_metrics = BatchEvaluator(threads=config.threads).evaluate(
-        [job for _, _, job in limit_planned],
-        duration_s=config.limit_duration_s,
-        warmup_s=config.warmup_s,
-        traces=limit_traces,
-    )
-    by_label |= {
-        (preset.name, label): Run(label, job.motion, m, RunTrace.from_trace(trace))
-        for (preset, label, job), m, trace in zip(
-            limit_planned, limit_metrics, limit_traces, strict=True
-        )
-    }
+    by_label |= _walk(limit_planned, config.limit_duration_s, config)
     limit_cas = speed_limits.limit_ca_values(config.limit_ca)
     out = []
     for preset, circle in zip(presets, circles, strict=True):
@@ -273,6 +249,27 @@ def run_all(
                 limits[a_p] = sweep
         out.append(PresetRuns(preset, cases, walks, circle, probes, limits))
     return out
+
+
+def _walk(
+    planned: list[tuple[Preset, str, Job]],
+    duration_s: float,
+    config: BenchConfig,
+    progress: Callable[[int, int], None] | None = None,
+) -> dict[tuple[str, str], Run]:
+    """Every planned run in one batch, keyed by (preset name, label), with its trunk path."""
+    traces: list[Trace] = []
+    metrics = BatchEvaluator(threads=config.threads).evaluate(
+        [job for _, _, job in planned],
+        duration_s=duration_s,
+        warmup_s=config.warmup_s,
+        progress=progress,
+        traces=traces,
+    )
+    return {
+        (preset.name, label): Run(label, job.motion, m, RunTrace.from_trace(trace))
+        for (preset, label, job), m, trace in zip(planned, metrics, traces, strict=True)
+    }
 
 
 def case_by_name(name: str) -> PaperCase:

@@ -3,7 +3,7 @@
 // servos dashed and shifted by half a cycle, so each joint's left and right lie over each other.
 
 import { foldCycles } from "./cycle-fold.js";
-import { THEME } from "./scope.js";
+import { UPLOT_AXIS } from "./scope.js";
 import { SERVOS, servoColor } from "./util.js";
 
 const uPlot = window.uPlot;
@@ -21,13 +21,7 @@ export class CyclePlot {
 
   build(idx, key) {
     this.u?.destroy();
-    const axis = {
-      stroke: THEME.text,
-      grid: { stroke: THEME.gridMajor, width: 1 },
-      ticks: { stroke: THEME.gridMajor, width: 1 },
-      font: THEME.small,
-      labelFont: THEME.small,
-    };
+    const axis = UPLOT_AXIS;
     const series = [{}];
     const bands = [];
     for (const i of idx) {

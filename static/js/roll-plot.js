@@ -3,7 +3,7 @@
 // dots, the scope's cursors A/B. The samples come from RollBuffer (roll.js); a click reports the
 // time under the pointer to the scope panel, which owns the cursors.
 
-import { drawCursors, THEME } from "./scope.js";
+import { drawCursors, THEME, UPLOT_AXIS } from "./scope.js";
 import { SERVOS, servoColor } from "./util.js";
 
 const uPlot = window.uPlot;
@@ -25,13 +25,7 @@ export class RollPlot {
 
   build(idx, key) {
     this.u?.destroy();
-    const axis = {
-      stroke: THEME.text,
-      grid: { stroke: THEME.gridMajor, width: 1 },
-      ticks: { stroke: THEME.gridMajor, width: 1 },
-      font: THEME.small,
-      labelFont: THEME.small,
-    };
+    const axis = UPLOT_AXIS;
     this.u = new uPlot(
       {
         width: Math.max(100, this.el.clientWidth),

@@ -27,6 +27,15 @@ export const THEME = {
   small: "10px ui-monospace, SFMono-Regular, Menlo, Consolas, monospace",
 };
 
+/** A uPlot axis in the scope's colours (the roll and cycle plots share it). */
+export const UPLOT_AXIS = {
+  stroke: THEME.text,
+  grid: { stroke: THEME.gridMajor, width: 1 },
+  ticks: { stroke: THEME.gridMajor, width: 1 },
+  font: THEME.small,
+  labelFont: THEME.small,
+};
+
 export const GUTTER = 92; // left label column, px
 export const RIGHT = 14;
 const TOP = 22; // slot-number row
