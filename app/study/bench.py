@@ -399,7 +399,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("suite", choices=["paper"], help="which bench: 'paper' (docs/DESIGN.md §7)")
     parser.add_argument(
         "--presets",
-        default="paper,tuned",
+        default="paper,tuned,pfs",
         metavar="NAME_OR_FILE,...",
         help="parameter sets: 'paper', 'tuned' (models/presets/NAME.json) or JSON files",
     )
