@@ -2,8 +2,7 @@
 
 User presets are `<data_dir>/presets/<name>.json` documents, names of a fixed alphabet
 (`NAME_RULE`), written atomically (`write_parameter_set`); see `PresetStore`. A crash's stale
-temporary files are removed at start; names the API needs ("diff", "current") are reserved.
-"""
+temporary files are removed at start; names the API needs ("diff", "current") are reserved."""
 
 from __future__ import annotations
 

@@ -2,8 +2,7 @@
 
 The simulation thread appends; each frame's JSON is made once, when first wanted, and shared by
 every WebSocket and `GET /api/scope`; per-client queues drop their oldest frames; the client set is
-replaced, never changed in place (docs/DESIGN.md §8).
-"""
+replaced, never changed in place (docs/DESIGN.md §8)."""
 
 from __future__ import annotations
 

@@ -2,8 +2,7 @@
 
 viser 1.1 has no origin option: its WebsockServer runs our check as the first connect callback,
 where the handshake's Host and Origin are known and nothing has been sent or received yet; a foreign
-socket is closed with 1008. Its static client files stay public (they hold no state).
-"""
+socket is closed with 1008. Its static client files stay public (they hold no state)."""
 
 from __future__ import annotations
 

@@ -2,8 +2,7 @@
 
 `StrictJsonRoute` parses every JSON body with the project's one rule (duplicate keys and
 NaN/Infinity refused, naming the key: `app.params.formats.load_json_strict`), off the event loop
-when the body is not tiny (docs/DESIGN.md §6).
-"""
+when the body is not tiny (docs/DESIGN.md §6)."""
 
 import json
 from collections.abc import Callable, Coroutine
