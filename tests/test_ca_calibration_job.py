@@ -35,3 +35,12 @@ def test_calibrate_ca_runs_in_the_background_and_applies_both_k(tmp_path):
         undone = http.post("/api/params/undo").json()
         assert undone["gait"]["steer"] == before["gait"]["steer"]
         assert http.get("/api/jobs/calibrate-ca").status_code == 405
+
+
+def test_a_running_job_ends_with_the_server(tmp_path):
+    """No simulation outlives the server: stopping it cancels the job at its next report."""
+    with running_server(tmp_path) as (base_url, app), client(base_url) as http:
+        job_id = http.post("/api/jobs/calibrate-ca", json={}).json()["id"]
+        job = app.state.services.axle_fitter.jobs.get(job_id)
+    assert job.finished.is_set()  # the server's stop waited for it
+    assert job.status == "failed" and "server stopped" in job.error

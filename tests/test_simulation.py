@@ -23,7 +23,8 @@ def test_each_set_point_takes_effect_at_its_pulse_falling_edge():
     control_log: list[tuple[float, np.ndarray]] = []  # (time, ctrl) at every physics step
 
     def record(model, data):
-        control_log.append((data.time, data.ctrl.copy()))
+        if data is sim.data:  # the callback is global: other threads' simulations call it too
+            control_log.append((data.time, data.ctrl.copy()))
 
     mujoco.set_mjcb_control(record)
     try:

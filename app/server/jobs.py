@@ -42,10 +42,15 @@ class Job:
         return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)[:-2]}
 
 
+class JobCancelled(RuntimeError):
+    """The server is stopping: a running job ends at its next progress report."""
+
+
 class Jobs:
     """At most one running job per kind; the latest KEEP_JOBS are kept for reading."""
 
     def __init__(self) -> None:
+        self._stopping = threading.Event()
         self._lock = threading.Lock()
         self._jobs: OrderedDict[str, Job] = OrderedDict()
         self._ids = itertools.count(1)
@@ -59,6 +64,8 @@ class Jobs:
         """Run `work(progress)` in a thread; `describe(its value)` is the result, an exception
         the error. Raises JobBusy while a job of this kind runs."""
         with self._lock:
+            if self._stopping.is_set():
+                raise JobCancelled("the server is stopping")
             for job in self._jobs.values():
                 if job.kind == kind and job.status == "running":
                     raise JobBusy(job)
@@ -68,6 +75,8 @@ class Jobs:
                 self._jobs.popitem(last=False)
 
         def progress(fraction: float) -> None:
+            if self._stopping.is_set():  # no simulation outlives the server
+                raise JobCancelled("the server stopped before the job finished")
             job.progress = min(max(float(fraction), 0.0), 1.0)
 
         def run() -> None:
@@ -83,6 +92,15 @@ class Jobs:
 
         threading.Thread(target=run, name=f"artro-job-{job.id}", daemon=True).start()
         return job
+
+    def stop(self, timeout_s: float = 30.0) -> None:
+        """Cancel the running jobs (at their next progress report) and wait for them."""
+        self._stopping.set()
+        with self._lock:
+            running = [job for job in self._jobs.values() if job.status == "running"]
+        deadline = time.monotonic() + timeout_s
+        for job in running:
+            job.finished.wait(max(0.0, deadline - time.monotonic()))
 
     def get(self, job_id: str) -> Job | None:
         with self._lock:

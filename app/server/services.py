@@ -64,6 +64,7 @@ class Services:
             self.viewer.start()
 
     def stop(self) -> None:
+        self.axle_fitter.jobs.stop()  # the fit and the calibration: no simulation outlives us
         if self.viewer is not None:
             self.viewer.stop()
         self.sim.stop()
