@@ -26,6 +26,8 @@ let current = null; // the last parameters the server reported
 let walked = false;
 
 export async function initMotion() {
+  // listen before the first await: params.js may announce the set while the schema loads
+  document.addEventListener("artro:params", (e) => render(e.detail));
   const [schema, bandFile] = await Promise.all([
     api.get("/api/schema"),
     api.get("/data/safe-bands.json").catch(() => null),
@@ -35,8 +37,7 @@ export async function initMotion() {
   $("motion-rows").replaceChildren(...FIELDS.map((f) => buildRow(f, fields[f.key])));
   $("motion-stop").addEventListener("click", () => FIELDS.forEach((f) => send(f.key, 0)));
   window.addEventListener("pointerup", () => (holding = null));
-  document.addEventListener("artro:params", (e) => render(e.detail));
-  if (current) render(current);
+  if (current) render(current); // a set announced before the rows existed
 }
 
 function buildRow(f, field) {
