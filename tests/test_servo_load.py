@@ -41,6 +41,7 @@ def test_the_meter_follows_the_frames_it_is_given():
         assert j.torque_margin == pytest.approx(1 - j.required_torque_nm / j.stall_torque_nm)
         assert j.peak_speed_rad_s == pytest.approx(np.max(speeds, axis=0)[i])
         assert j.saturated_frames == saturated[i]
+        assert (j.torque_level, j.speed_level) == (level(j.torque_margin), level(j.speed_margin))
         assert j.level == level(min(j.torque_margin, j.speed_margin))
     assert report.joints[3].saturated_frames == 50
     assert max(j.peak_torque_nm for j in report.joints) > 0.05  # walking loads the legs

@@ -48,9 +48,15 @@ def installed(tmp_path_factory) -> Path:
     return env_dir / "bin"
 
 
+def outside_env() -> dict[str, str]:
+    """This environment without what would point Python at the checkout or its venv."""
+    return {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+
+
 def run_in(tmp: Path, *args: str) -> subprocess.CompletedProcess:
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
-    return subprocess.run(args, cwd=tmp, env=env, capture_output=True, text=True, timeout=300)
+    return subprocess.run(
+        args, cwd=tmp, env=outside_env(), capture_output=True, text=True, timeout=300
+    )
 
 
 def test_the_installed_package_is_not_the_checkout(installed, tmp_path):
@@ -85,7 +91,7 @@ def test_artro_run_from_another_directory(installed, tmp_path):
 
 def test_artro_serve_from_another_directory(installed, tmp_path):
     port = free_port()
-    env = {k: v for k, v in os.environ.items() if k not in ("PYTHONPATH", "VIRTUAL_ENV")}
+    env = outside_env()
     server = subprocess.Popen(
         [
             str(installed / "artro"),

@@ -51,7 +51,9 @@ class JointLoad:
     no_load_speed_rad_s: float
     speed_margin: float  # 1 - peak speed / no-load speed
     saturated_frames: int
-    level: str  # "ok", "warn" or "critical": the worse of the two margins
+    torque_level: str  # "ok", "warn" or "critical" for the torque margin (`level`)
+    speed_level: str  # the same for the speed margin
+    level: str  # the worse of the two
 
 
 @dataclass(frozen=True)
@@ -115,6 +117,8 @@ class ServoLoadMeter:
                 no_load_speed_rad_s=float(lim.no_load_speed_rad_s[i]),
                 speed_margin=float(speed_margin[i]),
                 saturated_frames=int(self._saturated[i]),
+                torque_level=level(float(torque_margin[i])),
+                speed_level=level(float(speed_margin[i])),
                 level=level(min(float(torque_margin[i]), float(speed_margin[i]))),
             )
             for i, name in enumerate(JOINT_NAMES)

@@ -1,5 +1,5 @@
 // The servo load budget panel: GET /api/servos/load twice a second, one row per servo,
-// coloured by the worse of its torque and speed margins.
+// each margin coloured by the level the server gives it (app/core/servo_load.py).
 
 import { api, poll } from "./api.js";
 import { $, fmt, h } from "./util.js";
@@ -15,9 +15,9 @@ function row(j) {
     h("td", { class: "num" }, fmt(j.rms_torque_nm)),
     h("td", { class: "num" }, fmt(j.required_torque_nm)),
     h("td", { class: "num" }, fmt(j.stall_torque_nm)),
-    h("td", { class: `num margin ${j.torque_margin < 0.1 ? "critical" : j.torque_margin < 0.3 ? "warn" : "ok"}` }, pct(j.torque_margin)),
+    h("td", { class: `num margin ${j.torque_level}` }, pct(j.torque_margin)),
     h("td", { class: "num" }, fmt(j.peak_speed_rad_s)),
-    h("td", { class: `num margin ${j.speed_margin < 0.1 ? "critical" : j.speed_margin < 0.3 ? "warn" : "ok"}` }, pct(j.speed_margin)),
+    h("td", { class: `num margin ${j.speed_level}` }, pct(j.speed_margin)),
     h("td", { class: "num" }, String(j.saturated_frames)),
   );
 }
