@@ -4,7 +4,8 @@ For the `paper` and `tuned` presets and a few motion vectors, runs the real firm
 for one gait cycle and counts the cycles per frame in which the CPU was not asleep: the gait
 (eqs 2-45), the servo model and TDM table for the next frame, the Timer2 ticks and guards with
 their wait for the select tick, and the UART. Prints the worst and mean frame against the budget
-(goal <= 80 000 cycles = 25 % of the 320 000-cycle frame) and the flash and SRAM use (avr-size).
+(goal <= 80 000 cycles = 25 % of the 320 000-cycle frame), the flash and SRAM use (avr-size), and
+how fast the emulator runs (emulated time / wall time; the firmware drive needs > 1).
 
     python bench/bench_firmware.py [--cycles 1.0]
 """
@@ -13,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import time
 
 import numpy as np
 
@@ -29,27 +31,31 @@ MOTIONS = {
 }
 
 
-def frame_cycles(doc: dict, gait_cycles: float) -> np.ndarray:
-    """Busy cycles of each frame over `gait_cycles` cycles (frame 0, with start-up, excluded)."""
+def frame_cycles(doc: dict, gait_cycles: float) -> tuple[np.ndarray, float]:
+    """Busy cycles of each frame over `gait_cycles` cycles (frame 0, with start-up, excluded),
+    and the emulator's speed over them (emulated seconds per wall second)."""
     n = int(gait_cycles / (doc["gait"]["clock"]["freq_hz"] * 0.02)) + 2
     with Mcu(build_firmware(doc).elf) as mcu:
         busy = []
+        start = time.perf_counter()
         for k in range(1, n + 1):
             mcu.run_to_frame(k)
             busy.append(mcu.busy_cycles)
-    return np.diff(busy)
+        speed = n * 0.02 / (time.perf_counter() - start)
+    return np.diff(busy), speed
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=float, default=1.0, help="gait cycles per case")
     args = parser.parse_args()
-    worst_all = 0
+    worst_all, speeds = 0, []
     for name in ("paper", "tuned"):
         base = json.loads((builtin_presets_dir() / f"{name}.json").read_text())
         for label, motion in MOTIONS.items():
             doc = {**base, "motion": {**base["motion"], **motion}}
-            cycles = frame_cycles(doc, args.cycles)
+            cycles, speed = frame_cycles(doc, args.cycles)
+            speeds.append(speed)
             worst_all = max(worst_all, int(cycles.max()))
             print(
                 f"{name:6s} {label:9s} cycles/frame: worst {cycles.max():6d}  "
@@ -65,6 +71,7 @@ def main() -> None:
         f"flash {build.flash_bytes} B of {build.flash_size} ({flash_pct:.1f} %), "
         f"SRAM {build.sram_bytes} B of {build.sram_size} ({sram_pct:.1f} %) without the stack"
     )
+    print(f"emulator speed {min(speeds):.1f}-{max(speeds):.1f}x real time (simavr, this machine)")
 
 
 if __name__ == "__main__":

@@ -67,29 +67,41 @@ def model_frames(
     )
 
 
-def split_frames(edges: Edges, t0_cycle: int, n_frames: int) -> list[FrameEdges]:
-    """Cut recorded edges into FrameEdges of frames 0..n-1 (ticks from each frame's start)."""
+def _per_line(edges: Edges, t0_cycle: int) -> list[tuple[NDArray[np.int64], NDArray[np.int64]]]:
     ticks = (edges.cycle.astype(np.int64) - t0_cycle) // CYCLES_PER_TICK
     per_line = []
     for line in range(len(LINE_NAMES)):
         mask = edges.line == line
         per_line.append((ticks[mask], edges.level[mask].astype(np.int64)))
-    frames = []
-    for k in range(n_frames):
-        start, end = k * FRAME_TICKS, (k + 1) * FRAME_TICKS
-        initial, lines = [], []
-        for line_ticks, levels in per_line:
-            before = np.flatnonzero(line_ticks <= start)
-            initial.append(int(levels[before[-1]]) if len(before) else 0)
-            inside = (line_ticks > start) & (line_ticks < end)
-            lines.append(
-                tuple(
-                    (int(t - start), int(v))
-                    for t, v in zip(line_ticks[inside], levels[inside], strict=True)
-                )
+    return per_line
+
+
+def _frame(per_line: list[tuple[NDArray[np.int64], NDArray[np.int64]]], k: int) -> FrameEdges:
+    start, end = k * FRAME_TICKS, (k + 1) * FRAME_TICKS
+    initial, lines = [], []
+    for line_ticks, levels in per_line:
+        before = np.flatnonzero(line_ticks <= start)
+        initial.append(int(levels[before[-1]]) if len(before) else 0)
+        inside = (line_ticks > start) & (line_ticks < end)
+        lines.append(
+            tuple(
+                (int(t - start), int(v))
+                for t, v in zip(line_ticks[inside], levels[inside], strict=True)
             )
-        frames.append(FrameEdges(LINE_NAMES, tuple(initial), tuple(lines)))
-    return frames
+        )
+    return FrameEdges(LINE_NAMES, tuple(initial), tuple(lines))
+
+
+def split_frames(edges: Edges, t0_cycle: int, n_frames: int) -> list[FrameEdges]:
+    """Cut recorded edges into FrameEdges of frames 0..n-1 (ticks from each frame's start)."""
+    per_line = _per_line(edges, t0_cycle)
+    return [_frame(per_line, k) for k in range(n_frames)]
+
+
+def frame_edges_of(edges: Edges, t0_cycle: int, k: int) -> FrameEdges:
+    """Frame k's FrameEdges from recorded edges that include at least its own and the level
+    before it (a line's level before the first edge given counts as 0)."""
+    return _frame(_per_line(edges, t0_cycle), k)
 
 
 @dataclass

@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from app.core.mcu import protocol as proto
 from app.core.mcu.build import build_firmware
-from app.core.mcu.conformance import split_frames
+from app.core.mcu.conformance import frame_edges_of
 from app.core.mcu.emulator import Edges, Mcu, read_active_plan
 from app.core.mcu.link import EmulatedLink
 from hardware import CHANNELS, OCR_IDLE, SLOT_TICKS, SLOTS_PER_FRAME, FrameEdges
@@ -83,7 +83,7 @@ class FirmwareDrive:
         recent = new if self._recent is None else _concat(self._recent, new)
         keep_from = self.mcu.frame_start(max(k - 1, 0))
         self._recent = _since(recent, keep_from)
-        edges = split_frames(recent, self.mcu.t0_cycle, k + 1)[k]
+        edges = frame_edges_of(recent, self.mcu.t0_cycle, k)
         busy = self.mcu.busy_cycles
         frame = FirmwareFrame(
             k, plan.phase_rad, plan.angles, ocr_from_edges(edges), edges, busy - self._busy

@@ -21,6 +21,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_timer.h>
 #include <simavr/avr_uart.h>
@@ -75,7 +76,7 @@ struct harness {
     size_t in_head, in_tail, cap_in;
     int xoff;
     avr_irq_t *uart_input;
-    uint64_t busy_cycles;
+    uint64_t slept_cycles;
     ocr_wrap_t ocr[NUM_OCR];
 };
 
@@ -178,10 +179,16 @@ static void wrap_ocr_writes(harness_t *h)
     }
 }
 
+static harness_t *harness_of(avr_t *avr)
+{
+    return avr->custom.data;
+}
+
+/* simavr's sleep hook: no real-time pacing (run as fast as the host can), but count the cycles
+ * slept -- the core then adds 1 + how_long to the cycle counter. */
 static void no_sleep(avr_t *avr, avr_cycle_count_t how_long)
 {
-    (void)avr;
-    (void)how_long; /* run as fast as the host can: no real-time pacing */
+    harness_of(avr)->slept_cycles += 1 + how_long;
 }
 
 /* Timer1 and Timer3: the avr_timer_t instances registered with the core. */
@@ -215,6 +222,7 @@ harness_t *artro_mcu_new(const char *elf_path, int fixes, char *error, int error
         free(h);
         return NULL;
     }
+    h->avr->custom.data = h; /* for the sleep hook */
     avr_init(h->avr);
     h->avr->log = LOG_ERROR;
     h->avr->sleep = no_sleep;
@@ -238,6 +246,12 @@ harness_t *artro_mcu_new(const char *elf_path, int fixes, char *error, int error
         h->timer3->wgm_op[14] = fast_pwm_icr;
     }
     h->timer_start[0] = h->timer_start[1] = -1;
+    /* Speed, not behaviour: simavr polls a pin every cycle while it is low if the pin is an
+     * external interrupt in its default low-level mode, enabled or not. OC3B/OC3C are INT4/INT5
+     * (PE4/PE5) and low most of the frame, which made the emulator ~4x slower. The firmware
+     * enables no external interrupt, so a level that is not polled changes nothing it sees. */
+    for (uint8_t i = 0; i < EXTINT_COUNT; i++)
+        avr_extint_set_strict_lvl_trig(h->avr, i, 0);
 
     for (uint8_t i = 0; i < NUM_LINES; i++) {
         h->refs[i] = (line_ref_t){h, i};
@@ -285,11 +299,7 @@ int artro_mcu_run_until(harness_t *h, uint64_t cycle)
     avr_t *avr = h->avr;
     int state = avr->state;
     while (avr->cycle < cycle) {
-        uint64_t before = avr->cycle;
-        int running = avr->state == cpu_Running;
         state = avr_run(avr);
-        if (running)
-            h->busy_cycles += avr->cycle - before;
         if (h->timer_start[1] < 0)
             note_timer_start(h);
         if (state == cpu_Done || state == cpu_Crashed)
@@ -306,7 +316,7 @@ uint64_t artro_mcu_cycle(harness_t *h)
 /* Cycles the CPU spent executing (not sleeping) since the start. */
 uint64_t artro_mcu_busy_cycles(harness_t *h)
 {
-    return h->busy_cycles;
+    return h->avr->cycle - h->slept_cycles;
 }
 
 int64_t artro_mcu_timer_start(harness_t *h, int which)
