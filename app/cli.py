@@ -42,7 +42,8 @@ def _motion_triple(text: str) -> tuple[float, float, float]:
 EXAMPLES = {
     "serve": """examples:
   artro serve                              the dashboard on http://localhost:8000
-  artro serve --params my_gait.json --port 9000""",
+  artro serve --params my_gait.json --port 9000
+  artro serve --drive firmware             pulses from the robot's firmware on an emulated MCU""",
     "run": """examples:
   artro run --motion 0,0.07,0 --json       forward, the paper's case, metrics as JSON
   artro run --motion -0.1,0,0 --params models/presets/tuned.json   step to the left
@@ -109,6 +110,13 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--params", metavar="FILE", help="start with this parameter set")
     s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
+    s.add_argument(
+        "--drive",
+        choices=("model", "firmware"),
+        default="model",
+        help="who makes the servo pulses: the Python hardware model (default) or the robot's "
+        "firmware on an emulated ATmega128 (needs gcc-avr and simavr); switchable in the page",
+    )
     s.add_argument(
         "--allowed-host",
         action="append",
@@ -317,9 +325,17 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
         viewer=not args.no_viewer,
         allowed_hosts=tuple(args.allowed_host),
+        drive=args.drive,
     )
     if config.params_file:
         load_parameter_set(config.params_file)  # fail here, clearly, not inside the server
+    if config.drive == "firmware":
+        from app.core.mcu.build import missing_tools
+
+        if missing := missing_tools():
+            print(f"artro serve --drive firmware: missing {', '.join(missing)}", file=sys.stderr)
+            print("install them with: bash scripts/setup.sh", file=sys.stderr)
+            return 2
     app = create_app(config)
     url = viser_url(args.host, args.port)
     print(

@@ -9,10 +9,12 @@ client of the scope WebSocket and of the embedded viser 3D view), and for `--sec
     each, the 20 ms frames from the change entering the parameter store to the first frame built
     with it (the servos receive it at that frame's pulse falling edges, within the frame).
 
-    python bench/bench_dashboard.py [--clients 2] [--seconds 60] [--no-3d]
+    python bench/bench_dashboard.py [--clients 2] [--seconds 60] [--no-3d] [--drive firmware]
 
 --no-3d opens the pages with the 3D view hidden (the iframe is removed), to separate what
 software WebGL rendering in headless Chromium costs on this machine from the server's own load.
+--drive firmware serves with the robot's firmware on the emulated ATmega128 making the pulses; the
+changes then travel over its emulated UART (57600 baud), which the latency includes.
 """
 
 from __future__ import annotations
@@ -41,6 +43,7 @@ def main() -> None:
     parser.add_argument("--clients", type=int, default=2)
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--no-3d", action="store_true", help="hide the embedded 3D view")
+    parser.add_argument("--drive", choices=("model", "firmware"), default="model")
     args = parser.parse_args()
 
     port, viser_port = free_port(), free_port()
@@ -48,7 +51,7 @@ def main() -> None:
     artro = Path(sys.executable).with_name("artro")
     server = subprocess.Popen(
         [str(artro), "serve", "--port", str(port), "--viser-port", str(viser_port),
-         "--data-dir", data_dir],
+         "--data-dir", data_dir, "--drive", args.drive],
         stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
     base = f"http://127.0.0.1:{port}"
@@ -115,6 +118,12 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
     )
     print("scope frames/s      : " + ", ".join(f"{f:.1f}" for f in page_fps) + " (per page)")
     print(f"server CPU          : {100 * (cpu1 - cpu0) / wall:.1f} % of one core")
+    if state1.get("firmware"):
+        fw = state1["firmware"]
+        print(
+            f"pulses from         : the firmware on the emulated ATmega128, MCU busy at most "
+            f"{fw['busy_cycles_max']} cycles of the 320 000-cycle frame (last second)"
+        )
     print(
         f"change -> servos    : median {latency['median']} frames, max {latency['max']} frames "
         f"over {latency['count']} changes: from entering the store to the frame that carries it "

@@ -22,3 +22,4 @@ def http(server):
             c.put("/api/path/axle", json={"axle_m": None})
             c.put("/api/sim/speed", json={"speed": 1.0})
             c.post("/api/sim/resume")
+            c.put("/api/sim/drive", json={"drive": "model"})

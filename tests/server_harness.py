@@ -48,10 +48,14 @@ class _Server(uvicorn.Server):
 
 
 @contextlib.contextmanager
-def running_server(data_dir: Path, *, viewer: bool = False) -> Iterator[tuple[str, object]]:
+def running_server(
+    data_dir: Path, *, viewer: bool = False, drive: str = "model"
+) -> Iterator[tuple[str, object]]:
     """Yield (base_url, app) of a live server; stop it (and its threads) afterwards."""
     port = free_port()
-    config = ServerConfig(port=port, viser_port=free_port(), data_dir=data_dir, viewer=viewer)
+    config = ServerConfig(
+        port=port, viser_port=free_port(), data_dir=data_dir, viewer=viewer, drive=drive
+    )
     app = create_app(config)
     server = _Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
     thread = threading.Thread(target=server.run, daemon=True)

@@ -26,8 +26,10 @@ from hardware import (
     FRAME_TICKS,
     SLOT_TICKS,
     TICK_US,
+    FrameEdges,
     HardwareSetup,
     angles_to_pulses_us,
+    demultiplex,
     falling_edge_ticks,
     frame_ocr,
     guard_violations,
@@ -113,6 +115,7 @@ class FrameRecord:
     gamma_clamped: bool
     guard_violation: bool
     motion: Motion  # what the gait got: the requested motion, or a step of the ramp toward it
+    pin_edges: FrameEdges | None = None  # the pins as recorded, when a PinFrame made the frame
 
 
 def frame_motions(
@@ -150,6 +153,29 @@ def _gait(
     if len(angles) == 1:
         return angles[0], clamped[0]
     return np.concatenate(angles), np.concatenate(clamped)
+
+
+def falling_edge_substeps(
+    fall_ticks: NDArray[np.int64], steps_per_frame: int, timestep_s: float
+) -> NDArray[np.int64]:
+    """The physics step of the frame at which each set-point takes effect: the first starting at
+    or after its pulse's falling edge (docs/DESIGN.md §2)."""
+    edge_s = np.asarray(fall_ticks) * TICK_US * 1e-6
+    substep = np.ceil(edge_s / timestep_s - 1e-9).astype(np.int64)
+    return np.minimum(substep, steps_per_frame)
+
+
+@dataclass(frozen=True)
+class PinFrame:
+    """One frame of pulses made outside the model (the emulated firmware), as its pins carried
+    them; the servos read their set-points off `edges` (docs/DESIGN.md §5)."""
+
+    phase: float  # phi_Trunk the frame was made for
+    ocr: NDArray[np.int32]  # (6, 8) decoded from the pins
+    edges: FrameEdges
+    saturated_servos: NDArray[np.bool_]  # (12,)
+    gamma_clamped: bool
+    motion: Motion  # the motion the maker of the pulses had
 
 
 def plan_frames(
@@ -191,9 +217,7 @@ def plan_frames(
     slot = np.asarray(hardware.tdm.channel_map.slot_index)
     received_us = (fall_ticks - slot * SLOT_TICKS) * TICK_US  # what the servo measured
     setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
-    edge_s = fall_ticks * TICK_US * 1e-6
-    substep = np.ceil(edge_s / timestep_s - 1e-9).astype(np.int64)
-    substep = np.minimum(substep, steps_per_frame)
+    substep = falling_edge_substeps(fall_ticks, steps_per_frame, timestep_s)
     return FramePlan(
         phase=phase,
         angles=angles,
@@ -319,6 +343,39 @@ class FrameLoop:
         self.frame_index += 1
         next_phase = float(plan.phase[k]) + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # piCut, in floats
+        self._check_state()
+        return record
+
+    def step_pins(self, pins: PinFrame) -> FrameRecord:
+        """Simulate the next 20 ms frame with pulses made outside the model: each servo takes
+        the pulse its demultiplexed output carried, at its falling edge; a servo whose output
+        carried nothing keeps its set-point. The loop's phase follows the pins' maker."""
+        demux = demultiplex(pins.edges, self.hardware.tdm)
+        received = ~np.isnan(demux.pulse_us)
+        decoded = pulses_to_angles_rad(demux.pulse_us, self.hardware.calibration)
+        setpoint = np.where(received, decoded, self.data.ctrl[self.robot.actuator_ids])
+        substep = falling_edge_substeps(
+            np.where(received, demux.fall_ticks, 0), self.steps_per_frame, self.timestep_s
+        )
+        self._apply_frame(substep, setpoint)
+        record = FrameRecord(
+            index=self.frame_index,
+            time_s=self.frame_index * FRAME_S,
+            phase=pins.phase,
+            ocr=pins.ocr,
+            setpoint=setpoint,
+            saturated_servos=pins.saturated_servos,
+            saturated=bool(pins.saturated_servos.any()),
+            gamma_clamped=pins.gamma_clamped,
+            guard_violation=bool(demux.cut.any() or demux.glitch.any()),
+            motion=pins.motion,
+            pin_edges=pins.edges,
+        )
+        self.motion_now = pins.motion
+        self.frame_index += 1
+        self._plan = None  # the model's plan no longer continues this phase
+        next_phase = pins.phase + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S
+        self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi
         self._check_state()
         return record
 

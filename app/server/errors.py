@@ -180,11 +180,13 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
         403: "a cross-site request or WebSocket (Origin / Sec-Fetch-Site)",
         404: "no such resource",
         405: "method not allowed; `Allow` lists the allowed ones",
-        409: "conflict: a stale `version`, or nothing to undo/redo, or a job already running",
+        409: "conflict: a stale `version`, or nothing to undo/redo, or a job already running, "
+        "or a parameter set the firmware cannot run",
         412: "`If-Match` names a version that is no longer current",
         413: "the request body is too large",
         415: "a body that is not JSON (or YAML where declared)",
         422: "invalid input; nothing changed",
+        503: "the firmware tool chain (avr-gcc) or the emulator (simavr) is not available",
     }
     return {s: {"model": ErrorBody, "description": text[s]} for s in statuses}
 

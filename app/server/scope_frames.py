@@ -16,6 +16,7 @@ from hardware import (
     SERVO_NAMES,
     SLOT_TICKS,
     TICK_US,
+    FrameEdges,
     TdmConfig,
     check_ocr,
     demultiplex,
@@ -28,7 +29,7 @@ from hardware import (
 def frame_message(record: FrameRecord, tdm: TdmConfig, params_version: int) -> dict[str, Any]:
     """One scope frame: frame_to_dict plus frame number, time, phase, the version of the
     parameters that produced it, and each slot's angle."""
-    data = frame_to_dict(record.ocr, tdm, saturated=record.saturated_servos)
+    data = frame_to_dict(record.ocr, tdm, saturated=record.saturated_servos, edges=record.pin_edges)
     angles = zip(SERVO_NAMES, record.setpoint.tolist(), strict=True)
     degrees = {name: math.degrees(a) for name, a in angles}
     for channel in data["channels"]:
@@ -39,12 +40,17 @@ def frame_message(record: FrameRecord, tdm: TdmConfig, params_version: int) -> d
         "t_s": round(record.time_s, 6),
         "phase_rad": record.phase,
         "params_version": params_version,
+        "source": "model" if record.pin_edges is None else "firmware",  # who made the pulses
         **data,
     }
 
 
 def frame_to_dict(
-    ocr: ArrayLike, config: TdmConfig, *, saturated: ArrayLike | None = None
+    ocr: ArrayLike,
+    config: TdmConfig,
+    *,
+    saturated: ArrayLike | None = None,
+    edges: FrameEdges | None = None,
 ) -> dict[str, Any]:
     """One frame (6, 8) as JSON-ready data for the web oscilloscope.
 
@@ -52,6 +58,8 @@ def frame_to_dict(
         ocr: OCR values of one frame.
         config: channel map and select timing.
         saturated: optional per-servo flags (12,) from `angles_to_pulses_us`, copied per slot.
+        edges: the lines as recorded on pins (the emulated firmware); default: `frame_edges`
+            of `ocr`. The demultiplexed pulses are read off these edges.
 
     Returns:
         {"tick_us", "slot_ticks", "frame_ticks", "select_change_ticks",
@@ -66,7 +74,8 @@ def frame_to_dict(
     sat = np.zeros(len(SERVO_NAMES), bool) if saturated is None else np.asarray(saturated, bool)
     if sat.shape != (len(SERVO_NAMES),):
         raise ValueError(f"saturated must have shape ({len(SERVO_NAMES)},), got {sat.shape}")
-    edges = frame_edges(frame, config)
+    if edges is None:
+        edges = frame_edges(frame, config)
     decoded = demultiplex(edges, config)
     guard = guard_violations(frame, config)
     falls = falling_edge_ticks(frame, config)

@@ -23,6 +23,7 @@ class ServerConfig:
     data_dir: Path = field(default_factory=default_data_dir)
     viewer: bool = True  # start the viser 3D view
     allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/guard.py)
+    drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
 
 
 START_PRESET = "tuned"  # a new user should see a robot that walks; "paper" if it is missing
@@ -39,6 +40,8 @@ class Services:
         self.store = ParameterStore(initial)
         self.presets = PresetStore(config.data_dir, builtins)
         self.sim = SimThread(self.store)
+        if config.drive != "model":
+            self.sim.switch_drive(config.drive)  # taken over at the first frame
         self.axle_fitter = AxleFitter()  # its jobs: GET /api/jobs/{id}
         self.ca_calibrator = CaCalibrator(self.axle_fitter.jobs, self.store, self.sim.paths)
         self.viewer = None

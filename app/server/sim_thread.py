@@ -20,9 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from app.core.frame_loop import FRAME_S, FrameLoop
+from app.core.frame_loop import FRAME_S, START_PHASE_RAD, FrameLoop, FrameRecord
+from app.core.mcu.emulator import EmulatorError
 from app.core.robot import RobotModel
 from app.core.servo_load import ServoLoadMeter, ServoLoadReport
+from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, FirmwareStatus
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.scope_feed import ScopeFeed
@@ -46,6 +48,14 @@ class Command(enum.Enum):
     STEP = "step"  # one 20 ms frame, pausing first
     SPEED = "speed"  # value: x real time, within SPEED_RANGE
     REANCHOR = "reanchor"  # value: V in m/s fixed by hand, or None to measure it
+    DRIVE = "drive"  # value: a booted FirmwareDriver (the firmware drive), or None (the model)
+
+
+class Drive(enum.Enum):
+    """Who makes the servo pulses: the Python hardware model, or the emulated firmware."""
+
+    MODEL = "model"
+    FIRMWARE = "firmware"
 
 
 @dataclass(frozen=True)
@@ -82,6 +92,8 @@ class SimStatus:
     param_latency_frames: LatencySummary = LatencySummary()
     resets: int = 0
     errors: tuple[str, ...] = ()
+    drive: str = Drive.MODEL.value
+    firmware: FirmwareStatus | None = None  # while the firmware drive is on
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self) | {"errors": list(self.errors)}
@@ -111,6 +123,8 @@ class SimThread:
             robot=robot, params=snap.gait, motion=snap.motion, hardware=self.hardware
         )
         self.model = self._loop.model  # immutable once loaded: any thread may read it
+        self._firmware: FirmwareDriver | None = None  # the firmware drive, when on
+        self._firmware_waited = 0  # frames the change in flight waited before it was sent
         self._load = ServoLoadMeter(self._loop.robot)  # the servo budget of the current gait
         self._load_report = self._load.report()
         self.scope = ScopeFeed(self.hardware.tdm)
@@ -151,6 +165,9 @@ class SimThread:
         self._unsubscribe()
         if self._thread is not None:
             self._thread.join(timeout_s)
+        if self._firmware is not None and not self.alive:
+            self._firmware.close()
+            self._firmware = None
 
     @property
     def alive(self) -> bool:
@@ -165,12 +182,29 @@ class SimThread:
         except ValueError:
             allowed = ", ".join(c.value for c in Command)
             raise ValueError(f"unknown command {command!r}; allowed: {allowed}") from None
+        if command is Command.DRIVE and not (value is None or isinstance(value, FirmwareDriver)):
+            raise ValueError("the drive command takes a booted FirmwareDriver or None")
         if command is Command.SPEED:
             lo, hi = SPEED_RANGE
             if not isinstance(value, int | float) or not lo <= float(value) <= hi:
                 raise ValueError(f"speed must be {lo} to {hi} (x real time), got {value!r}")
         self._commands.put((command, value))
         self._wake.set()
+
+    def switch_drive(self, drive: Drive | str) -> None:
+        """Make the pulses with the model or the emulated firmware from the next frame boundary.
+        The firmware is built and booted here, in the caller's thread (seconds on a cold build
+        cache): ValueError for an unknown drive or a set the firmware cannot run, BuildError or
+        EmulatorError if the tool chain or emulator fail. Either way nothing changes then."""
+        try:
+            drive = Drive(drive)
+        except ValueError:
+            allowed = ", ".join(d.value for d in Drive)
+            raise ValueError(f"unknown drive {drive!r}; allowed: {allowed}") from None
+        driver = None
+        if drive is Drive.FIRMWARE:
+            driver = FirmwareDriver.boot(self.store.snapshot(), self.hardware)
+        self.command(Command.DRIVE, driver)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
         if self._pending is None:
@@ -253,12 +287,24 @@ class SimThread:
                 self.speed, restart = float(value), True
             elif command is Command.REANCHOR:
                 self.paths.reanchor(value)
+            elif command is Command.DRIVE:
+                self._set_drive(value)
+                restart = True
 
     def _apply_params(self) -> None:
         snap = self.store.snapshot()
         if snap.version == self._applied.version:
             return
         old = self._applied
+        firmware = self._firmware
+        if firmware is not None and snap.gait.engine != FIRMWARE_ENGINE:
+            self.errors.append(
+                f"firmware drive ended: the firmware runs the {FIRMWARE_ENGINE} engine and "
+                f"version {snap.version} names {snap.gait.engine!r}; the model drives now"
+            )
+            self._set_drive(None, reset=False)
+        elif firmware is not None:
+            firmware.send(snap)  # over the emulated UART; it reaches the frame the ACK names
         self._loop.set_gait(snap.gait, snap.motion)
         self._load.clear()  # the budget belongs to one gait
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
@@ -266,13 +312,17 @@ class SimThread:
             self.paths.reanchor()
         self._applied = snap
         if self._pending is not None:
-            # the next frame (number frame_index) is the first built with the change
-            self.param_latency_frames.append(self._loop.frame_index - self._pending[0] + 1)
+            waited = self._loop.frame_index - self._pending[0]
+            if self._firmware is None:
+                # the next frame (number frame_index) is the first built with the change
+                self.param_latency_frames.append(waited + 1)
+            else:
+                self._firmware_waited = waited  # the rest comes with the firmware's ACK
             self._pending = None
 
     def _frame(self) -> None:
         sim = self._loop
-        record = sim.step_frame()
+        record = self._step()
         if sim.blew_up:
             self.errors.append(f"physics blew up at t = {sim.time_s:.2f} s; robot reset")
             self._reset()
@@ -285,8 +335,40 @@ class SimThread:
             self.paths.add(sim.time_s, sim.trunk_pose(), sim.feet_distance_m())
         self._publish_poses()
 
-    def _reset(self) -> None:
-        self._loop.reset()
+    def _step(self) -> FrameRecord:
+        """One frame, its pulses made by the model or read off the firmware's pins."""
+        firmware = self._firmware
+        if firmware is not None:
+            try:
+                pins, problems, latencies = firmware.next_pins()
+            except EmulatorError as error:
+                self.errors.append(f"firmware drive ended: {error}; the model drives now")
+                self._set_drive(None, reset=False)
+            else:
+                self.errors.extend(problems)
+                self.param_latency_frames.extend(n + self._firmware_waited for n in latencies)
+                return self._loop.step_pins(pins)
+        return self._loop.step_frame()
+
+    def _set_drive(self, driver: FirmwareDriver | None, *, reset: bool = True) -> None:
+        """Hand the pulses to `driver` (None: the model). A firmware boots at its start phase,
+        so the robot is put back to the start then; back to the model, it walks on."""
+        if self._firmware is not None:
+            self._firmware.close()
+        self._firmware = driver
+        self._firmware_waited = 0
+        if driver is not None:
+            if self._applied.version != driver.built_version:
+                driver.send(self._applied)  # the set changed while it was built
+            if reset:
+                self._reset(phase=START_PHASE_RAD)
+
+    def _reset(self, phase: float | None = None) -> None:
+        """Stand the robot at the start. With the firmware driving, its MCU runs on (a robot put
+        back on its feet): the robot stands in the pose of the firmware's next phase."""
+        if phase is None and self._firmware is not None:
+            phase = self._loop.phase
+        self._loop.reset(START_PHASE_RAD if phase is None else phase)
         self.resets += 1
         self._rtf_window.clear()  # the simulated time restarts: a ratio across it means nothing
         self._load.clear()
@@ -330,6 +412,8 @@ class SimThread:
             param_latency_frames=_summary(self.param_latency_frames),
             resets=self.resets,
             errors=tuple(self.errors),
+            drive=(Drive.MODEL if self._firmware is None else Drive.FIRMWARE).value,
+            firmware=None if self._firmware is None else self._firmware.status(),
         )
 
 

@@ -16,9 +16,10 @@ import numpy as np
 import viser
 
 from app.core.axle_fit import NOT_APPLIED
+from app.core.mcu.emulator import FRAME_CYCLES
 from app.params.schema import schema_description
 from app.server.param_store import NothingToUndo, Snapshot
-from app.server.sim_thread import Command
+from app.server.sim_thread import Command, Drive
 from gait.params import ENGINES
 
 if TYPE_CHECKING:
@@ -117,6 +118,14 @@ class Viewer:
             )
             history = gui.add_button_group("Parameters", ("Undo", "Redo"))
             history.on_click(lambda e: self._history(e.target.value))
+            self._drive = gui.add_dropdown(
+                "Pulses from",
+                tuple(d.value for d in Drive),
+                initial_value=self.sim.status().drive,
+                hint="model: the Python hardware model; firmware: the robot's own firmware on an "
+                "emulated ATmega128, the servos read its pins (the robot starts over)",
+            )
+            self._drive.on_update(self._drive_callback)
         self._folders: list[tuple[Any, list[str]]] = []  # (folder, engines that use its group)
         engine = self.store.snapshot().gait.engine
         self._engine = gui.add_dropdown(
@@ -150,6 +159,19 @@ class Viewer:
             self._feet_button = gui.add_button("Axle b = distance between the feet")
             self._feet_button.on_click(lambda _e: self.paths.set_axle(None))
             self._fit_text = gui.add_markdown("")
+
+    def _drive_callback(self, event: viser.GuiEvent) -> None:
+        if event.client is None:  # a programmatic set: the status already says it
+            return
+        client, drive = event.client, event.target.value
+
+        def switch() -> None:  # building the firmware can take seconds: not in viser's thread
+            try:
+                self.sim.switch_drive(drive)
+            except Exception as exc:  # shown to the person who asked; nothing changed
+                client.add_notification("Drive not switched", str(exc)[:300], color="red")
+
+        threading.Thread(target=switch, name="artro-drive-switch", daemon=True).start()
 
     def _reset_with_motion_zero(self) -> None:
         zero = {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
@@ -358,7 +380,12 @@ class Viewer:
             behind = " — **behind real time**" if s.behind else ""
             text = f"t = {s.sim_time_s:.1f} s, running, real-time factor {rtf} "
             text += f"(target {s.speed:g}×){behind}"
+        if s.firmware is not None:
+            f = s.firmware
+            text += f"  \nPulses from the emulated firmware: MCU frame {f.mcu_frame}, busy "
+            text += f"{100 * f.busy_cycles_max / FRAME_CYCLES:.0f} % of a frame (max of 1 s)"
         _assign(self._status, "content", text)
+        _assign(self._drive, "value", s.drive)
         _assign(self._fell_notice, "visible", s.fell)
         _assign(self._fell_reset, "visible", s.fell)
         _assign(self._fell_reset_zero, "visible", s.fell)

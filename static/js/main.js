@@ -1,5 +1,6 @@
 // Entry point: wire up every panel of the dashboard.
 
+import { initDrive } from "./drive.js";
 import { initFall } from "./fall.js";
 import { initMotion } from "./motion.js";
 import { initParams, refreshParams } from "./params.js";
@@ -12,6 +13,7 @@ import { initTransfer } from "./transfer.js";
 import { initViser } from "./viser.js";
 
 initStatus();
+initDrive();
 initViser();
 initScope();
 initPaths();

@@ -277,7 +277,8 @@ function updateFrameInfo(frame) {
     flags.replaceChildren();
     return;
   }
-  info.textContent = `#${frame.frame} · ${frame.t_s.toFixed(2)} s · φ ${frame.phase_rad.toFixed(2)}`;
+  const pins = frame.source === "firmware" ? " · firmware pins" : "";
+  info.textContent = `#${frame.frame} · ${frame.t_s.toFixed(2)} s · φ ${frame.phase_rad.toFixed(2)}${pins}`;
   info.title = `frame number, sim time and trunk phase φ (rad) of the frame shown; parameters v${frame.params_version ?? "?"}`;
   const f = frame.flags || {};
   const items = [];

@@ -37,7 +37,7 @@ async function control(action) {
   }
 }
 
-function note(text) {
+export function note(text) {
   $("status-note").textContent = text;
   $("status-note").hidden = !text;
   clearTimeout(noteTimer);

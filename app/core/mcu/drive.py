@@ -15,7 +15,16 @@ from app.core.mcu.build import build_firmware
 from app.core.mcu.conformance import frame_edges_of
 from app.core.mcu.emulator import Edges, Mcu, read_active_plan
 from app.core.mcu.link import EmulatedLink
-from hardware import CHANNELS, OCR_IDLE, SLOT_TICKS, SLOTS_PER_FRAME, FrameEdges
+from hardware import (
+    CHANNELS,
+    OCR_IDLE,
+    SERVO_NAMES,
+    SLOT_TICKS,
+    SLOTS_PER_FRAME,
+    FrameEdges,
+    ServoCalibration,
+    TdmConfig,
+)
 from hardware.firmware.schema import values_from_document
 
 
@@ -27,6 +36,9 @@ class FirmwareFrame:
     ocr: NDArray[np.int32]  # (6, 8) decoded from the pins; -1 = idle
     edges: FrameEdges  # the nine lines as recorded, ticks from the frame start
     busy_cycles: int  # CPU cycles not asleep during the frame
+    saturated: NDArray[np.bool_]  # (12,) the firmware clipped this servo's angle or pulse
+    gamma_clamped: bool  # eq (45) summed below -1 on some leg
+    replies: tuple[proto.Reply, ...] = ()  # what the firmware answered during the frame
 
 
 def ocr_from_edges(edges: FrameEdges) -> NDArray[np.int32]:
@@ -45,6 +57,7 @@ def ocr_from_edges(edges: FrameEdges) -> NDArray[np.int32]:
     return ocr
 
 
+PLAN_GAMMA_CLAMPED = 0x02  # plan.h's PLAN_GAMMA_CLAMPED
 _PLAN_TICK = 100  # the frame's plan is latched at its start: read it just after
 
 
@@ -65,8 +78,16 @@ def _since(edges: Edges, cycle: int) -> Edges:
 class FirmwareDrive:
     """One emulated robot controller, advanced frame by frame."""
 
-    def __init__(self, doc: dict[str, Any]) -> None:
-        self.build = build_firmware(doc)
+    def __init__(
+        self,
+        doc: dict[str, Any],
+        *,
+        calibration: ServoCalibration | None = None,
+        tdm: TdmConfig | None = None,
+    ) -> None:
+        """Build the firmware with `doc` as its defaults (cached) and boot it; BuildError,
+        ValueError (an engine it does not run) or EmulatorError if that fails."""
+        self.build = build_firmware(doc, calibration=calibration, tdm=tdm)
         self.mcu = Mcu(self.build.elf)
         self.link = EmulatedLink(self.mcu)
         self.frame = 0
@@ -78,7 +99,7 @@ class FirmwareDrive:
         self.mcu.run_to_frame(k, _PLAN_TICK)
         plan = read_active_plan(self.mcu)
         self.mcu.run_to_frame(k + 1, _PLAN_TICK)  # past the edges at the next frame's start
-        self.link.poll()  # keep the UART drained
+        replies = tuple(r for r in self.link.poll() if not isinstance(r, proto.Telemetry))
         new = self.mcu.take_edges()
         recent = new if self._recent is None else _concat(self._recent, new)
         keep_from = self.mcu.frame_start(max(k - 1, 0))
@@ -86,14 +107,29 @@ class FirmwareDrive:
         edges = frame_edges_of(recent, self.mcu.t0_cycle, k)
         busy = self.mcu.busy_cycles
         frame = FirmwareFrame(
-            k, plan.phase_rad, plan.angles, ocr_from_edges(edges), edges, busy - self._busy
+            k,
+            plan.phase_rad,
+            plan.angles,
+            ocr_from_edges(edges),
+            edges,
+            busy - self._busy,
+            saturated=(plan.saturated >> np.arange(len(SERVO_NAMES))) & 1 == 1,
+            gamma_clamped=bool(plan.flags & PLAN_GAMMA_CLAMPED),
+            replies=replies,
         )
         self._busy = busy
         self.frame += 1
         return frame
 
+    def send_parameters(self, doc: dict[str, Any]) -> None:
+        """Queue a whole parameter set on the UART and go on: the bytes go in at the line's pace
+        while frames run, and the ACK (with the first frame it reaches) or NAK comes back in a
+        later frame's `replies`."""
+        self.link.send(proto.set_params(values_from_document(doc)))
+
     def set_parameters(self, doc: dict[str, Any]) -> int:
-        """Send a whole parameter set; returns the first frame it reaches (from the ACK)."""
+        """Send a whole parameter set and run until it is answered; returns the first frame it
+        reaches (from the ACK)."""
         (reply,) = self.link.request(proto.set_params(values_from_document(doc)))
         if not isinstance(reply, proto.Ack):
             raise ValueError(f"the firmware rejected the parameter set: {reply}")

@@ -1,16 +1,18 @@
 """Health, state and simulation control."""
 
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal
 
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.core.mcu.build import BuildError
+from app.core.mcu.emulator import EmulatorError
 from app.params.document import project_version
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GUARD_RESPONSES, responses
+from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.services import Services
-from app.server.sim_thread import SPEED_RANGE, Command
+from app.server.sim_thread import SPEED_RANGE, Command, Drive
 
 router = APIRouter(tags=["simulation"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute)
 
@@ -18,6 +20,14 @@ router = APIRouter(tags=["simulation"], responses=GUARD_RESPONSES, route_class=S
 class SpeedBody(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
     speed: float = Field(ge=SPEED_RANGE[0], le=SPEED_RANGE[1], description="x real time")
+
+
+class DriveBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    drive: Literal[Drive.MODEL.value, Drive.FIRMWARE.value] = Field(
+        description="model: the Python hardware model makes the pulses; firmware: the robot's "
+        "firmware on an emulated ATmega128 does, and the servos read them off its pins"
+    )
 
 
 @router.get("/api/health")
@@ -69,3 +79,17 @@ for _command, _doc in (
 def set_speed(body: SpeedBody, services: ServicesDep) -> dict:
     services.sim.command(Command.SPEED, body.speed)
     return {"accepted": "speed", "speed": body.speed}
+
+
+@router.put("/api/sim/drive", responses=responses(409, 422, 503))
+def set_drive(body: DriveBody, services: ServicesDep) -> dict:
+    """Switch who makes the servo pulses. The firmware is built for the current set (seconds on
+    a cold cache) and boots at its start phase, so the robot starts over; back to the model, it
+    walks on. `GET /api/state` says which drive is on (`drive`, `firmware`)."""
+    try:
+        services.sim.switch_drive(body.drive)
+    except ValueError as exc:
+        raise ApiError(409, str(exc), "unsupported_engine", loc=["body", "drive"]) from exc
+    except (BuildError, EmulatorError) as exc:
+        raise ApiError(503, str(exc), "firmware_unavailable", loc=["body", "drive"]) from exc
+    return {"accepted": "drive", "drive": body.drive}

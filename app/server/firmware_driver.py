@@ -1,0 +1,110 @@
+"""The firmware drive of `artro serve`: the emulated ATmega128 makes the pulses, the simulation's
+servos read them off its pins, parameter changes travel over its emulated UART (docs/DESIGN.md
+§5, §8). Booted in the caller's thread, then owned by the simulation thread alone.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+from dataclasses import dataclass
+
+from app.core.frame_loop import PinFrame
+from app.core.mcu import protocol as proto
+from app.core.mcu.drive import FirmwareDrive
+from app.server.param_store import Snapshot
+from gait import Motion
+from hardware import HardwareSetup
+
+FIRMWARE_ENGINE = "behnke"
+BUSY_BUDGET_CYCLES = 80_000  # 25 % of the 320 000-cycle frame (docs/DESIGN.md §5)
+BUSY_WINDOW_FRAMES = 50
+
+
+@dataclass(frozen=True)
+class FirmwareStatus:
+    """What the firmware drive publishes with the simulation's status."""
+
+    mcu_frame: int = 0  # the firmware's own frame counter
+    busy_cycles_last: int = 0
+    busy_cycles_max: int = 0  # over the last second
+    busy_budget_cycles: int = BUSY_BUDGET_CYCLES
+    params_version_acked: int = 0  # the last parameter version the firmware acknowledged
+    sets_in_flight: int = 0  # sent, not yet answered
+    naks: int = 0
+
+
+class FirmwareDriver:
+    """One emulated controller and what travels to it: sets sent, answers, the active motion."""
+
+    def __init__(self, drive: FirmwareDrive, snapshot: Snapshot) -> None:
+        self.drive = drive
+        self.built_version = snapshot.version  # the set compiled in as the firmware's defaults
+        self._motion = snapshot.motion  # what the firmware's current frame was made with
+        self._acked_version = snapshot.version
+        # sets on the wire, oldest first: (version, motion, firmware frame at sending)
+        self._in_flight: deque[tuple[int, Motion, int]] = deque()
+        # acknowledged sets not yet reached: (first frame, version, motion)
+        self._scheduled: deque[tuple[int, int, Motion]] = deque()
+        self._busy: deque[int] = deque(maxlen=BUSY_WINDOW_FRAMES)
+        self._naks = 0
+
+    @classmethod
+    def boot(cls, snapshot: Snapshot, hardware: HardwareSetup) -> FirmwareDriver:
+        """Build the firmware with the snapshot's set as its defaults and boot it (seconds on a
+        cold cache, then milliseconds). ValueError if the set names an engine the firmware does
+        not run; BuildError or EmulatorError if the tool chain or the emulator fail."""
+        if snapshot.gait.engine != FIRMWARE_ENGINE:
+            raise ValueError(
+                f"the firmware runs the {FIRMWARE_ENGINE} gait engine; the current set names "
+                f"{snapshot.gait.engine!r}: choose engine {FIRMWARE_ENGINE} first"
+            )
+        doc = snapshot.parameter_set().to_dict()
+        drive = FirmwareDrive(doc, calibration=hardware.calibration, tdm=hardware.tdm)
+        return cls(drive, snapshot)
+
+    def send(self, snapshot: Snapshot) -> None:
+        """Queue the whole set on the UART (the protocol's SET_PARAMS); it reaches the frame
+        the firmware's ACK names."""
+        self.drive.send_parameters(snapshot.parameter_set().to_dict())
+        self._in_flight.append((snapshot.version, snapshot.motion, self.drive.frame))
+
+    def next_pins(self) -> tuple[PinFrame, list[str], list[int]]:
+        """Run the MCU through its next frame: the pins, problems to report, and per set that
+        was acknowledged the frames from its sending to the first frame it reached."""
+        frame = self.drive.next_frame()
+        problems, latencies = [], []
+        for reply in frame.replies:
+            if not self._in_flight or not isinstance(reply, proto.Ack | proto.Nak):
+                continue
+            version, motion, sent_frame = self._in_flight.popleft()
+            if isinstance(reply, proto.Ack):
+                self._scheduled.append((reply.effective_frame, version, motion))
+                latencies.append(reply.effective_frame - sent_frame + 1)
+            else:
+                self._naks += 1
+                problems.append(f"the firmware refused parameter version {version}: {reply}")
+        while self._scheduled and self._scheduled[0][0] <= frame.index:
+            _, self._acked_version, self._motion = self._scheduled.popleft()
+        self._busy.append(frame.busy_cycles)
+        pins = PinFrame(
+            phase=frame.phase_rad,
+            ocr=frame.ocr,
+            edges=frame.edges,
+            saturated_servos=frame.saturated,
+            gamma_clamped=frame.gamma_clamped,
+            motion=self._motion,
+        )
+        return pins, problems, latencies
+
+    def status(self) -> FirmwareStatus:
+        return FirmwareStatus(
+            mcu_frame=self.drive.frame,
+            busy_cycles_last=self._busy[-1] if self._busy else 0,
+            busy_cycles_max=max(self._busy, default=0),
+            params_version_acked=self._acked_version,
+            sets_in_flight=len(self._in_flight),
+            naks=self._naks,
+        )
+
+    def close(self) -> None:
+        self.drive.close()
