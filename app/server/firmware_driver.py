@@ -8,11 +8,11 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 
-from app.core.frame_loop import PinFrame
+from app.core.frame_loop import FRAME_S, PinFrame
 from app.core.mcu import protocol as proto
 from app.core.mcu.drive import FirmwareDrive
 from app.server.param_store import Snapshot
-from gait import Motion
+from gait import ramp_motion
 from hardware import HardwareSetup
 
 FIRMWARE_ENGINE = "behnke"
@@ -39,12 +39,12 @@ class FirmwareDriver:
     def __init__(self, drive: FirmwareDrive, snapshot: Snapshot) -> None:
         self.drive = drive
         self.built_version = snapshot.version  # the set compiled in as the firmware's defaults
-        self._motion = snapshot.motion  # what the firmware's current frame was made with
-        self._acked_version = snapshot.version
-        # sets on the wire, oldest first: (version, motion, firmware frame at sending)
-        self._in_flight: deque[tuple[int, Motion, int]] = deque()
-        # acknowledged sets not yet reached: (first frame, version, motion)
-        self._scheduled: deque[tuple[int, int, Motion]] = deque()
+        self._target = snapshot  # the set in force on the MCU
+        self._motion = snapshot.motion  # what its gait got in the last frame (ramped, as its own)
+        # sets on the wire, oldest first: (snapshot, firmware frame at sending)
+        self._in_flight: deque[tuple[Snapshot, int]] = deque()
+        # acknowledged sets not yet reached: (first frame, snapshot)
+        self._scheduled: deque[tuple[int, Snapshot]] = deque()
         self._busy: deque[int] = deque(maxlen=BUSY_WINDOW_FRAMES)
         self._naks = 0
 
@@ -66,7 +66,7 @@ class FirmwareDriver:
         """Queue the whole set on the UART (the protocol's SET_PARAMS); it reaches the frame
         the firmware's ACK names."""
         self.drive.send_parameters(snapshot.parameter_set().to_dict())
-        self._in_flight.append((snapshot.version, snapshot.motion, self.drive.frame))
+        self._in_flight.append((snapshot, self.drive.frame))
 
     def next_pins(self) -> tuple[PinFrame, list[str], list[int]]:
         """Run the MCU through its next frame: the pins, problems to report, and per set that
@@ -76,15 +76,18 @@ class FirmwareDriver:
         for reply in frame.replies:
             if not self._in_flight or not isinstance(reply, proto.Ack | proto.Nak):
                 continue
-            version, motion, sent_frame = self._in_flight.popleft()
+            sent, sent_frame = self._in_flight.popleft()
             if isinstance(reply, proto.Ack):
-                self._scheduled.append((reply.effective_frame, version, motion))
+                self._scheduled.append((reply.effective_frame, sent))
                 latencies.append(reply.effective_frame - sent_frame + 1)
             else:
                 self._naks += 1
-                problems.append(f"the firmware refused parameter version {version}: {reply}")
+                problems.append(f"the firmware refused parameter version {sent.version}: {reply}")
         while self._scheduled and self._scheduled[0][0] <= frame.index:
-            _, self._acked_version, self._motion = self._scheduled.popleft()
+            _, self._target = self._scheduled.popleft()
+        if frame.index > 0:  # the firmware's ramp takes one step per planned frame (ramp.c)
+            target = self._target
+            self._motion = ramp_motion(self._motion, target.motion, target.gait, FRAME_S)
         self._busy.append(frame.busy_cycles)
         pins = PinFrame(
             phase=frame.phase_rad,
@@ -101,7 +104,7 @@ class FirmwareDriver:
             mcu_frame=self.drive.frame,
             busy_cycles_last=self._busy[-1] if self._busy else 0,
             busy_cycles_max=max(self._busy, default=0),
-            params_version_acked=self._acked_version,
+            params_version_acked=self._target.version,
             sets_in_flight=len(self._in_flight),
             naks=self._naks,
         )

@@ -45,18 +45,22 @@ def model_frames(
     """The Python frame loop's first n frames for a parameter-set document.
 
     `changes` lists (frame, document) switches, as `FrameLoop.set_gait` between frames: the
-    new set's first frame keeps the phase step of the old one, as the loop's walking clock does.
+    new set's first frame keeps the phase step of the old one, as the loop's walking clock does,
+    and its motion is ramped to from the old one's (`ramp` group).
     """
     hardware = hardware or HardwareSetup()
     segments = [(0, doc), *sorted(changes, key=lambda change: change[0])]
-    phase, parts = START_PHASE_RAD, []
+    phase, parts, motion_now = START_PHASE_RAD, [], None
     ends = [start for start, _ in segments[1:]] + [n_frames]
     for (start, seg_doc), end in zip(segments, ends, strict=True):
         if end <= start:
             continue
         params = GaitParams.from_dict(seg_doc["gait"])
         motion = Motion(**seg_doc["motion"])
-        plan = plan_frames(params, motion, hardware, phase, end - start, 10, 0.002)
+        plan = plan_frames(
+            params, motion, hardware, phase, end - start, 10, 0.002, motion_now=motion_now
+        )
+        motion_now = plan.motions[-1]  # a new set's motion is ramped to from here
         parts.append(plan)
         step = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
         phase = float(pi_cut(plan.phase[-1] + step))

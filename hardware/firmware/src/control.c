@@ -8,6 +8,7 @@
 
 #include <util/atomic.h>
 
+#include "ramp.h"
 #include "tdm.h"
 
 static uint8_t s_state;
@@ -17,6 +18,7 @@ void control_init(uint8_t state)
 {
     s_state = state;
     plan_init_channel_map();
+    ramp_init();
     plan_compute(&g_plan[0], 0, PLAN_START_PHASE_ACC, state);
     g_active = 0;
     g_next_ready = 0;
@@ -38,6 +40,7 @@ uint8_t control_poll(void)
     if (!due)
         return 0;
     const plan_t *current = &g_plan[active];
+    ramp_step(frame + 1u);
     plan_compute(&g_plan[active ^ 1u], frame + 1u, current->next_phase_acc, s_state);
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {

@@ -12,6 +12,7 @@
 
 #include "artro_schema.h"
 #include "params.h"
+#include "ramp.h"
 
 #define PI_F 3.14159265358979f
 #define TWO_PI_F 6.28318530717959f
@@ -87,10 +88,10 @@ typedef struct {
 static void frame_terms(float phi_left, frame_terms_t *t)
 {
     t->theta_shift_left = t->roll_cos_left = t->pitch_balance = 0.0f;
-    t->a_r = P(MOTION_A_R);
-    t->a_p = P(MOTION_A_P);
-    t->a_y = P(MOTION_A_Y);
-    t->ca = P(MOTION_CA);
+    t->a_r = g_motion[RAMP_A_R]; /* the motion as the ramp lets it through (ramp.h) */
+    t->a_p = g_motion[RAMP_A_P];
+    t->a_y = g_motion[RAMP_A_Y];
+    t->ca = g_motion[RAMP_CA];
     /* the steering term of eq (29), docs/DESIGN.md §4: K * CA * clip(a_p / full_at_a_p, -1, 1)
      * with the forward or the backward K, so that CA turns the robot as eq (13) says both ways */
     float steer = t->a_p / P(STEER_FULL_AT_A_P);
@@ -210,7 +211,7 @@ void gait_joint_angles(int32_t phase_acc, gait_output_t *out)
 {
     float leg[LEG_VALUES];
     frame_terms_t terms;
-    const float ca = P(MOTION_CA);
+    const float ca = g_motion[RAMP_CA];
     frame_terms(gait_phase_rad((int32_t)((uint32_t)phase_acc + GAIT_PHASE_QUARTER)), &terms);
     out->gamma_clamped = 0;
     for (uint8_t side = 0; side < 2; side++) {
