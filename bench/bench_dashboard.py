@@ -10,10 +10,12 @@ client of the scope WebSocket and of the embedded viser 3D view), and for `--sec
     with it (the servos receive it at that frame's pulse falling edges, within the frame).
 
     python bench/bench_dashboard.py [--clients 2] [--seconds 60] [--no-3d] [--drive firmware]
+                                    [--cycle-view]
 
 --no-3d opens the pages with the 3D view hidden (the iframe is removed), to separate what
 software WebGL rendering in headless Chromium costs on this machine from the server's own load.
---drive firmware serves with the robot's firmware on the emulated ATmega128 making the pulses; the
+--cycle-view shows the scope's cycle-folded plots (mean ± band over the gait phase) in every page
+instead of the single frame. --drive firmware serves with the robot's firmware on the emulated ATmega128 making the pulses; the
 changes then travel over its emulated UART (57600 baud), which the latency includes.
 """
 
@@ -44,6 +46,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=60.0)
     parser.add_argument("--no-3d", action="store_true", help="hide the embedded 3D view")
     parser.add_argument("--drive", choices=("model", "firmware"), default="model")
+    parser.add_argument("--cycle-view", action="store_true", help="the scope's folded plots")
     args = parser.parse_args()
 
     port, viser_port = free_port(), free_port()
@@ -86,6 +89,8 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
             page.goto(base + "/")
             if args.no_3d:
                 page.evaluate("document.getElementById('viser-frame')?.remove()")
+            if args.cycle_view:
+                page.click("#scope-mode-cycle")
             pages.append(page)
         for page in pages:  # every page is receiving scope frames before the clock starts
             page.wait_for_function("window.artro && window.artro.framesReceived > 0", timeout=30000)
@@ -110,6 +115,7 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
     rtf = (state1["sim_time_s"] - state0["sim_time_s"]) / wall
     page_fps = [(e - s) / wall for s, e in zip(page_start, page_end, strict=True)]
     view = " (3D view removed)" if args.no_3d else " (with the 3D view)"
+    view += ", scope in the cycle-folded view" if args.cycle_view else ""
     print(f"dashboard clients   : {args.clients} headless Chromium pages{view}, {wall:.0f} s")
     print(
         f"real-time factor    : {rtf:.3f} over the window; 2 s windows min {min(windows):.3f}"
