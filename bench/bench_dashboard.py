@@ -15,8 +15,9 @@ client of the scope WebSocket and of the embedded viser 3D view), and for `--sec
 --no-3d opens the pages with the 3D view hidden (the iframe is removed), to separate what
 software WebGL rendering in headless Chromium costs on this machine from the server's own load.
 --cycle-view shows the scope's cycle-folded plots (mean ± band over the gait phase) in every page
-instead of the single frame. --drive firmware serves with the robot's firmware on the emulated ATmega128 making the pulses; the
-changes then travel over its emulated UART (57600 baud), which the latency includes.
+instead of the single frame. --drive firmware serves with the robot's firmware on the emulated
+ATmega128 making the pulses; the changes then travel over its emulated UART (57600 baud), which
+the latency includes.
 """
 
 from __future__ import annotations
