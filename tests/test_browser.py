@@ -471,3 +471,45 @@ def test_the_servo_load_budget_lists_every_servo_coloured_by_margin(dashboard):
     for i in range(12):
         assert rows.nth(i).get_attribute("class") in ("level-ok", "level-warn", "level-critical")
     assert "eq (1)" in (page.locator("#servo-table thead").text_content() or "")
+
+
+def ghost_pixels(png: bytes) -> int:
+    """Light blue of the translucent ghost over the white floor (app/server/viser_ghost.py);
+    the saturated blue of the path line and the dark robot do not count."""
+    img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
+    r, b = img[..., 0], img[..., 2]
+    return int(((b - r > 25) & (b > 150) & (r > 120)).sum())
+
+
+def test_the_ghost_walks_beside_the_robot_with_its_differences_listed(dashboard):
+    page, http = dashboard
+    frame = page.locator("#viser-frame")
+    frame.scroll_into_view_if_needed()
+    expect(page.frame_locator("#viser-frame").locator("canvas").first).to_be_visible(timeout=30_000)
+    without = ghost_pixels(frame.screenshot())
+    try:
+        page.locator("#ghost-source").select_option("preset:paper")
+        page.locator("#ghost-start").click()
+        expect(page.locator("#ghost-state")).to_contain_text("preset paper", timeout=10_000)
+        expect(page.locator("#ghost-state")).to_contain_text("not phase-locked")  # 1 vs 0.68 Hz
+        delta = page.locator("#ghost-metrics tr[data-metric=speed_cm_s] td.ghost-delta")
+        expect(delta).not_to_contain_text("—", timeout=30_000)
+        fields = page.locator("#ghost-diff tr td:first-child").all_text_contents()
+        assert "clock.freq_hz" in fields and len(fields) > 5
+        state = http.get("/api/ghost").json()
+        assert state["metrics"]["ghost"]["speed_cm_s"] != 0.0  # the ghost walks
+        frame.scroll_into_view_if_needed()
+        wait_until(
+            page,
+            lambda: ghost_pixels(frame.screenshot()) > without + 500,
+            "the translucent ghost drawn beside the robot in the 3D view",
+        )
+        page.locator("#ghost-stop").click()
+        expect(page.locator("#ghost-state")).to_have_text("no ghost", timeout=10_000)
+        wait_until(
+            page,
+            lambda: ghost_pixels(frame.screenshot()) < without + 300,
+            "the ghost gone from the 3D view",
+        )
+    finally:
+        http.delete("/api/ghost")

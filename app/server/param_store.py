@@ -109,6 +109,11 @@ class ParameterStore:
         """Go forward one undone change."""
         return self._step_history(self._redo, self._undo, source, check)
 
+    def versions(self) -> list[Snapshot]:
+        """The current version and the earlier ones undo can go back to, newest first."""
+        with self._lock:
+            return [self._snapshot, *reversed(self._undo)]
+
     @property
     def can_undo(self) -> bool:
         return bool(self._undo)

@@ -55,6 +55,7 @@ class Services:
                 paths=self.sim.paths,
                 axle_fitter=self.axle_fitter,
                 ca_calibrator=self.ca_calibrator,
+                presets=self.presets,
                 model=self.sim.model,
                 host=config.host,
                 port=config.viser_port,

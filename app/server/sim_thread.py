@@ -25,9 +25,11 @@ from app.core.mcu.emulator import EmulatorError
 from app.core.robot import RobotModel
 from app.core.servo_load import ServoLoadMeter, ServoLoadReport
 from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, FirmwareStatus
+from app.server.ghost import Ghost, GhostStatus
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.scope_feed import ScopeFeed
+from gait import GaitParams
 from hardware import HardwareSetup
 
 log = logging.getLogger(__name__)
@@ -37,6 +39,7 @@ RTF_WINDOW_S = 2.0
 SPEED_RANGE = (0.25, 4.0)
 BEHIND_SHOWN_S = 2.0  # "behind" stays set this long after frames were dropped
 LOAD_PUBLISH_FRAMES = 25  # the servo load budget is published twice a second
+GHOST_PUBLISH_FRAMES = 10  # the ghost's metrics five times a second
 
 
 class Command(enum.Enum):
@@ -49,6 +52,7 @@ class Command(enum.Enum):
     SPEED = "speed"  # value: x real time, within SPEED_RANGE
     REANCHOR = "reanchor"  # value: V in m/s fixed by hand, or None to measure it
     DRIVE = "drive"  # value: a booted FirmwareDriver (the firmware drive), or None (the model)
+    GHOST = "ghost"  # value: (GaitParams, source label) of the A/B ghost, or None: no ghost
 
 
 class Drive(enum.Enum):
@@ -106,6 +110,8 @@ class BodyPoses:
     serial: int
     xpos: np.ndarray
     xmat: np.ndarray
+    ghost_xpos: np.ndarray | None = None  # the A/B ghost's bodies, when there is one
+    ghost_xmat: np.ndarray | None = None
 
 
 class SimThread:
@@ -125,6 +131,8 @@ class SimThread:
         self.model = self._loop.model  # immutable once loaded: any thread may read it
         self._firmware: FirmwareDriver | None = None  # the firmware drive, when on
         self._firmware_waited = 0  # frames the change in flight waited before it was sent
+        self._ghost: Ghost | None = None  # the A/B ghost, this thread's alone
+        self._ghost_status: GhostStatus | None = None  # published
         self._load = ServoLoadMeter(self._loop.robot)  # the servo budget of the current gait
         self._load_report = self._load.report()
         self.scope = ScopeFeed(self.hardware.tdm)
@@ -184,6 +192,10 @@ class SimThread:
             raise ValueError(f"unknown command {command!r}; allowed: {allowed}") from None
         if command is Command.DRIVE and not (value is None or isinstance(value, FirmwareDriver)):
             raise ValueError("the drive command takes a booted FirmwareDriver or None")
+        if command is Command.GHOST and value is not None:
+            params, source = value
+            if not isinstance(params, GaitParams) or not isinstance(source, str):
+                raise ValueError("the ghost command takes (GaitParams, source label) or None")
         if command is Command.SPEED:
             lo, hi = SPEED_RANGE
             if not isinstance(value, int | float) or not lo <= float(value) <= hi:
@@ -215,6 +227,10 @@ class SimThread:
 
     def body_poses(self) -> BodyPoses | None:
         return self._poses
+
+    def ghost_status(self) -> GhostStatus | None:
+        """The A/B ghost's last published state, None without a ghost."""
+        return self._ghost_status
 
     def servo_load(self) -> ServoLoadReport:
         """The servo load budget since the last reset or parameter change (published)."""
@@ -290,6 +306,10 @@ class SimThread:
             elif command is Command.DRIVE:
                 self._set_drive(value)
                 restart = True
+            elif command is Command.GHOST:
+                self._ghost = None if value is None else Ghost(self._loop, *value)
+                self._ghost_status = None if value is None else self._ghost.status()
+                self._publish_poses()
 
     def _apply_params(self) -> None:
         snap = self.store.snapshot()
@@ -327,6 +347,10 @@ class SimThread:
             self.errors.append(f"physics blew up at t = {sim.time_s:.2f} s; robot reset")
             self._reset()
             return
+        if self._ghost is not None:
+            self._ghost.step(sim, self._applied.motion)
+            if record.index % GHOST_PUBLISH_FRAMES == 0:
+                self._ghost_status = self._ghost.status()
         self.scope.publish(record, self._applied.version)
         self._load.add(self._loop.data, record.saturated_servos)
         if record.index % LOAD_PUBLISH_FRAMES == 0:
@@ -369,6 +393,9 @@ class SimThread:
         if phase is None and self._firmware is not None:
             phase = self._loop.phase
         self._loop.reset(START_PHASE_RAD if phase is None else phase)
+        if self._ghost is not None:
+            self._ghost.place_beside(self._loop)
+            self._ghost_status = self._ghost.status()
         self.resets += 1
         self._rtf_window.clear()  # the simulated time restarts: a ratio across it means nothing
         self._load.clear()
@@ -380,8 +407,14 @@ class SimThread:
         """A copy of the body poses for the 3D view: made only when a view exists."""
         if self.publish_poses:
             self._pose_serial += 1
-            data = self._loop.data
-            self._poses = BodyPoses(self._pose_serial, data.xpos.copy(), data.xmat.copy())
+            data, ghost = self._loop.data, self._ghost
+            self._poses = BodyPoses(
+                self._pose_serial,
+                data.xpos.copy(),
+                data.xmat.copy(),
+                None if ghost is None else ghost.loop.data.xpos.copy(),
+                None if ghost is None else ghost.loop.data.xmat.copy(),
+            )
 
     def _record_rtf(self) -> None:
         now = time.monotonic()

@@ -20,11 +20,13 @@ from app.core.mcu.emulator import FRAME_CYCLES
 from app.params.schema import schema_description
 from app.server.param_store import NothingToUndo, Snapshot
 from app.server.sim_thread import Command, Drive
+from app.server.viser_ghost import GhostDrawing
 from gait.params import ENGINES
 
 if TYPE_CHECKING:
     import mujoco
 
+    from app.params.presets import PresetStore
     from app.server.axle_fitter import AxleFitter
     from app.server.ca_calibrator import CaCalibrator
     from app.server.param_store import ParameterStore
@@ -38,6 +40,8 @@ PATH_REFRESH_S = 0.5
 SLIDER_SOURCE = "viser"  # changes made by dragging a slider: the slider already shows them
 BUTTON_SOURCE = "viser-button"  # folder resets, undo/redo: the sliders must follow
 PATH_Z_M = 0.003
+GHOST_OFF = "off"
+GHOST_PREVIOUS = "the version before the last change"
 ACTUAL_RGB = (30, 110, 230)
 PREDICTED_RGB = (235, 120, 20)
 DIRECTION_LABELS = {
@@ -57,6 +61,7 @@ class Viewer:
         paths: PathTracker,
         axle_fitter: AxleFitter,
         ca_calibrator: CaCalibrator,
+        presets: PresetStore,
         model: mujoco.MjModel,
         host: str,
         port: int,
@@ -66,6 +71,7 @@ class Viewer:
         self.paths = paths
         self.axle_fitter = axle_fitter
         self.ca_calibrator = ca_calibrator
+        self.presets = presets
         sim.publish_poses = True
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         # the panel is docked at the right edge and starts minimized: it never covers the robot,
@@ -82,6 +88,7 @@ class Viewer:
         self._thread: threading.Thread | None = None
         self._build_gui()
         self._build_paths()
+        self._ghost = GhostDrawing(self.server, model, self.scene.fixed_bodies_frame.name)
         self._unsubscribe = self.store.subscribe(self._on_params)
 
     # --- lifecycle ------------------------------------------------------------------------------
@@ -126,6 +133,14 @@ class Viewer:
                 "emulated ATmega128, the servos read its pins (the robot starts over)",
             )
             self._drive.on_update(self._drive_callback)
+            self._ghost_choice = gui.add_dropdown(
+                "Ghost (A/B)",
+                (GHOST_OFF, *(p.name for p in self.presets.list()), GHOST_PREVIOUS),
+                initial_value=GHOST_OFF,
+                hint="a second parameter set walks beside the robot, translucent, phase-locked, "
+                "with the same motion; the page's Ghost panel compares the two",
+            )
+            self._ghost_choice.on_update(self._ghost_callback)
         self._folders: list[tuple[Any, list[str]]] = []  # (folder, engines that use its group)
         engine = self.store.snapshot().gait.engine
         self._engine = gui.add_dropdown(
@@ -172,6 +187,21 @@ class Viewer:
                 client.add_notification("Drive not switched", str(exc)[:300], color="red")
 
         threading.Thread(target=switch, name="artro-drive-switch", daemon=True).start()
+
+    def _ghost_callback(self, event: viser.GuiEvent) -> None:
+        if event.client is None:
+            return
+        choice = event.target.value
+        if choice == GHOST_OFF:
+            self.sim.command(Command.GHOST, None)
+        elif choice == GHOST_PREVIOUS:
+            versions = self.store.versions()
+            if len(versions) < 2:
+                event.client.add_notification("No ghost", "no earlier version yet", color="red")
+                return
+            self.sim.command(Command.GHOST, (versions[1].gait, f"version {versions[1].version}"))
+        else:
+            self.sim.command(Command.GHOST, (self.presets.get(choice).gait, f"preset {choice}"))
 
     def _reset_with_motion_zero(self) -> None:
         zero = {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
@@ -361,6 +391,7 @@ class Viewer:
                     self.scene.update_from_arrays(
                         poses.xpos[None], poses.xmat.reshape(-1, 3, 3)[None]
                     )
+                    self._ghost.update(poses.ghost_xpos, poses.ghost_xmat)
                 now = time.monotonic()
                 if now >= next_paths:
                     next_paths = now + PATH_REFRESH_S
@@ -386,6 +417,10 @@ class Viewer:
             text += f"{100 * f.busy_cycles_max / FRAME_CYCLES:.0f} % of a frame (max of 1 s)"
         _assign(self._status, "content", text)
         _assign(self._drive, "value", s.drive)
+        ghost = self.sim.ghost_status()
+        shown = GHOST_OFF if ghost is None else ghost.source.removeprefix("preset ")
+        if shown in self._ghost_choice.options:
+            _assign(self._ghost_choice, "value", shown)
         _assign(self._fell_notice, "visible", s.fell)
         _assign(self._fell_reset, "visible", s.fell)
         _assign(self._fell_reset_zero, "visible", s.fell)

@@ -2,6 +2,7 @@
 
 import { initDrive } from "./drive.js";
 import { initFall } from "./fall.js";
+import { initGhost } from "./ghost.js";
 import { initMotion } from "./motion.js";
 import { initParams, refreshParams } from "./params.js";
 import { initPaths } from "./paths.js";
@@ -23,4 +24,5 @@ initFall();
 initPresets();
 initTransfer();
 initServoLoad();
+initGhost();
 refreshParams();

@@ -1,0 +1,105 @@
+"""The A/B ghost: a preset or an earlier version walks beside the live robot (docs/DESIGN.md §8)."""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+from fastapi import APIRouter
+from pydantic import BaseModel, ConfigDict, Field, model_validator
+
+from app.params.presets import PresetError, PresetNotFound, diff
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.services import Services
+from app.server.sim_thread import Command
+
+router = APIRouter(
+    prefix="/api", tags=["ghost"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+)
+
+
+class GhostBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    preset: str | None = Field(None, max_length=64, description="a built-in or saved preset")
+    version: int | None = Field(
+        None, ge=1, description="an earlier parameter version (the undo history) or the current"
+    )
+
+    @model_validator(mode="after")
+    def one_source(self) -> GhostBody:
+        if (self.preset is None) == (self.version is None):
+            raise ValueError("give exactly one of preset (a name) or version (a number)")
+        return self
+
+
+def _state(services: Services) -> dict[str, Any]:
+    status = services.sim.ghost_status()
+    versions = [
+        {"version": s.version, "name": s.name, "source": s.source}
+        for s in services.store.versions()
+    ]
+    if status is None:
+        return {"enabled": False, "versions": versions}
+    live = services.store.snapshot().parameter_set()
+    ghost_set = dataclasses.replace(live, gait=status.params)
+    delta = status.delta()
+    return {
+        "enabled": True,
+        "source": status.source,
+        "phase_locked": status.phase_locked,
+        "note": status.note,
+        "fell": status.fell,
+        "window_s": status.window_s,
+        "diff": [
+            {"field": d["field"], "live": d["a"], "ghost": d["b"]} for d in diff(live, ghost_set)
+        ],
+        "metrics": {
+            "live": None if status.live is None else dataclasses.asdict(status.live),
+            "ghost": None if status.ghost is None else dataclasses.asdict(status.ghost),
+            "delta": None if delta is None else dataclasses.asdict(delta),
+        },
+        "versions": versions,
+    }
+
+
+@router.get("/ghost")
+def get_ghost(services: ServicesDep) -> dict[str, Any]:
+    """The ghost's source, phase lock, its parameter differences from the live set, and speed,
+    turn rate and gyro RMS of both robots over the last 10 s (with ghost - live)."""
+    return _state(services)
+
+
+@router.put("/ghost", responses=responses(404, 422))
+def put_ghost(body: GhostBody, services: ServicesDep) -> dict[str, Any]:
+    """Let a preset or an earlier version walk beside the live robot, phase-locked, with the live
+    motion vector and CA. It replaces any ghost there was."""
+    if body.preset is not None:
+        try:
+            gait, source = services.presets.get(body.preset).gait, f"preset {body.preset}"
+        except PresetNotFound as exc:
+            names = ", ".join(p.name for p in services.presets.list())
+            raise ApiError(
+                404, f"no preset named {body.preset!r}; presets: {names}", "not_found",
+                loc=["body", "preset"],
+            ) from exc  # fmt: skip
+        except PresetError as exc:
+            raise ApiError(422, str(exc), "invalid_preset", loc=["body", "preset"]) from exc
+    else:
+        found = {s.version: s for s in services.store.versions()}
+        if body.version not in found:
+            allowed = ", ".join(str(v) for v in sorted(found))
+            raise ApiError(
+                404, f"no version {body.version} to compare with; versions: {allowed}",
+                "not_found", loc=["body", "version"],
+            )  # fmt: skip
+        gait, source = found[body.version].gait, f"version {body.version}"
+    services.sim.command(Command.GHOST, (gait, source))
+    return {"accepted": "ghost", "source": source}
+
+
+@router.delete("/ghost")
+def delete_ghost(services: ServicesDep) -> dict[str, Any]:
+    """No ghost."""
+    services.sim.command(Command.GHOST, None)
+    return {"accepted": "ghost", "source": None}
