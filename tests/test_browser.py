@@ -513,3 +513,37 @@ def test_the_ghost_walks_beside_the_robot_with_its_differences_listed(dashboard)
         )
     finally:
         http.delete("/api/ghost")
+
+
+def test_a_recording_replays_in_the_scope_and_the_3d_view(dashboard):
+    page, http = dashboard
+    frame = page.locator("#viser-frame")
+    wait_until(page, lambda: http.get("/api/recording").json()["frames"] > 100, "a recording")
+    try:
+        page.locator("#replay-enter").click()
+        expect(page.locator("#replay-live")).to_be_visible(timeout=10_000)
+        expect(page.locator("#scope-info")).to_contain_text("recorded", timeout=10_000)
+        assert http.get("/api/state").json()["paused"]
+        scrub = page.locator("#replay-scrub")
+        frame.scroll_into_view_if_needed()
+
+        def view():
+            return np.asarray(Image.open(io.BytesIO(frame.screenshot())).convert("L")).astype(int)
+
+        before = view()
+        for index in (60, 10):  # the 3D view follows the scrub bar one way and back
+            scrub.fill(str(index))
+            expect(page.locator("#replay-info")).to_contain_text(f"frame {index + 1}/")
+            recorded = http.get(f"/api/recording/frame/{index}").json()
+            expect(page.locator("#scope-info")).to_contain_text(f"#{recorded['frame']} ")
+            (before,) = wait_until(
+                page,
+                lambda b=before: (np.abs((v := view()) - b) > 30).sum() > 200 and (v,),
+                f"the 3D view showing recorded frame {index}",
+            )
+        page.locator("#replay-live").click()
+        expect(page.locator("#replay-live")).to_be_hidden(timeout=10_000)
+        wait_until(page, lambda: not http.get("/api/state").json()["paused"], "live again")
+        expect(page.locator("#scope-info")).not_to_contain_text("recorded", timeout=10_000)
+    finally:
+        http.post("/api/recording/live")

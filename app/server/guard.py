@@ -23,8 +23,11 @@ SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 JSON_TYPES = frozenset({"application/json"})
 YAML_TYPES = frozenset({"application/yaml", "application/x-yaml", "text/yaml"})
 IMPORT_PATH = "/api/import"
+RECORDING_IMPORT_PATH = "/api/recording/import"
 MAX_BODY_BYTES = 16 * 1024  # a parameter set is about 4 KiB
 MAX_IMPORT_BODY_BYTES = MAX_IMPORT_BYTES
+MAX_RECORDING_BODY_BYTES = 16 * 1024 * 1024  # a 60 s recording file is about 2 MB
+BODY_LIMITS = {IMPORT_PATH: MAX_IMPORT_BODY_BYTES, RECORDING_IMPORT_PATH: MAX_RECORDING_BODY_BYTES}
 GUARDED_PREFIXES = ("/api/", "/ws/")
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})
@@ -94,7 +97,7 @@ class Guard:
         if scope["type"] == "websocket":
             await self.app(scope, receive, send)
             return
-        limit = MAX_IMPORT_BODY_BYTES if scope["path"] == IMPORT_PATH else MAX_BODY_BYTES
+        limit = BODY_LIMITS.get(scope["path"], MAX_BODY_BYTES)
         length = headers.get("content-length")
         if length is not None and (not length.isdigit() or int(length) > limit):
             await _refuse(scope, receive, send, *_too_large(limit))

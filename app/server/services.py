@@ -11,6 +11,7 @@ from app.server.axle_fitter import AxleFitter
 from app.server.ca_calibrator import CaCalibrator
 from app.server.guard import served_hosts
 from app.server.param_store import ParameterStore
+from app.server.replay import Replay
 from app.server.sim_thread import SimThread
 
 
@@ -40,6 +41,7 @@ class Services:
         self.store = ParameterStore(initial)
         self.presets = PresetStore(config.data_dir, builtins)
         self.sim = SimThread(self.store)
+        self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
         self.axle_fitter = AxleFitter()  # its jobs: GET /api/jobs/{id}
@@ -56,6 +58,7 @@ class Services:
                 axle_fitter=self.axle_fitter,
                 ca_calibrator=self.ca_calibrator,
                 presets=self.presets,
+                replay=self.replay,
                 model=self.sim.model,
                 host=config.host,
                 port=config.viser_port,
@@ -68,6 +71,7 @@ class Services:
             self.viewer.start()
 
     def stop(self) -> None:
+        self.replay.leave()
         self.axle_fitter.jobs.stop()  # the fit and the calibration: no simulation outlives us
         if self.viewer is not None:
             self.viewer.stop()

@@ -18,6 +18,7 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
+import mujoco
 import numpy as np
 
 from app.core.frame_loop import FRAME_S, START_PHASE_RAD, FrameLoop, FrameRecord
@@ -28,6 +29,7 @@ from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, Firmware
 from app.server.ghost import Ghost, GhostStatus
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
+from app.server.recorder import Recorder
 from app.server.scope_feed import ScopeFeed
 from gait import GaitParams
 from hardware import HardwareSetup
@@ -137,6 +139,9 @@ class SimThread:
         self._load_report = self._load.report()
         self.scope = ScopeFeed(self.hardware.tdm)
         self.paths = PathTracker()
+        model_name = bytes(self.model.names).split(b"\0", 1)[0].decode() or "robot"
+        self.recorder = Recorder(self.model.nq, model_name)  # written by this thread only
+        self.recorder.keep_params(snap.version, snap.parameter_set().to_dict())
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         self._commands: queue.SimpleQueue[tuple[Command, Any]] = queue.SimpleQueue()
         self._wake = threading.Event()
@@ -219,6 +224,10 @@ class SimThread:
         self.command(Command.DRIVE, driver)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
+        self.recorder.keep_params(snapshot.version, snapshot.parameter_set().to_dict())
+        self.recorder.event(
+            "params", version=snapshot.version, source=source, changed=sorted(changed)
+        )
         if self._pending is None:
             self._pending = (self._status.frame, time.monotonic())
         self._wake.set()
@@ -351,6 +360,9 @@ class SimThread:
             self._ghost.step(sim, self._applied.motion)
             if record.index % GHOST_PUBLISH_FRAMES == 0:
                 self._ghost_status = self._ghost.status()
+        self.recorder.add(record, sim.data.qpos, self._applied.version)
+        if sim.fell:
+            self.recorder.event("fall", motion=dataclasses.asdict(record.motion))
         self.scope.publish(record, self._applied.version)
         self._load.add(self._loop.data, record.saturated_servos)
         if record.index % LOAD_PUBLISH_FRAMES == 0:
@@ -381,6 +393,9 @@ class SimThread:
             self._firmware.close()
         self._firmware = driver
         self._firmware_waited = 0
+        self.recorder.event(
+            "drive", drive=(Drive.MODEL if driver is None else Drive.FIRMWARE).value
+        )
         if driver is not None:
             if self._applied.version != driver.built_version:
                 driver.send(self._applied)  # the set changed while it was built
@@ -397,6 +412,7 @@ class SimThread:
             self._ghost.place_beside(self._loop)
             self._ghost_status = self._ghost.status()
         self.resets += 1
+        self.recorder.event("reset")
         self._rtf_window.clear()  # the simulated time restarts: a ratio across it means nothing
         self._load.clear()
         self.paths.clear()

@@ -31,6 +31,7 @@ if TYPE_CHECKING:
     from app.server.ca_calibrator import CaCalibrator
     from app.server.param_store import ParameterStore
     from app.server.path_tracker import PathTracker
+    from app.server.replay import Replay
     from app.server.sim_thread import SimThread
 
 log = logging.getLogger(__name__)
@@ -62,6 +63,7 @@ class Viewer:
         axle_fitter: AxleFitter,
         ca_calibrator: CaCalibrator,
         presets: PresetStore,
+        replay: Replay,
         model: mujoco.MjModel,
         host: str,
         port: int,
@@ -72,6 +74,7 @@ class Viewer:
         self.axle_fitter = axle_fitter
         self.ca_calibrator = ca_calibrator
         self.presets = presets
+        self.replay = replay
         sim.publish_poses = True
         self.server = viser.ViserServer(host=host, port=port, verbose=False)
         # the panel is docked at the right edge and starts minimized: it never covers the robot,
@@ -154,6 +157,14 @@ class Viewer:
         for group in schema_description():
             self._build_group(group)
         self._show_engine(engine)
+        with gui.add_folder("Replay", expand_by_default=False):
+            self._replay_text = gui.add_markdown("live")
+            self._replay_slider = gui.add_slider(
+                "Position (frame)", 0, 1, 1, 0, hint="scrub through the recorded last 60 s"
+            )
+            self._replay_slider.on_update(self._replay_seek)
+            replay_buttons = gui.add_button_group("Recording", ("Replay", "Back to live"))
+            replay_buttons.on_click(lambda e: self._replay_button(e.target.value))
         with gui.add_folder("Paths"):
             self._path_text = gui.add_markdown("")
             self._show_paths = gui.add_checkbox("Show paths", True)
@@ -202,6 +213,26 @@ class Viewer:
             self.sim.command(Command.GHOST, (versions[1].gait, f"version {versions[1].version}"))
         else:
             self.sim.command(Command.GHOST, (self.presets.get(choice).gait, f"preset {choice}"))
+
+    def _replay_button(self, which: str) -> None:
+        if which == "Back to live":
+            self.replay.leave()
+            return
+        try:
+            self.replay.enter()
+        except ValueError:
+            return  # nothing recorded yet: the status says "live"
+        status = self.replay.status()
+        self._replay_slider.max = max(status["frames"] - 1, 1)
+        self._replay_slider.value = status["index"]
+
+    def _replay_seek(self, event: viser.GuiEvent) -> None:
+        if event.client is None or not self.replay.active:
+            return
+        try:
+            self.replay.enter(int(self._replay_slider.value))
+        except (ValueError, IndexError):
+            pass
 
     def _reset_with_motion_zero(self) -> None:
         zero = {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
@@ -377,17 +408,18 @@ class Viewer:
     # --- refresh loop -----------------------------------------------------------------------------
 
     def _refresh_loop(self) -> None:
-        shown = -1
+        shown: tuple[bool, int] | None = None
         next_paths = 0.0
         period = 1.0 / FRAME_RATE_HZ
         while not self._stop.wait(period):
             try:
                 if not self.server.get_clients():
-                    shown = -1  # nobody is watching: no scene updates until someone connects
+                    shown = None  # nobody is watching: no scene updates until someone connects
                     continue
-                poses = self.sim.body_poses()
-                if poses is not None and poses.serial != shown:
-                    shown = poses.serial
+                replaying = self.replay.active
+                poses = self.replay.poses() if replaying else self.sim.body_poses()
+                if poses is not None and (replaying, poses.serial) != shown:
+                    shown = (replaying, poses.serial)
                     self.scene.update_from_arrays(
                         poses.xpos[None], poses.xmat.reshape(-1, 3, 3)[None]
                     )
@@ -417,6 +449,15 @@ class Viewer:
             text += f"{100 * f.busy_cycles_max / FRAME_CYCLES:.0f} % of a frame (max of 1 s)"
         _assign(self._status, "content", text)
         _assign(self._drive, "value", s.drive)
+        r = self.replay.status()
+        if r["active"]:
+            text = f"**replaying** {r['origin']}: frame {r['index'] + 1} of {r['frames']}, "
+            text += f"t = {r['t_s']:.2f} s"
+            _assign(self._replay_slider, "max", max(r["frames"] - 1, 1))
+            _assign(self._replay_slider, "value", r["index"])
+        else:
+            text = f"live; {self.sim.recorder.session_s:.0f} s recorded (the last 60 s are kept)"
+        _assign(self._replay_text, "content", text)
         ghost = self.sim.ghost_status()
         shown = GHOST_OFF if ghost is None else ghost.source.removeprefix("preset ")
         if shown in self._ghost_choice.options:

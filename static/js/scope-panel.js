@@ -146,6 +146,18 @@ function setMode(mode) {
   requestDraw();
 }
 
+/** Replay: show this recorded frame, frozen (null: back to the live frames). */
+export function showRecorded(frame) {
+  state.frozen = !!frame;
+  state.frozenFrame = frame;
+  if (frame) state.frozenSamples = buffer.toArray();
+  const run = $("scope-run");
+  run.textContent = frame ? "REPLAY" : "RUN";
+  run.className = `badge ${frame ? "warn" : "ok"}`;
+  $("scope-freeze").disabled = !!frame;
+  requestDraw();
+}
+
 function toggleFreeze() {
   state.frozen = !state.frozen;
   if (state.frozen) {
@@ -277,7 +289,7 @@ function updateFrameInfo(frame) {
     flags.replaceChildren();
     return;
   }
-  const pins = frame.source === "firmware" ? " · firmware pins" : "";
+  const pins = (frame.source === "firmware" ? " · firmware pins" : "") + (frame.recorded ? " · recorded" : "");
   info.textContent = `#${frame.frame} · ${frame.t_s.toFixed(2)} s · φ ${frame.phase_rad.toFixed(2)}${pins}`;
   info.title = `frame number, sim time and trunk phase φ (rad) of the frame shown; parameters v${frame.params_version ?? "?"}`;
   const f = frame.flags || {};

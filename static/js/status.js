@@ -81,6 +81,7 @@ async function refresh() {
 }
 
 function stateText(s) {
+  if (s.replay?.active) return "replaying — paused";
   if (s.fell) return "fallen — stopped";
   if (s.paused) return "paused";
   const rtf = s.rtf == null || s.sim_time_s < RTF_WINDOW_S ? "—" : `${fmt(s.rtf, 2)}×`;

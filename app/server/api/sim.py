@@ -47,6 +47,7 @@ def state(services: ServicesDep) -> dict[str, Any]:
         "params_version": services.store.snapshot().version,
         "scope": {"clients": sim.scope.client_count, "dropped": sim.scope.dropped},
         "running": sim.alive,
+        "replay": services.replay.status(),
     }
 
 

@@ -1,0 +1,130 @@
+"""Record and replay: the session's last 60 s (poses, pulses, parameter changes with their
+sources), a replay position for the 3D view and the scope, export as a file or VCD, import."""
+
+from __future__ import annotations
+
+import json
+import time
+from typing import Any
+
+from fastapi import APIRouter, Request
+from fastapi.responses import Response
+from pydantic import BaseModel, ConfigDict, Field
+from starlette.concurrency import run_in_threadpool
+
+from app.core.mcu.vcd import edges_of_frames, vcd_text
+from app.params.formats import ParameterImportError, load_json_strict
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.recorder import Recording, recording_from_json
+from app.server.replay import NothingRecorded
+from app.server.services import Services
+from hardware import frame_edges
+
+router = APIRouter(
+    prefix="/api/recording",
+    tags=["recording"],
+    responses=GUARD_RESPONSES,
+    route_class=StrictJsonRoute,
+)
+
+
+class ReplayBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    index: int | None = Field(
+        None, description="position in the recording, 0 = its oldest frame; null: the newest"
+    )
+
+
+def _summary(services: Services) -> dict[str, Any]:
+    live = services.sim.recorder.recording()
+    return {
+        "frames": len(live),
+        "capacity": services.sim.recorder.capacity,
+        "first_t_s": float(live.t_s[0]) if len(live) else None,
+        "last_t_s": float(live.t_s[-1]) if len(live) else None,
+        "events": list(live.events[-50:]),
+        "replay": services.replay.status(),
+    }
+
+
+def _shown(services: Services) -> Recording:
+    """The recording in replay, else the session so far."""
+    return services.replay.recording or services.sim.recorder.recording()
+
+
+@router.get("")
+def get_recording(services: ServicesDep) -> dict[str, Any]:
+    """What the ring buffer holds (frames, session times, the last 50 events) and the replay."""
+    return _summary(services)
+
+
+@router.post("/replay", responses=responses(409, 422))
+def replay(body: ReplayBody, services: ServicesDep) -> dict[str, Any]:
+    """Replay (the live simulation pauses) at `index`, or move there while replaying."""
+    try:
+        services.replay.enter(body.index)
+    except NothingRecorded as exc:
+        raise ApiError(409, str(exc), "nothing_recorded", loc=["body"]) from exc
+    except IndexError as exc:
+        raise ApiError(422, str(exc), "out_of_range", loc=["body", "index"]) from exc
+    return services.replay.status()
+
+
+@router.post("/live")
+def back_to_live(services: ServicesDep) -> dict[str, Any]:
+    """Leave the replay; the simulation resumes if it ran before."""
+    services.replay.leave()
+    return services.replay.status()
+
+
+@router.get("/frame/{index}", responses=responses(404))
+def recorded_frame(index: int, services: ServicesDep) -> dict[str, Any]:
+    """The scope frame at `index` of the replay (or of the session so far)."""
+    try:
+        return services.replay.frame_message(index, services.sim.hardware.tdm)
+    except IndexError as exc:
+        raise ApiError(404, str(exc), "not_found", loc=["path", "index"]) from exc
+
+
+def _download(text: str, suffix: str, media_type: str) -> Response:
+    name = time.strftime(f"artro-recording-%Y%m%d-%H%M%S.{suffix}")
+    headers = {"Content-Disposition": f'attachment; filename="{name}"'}
+    return Response(text, media_type=media_type, headers=headers)
+
+
+@router.get("/export", responses=responses(409))
+def export(services: ServicesDep) -> Response:
+    """The recording (the replay's, or the session so far) as one JSON file: per frame the
+    poses (qpos), the OCR table, phase, times and parameter version; the events; the parameter
+    documents of every version in it."""
+    rec = _shown(services)
+    if not len(rec):
+        raise ApiError(409, "nothing recorded yet", "nothing_recorded", loc=["path"])
+    return _download(json.dumps(rec.to_json(), separators=(",", ":")), "json", "application/json")
+
+
+@router.get("/export.vcd", responses=responses(409))
+def export_vcd(services: ServicesDep) -> Response:
+    """The recording's nine drive lines as a Value Change Dump (PulseView, GTKWave): OC1A..OC3C,
+    SEL0..SEL2, from the recorded OCR tables as the hardware model puts them on the wires."""
+    rec = _shown(services)
+    if not len(rec):
+        raise ApiError(409, "nothing recorded yet", "nothing_recorded", loc=["path"])
+    tdm = services.sim.hardware.tdm
+    edges = edges_of_frames([frame_edges(ocr, tdm) for ocr in rec.ocr])
+    first, last = int(rec.frame[0]), int(rec.frame[-1])
+    text = vcd_text(edges, 0, comment=f"recorded frames {first}..{last}, {rec.model}")
+    return _download(text, "vcd", "text/plain")
+
+
+@router.post("/import", responses=responses(422))
+async def import_recording(request: Request, services: ServicesDep) -> dict[str, Any]:
+    """Load a recording file (from export) and replay it from its first frame."""
+    body, nq = await request.body(), services.sim.model.nq
+    try:  # megabytes of JSON: parsed off the event loop
+        rec = await run_in_threadpool(lambda: recording_from_json(load_json_strict(body), nq))
+    except (ValueError, ParameterImportError, UnicodeDecodeError) as exc:
+        raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=["body"]) from exc
+    services.replay.enter(0, recording=rec)
+    return services.replay.status()

@@ -1,0 +1,136 @@
+"""Replay a recording: the live simulation pauses, a position in the recording gives the 3D
+view its poses (forward kinematics of the recorded qpos on this module's own MjData) and the
+scope its frame (docs/DESIGN.md §8). Called from HTTP and viewer threads, under one lock.
+"""
+
+from __future__ import annotations
+
+import math
+import threading
+from dataclasses import dataclass
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from app.server.recorder import Recorder, Recording
+from app.server.scope_frames import frame_to_dict
+from app.server.sim_thread import Command, SimThread
+from hardware import TdmConfig
+
+
+class NothingRecorded(ValueError):
+    """A replay was asked for before any frame was recorded."""
+
+
+@dataclass(frozen=True)
+class ReplayPoses:
+    """The bodies' poses at the replay position (the same fields the 3D view reads live)."""
+
+    serial: int
+    xpos: np.ndarray
+    xmat: np.ndarray
+    ghost_xpos: None = None
+    ghost_xmat: None = None
+
+
+class Replay:
+    def __init__(self, model: mujoco.MjModel, recorder: Recorder, sim: SimThread) -> None:
+        self.model, self.recorder, self.sim = model, recorder, sim
+        self._data = mujoco.MjData(model)  # this module's alone, under the lock
+        self._lock = threading.Lock()
+        self.recording: Recording | None = None  # what is replayed; None: live
+        self.origin = "live"  # "live": the session's ring; "file": an imported recording
+        self.index = 0
+        self._serial = 0
+        self._poses: ReplayPoses | None = None
+        self._resume_after = False
+
+    @property
+    def active(self) -> bool:
+        return self.recording is not None
+
+    def poses(self) -> ReplayPoses | None:
+        return self._poses
+
+    def enter(self, index: int | None = None, recording: Recording | None = None) -> None:
+        """Replay `recording` (default: the session so far) at `index` (default: its last
+        frame, or where the replay is). NothingRecorded, or IndexError with the allowed range;
+        nothing changes then."""
+        with self._lock:
+            new = recording is not None or self.recording is None
+            rec = recording if recording is not None else self.recording
+            if rec is None:
+                rec = self.recorder.recording()
+            if len(rec) == 0:
+                raise NothingRecorded("nothing recorded yet: let the simulation run first")
+            if index is None:
+                index = len(rec) - 1 if new else self.index
+            self._check(rec, index)
+            if self.recording is None:  # from live: pause it, resume it when leaving
+                self._resume_after = not self.sim.status().paused
+                self.sim.command(Command.PAUSE)
+            if new:
+                self.origin = "live" if recording is None else "file"
+            self.recording = rec
+            self._show(index)
+
+    def leave(self) -> None:
+        """Back to the live simulation (resumed if it was running before the replay)."""
+        with self._lock:
+            if self.recording is None:
+                return
+            self.recording, self._poses = None, None
+            if self._resume_after:
+                self.sim.command(Command.RESUME)
+
+    def frame_message(self, index: int, tdm: TdmConfig) -> dict[str, Any]:
+        """The scope frame at `index` of the replayed recording (or, live, of the session so
+        far); IndexError with the allowed range."""
+        rec = self.recording or self.recorder.recording()
+        self._check(rec, index)
+        return {
+            "index": index,
+            "frame": int(rec.frame[index]),
+            "t_s": round(float(rec.sim_t_s[index]), 6),
+            "session_t_s": round(float(rec.t_s[index]), 6),
+            "phase_rad": float(rec.phase[index]),
+            "params_version": int(rec.version[index]),
+            "source": "firmware" if rec.drive[index] else "model",
+            "recorded": True,
+            **frame_to_dict(rec.ocr[index].astype(np.int32), tdm),
+        }
+
+    def status(self) -> dict[str, Any]:
+        rec = self.recording
+        if rec is None:
+            return {"active": False}
+        return {
+            "active": True,
+            "origin": self.origin,
+            "index": self.index,
+            "frames": len(rec),
+            "session_t_s": float(rec.t_s[self.index]),
+            "t_s": float(rec.sim_t_s[self.index]),
+            "frame": int(rec.frame[self.index]),
+        }
+
+    @staticmethod
+    def _check(rec: Recording, index: int) -> None:
+        if not 0 <= index < len(rec):
+            raise IndexError(
+                f"index must be 0 to {len(rec) - 1} (the recorded frames), got {index}"
+            )
+
+    def _show(self, index: int) -> None:
+        rec = self.recording
+        assert rec is not None
+        self.index = index
+        self._data.qpos[:] = rec.qpos[index]
+        quat = self._data.qpos[3:7]
+        norm = math.sqrt(float(quat @ quat))
+        if norm > 0.0:
+            quat /= norm  # float32 storage: renormalise the trunk orientation
+        mujoco.mj_kinematics(self.model, self._data)
+        self._serial += 1
+        self._poses = ReplayPoses(self._serial, self._data.xpos.copy(), self._data.xmat.copy())
