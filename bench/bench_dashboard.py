@@ -10,12 +10,14 @@ client of the scope WebSocket and of the embedded viser 3D view), and for `--sec
     with it (the servos receive it at that frame's pulse falling edges, within the frame).
 
     python bench/bench_dashboard.py [--clients 2] [--seconds 60] [--no-3d] [--drive firmware]
-                                    [--cycle-view]
+                                    [--cycle-view] [--ghost PRESET]
 
 --no-3d opens the pages with the 3D view hidden (the iframe is removed), to separate what
 software WebGL rendering in headless Chromium costs on this machine from the server's own load.
---cycle-view shows the scope's cycle-folded plots (mean ± band over the gait phase) in every page
-instead of the single frame. --drive firmware serves with the robot's firmware on the emulated
+--ghost PRESET lets that preset walk beside the robot (the A/B ghost: a second simulated robot,
+drawn in every 3D view, its metrics in every page). --cycle-view shows the scope's cycle-folded
+plots (mean ± band over the gait phase) in every page instead of the single frame.
+--drive firmware serves with the robot's firmware on the emulated
 ATmega128 making the pulses; the changes then travel over its emulated UART (57600 baud), which
 the latency includes.
 """
@@ -48,6 +50,7 @@ def main() -> None:
     parser.add_argument("--no-3d", action="store_true", help="hide the embedded 3D view")
     parser.add_argument("--drive", choices=("model", "firmware"), default="model")
     parser.add_argument("--cycle-view", action="store_true", help="the scope's folded plots")
+    parser.add_argument("--ghost", metavar="PRESET", help="an A/B ghost walking this preset")
     args = parser.parse_args()
 
     port, viser_port = free_port(), free_port()
@@ -73,6 +76,8 @@ def main() -> None:
                     raise
                 time.sleep(0.2)  # the server is still binding its port: try again
         http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+        if args.ghost:
+            http.put("/api/ghost", json={"preset": args.ghost}).raise_for_status()
         run(args, base, http, server.pid)
     finally:
         server.terminate()
@@ -117,6 +122,7 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
     page_fps = [(e - s) / wall for s, e in zip(page_start, page_end, strict=True)]
     view = " (3D view removed)" if args.no_3d else " (with the 3D view)"
     view += ", scope in the cycle-folded view" if args.cycle_view else ""
+    view += f", ghost {args.ghost} walking beside" if args.ghost else ""
     print(f"dashboard clients   : {args.clients} headless Chromium pages{view}, {wall:.0f} s")
     print(
         f"real-time factor    : {rtf:.3f} over the window; 2 s windows min {min(windows):.3f}"

@@ -18,7 +18,6 @@ from collections import deque
 from dataclasses import dataclass
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from app.core.frame_loop import FRAME_S, START_PHASE_RAD, FrameLoop, FrameRecord
