@@ -85,7 +85,7 @@ async function show(status, fetchFrame = true) {
   const was = active;
   active = !!status.active;
   $("replay-bar").classList.toggle("active", active);
-  $("replay-live").hidden = !active;
+  $("replay-live").style.visibility = active ? "visible" : "hidden"; // keeps its place: no jump
   for (const id of ["replay-scrub", "replay-prev", "replay-next"]) $(id).disabled = !active;
   if (!active) {
     if (was) showRecorded(null);

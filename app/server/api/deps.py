@@ -8,12 +8,25 @@ import json
 from collections.abc import Callable, Coroutine
 from typing import Annotated, Any
 
+from annotated_types import Ge
 from fastapi import Depends, Request, Response, WebSocket
 from fastapi.routing import APIRoute
+from pydantic import BeforeValidator
 from starlette.concurrency import run_in_threadpool
 
 from app.params.formats import ParameterImportError, load_json_strict
 from app.server.services import Services
+
+
+def _whole_float_to_int(value: Any) -> Any:
+    return int(value) if isinstance(value, float) and value.is_integer() else value
+
+
+def json_int(minimum: int) -> Any:
+    """An integer >= minimum as JSON has it: JSON Schema's integer includes 3.0, so a whole
+    float is taken; strings and booleans stay refused (strict)."""
+    return Annotated[int, Ge(minimum), BeforeValidator(_whole_float_to_int)]
+
 
 INLINE_PARSE_BYTES = 2048  # smaller bodies parse in microseconds: not worth a thread hop
 

@@ -6,10 +6,11 @@ import dataclasses
 from typing import Any
 
 from fastapi import APIRouter
-from pydantic import BaseModel, ConfigDict, Field, model_validator
+from pydantic import BaseModel, ConfigDict, Field
 
 from app.params.presets import PresetError, PresetNotFound, diff
-from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
+from app.server.api.presets import NAME_SCHEMA_PATTERN
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.services import Services
 from app.server.sim_thread import Command
@@ -19,18 +20,18 @@ router = APIRouter(
 )
 
 
-class GhostBody(BaseModel):
+class PresetGhost(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    preset: str | None = Field(None, max_length=64, description="a built-in or saved preset")
-    version: int | None = Field(
-        None, ge=1, description="an earlier parameter version (the undo history) or the current"
+    preset: str = Field(
+        max_length=64, pattern=NAME_SCHEMA_PATTERN, description="a built-in or saved preset"
     )
 
-    @model_validator(mode="after")
-    def one_source(self) -> GhostBody:
-        if (self.preset is None) == (self.version is None):
-            raise ValueError("give exactly one of preset (a name) or version (a number)")
-        return self
+
+class VersionGhost(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    version: json_int(1) = Field(
+        description="an earlier parameter version (undo history) or the current"
+    )
 
 
 def _state(services: Services) -> dict[str, Any]:
@@ -71,10 +72,10 @@ def get_ghost(services: ServicesDep) -> dict[str, Any]:
 
 
 @router.put("/ghost", responses=responses(404, 422))
-def put_ghost(body: GhostBody, services: ServicesDep) -> dict[str, Any]:
+def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[str, Any]:
     """Let a preset or an earlier version walk beside the live robot, phase-locked, with the live
     motion vector and CA. It replaces any ghost there was."""
-    if body.preset is not None:
+    if isinstance(body, PresetGhost):
         try:
             gait, source = services.presets.get(body.preset).gait, f"preset {body.preset}"
         except PresetNotFound as exc:

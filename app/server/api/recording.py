@@ -14,7 +14,7 @@ from starlette.concurrency import run_in_threadpool
 
 from app.core.mcu.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
-from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.recorder import Recording, recording_from_json
 from app.server.replay import NothingRecorded
@@ -31,8 +31,9 @@ router = APIRouter(
 
 class ReplayBody(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    index: int | None = Field(
-        None, description="position in the recording, 0 = its oldest frame; null: the newest"
+    index: json_int(0) | None = Field(
+        None,
+        description="position in the recording, 0 = its oldest frame; null: the newest",
     )
 
 
@@ -59,15 +60,15 @@ def get_recording(services: ServicesDep) -> dict[str, Any]:
     return _summary(services)
 
 
-@router.post("/replay", responses=responses(409, 422))
+@router.post("/replay", responses=responses(404, 409, 422))
 def replay(body: ReplayBody, services: ServicesDep) -> dict[str, Any]:
     """Replay (the live simulation pauses) at `index`, or move there while replaying."""
     try:
         services.replay.enter(body.index)
     except NothingRecorded as exc:
         raise ApiError(409, str(exc), "nothing_recorded", loc=["body"]) from exc
-    except IndexError as exc:
-        raise ApiError(422, str(exc), "out_of_range", loc=["body", "index"]) from exc
+    except IndexError as exc:  # no frame there: as GET /api/recording/frame/{index}
+        raise ApiError(404, str(exc), "not_found", loc=["body", "index"]) from exc
     return services.replay.status()
 
 
@@ -78,7 +79,7 @@ def back_to_live(services: ServicesDep) -> dict[str, Any]:
     return services.replay.status()
 
 
-@router.get("/frame/{index}", responses=responses(404))
+@router.get("/frame/{index}", responses=responses(404, 422))
 def recorded_frame(index: int, services: ServicesDep) -> dict[str, Any]:
     """The scope frame at `index` of the replay (or of the session so far)."""
     try:
@@ -104,7 +105,10 @@ def export(services: ServicesDep) -> Response:
     return _download(json.dumps(rec.to_json(), separators=(",", ":")), "json", "application/json")
 
 
-@router.get("/export.vcd", responses=responses(409))
+@router.get(
+    "/export.vcd",
+    responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}}}, **responses(409)},
+)
 def export_vcd(services: ServicesDep) -> Response:
     """The recording's nine drive lines as a Value Change Dump (PulseView, GTKWave): OC1A..OC3C,
     SEL0..SEL2, from the recorded OCR tables as the hardware model puts them on the wires."""
@@ -115,10 +119,33 @@ def export_vcd(services: ServicesDep) -> Response:
     edges = edges_of_frames([frame_edges(ocr, tdm) for ocr in rec.ocr])
     first, last = int(rec.frame[0]), int(rec.frame[-1])
     text = vcd_text(edges, 0, comment=f"recorded frames {first}..{last}, {rec.model}")
-    return _download(text, "vcd", "text/plain")
+    return _download(text, "vcd", "text/plain; charset=utf-8")
 
 
-@router.post("/import", responses=responses(422))
+IMPORT_BODY = {
+    "requestBody": {
+        "required": True,
+        "description": "a recording file as GET /api/recording/export writes it (at most 16 MiB)",
+        "content": {
+            "application/json": {
+                "schema": {
+                    "type": "object",
+                    "required": ["format", "format_version", "columns"],
+                    "properties": {
+                        "format": {"const": "artro-recording"},
+                        "format_version": {"const": 1},
+                        "columns": {"type": "object"},
+                        "events": {"type": "array", "items": {"type": "object"}},
+                        "params": {"type": "object"},
+                    },
+                }
+            }
+        },
+    }
+}
+
+
+@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(413, 422))
 async def import_recording(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Load a recording file (from export) and replay it from its first frame."""
     body, nq = await request.body(), services.sim.model.nq
