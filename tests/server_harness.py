@@ -71,3 +71,15 @@ def running_server(
 
 def client(base_url: str) -> httpx.Client:
     return httpx.Client(base_url=base_url, timeout=10)
+
+
+def wait_for(condition, what: str, attempts: int = 600):
+    """Poll `condition()` every 50 ms until it returns something truthy (about 30 s at most);
+    the waiting is on a condition, never on the clock alone."""
+    gate = threading.Event()
+    for _ in range(attempts):
+        result = condition()
+        if result:
+            return result
+        gate.wait(0.05)
+    raise AssertionError(f"never happened: {what}")

@@ -5,7 +5,6 @@ a real server)."""
 from __future__ import annotations
 
 import math
-import threading
 
 import httpx
 import numpy as np
@@ -19,20 +18,9 @@ from app.server.sim_thread import Command, SimThread
 from gait import GaitParams, Motion
 from hardware import TICK_US, US_PER_DEG
 from tests.firmware_support import preset
-from tests.server_harness import running_server
+from tests.server_harness import running_server, wait_for
 
 ONE_TICK_RAD = math.radians(TICK_US / US_PER_DEG)
-
-
-def wait_for(condition, what: str, attempts: int = 600):
-    """Poll `condition()` until it returns something true (about 30 s at most)."""
-    gate = threading.Event()
-    for _ in range(attempts):
-        value = condition()
-        if value:
-            return value
-        gate.wait(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
 
 
 def pins_of(frame) -> PinFrame:

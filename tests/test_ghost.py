@@ -4,7 +4,6 @@ simulation thread's `Ghost`, real MuJoCo) and its API on a real server."""
 from __future__ import annotations
 
 import math
-import threading
 
 import httpx
 
@@ -14,17 +13,7 @@ from app.server.ghost import BESIDE_M, Ghost
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import Command, SimThread
 from gait import GaitParams, Motion
-
-
-def wait_for(condition, what: str, attempts: int = 600):
-    """Poll `condition()` until it returns something true (about 30 s at most)."""
-    gate = threading.Event()
-    for _ in range(attempts):
-        value = condition()
-        if value:
-            return value
-        gate.wait(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+from tests.server_harness import wait_for
 
 
 def walking(preset: str = "tuned", a_p: float = 0.07) -> FrameLoop:

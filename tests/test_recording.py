@@ -4,7 +4,6 @@ round trips (real FrameLoop, real MuJoCo), and the API on a real server."""
 from __future__ import annotations
 
 import json
-import threading
 
 import httpx
 import mujoco
@@ -22,17 +21,7 @@ from app.server.replay import Replay
 from app.server.sim_thread import SimThread
 from gait import Motion
 from hardware import HardwareSetup, frame_edges
-
-
-def wait_for(condition, what: str, attempts: int = 600):
-    """Poll `condition()` until it returns something true (about 30 s at most)."""
-    gate = threading.Event()
-    for _ in range(attempts):
-        value = condition()
-        if value:
-            return value
-        gate.wait(0.05)
-    raise AssertionError(f"timed out waiting for {what}")
+from tests.server_harness import wait_for
 
 
 @pytest.fixture(scope="module")

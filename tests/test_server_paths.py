@@ -1,19 +1,8 @@
 """The path view's API against a live server: Clear, re-anchoring on a motion change, and a fitted
 axle marked stale once the gait changes (issue 9)."""
 
-import time
-
 from gait import GaitParams
-
-
-def wait_for(condition, what: str, attempts: int = 200):
-    """Poll `condition()` every 50 ms until it returns something truthy."""
-    for _ in range(attempts):
-        result = condition()
-        if result:
-            return result
-        time.sleep(0.05)
-    raise AssertionError(f"never happened: {what}")
+from tests.server_harness import wait_for
 
 
 def test_clear_forgets_the_path_and_restarts_the_prediction(http):
