@@ -100,7 +100,9 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
             pages.append(page)
         for page in pages:  # every page is receiving scope frames before the clock starts
             page.wait_for_function("window.artro && window.artro.framesReceived > 0", timeout=30000)
-        page_start = [pg.evaluate("window.artro.framesReceived") for pg in pages]
+        # (frames, page clock in ms) read in each page: its rate over its own interval
+        count = "[window.artro.framesReceived, performance.now(), window.artro.lastFrame.frame]"
+        page_start = [pg.evaluate(count) for pg in pages]
         state0, wall0, cpu0 = http.get("/api/state").json(), time.monotonic(), cpu_seconds(pid)
         windows = []
         end = wall0 + args.seconds
@@ -110,7 +112,7 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
             if rtf is not None:
                 windows.append(rtf)
         state1, wall1, cpu1 = http.get("/api/state").json(), time.monotonic(), cpu_seconds(pid)
-        page_end = [pg.evaluate("window.artro.framesReceived") for pg in pages]
+        page_end = [pg.evaluate(count) for pg in pages]
         for i in range(20):  # parameter changes, 0.1 s apart, while the pages keep watching
             http.patch("/api/params", json={"motion": {"a_p": 0.06 + 0.002 * (i % 5)}})
             time.sleep(0.1)
@@ -119,7 +121,9 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
 
     wall = wall1 - wall0
     rtf = (state1["sim_time_s"] - state0["sim_time_s"]) / wall
-    page_fps = [(e - s) / wall for s, e in zip(page_start, page_end, strict=True)]
+    spans = list(zip(page_start, page_end, strict=True))
+    page_fps = [1000.0 * (e[0] - s[0]) / (e[1] - s[1]) for s, e in spans]
+    numbered = [(e[2] - s[2], e[0] - s[0]) for s, e in spans]  # frame numbers advanced, received
     view = " (3D view removed)" if args.no_3d else " (with the 3D view)"
     view += ", scope in the cycle-folded view" if args.cycle_view else ""
     view += f", ghost {args.ghost} walking beside" if args.ghost else ""
@@ -130,6 +134,11 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
         f"{state1['frames_dropped'] - state0['frames_dropped']}"
     )
     print("scope frames/s      : " + ", ".join(f"{f:.1f}" for f in page_fps) + " (per page)")
+    print(
+        "frame numbers       : "
+        + ", ".join(f"{n} advanced / {r} received" for n, r in numbered)
+        + " (per page, over its own interval)"
+    )
     print(f"server CPU          : {100 * (cpu1 - cpu0) / wall:.1f} % of one core")
     if state1.get("firmware"):
         fw = state1["firmware"]
