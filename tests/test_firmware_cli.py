@@ -6,6 +6,7 @@ import argparse
 import json
 import re
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -38,7 +39,7 @@ def test_firmware_run_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     args = parse(["firmware", "run", "--motion", "0,0.07,0", "--frames", "12", "--json",
                   "--vcd", str(vcd)])  # fmt: skip
     assert cmd_firmware(args) == 0
-    out = json.loads(capsys.readouterr().out.strip().splitlines()[-1])
+    out = json.loads(capsys.readouterr().out)
     assert out["frames"] == 12 and out["pulses_compared"] == 144
     assert out["exact"] + out["one_tick"] == 144 and out["mismatches"] == 0
     assert 0 < out["cycles_per_frame_max"] < 320_000
@@ -55,3 +56,13 @@ def test_firmware_build_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str
     assert cmd_firmware(parse(["firmware", "build", "-o", str(tmp_path / "out")])) == 0
     assert (tmp_path / "out" / "build" / "artro.hex").exists()
     assert "flash" in capsys.readouterr().out
+
+
+def test_firmware_run_json_prints_nothing_but_the_json() -> None:
+    """The emulator's own messages (simavr logs its ELF loading on stdout) stay out of it."""
+    artro = Path(sys.executable).with_name("artro")
+    run = subprocess.run(
+        [str(artro), "firmware", "run", "--frames", "5", "--json"],
+        capture_output=True, text=True, check=True,
+    )  # fmt: skip
+    assert json.loads(run.stdout)["frames"] == 5

@@ -16,6 +16,7 @@
  *    together; the harness makes simavr see such a write as the change it is.
  * docs/DESIGN.md §5.
  */
+#include <stdarg.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -205,8 +206,18 @@ static void find_timers(harness_t *h)
     }
 }
 
+/* simavr's own logger prints the ELF loader's debug lines ("Loaded ... .text") on stdout, which
+ * would corrupt what a program writes there (`artro firmware run --json`): errors go to stderr,
+ * the rest nowhere. */
+static void quiet_logger(avr_t *avr, const int level, const char *format, va_list ap)
+{
+    if (level <= LOG_ERROR && (!avr || avr->log >= level))
+        vfprintf(stderr, format, ap);
+}
+
 harness_t *artro_mcu_new(const char *elf_path, int fixes, char *error, int error_len)
 {
+    avr_global_logger_set(quiet_logger);
     elf_firmware_t firmware;
     memset(&firmware, 0, sizeof firmware);
     if (elf_read_firmware(elf_path, &firmware) != 0) {
