@@ -102,17 +102,18 @@ class Replay:
         }
 
     def status(self) -> dict[str, Any]:
-        rec = self.recording
+        with self._lock:  # the recording and the index together
+            rec, index, origin = self.recording, self.index, self.origin
         if rec is None:
             return {"active": False}
         return {
             "active": True,
-            "origin": self.origin,
-            "index": self.index,
+            "origin": origin,
+            "index": index,
             "frames": len(rec),
-            "session_t_s": float(rec.t_s[self.index]),
-            "t_s": float(rec.sim_t_s[self.index]),
-            "frame": int(rec.frame[self.index]),
+            "session_t_s": float(rec.t_s[index]),
+            "t_s": float(rec.sim_t_s[index]),
+            "frame": int(rec.frame[index]),
         }
 
     @staticmethod
