@@ -37,7 +37,7 @@ def main() -> None:
     record = live.step_frame()
 
     live_ms = per_frame_ms(live.step_frame, args.frames)
-    ghost_ms = per_frame_ms(lambda: ghost.step(live, live.motion), args.frames)
+    ghost_ms = per_frame_ms(lambda: ghost.step(live, live.motion, live.phase), args.frames)
     add_ms = per_frame_ms(lambda: recorder.add(record, live.data.qpos, 1), recorder.capacity)
     copy_ms = per_frame_ms(recorder.recording, 20)
     ring = recorder.recording()

@@ -3,6 +3,7 @@ simulation thread's `Ghost`, real MuJoCo) and its API on a real server."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import httpx
@@ -33,7 +34,7 @@ def test_a_ghost_of_the_same_set_walks_beside_in_step_every_frame() -> None:
     for _ in range(150):
         record = live.step_frame()
         phase_before = ghost.loop.phase
-        ghost.step(live, live.motion)
+        ghost.step(live, live.motion, record.phase)
         assert abs(phase_before - record.phase) < 1e-9  # the same phase in the same frame
     assert ghost.phase_locked and ghost.status().note == ""
     assert ghost.loop.trunk_pose()[0] - gx0 > 0.03  # it walked forward
@@ -47,11 +48,26 @@ def test_a_ghost_with_another_clock_is_reported_not_phase_locked() -> None:
     live = walking()
     ghost = Ghost(live, builtin_presets()["paper"].gait, "preset paper")
     for _ in range(5):
-        live.step_frame()
-        ghost.step(live, live.motion)
+        ghost.step(live, live.motion, live.step_frame().phase)
     status = ghost.status()
     assert not status.phase_locked and "not phase-locked" in status.note
     assert "1 Hz" in status.note
+
+
+def test_a_clock_changed_and_changed_back_leaves_the_ghost_out_of_phase() -> None:
+    live = walking()
+    ghost = Ghost(live, live.params, "version 1")
+    clock = live.params.clock
+    faster = dataclasses.replace(live.params, clock=dataclasses.replace(clock, freq_hz=1.0))
+    for params in (faster, live.params):
+        live.set_gait(params=params)
+        for _ in range(10):
+            ghost.step(live, live.motion, live.step_frame().phase)
+    status = ghost.status()
+    assert not status.phase_locked and "apart since a clock change" in status.note
+    ghost.place_beside(live)  # what a reset does
+    ghost.step(live, live.motion, live.step_frame().phase)
+    assert ghost.status().phase_locked
 
 
 def test_a_pushed_ghost_falls_alone() -> None:
@@ -59,13 +75,12 @@ def test_a_pushed_ghost_falls_alone() -> None:
     ghost = Ghost(live, live.params, "version 1")
     trunk = live.robot.model.body("trunk").id
     for k in range(200):
-        live.step_frame()
+        phase = live.step_frame().phase
         ghost.loop.data.xfrc_applied[trunk, 1] = 20.0 if k < 25 else 0.0  # a hard shove left
-        ghost.step(live, live.motion)
+        ghost.step(live, live.motion, phase)
     assert ghost.status().fell and not live.fell
     frozen = ghost.loop.frame_index
-    live.step_frame()
-    ghost.step(live, live.motion)
+    ghost.step(live, live.motion, live.step_frame().phase)
     assert ghost.loop.frame_index == frozen  # a fallen ghost stays where it fell
 
 

@@ -18,6 +18,9 @@ from gait import GaitParams, Motion
 BESIDE_M = 0.35  # the ghost starts this far to the live robot's left
 METRICS_WINDOW_S = 10.0  # speed, turn rate and gyro RMS over the last 10 s
 MIN_WINDOW_S = 2.0  # fewer seconds than this: no metrics yet
+#: phases this close count as one: well above the rounding of the firmware's walking clock
+#: (its 32-bit step drifts < 1e-9 rad a frame), far below a clock change's gap
+PHASE_LOCK_RAD = 1e-3
 
 
 @dataclass(frozen=True)
@@ -108,20 +111,25 @@ class Ghost:
         data.qpos[3:7] = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
         mujoco.mj_forward(self.loop.model, data)
         self._live_track, self._ghost_track = _Track(), _Track()
+        self.phase_gap_rad = 0.0
 
     @property
     def phase_locked(self) -> bool:
-        """Placed at the live robot's phase, the same clock keeps both in step every frame."""
-        return self.params.clock.freq_hz == self.live_freq_hz
+        """Same clock and, in the last frame, the same phase (a clock changed and changed back
+        leaves the phases apart until the next reset)."""
+        same_clock = self.params.clock.freq_hz == self.live_freq_hz
+        return same_clock and self.phase_gap_rad < PHASE_LOCK_RAD
 
-    def step(self, live: FrameLoop, motion: Motion) -> None:
-        """The frame the live robot just made, with the motion the live robot was asked for."""
+    def step(self, live: FrameLoop, motion: Motion, live_phase: float) -> None:
+        """The frame the live robot just made at `live_phase`, with the motion the live robot
+        was asked for."""
         self.live_freq_hz = live.params.clock.freq_hz
         if self.loop.fell:
             return
         if motion != self.loop.motion:
             self.loop.set_gait(motion=motion)
-        self.loop.step_frame()
+        record = self.loop.step_frame()
+        self.phase_gap_rad = abs(math.remainder(record.phase - live_phase, 2.0 * math.pi))
         if not live.fell and not self.loop.fell:
             t = live.time_s
             self._live_track.add(t, live.trunk_pose(), live.gyro())
@@ -129,14 +137,15 @@ class Ghost:
 
     def status(self) -> GhostStatus:
         locked = self.phase_locked
-        note = (
-            ""
-            if locked
-            else (
+        if locked:
+            note = ""
+        elif self.params.clock.freq_hz != self.live_freq_hz:
+            note = (
                 f"not phase-locked: its clock is {self.params.clock.freq_hz:g} Hz, "
                 f"the live robot's {self.live_freq_hz:g} Hz"
             )
-        )
+        else:
+            note = f"not phase-locked: {self.phase_gap_rad:.2f} rad apart since a clock change"
         return GhostStatus(
             source=self.source,
             params=self.params,

@@ -356,9 +356,7 @@ class SimThread:
             self._reset()
             return
         if self._ghost is not None:
-            self._ghost.step(sim, self._applied.motion)
-            if record.index % GHOST_PUBLISH_FRAMES == 0:
-                self._ghost_status = self._ghost.status()
+            self._step_ghost(record)
         self.recorder.add(record, sim.data.qpos, self._applied.version)
         if sim.fell:
             self.recorder.event("fall", motion=dataclasses.asdict(record.motion))
@@ -369,6 +367,17 @@ class SimThread:
         if record.index % SAMPLE_EVERY_FRAMES == 0:
             self.paths.add(sim.time_s, sim.trunk_pose(), sim.feet_distance_m())
         self._publish_poses()
+
+    def _step_ghost(self, record: FrameRecord) -> None:
+        """The ghost's frame; if it fails, the ghost goes, said so, and the live robot walks on."""
+        try:
+            self._ghost.step(self._loop, self._applied.motion, record.phase)
+            if record.index % GHOST_PUBLISH_FRAMES == 0:
+                self._ghost_status = self._ghost.status()
+        except Exception as error:  # the ghost is a comparison: it must not stop the robot
+            log.exception("ghost frame failed; ghost removed")
+            self.errors.append(f"the ghost ({self._ghost.source}) failed and was removed: {error}")
+            self._ghost, self._ghost_status = None, None
 
     def _step(self) -> FrameRecord:
         """One frame, its pulses made by the model or read off the firmware's pins."""
