@@ -49,6 +49,9 @@ def test_the_ring_keeps_the_last_frames_in_order(walked) -> None:
     assert len(rec) == 40 and rec.frame.tolist() == list(range(20, 60))
     assert np.allclose(np.diff(rec.t_s), 0.02) and rec.version.tolist()[-1] == 2
     assert [e["kind"] for e in rec.events] == ["params"] and rec.events[0]["source"] == "test"
+    summary = recorder.summary()  # what the pages poll: the same, without a copy of the ring
+    assert summary["frames"] == 40 and summary["events"] == list(rec.events)
+    assert summary["first_t_s"] == rec.t_s[0] and summary["last_t_s"] == rec.t_s[-1]
 
 
 def test_recorded_poses_give_back_the_bodies_where_they_were(walked) -> None:

@@ -166,6 +166,20 @@ class Recorder:
             for old in sorted(self._params)[:-MAX_PARAM_DOCUMENTS]:
                 del self._params[old]
 
+    def summary(self, last_events: int = 50) -> dict[str, Any]:
+        """Frames held, their session times and the newest events, without copying the ring
+        (what the pages poll once a second)."""
+        with self._lock:
+            n = min(self._written, self.capacity)
+            first_t = (self._written - n) * FRAME_S
+            return {
+                "frames": n,
+                "capacity": self.capacity,
+                "first_t_s": first_t if n else None,
+                "last_t_s": (self._written - 1) * FRAME_S if n else None,
+                "events": [e for e in self._events[-last_events:] if e["t_s"] >= first_t],
+            }
+
     def recording(self) -> Recording:
         """A copy of what the ring holds, oldest frame first."""
         with self._lock:

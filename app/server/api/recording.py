@@ -38,15 +38,7 @@ class ReplayBody(BaseModel):
 
 
 def _summary(services: Services) -> dict[str, Any]:
-    live = services.sim.recorder.recording()
-    return {
-        "frames": len(live),
-        "capacity": services.sim.recorder.capacity,
-        "first_t_s": float(live.t_s[0]) if len(live) else None,
-        "last_t_s": float(live.t_s[-1]) if len(live) else None,
-        "events": list(live.events[-50:]),
-        "replay": services.replay.status(),
-    }
+    return services.sim.recorder.summary() | {"replay": services.replay.status()}
 
 
 def _shown(services: Services) -> Recording:
