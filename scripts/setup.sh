@@ -1,14 +1,23 @@
 #!/usr/bin/env bash
-# Set up ArtRo Gait Studio in ./.venv. With --test: also the test tools and Debian's Chromium
-# (the browser tests drive it through Playwright; Playwright's own browser download is not used).
+# Set up ArtRo Gait Studio in ./.venv with exactly the versions of requirements.lock. With --test:
+# also the test tools and Debian's Chromium (the browser tests drive it through Playwright;
+# Playwright's own browser download is not used).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 extras=""
-[ "${1:-}" = "--test" ] && extras="[test]"
+[ "${1:-}" = "--test" ] && extras="[test,cluster]"
+
+# The lock is for CPython 3.11 and newer (MuJoCo 4 has no wheel for 3.10).
+python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {
+  echo "setup: Python 3.11 or newer is needed; python3 is $(python3 --version 2>&1)" >&2; exit 2; }
 
 [ -x .venv/bin/python ] || python3 -m venv .venv
-.venv/bin/pip install --quiet --disable-pip-version-check -e ".${extras}"
+# uv installs: it checks the lock's hashes when the lock is given as constraints (pip asks then
+# for a hash of the editable checkout too, which has none). Its own version is pinned.
+.venv/bin/python -m pip install --quiet --disable-pip-version-check -r scripts/uv-requirement.txt
+# The lock constrains, the package keeps its own ranges for `pip install .` (docs/DESIGN.md §11).
+.venv/bin/uv pip install --quiet --python .venv/bin/python -c requirements.lock -e ".${extras}"
 
 # Debian packages: the AVR tool chain and emulator for the firmware (always: `artro firmware`
 # needs them), Chromium for the browser tests (with --test).

@@ -1,14 +1,16 @@
-"""The wheel carries everything `artro` needs: installed in a fresh virtual environment outside the
-checkout, `artro run` walks the built-in model and `artro serve` serves the page and the scope."""
+"""The wheel carries everything `artro` needs and declares what it imports: installed with its
+declared dependencies (at the lock's versions) into a fresh virtual environment that shares nothing
+with the test environment, outside the checkout, `artro --help` answers, `artro run` walks the
+built-in model and `artro serve` serves the page and the scope."""
 
 from __future__ import annotations
 
 import json
 import os
 import re
+import shutil
 import subprocess
 import sys
-import sysconfig
 import venv
 from pathlib import Path
 
@@ -23,7 +25,8 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def installed(tmp_path_factory) -> Path:
-    """A fresh venv with the project's wheel and no checkout on its path; returns its bin dir."""
+    """A fresh venv with the project's wheel and its declared runtime dependencies, constrained by
+    requirements.lock, and no checkout on its path; returns its bin dir."""
     tmp = tmp_path_factory.mktemp("wheel")
     built = subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp), str(ROOT)],
@@ -34,16 +37,14 @@ def installed(tmp_path_factory) -> Path:
     assert built.returncode == 0, built.stderr[-2000:]
     (wheel,) = tmp.glob("artro_gait_studio-*.whl")
     env_dir = tmp / "venv"
-    venv.create(env_dir, with_pip=False)
-    python = env_dir / "bin" / "python"
-    site = subprocess.check_output(
-        [str(python), "-c", "import sysconfig; print(sysconfig.get_paths()['purelib'])"], text=True
-    ).strip()
-    # the dependencies (mujoco, fastapi, ...) come from this venv's site-packages through a path
-    # entry: its .pth files, among them the editable install's finder, are not run from there
-    Path(site, "deps.pth").write_text(sysconfig.get_paths()["purelib"] + "\n")
-    pip = [sys.executable, "-m", "pip", "--python", str(python), "install", "--no-deps", "-q"]
-    installed = subprocess.run([*pip, str(wheel)], capture_output=True, text=True, timeout=300)
+    venv.create(env_dir, with_pip=False)  # no system site-packages, nothing of this venv's
+    uv = shutil.which("uv", path=str(Path(sys.executable).parent)) or shutil.which("uv")
+    assert uv, "uv is installed by scripts/setup.sh"
+    install = [uv, "pip", "install", "--quiet", "--python", str(env_dir / "bin" / "python")]
+    lock = ["-c", str(ROOT / "requirements.lock")]
+    installed = subprocess.run(
+        [*install, *lock, str(wheel)], capture_output=True, text=True, timeout=600
+    )
     assert installed.returncode == 0, installed.stderr[-2000:]
     return env_dir / "bin"
 
@@ -69,6 +70,24 @@ def test_the_installed_package_is_not_the_checkout(installed, tmp_path):
     assert out.returncode == 0, out.stderr
     for line in out.stdout.split():
         assert str(ROOT) not in line and "site-packages" in line, out.stdout
+
+
+def test_the_installed_environment_shares_nothing_with_the_tests(installed, tmp_path):
+    out = run_in(tmp_path, str(installed / "python"), "-c", "import sys; print(sys.path)")
+    assert out.returncode == 0, out.stderr
+    ours = str(Path(sys.executable).resolve().parent.parent)
+    assert ours not in out.stdout and str(ROOT) not in out.stdout, out.stdout
+
+
+def test_artro_help_from_another_directory(installed, tmp_path):
+    out = run_in(tmp_path, str(installed / "artro"), "--help")
+    assert out.returncode == 0, out.stderr
+    for command in ("serve", "run", "export", "firmware", "link"):
+        assert command in out.stdout
+    # every subcommand's module imports: the dependencies the wheel declared are there
+    for command in ("serve", "run", "export", "link", "tune", "bench"):
+        sub = run_in(tmp_path, str(installed / "artro"), command, "--help")
+        assert sub.returncode == 0, f"artro {command} --help: {sub.stderr[-2000:]}"
 
 
 def test_artro_run_from_another_directory(installed, tmp_path):
