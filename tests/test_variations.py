@@ -287,10 +287,14 @@ def test_the_same_seed_gives_the_same_sample_to_the_bit_and_another_seed_another
     assert [v.name for v in sample(ranges, 40, seed=8)] != [v.name for v in first]
     assert sample(ranges, 10, seed=7) == first[:10]  # a prefix of a longer draw
     assert len({v.name for v in first}) == 40
-    # the draw is the PCG64 stream's doubles, as Generator.random defines them (53 bits)
-    raw = np.random.PCG64(7).random_raw(len(SAMPLE_COLUMNS))
+    # the table is PCG64's raw 64-bit stream cut to 53-bit doubles (numpy keeps bit streams
+    # stable across versions), and the first row is the first variation
+    raw = np.random.PCG64(7).random_raw(2 * len(SAMPLE_COLUMNS))
     u = (raw >> np.uint64(11)) * 2.0**-53
+    table = np.random.Generator(np.random.PCG64(7)).random((2, len(SAMPLE_COLUMNS)))
+    assert table.tobytes() == u.tobytes()
     assert first[0].friction == round(0.4 + 0.6 * u[0], 3)
+    assert first[0].calibration_deg[-1] == round(-1.5 + 3.0 * u[len(SAMPLE_COLUMNS) - 1], 2)
     # on every machine: the first variation of seed 0, as printed by this code on numpy 2.4
     assert sample(ranges, 1, seed=0)[0].name.startswith(
         "friction=0.782,trunk_mass_scale=0.931,link_mass_scale=0.908,kp_scale=0.807,"

@@ -218,7 +218,7 @@ class VariationRanges:
     kp_scale: tuple[float, float] = (0.8, 1.2)
     torque_scale: tuple[float, float] = (0.8, 1.0)
     damping_scale: tuple[float, float] = (0.8, 1.2)
-    frictionloss_scale: tuple[float, float] = (0.8, 1.2)
+    frictionloss_scale: tuple[float, float] = (0.5, 1.5)
     latency_ms: tuple[float, float] = (0.0, 60.0)
     deadband_deg: tuple[float, float] = (0.0, 0.5)
     backlash_deg: tuple[float, float] = (0.0, 1.0)
