@@ -1,4 +1,4 @@
-"""The package data: the ArtRo model, the built-in presets and the dashboard page.
+"""The package data: the built-in robots, the servo table, the presets and the dashboard page.
 
 `models/` and `static/` of a checkout install as `app.models` and `app.static`, found with
 importlib.resources, so a wheel works as the source tree does (docs/DESIGN.md §10).
@@ -7,10 +7,19 @@ importlib.resources, so a wheel works as the source tree does (docs/DESIGN.md §
 from __future__ import annotations
 
 import os
+from importlib import metadata
 from importlib.resources import files
 from pathlib import Path
 
 STATIC_DIR_ENV = "ARTRO_STATIC_DIR"  # serve the page from this folder instead (development)
+
+
+def project_version() -> str:
+    """The installed artro-gait-studio version, or "unknown" when it is not installed."""
+    try:
+        return metadata.version("artro-gait-studio")
+    except metadata.PackageNotFoundError:
+        return "unknown"
 
 
 def _package_dir(package: str) -> Path:
@@ -23,13 +32,18 @@ def _package_dir(package: str) -> Path:
 
 
 def models_dir() -> Path:
-    """The folder with `artro.xml` and `presets/`."""
+    """The folder with `robots/`, `servos.yaml` and `presets/`."""
     return _package_dir("app.models")
 
 
-def model_xml() -> Path:
-    """The built-in ArtRo scene (floor and robot), described in `models/README.md`."""
-    return models_dir() / "artro.xml"
+def builtin_robots_dir() -> Path:
+    """The built-in robot descriptions (`artro.yaml`, ...), described in `models/README.md`."""
+    return models_dir() / "robots"
+
+
+def servo_table_path() -> Path:
+    """The servo table: datasheet figures at stated voltages, with their sources."""
+    return models_dir() / "servos.yaml"
 
 
 def builtin_presets_dir() -> Path:

@@ -17,9 +17,18 @@ from app.core.batch import BatchEvaluator
 from app.core.ca_calibration import CalibrationError, calibrate_ca, with_k
 from app.core.headless import run
 from app.core.mcu.build import export_firmware_folder
-from app.core.mcu.cli import add_firmware_parser, cmd_firmware
+from app.core.mcu.cli import add_firmware_parser, cmd_firmware, wiring
+from app.core.robot import RobotModel
+from app.core.variations import NOMINAL, Variation, parse_variation
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.formats import FORMATS, export_text
+from app.robot_cli import (
+    add_robot_option,
+    add_robot_parser,
+    cmd_robot,
+    starting_set,
+    warn_if_other_robot,
+)
 from app.robot_link import add_link_parser, cmd_link
 from app.study import bench as paper_bench
 from app.study import tune
@@ -74,6 +83,13 @@ EXAMPLES = {
 _NUMBERS = re.compile(r"^-\d*\.?\d+(e[-+]?\d+)?(,[-+]?\d*\.?\d+(e[-+]?\d+)?)*$", re.IGNORECASE)
 
 
+def _variation(text: str) -> Variation:
+    try:
+        return parse_variation(text)
+    except (ValueError, TypeError) as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
 def join_negative_values(argv: Sequence[str]) -> list[str]:
     """`--motion -0.1,0,0` -> `--motion=-0.1,0,0`: argparse would take the value for an option."""
     out: list[str] = []
@@ -108,6 +124,7 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--port", type=int, default=8000, help="HTTP port of the dashboard and API")
     s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
     s.add_argument("--params", metavar="FILE", help="start with this parameter set")
+    add_robot_option(s)
     s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
     s.add_argument(
@@ -135,7 +152,12 @@ def build_parser() -> argparse.ArgumentParser:
         "(default: the parameter set's)",
     )
     r.add_argument("--ca", type=float, default=None, help="curve amount, > 0 turns clockwise")
-    r.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    r.add_argument(
+        "--params",
+        metavar="FILE",
+        help="parameter-set JSON (default: the --robot's default preset, else paper values)",
+    )
+    add_robot_option(r)
     r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")
     r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
     r.add_argument(
@@ -145,6 +167,14 @@ def build_parser() -> argparse.ArgumentParser:
         "--from-rest",
         action="store_true",
         help="start standing (motion 0, CA 0) and ramp to the motion (the ramp parameters)",
+    )
+    r.add_argument(
+        "--vary",
+        type=_variation,
+        default=NOMINAL,
+        metavar="KEY=VALUE,...",
+        help="walk a varied model, e.g. friction=0.4,latency_ms=40,tilt_deg=2,cal.l_knee=1.2 "
+        "(docs/DESIGN.md §13; `artro bench robust` names its worst variations so)",
     )
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
     e = _subcommand(sub, "export", "write a parameter set as JSON, YAML or a firmware C header")
@@ -156,6 +186,7 @@ def build_parser() -> argparse.ArgumentParser:
         "Makefile (make, make flash) -- needs -o DIR",
     )
     e.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    add_robot_option(e)
     e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
     c = _subcommand(
         sub,
@@ -163,6 +194,7 @@ def build_parser() -> argparse.ArgumentParser:
         "fit the steering term K (steer.yaw_per_ca) and the effective axle b_eff from curve walks",
     )
     c.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    add_robot_option(c)
     c.add_argument("--engine", choices=ENGINES, default=None, help="gait engine to calibrate")
     c.add_argument(
         "--a-p", type=float, default=None, help="forward amplitude to walk at (default: the set's)"
@@ -187,11 +219,19 @@ def build_parser() -> argparse.ArgumentParser:
     fw = add_firmware_parser(sub)
     fw.epilog = EXAMPLES["firmware"]
     add_link_parser(sub, EXAMPLES["link"])
+    add_robot_parser(sub)
     return parser
 
 
+def _robot_and_set(args: argparse.Namespace) -> tuple[RobotModel, ParameterSet]:
+    robot = RobotModel.load(args.robot)
+    pset = starting_set(robot, args.params, robot_given=args.robot is not None)
+    warn_if_other_robot(pset, robot)
+    return robot, pset
+
+
 def _cmd_run(args: argparse.Namespace) -> int:
-    pset = load_parameter_set(args.params) if args.params else ParameterSet()
+    robot, pset = _robot_and_set(args)
     motion = pset.motion
     if args.motion is not None:
         a_r, a_p, a_y = args.motion
@@ -200,14 +240,25 @@ def _cmd_run(args: argparse.Namespace) -> int:
         motion = dataclasses.replace(motion, ca=args.ca)
     gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
     start = Motion() if args.from_rest else None
-    result = run(gait, motion, duration_s=args.duration, warmup_s=args.warmup, start_motion=start)
+    result = run(
+        gait,
+        motion,
+        duration_s=args.duration,
+        warmup_s=args.warmup,
+        start_motion=start,
+        robot=robot,
+        variation=args.vary,
+    )
     m = result.metrics
     if args.json:
-        print(json.dumps(m, allow_nan=False))
+        named = {"robot": robot.name, "variation": args.vary.name}
+        print(json.dumps({**m, **named}, allow_nan=False))
         return 0
     print(
-        f"parameter set {pset.name!r} ({gait.engine}), motion a_r={motion.a_r} a_p={motion.a_p} "
-        f"a_y={motion.a_y} CA={motion.ca}" + (", ramped from rest" if args.from_rest else "")
+        f"robot {robot.name!r}, parameter set {pset.name!r} ({gait.engine}), motion "
+        f"a_r={motion.a_r} a_p={motion.a_p} a_y={motion.a_y} CA={motion.ca}"
+        + (", ramped from rest" if args.from_rest else "")
+        + ("" if args.vary.is_nominal else f", varied: {args.vary.name}")
     )
     if m["fell"]:
         print(f"FELL after {m['fall_time_s']} s")
@@ -230,7 +281,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
 
 
 def _cmd_calibrate_ca(args: argparse.Namespace) -> int:
-    pset = load_parameter_set(args.params) if args.params else ParameterSet()
+    robot, pset = _robot_and_set(args)
     gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
     motion = pset.motion if args.a_p is None else dataclasses.replace(pset.motion, a_p=args.a_p)
     size = abs(walking_amplitude(motion))
@@ -245,7 +296,7 @@ def _cmd_calibrate_ca(args: argparse.Namespace) -> int:
             result = calibrate_ca(
                 gait,
                 dataclasses.replace(motion, a_p=a_p),
-                BatchEvaluator(threads=args.threads),
+                BatchEvaluator(robot, threads=args.threads),
                 duration_s=args.duration,
                 warmup_s=args.warmup,
                 iterations=args.iterations,
@@ -294,11 +345,11 @@ def _cmd_calibrate_ca(args: argparse.Namespace) -> int:
 
 
 def _cmd_export(args: argparse.Namespace) -> int:
-    pset = load_parameter_set(args.params) if args.params else ParameterSet()
+    robot, pset = _robot_and_set(args)
     if args.format == "firmware":
         if not args.output:
             raise ValueError("--format firmware writes a folder: give it with -o DIR")
-        folder = export_firmware_folder(pset.to_dict(), Path(args.output))
+        folder = export_firmware_folder(pset.to_dict(), Path(args.output), **wiring(robot))
         print(f"{folder}: the firmware for {pset.name or 'the paper set'}; `make` builds it")
         return 0
     text, _media_type, _filename = export_text(pset, args.format)
@@ -322,13 +373,15 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         port=args.port,
         viser_port=args.viser_port,
         params_file=Path(args.params) if args.params else None,
+        robot=args.robot,
         data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
         viewer=not args.no_viewer,
         allowed_hosts=tuple(args.allowed_host),
         drive=args.drive,
     )
+    RobotModel.load(args.robot)  # fail here, clearly, naming the field, not inside the server
     if config.params_file:
-        load_parameter_set(config.params_file)  # fail here, clearly, not inside the server
+        load_parameter_set(config.params_file)
     if config.drive == "firmware":
         from app.core.mcu.build import missing_tools
 
@@ -368,6 +421,8 @@ def main(argv: Sequence[str] | None = None) -> int:
             return cmd_firmware(args)
         if args.command == "link":
             return cmd_link(args, sys.stdout)
+        if args.command == "robot":
+            return cmd_robot(args)
     # RuntimeError: BuildError, EmulatorError, LinkError, CalibrationError
     except (ValueError, OSError, RuntimeError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")

@@ -1,4 +1,4 @@
-"""Benchmark: BatchEvaluator throughput against single-thread raw mj_step on models/artro.xml.
+"""Benchmark: BatchEvaluator throughput against single-thread raw mj_step on the built-in ArtRo model (models/robots/artro.yaml).
 
 Prints, for the same 10 s walks (a_p = 0.07, CA spread over -0.1..0.1):
   - raw mj_step, one thread: the walk's set-points replayed with MuJoCo's own C loop,
@@ -103,7 +103,7 @@ def main() -> None:
             batch[evaluator.threads].append(batch_steps_per_s(evaluator, jobs, args.seconds))
     raw_m, raw_cpu_m = statistics.median(raw), statistics.median(raw_cpu)
 
-    print(f"model: models/artro.xml, timestep {one.model.opt.timestep * 1e3:g} ms")
+    print(f"model: artro (generated), timestep {one.model.opt.timestep * 1e3:g} ms")
     print(
         f"{args.runs} walks of {args.seconds:g} s (a_p = 0.07, CA -0.1..0.1), "
         f"{args.repeats} repeats, medians; {n_threads} CPU(s), load average before "

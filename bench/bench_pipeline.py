@@ -1,4 +1,4 @@
-"""Benchmark: raw MuJoCo stepping vs the full frame pipeline on models/artro.xml.
+"""Benchmark: raw MuJoCo stepping vs the full frame pipeline on the built-in ArtRo model (models/robots/artro.yaml).
 
 Prints, from one run:
   - raw mj_step throughput, two ways: (a) the same walk, the same set-points at the same physics
@@ -101,7 +101,7 @@ def main() -> None:
     block_us = best_of(args.repeats, lambda: gait_hardware_us_per_frame(50, 40))
     single_us = best_of(args.repeats, lambda: gait_hardware_us_per_frame(1, 400))
 
-    print(f"model: models/artro.xml, timestep {reference.timestep_s * 1e3:g} ms, 20 steps/frame")
+    print(f"model: artro (generated), timestep {reference.timestep_s * 1e3:g} ms, 20 steps/frame")
     print(
         f"motion: a_p={MOTION.a_p}, {args.seconds:g} s simulated per trial, {args.repeats} trials"
     )

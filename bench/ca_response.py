@@ -25,14 +25,11 @@ term of docs/DESIGN.md §10 (`steer.yaw_per_ca`), emulated on the motion vector.
 from __future__ import annotations
 
 import argparse
-import re
-import tempfile
-from pathlib import Path
-
 import mujoco
 
 from app.core.batch import BatchEvaluator, Job
-from app.core.robot import ARTRO_XML, RobotModel
+from app.core.robot import RobotModel
+from app.robots import build_spec, load_description
 from app.study.cases import steering
 from app.study.report import fmt
 from app.study.runs import resolve_presets
@@ -45,24 +42,28 @@ GRID_X_M = (-0.056, -0.028, 0.0, 0.028, 0.056)
 GRID_Y_M = (-0.031, 0.0, 0.031)
 
 
-def sole_grid_xml(xml: str) -> str:
+def sole_grid_spec(spec: mujoco.MjSpec) -> mujoco.MjSpec:
     """The model with each foot plate visual only and a grid of small spheres as its sole."""
     for side in ("l", "r"):
-        match = re.search(rf'<geom name="{side}_foot_plate"[^>]*/>', xml, re.S)
-        if match is None:
+        plate = spec.geom(f"{side}_foot_plate")
+        if plate is None:
             raise ValueError(f"no {side}_foot_plate geom in the model")
-        plate = match.group(0)
-        visual = plate.replace('class="collision" group="1"', 'group="1"')
-        if visual == plate:
-            raise ValueError("the foot plate's collision attributes are not as expected")
-        spheres = "\n".join(
-            f'<geom name="{side}_sole_{i}{j}" type="sphere" size="0.002" pos="{x} {y} -0.033" '
-            'mass="0" class="collision" group="3"/>'
-            for i, x in enumerate(GRID_X_M)
-            for j, y in enumerate(GRID_Y_M)
-        )
-        xml = xml.replace(plate, visual + "\n" + spheres)
-    return xml
+        z = plate.pos[2]
+        sphere = {"contype": plate.contype, "conaffinity": plate.conaffinity}
+        sphere |= {"condim": plate.condim, "friction": list(plate.friction)}
+        plate.contype = plate.conaffinity = 0
+        for i, x in enumerate(GRID_X_M):
+            for j, y in enumerate(GRID_Y_M):
+                plate.parent.add_geom(
+                    name=f"{side}_sole_{i}{j}",
+                    type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                    size=[0.002, 0, 0],
+                    pos=[x, y, z],
+                    mass=0,
+                    group=3,
+                    **sphere,
+                )
+    return spec
 
 
 def load_robot(
@@ -71,12 +72,11 @@ def load_robot(
     contact_timeconst_s: float | None = None,
     elliptic: bool = False,
 ) -> RobotModel:
-    path = Path(ARTRO_XML)
+    description = load_description()
+    spec = build_spec(description)
     if sole_grid:
-        variant = Path(tempfile.mkdtemp()) / "artro_sole_grid.xml"
-        variant.write_text(sole_grid_xml(path.read_text(encoding="utf-8")), encoding="utf-8")
-        path = variant
-    robot = RobotModel.load(path)
+        spec = sole_grid_spec(spec)
+    robot = RobotModel.of_model(description, spec.compile())
     if friction is not None:
         robot.model.geom_friction[:, 0] = friction
     if contact_timeconst_s is not None:

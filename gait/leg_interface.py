@@ -40,7 +40,8 @@ class LegGeometry:
         return self.upper_m + self.lower_m  # L_max
 
 
-#: The built-in ArtRo model (`models/artro.xml`); a test checks the MJCF against these lengths.
+#: The built-in ArtRo robot (`models/robots/artro.yaml`): the default of the pure gait API; the app
+#: passes the loaded robot's legs. A test checks the description against these lengths.
 ARTRO_LEG = LegGeometry(upper_m=0.09, lower_m=0.09)
 
 

@@ -49,6 +49,7 @@ def test_every_export_carries_provenance(fmt: str) -> None:
         assert list(document) == [
             "schema_version",
             "name",
+            "robot",
             "created",
             "project_version",
             "motion",

@@ -23,7 +23,27 @@ ALLOWED = {
     "gait": {"gait", "numpy"},
     "hardware": {"hardware", "gait", "numpy"},
     "app.assets": set(),
-    "app.core": {"app.core", "app.assets", "gait", "hardware", "numpy", "mujoco", "serial"},
+    "app.core": {
+        "app.core",
+        "app.assets",
+        "app.robots",
+        "gait",
+        "hardware",
+        "numpy",
+        "mujoco",
+        "serial",
+        "distributed",  # app/core/cluster.py, the `cluster` extra
+    },
+    "app.robots": {
+        "app.robots",
+        "app.assets",
+        "gait",
+        "hardware",
+        "numpy",
+        "mujoco",
+        "pydantic",
+        "yaml",
+    },
     "app.params": {"app.params", "app.assets", "gait", "hardware", "numpy", "pydantic", "yaml"},
 }
 FORBIDDEN = {  # package -> project packages it must never import

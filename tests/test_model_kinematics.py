@@ -1,4 +1,5 @@
-"""Forward kinematics of models/artro.xml against the leg interface (docs/DESIGN.md §3)."""
+"""Forward kinematics of the built-in ArtRo model, generated from models/robots/artro.yaml,
+against the leg interface (docs/DESIGN.md §3, §12)."""
 
 import mujoco
 import numpy as np
@@ -6,7 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.core.robot import ARTRO_XML, RobotModel
+from app.core.robot import RobotModel
+from app.robots import build_spec, load_description
 from gait import ARTRO_LEG, JOINT_NAMES, leg_to_joint_angles
 
 ROBOT = RobotModel.load()
@@ -44,12 +46,12 @@ def test_names_masses_and_leg_lengths_match_the_gait():
         assert m.actuator(name).trntype == mujoco.mjtTrn.mjTRN_JOINT
     for site in ("l_hip", "r_hip", "l_ankle", "r_ankle", "l_sole", "r_sole", "imu"):
         m.site(site)
-    geometry = ROBOT.leg_geometry()
+    geometry = ROBOT.measured_leg_geometry()
     assert geometry.upper_m == pytest.approx(ARTRO_LEG.upper_m, abs=1e-12)
     assert geometry.lower_m == pytest.approx(ARTRO_LEG.lower_m, abs=1e-12)
     # masses add up: 12 servos of 55 g, brackets, feet, abdomen and the upper-body dummy
     assert ROBOT.total_mass_kg() == pytest.approx(1.65)
-    spec = mujoco.MjSpec.from_file(str(ARTRO_XML))
+    spec = build_spec(load_description("artro"))
     servos = [g for g in spec.geoms if g.name.endswith("_servo")]
     assert len(servos) == 12
     assert sum(g.mass for g in servos) == pytest.approx(12 * 0.055)

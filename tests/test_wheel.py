@@ -65,7 +65,8 @@ def test_the_installed_package_is_not_the_checkout(installed, tmp_path):
         tmp_path,
         str(installed / "python"),
         "-c",
-        "import app.assets as a; print(a.__file__); print(a.model_xml()); print(a.static_dir())",
+        "import app.assets as a; print(a.__file__); print(a.builtin_robots_dir()); "
+        "print(a.static_dir())",
     )
     assert out.returncode == 0, out.stderr
     for line in out.stdout.split():

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -27,20 +28,29 @@ from app.core.frame_loop import (
 )
 from app.core.metrics import RunMetrics, Trace, compute_metrics
 from app.core.robot import RobotModel
+from app.core.servo_path import ServoPath
+from app.core.variations import NOMINAL, Variation, varied_robot
 from gait import GaitParams, Motion
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 RUNS_PER_CALL = 8  # bounds memory: a 60 s run's states take ~18 MB
+VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
+
+
+class Cancelled(RuntimeError):
+    """An evaluation was cancelled; the runs it did not finish have no result."""
 
 
 @dataclass(frozen=True)
 class Job:
-    """One run: gait constants and the motion vector with CA, constant for the whole run."""
+    """One run: gait constants and the motion vector with CA, constant for the whole run, on the
+    evaluator's robot as varied by `variation` (docs/DESIGN.md §13; default: nominal)."""
 
     params: GaitParams
     motion: Motion
     #: the motion the run starts in and ramps from (default: `motion`), as `FrameLoop` takes it
     start_motion: Motion | None = None
+    variation: Variation = NOMINAL
 
 
 @dataclass(frozen=True)
@@ -60,8 +70,11 @@ def start_of(sim: FrameLoop) -> Start:
     return Start(state, sim.data.ctrl.copy(), sim.phase, sim.standing_height_m)
 
 
-def control_sequence(sim: FrameLoop, start: Start, n_frames: int) -> np.ndarray:
-    """ctrl of every physics step (n_frames * steps_per_frame, nu), as the frame loop applies it."""
+def control_sequence(
+    sim: FrameLoop, start: Start, n_frames: int, variation: Variation = NOMINAL
+) -> np.ndarray:
+    """ctrl of every physics step (n_frames * steps_per_frame, nu), as the frame loop applies it,
+    through the variation's set-point path (latency, calibration, play)."""
     steps = sim.steps_per_frame
     plan = plan_frames(
         sim.params,
@@ -73,6 +86,7 @@ def control_sequence(sim: FrameLoop, start: Start, n_frames: int) -> np.ndarray:
         sim.timestep_s,
         motion_now=sim.motion_now,
         frame0=sim.frame_index,
+        geometry=sim.robot.geometry,
     )
     act = sim.robot.actuator_ids
     previous = np.vstack([start.ctrl[act][None, :], plan.setpoint[:-1]])  # (n, 12)
@@ -80,7 +94,11 @@ def control_sequence(sim: FrameLoop, start: Start, n_frames: int) -> np.ndarray:
     servo_ctrl = np.where(switched, plan.setpoint[:, None, :], previous[:, None, :])
     ctrl = np.broadcast_to(start.ctrl, (n_frames, steps, sim.model.nu)).copy()
     ctrl[..., act] = servo_ctrl
-    return ctrl.reshape(n_frames * steps, sim.model.nu)
+    ctrl = ctrl.reshape(n_frames * steps, sim.model.nu)
+    if not variation.is_nominal:
+        path = ServoPath(variation, sim.timestep_s, start.ctrl[act])
+        ctrl[:, act] = path(ctrl[:, act])
+    return ctrl
 
 
 class BatchEvaluator:
@@ -105,6 +123,7 @@ class BatchEvaluator:
         self.model = self.robot.model
         self.threads = threads or min(os.cpu_count() or 1, 8)
         self._datas = [mujoco.MjData(self.model) for _ in range(self.threads)]
+        self._varied_cache: dict[Variation, RobotModel] = {}  # the planner thread's alone
 
     def evaluate(
         self,
@@ -114,6 +133,7 @@ class BatchEvaluator:
         warmup_s: float = 5.0,
         progress: Callable[[int, int], None] | None = None,
         traces: list[Trace] | None = None,
+        cancel: threading.Event | None = None,
     ) -> list[RunMetrics]:
         """Metrics of each job, in order, as `artro run` would print them (wall time aside).
         Pass a list as `traces` to also get each run's trunk trace (one sample per frame).
@@ -124,6 +144,7 @@ class BatchEvaluator:
             warmup_s: the first seconds, left out of the motion metrics.
             progress: called with (runs done, runs in all) after each chunk.
             traces: if given, each run's `Trace` is appended to it, in job order.
+            cancel: when set, the evaluation stops before its next chunk: Cancelled.
 
         Runs go to MuJoCo in chunks; while one chunk rolls out (MuJoCo's threads, no GIL), a
         Python worker plans the next chunk and measures the previous one.
@@ -136,12 +157,14 @@ class BatchEvaluator:
             measuring = None
             for index, chunk in enumerate(chunks):
                 assert planned is not None
-                sims, starts, controls, initial = planned.result()
+                if cancel is not None and cancel.is_set():
+                    raise Cancelled(f"cancelled after {len(results)} of {len(jobs)} runs")
+                sims, starts, controls, initial, models = planned.result()
                 if index + 1 < len(chunks):
                     planned = worker.submit(self._plan, chunks[index + 1], n_frames)
                 t0 = time.perf_counter()
                 states, sensors = rollout.rollout(
-                    self.model, self._datas[: len(chunk)], initial, controls
+                    models, self._datas[: len(chunk)], initial, controls
                 )
                 wall = time.perf_counter() - t0
                 if measuring is not None:
@@ -158,17 +181,37 @@ class BatchEvaluator:
                     progress(len(results), len(jobs))
         return results
 
+    def _varied(self, variation: Variation) -> RobotModel:
+        if variation.is_nominal:
+            return self.robot
+        if variation not in self._varied_cache:
+            if len(self._varied_cache) >= VARIED_CACHE:
+                self._varied_cache.pop(next(iter(self._varied_cache)))
+            self._varied_cache[variation] = varied_robot(self.robot, variation)
+        return self._varied_cache[variation]
+
     def _plan(
         self, chunk: Sequence[Job], n_frames: int
-    ) -> tuple[list[FrameLoop], list[Start], np.ndarray, np.ndarray]:
+    ) -> tuple[
+        list[FrameLoop], list[Start], np.ndarray, np.ndarray, mujoco.MjModel | list[mujoco.MjModel]
+    ]:
+        """The chunk's loops, starts, controls and initial states, and its model: one for a
+        chunk of nominal runs, else one per run, so runs that differ only in model values share
+        one rollout call (docs/DESIGN.md §13)."""
         sims = [
-            FrameLoop(self.robot, j.params, j.motion, start_motion=j.start_motion) for j in chunk
+            FrameLoop(self._varied(j.variation), j.params, j.motion, start_motion=j.start_motion)
+            for j in chunk
         ]
         starts = [start_of(s) for s in sims]
         controls = np.stack(
-            [control_sequence(s, st, n_frames) for s, st in zip(sims, starts, strict=True)]
+            [
+                control_sequence(s, st, n_frames, j.variation)
+                for s, st, j in zip(sims, starts, chunk, strict=True)
+            ]
         )
-        return sims, starts, controls, np.stack([st.state for st in starts])
+        nominal = all(j.variation.is_nominal for j in chunk)
+        models = self.model if nominal else [s.model for s in sims]
+        return sims, starts, controls, np.stack([st.state for st in starts]), models
 
     def _measure_chunk(
         self,

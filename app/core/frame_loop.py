@@ -6,6 +6,7 @@ set-points act at their pulses' falling edges (docs/DESIGN.md §2), motion chang
 
 from __future__ import annotations
 
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -14,8 +15,12 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.core.robot import RobotModel
+from app.core.servo_path import ServoPath
+from app.core.variations import NOMINAL, Variation, varied_robot
 from gait import (
+    ARTRO_LEG,
     GaitParams,
+    LegGeometry,
     Motion,
     joint_angles_with_flags,
     pi_cut,
@@ -136,6 +141,7 @@ def _gait(
     motions: list[Motion],
     phase: NDArray[np.float64],
     startup: NDArray[np.float64],
+    geometry: LegGeometry,
 ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """Joint angles and clamp flags of each frame; one vectorised call per run of equal motions
     (the whole block when nothing is ramping)."""
@@ -146,7 +152,9 @@ def _gait(
         while end < len(motions) and motions[end] == motions[start]:
             end += 1
         part = slice(start, end)
-        out = joint_angles_with_flags(params, motions[start], phase[part], startup=startup[part])
+        out = joint_angles_with_flags(
+            params, motions[start], phase[part], geometry, startup=startup[part]
+        )
         angles.append(out.values)
         clamped.append(out.gamma_clamped)
         start = end
@@ -189,6 +197,7 @@ def plan_frames(
     *,
     motion_now: Motion | None = None,
     frame0: int = 0,
+    geometry: LegGeometry = ARTRO_LEG,
 ) -> FramePlan:
     """Run gait and hardware model for n consecutive frames starting at phase0 (vectorised).
 
@@ -201,6 +210,7 @@ def plan_frames(
             `ramp_motion` step toward `motion` (default: `motion`, nothing to ramp).
         frame0: the first frame's index since the reset (or the switch to this engine), for the
             pfs engine's start-up gain.
+        geometry: the robot's leg (`RobotModel.geometry`) for the inverse kinematics.
 
     Returns:
         `FramePlan` with a leading frame axis; each set-point takes effect at the first physics
@@ -210,7 +220,7 @@ def plan_frames(
     phase = pi_cut(phase0 + step_rad * np.arange(n_frames))
     motions = frame_motions(params, motion, motion if motion_now is None else motion_now, n_frames)
     startup = startup_gain(params, (frame0 + np.arange(n_frames)) * FRAME_S)
-    angles, gamma_clamped = _gait(params, motions, phase, startup)
+    angles, gamma_clamped = _gait(params, motions, phase, startup, geometry)
     pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
     ocr = frame_ocr(pulse_us, hardware.tdm)
     fall_ticks = falling_edge_ticks(ocr, hardware.tdm)
@@ -231,13 +241,18 @@ def plan_frames(
     )
 
 
+def _varied(robot: RobotModel, variation: Variation) -> RobotModel:
+    return robot if variation.is_nominal else varied_robot(robot, variation)
+
+
 class FrameLoop:
     """The ArtRo simulation, advanced one TDM frame at a time.
 
     The open-loop gait is planned for a block of `block_frames` frames at once; a change of
     parameters, motion or hardware discards the rest of the block. A `FrameLoop` and its `MjData`
     belong to one thread (docs/DESIGN.md §8). ValueError if the model's timestep does not divide
-    the 20 ms frame. Defaults: the built-in model, `GaitParams()`, `Motion()`, `HardwareSetup()`.
+    the 20 ms frame. Defaults: the built-in robot, `GaitParams()`, `Motion()`, and the robot's
+    servo drive (`RobotModel.hardware()`); the gait uses the robot's leg geometry.
 
     `motion` is the requested motion vector and CA. The run starts in it, or in `start_motion`;
     from then on the gait gets one `ramp_motion` step toward the requested motion per frame
@@ -252,13 +267,16 @@ class FrameLoop:
         hardware: HardwareSetup | None = None,
         block_frames: int = 50,
         start_motion: Motion | None = None,
+        variation: Variation = NOMINAL,
     ) -> None:
-        self.robot = robot or RobotModel.load()
+        self.nominal_robot = robot or RobotModel.load()
+        self.variation = variation
+        self.robot = _varied(self.nominal_robot, variation)
         self.model = self.robot.model
         self.data = mujoco.MjData(self.model)
         self.params = params or GaitParams()
         self.motion = motion or Motion()
-        self.hardware = hardware or HardwareSetup()
+        self.hardware = hardware or self.robot.hardware()
         self.block_frames = block_frames
         self.timestep_s = float(self.model.opt.timestep)
         steps = FRAME_S / self.timestep_s
@@ -281,7 +299,11 @@ class FrameLoop:
         self.blew_up = False
         self.motion_now = self.motion if start_motion is None else start_motion
         pose = joint_angles_with_flags(
-            self.params, self.motion_now, self.phase, startup=startup_gain(self.params, 0.0)
+            self.params,
+            self.motion_now,
+            self.phase,
+            self.robot.geometry,
+            startup=startup_gain(self.params, 0.0),
         ).values
         self.data.qpos[self.robot.qpos_adr] = pose
         self.data.qpos[2] = self.robot.standing_height_m(pose) + 1e-4
@@ -289,6 +311,22 @@ class FrameLoop:
         mujoco.mj_forward(self.model, self.data)
         self.standing_height_m = float(self.data.qpos[2])
         self._plan = None
+        self._new_path(pose)
+
+    def _new_path(self, setpoint: NDArray[np.float64]) -> None:
+        """The set-points sent so far end at `setpoint`; a varied robot's servos act on them
+        through a new `ServoPath` from there (docs/DESIGN.md §13)."""
+        self._sent = np.array(setpoint, dtype=np.float64)
+        nominal = self.variation.is_nominal
+        self._path = None if nominal else ServoPath(self.variation, self.timestep_s, self._sent)
+
+    def set_variation(self, variation: Variation) -> None:
+        """Walk on with the robot varied by `variation` (nominal: as described), from the next
+        frame on; the state carries over, the set-point path starts anew."""
+        self.variation = variation
+        self.robot = _varied(self.nominal_robot, variation)
+        self.model = self.robot.model
+        self._new_path(self._sent)
 
     def set_gait(self, params: GaitParams | None = None, motion: Motion | None = None) -> None:
         """New parameters or motion vector: they reach the servos from the next frame on, a new
@@ -323,6 +361,7 @@ class FrameLoop:
                 self.timestep_s,
                 motion_now=self.motion_now,
                 frame0=self.frame_index - self.engine_start_frame,
+                geometry=self.robot.geometry,
             )
         k = plan.next_index
         plan.next_index += 1
@@ -353,7 +392,7 @@ class FrameLoop:
         demux = demultiplex(pins.edges, self.hardware.tdm)
         received = ~np.isnan(demux.pulse_us)
         decoded = pulses_to_angles_rad(demux.pulse_us, self.hardware.calibration)
-        setpoint = np.where(received, decoded, self.data.ctrl[self.robot.actuator_ids])
+        setpoint = np.where(received, decoded, self._sent)
         substep = falling_edge_substeps(
             np.where(received, demux.fall_ticks, 0), self.steps_per_frame, self.timestep_s
         )
@@ -380,7 +419,12 @@ class FrameLoop:
         return record
 
     def _apply_frame(self, substep: NDArray[np.int64], setpoint: NDArray[np.float64]) -> None:
-        """Step physics through one frame, switching each servo's set-point at its falling edge."""
+        """Step physics through one frame, switching each servo's set-point at its falling edge
+        (through the variation's set-point path when the robot is varied)."""
+        if self._path is not None:
+            self._apply_varied_frame(substep, setpoint)
+            return
+        self._sent = np.array(setpoint, dtype=np.float64)
         model, data = self.model, self.data
         order = np.argsort(substep, kind="stable")
         ctrl = data.ctrl
@@ -397,6 +441,23 @@ class FrameLoop:
             ctrl[actuator] = value
         if done < self.steps_per_frame:
             mujoco.mj_step(model, data, self.steps_per_frame - done)
+
+    def _apply_varied_frame(
+        self, substep: NDArray[np.int64], setpoint: NDArray[np.float64]
+    ) -> None:
+        """The frame's set-points per physics step, as `batch.control_sequence` builds them,
+        through the path; physics steps between the steps where what the servos act on changes."""
+        assert self._path is not None
+        steps = np.arange(self.steps_per_frame)[:, None]
+        sent = np.where(steps >= substep[None, :], setpoint[None, :], self._sent[None, :])
+        self._sent = np.array(setpoint, dtype=np.float64)
+        acting = self._path(sent)  # (steps, 12)
+        changes = np.flatnonzero(np.any(np.diff(acting, axis=0) != 0.0, axis=1)) + 1
+        model, data, act = self.model, self.data, self.robot.actuator_ids
+        bounds = [0, *changes.tolist(), self.steps_per_frame]
+        for start, end in itertools.pairwise(bounds):
+            data.ctrl[act] = acting[start]
+            mujoco.mj_step(model, data, end - start)
 
     def _check_state(self) -> None:
         data = self.data

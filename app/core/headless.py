@@ -10,6 +10,8 @@ import numpy as np
 
 from app.core.frame_loop import FRAME_S, FrameLoop
 from app.core.metrics import RunMetrics, Trace, compute_metrics
+from app.core.robot import RobotModel
+from app.core.variations import NOMINAL, Variation
 from gait import GaitParams, Motion
 from hardware import HardwareSetup, required_torque_from_loads
 
@@ -33,16 +35,26 @@ def run(
     warmup_s: float = 5.0,
     hardware: HardwareSetup | None = None,
     start_motion: Motion | None = None,
+    robot: RobotModel | None = None,
+    variation: Variation = NOMINAL,
 ) -> RunResult:
     """Simulate `duration_s` of walking (stopping early at a fall) and compute the run metrics.
 
-    The first `warmup_s` seconds are left out of the motion metrics; `hardware` defaults to
-    uncalibrated servos and the default channel map. The run starts in `motion`, or in
+    The first `warmup_s` seconds are left out of the motion metrics; `robot` defaults to the
+    built-in one, varied by `variation` (docs/DESIGN.md §13), and `hardware` to the robot's
+    servo drive. The run starts in `motion`, or in
     `start_motion` and ramps from there to `motion`. ValueError if duration <= 0 or warm-up < 0.
     """
     if not duration_s > 0 or not warmup_s >= 0:
         raise ValueError("duration must be > 0 s and warm-up >= 0 s")
-    sim = FrameLoop(params=params, motion=motion, hardware=hardware, start_motion=start_motion)
+    sim = FrameLoop(
+        robot,
+        params=params,
+        motion=motion,
+        hardware=hardware,
+        start_motion=start_motion,
+        variation=variation,
+    )
     trace = Trace()
     n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
     flags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}

@@ -1,28 +1,29 @@
-"""The built-in ArtRo MuJoCo model: loading it, and the indices that map the gait onto it.
-
-The simulation, the tests and the viewer all go through `RobotModel`, so joint and site names of
-docs/DESIGN.md §3 are looked up in one place.
-"""
+"""A robot's MuJoCo model, built from its description, and the indices that map the gait onto it:
+joint and site names of docs/DESIGN.md §3 are looked up in one place, and the leg geometry and the
+servo drive (calibration, TDM map) come from the same description (docs/DESIGN.md §12)."""
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
-from app.assets import model_xml
+from app.robots import RobotDescription, build_model, joint_settings, load_description
+from app.robots.checks import eq1_torques, robot_warnings
 from gait import JOINT_NAMES, LegGeometry
-
-ARTRO_XML = model_xml()
+from hardware import ChannelMap, HardwareSetup, ServoCalibration, TdmConfig
 
 
 @dataclass(frozen=True)
 class RobotModel:
-    """A compiled model plus the addresses of the 12 leg joints in the gait's joint order."""
+    """A compiled model of a described robot plus the addresses of the 12 leg joints in the
+    gait's joint order."""
 
+    description: RobotDescription
     model: mujoco.MjModel
     qpos_adr: NDArray[np.int_]  # (12,) qpos index of each joint, JOINT_NAMES order
     dof_adr: NDArray[np.int_]  # (12,) qvel index
@@ -32,10 +33,17 @@ class RobotModel:
     sole_adr: tuple[int, int]  # sensordata index of the left and right sole centre positions
 
     @classmethod
-    def load(cls, path: Path | str = ARTRO_XML) -> RobotModel:
-        """Compile the MJCF at `path` (default: the built-in model) and look up its joints,
-        actuators, trunk and sensors; ValueError or KeyError if one is missing or it fails."""
-        model = mujoco.MjModel.from_xml_path(str(path))
+    def load(cls, robot: str | Path | RobotDescription | None = None) -> RobotModel:
+        """Build the model of `robot`: a built-in name (default `artro`), a description file or a
+        description (`app.robots.load_description`); RobotError if it is not a valid robot."""
+        description = load_description(robot)
+        return cls.of_model(description, build_model(description))
+
+    @classmethod
+    def of_model(cls, description: RobotDescription, model: mujoco.MjModel) -> RobotModel:
+        """`model` as the model of `description` (e.g. the built model edited as MJCF by an
+        experiment); KeyError if a joint, actuator, body or sensor of docs/DESIGN.md §3 is
+        missing."""
         qpos, dof, act = [], [], []
         for name in JOINT_NAMES:
             joint = model.joint(name)
@@ -43,6 +51,7 @@ class RobotModel:
             dof.append(int(joint.dofadr[0]))
             act.append(int(model.actuator(name).id))
         return cls(
+            description=description,
             model=model,
             qpos_adr=np.array(qpos),
             dof_adr=np.array(dof),
@@ -52,8 +61,52 @@ class RobotModel:
             sole_adr=(_sensor_adr(model, "l_sole_pos"), _sensor_adr(model, "r_sole_pos")),
         )
 
-    def leg_geometry(self) -> LegGeometry:
-        """L_UL and L_LL measured from the model's hip, knee and ankle positions."""
+    @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def geometry(self) -> LegGeometry:
+        """L_UL and L_LL of the description: the gait's inverse kinematics (eqs 3–6)."""
+        geo = self.description.geometry
+        return LegGeometry(upper_m=geo.thigh_m, lower_m=geo.shank_m)
+
+    def hardware(self) -> HardwareSetup:
+        """The servo drive of the description: each joint's calibration and the TDM map."""
+        joints = [self.description.joints[name] for name in JOINT_NAMES]
+        limits = [j.calibration.angle_limits_rad() for j in joints]
+        calibration = ServoCalibration(
+            direction=[j.calibration.direction for j in joints],
+            trim_us=[j.calibration.trim_us for j in joints],
+            min_rad=[lo for lo, _ in limits],
+            max_rad=[hi for _, hi in limits],
+        )
+        channels = ChannelMap(assignments=self.description.channel_assignments())
+        return HardwareSetup(calibration=calibration, tdm=TdmConfig(channel_map=channels))
+
+    def summary(self) -> dict[str, Any]:
+        """The description and the figures that follow from it (`artro robot show`,
+        `GET /api/robot`): masses, leg, each joint's servo settings, eq (1) per joint."""
+        desc = self.description
+        return {
+            "name": desc.name,
+            "title": desc.title,
+            "default_preset": desc.default_preset,
+            "description": desc.model_dump(mode="json"),
+            "derived": {
+                "total_mass_kg": self.total_mass_kg(),
+                "link_masses_kg": desc.link_masses_kg(),
+                "leg": {"upper_m": self.geometry.upper_m, "lower_m": self.geometry.lower_m},
+                "standing_height_m": desc.geometry.standing_height_m,
+                "servos": {k: v.to_dict() for k, v in joint_settings(desc).items()},
+                "eq1": [t.to_dict() for t in eq1_torques(desc)],
+                "warnings": robot_warnings(desc),
+            },
+        }
+
+    def measured_leg_geometry(self) -> LegGeometry:
+        """L_UL and L_LL measured from the model's hip, knee and ankle positions (a check of
+        the builder against `geometry`)."""
         data = mujoco.MjData(self.model)
         mujoco.mj_kinematics(self.model, data)
         hip = data.site("l_hip").xpos

@@ -1,6 +1,6 @@
 """The set-point path of a varied robot: what 12 servos act on, step by step, given what they
 were sent -- latency, calibration offset, and dead band plus backlash as a play operator
-(docs/DESIGN.md §12). One `ServoPath` per run; chunks of any size give the same output.
+(docs/DESIGN.md §13). One `ServoPath` per run; chunks of any size give the same output.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Model variations: one typed departure from the nominal ArtRo model (friction, masses, servo,
 latency, play, floor tilt, calibration), its `key=value` text, default ranges and seeded samples,
-and `vary_model`, which applies it to a copy of the compiled model (docs/DESIGN.md §12). The
+and `vary_model`, which applies it to a copy of the compiled model (docs/DESIGN.md §13). The
 set-point part (latency, calibration, dead band, backlash) is `app.core.servo_path.ServoPath`.
 """
 
@@ -89,7 +89,7 @@ def _check(name: str, value: float) -> None:
 class Variation:
     """Departures from the nominal model; every default means "no change".
 
-    Fields (the model's values in brackets, docs/DESIGN.md §12 for what each changes and why):
+    Fields (the model's values in brackets, docs/DESIGN.md §13 for what each changes and why):
         friction: absolute sliding friction of the floor and both soles, > 0 and ≤ 1
             (None: the model's 0.7).
         trunk_mass_scale: trunk body mass and inertia (payload); link_mass_scale: every other
@@ -209,7 +209,7 @@ def parse_variation(text: str) -> Variation:
 class VariationRanges:
     """The box `sample` draws from: (low, high) per field, both allowed values of the field
     (`calibration_deg` holds for each joint; the direction may reach 360, drawn modulo 360).
-    Defaults and their sources: docs/DESIGN.md §12. ValueError naming the field if a bound is
+    Defaults and their sources: docs/DESIGN.md §13. ValueError naming the field if a bound is
     outside the field's range or low > high."""
 
     friction: tuple[float, float] = (0.4, 1.0)

@@ -7,28 +7,32 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import re
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
+from app.assets import project_version
 from gait import GaitParams, Motion
 from gait.params import replace_checked
 
+ROBOT_NAME = re.compile(r"[a-z][a-z0-9_-]{0,39}")  # as a robot description's `name`
 SCHEMA_VERSION = 2
 #: Versions `ParameterSet.from_dict` reads (see the module docstring for what 1 lacks).
 READABLE_VERSIONS = (1, 2)
 V2_GROUPS = ("steer", "ramp", "pfs")
-TOP_LEVEL_KEYS = ("schema_version", "name", "created", "project_version", "motion", "gait")
-
-
-def project_version() -> str:
-    """The installed artro-gait-studio version, or "unknown" when it is not installed."""
-    try:
-        return metadata.version("artro-gait-studio")
-    except metadata.PackageNotFoundError:
-        return "unknown"
+TOP_LEVEL_KEYS = (
+    "schema_version",
+    "name",
+    "robot",
+    "created",
+    "project_version",
+    "motion",
+    "gait",
+)
+#: The robot a set was tuned for when it does not say: every set before robots existed was ArtRo's.
+DEFAULT_ROBOT = "artro"
 
 
 @dataclass(frozen=True)
@@ -37,7 +41,8 @@ class ParameterSet:
 
     As a document (`to_dict`, `from_dict`, docs/DESIGN.md §6):
 
-        {"schema_version": 2, "name": "...", "created": "ISO time", "project_version": "0.1.0",
+        {"schema_version": 2, "name": "...", "robot": "artro", "created": "ISO time",
+         "project_version": "0.1.0",
          "motion": {"a_r": 0, "a_p": 0.07, "a_y": 0, "ca": 0},
          "gait": {"engine": "behnke", "clock": {...}, "shift": {...}, ..., "leg": {...},
                   "steer": {...}, "ramp": {...}, "pfs": {...}}}
@@ -49,6 +54,8 @@ class ParameterSet:
     """
 
     name: str = "paper"
+    #: the robot it was tuned for (docs/DESIGN.md §12); optional in a document, default artro
+    robot: str = DEFAULT_ROBOT
     motion: Motion = field(default_factory=Motion)
     gait: GaitParams = field(default_factory=GaitParams)
     created: str = ""
@@ -59,6 +66,7 @@ class ParameterSet:
         return {
             "schema_version": SCHEMA_VERSION,
             "name": self.name,
+            "robot": self.robot,
             "created": self.created or datetime.now(timezone.utc).isoformat(timespec="seconds"),
             "project_version": self.project_version or project_version(),
             "motion": dataclasses.asdict(self.motion),
@@ -88,8 +96,15 @@ class ParameterSet:
         name = data.get("name", "unnamed")
         if not isinstance(name, str):
             raise ValueError("name must be a string")
+        robot = data.get("robot", DEFAULT_ROBOT)
+        if not isinstance(robot, str) or not ROBOT_NAME.fullmatch(robot):
+            raise ValueError(
+                f"robot must be a robot's name (lower case letters, digits, - and _, up to 40), "
+                f"got {robot!r}"
+            )
         return cls(
             name=name,
+            robot=robot,
             motion=replace_checked(Motion(), data.get("motion", {}), "motion"),
             gait=GaitParams.from_dict(gait),
             created=str(data.get("created", "")),

@@ -28,7 +28,7 @@ MAX_IMPORT_BYTES = 64 * 1024
 MAX_DEPTH = 8  # a parameter set is 3 levels deep (document -> gait -> group)
 MAX_VALUES = 1000  # a parameter set has about 70 keys and values: refused before any work on more
 _YAML_SUFFIXES = (".yaml", ".yml")
-_OPTIONAL_KEYS = ("schema_version", "name", "created", "project_version")
+_OPTIONAL_KEYS = ("schema_version", "name", "robot", "created", "project_version")
 _TIMESTAMP_TAG = "tag:yaml.org,2002:timestamp"
 
 

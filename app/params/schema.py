@@ -127,6 +127,12 @@ BaseVersion = Field(
     "came first, 409 with the current version and nothing changed",
 )
 NAME_FIELD = Field(None, min_length=1, max_length=64, description="the parameter set's name")
+ROBOT_FIELD = Field(
+    None,
+    pattern=r"^[a-z][a-z0-9_-]{0,39}$",
+    description="the robot the set was tuned for (default artro); informative: a set loaded on "
+    "another robot is loaded with a warning",
+)
 
 
 class ParamsBody(BaseModel):
@@ -140,6 +146,7 @@ class ParamsBody(BaseModel):
     model_config = STRICT
     version: Version | None = BaseVersion
     name: str | None = NAME_FIELD
+    robot: str | None = ROBOT_FIELD
     schema_version: Literal[1, 2] = Field(2, description="of an exported file")
     created: str | None = Field(None, max_length=64, description="of an exported file; ignored")
     project_version: str | None = Field(
@@ -193,6 +200,7 @@ class _ImportFields(BaseModel):
         None, description="ignored (a document from GET /api/params)"
     )
     name: str | None = None
+    robot: str | None = ROBOT_FIELD
     created: str | None = None
     project_version: str | None = None
     motion: MotionImport = None  # type: ignore[valid-type,assignment]

@@ -19,7 +19,18 @@ from starlette.types import Scope
 
 from app.assets import static_dir
 from app.params.document import project_version
-from app.server.api import ghost, jobs, params, paths, presets, recording, scope, servos, sim
+from app.server.api import (
+    ghost,
+    jobs,
+    params,
+    paths,
+    presets,
+    recording,
+    robot,
+    scope,
+    servos,
+    sim,
+)
 from app.server.errors import install_handlers
 from app.server.guard import GUARDED_PREFIXES, Guard, served_hosts
 from app.server.services import ServerConfig, Services
@@ -64,7 +75,8 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
 
     install_handlers(app)
     routers = (sim.router, params.router, scope.router, paths.router, presets.router)
-    for router in (*routers, servos.router, jobs.router, ghost.router, recording.router):
+    more = (servos.router, jobs.router, ghost.router, recording.router, robot.router)
+    for router in (*routers, *more):
         app.include_router(router)
     # the page is served under every path but the API's: a wrong method or path under /api/
     # gets the API's 405/404, never the static files' answer

@@ -8,6 +8,7 @@ from typing import Any
 
 from app.core.axle_fit import AxleFitResult, fit_effective_axle
 from app.core.batch import BatchEvaluator
+from app.core.robot import RobotModel
 from app.server.jobs import Job, Jobs, Progress
 from app.server.path_tracker import PathTracker
 from gait import GaitParams, Motion
@@ -18,8 +19,8 @@ KIND = "axle-fit"
 class _Counting:
     """A BatchEvaluator that runs the fit's simulations one by one and reports progress."""
 
-    def __init__(self, progress: Progress) -> None:
-        self.inner = BatchEvaluator(threads=1)
+    def __init__(self, progress: Progress, robot: RobotModel | None) -> None:
+        self.inner = BatchEvaluator(robot, threads=1)
         self.progress = progress
 
     def evaluate(self, jobs: list[Any], **kwargs: Any) -> list[dict[str, Any]]:
@@ -31,7 +32,8 @@ class _Counting:
 
 
 class AxleFitter:
-    def __init__(self, jobs: Jobs | None = None) -> None:
+    def __init__(self, jobs: Jobs | None = None, robot: RobotModel | None = None) -> None:
+        self.robot = robot  # the fits walk this robot (default: the built-in one)
         self.jobs = jobs or Jobs()
         self.last: AxleFitResult | None = None
         self.fitted_gait: GaitParams | None = None  # the gait whose b_eff the paths use
@@ -42,7 +44,7 @@ class AxleFitter:
         """Fit in the background; raises JobBusy (a RuntimeError) while a fit runs."""
 
         def work(progress: Progress) -> AxleFitResult:
-            result = fit_effective_axle(params, motion, _Counting(progress))  # type: ignore[arg-type]
+            result = fit_effective_axle(params, motion, _Counting(progress, self.robot))  # type: ignore[arg-type]
             self.last = result
             if result.applies and result.axle_eff_m is not None:
                 self.fitted_gait = params

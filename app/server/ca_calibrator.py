@@ -10,6 +10,7 @@ from typing import Any
 from app.core.axle_fit import walking_amplitude
 from app.core.batch import BatchEvaluator
 from app.core.ca_calibration import CalibrationError, calibrate_ca, with_k
+from app.core.robot import RobotModel
 from app.server.jobs import Job, Jobs, Progress
 from app.server.param_store import ParameterStore
 from app.server.path_tracker import PathTracker
@@ -22,7 +23,14 @@ STAGES = 8  # progress lines a direction prints, about (for a progress fraction)
 class CaCalibrator:
     """One calibration at a time, sharing the server's jobs with the axle fit."""
 
-    def __init__(self, jobs: Jobs, store: ParameterStore, paths: PathTracker) -> None:
+    def __init__(
+        self,
+        jobs: Jobs,
+        store: ParameterStore,
+        paths: PathTracker,
+        robot: RobotModel | None = None,
+    ) -> None:
+        self.robot = robot  # the calibration walks this robot (default: the built-in one)
         self.jobs, self.store, self.paths = jobs, store, paths
 
     def start(self, *, duration_s: float = 20.0) -> Job:
@@ -43,7 +51,8 @@ class CaCalibrator:
                     result = calibrate_ca(
                         gait,
                         dataclasses.replace(snap.motion, a_p=a_p),
-                        BatchEvaluator(threads=1),  # the live simulation keeps the other core
+                        # one thread: the live simulation keeps the other core
+                        BatchEvaluator(self.robot, threads=1),
                         duration_s=duration_s,
                         say=say,
                     )

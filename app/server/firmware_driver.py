@@ -12,7 +12,7 @@ from app.core.frame_loop import FRAME_S, PinFrame
 from app.core.mcu import protocol as proto
 from app.core.mcu.drive import FirmwareDrive
 from app.server.param_store import Snapshot
-from gait import ramp_motion
+from gait import ARTRO_LEG, LegGeometry, ramp_motion
 from hardware import HardwareSetup
 
 FIRMWARE_ENGINE = "behnke"
@@ -49,7 +49,9 @@ class FirmwareDriver:
         self._naks = 0
 
     @classmethod
-    def boot(cls, snapshot: Snapshot, hardware: HardwareSetup) -> FirmwareDriver:
+    def boot(
+        cls, snapshot: Snapshot, hardware: HardwareSetup, geometry: LegGeometry = ARTRO_LEG
+    ) -> FirmwareDriver:
         """Build the firmware with the snapshot's set as its defaults and boot it (seconds on a
         cold cache, then milliseconds). ValueError if the set names an engine the firmware does
         not run; BuildError or EmulatorError if the tool chain or the emulator fail."""
@@ -59,7 +61,9 @@ class FirmwareDriver:
                 f"{snapshot.gait.engine!r}: choose engine {FIRMWARE_ENGINE} first"
             )
         doc = snapshot.parameter_set().to_dict()
-        drive = FirmwareDrive(doc, calibration=hardware.calibration, tdm=hardware.tdm)
+        drive = FirmwareDrive(
+            doc, calibration=hardware.calibration, tdm=hardware.tdm, geometry=geometry
+        )
         return cls(drive, snapshot)
 
     def send(self, snapshot: Snapshot) -> None:

@@ -12,7 +12,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any
 
-from app.params.document import ParameterSet
+from app.params.document import DEFAULT_ROBOT, ParameterSet
 from gait import GaitParams, Motion
 from gait.params import merge, replace_checked
 
@@ -26,6 +26,7 @@ class Snapshot:
     motion: Motion
     gait: GaitParams
     source: str = "start"  # who made this version: "http", "viser", "preset", "import", "undo"...
+    robot: str = DEFAULT_ROBOT  # the robot being simulated: the sets of this store are for it
 
     def flat(self) -> dict[str, float | bool]:
         """Dotted field names -> values: 'motion.a_p', 'swing.v', ..."""
@@ -36,12 +37,13 @@ class Snapshot:
         return {
             "version": self.version,
             "name": self.name,
+            "robot": self.robot,
             "motion": dataclasses.asdict(self.motion),
             "gait": self.gait.to_dict(),
         }
 
     def parameter_set(self) -> ParameterSet:
-        return ParameterSet(name=self.name, motion=self.motion, gait=self.gait)
+        return ParameterSet(name=self.name, robot=self.robot, motion=self.motion, gait=self.gait)
 
 
 Subscriber = Callable[[Snapshot, frozenset[str], str], None]
@@ -55,10 +57,12 @@ class NothingToUndo(LookupError):
 
 
 class ParameterStore:
-    def __init__(self, initial: ParameterSet | None = None) -> None:
+    def __init__(self, initial: ParameterSet | None = None, robot: str = DEFAULT_ROBOT) -> None:
+        """A store of parameter sets for `robot` (whatever robot `initial` names)."""
         initial = initial or ParameterSet()
         self._lock = threading.Lock()
-        self._snapshot = Snapshot(1, initial.name, initial.motion, initial.gait)
+        self.robot = robot
+        self._snapshot = Snapshot(1, initial.name, initial.motion, initial.gait, robot=robot)
         self._undo: list[Snapshot] = []
         self._redo: list[Snapshot] = []
         self._subscribers: list[Subscriber] = []
@@ -135,7 +139,7 @@ class ParameterStore:
             if check is not None:
                 check(current)  # raises before anything changes
             name, motion, gait = build(current)  # raises before anything changes
-            candidate = Snapshot(current.version + 1, name, motion, gait, source)
+            candidate = Snapshot(current.version + 1, name, motion, gait, source, self.robot)
             changed = _changed(current, candidate)
             if not changed:
                 return current
@@ -159,7 +163,12 @@ class ParameterStore:
             previous = take.pop()
             give.append(current)
             candidate = Snapshot(
-                current.version + 1, previous.name, previous.motion, previous.gait, source
+                current.version + 1,
+                previous.name,
+                previous.motion,
+                previous.gait,
+                source,
+                self.robot,
             )
             self._snapshot = candidate
             changed = _changed(current, candidate)

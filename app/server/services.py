@@ -5,7 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.params.document import load_parameter_set
+from app.core.robot import RobotModel
+from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.server.axle_fitter import AxleFitter
 from app.server.ca_calibrator import CaCalibrator
@@ -25,27 +26,28 @@ class ServerConfig:
     viewer: bool = True  # start the viser 3D view
     allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/guard.py)
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
-
-
-START_PRESET = "tuned"  # a new user should see a robot that walks; "paper" if it is missing
+    robot: str | None = None  # a built-in robot's name or a description file (default: artro)
 
 
 class Services:
     def __init__(self, config: ServerConfig) -> None:
         self.config = config
         builtins = builtin_presets()
+        self.robot = RobotModel.load(config.robot)
         if config.params_file:
             initial = load_parameter_set(config.params_file)
-        else:
-            initial = builtins.get(START_PRESET, builtins["paper"])
-        self.store = ParameterStore(initial)
+        else:  # the robot's own preset: a new user should see a robot that walks
+            initial = builtins.get(self.robot.description.default_preset, builtins["paper"])
+        self.store = ParameterStore(initial, robot=self.robot.name)
         self.presets = PresetStore(config.data_dir, builtins)
-        self.sim = SimThread(self.store)
+        self.sim = SimThread(self.store, robot=self.robot)
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
-        self.axle_fitter = AxleFitter()  # its jobs: GET /api/jobs/{id}
-        self.ca_calibrator = CaCalibrator(self.axle_fitter.jobs, self.store, self.sim.paths)
+        self.axle_fitter = AxleFitter(robot=self.robot)  # its jobs: GET /api/jobs/{id}
+        self.ca_calibrator = CaCalibrator(
+            self.axle_fitter.jobs, self.store, self.sim.paths, self.robot
+        )
         self.viewer = None
         if config.viewer:
             from app.server.viser_guard import guard_viser
@@ -64,6 +66,15 @@ class Services:
                 port=config.viser_port,
             )
             guard_viser(self.viewer.server, served_hosts(config.host, config.allowed_hosts))
+
+    def robot_warnings(self, pset: ParameterSet) -> list[str]:
+        """What to tell a user who loads `pset` here: that it was tuned for another robot."""
+        if pset.robot == self.robot.name:
+            return []
+        return [
+            f"parameter set {pset.name!r} was tuned for the robot {pset.robot!r}; the robot "
+            f"here is {self.robot.name!r}: it may walk differently or fall"
+        ]
 
     def start(self) -> None:
         self.sim.start()

@@ -124,7 +124,9 @@ class SimThread:
         hardware: HardwareSetup | None = None,
     ) -> None:
         self.store = store
-        self.hardware = hardware or HardwareSetup()
+        robot = robot or RobotModel.load()
+        self.robot = robot  # its description and model are not changed: any thread may read it
+        self.hardware = hardware or robot.hardware()
         snap = store.snapshot()
         self._loop = FrameLoop(  # this thread's alone, with its MjData
             robot=robot, params=snap.gait, motion=snap.motion, hardware=self.hardware
@@ -219,7 +221,9 @@ class SimThread:
             raise ValueError(f"unknown drive {drive!r}; allowed: {allowed}") from None
         driver = None
         if drive is Drive.FIRMWARE:
-            driver = FirmwareDriver.boot(self.store.snapshot(), self.hardware)
+            driver = FirmwareDriver.boot(
+                self.store.snapshot(), self.hardware, self._loop.robot.geometry
+            )
         self.command(Command.DRIVE, driver)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:

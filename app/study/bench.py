@@ -422,6 +422,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--quick", action="store_true", help="short runs and a coarse CA sweep (smoke test)"
     )
+    parser.add_argument(
+        "--robot", default=None, metavar="NAME|FILE", help="the robot to walk (default: artro)"
+    )
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
@@ -430,6 +433,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         config = replace(config, duration_s=args.duration)
     if args.warmup is not None:
         config = replace(config, warmup_s=args.warmup)
+    if args.robot is not None:
+        config = replace(config, robot=args.robot)
     if args.threads is not None:
         if args.threads < 1:
             raise ValueError(f"--threads must be >= 1, got {args.threads}")

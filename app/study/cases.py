@@ -49,13 +49,20 @@ def measured(case: PaperCase, metrics: dict) -> float | None:
     return metrics.get(case.metric)
 
 
-def passes(case: PaperCase, value: float | None, fell: bool) -> bool:
+def target(case: PaperCase, speed_scale: float = 1.0) -> float:
+    """The case's figure for a robot `speed_scale` times ArtRo's leg length: speeds scale with
+    the legs (a geometrically similar gait), turn rates do not (docs/DESIGN.md §12)."""
+    return case.paper * (speed_scale if case.metric.endswith("cm_s") else 1.0)
+
+
+def passes(case: PaperCase, value: float | None, fell: bool, speed_scale: float = 1.0) -> bool:
     """Walks the whole run without falling, in the right direction, within the tolerance."""
     if fell or value is None:
         return False
     if case.metric == "drift_cm_s":
-        return value < SPOT_DRIFT_LIMIT_CM_S
-    return abs(value - case.paper) <= SPEED_TOLERANCE * abs(case.paper)
+        return value < SPOT_DRIFT_LIMIT_CM_S * speed_scale
+    goal = target(case, speed_scale)
+    return abs(value - goal) <= SPEED_TOLERANCE * abs(goal)
 
 
 # --- curve walking (seed 004): the heading rate against eq (13) -------------------------------

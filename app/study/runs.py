@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 
 from app.core.batch import BatchEvaluator, Job
 from app.core.metrics import Trace, whole_cycles
+from app.core.robot import RobotModel
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import BUILTIN_DIR
 from app.study import speed_limits
@@ -58,6 +59,7 @@ class BenchConfig:
     limit_ca: tuple[float, ...] = speed_limits.LIMIT_CA
     limit_duration_s: float = 30.0
     threads: int | None = None
+    robot: str | None = None  # a built-in robot's name or a description file (default: artro)
 
 
 QUICK = BenchConfig(
@@ -210,7 +212,7 @@ def run_all(
     by_label = _walk(plan_jobs(presets, config), config.duration_s, config, progress)
     circle_motion = Motion(a_p=WALK_A_P["forward"], ca=CIRCLE_CA)
     circle_traces: list[Trace] = []
-    circle_metrics = BatchEvaluator(threads=config.threads).evaluate(
+    circle_metrics = BatchEvaluator(RobotModel.load(config.robot), threads=config.threads).evaluate(
         [Job(preset.params, circle_motion) for preset in presets],
         duration_s=config.circle_s,
         warmup_s=config.warmup_s,
@@ -259,7 +261,7 @@ def _walk(
 ) -> dict[tuple[str, str], Run]:
     """Every planned run in one batch, keyed by (preset name, label), with its trunk path."""
     traces: list[Trace] = []
-    metrics = BatchEvaluator(threads=config.threads).evaluate(
+    metrics = BatchEvaluator(RobotModel.load(config.robot), threads=config.threads).evaluate(
         [job for _, _, job in planned],
         duration_s=duration_s,
         warmup_s=config.warmup_s,

@@ -10,7 +10,7 @@ import math
 import zlib
 from dataclasses import dataclass
 
-from gait.leg_interface import ARTRO_LEG
+from gait.leg_interface import ARTRO_LEG, LegGeometry
 from gait.params import GaitParams, Motion, describe_fields, engine_groups, group_class, merge
 from hardware.firmware.header import c_float, c_identifier
 
@@ -96,8 +96,8 @@ def values_from_document(doc: dict) -> list[float]:
     return values
 
 
-def c_schema_header() -> str:
-    """The text of artro_schema.h (independent of the parameter set)."""
+def c_schema_header(geometry: LegGeometry = ARTRO_LEG) -> str:
+    """The text of artro_schema.h (independent of the parameter set) for a robot's legs."""
     specs = param_specs()
     out = [
         f"/* {SCHEMA_HEADER_NAME} -- parameter ids, ranges and switches of the ArtRo gait,",
@@ -112,8 +112,8 @@ def c_schema_header() -> str:
         f"#define ARTRO_SCHEMA_HASH 0x{schema_hash(specs):08X}UL",
         "",
         "/* leg segments, hip -> knee -> ankle, eqs (3)-(6) */",
-        f"#define ARTRO_GEOM_UPPER_LEG_M {c_float(ARTRO_LEG.upper_m)}",
-        f"#define ARTRO_GEOM_LOWER_LEG_M {c_float(ARTRO_LEG.lower_m)}",
+        f"#define ARTRO_GEOM_UPPER_LEG_M {c_float(geometry.upper_m)}",
+        f"#define ARTRO_GEOM_LOWER_LEG_M {c_float(geometry.lower_m)}",
         "",
         "enum artro_param_id {",
     ]

@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import hardware.firmware as firmware_package
+from gait import ARTRO_LEG, LegGeometry
 from hardware import ChannelMap, ServoCalibration, TdmConfig
 from hardware.firmware import HEADER_NAME, c_header
 from hardware.firmware.schema import (
@@ -72,6 +73,7 @@ def generated_headers(
     *,
     calibration: ServoCalibration | None = None,
     tdm: TdmConfig | None = None,
+    geometry: LegGeometry = ARTRO_LEG,
 ) -> dict[str, str]:
     """{file name: text} of the two generated headers for a parameter-set document (fields left
     out take the schema's defaults); ValueError if it names an engine the firmware does not run."""
@@ -88,7 +90,7 @@ def generated_headers(
         channel_map=tdm.channel_map or ChannelMap.default(),
         select_change_ticks=tdm.select_change_ticks,
     )
-    return {HEADER_NAME: params_h, SCHEMA_HEADER_NAME: c_schema_header()}
+    return {HEADER_NAME: params_h, SCHEMA_HEADER_NAME: c_schema_header(geometry)}
 
 
 def source_files() -> dict[str, bytes]:
@@ -120,6 +122,7 @@ def build_firmware(
     *,
     calibration: ServoCalibration | None = None,
     tdm: TdmConfig | None = None,
+    geometry: LegGeometry = ARTRO_LEG,
     out_dir: Path | None = None,
     defines: dict[str, str] | None = None,
 ) -> FirmwareBuild:
@@ -129,7 +132,7 @@ def build_firmware(
         doc: a parameter-set document (`ParameterSet.to_dict()`); its values are the defaults
             the firmware boots with.
         calibration, tdm: servo calibration and TDM set-up (default: uncalibrated, default map,
-            select change at 4900 ticks).
+            select change at 4900 ticks); geometry: the robot's leg (`RobotModel.geometry`).
         out_dir: build here (gen/, build/) instead of the cache.
         defines: extra -D options, e.g. {"ARTRO_BOOT_STATE": "1"}.
 
@@ -138,7 +141,7 @@ def build_firmware(
     """
     if missing := missing_tools():
         raise BuildError(f"missing tools: {', '.join(missing)} (install gcc-avr, avr-libc, make)")
-    headers = generated_headers(doc, calibration=calibration, tdm=tdm)
+    headers = generated_headers(doc, calibration=calibration, tdm=tdm, geometry=geometry)
     extra = " ".join(f"-D{k}={v}" for k, v in sorted((defines or {}).items()))
     if out_dir is None:
         key = _digest({**source_files(), **headers, "cflags": extra})
@@ -194,6 +197,7 @@ def export_firmware_folder(
     *,
     calibration: ServoCalibration | None = None,
     tdm: TdmConfig | None = None,
+    geometry: LegGeometry = ARTRO_LEG,
 ) -> Path:
     """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
     programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
@@ -206,7 +210,8 @@ def export_firmware_folder(
         (out / name).write_bytes(data)
     for doc_name in ("PROTOCOL.md", "README.md"):
         shutil.copyfile(FIRMWARE_DIR / doc_name, out / doc_name)
-    for name, text in generated_headers(doc, calibration=calibration, tdm=tdm).items():
+    headers = generated_headers(doc, calibration=calibration, tdm=tdm, geometry=geometry)
+    for name, text in headers.items():
         (out / "gen" / name).write_text(text, encoding="ascii")
     (out / "parameters.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
     return out

@@ -15,6 +15,7 @@ from app.core.mcu.build import build_firmware, export_firmware_folder
 from app.core.mcu.conformance import model_frames, run_comparison
 from app.core.mcu.emulator import Mcu
 from app.core.mcu.vcd import write_vcd
+from app.core.robot import RobotModel
 from gait import GaitParams, Motion
 from gait.params import replace_checked
 
@@ -48,11 +49,13 @@ def add_firmware_parser(subparsers: Any) -> argparse.ArgumentParser:
     build = sub.add_parser("build", help="write and build a firmware folder")
     build.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
     build.add_argument("-o", "--output", metavar="DIR", default="artro_firmware")
+    build.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
     run = sub.add_parser("run", help="emulate on simavr and compare with the model")
     run.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
     run.add_argument("--motion", type=_motion, metavar="AR,AP,AY", help="motion vector")
     run.add_argument("--ca", type=float, help="curve amount")
     run.add_argument("--frames", type=int, default=250, metavar="N", help="20 ms frames")
+    run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
     run.add_argument("--vcd", metavar="FILE", help="write the nine drive lines as VCD")
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.add_argument(
@@ -94,12 +97,22 @@ def _document(args: argparse.Namespace) -> dict[str, Any]:
     return doc
 
 
-def firmware_run(doc: dict[str, Any], frames: int, vcd: str | None = None) -> dict[str, Any]:
-    """Emulate `frames` frames of the firmware built for `doc`; the comparison as a dict."""
-    build = build_firmware(doc)
-    model = model_frames(doc, frames)
+def wiring(robot: RobotModel) -> dict[str, Any]:
+    """What the firmware takes from a robot: calibration, TDM map and leg geometry."""
+    hardware = robot.hardware()
+    return {"calibration": hardware.calibration, "tdm": hardware.tdm, "geometry": robot.geometry}
+
+
+def firmware_run(
+    doc: dict[str, Any], frames: int, vcd: str | None = None, robot: RobotModel | None = None
+) -> dict[str, Any]:
+    """Emulate `frames` frames of the firmware built for `doc` on `robot` (default: artro);
+    the comparison as a dict."""
+    robot = robot or RobotModel.load()
+    build = build_firmware(doc, **wiring(robot))
+    model = model_frames(doc, frames, robot.hardware(), geometry=robot.geometry)
     with Mcu(build.elf) as mcu:
-        result = run_comparison(mcu, model, keep_edges=vcd is not None)
+        result = run_comparison(mcu, model, robot.hardware(), keep_edges=vcd is not None)
         if vcd:
             write_vcd(vcd, result.edges, mcu.t0_cycle, comment=f"parameter set {doc['name']}")
         lag = mcu.timer3_lag_cycles
@@ -108,15 +121,16 @@ def firmware_run(doc: dict[str, Any], frames: int, vcd: str | None = None) -> di
         "flash_bytes": build.flash_bytes,
         "sram_bytes": build.sram_bytes,
         "timer3_start_lag_cycles": lag,
+        "robot": robot.name,
     }
 
 
-def _serve_pty(doc: dict[str, Any]) -> int:
+def _serve_pty(doc: dict[str, Any], robot: RobotModel) -> int:
     import threading
 
     from app.core.mcu.pty_bridge import PtyBridge
 
-    with Mcu(build_firmware(doc).elf) as mcu:
+    with Mcu(build_firmware(doc, **wiring(robot)).elf) as mcu:
         bridge = PtyBridge(mcu)
         print(f"emulated robot on {bridge.port} (57600 8N1); Ctrl-C ends", flush=True)
         try:
@@ -130,19 +144,20 @@ def _serve_pty(doc: dict[str, Any]) -> int:
 
 def cmd_firmware(args: argparse.Namespace) -> int:
     doc = _document(args)
+    robot = RobotModel.load(getattr(args, "robot", None))
     if args.firmware_command == "build":
-        folder = export_firmware_folder(doc, Path(args.output))
-        build = build_firmware(doc, out_dir=folder)
+        folder = export_firmware_folder(doc, Path(args.output), **wiring(robot))
+        build = build_firmware(doc, out_dir=folder, **wiring(robot))
         print(
             f"{folder}: {build.hex.relative_to(folder)} built; flash {build.flash_bytes} B, "
             f"SRAM {build.sram_bytes} B (without the stack); `make -C {folder} flash` programs it"
         )
         return 0
     if args.pty:
-        return _serve_pty(doc)
+        return _serve_pty(doc, robot)
     if args.frames < 2:
         raise ValueError("--frames must be at least 2")
-    summary = firmware_run(doc, args.frames, args.vcd)
+    summary = firmware_run(doc, args.frames, args.vcd, robot)
     if args.json:
         print(json.dumps(summary))
     else:

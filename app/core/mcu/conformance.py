@@ -21,7 +21,7 @@ from app.core.mcu.emulator import (
     Mcu,
     read_active_plan,
 )
-from gait import GaitParams, Motion, pi_cut
+from gait import ARTRO_LEG, GaitParams, LegGeometry, Motion, pi_cut
 from hardware import CHANNELS, FRAME_TICKS, SLOT_TICKS, FrameEdges, frame_edges
 
 ANGLE_TOLERANCE_RAD = 1e-4
@@ -41,6 +41,7 @@ def model_frames(
     hardware: HardwareSetup | None = None,
     *,
     changes: Sequence[tuple[int, dict[str, Any]]] = (),
+    geometry: LegGeometry = ARTRO_LEG,
 ) -> ModelFrames:
     """The Python frame loop's first n frames for a parameter-set document.
 
@@ -58,7 +59,15 @@ def model_frames(
         params = GaitParams.from_dict(seg_doc["gait"])
         motion = Motion(**seg_doc["motion"])
         plan = plan_frames(
-            params, motion, hardware, phase, end - start, 10, 0.002, motion_now=motion_now
+            params,
+            motion,
+            hardware,
+            phase,
+            end - start,
+            10,
+            0.002,
+            motion_now=motion_now,
+            geometry=geometry,
         )
         motion_now = plan.motions[-1]  # a new set's motion is ramped to from here
         parts.append(plan)

@@ -15,6 +15,7 @@ from app.core.mcu.build import build_firmware
 from app.core.mcu.conformance import frame_edges_of
 from app.core.mcu.emulator import Edges, Mcu, read_active_plan
 from app.core.mcu.link import EmulatedLink
+from gait import ARTRO_LEG, LegGeometry
 from hardware import (
     CHANNELS,
     OCR_IDLE,
@@ -84,10 +85,12 @@ class FirmwareDrive:
         *,
         calibration: ServoCalibration | None = None,
         tdm: TdmConfig | None = None,
+        geometry: LegGeometry = ARTRO_LEG,
     ) -> None:
-        """Build the firmware with `doc` as its defaults (cached) and boot it; BuildError,
-        ValueError (an engine it does not run) or EmulatorError if that fails."""
-        self.build = build_firmware(doc, calibration=calibration, tdm=tdm)
+        """Build the firmware with `doc` as its defaults (cached) for a robot's wiring and legs
+        and boot it; BuildError, ValueError (an engine it does not run) or EmulatorError if that
+        fails."""
+        self.build = build_firmware(doc, calibration=calibration, tdm=tdm, geometry=geometry)
         self.mcu = Mcu(self.build.elf)
         self.link = EmulatedLink(self.mcu)
         self.frame = 0

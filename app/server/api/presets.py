@@ -106,11 +106,13 @@ def load_preset(
         bool, Query(description="keep the motion vector and CA in use; load only the gait")
     ] = False,
 ) -> dict[str, Any]:
-    """Make a preset the parameters in use (undoable)."""
+    """Make a preset the parameters in use (undoable). `warnings` says if it was tuned for
+    another robot than the one simulated."""
     pset = _get(services, name)
     if keep_motion:
         pset = dataclasses.replace(pset, motion=services.store.snapshot().motion)
-    return services.store.replace(pset, "preset").to_dict()
+    loaded = services.store.replace(pset, "preset").to_dict()
+    return loaded | {"warnings": services.robot_warnings(pset)}
 
 
 EXPORT_CONTENT = {
@@ -165,4 +167,5 @@ async def import_params(request: Request, services: ServicesDep) -> dict[str, An
         raise ApiError(422, str(exc), "invalid_import", loc=["body"], items=items) from exc
     except ValueError as exc:
         raise ApiError(422, str(exc), "invalid_import", loc=["body"]) from exc
-    return services.store.replace(pset, "import").to_dict()
+    loaded = services.store.replace(pset, "import").to_dict()
+    return loaded | {"warnings": services.robot_warnings(pset)}

@@ -1,0 +1,34 @@
+"""Robots as descriptions (docs/DESIGN.md §12): the schema, the servo table, the model builder,
+the checks that run before anything simulates, and the built-in robots."""
+
+from app.robots.builder import build_model, build_spec, joint_settings, model_xml
+from app.robots.description import Calibration, Geometry, Joint, Part, RobotDescription
+from app.robots.library import (
+    BUILTIN_DEFAULT,
+    RobotError,
+    builtin_robot_names,
+    load_description,
+    parse_description,
+)
+from app.robots.servos import ServoSettings, ServoSpec, servo_settings, servo_table
+
+__all__ = [
+    "BUILTIN_DEFAULT",
+    "Calibration",
+    "Geometry",
+    "Joint",
+    "Part",
+    "RobotDescription",
+    "RobotError",
+    "ServoSettings",
+    "ServoSpec",
+    "build_model",
+    "build_spec",
+    "builtin_robot_names",
+    "joint_settings",
+    "load_description",
+    "model_xml",
+    "parse_description",
+    "servo_settings",
+    "servo_table",
+]

@@ -1,0 +1,307 @@
+"""A robot description: one validated document that says what a biped of ArtRo's structure is;
+the model, leg geometry, servo settings, calibration, TDM map and firmware header follow from it.
+The left leg is described, the right one mirrors it; m, kg, rad (docs/DESIGN.md §3, §12). What
+needs the model or the gait's poses (eq (1)) is `app.robots.checks`."""
+
+from __future__ import annotations
+
+import math
+from typing import Literal
+
+from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+
+from app.robots.servos import rating_at, servo_table
+from gait import JOINT_NAMES, GaitParams, LegGeometry
+from gait.leg_interface import knee_triangle
+from hardware import CHANNELS
+from hardware.servo import PULSE_CENTER_US, PULSE_MAX_US, PULSE_MIN_US, US_PER_DEG
+from hardware.timer import SLOTS_USED
+
+LegJoint = Literal["hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"]
+LEG_JOINTS: tuple[str, ...] = LegJoint.__args__  # type: ignore[attr-defined]
+LINKS = ("trunk", "hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot")
+MASS_TOLERANCE_KG = 0.0005  # the parts must add up to the stated total within half a gram
+
+Vec3 = tuple[float, float, float]
+
+
+class _Strict(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Geometry(_Strict):
+    """Where the joints are. The hip roll and pitch axes cross, so do the ankle's (eqs 2–9)."""
+
+    hip_spacing_m: float = Field(gt=0, description="between the two hip-yaw axes")
+    hip_yaw_offset_m: float = Field(
+        ge=0, description="trunk origin (abdomen centre) down to the hip-yaw joint"
+    )
+    hip_roll_offset_m: float = Field(
+        gt=0, description="hip-yaw joint down to the hip roll/pitch crossing"
+    )
+    thigh_m: float = Field(gt=0, description="L_UL: hip crossing to knee axis (eq 3)")
+    shank_m: float = Field(gt=0, description="L_LL: knee axis to ankle crossing (eq 3)")
+    ankle_to_sole_m: float = Field(gt=0, description="ankle crossing down to the sole")
+    foot_length_m: float = Field(gt=0)
+    foot_width_m: float = Field(gt=0)
+    foot_thickness_m: float = Field(gt=0)
+
+    @model_validator(mode="after")
+    def _fits(self) -> Geometry:
+        if self.foot_thickness_m >= self.ankle_to_sole_m:
+            raise ValueError(
+                f"foot_thickness_m ({self.foot_thickness_m}) must be less than ankle_to_sole_m "
+                f"({self.ankle_to_sole_m}): the plate hangs below the ankle"
+            )
+        if self.foot_width_m > self.hip_spacing_m:
+            raise ValueError(
+                f"foot_width_m ({self.foot_width_m}) must not exceed hip_spacing_m "
+                f"({self.hip_spacing_m}): standing, the feet would overlap"
+            )
+        return self
+
+    @property
+    def standing_height_m(self) -> float:
+        """Trunk origin above the soles with straight legs."""
+        return (
+            self.hip_yaw_offset_m
+            + self.hip_roll_offset_m
+            + self.thigh_m
+            + self.shank_m
+            + self.ankle_to_sole_m
+        )
+
+
+class Part(_Strict):
+    """A piece of a link: its mass and, for the inertia, a box or a capsule along the link."""
+
+    name: str = Field(min_length=1)
+    mass_kg: float = Field(ge=0)
+    box_m: Vec3 | None = Field(None, description="full box size x, y, z (default: no volume)")
+    capsule_radius_m: float | None = Field(
+        None, gt=0, description="a capsule along the link from its joint to the next one"
+    )
+    capsule_inset_m: float = Field(0.01, ge=0, description="capsule ends this far from joints")
+    pos_m: Vec3 = (0.0, 0.0, 0.0)
+    collides: bool = False
+    material: Literal["aluminium", "dummy", "board", "plastic"] = "aluminium"
+
+    @model_validator(mode="after")
+    def _one_shape(self) -> Part:
+        if self.box_m is not None and self.capsule_radius_m is not None:
+            raise ValueError(f"{self.name}: give box_m or capsule_radius_m, not both")
+        if self.box_m is not None and min(self.box_m) <= 0:
+            raise ValueError(f"{self.name}: box_m sizes must be > 0 m, got {list(self.box_m)}")
+        return self
+
+
+class ServoMount(_Strict):
+    """Where a joint's servo case sits: in the link above the joint, relative to the joint."""
+
+    pos_m: Vec3 = (0.0, 0.0, 0.0)
+    euler_rad: Vec3 = (0.0, 0.0, 0.0)
+    box_m: Vec3 | None = Field(None, description="the case as drawn, if not the datasheet's")
+
+
+class Calibration(_Strict):
+    """How a joint angle becomes a pulse: direction, trim and the pulse limits (seed 000 §3.B)."""
+
+    direction: Literal[1, -1] = 1
+    trim_us: float = Field(0.0, ge=-200.0, le=200.0)
+    pulse_min_us: float = PULSE_MIN_US
+    pulse_max_us: float = PULSE_MAX_US
+
+    @model_validator(mode="after")
+    def _range(self) -> Calibration:
+        if not PULSE_MIN_US <= self.pulse_min_us < self.pulse_max_us <= PULSE_MAX_US:
+            raise ValueError(
+                f"pulse limits must satisfy {PULSE_MIN_US:g} <= pulse_min_us < pulse_max_us <= "
+                f"{PULSE_MAX_US:g} µs (the TDM-PWM drive's range), got {self.pulse_min_us:g}.."
+                f"{self.pulse_max_us:g}"
+            )
+        return self
+
+    def angle_limits_rad(self) -> tuple[float, float]:
+        """The joint angles whose pulse lies inside the limits (after trim and direction)."""
+        ends = [
+            math.radians((p - PULSE_CENTER_US - self.trim_us) / US_PER_DEG) * self.direction
+            for p in (self.pulse_min_us, self.pulse_max_us)
+        ]
+        return max(min(ends), -math.pi / 2), min(max(ends), math.pi / 2)
+
+
+class Joint(_Strict):
+    """One of the 12 joints: its servo, range of motion and calibration."""
+
+    servo: str | None = Field(None, description="a name of the servo table; default: `servo`")
+    range_rad: tuple[float, float] = (-math.pi / 2, math.pi / 2)
+    calibration: Calibration = Calibration()
+
+    @field_validator("range_rad")
+    @classmethod
+    def _ordered(cls, value: tuple[float, float]) -> tuple[float, float]:
+        if not value[0] < value[1]:
+            raise ValueError(f"range_rad must be (lower, upper) with lower < upper, got {value}")
+        return value
+
+
+class Contact(_Strict):
+    """Floor and sole contact. Physics stays honest: sliding friction at most 1."""
+
+    friction: float = Field(0.7, gt=0, le=1.0, description="sliding, soles and floor")
+    torsional_friction: float = Field(0.005, ge=0, le=0.1)
+    rolling_friction: float = Field(0.0001, ge=0, le=0.01)
+    condim: Literal[3, 4, 6] = 3
+
+
+class RobotDescription(_Strict):
+    """A biped of ArtRo's structure (docs/DESIGN.md §3, §12)."""
+
+    schema_version: Literal[1] = 1
+    name: str = Field(pattern=r"^[a-z][a-z0-9_-]{0,39}$")
+    title: str = ""
+    default_preset: str = Field("paper", description="the parameter set it starts with")
+    supply_voltage_v: float = Field(gt=0, le=24)
+    total_mass_kg: float = Field(gt=0, description="checked against the sum of all parts")
+    servo: str = Field(description="every joint's servo unless a joint names another")
+    geometry: Geometry
+    trunk: tuple[Part, ...] = Field(min_length=1)
+    links: dict[Literal["hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot"], tuple[Part, ...]]
+    servo_mounts: dict[LegJoint, ServoMount]
+    joints: dict[str, Joint]
+    tdm_channels: dict[str, tuple[str, ...]] = Field(
+        description="TDM-PWM line -> the servos on its demultiplexer outputs, slot 0 first"
+    )
+    contact: Contact = Contact()
+
+    @model_validator(mode="after")
+    def _consistent(self) -> RobotDescription:
+        table = servo_table()
+        if self.servo not in table:
+            raise ValueError(f"servo: unknown servo {self.servo!r}; known: {sorted(table)}")
+        unknown = sorted(set(self.joints) - set(JOINT_NAMES))
+        missing = [j for j in JOINT_NAMES if j not in self.joints]
+        if unknown or missing:
+            raise ValueError(
+                f"joints must name each of {list(JOINT_NAMES)} once; unknown {unknown}, "
+                f"missing {missing}"
+            )
+        for name, joint in self.joints.items():
+            servo = joint.servo or self.servo
+            if servo not in table:
+                raise ValueError(
+                    f"joints.{name}.servo: unknown servo {servo!r}; known: {sorted(table)}"
+                )
+            spec = table[servo]
+            if spec.drive != "pwm":
+                raise ValueError(
+                    f"joints.{name}.servo: {servo} is a {spec.drive} servo; the TDM-PWM drive "
+                    f"of this robot (seed 000 §3) sends pulses, which {servo} does not take"
+                )
+            try:
+                rating_at(spec, self.supply_voltage_v, servo)
+            except ValueError as err:
+                raise ValueError(f"supply_voltage_v: {err}") from None
+            cal = joint.calibration
+            if spec.pulse_min_us is not None and spec.pulse_max_us is not None:
+                if cal.pulse_min_us < spec.pulse_min_us or cal.pulse_max_us > spec.pulse_max_us:
+                    raise ValueError(
+                        f"joints.{name}.calibration: pulses {cal.pulse_min_us:g}.."
+                        f"{cal.pulse_max_us:g} µs are outside the {servo}'s "
+                        f"{spec.pulse_min_us:g}..{spec.pulse_max_us:g} µs"
+                    )
+            lo, hi = joint.range_rad
+            half_travel = math.radians(spec.travel_deg) / 2
+            if lo < -half_travel - 1e-4 or hi > half_travel + 1e-4:
+                raise ValueError(
+                    f"joints.{name}.range_rad: {lo:.4f}..{hi:.4f} rad is beyond the {servo}'s "
+                    f"travel of ±{half_travel:.4f} rad"
+                )
+        self._check_tdm()
+        self._check_mass()
+        self._check_knee_reach(GaitParams().leg.eta_min)
+        return self
+
+    def _check_knee_reach(self, eta_min: float) -> None:
+        """The knees bend to the gait's shortest leg, knee = α1 − π at η_min (eqs 3–7), and
+        straighten (η = 1, knee 0)."""
+        geometry = LegGeometry(upper_m=self.geometry.thigh_m, lower_m=self.geometry.shank_m)
+        alpha1, _, _ = knee_triangle(eta_min, geometry)
+        knee_rad = float(alpha1) - math.pi
+        for side in ("l", "r"):
+            lo, hi = self.joints[f"{side}_knee"].range_rad
+            if knee_rad < lo - 1e-9 or hi < 0.0:
+                raise ValueError(
+                    f"joints.{side}_knee.range_rad: {lo:.4f}..{hi:.4f} rad must reach from "
+                    f"{knee_rad:.4f} rad (the gait's shortest leg, eta_min = {eta_min:g}) to 0 "
+                    f"(a straight leg)"
+                )
+
+    def _check_tdm(self) -> None:
+        seen: dict[str, str] = {}
+        for channel, servos in self.tdm_channels.items():
+            if channel not in CHANNELS:
+                raise ValueError(f"tdm_channels: unknown line {channel!r}; lines: {list(CHANNELS)}")
+            if len(servos) > SLOTS_USED:
+                raise ValueError(
+                    f"tdm_channels.{channel}: {len(servos)} servos, but a 20 ms frame of eight "
+                    f"2.5 ms slots carries at most {SLOTS_USED} pulses per line (the other "
+                    f"three slots are the firmware's planning time)"
+                )
+            for servo in servos:
+                if servo not in JOINT_NAMES:
+                    raise ValueError(
+                        f"tdm_channels.{channel}: unknown servo {servo!r}; servos: "
+                        f"{list(JOINT_NAMES)}"
+                    )
+                if servo in seen:
+                    raise ValueError(
+                        f"tdm_channels: {servo} is on both {seen[servo]} and {channel}; each "
+                        f"servo has one output"
+                    )
+                seen[servo] = channel
+        missing = [s for s in JOINT_NAMES if s not in seen]
+        if missing:
+            raise ValueError(f"tdm_channels: no output for {missing}")
+
+    def _check_mass(self) -> None:
+        total = self.parts_mass_kg()
+        if abs(total - self.total_mass_kg) > MASS_TOLERANCE_KG:
+            raise ValueError(
+                f"total_mass_kg: the parts add up to {total:.4f} kg (links and 12 servos of the "
+                f"table), not the stated {self.total_mass_kg:.4f} kg (tolerance "
+                f"{MASS_TOLERANCE_KG * 1000:g} g)"
+            )
+
+    # --- what follows from it ------------------------------------------------------------------
+
+    def joint_servo(self, joint: str) -> str:
+        return self.joints[joint].servo or self.servo
+
+    def link_masses_kg(self) -> dict[str, float]:
+        """Mass of each body, parts and the servo cases it carries (one leg; trunk with both
+        hip-yaw servos)."""
+        table = servo_table()
+        carrier = dict(zip(LEG_JOINTS, LINKS[:-1], strict=True))  # joint -> link carrying its servo
+        masses = {"trunk": sum(p.mass_kg for p in self.trunk)}
+        masses |= {link: sum(p.mass_kg for p in self.links.get(link, ())) for link in LINKS[1:]}
+        for side in ("l", "r"):
+            for joint in LEG_JOINTS:
+                servo = table[self.joint_servo(f"{side}_{joint}")]
+                link = carrier[joint]
+                share = servo.mass_kg if link == "trunk" else servo.mass_kg / 2
+                masses[link] += share  # a leg link's entry is the mean of the two legs
+        return masses
+
+    def parts_mass_kg(self) -> float:
+        masses = self.link_masses_kg()
+        return masses["trunk"] + 2 * sum(masses[link] for link in LINKS[1:])
+
+    def channel_assignments(self) -> tuple[tuple[int, int], ...]:
+        """(channel index, slot) per servo in JOINT_NAMES order, for `hardware.ChannelMap`."""
+        where = {
+            servo: (CHANNELS.index(channel), slot)
+            for channel, servos in self.tdm_channels.items()
+            for slot, servo in enumerate(servos)
+        }
+        return tuple(where[name] for name in JOINT_NAMES)

@@ -1,0 +1,138 @@
+"""The servo table (`models/servos.yaml`: datasheet figures at stated voltages, with sources)
+and `servo_settings`, the one rule from a datasheet to MuJoCo: force range = stall torque, damping
+= stall torque / no-load speed, kp = stall torque / saturation error, armature and friction loss
+as the table assumes; linear between stated voltages, refused outside (docs/DESIGN.md §12)."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from functools import cache
+from typing import Literal
+
+import yaml
+from pydantic import BaseModel, ConfigDict, Field, field_validator
+
+from app.assets import servo_table_path
+
+KGF_CM_TO_NM = 0.0980665  # 1 kgf·cm in N·m
+
+
+class Rating(BaseModel):
+    """One datasheet line: stall torque and no-load speed at a voltage."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    voltage_v: float = Field(gt=0)
+    stall_torque_kgf_cm: float = Field(gt=0)
+    speed_s_per_60deg: float = Field(gt=0)
+
+
+class Assumed(BaseModel):
+    """What no datasheet gives, with the reason for each value."""
+
+    model_config = ConfigDict(extra="allow", frozen=True)
+    saturation_error_rad: float = Field(gt=0, le=1.0)
+    armature_kg_m2: float = Field(ge=0)
+    frictionloss_nm: float = Field(ge=0)
+
+
+class ServoSpec(BaseModel):
+    """A servo of the table."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    maker: str
+    drive: Literal["pwm", "bus"]
+    source: str = Field(min_length=1)
+    ratings: tuple[Rating, ...] = Field(min_length=1)
+    mass_kg: float = Field(gt=0)
+    case_mm: tuple[float, float, float]
+    pulse_min_us: float | None = None
+    pulse_max_us: float | None = None
+    travel_deg: float = Field(gt=0, le=360)
+    assumed: Assumed
+
+    @field_validator("ratings")
+    @classmethod
+    def _ascending(cls, ratings: tuple[Rating, ...]) -> tuple[Rating, ...]:
+        volts = [r.voltage_v for r in ratings]
+        if volts != sorted(set(volts)):
+            raise ValueError(f"ratings must be in ascending, distinct voltages, got {volts}")
+        return ratings
+
+    @property
+    def voltages_v(self) -> tuple[float, ...]:
+        return tuple(r.voltage_v for r in self.ratings)
+
+
+class ServoTable(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+    schema_version: Literal[1]
+    servos: dict[str, ServoSpec]
+
+
+@cache
+def servo_table() -> dict[str, ServoSpec]:
+    """The servos a robot description may name, by name."""
+    raw = yaml.safe_load(servo_table_path().read_text(encoding="utf-8"))
+    return ServoTable.model_validate(raw).servos
+
+
+@dataclass(frozen=True)
+class ServoSettings:
+    """A servo's figures at one supply voltage and the MuJoCo settings that follow from them."""
+
+    name: str
+    voltage_v: float
+    stall_torque_nm: float  # actuator force range
+    no_load_speed_rad_s: float
+    damping_nm_s_rad: float  # joint damping
+    kp_nm_rad: float  # position actuator gain
+    armature_kg_m2: float
+    frictionloss_nm: float
+    interpolated: bool  # the voltage lies between two datasheet lines
+
+    def to_dict(self) -> dict[str, float | str | bool]:
+        return dict(self.__dict__)
+
+
+def rating_at(spec: ServoSpec, voltage_v: float, name: str = "servo") -> tuple[float, float, bool]:
+    """(stall torque N·m, no-load speed rad/s, interpolated) at `voltage_v`; ValueError outside
+    the voltages the datasheet states."""
+    volts = spec.voltages_v
+    if not volts[0] - 1e-9 <= voltage_v <= volts[-1] + 1e-9:
+        stated = " and ".join(f"{v:g} V" for v in volts)
+        span = f"{volts[0]:g} V" if len(volts) == 1 else f"{volts[0]:g}–{volts[-1]:g} V"
+        raise ValueError(
+            f"{name}: the datasheet states figures at {stated} only; a supply of {voltage_v:g} V "
+            f"is outside {span}"
+        )
+    for lo, hi in zip(spec.ratings, spec.ratings[1:], strict=False):
+        if lo.voltage_v <= voltage_v <= hi.voltage_v:
+            w = (voltage_v - lo.voltage_v) / (hi.voltage_v - lo.voltage_v)
+            torque = lo.stall_torque_kgf_cm + w * (hi.stall_torque_kgf_cm - lo.stall_torque_kgf_cm)
+            speed = lo.speed_s_per_60deg + w * (hi.speed_s_per_60deg - lo.speed_s_per_60deg)
+            exact = w in (0.0, 1.0)
+            return torque * KGF_CM_TO_NM, (math.pi / 3) / speed, not exact
+    only = spec.ratings[0] if voltage_v <= volts[0] + 1e-9 else spec.ratings[-1]
+    return only.stall_torque_kgf_cm * KGF_CM_TO_NM, (math.pi / 3) / only.speed_s_per_60deg, False
+
+
+def servo_settings(name: str, voltage_v: float) -> ServoSettings:
+    """The MuJoCo settings of servo `name` at `voltage_v` (see the module docstring);
+    ValueError for an unknown servo or a voltage the datasheet does not cover."""
+    table = servo_table()
+    if name not in table:
+        raise ValueError(f"unknown servo {name!r}; the servo table has {', '.join(sorted(table))}")
+    spec = table[name]
+    stall_nm, speed_rad_s, interpolated = rating_at(spec, voltage_v, name)
+    return ServoSettings(
+        name=name,
+        voltage_v=voltage_v,
+        stall_torque_nm=stall_nm,
+        no_load_speed_rad_s=speed_rad_s,
+        damping_nm_s_rad=stall_nm / speed_rad_s,
+        kp_nm_rad=stall_nm / spec.assumed.saturation_error_rad,
+        armature_kg_m2=spec.assumed.armature_kg_m2,
+        frictionloss_nm=spec.assumed.frictionloss_nm,
+        interpolated=interpolated,
+    )

@@ -1,0 +1,163 @@
+"""Evaluations on a real Dask cluster (docs/DESIGN.md §14): a `dask scheduler` and two
+`dask worker` processes on loopback. Results equal the local threads' to the bit; a worker killed
+mid-evaluation (SIGKILL) loses no result; a client of another version is refused naming both
+versions; a scheduler that goes away is a clear error."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import threading
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from app.core.batch import BatchEvaluator
+from app.core.cluster import ClusterError, ClusterEvaluator, evaluate_chunk
+from app.core.evaluation import Job, job_to_dict, same_results
+from app.core.robot import RobotModel
+from app.core.variations import parse_variation
+from app.params.presets import builtin_presets
+from gait import Motion
+
+pytestmark = pytest.mark.slow
+DASK = Path(sys.executable).parent / "dask"
+ROBOT = RobotModel.load()
+TUNED = builtin_presets()["tuned"].gait
+
+
+def jobs(n: int) -> list[Job]:
+    motions = (Motion(a_p=0.07), Motion(a_r=0.1), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1))
+    return [
+        Job(TUNED, motions[i % 4], variation=parse_variation(f"friction={0.5 + 0.04 * i:.2f}"))
+        for i in range(n)
+    ]
+
+
+class Cluster:
+    """A scheduler and workers on 127.0.0.1, each its own process, all ended at close."""
+
+    def __init__(self, tmp: Path, workers: int) -> None:
+        self.file = tmp / "scheduler.json"
+        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
+        self.scheduler = subprocess.Popen(
+            [str(DASK), "scheduler", "--scheduler-file", str(self.file), "--host", "127.0.0.1",
+             "--port", "0", "--dashboard-address", ":0", "--no-show"], **quiet,
+        )  # fmt: skip
+        self.workers = [self.start_worker() for _ in range(workers)]
+
+    def start_worker(self) -> subprocess.Popen:
+        return subprocess.Popen(
+            [str(DASK), "worker", "--scheduler-file", str(self.file), "--host", "127.0.0.1",
+             "--nthreads", "1", "--no-nanny", "--memory-limit", "0", "--no-dashboard"],
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+        )  # fmt: skip
+
+    @property
+    def address(self) -> str:
+        return json.loads(self.file.read_text())["address"]
+
+    def wait_for_file(self) -> None:
+        """Bounded wait for the scheduler to write its address (not a sleep: it polls)."""
+        for _ in range(600):
+            if self.file.exists() and self.file.read_text().strip():
+                return
+            try:
+                self.scheduler.wait(0.1)
+                raise AssertionError("dask scheduler exited")
+            except subprocess.TimeoutExpired:
+                pass
+        raise AssertionError("dask scheduler did not start")
+
+    def close(self) -> None:
+        for proc in [*self.workers, self.scheduler]:
+            if proc.poll() is None:
+                proc.kill()
+            proc.wait(30)
+
+
+@pytest.fixture
+def cluster(tmp_path: Path) -> Iterator[Cluster]:
+    c = Cluster(tmp_path, workers=2)
+    try:
+        c.wait_for_file()
+        yield c
+    finally:
+        c.close()
+
+
+def connect(cluster: Cluster, workers: int = 2) -> ClusterEvaluator:
+    evaluator = ClusterEvaluator(cluster.address, ROBOT, runs_per_task=2)
+    evaluator.client.wait_for_workers(workers, timeout=120)
+    return evaluator
+
+
+def test_two_workers_give_the_local_results_to_the_bit(cluster):
+    evaluator = connect(cluster)
+    try:
+        runs = jobs(8)
+        seen: list[int] = []
+        remote = evaluator.evaluate(
+            runs, duration_s=4.0, warmup_s=1.0, progress=lambda d, n: seen.append(d)
+        )
+        local = BatchEvaluator(ROBOT, threads=2).evaluate(runs, duration_s=4.0, warmup_s=1.0)
+        assert same_results(remote, local)
+        assert seen == sorted(seen) and seen[-1] == 8
+        assert len({m["forward_cm_s"] for m in remote}) == 8  # eight different runs came back
+    finally:
+        evaluator.close()
+
+
+def test_a_killed_worker_loses_no_result(cluster):
+    evaluator = connect(cluster)
+    runs = jobs(12)
+    local = BatchEvaluator(ROBOT, threads=2).evaluate(runs, duration_s=4.0, warmup_s=1.0)
+    first_result = threading.Event()
+    victim = cluster.workers[0]
+
+    def progress(done: int, _total: int) -> None:
+        if not first_result.is_set():
+            first_result.set()
+            os.kill(victim.pid, signal.SIGKILL)  # mid-evaluation: tasks are queued on it
+
+    try:
+        remote = evaluator.evaluate(runs, duration_s=4.0, warmup_s=1.0, progress=progress)
+        assert victim.wait(30) == -signal.SIGKILL
+        assert same_results(remote, local)
+        assert evaluator.workers() == 1
+    finally:
+        evaluator.close()
+
+
+def test_a_worker_of_another_version_refuses_naming_both(cluster):
+    evaluator = connect(cluster)
+    try:
+        future = evaluator.client.submit(
+            evaluate_chunk, "{}", [job_to_dict(jobs(1)[0])], 1.0, 0.0, "0.0.0-other"
+        )
+        with pytest.raises(
+            ClusterError, match=r"this worker runs artro-gait-studio .+, the client 0\.0\.0-other"
+        ):
+            future.result(timeout=120)
+    finally:
+        evaluator.close()
+
+
+def test_a_scheduler_that_goes_away_is_a_clear_error(cluster):
+    evaluator = connect(cluster)
+    try:
+        cluster.scheduler.kill()
+        cluster.scheduler.wait(30)
+        with pytest.raises(ClusterError, match="went away"):
+            evaluator.evaluate(jobs(2), duration_s=2.0, warmup_s=0.0)
+    finally:
+        evaluator.close()
+
+
+def test_no_scheduler_is_a_clear_error():
+    with pytest.raises(ClusterError, match=r"no Dask scheduler answers at tcp://127\.0\.0\.1:9"):
+        ClusterEvaluator("tcp://127.0.0.1:9", ROBOT)
