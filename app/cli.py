@@ -155,7 +155,8 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument(
         "--params",
         metavar="FILE",
-        help="parameter-set JSON (default: the --robot's default preset, else paper values)",
+        help="parameter-set JSON or a built-in preset's name (default: the --robot's default "
+        "preset, else paper values)",
     )
     add_robot_option(r)
     r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")

@@ -48,9 +48,13 @@ def add_robot_parser(subparsers: Any) -> None:
 
 
 def starting_set(robot: RobotModel, params_file: str | None, *, robot_given: bool) -> ParameterSet:
-    """The parameter set a command starts with: the file, else the robot's default preset when
-    a robot was named, else the paper's values (ArtRo, as before robots existed)."""
+    """The parameter set a command starts with: the file (or a built-in preset's name), else the
+    robot's default preset when a robot was named, else the paper's values (ArtRo, as before
+    robots existed)."""
     if params_file:
+        presets = builtin_presets()
+        if params_file in presets and not Path(params_file).exists():
+            return presets[params_file]  # a built-in preset by name: --params tuned
         return load_parameter_set(params_file)
     if robot_given:
         presets = builtin_presets()

@@ -76,8 +76,9 @@ def test_the_installed_package_is_not_the_checkout(installed, tmp_path):
 def test_the_installed_environment_shares_nothing_with_the_tests(installed, tmp_path):
     out = run_in(tmp_path, str(installed / "python"), "-c", "import sys; print(sys.path)")
     assert out.returncode == 0, out.stderr
-    ours = str(Path(sys.executable).resolve().parent.parent)
+    ours = sys.prefix  # the test environment (a venv: its own prefix, not the base Python's)
     assert ours not in out.stdout and str(ROOT) not in out.stdout, out.stdout
+    assert str(installed.parent) in out.stdout  # its own site-packages
 
 
 def test_artro_help_from_another_directory(installed, tmp_path):

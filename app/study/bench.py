@@ -332,7 +332,9 @@ def _json_safe(value: Any) -> Any:
     return value
 
 
-def progress_printer(total_note: str, stream: TextIO) -> Callable[[int, int], None]:
+def progress_printer(
+    total_note: str, stream: TextIO, label: str = "bench paper"
+) -> Callable[[int, int], None]:
     """A progress callback printing runs done / total, elapsed and an estimate of what is left."""
     start = time.perf_counter()
     live = stream.isatty()
@@ -341,7 +343,7 @@ def progress_printer(total_note: str, stream: TextIO) -> Callable[[int, int], No
     def report(done: int, total: int) -> None:
         elapsed = time.perf_counter() - start
         left = elapsed / done * (total - done) if done else float("nan")
-        line = f"bench paper: {done}/{total} runs, {elapsed:6.0f} s elapsed, ~{left:.0f} s left"
+        line = f"{label}: {done}/{total} runs, {elapsed:6.0f} s elapsed, ~{left:.0f} s left"
         end = "\n" if not live or done == total else ""
         print(("\r" if live else "") + line, end=end, file=stream, flush=True)
 
@@ -396,25 +398,50 @@ def run_paper_bench(
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument("suite", choices=["paper"], help="which bench: 'paper' (docs/DESIGN.md §7)")
     parser.add_argument(
-        "--presets",
-        default="paper,tuned,pfs",
-        metavar="NAME_OR_FILE,...",
-        help="parameter sets: 'paper', 'tuned' (models/presets/NAME.json) or JSON files",
+        "suite",
+        choices=["paper", "robust"],
+        help="which bench: 'paper' (the papers' figures, docs/DESIGN.md §7) or 'robust' (the "
+        "paper's cases on model variations, §13)",
     )
     parser.add_argument(
-        "--duration", type=float, metavar="S", help="simulated seconds per run (60; --quick 10)"
+        "--presets",
+        default=None,
+        metavar="NAME_OR_FILE,...",
+        help="parameter sets: built-in names (models/presets/NAME.json) or JSON files "
+        "(default: paper,tuned,pfs; robust: tuned)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="simulated seconds per run (paper 60, --quick 10; robust 20)",
     )
     parser.add_argument(
         "--warmup", type=float, metavar="S", help="seconds not measured (5; --quick 2)"
     )
+    robust = parser.add_argument_group("bench robust")
+    robust.add_argument("--samples", type=int, default=200, metavar="N", help="variations")
+    robust.add_argument("--seed", type=int, default=0, help="of the variations drawn")
+    robust.add_argument(
+        "--range",
+        action="append",
+        default=[],
+        metavar="NAME=LOW:HIGH",
+        help="narrow or widen one parameter's range, e.g. friction=0.3:0.6 (repeatable)",
+    )
+    robust.add_argument("--json", action="store_true", help="print the report as one JSON object")
+    robust.add_argument(
+        "--cluster",
+        metavar="tcp://HOST:PORT",
+        help="run on this Dask scheduler (docs/CLUSTER.md) instead of local threads",
+    )
     parser.add_argument(
         "--out",
         type=Path,
-        default=DEFAULT_OUT,
+        default=None,
         metavar="DIR",
-        help=f"where the PNGs and results.json go (default {DEFAULT_OUT})",
+        help=f"where the PNGs and results.json go (default {DEFAULT_OUT}, out/bench-robust)",
     )
     parser.add_argument(
         "--threads", type=int, metavar="N", help="rollout threads (default: all cores, <= 8)"
@@ -428,6 +455,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def cmd_bench(args: argparse.Namespace) -> int:
+    if args.suite == "robust":
+        from app.study.robust_cli import cmd_robust
+
+        return cmd_robust(args)
     config = QUICK if args.quick else BenchConfig()
     if args.duration is not None:
         config = replace(config, duration_s=args.duration)
@@ -444,6 +475,6 @@ def cmd_bench(args: argparse.Namespace) -> int:
             f"need duration > warm-up >= 0 s, got --duration {config.duration_s:g} "
             f"--warmup {config.warmup_s:g}"
         )
-    specs = [s.strip() for s in args.presets.split(",") if s.strip()]
-    run_paper_bench(specs, config, args.out)
+    specs = [s.strip() for s in (args.presets or "paper,tuned,pfs").split(",") if s.strip()]
+    run_paper_bench(specs, config, args.out or DEFAULT_OUT)
     return 0

@@ -24,7 +24,7 @@ from app.study import speed_limits
 from app.study.cases import CA_PROBE, CASES, PaperCase
 from gait import GaitParams, Motion
 
-NAMED_PRESETS = ("paper", "tuned", "pfs")
+NAMED_PRESETS = tuple(sorted(p.stem for p in BUILTIN_DIR.glob("*.json")))  # paper, tuned, ...
 PROBE_CA = (-CA_PROBE, 0.0, CA_PROBE)
 WALK_A_P = {"forward": 0.07, "backward": -0.07}  # seed 000's forward amplitude, both directions
 CIRCLE_CA = 0.058  # seed 004: the simulated Nao walks a full circle at this CA

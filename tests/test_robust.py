@@ -1,0 +1,114 @@
+"""`artro bench robust` (docs/DESIGN.md §13): one definition of passing, intervals that hold,
+failures traced to the parameter they depend on, and the same seed giving the same report to
+the bit."""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from app.core.batch import BatchEvaluator
+from app.core.robot import RobotModel
+from app.core.variations import Variation, VariationRanges, parse_variation, sample
+from app.params.presets import builtin_presets
+from app.study.robust import ROBUST_CASES, dependence, passes, run_robust, wilson
+
+ROOT = Path(__file__).resolve().parent.parent
+CASE = {c.name: c for c in ROBUST_CASES}
+NOMINAL_FORWARD = {"fell": False, "forward_cm_s": 3.0, "lateral_cm_s": 0.0, "turn_deg_s": -0.4}
+
+
+def test_the_cases_are_the_papers_and_two_curves():
+    names = [c.name for c in ROBUST_CASES]
+    assert names[:7] == ["on the spot", "forward", "backward", "sideways right", "sideways left",
+                         "turn clockwise", "turn counter-clockwise"]  # fmt: skip
+    assert [c.motion.ca for c in ROBUST_CASES[7:]] == [0.1, -0.1]
+
+
+@pytest.mark.parametrize(
+    ("metrics", "ok"),
+    [
+        ({"fell": False, "forward_cm_s": 1.6, "lateral_cm_s": 0.1, "turn_deg_s": 1.0}, True),
+        ({"fell": False, "forward_cm_s": 1.4, "lateral_cm_s": 0.1, "turn_deg_s": 1.0}, False),
+        ({"fell": False, "forward_cm_s": -2.0, "lateral_cm_s": 0.0, "turn_deg_s": 0.0}, False),
+        ({"fell": False, "forward_cm_s": 3.0, "lateral_cm_s": 0.0, "turn_deg_s": 6.0}, False),
+        ({"fell": True, "forward_cm_s": 3.0, "lateral_cm_s": 0.0, "turn_deg_s": 0.0}, False),
+    ],
+)
+def test_passing_is_half_the_nominal_speed_the_right_way_with_a_bounded_heading(metrics, ok):
+    assert passes(CASE["forward"], metrics, NOMINAL_FORWARD) is ok
+
+
+def test_a_curve_passes_when_it_turns_the_nominal_way_and_keeps_walking():
+    nominal = {"fell": False, "forward_cm_s": 2.8, "lateral_cm_s": 0.0, "turn_deg_s": -3.4}
+    turning = {"fell": False, "forward_cm_s": 2.0, "lateral_cm_s": 0.0, "turn_deg_s": -2.0}
+    assert passes(CASE["curve CA +0.1"], turning, nominal)
+    straight = turning | {"turn_deg_s": -1.0}
+    assert not passes(CASE["curve CA +0.1"], straight, nominal)
+
+
+def test_the_wilson_interval_holds_the_share_and_narrows_with_runs():
+    lo, hi = wilson(50, 100)
+    assert lo == pytest.approx(0.404, abs=1e-3) and hi == pytest.approx(0.596, abs=1e-3)
+    assert wilson(0, 20)[0] == 0.0 and wilson(20, 20)[1] == 1.0
+    assert wilson(200, 400)[1] - wilson(200, 400)[0] < hi - lo
+
+
+def test_failures_are_traced_to_the_parameter_they_depend_on():
+    variations = sample(VariationRanges(), 60, seed=3)
+    failed = [v.latency_ms > 40 for v in variations]  # a world where only latency matters
+    found = dependence(variations, failed)
+    assert found is not None and found["parameter"] == "latency_ms" and found["r"] > 0.5
+    assert found["fail_above"] > found["fail_below"]
+    assert dependence(variations, [False] * 60) is None
+    tilted = [Variation(tilt_deg=2.0, tilt_direction_deg=d) for d in (0.0, 90.0, 180.0, 270.0)]
+    found = dependence(tilted * 5, [True, False, False, False] * 5)
+    assert found["parameter"] == "tilt_forward_deg"
+
+
+def small_report(seed: int) -> dict:
+    evaluator = BatchEvaluator(RobotModel.load(), threads=2)
+    return run_robust(
+        [("tuned", builtin_presets()["tuned"].gait, "tuned")],
+        evaluator,
+        samples=3,
+        seed=seed,
+        ranges=VariationRanges(),
+        duration_s=5.0,
+        warmup_s=2.0,
+    )
+
+
+def test_the_same_seed_gives_the_same_report_to_the_bit():
+    a, b = small_report(7), small_report(7)
+    assert json.dumps(a, sort_keys=True) == json.dumps(b, sort_keys=True)
+    report = a["presets"][0]
+    assert [c["case"] for c in report["cases"]] == [c.name for c in ROBUST_CASES]
+    assert all(c["runs"] == 3 for c in report["cases"])
+    for w in report["worst"]:  # each worst variation repeats with artro run --vary
+        text = w["command"].split("--vary ")[1]
+        assert parse_variation(text).name == w["variation"]
+
+
+def test_artro_bench_robust_json_and_files(tmp_path):
+    out = subprocess.run(
+        [sys.executable, "-m", "app.cli", "bench", "robust", "--samples", "2", "--seed", "1",
+         "--duration", "4", "--warmup", "1", "--range", "friction=0.3:0.6", "--out",
+         str(tmp_path), "--json"],
+        capture_output=True, text=True, cwd=ROOT,
+    )  # fmt: skip
+    assert out.returncode == 0, out.stderr[-2000:]
+    results = json.loads(out.stdout)
+    assert results["ranges"]["friction"] == [0.3, 0.6] and results["seed"] == 1
+    assert "bench robust:" in out.stderr  # the progress
+    for name in ("results.json", "report.md", "robust.png"):
+        assert (tmp_path / name).stat().st_size > 100
+    bad = subprocess.run(
+        [sys.executable, "-m", "app.cli", "bench", "robust", "--range", "friction=0:2"],
+        capture_output=True, text=True, cwd=ROOT,
+    )  # fmt: skip
+    assert bad.returncode == 2 and "friction" in bad.stderr
