@@ -1,17 +1,23 @@
 """`artro tune`: a short run improves its objective, resumes from its results file, and writes a
 preset that loads."""
 
-import json
+import signal
+import subprocess
+import sys
+from pathlib import Path
 
+import optuna
 import pytest
 
 from app.core.batch import BatchEvaluator, Job
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import stamped, write_parameter_set
 from app.study.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
+from app.study.study_store import DEFAULT_STUDY, StudyStore, open_storage
 from app.study.tune import Tuner, case_loss, curve_loss, dimensions, meets_all_criteria, total_loss
 from gait import GaitParams
 
+ROOT = Path(__file__).resolve().parent.parent
 EVALUATOR = BatchEvaluator(threads=2)
 # a deliberately poor start: a slow clock and almost no foot clearance
 POOR = ParameterSet(
@@ -30,37 +36,93 @@ def base_loss() -> float:
     return total_loss({name: m for (name, _), m in zip(JUDGED_RUNS, metrics, strict=True)}, 3.0)
 
 
+def store(tmp_path, tuner: Tuner, name: str = "study.log") -> StudyStore:
+    return StudyStore(tmp_path / name, tuner.settings)
+
+
 @pytest.mark.slow
 def test_a_short_run_improves_and_writes_a_loadable_preset(tmp_path):
-    results = tmp_path / "results.jsonl"
     tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
-    best = tuner.run(3, results, progress=None)
+    best = tuner.run(3, store(tmp_path, tuner), progress=None)
     assert tuner.best[0] < base_loss()
     path = stamped(best, "tuned")
     write_parameter_set(tmp_path / "tuned.json", path)
     loaded = load_parameter_set(tmp_path / "tuned.json")
     assert loaded.name == "tuned" and loaded.gait == path.gait
     assert loaded.gait.clock.freq_hz != 0.5 or loaded.gait.short.amp_base != 0.05
-    lines = results.read_text().splitlines()
-    assert json.loads(lines[0])["settings"]["popsize"] == 4 and len(lines) == 1 + 3 * 4
-    assert set(json.loads(lines[1])["metrics"]) == {name for name, _motion in JUDGED_RUNS}
+    # every evaluation is an Optuna trial in the journal file
+    study = optuna.load_study(
+        study_name=DEFAULT_STUDY, storage=open_storage(tmp_path / "study.log")
+    )
+    trials = study.get_trials()
+    assert len(trials) == 3 * 4 and study.user_attrs["settings"]["popsize"] == 4
+    assert set(trials[0].user_attrs["metrics"]["nominal"]) == {n for n, _m in JUDGED_RUNS}
+    assert set(trials[0].params) == set(NAMES)
+    assert study.best_value == pytest.approx(tuner.best[0])
 
 
-def test_resuming_replays_the_file_without_simulating(tmp_path):
-    results = tmp_path / "results.jsonl"
+class Counting(BatchEvaluator):
+    """The real evaluator, counting the runs it simulates."""
+
+    runs = 0
+
+    def evaluate(self, jobs, **kwargs):
+        Counting.runs += len(jobs)
+        return super().evaluate(jobs, **kwargs)
+
+
+def test_resuming_replays_the_store_without_simulating(tmp_path):
     first = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
-    first.run(2, results, progress=None)
-
-    class NoSimulation(BatchEvaluator):
-        def evaluate(self, *args, **kwargs):
-            raise AssertionError("a recorded generation was simulated again")
-
-    again = Tuner(POOR, NAMES, evaluator=NoSimulation(threads=1), **SETTINGS)
-    again.run(2, results, progress=None)  # both generations come from the file
+    first.run(2, store(tmp_path, first), progress=None)
+    Counting.runs = 0
+    again = Tuner(POOR, NAMES, evaluator=Counting(threads=1), **SETTINGS)
+    again.run(2, store(tmp_path, again), progress=None)  # both generations come from the store
+    assert Counting.runs == 0
     assert again.best[0] == first.best[0] and again.generation == 2
     other = Tuner(POOR, NAMES, evaluator=EVALUATOR, **{**SETTINGS, "seed": 4})
     with pytest.raises(ValueError, match="other settings"):
-        other.run(3, results, progress=None)
+        store(tmp_path, other)
+
+
+@pytest.mark.slow
+def test_a_study_killed_mid_generation_resumes_without_losing_a_finished_evaluation(tmp_path):
+    study_file = tmp_path / "killed.log"
+    command = [
+        sys.executable, "-m", "app.cli", "tune", "--tune", ",".join(NAMES), "--generations", "1",
+        "--popsize", "6", "--duration", "4", "--warmup", "1", "--seed", "3", "--study",
+        str(study_file), "--out", str(tmp_path / "out.json"), "--threads", "2",
+    ]  # fmt: skip
+    tuner = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    finished_before = 0
+    for _ in range(3000):  # bounded: until some, not all, candidates of the generation are in
+        if study_file.exists():
+            finished_before = len(trials_in(study_file))
+            if finished_before >= 1:
+                tuner.send_signal(signal.SIGKILL)
+                break
+        try:
+            tuner.wait(0.1)
+            break
+        except subprocess.TimeoutExpired:
+            pass
+    tuner.wait(60)
+    kept = trials_in(study_file)
+    assert 1 <= len(kept) <= 6, tuner.stderr.read()
+    before = {tuple(t.user_attrs["unit"]): t.value for t in kept}
+    resumed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    after = trials_in(study_file)
+    assert len(after) == 6  # the generation is whole, each candidate once
+    units = [tuple(t.user_attrs["unit"]) for t in after]
+    assert len(set(units)) == 6
+    for unit, value in before.items():  # what finished before the kill was kept, not redone
+        assert [t.value for t in after if tuple(t.user_attrs["unit"]) == unit] == [value]
+
+
+def trials_in(path: Path, *, study: bool = False):
+    """The finished trials of the tuning study in `path` (or the study itself)."""
+    loaded = optuna.load_study(study_name=DEFAULT_STUDY, storage=open_storage(path))
+    return loaded if study else loaded.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
 
 
 def test_loss_rewards_the_paper_figure_and_punishes_falls():

@@ -134,6 +134,7 @@ class BatchEvaluator:
         progress: Callable[[int, int], None] | None = None,
         traces: list[Trace] | None = None,
         cancel: threading.Event | None = None,
+        on_result: Callable[[int, RunMetrics], None] | None = None,
     ) -> list[RunMetrics]:
         """Metrics of each job, in order, as `artro run` would print them (wall time aside).
         Pass a list as `traces` to also get each run's trunk trace (one sample per frame).
@@ -145,6 +146,8 @@ class BatchEvaluator:
             progress: called with (runs done, runs in all) after each chunk.
             traces: if given, each run's `Trace` is appended to it, in job order.
             cancel: when set, the evaluation stops before its next chunk: Cancelled.
+            on_result: called with (job index, metrics) as each run's result is known, so a
+                caller can keep what finished before a crash or a cancel.
 
         Runs go to MuJoCo in chunks; while one chunk rolls out (MuJoCo's threads, no GIL), a
         Python worker plans the next chunk and measures the previous one.
@@ -168,7 +171,7 @@ class BatchEvaluator:
                 )
                 wall = time.perf_counter() - t0
                 if measuring is not None:
-                    self._collect(measuring.result(), results, traces)
+                    self._collect(measuring.result(), results, traces, on_result)
                     if progress is not None:
                         progress(len(results), len(jobs))
                 measuring = worker.submit(
@@ -176,7 +179,7 @@ class BatchEvaluator:
                     warmup_s,
                 )  # fmt: skip
             if measuring is not None:
-                self._collect(measuring.result(), results, traces)
+                self._collect(measuring.result(), results, traces, on_result)
                 if progress is not None:
                     progress(len(results), len(jobs))
         return results
@@ -239,8 +242,11 @@ class BatchEvaluator:
         measured: list[tuple[RunMetrics, Trace]],
         results: list[RunMetrics],
         traces: list[Trace] | None,
+        on_result: Callable[[int, RunMetrics], None] | None = None,
     ) -> None:
         for metrics, trace in measured:
+            if on_result is not None:
+                on_result(len(results), metrics)
             results.append(metrics)
             if traces is not None:
                 traces.append(trace)

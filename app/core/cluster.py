@@ -104,6 +104,7 @@ class ClusterEvaluator:
         warmup_s: float = 5.0,
         progress: Callable[[int, int], None] | None = None,
         cancel: threading.Event | None = None,
+        on_result: Callable[[int, RunMetrics], None] | None = None,
     ) -> list[RunMetrics]:
         from distributed import as_completed
 
@@ -129,6 +130,10 @@ class ClusterEvaluator:
                     raise Cancelled(f"cancelled after {done} of {len(jobs)} runs")
                 chunk_result = future.result()
                 results[index[future.key]] = chunk_result
+                if on_result is not None:
+                    first = index[future.key] * size
+                    for k, metrics in enumerate(chunk_result):
+                        on_result(first + k, metrics)
                 done += len(chunk_result)
                 if progress is not None:
                     progress(done, len(jobs))

@@ -35,9 +35,11 @@ class Evaluator(Protocol):
         warmup_s: float = 5.0,
         progress: Progress | None = None,
         cancel: threading.Event | None = None,
+        on_result: Callable[[int, RunMetrics], None] | None = None,
     ) -> list[RunMetrics]:
-        """Metrics of each job, in order; `progress(done, total)` as runs finish; Cancelled as
-        soon as `cancel` is set (runs under way are dropped)."""
+        """Metrics of each job, in order; `progress(done, total)` as runs finish and
+        `on_result(index, metrics)` with each; Cancelled as soon as `cancel` is set (runs
+        under way are dropped)."""
         ...
 
 

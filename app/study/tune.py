@@ -7,11 +7,10 @@ resumable results file and its output are described at `Tuner`.
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, TextIO
@@ -20,7 +19,9 @@ import cma
 import numpy as np
 
 from app.core.batch import BatchEvaluator, Job
+from app.core.evaluation import Evaluator, evaluator_for
 from app.core.robot import RobotModel
+from app.core.variations import NOMINAL, Variation, VariationRanges, parse_range, sample
 from app.params.document import ParameterSet
 from app.params.presets import stamped, write_parameter_set
 from app.study.cases import (
@@ -38,6 +39,7 @@ from app.study.cases import (
     steers_right,
     target,
 )
+from app.study.study_store import DEFAULT_STUDY, StudyStore
 from gait import ARTRO_LEG, GaitParams, Motion
 from gait.params import describe_fields, group_class, merge, parse_settings
 
@@ -205,7 +207,7 @@ class Tuner:
         base: ParameterSet,
         names: Sequence[str] = DEFAULT_NAMES,
         *,
-        evaluator: BatchEvaluator | None = None,
+        evaluator: Evaluator | None = None,
         duration_s: float = 20.0,
         warmup_s: float = 4.0,
         popsize: int = 10,
@@ -213,8 +215,17 @@ class Tuner:
         seed: int = 1,
         weights: LossWeights = LossWeights(),
         cases: Sequence[str] | None = None,
+        robust: int = 0,
+        robust_weight: float = 1.0,
+        ranges: VariationRanges | None = None,
     ) -> None:
+        if robust < 0 or not math.isfinite(robust_weight) or robust_weight < 0:
+            raise ValueError(
+                f"robust needs N >= 0 variations and a weight >= 0, got {robust}, {robust_weight}"
+            )
         self.base = base
+        self.robust, self.robust_weight = robust, robust_weight
+        self.ranges = ranges or VariationRanges()
         self.runs = judged_runs(cases)
         self.dims = dimensions(names)
         self.evaluator = evaluator or BatchEvaluator()
@@ -229,6 +240,7 @@ class Tuner:
             "verbose": -9,
         }
         self.es = cma.CMAEvolutionStrategy(x0, sigma0, options)
+        self.seed = seed
         self.settings = {
             "base": base.name,
             "names": list(names),
@@ -239,67 +251,114 @@ class Tuner:
             "seed": seed,
             "runs": [name for name, _motion in self.runs],
         }
+        if robust:
+            self.settings |= {"robust": robust, "robust_weight": robust_weight}
+            self.settings["ranges"] = {f.name: list(getattr(self.ranges, f.name))
+                                       for f in dataclasses.fields(self.ranges)}  # fmt: skip
         self.settings |= weights.settings()
         self.best: tuple[float, GaitParams, dict[str, dict[str, Any]]] | None = None
         self.evaluated: list[tuple[float, GaitParams, dict[str, dict[str, Any]]]] = []
         self.generation = 0
 
+    def variations(self, generation: int) -> list[Variation]:
+        """The generation's worlds: every candidate walks the same ones (common random numbers),
+        drawn anew each generation from the seed."""
+        if not self.robust:
+            return []
+        return sample(self.ranges, self.robust, seed=self.seed * 100_003 + generation)
+
     def evaluate(
-        self, candidates: Sequence[np.ndarray], progress: TextIO | None
+        self,
+        candidates: Sequence[np.ndarray],
+        progress: TextIO | None,
+        *,
+        done: Callable[[int, float, dict[str, Any]], None] | None = None,
     ) -> list[tuple[float, dict[str, dict[str, Any]]]]:
+        """Loss and runs of each candidate; `done(i, loss, metrics)` as soon as candidate i's
+        runs are all finished (the study store keeps it then)."""
         sets = [with_values(self.base.gait, self.dims, u) for u in candidates]
-        jobs = [Job(p, motion) for p in sets for _name, motion in self.runs]
+        worlds: list[Variation] = [NOMINAL, *self.variations(self.generation)]
+        per = len(self.runs) * len(worlds)
+        jobs = [Job(p, m, variation=v) for p in sets for v in worlds for _n, m in self.runs]
         started = time.monotonic()
+        finished: dict[int, dict[int, Any]] = {}
+        out: list[tuple[float, dict[str, dict[str, Any]]] | None] = [None] * len(sets)
 
-        def report(done: int, total: int) -> None:
+        def report(n_done: int, total: int) -> None:
             if progress is not None:
-                _progress_bar(progress, self.generation, done, total, self.best, started)
+                _progress_bar(progress, self.generation, n_done, total, self.best, started)
 
-        metrics = self.evaluator.evaluate(
-            jobs, duration_s=self.duration_s, warmup_s=self.warmup_s, progress=report
+        def on_result(index: int, metrics: dict[str, Any]) -> None:
+            i = index // per
+            finished.setdefault(i, {})[index % per] = metrics
+            if len(finished[i]) == per:
+                runs = [finished[i][k] for k in range(per)]
+                loss, stored = self.score(runs)
+                out[i] = (loss, stored["nominal"])
+                self._record(loss, sets[i], stored["nominal"])
+                if done is not None:
+                    done(i, loss, stored)
+
+        self.evaluator.evaluate(
+            jobs,
+            duration_s=self.duration_s,
+            warmup_s=self.warmup_s,
+            progress=report,
+            on_result=on_result,
         )
+        assert all(o is not None for o in out)
+        return out  # type: ignore[return-value]
+
+    def score(self, runs: list[dict[str, Any]]) -> tuple[float, dict[str, Any]]:
+        """A candidate's loss from its runs (nominal first, then each world's): the paper loss
+        on the nominal model, plus with --robust the mean of the worst quarter of its losses in
+        the varied worlds (CVaR at 25 %: a gait is judged by the worlds it handles worst, not by
+        its luck), times the robust weight."""
         n = len(self.runs)
-        out = []
-        for i, params in enumerate(sets):
-            runs = zip(self.runs, metrics[i * n : (i + 1) * n], strict=True)
-            by_run = {name: m for (name, _motion), m in runs}
-            loss = total_loss(by_run, self.duration_s, self.weights)
-            out.append((loss, by_run))
-            self._record(loss, params, by_run)
-        return out
+        by_world = [
+            {name: m for (name, _), m in zip(self.runs, runs[k : k + n], strict=True)}
+            for k in range(0, len(runs), n)
+        ]
+        nominal = total_loss(by_world[0], self.duration_s, self.weights)
+        stored: dict[str, Any] = {"nominal": by_world[0]}
+        if len(by_world) == 1:
+            return nominal, stored
+        varied = sorted(total_loss(w, self.duration_s, self.weights) for w in by_world[1:])
+        tail = varied[-max(1, math.ceil(len(varied) / 4)) :]
+        cvar = float(np.mean(tail))
+        stored["robust"] = {"losses": varied, "cvar25": cvar}
+        return nominal + self.robust_weight * cvar, stored
 
     def run(
         self,
         generations: int,
-        results_path: Path,
+        store: StudyStore,
         progress: TextIO | None = sys.stderr,
     ) -> ParameterSet:
-        """Run until `generations` in total (counting resumed ones); return the best set."""
-        recorded = _read_results(results_path, self.settings)
-        with results_path.open("a", encoding="utf-8") as log:
-            if not recorded:
-                log.write(json.dumps({"settings": self.settings}) + "\n")
-            while self.generation < generations and not self.es.stop():
-                candidates = self.es.ask()
-                if self.generation < len(recorded):
-                    losses = self._replay(candidates, recorded[self.generation])
-                else:
-                    evaluated = self.evaluate(candidates, progress)
-                    losses = [loss for loss, _m in evaluated]
-                    for u, (loss, by_run) in zip(candidates, evaluated, strict=True):
-                        row = {
-                            "generation": self.generation,
-                            "unit": [float(x) for x in u],
-                            "values": {
-                                d.name: d.to_value(x) for d, x in zip(self.dims, u, strict=True)
-                            },
-                            "loss": loss,
-                            "metrics": by_run,
-                        }
-                        log.write(json.dumps(row) + "\n")
-                    log.flush()
-                self.es.tell(candidates, losses)
-                self.generation += 1
+        """Run until `generations` in total (counting resumed ones); return the best set.
+
+        Resuming replays the store through the same seeded CMA-ES: it proposes the same
+        candidates again; each recorded one takes its recorded loss, the others (a generation
+        interrupted part way) are simulated, and the search carries on."""
+        recorded = store.recorded()
+        while self.generation < generations and not self.es.stop():
+            candidates = self.es.ask()
+            known = self._match(candidates, recorded.get(self.generation, []))
+            missing = [i for i, row in enumerate(known) if row is None]
+            losses: list[float] = [math.nan] * len(candidates)
+            for i, row in enumerate(known):
+                if row is not None:
+                    losses[i] = row["loss"]
+                    params = with_values(self.base.gait, self.dims, candidates[i])
+                    self._record(row["loss"], params, row["metrics"]["nominal"])
+            if missing:
+                points = [candidates[i] for i in missing]
+                keep = self._keeper(store, points)
+                evaluated = self.evaluate(points, progress, done=keep)
+                for i, (loss, _m) in zip(missing, evaluated, strict=True):
+                    losses[i] = loss
+            self.es.tell(candidates, losses)
+            self.generation += 1
         if progress is not None:
             progress.write("\n")
         if self.best is None:
@@ -307,18 +366,36 @@ class Tuner:
         loss, params, _ = self.best
         return ParameterSet(name="tuned", gait=params)
 
-    def _replay(self, candidates: list[np.ndarray], rows: list[dict[str, Any]]) -> list[float]:
-        if len(rows) != len(candidates) or not all(
-            np.allclose(u, r["unit"], atol=1e-12) for u, r in zip(candidates, rows, strict=True)
-        ):
+    def _keeper(
+        self, store: StudyStore, points: list[np.ndarray]
+    ) -> Callable[[int, float, dict[str, Any]], None]:
+        """What writes candidate j of `points` to the store as soon as it is evaluated."""
+        generation = self.generation
+
+        def keep(j: int, loss: float, stored: dict[str, Any]) -> None:
+            u = points[j]
+            values = {
+                d.name: (d.to_value(x), d.low, d.high) for d, x in zip(self.dims, u, strict=True)
+            }
+            store.record(generation, u, values, loss, stored)
+
+        return keep
+
+    @staticmethod
+    def _match(
+        candidates: list[np.ndarray], rows: list[dict[str, Any]]
+    ) -> list[dict[str, Any] | None]:
+        """The recorded evaluation of each candidate, by its point in the unit box."""
+        out: list[dict[str, Any] | None] = []
+        for u in candidates:
+            hit = next((r for r in rows if np.allclose(u, r["unit"], rtol=0, atol=1e-12)), None)
+            out.append(hit)
+        if rows and not any(out):
             raise ValueError(
-                "the results file does not match this tuning run (different settings or seed); "
-                "use another --results file"
+                "the study's recorded candidates do not match this tuning run (another seed or "
+                "settings); use another --study file"
             )
-        for u, r in zip(candidates, rows, strict=True):
-            params = with_values(self.base.gait, self.dims, u)
-            self._record(r["loss"], params, r["metrics"])
-        return [r["loss"] for r in rows]
+        return out
 
     def _record(self, loss: float, params: GaitParams, by_run: dict[str, dict[str, Any]]) -> None:
         self.evaluated.append((loss, params, by_run))
@@ -387,30 +464,6 @@ def meets_all_criteria(by_run: dict[str, dict[str, Any]], speed_scale: float = 1
     return True
 
 
-def _read_results(path: Path, settings: dict[str, Any]) -> list[list[dict[str, Any]]]:
-    """Recorded evaluations grouped by generation; only whole generations count."""
-    if not path.exists():
-        return []
-    lines = [json.loads(line) for line in path.read_text(encoding="utf-8").splitlines() if line]
-    if not lines or lines[0].get("settings") != settings:
-        found = lines[0].get("settings") if lines else None
-        raise ValueError(
-            f"{path} was written with other settings ({found}); "
-            "use another --results file or the same options"
-        )
-    by_gen: dict[int, list[dict[str, Any]]] = {}
-    for row in lines[1:]:
-        by_gen.setdefault(row["generation"], []).append(row)
-    popsize = settings["popsize"]
-    out = []
-    for gen in range(len(by_gen)):
-        rows = by_gen.get(gen, [])
-        if len(rows) != popsize:
-            break
-        out.append(rows)
-    return out
-
-
 def _progress_bar(
     stream: TextIO, generation: int, done: int, total: int, best, started: float
 ) -> None:
@@ -474,7 +527,34 @@ def add_arguments(parser: Any) -> None:
         help="weight of unwanted rotation while translating and translation while turning",
     )
     parser.add_argument("--threads", type=int, default=None)
-    parser.add_argument("--results", default="out/tune/results.jsonl", help="resumable log")
+    parser.add_argument(
+        "--study",
+        default="out/tune/study.log",
+        metavar="FILE|URL",
+        help="the study store: an Optuna journal file (default out/tune/study.log) or an RDB URL "
+        "such as sqlite:///tune.db; an interrupted study resumes from it, optuna-dashboard opens "
+        "it (docs/DESIGN.md §15)",
+    )
+    parser.add_argument("--study-name", default=DEFAULT_STUDY, help="the study within the store")
+    parser.add_argument(
+        "--robust",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also score each candidate on N model variations, the same for a whole generation "
+        "and drawn anew each generation; the loss adds the mean of the worst quarter",
+    )
+    parser.add_argument("--robust-weight", type=float, default=1.0, help="weight of that term")
+    parser.add_argument(
+        "--range",
+        action="append",
+        default=[],
+        metavar="NAME=LOW:HIGH",
+        help="narrow or widen one variation range for --robust (repeatable)",
+    )
+    parser.add_argument(
+        "--cluster", metavar="tcp://HOST:PORT", help="evaluate on this Dask scheduler"
+    )
     parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
     parser.add_argument("--name", default="tuned", help="name of the saved preset")
     parser.add_argument(
@@ -493,10 +573,13 @@ def command(args: Any) -> int:
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
     robot = RobotModel.load(args.robot)
+    ranges = VariationRanges()
+    for text in args.range:
+        ranges = ranges.with_range(*parse_range(text))
     tuner = Tuner(
         base,
         names,
-        evaluator=BatchEvaluator(robot, threads=args.threads),
+        evaluator=evaluator_for(robot, cluster=args.cluster, threads=args.threads),
         duration_s=args.duration,
         warmup_s=args.warmup,
         popsize=args.popsize,
@@ -509,11 +592,13 @@ def command(args: Any) -> int:
             speed_scale=robot.geometry.max_length_m / ARTRO_LEG.max_length_m,
         ),
         cases=[c.strip() for c in args.cases.split(",") if c.strip()] if args.cases else None,
+        robust=args.robust,
+        robust_weight=args.robust_weight,
+        ranges=ranges,
     )
     tuner.settings["set"] = args.set
-    results = Path(args.results)
-    results.parent.mkdir(parents=True, exist_ok=True)
-    tuner.run(args.generations, results)
+    settings = {**tuner.settings, "robot": robot.name}
+    tuner.run(args.generations, StudyStore(args.study, settings, name=args.study_name))
     chosen = tuner.best
     if args.select in ("passing", "steering"):
         chosen = tuner.best_passing(by="loss" if args.select == "passing" else "steering")
