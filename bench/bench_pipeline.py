@@ -1,4 +1,4 @@
-"""Benchmark: raw MuJoCo stepping vs the full frame pipeline on the built-in ArtRo model (models/robots/artro.yaml).
+"""Benchmark: raw MuJoCo stepping vs the full frame pipeline on the built-in ArtRo model.
 
 Prints, from one run:
   - raw mj_step throughput, two ways: (a) the same walk, the same set-points at the same physics

@@ -25,6 +25,7 @@ term of docs/DESIGN.md §10 (`steer.yaw_per_ca`), emulated on the motion vector.
 from __future__ import annotations
 
 import argparse
+
 import mujoco
 
 from app.core.batch import BatchEvaluator, Job

@@ -5,19 +5,16 @@ versions; a scheduler that goes away is a clear error."""
 
 from __future__ import annotations
 
-import json
 import os
 import signal
-import subprocess
-import sys
 import threading
 from collections.abc import Iterator
-from pathlib import Path
 
 import pytest
 
 from app.core.batch import BatchEvaluator
 from app.core.cluster import ClusterError, ClusterEvaluator, evaluate_chunk
+from app.core.cluster_local import LoopbackCluster
 from app.core.evaluation import Job, job_to_dict, same_results
 from app.core.robot import RobotModel
 from app.core.variations import parse_variation
@@ -25,7 +22,6 @@ from app.params.presets import builtin_presets
 from gait import Motion
 
 pytestmark = pytest.mark.slow
-DASK = Path(sys.executable).parent / "dask"
 ROBOT = RobotModel.load()
 TUNED = builtin_presets()["tuned"].gait
 
@@ -38,59 +34,13 @@ def jobs(n: int) -> list[Job]:
     ]
 
 
-class Cluster:
-    """A scheduler and workers on 127.0.0.1, each its own process, all ended at close."""
-
-    def __init__(self, tmp: Path, workers: int) -> None:
-        self.file = tmp / "scheduler.json"
-        quiet = {"stdout": subprocess.DEVNULL, "stderr": subprocess.DEVNULL}
-        self.scheduler = subprocess.Popen(
-            [str(DASK), "scheduler", "--scheduler-file", str(self.file), "--host", "127.0.0.1",
-             "--port", "0", "--dashboard-address", ":0", "--no-show"], **quiet,
-        )  # fmt: skip
-        self.workers = [self.start_worker() for _ in range(workers)]
-
-    def start_worker(self) -> subprocess.Popen:
-        return subprocess.Popen(
-            [str(DASK), "worker", "--scheduler-file", str(self.file), "--host", "127.0.0.1",
-             "--nthreads", "1", "--no-nanny", "--memory-limit", "0", "--no-dashboard"],
-            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
-        )  # fmt: skip
-
-    @property
-    def address(self) -> str:
-        return json.loads(self.file.read_text())["address"]
-
-    def wait_for_file(self) -> None:
-        """Bounded wait for the scheduler to write its address (not a sleep: it polls)."""
-        for _ in range(600):
-            if self.file.exists() and self.file.read_text().strip():
-                return
-            try:
-                self.scheduler.wait(0.1)
-                raise AssertionError("dask scheduler exited")
-            except subprocess.TimeoutExpired:
-                pass
-        raise AssertionError("dask scheduler did not start")
-
-    def close(self) -> None:
-        for proc in [*self.workers, self.scheduler]:
-            if proc.poll() is None:
-                proc.kill()
-            proc.wait(30)
-
-
 @pytest.fixture
-def cluster(tmp_path: Path) -> Iterator[Cluster]:
-    c = Cluster(tmp_path, workers=2)
-    try:
-        c.wait_for_file()
+def cluster() -> Iterator[LoopbackCluster]:
+    with LoopbackCluster(workers=2) as c:
         yield c
-    finally:
-        c.close()
 
 
-def connect(cluster: Cluster, workers: int = 2) -> ClusterEvaluator:
+def connect(cluster: LoopbackCluster, workers: int = 2) -> ClusterEvaluator:
     evaluator = ClusterEvaluator(cluster.address, ROBOT, runs_per_task=2)
     evaluator.client.wait_for_workers(workers, timeout=120)
     return evaluator

@@ -124,6 +124,9 @@ class BatchEvaluator:
         self.threads = threads or min(os.cpu_count() or 1, 8)
         self._datas = [mujoco.MjData(self.model) for _ in range(self.threads)]
         self._varied_cache: dict[Variation, RobotModel] = {}  # the planner thread's alone
+        #: seconds spent per stage since creation (the planner and the measurer overlap the
+        #: rollout in a worker thread; bench/bench_batch.py reports them)
+        self.stage_s = {"plan": 0.0, "rollout": 0.0, "measure": 0.0}
 
     def evaluate(
         self,
@@ -170,6 +173,7 @@ class BatchEvaluator:
                     models, self._datas[: len(chunk)], initial, controls
                 )
                 wall = time.perf_counter() - t0
+                self.stage_s["rollout"] += wall
                 if measuring is not None:
                     self._collect(measuring.result(), results, traces, on_result)
                     if progress is not None:
@@ -201,6 +205,7 @@ class BatchEvaluator:
         """The chunk's loops, starts, controls and initial states, and its model: one for a
         chunk of nominal runs, else one per run, so runs that differ only in model values share
         one rollout call (docs/DESIGN.md §13)."""
+        t0 = time.perf_counter()
         sims = [
             FrameLoop(self._varied(j.variation), j.params, j.motion, start_motion=j.start_motion)
             for j in chunk
@@ -214,7 +219,9 @@ class BatchEvaluator:
         )
         nominal = all(j.variation.is_nominal for j in chunk)
         models = self.model if nominal else [s.model for s in sims]
-        return sims, starts, controls, np.stack([st.state for st in starts]), models
+        initial = np.stack([st.state for st in starts])
+        self.stage_s["plan"] += time.perf_counter() - t0
+        return sims, starts, controls, initial, models
 
     def _measure_chunk(
         self,
@@ -227,6 +234,7 @@ class BatchEvaluator:
         wall_s: float,
         warmup_s: float,
     ) -> list[tuple[RunMetrics, Trace]]:
+        t0 = time.perf_counter()
         out = []
         for i, job in enumerate(chunk):
             metrics, trace = self._measure(
@@ -235,6 +243,7 @@ class BatchEvaluator:
             metrics["wall_s"] = wall_s / len(chunk)
             metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
             out.append((metrics, trace))
+        self.stage_s["measure"] += time.perf_counter() - t0
         return out
 
     @staticmethod
