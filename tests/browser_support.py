@@ -73,3 +73,43 @@ LINES = """el => {
   const rects = [...range.getClientRects()].filter(r => r.width > 0);
   return new Set(rects.map(r => Math.round(r.top))).size;
 }"""
+
+
+#: The header with every badge it can show while running (behind, the firmware drive, errors),
+#: measured in the same task so that no poll hides them first: how many lines each number takes,
+#: and whether the status and the controls keep within their places.
+HEADER_AT_ITS_FULLEST = """() => {
+  const shown = {"behind-badge": "behind real time", "drive-badge": "firmware · MCU 24 %",
+                 "errors-badge": "12 errors"};
+  const before = {};
+  for (const [id, text] of Object.entries(shown)) {
+    const el = document.getElementById(id);
+    before[id] = [el.hidden, el.textContent];
+    el.hidden = false;
+    el.textContent = text;
+  }
+  const range = document.createRange();
+  const lines = [...document.querySelectorAll(".topbar .stat .value")].map((el) => {
+    range.selectNodeContents(el);
+    const rects = [...range.getClientRects()].filter((r) => r.width > 0);
+    return [el.textContent, new Set(rects.map((r) => Math.round(r.top))).size];
+  });
+  const fits = [".topbar", ".topbar .status", ".topbar .controls"].map((sel) => {
+    const el = document.querySelector(sel);
+    return [sel, el.scrollWidth <= el.clientWidth && el.scrollHeight <= el.clientHeight];
+  });
+  const bar = document.querySelector(".topbar").getBoundingClientRect();
+  const out = (el) => {
+    const b = el.getBoundingClientRect();
+    return b.top < bar.top || b.bottom > bar.bottom;
+  };
+  const outside = [...document.querySelectorAll(".topbar .badge:not([hidden]), .topbar .stat")]
+    .filter(out)
+    .map((el) => el.id || el.textContent);
+  for (const [id, [hidden, text]] of Object.entries(before)) {
+    const el = document.getElementById(id);
+    el.hidden = hidden;
+    el.textContent = text;
+  }
+  return { lines, fits, outside };
+}"""
