@@ -18,7 +18,7 @@ from tests.browser_support import (
     SIZES,
     open_page,
 )
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
+from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
@@ -101,3 +101,44 @@ def test_calibrate_ca_its_result_and_the_header_are_all_in_view(
         _header_fits(page, "paused")
         page.locator("#sim-resume").click()
         expect(page.locator("#paused-badge")).to_be_hidden(timeout=10_000)
+
+
+# --- item 3: one drag or one burst of key presses is one undo step -------------------------------
+
+
+def _a_p(http: httpx.Client) -> float:
+    return http.get("/api/params").json()["motion"]["a_p"]
+
+
+@SIZED
+def test_one_drag_or_one_key_burst_is_one_undo_step(server, walking, browser, width, height):
+    base_url, http = server
+    http.patch("/api/params", json={"motion": {"a_p": 0.0, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    with open_page(browser, base_url, width, height) as page:
+        slider = page.locator("#motion-a_p")
+        expect(slider).to_have_value("0", timeout=10_000)
+        before = http.get("/api/params").json()["version"]
+        slider.focus()
+        for _ in range(10):  # the key held down: auto-repeat, 0.005 each
+            page.keyboard.down("ArrowRight")
+        page.keyboard.up("ArrowRight")
+        expect(page.locator("#motion-a_p-number")).to_have_value("0.05")
+        wait_for(lambda: _a_p(http) == 0.05, "a_p = 0.05 in the store")
+        assert http.get("/api/params").json()["version"] > before + 1  # several versions
+        page.locator("#params-undo").click()
+        wait_for(lambda: _a_p(http) == 0.0, "one undo back to a_p = 0")
+        expect(slider).to_have_value("0", timeout=10_000)
+        # a drag along the track: one undo step as well
+        box = slider.bounding_box()
+        assert box is not None
+        x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        page.mouse.move(x, y)
+        page.mouse.down()
+        for i in range(1, 13):
+            page.mouse.move(x + i * box["width"] * 0.02, y)
+        page.mouse.up()
+        dragged = wait_for(lambda: (v := _a_p(http)) > 0.03 and v, "a_p dragged up")
+        wait_for(lambda: _a_p(http) == float(slider.input_value()), "the drag's last value sent")
+        assert dragged > 0.03
+        page.locator("#params-undo").click()
+        wait_for(lambda: _a_p(http) == 0.0, "one undo back to a_p = 0 after the drag")
