@@ -7,6 +7,7 @@ from __future__ import annotations
 import re
 
 import httpx
+import numpy as np
 import pytest
 from playwright.sync_api import Page, expect, sync_playwright
 
@@ -19,6 +20,7 @@ from tests.browser_support import (
     open_page,
 )
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
+from tests.test_server_gait_ramp import largest_step
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
@@ -142,3 +144,39 @@ def test_one_drag_or_one_key_burst_is_one_undo_step(server, walking, browser, wi
         assert dragged > 0.03
         page.locator("#params-undo").click()
         wait_for(lambda: _a_p(http) == 0.0, "one undo back to a_p = 0 after the drag")
+
+
+# --- item 4: a preset loaded mid-walk is ramped in, and the page says so ------------------------
+
+
+def _walk(http: httpx.Client, seconds: float) -> None:
+    until = http.get("/api/state").json()["sim_time_s"] + seconds
+    wait_for(
+        lambda: http.get("/api/state").json()["sim_time_s"] >= until,
+        f"{seconds} s more walking",
+        attempts=3000,
+    )
+
+
+@SIZED
+def test_a_preset_loaded_mid_walk_is_ramped_in_and_said_so(server, walking, browser, width, height):
+    base_url, http = server
+    http.patch("/api/params", json={"motion": {"a_p": 0.05, "ca": 0.1}})
+    http.post("/api/sim/reset")
+    with open_page(browser, base_url, width, height) as page:
+        expect(page.locator("#preset-keep-motion")).to_be_checked()
+        _walk(http, 5.0)
+        page.locator('button[data-preset="paper"]', has_text="Load").click()
+        message = page.locator("#preset-message")
+        expect(message).to_contain_text("ramped in over 2 s", timeout=10_000)
+        expect(message).to_contain_text("motion kept")
+        loaded = http.get("/api/params").json()
+        assert loaded["name"] == "paper" and loaded["motion"]["a_p"] == 0.05
+        _walk(http, 6.5)
+    rec = http.get("/api/recording/export").json()["columns"]
+    ocr, versions = np.array(rec["ocr"]), np.array(rec["version"])
+    k = int(np.argmax(versions >= loaded["version"]))
+    before, after = largest_step(ocr[k - 200 : k]), largest_step(ocr[k + 110 : k + 300])
+    ramp = largest_step(ocr[k - 1 : k + 110])
+    assert ramp <= 1.1 * max(before, after), f"pulses jumped {ramp} ticks (walking: {before})"
+    assert not http.get("/api/state").json()["fell"]
