@@ -1,7 +1,8 @@
 """The one parameter store: an immutable snapshot plus a version number (docs/DESIGN.md §9).
 
 Every change goes through `ParameterStore.update` or `replace` (validated, diffed, applied under a
-lock, announced outside it); undo and redo walk a bounded history of snapshots.
+lock, announced outside it); undo and redo walk a bounded history of snapshots, one entry per
+gesture (a drag, a burst of key presses) however many versions it made.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ class Snapshot:
     motion: Motion
     gait: GaitParams
     source: str = "start"  # who made this version: "http", "viser", "preset", "import", "undo"...
+    gesture: str | None = None  # the gesture (one drag, one key burst) that made it, if named
     robot: str = DEFAULT_ROBOT  # the robot being simulated: the sets of this store are for it
 
     def flat(self) -> dict[str, float | bool]:
@@ -85,9 +87,19 @@ class ParameterStore:
     # --- changes -------------------------------------------------------------------------------
 
     def update(
-        self, patch: Mapping[str, Any], source: str, *, check: Check | None = None
+        self,
+        patch: Mapping[str, Any],
+        source: str,
+        *,
+        check: Check | None = None,
+        gesture: str | None = None,
     ) -> Snapshot:
-        """Merge a partial {'motion': {...}, 'gait': {group: {...}}}; ValueError changes nothing."""
+        """Merge a partial {'motion': {...}, 'gait': {group: {...}}}; ValueError changes nothing.
+
+        `gesture` names the user's gesture the change belongs to (one drag of a slider, one burst
+        of key presses): while the version in use was made by the same gesture and source, the
+        change is a new version but no new undo step, so one undo goes back to before the
+        gesture."""
         unknown = set(patch) - {"motion", "gait", "name"}
         if unknown:
             raise ValueError(f"unknown keys {sorted(unknown)}; allowed: motion, gait, name")
@@ -99,7 +111,7 @@ class ParameterStore:
             gait = merge(current.gait, patch["gait"]) if "gait" in patch else current.gait
             return patch.get("name", current.name), motion, gait
 
-        return self._commit(build, source, check)
+        return self._commit(build, source, check, gesture)
 
     def replace(self, pset: ParameterSet, source: str, *, check: Check | None = None) -> Snapshot:
         """Replace every parameter (a PUT, a loaded preset, an import)."""
@@ -133,18 +145,31 @@ class ParameterStore:
         build: Callable[[Snapshot], tuple[str, Motion, GaitParams]],
         source: str,
         check: Check | None,
+        gesture: str | None = None,
     ) -> Snapshot:
         with self._lock:
             current = self._snapshot
             if check is not None:
                 check(current)  # raises before anything changes
             name, motion, gait = build(current)  # raises before anything changes
-            candidate = Snapshot(current.version + 1, name, motion, gait, source, self.robot)
+            candidate = Snapshot(
+                current.version + 1, name, motion, gait, source, gesture=gesture, robot=self.robot
+            )
             changed = _changed(current, candidate)
             if not changed:
                 return current
-            self._undo.append(current)
-            del self._undo[:-HISTORY_LIMIT]
+            same_gesture = gesture is not None and (current.gesture, current.source) == (
+                gesture,
+                source,
+            )
+            if not (same_gesture and self._undo):
+                self._undo.append(current)
+                del self._undo[:-HISTORY_LIMIT]
+            elif not _changed(self._undo[-1], candidate):
+                # the gesture came back to where it started: nothing of it to undo, and its next
+                # step is a new undo step again
+                self._undo.pop()
+                candidate = dataclasses.replace(candidate, gesture=None)
             self._redo.clear()
             self._snapshot = candidate
             subscribers = list(self._subscribers)
@@ -168,7 +193,7 @@ class ParameterStore:
                 previous.motion,
                 previous.gait,
                 source,
-                self.robot,
+                robot=self.robot,
             )
             self._snapshot = candidate
             changed = _changed(current, candidate)

@@ -25,6 +25,7 @@ from app.core.mcu.emulator import EmulatorError
 from app.core.robot import RobotModel
 from app.core.servo_load import ServoLoadMeter, ServoLoadReport
 from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, FirmwareStatus
+from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp
 from app.server.ghost import Ghost, GhostStatus
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
@@ -99,6 +100,7 @@ class SimStatus:
     errors: tuple[str, ...] = ()
     drive: str = Drive.MODEL.value
     firmware: FirmwareStatus | None = None  # while the firmware drive is on
+    gait_ramp: float | None = None  # how far a change of gait constants has come (0..1), if so
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self) | {"errors": list(self.errors)}
@@ -135,6 +137,7 @@ class SimThread:
         self._firmware: FirmwareDriver | None = None  # the firmware drive, when on
         self._firmware_waited = 0  # frames the change in flight waited before it was sent
         self._ghost: Ghost | None = None  # the A/B ghost, this thread's alone
+        self._gait_ramp: GaitRamp | None = None  # a change of gait constants on its way
         self._ghost_status: GhostStatus | None = None  # published
         self._load = ServoLoadMeter(self._loop.robot)  # the servo budget of the current gait
         self._load_report = self._load.report()
@@ -337,7 +340,15 @@ class SimThread:
             self._set_drive(None, reset=False)
         elif firmware is not None:
             firmware.send(snap)  # over the emulated UART; it reaches the frame the ACK names
-        self._loop.set_gait(snap.gait, snap.motion)
+        if snap.gait == old.gait:
+            self._loop.set_gait(motion=snap.motion)  # a ramp under way goes on
+        elif self._firmware is None and snap.gait.engine == self._loop.params.engine:
+            # new constants reach the servos over GAIT_RAMP_S, from those in effect now
+            self._gait_ramp = GaitRamp(self._loop.params, snap.gait, round(GAIT_RAMP_S / FRAME_S))
+            self._loop.set_gait(motion=snap.motion)
+        else:  # the firmware takes a set whole; a new engine has its own start-up
+            self._gait_ramp = None
+            self._loop.set_gait(snap.gait, snap.motion)
         self._load.clear()  # the budget belongs to one gait
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         if snap.motion != old.motion:
@@ -354,6 +365,12 @@ class SimThread:
 
     def _frame(self) -> None:
         sim = self._loop
+        ramp = self._gait_ramp
+        if ramp is not None:
+            sim.set_gait(ramp.next())
+            if ramp.finished:
+                self._gait_ramp = None
+                self._load.clear()  # the budget of the new gait, not of the way to it
         record = self._step()
         if sim.blew_up:
             self.errors.append(f"physics blew up at t = {sim.time_s:.2f} s; robot reset")
@@ -401,6 +418,7 @@ class SimThread:
     def _set_drive(self, driver: FirmwareDriver | None, *, reset: bool = True) -> None:
         """Hand the pulses to `driver` (None: the model). A firmware boots at its start phase,
         so the robot is put back to the start then; back to the model, it walks on."""
+        self._finish_gait_ramp()
         if self._firmware is not None:
             self._firmware.close()
         self._firmware = driver
@@ -419,6 +437,7 @@ class SimThread:
         back on its feet): the robot stands in the pose of the firmware's next phase."""
         if phase is None and self._firmware is not None:
             phase = self._loop.phase
+        self._finish_gait_ramp()  # the robot stands up in the constants in use
         self._loop.reset(START_PHASE_RAD if phase is None else phase)
         if self._ghost is not None:
             self._ghost.place_beside(self._loop)
@@ -430,6 +449,11 @@ class SimThread:
         self.paths.clear()
         self.scope.clear()
         self._publish_poses()
+
+    def _finish_gait_ramp(self) -> None:
+        if self._gait_ramp is not None:
+            self._loop.set_gait(self._gait_ramp.target)
+            self._gait_ramp = None
 
     def _publish_poses(self) -> None:
         """A copy of the body poses for the 3D view: made only when a view exists."""
@@ -475,6 +499,7 @@ class SimThread:
             errors=tuple(self.errors),
             drive=(Drive.MODEL if self._firmware is None else Drive.FIRMWARE).value,
             firmware=None if self._firmware is None else self._firmware.status(),
+            gait_ramp=None if self._gait_ramp is None else self._gait_ramp.progress,
         )
 
 

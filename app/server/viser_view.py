@@ -37,6 +37,7 @@ if TYPE_CHECKING:
 log = logging.getLogger(__name__)
 
 FRAME_RATE_HZ = 30.0
+SLIDER_BURST_S = 1.0  # a slider's updates closer together than this are one gesture: one undo
 PATH_REFRESH_S = 0.5
 SLIDER_SOURCE = "viser"  # changes made by dragging a slider: the slider already shows them
 BUTTON_SOURCE = "viser-button"  # folder resets, undo/redo: the sliders must follow
@@ -87,6 +88,7 @@ class Viewer:
         self.server.initial_camera.position = (0.55, 0.45, 0.12)
         self.server.initial_camera.look_at = (0.0, 0.0, -0.08)
         self._controls: dict[tuple[str, str], Any] = {}
+        self._bursts: dict[tuple[int, str], tuple[int, float]] = {}  # slider gestures
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._build_gui()
@@ -318,13 +320,23 @@ class Viewer:
                 return
             value = event.target.value
             patch = {"motion": {name: value}} if key == "motion" else {"gait": {key: {name: value}}}
+            gesture = self._gesture(event.client.client_id, f"{key}.{name}")
             try:
-                self.store.update(patch, SLIDER_SOURCE)
+                self.store.update(patch, SLIDER_SOURCE, gesture=gesture)
             except ValueError as exc:
                 event.client.add_notification("Not applied", str(exc), color="red")
                 self._show(self.store.snapshot())
 
         return on_update
+
+    def _gesture(self, client_id: int, dotted: str) -> str:
+        """One drag of a slider (its updates less than SLIDER_BURST_S apart) is one gesture."""
+        now = time.monotonic()
+        count, last = self._bursts.get((client_id, dotted), (0, -SLIDER_BURST_S))
+        if now - last > SLIDER_BURST_S:
+            count += 1
+        self._bursts[(client_id, dotted)] = (count, now)
+        return f"viser-{client_id}-{dotted}-{count}"
 
     def _reset_group(self, key: str, defaults: dict[str, Any]) -> None:
         patch = {"motion": defaults} if key == "motion" else {"gait": {key: defaults}}

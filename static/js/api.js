@@ -63,7 +63,7 @@ export const api = {
   get: (path) => request("GET", path),
   post: (path, json) => request("POST", path, json === undefined ? {} : { json }),
   put: (path, json) => request("PUT", path, json === undefined ? {} : { json }),
-  patch: (path, json) => request("PATCH", path, { json }),
+  patch: (path, json, headers) => request("PATCH", path, { json, headers }),
   del: (path) => request("DELETE", path),
   /** POST raw bytes (file upload) with an explicit Content-Type. */
   postRaw: (path, body, contentType) =>

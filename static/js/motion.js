@@ -1,9 +1,11 @@
 // The motion vector and CA as real controls: a slider and a number per field, labelled with what
 // a negative and a positive value does (docs/DESIGN.md §3), the known-good band of the loaded preset shaded
 // on the track (rule in data/safe-bands.json), arrow keys on a focused slider.
-// A change is PATCHed at once (one request in flight, the latest value wins). Values the server
-// reports are shown unless the user is holding that control; the page never writes back what it
-// was told, so nothing echoes (docs/DESIGN.md §9).
+// A change is PATCHed at once (one request in flight, the latest value wins), named with its
+// gesture (one drag, one burst of key presses on a slider, one typed value, one Stop): the store
+// makes the whole gesture one undo step. Values the server reports are shown unless the user is
+// holding that control; the page never writes back what it was told, so nothing echoes
+// (docs/DESIGN.md §9).
 
 import { api } from "./api.js";
 import { $, fmtSigned, h, setMessage } from "./util.js";
@@ -15,6 +17,8 @@ const FIELDS = [
   { key: "ca", label: "CA", neg: "↺ right steps longer", pos: "left steps longer ↻" },
 ];
 const HOLD_MS = 800; // after a local edit, server values for that field wait this long
+const BURST_MS = 1000; // slider changes closer together than this are one gesture (key repeat)
+const PAGE = Math.random().toString(36).slice(2, 10); // this page's gestures are its own
 
 const rows = {}; // key -> {range, number, value, field}
 const pending = {};
@@ -24,6 +28,9 @@ let inFlight = false;
 let bands = null;
 let current = null; // the last parameters the server reported
 let walked = false;
+let gesture = null; // {key, id, at}: the gesture the latest change belongs to
+let gestures = 0;
+let pendingGesture = null; // the gesture of the changes waiting to be sent
 
 export async function initMotion() {
   // listen before the first await: params.js may announce the set while the schema loads
@@ -35,7 +42,10 @@ export async function initMotion() {
   bands = bandFile;
   const fields = Object.fromEntries(schema.find((g) => g.group === "motion").fields.map((f) => [f.name, f]));
   $("motion-rows").replaceChildren(...FIELDS.map((f) => buildRow(f, fields[f.key])));
-  $("motion-stop").addEventListener("click", () => FIELDS.forEach((f) => send(f.key, 0)));
+  $("motion-stop").addEventListener("click", () => {
+    startGesture("stop");
+    for (const f of FIELDS) send(f.key, 0, "stop");
+  });
   window.addEventListener("pointerup", () => (holding = null));
   if (current) render(current); // a set announced before the rows existed
 }
@@ -63,15 +73,20 @@ function buildRow(f, field) {
   });
   const value = h("span", { class: "motion-band dim", id: `motion-${f.key}-band` });
   const round = (v) => Number(Number(v).toFixed(decimals));
-  range.addEventListener("pointerdown", () => (holding = f.key));
+  range.addEventListener("pointerdown", () => {
+    holding = f.key;
+    startGesture(f.key); // a drag is one gesture, however long
+  });
+  range.addEventListener("keydown", (e) => onSliderKey(f.key, e));
   range.addEventListener("input", () => {
     number.value = round(range.value);
-    send(f.key, round(range.value));
+    send(f.key, round(range.value), f.key);
   });
   number.addEventListener("change", () => {
     if (number.value === "" || !Number.isFinite(Number(number.value))) return;
     range.value = number.value;
-    send(f.key, round(number.value));
+    startGesture(f.key); // a typed value is a change of its own
+    send(f.key, round(number.value), f.key);
   });
   rows[f.key] = { range, number, value, field, decimals };
   return h(
@@ -86,10 +101,30 @@ function buildRow(f, field) {
   );
 }
 
-function send(key, v) {
+function startGesture(key) {
+  gesture = { key, id: `${PAGE}-${++gestures}`, at: performance.now() };
+  return gesture;
+}
+
+/** A key press on a slider: a key held down (auto-repeat) or pressed again within BURST_MS of the
+ *  last press on the same slider goes on with the gesture; otherwise a new one begins. */
+function onSliderKey(key, event) {
+  const going = gesture?.key === key && (event.repeat || event.timeStamp - gesture.at <= BURST_MS);
+  if (!going) startGesture(key);
+  gesture.at = event.timeStamp;
+}
+
+/** The gesture a change of `control` belongs to: the one that control began, else a new one. */
+function gestureOf(control) {
+  return (gesture?.key === control ? gesture : startGesture(control)).id;
+}
+
+function send(key, v, control) {
   lastLocal[key] = performance.now();
   pending[key] = v;
+  pendingGesture = gestureOf(control);
   markBand(key, v);
+  if (control === "stop" && key !== FIELDS[FIELDS.length - 1].key) return; // all four at once
   flush();
 }
 
@@ -99,7 +134,7 @@ async function flush() {
   for (const k of Object.keys(pending)) delete pending[k];
   inFlight = true;
   try {
-    const p = await api.patch("/api/params", { motion });
+    const p = await api.patch("/api/params", { motion }, { "Artro-Gesture": pendingGesture });
     setMessage($("motion-message"), "", "");
     document.dispatchEvent(new CustomEvent("artro:params", { detail: p }));
   } catch (err) {

@@ -3,6 +3,8 @@
 // position of each whole gait cycle (the sway averaged out). World frame x forward, y left, drawn
 // with x to the right and y up, one metre per pixel scale on both axes so circles look round.
 // The robot (a triangle along its heading) and the anchor are drawn in uPlot's draw hook.
+// Both paths are drawn point after point (`inOrder`): uPlot's own linear() path merges points per
+// pixel column once there are four per column, and assumes x increases (a walk turns back).
 
 const uPlot = window.uPlot;
 const COLORS = {
@@ -32,7 +34,7 @@ export class PathPlot {
       stroke,
       width,
       dash,
-      paths: uPlot.paths.linear(),
+      paths: inOrder,
       points: { show: false },
       facets: [{ scale: "x", auto: false }, { scale: "y", auto: false }],
     });
@@ -82,6 +84,20 @@ export class PathPlot {
       this.u.setScale("x", x);
       this.u.setScale("y", y);
     });
+  }
+
+  /** The scales and the plotting area in CSS pixels (what maps a point to the screen), and how
+   *  many canvas pixel columns the area has. */
+  view() {
+    const u = this.u;
+    const r = uPlot.pxRatio;
+    const { left, top, width, height } = u.bbox;
+    return {
+      x: [u.scales.x.min, u.scales.x.max],
+      y: [u.scales.y.min, u.scales.y.max],
+      box: { left: left / r, top: top / r, width: width / r, height: height / r },
+      columns: width,
+    };
   }
 
   /** Ranges around everything drawn, with the same metres per pixel on both axes. */
@@ -145,6 +161,28 @@ export class PathPlot {
     }
     ctx.restore();
   }
+}
+
+/** A uPlot path builder for a facet series (mode 2): one line through every point in the order
+ *  of the data, never merged per pixel column, so a path that turns back on itself is drawn as
+ *  it was walked. Points that are not finite break the line. */
+export function inOrder(u, seriesIdx) {
+  const [xs, ys] = u.data[seriesIdx];
+  const stroke = new Path2D();
+  let drawing = false;
+  for (let i = 0; i < xs.length; i++) {
+    const x = u.valToPos(xs[i], "x", true);
+    const y = u.valToPos(ys[i], "y", true);
+    if (!Number.isFinite(x) || !Number.isFinite(y)) {
+      drawing = false;
+    } else if (drawing) {
+      stroke.lineTo(x, y);
+    } else {
+      stroke.moveTo(x, y);
+      drawing = true;
+    }
+  }
+  return { stroke, fill: null, clip: null, band: null, gaps: null, flags: 1 };
 }
 
 /** Mean (x, y) of each whole gait cycle of the actual path: [[x...], [y...]]. */

@@ -42,7 +42,13 @@ function show(p) {
   last = p;
   const means = $("path-cycles").checked ? cycleMeans(p.actual, freqHz) : null;
   plot.update(p, means);
-  window.artro.path = { actual: p.actual.length, predicted: p.predicted.length, cycles: means?.[0].length ?? 0 };
+  window.artro.path = {
+    actual: p.actual.length,
+    predicted: p.predicted.length,
+    cycles: means?.[0].length ?? 0,
+    lastT: p.actual.length ? p.actual[p.actual.length - 1][0] : null,
+    view: plot.view(),
+  };
   readout(p);
 }
 

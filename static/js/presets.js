@@ -6,8 +6,13 @@ import { refreshParams } from "./params.js";
 import { $, fmt, h, setMessage } from "./util.js";
 
 const NAME_RE = /^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$/;
+const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over this (sim_thread.py)
+let drive = "model";
+let engine = null;
 
 export function initPresets() {
+  document.addEventListener("artro:state", (e) => (drive = e.detail.drive));
+  document.addEventListener("artro:params", (e) => (engine = e.detail.gait?.engine ?? engine));
   $("preset-save").addEventListener("click", save);
   $("preset-name").addEventListener("keydown", (e) => e.key === "Enter" && save());
   $("diff-a").addEventListener("change", runDiff);
@@ -53,12 +58,21 @@ function row(p) {
   );
 }
 
+/** How a newly loaded gait reaches the servos (app/server/sim_thread.py). */
+function arrival(before, p) {
+  if (drive === "firmware") return "the firmware takes the new constants at once";
+  if (before && p.gait?.engine !== before) return `the ${p.gait.engine} engine starts up`;
+  return `ramped in over ${GAIT_RAMP_S} s, as a change of motion is`;
+}
+
 async function load_(name) {
   const keep = $("preset-keep-motion").checked;
+  const before = engine;
   try {
     const p = await api.post(`/api/presets/${encodeURIComponent(name)}/load?keep_motion=${keep}`);
     const how = keep ? "its gait, the motion kept" : "its gait and motion";
-    setMessage($("preset-message"), `loaded '${name}': ${how} (parameters v${p.version})`, "ok");
+    const text = `loaded '${name}': ${how}, ${arrival(before, p)} (parameters v${p.version})`;
+    setMessage($("preset-message"), text, "ok");
     refreshParams();
   } catch (err) {
     setMessage($("preset-message"), err.message, "error");

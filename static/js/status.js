@@ -1,6 +1,7 @@
 // Header: simulation status from GET /api/state (polled at 2 Hz, announced as "artro:state") and
-// the sim controls. The state reads "running 1.00× (target 1×)", "paused" or "fallen — stopped":
-// a real-time factor only while the simulation runs, and once its 2 s window has filled.
+// the sim controls. The state reads "running 1.00×", "paused" or "fallen — stopped": a real-time
+// factor only while the simulation runs, and once its 2 s window has filled (the target is the
+// speed select beside it).
 
 import { api, poll } from "./api.js";
 import { $, fmt } from "./util.js";
@@ -59,7 +60,7 @@ async function refresh() {
   $("sim-time").textContent = `${fmt(s.sim_time_s, 2)} s`;
   $("sim-rtf").textContent = stateText(s);
   $("sim-rtf").classList.toggle("bad", !!s.fell);
-  $("sim-rtf").title = "real-time factor achieved (target speed), while the simulation runs";
+  $("sim-rtf").title = `real-time factor achieved while the simulation runs (target: ${Number(s.speed)}×, the speed setting)`;
   show("behind-badge", !!s.behind && !s.fell && !s.paused);
   show("paused-badge", !!s.paused);
   $("sim-pause").hidden = !!s.paused;
@@ -85,7 +86,7 @@ function stateText(s) {
   if (s.fell) return "fallen — stopped";
   if (s.paused) return "paused";
   const rtf = s.rtf == null || s.sim_time_s < RTF_WINDOW_S ? "—" : `${fmt(s.rtf, 2)}×`;
-  return `running ${rtf} (target ${Number(s.speed)}×)`;
+  return `running ${rtf}`;
 }
 
 function show(id, visible, text) {

@@ -27,6 +27,18 @@ IfMatch = Annotated[
         "otherwise 412 with the current version",
     ),
 ]
+GESTURE_PATTERN = r"^[A-Za-z0-9_.:-]{1,64}$"
+Gesture = Annotated[
+    str | None,
+    Header(
+        alias="Artro-Gesture",
+        max_length=64,
+        pattern=GESTURE_PATTERN,
+        description="the user's gesture this change belongs to (1-64 letters, digits, _ . : -), "
+        "e.g. one drag of a slider: while the version in use was made by the same gesture, the "
+        "change is a new version but no new undo step",
+    ),
+]
 ETAG_HEADER = {"ETag": {"description": 'the version, e.g. "12"', "schema": {"type": "string"}}}
 
 
@@ -95,11 +107,17 @@ def pset_patch(pset: ParameterSet) -> dict[str, Any]:
 
 @router.patch("/params", responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}})
 def patch_params(
-    body: ParamsPatchBody, services: ServicesDep, response: Response, if_match: IfMatch = None
+    body: ParamsPatchBody,
+    services: ServicesDep,
+    response: Response,
+    if_match: IfMatch = None,
+    gesture: Gesture = None,
 ) -> dict[str, Any]:
-    """Change some parameters; the rest stay. Invalid input or a stale version changes nothing."""
+    """Change some parameters; the rest stay. Invalid input or a stale version changes nothing.
+    With `Artro-Gesture`, the changes of one gesture (a slider drag) are one undo step."""
     check = versions_check(body.version, if_match)
-    return _tagged(response, services.store.update(body.as_patch(), "http", check=check))
+    snapshot = services.store.update(body.as_patch(), "http", check=check, gesture=gesture)
+    return _tagged(response, snapshot)
 
 
 @router.post("/params/undo", responses=responses(409, 412, 422))

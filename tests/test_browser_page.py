@@ -1,0 +1,182 @@
+"""What a newcomer hits on the page (issue 18), in a real headless Chromium at both window sizes,
+against a real server with the viser 3D view: every control of the path panel and the header in
+view, one undo per drag or key burst, and the smaller defects of item 5."""
+
+from __future__ import annotations
+
+import re
+
+import httpx
+import numpy as np
+import pytest
+from playwright.sync_api import Page, expect, sync_playwright
+
+from tests.browser_support import (
+    CUT_OFF,
+    HEADER_AT_ITS_FULLEST,
+    LINES,
+    SIZE_IDS,
+    SIZES,
+    open_page,
+)
+from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
+from tests.test_server_gait_ramp import largest_step
+
+ERROR = re.compile(r"\berror\b")
+OK = re.compile(r"\bok\b")
+SIZED = pytest.mark.parametrize(("width", "height"), SIZES, ids=SIZE_IDS)
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    """(base_url, http client) of a live server with the viser 3D view."""
+    with running_server(tmp_path_factory.mktemp("data"), viewer=True) as (base_url, _app):
+        with httpx.Client(base_url=base_url, timeout=10) as http:
+            yield base_url, http
+
+
+@pytest.fixture(scope="module")
+def browser():
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        yield browser
+        browser.close()
+
+
+@pytest.fixture
+def walking(server):
+    """The robot walks forward with `tuned`; put back afterwards."""
+    _base, http = server
+    http.post("/api/presets/tuned/load")
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+    http.post("/api/sim/resume")
+    yield http
+    http.post("/api/sim/resume")
+    http.put("/api/path/axle", json={"axle_m": None})
+
+
+def cut_off(page: Page, selector: str) -> list[str]:
+    return page.locator(selector).evaluate(CUT_OFF)
+
+
+# --- item 2: the path panel's buttons and the header ----------------------------------------------
+
+
+def _header_fits(page: Page, state: str) -> None:
+    for value in page.locator(".topbar .stat .value").all():
+        assert value.evaluate(LINES) == 1, f"{state}: {value.text_content()!r} wraps"
+    fullest = page.evaluate(HEADER_AT_ITS_FULLEST)
+    assert all(n == 1 for _text, n in fullest["lines"]), f"{state}, every badge: {fullest}"
+    assert all(fits for _part, fits in fullest["fits"]), f"{state}, every badge: {fullest}"
+    assert fullest["outside"] == [], f"{state}, every badge: {fullest}"
+    for control in ("#sim-step", "#sim-reset", "#speed-select", "#drive-select"):
+        assert cut_off(page, control) == [], f"{state}: {control} cut off"
+
+
+@SIZED
+def test_calibrate_ca_its_result_and_the_header_are_all_in_view(
+    server, walking, browser, width, height
+):
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        page.wait_for_function("window.artro.path && window.artro.path.actual > 0")
+        panel = page.locator(".path-panel")
+        sizes = panel.evaluate(
+            "e => [e.scrollWidth, e.clientWidth, e.scrollHeight, e.clientHeight]"
+        )
+        assert sizes[0] <= sizes[1] and sizes[2] <= sizes[3], f"the path panel clips: {sizes}"
+        for control in ("#anchor-speed", "#path-anchor", "#axle-cm", "#axle-set", "#axle-fit"):
+            assert cut_off(page, control) == [], control
+        assert cut_off(page, "#ca-calibrate") == []
+        page.locator("#ca-calibrate").scroll_into_view_if_needed()
+        expect(page.locator("#ca-calibrate")).to_be_in_viewport(ratio=1)
+        # a result line (here the server's refusal of an axle) wraps inside the panel
+        page.locator("#axle-cm").fill("0")
+        page.locator("#axle-set").click()
+        message = page.locator("#path-message")
+        expect(message).to_have_class(ERROR, timeout=10_000)
+        assert len(message.text_content() or "") > 30
+        assert cut_off(page, "#path-message") == []
+        _header_fits(page, "running")
+        page.locator("#sim-pause").click()
+        expect(page.locator("#paused-badge")).to_be_visible(timeout=10_000)
+        _header_fits(page, "paused")
+        page.locator("#sim-resume").click()
+        expect(page.locator("#paused-badge")).to_be_hidden(timeout=10_000)
+
+
+# --- item 3: one drag or one burst of key presses is one undo step -------------------------------
+
+
+def _a_p(http: httpx.Client) -> float:
+    return http.get("/api/params").json()["motion"]["a_p"]
+
+
+@SIZED
+def test_one_drag_or_one_key_burst_is_one_undo_step(server, walking, browser, width, height):
+    base_url, http = server
+    http.patch("/api/params", json={"motion": {"a_p": 0.0, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    with open_page(browser, base_url, width, height) as page:
+        slider = page.locator("#motion-a_p")
+        expect(slider).to_have_value("0", timeout=10_000)
+        before = http.get("/api/params").json()["version"]
+        slider.focus()
+        for _ in range(10):  # the key held down: auto-repeat, 0.005 each
+            page.keyboard.down("ArrowRight")
+        page.keyboard.up("ArrowRight")
+        expect(page.locator("#motion-a_p-number")).to_have_value("0.05")
+        wait_for(lambda: _a_p(http) == 0.05, "a_p = 0.05 in the store")
+        assert http.get("/api/params").json()["version"] > before + 1  # several versions
+        page.locator("#params-undo").click()
+        wait_for(lambda: _a_p(http) == 0.0, "one undo back to a_p = 0")
+        expect(slider).to_have_value("0", timeout=10_000)
+        # a drag along the track: one undo step as well
+        box = slider.bounding_box()
+        assert box is not None
+        x, y = box["x"] + box["width"] / 2, box["y"] + box["height"] / 2
+        page.mouse.move(x, y)
+        page.mouse.down()
+        for i in range(1, 13):
+            page.mouse.move(x + i * box["width"] * 0.02, y)
+        page.mouse.up()
+        dragged = wait_for(lambda: (v := _a_p(http)) > 0.03 and v, "a_p dragged up")
+        wait_for(lambda: _a_p(http) == float(slider.input_value()), "the drag's last value sent")
+        assert dragged > 0.03
+        page.locator("#params-undo").click()
+        wait_for(lambda: _a_p(http) == 0.0, "one undo back to a_p = 0 after the drag")
+
+
+# --- item 4: a preset loaded mid-walk is ramped in, and the page says so ------------------------
+
+
+def _walk(http: httpx.Client, seconds: float) -> None:
+    until = http.get("/api/state").json()["sim_time_s"] + seconds
+    wait_for(
+        lambda: http.get("/api/state").json()["sim_time_s"] >= until,
+        f"{seconds} s more walking",
+        attempts=3000,
+    )
+
+
+@SIZED
+def test_a_preset_loaded_mid_walk_is_ramped_in_and_said_so(server, walking, browser, width, height):
+    base_url, http = server
+    http.patch("/api/params", json={"motion": {"a_p": 0.05, "ca": 0.1}})
+    http.post("/api/sim/reset")
+    with open_page(browser, base_url, width, height) as page:
+        expect(page.locator("#preset-keep-motion")).to_be_checked()
+        _walk(http, 5.0)
+        page.locator('button[data-preset="paper"]', has_text="Load").click()
+        message = page.locator("#preset-message")
+        expect(message).to_contain_text("ramped in over 2 s", timeout=10_000)
+        expect(message).to_contain_text("motion kept")
+        loaded = http.get("/api/params").json()
+        assert loaded["name"] == "paper" and loaded["motion"]["a_p"] == 0.05
+        _walk(http, 6.5)
+    rec = http.get("/api/recording/export").json()["columns"]
+    ocr, versions = np.array(rec["ocr"]), np.array(rec["version"])
+    k = int(np.argmax(versions >= loaded["version"]))
+    before, after = largest_step(ocr[k - 200 : k]), largest_step(ocr[k + 110 : k + 300])
+    ramp = largest_step(ocr[k - 1 : k + 110])
+    assert ramp <= 1.1 * max(before, after), f"pulses jumped {ramp} ticks (walking: {before})"
+    assert not http.get("/api/state").json()["fell"]
