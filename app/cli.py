@@ -125,6 +125,11 @@ def build_parser() -> argparse.ArgumentParser:
     s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
     s.add_argument("--params", metavar="FILE", help="start with this parameter set")
     add_robot_option(s)
+    s.add_argument(
+        "--cluster",
+        metavar="tcp://HOST:PORT",
+        help="run the dashboard's robustness job on this Dask scheduler (docs/CLUSTER.md)",
+    )
     s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
     s.add_argument(
@@ -375,6 +380,7 @@ def _cmd_serve(args: argparse.Namespace) -> int:
         viser_port=args.viser_port,
         params_file=Path(args.params) if args.params else None,
         robot=args.robot,
+        cluster=args.cluster,
         data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
         viewer=not args.no_viewer,
         allowed_hosts=tuple(args.allowed_host),

@@ -30,6 +30,7 @@ from app.server.api import (
     scope,
     servos,
     sim,
+    world,
 )
 from app.server.errors import install_handlers
 from app.server.guard import GUARDED_PREFIXES, Guard, served_hosts
@@ -75,7 +76,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
 
     install_handlers(app)
     routers = (sim.router, params.router, scope.router, paths.router, presets.router)
-    more = (servos.router, jobs.router, ghost.router, recording.router, robot.router)
+    more = (servos.router, world.router, jobs.router, ghost.router, recording.router, robot.router)
     for router in (*routers, *more):
         app.include_router(router)
     # the page is served under every path but the API's: a wrong method or path under /api/

@@ -13,6 +13,7 @@ from app.server.ca_calibrator import CaCalibrator
 from app.server.guard import served_hosts
 from app.server.param_store import ParameterStore
 from app.server.replay import Replay
+from app.server.robustness import RobustnessRunner
 from app.server.sim_thread import SimThread
 
 
@@ -27,6 +28,7 @@ class ServerConfig:
     allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/guard.py)
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
+    cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
 
 
 class Services:
@@ -47,6 +49,9 @@ class Services:
         self.axle_fitter = AxleFitter(robot=self.robot)  # its jobs: GET /api/jobs/{id}
         self.ca_calibrator = CaCalibrator(
             self.axle_fitter.jobs, self.store, self.sim.paths, self.robot
+        )
+        self.robustness = RobustnessRunner(
+            self.axle_fitter.jobs, self.store, self.robot, config.cluster
         )
         self.viewer = None
         if config.viewer:

@@ -24,6 +24,7 @@ from app.core.frame_loop import FRAME_S, START_PHASE_RAD, FrameLoop, FrameRecord
 from app.core.mcu.emulator import EmulatorError
 from app.core.robot import RobotModel
 from app.core.servo_load import ServoLoadMeter, ServoLoadReport
+from app.core.variations import Variation
 from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, FirmwareStatus
 from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp
 from app.server.ghost import Ghost, GhostStatus
@@ -55,6 +56,7 @@ class Command(enum.Enum):
     REANCHOR = "reanchor"  # value: V in m/s fixed by hand, or None to measure it
     DRIVE = "drive"  # value: a booted FirmwareDriver (the firmware drive), or None (the model)
     GHOST = "ghost"  # value: (GaitParams, source label) of the A/B ghost, or None: no ghost
+    WORLD = "world"  # value: the Variation the robot walks in (docs/DESIGN.md §13)
 
 
 class Drive(enum.Enum):
@@ -101,6 +103,7 @@ class SimStatus:
     drive: str = Drive.MODEL.value
     firmware: FirmwareStatus | None = None  # while the firmware drive is on
     gait_ramp: float | None = None  # how far a change of gait constants has come (0..1), if so
+    world: str = "nominal"  # the variation the robot walks in, as `artro run --vary` takes it
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self) | {"errors": list(self.errors)}
@@ -205,6 +208,8 @@ class SimThread:
             params, source = value
             if not isinstance(params, GaitParams) or not isinstance(source, str):
                 raise ValueError("the ghost command takes (GaitParams, source label) or None")
+        if command is Command.WORLD and not isinstance(value, Variation):
+            raise ValueError("the world command takes a Variation")
         if command is Command.SPEED:
             lo, hi = SPEED_RANGE
             if not isinstance(value, int | float) or not lo <= float(value) <= hi:
@@ -321,6 +326,8 @@ class SimThread:
             elif command is Command.DRIVE:
                 self._set_drive(value)
                 restart = True
+            elif command is Command.WORLD:
+                self._loop.set_variation(value)  # the state carries over: it walks on there
             elif command is Command.GHOST:
                 self._ghost = None if value is None else Ghost(self._loop, *value)
                 self._ghost_status = None if value is None else self._ghost.status()
@@ -498,6 +505,7 @@ class SimThread:
             resets=self.resets,
             errors=tuple(self.errors),
             drive=(Drive.MODEL if self._firmware is None else Drive.FIRMWARE).value,
+            world=self._loop.variation.name,
             firmware=None if self._firmware is None else self._firmware.status(),
             gait_ramp=None if self._gait_ramp is None else self._gait_ramp.progress,
         )

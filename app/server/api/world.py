@@ -1,0 +1,87 @@
+"""The world the live robot walks in (a model variation, docs/DESIGN.md §13) and the robustness
+job that walks the current gait on many of them."""
+
+from dataclasses import asdict
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Body, Response
+from pydantic import BaseModel, ConfigDict, Field
+
+from app.core.variations import FIELDS, NOMINAL, VariationRanges, parse_variation
+from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.jobs import JobBusy
+from app.server.sim_thread import Command
+
+router = APIRouter(
+    prefix="/api", tags=["world"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+)
+
+
+class WorldBody(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    variation: str = Field(
+        max_length=2000,
+        description="as `artro run --vary` takes it, e.g. friction=0.4,latency_ms=40,cal.l_knee=1;"
+        " empty: the nominal model",
+    )
+
+
+class RobustnessBody(BaseModel):
+    model_config = ConfigDict(extra="forbid")
+    samples: int = Field(24, ge=4, le=400, description="variations to walk")
+    seed: int = Field(0, ge=0, le=2**31 - 1)
+
+
+def _world(services: Any) -> dict[str, Any]:
+    name = services.sim.status().world
+    variation = NOMINAL if name == "nominal" else parse_variation(name)
+    return {
+        "variation": name,
+        "values": {f: getattr(variation, f) for f in FIELDS},
+        "ranges": asdict(VariationRanges()),
+    }
+
+
+@router.get("/world")
+def get_world(services: ServicesDep) -> dict[str, Any]:
+    """The variation the live robot walks in (`nominal` when none), each field's value and the
+    default ranges of `artro bench robust`."""
+    return _world(services)
+
+
+@router.put("/world", responses=responses(422))
+def put_world(body: WorldBody, services: ServicesDep) -> dict[str, Any]:
+    """Walk on in another world from the next frame on (friction, masses, servo, latency, play,
+    tilt, calibration); the robot is not reset. A bad text changes nothing (422)."""
+    try:
+        variation = parse_variation(body.variation) if body.variation.strip() else NOMINAL
+    except (ValueError, TypeError) as exc:
+        raise ApiError(422, str(exc), "invalid_variation", loc=["body", "variation"]) from exc
+    services.sim.command(Command.WORLD, variation)
+    return {"variation": variation.name}
+
+
+@router.delete("/world")
+def reset_world(services: ServicesDep) -> dict[str, Any]:
+    """Back to the nominal model."""
+    services.sim.command(Command.WORLD, NOMINAL)
+    return {"variation": NOMINAL.name}
+
+
+@router.post("/jobs/robustness", status_code=202, responses=responses(409, 422))
+def start_robustness(
+    services: ServicesDep,
+    response: Response,
+    body: Annotated[RobustnessBody | None, Body()] = None,
+) -> dict[str, Any]:
+    """Walk the current gait through the paper's cases and CA ±0.1 on `samples` variations in
+    the background (`artro bench robust`'s report); `GET /api/jobs/{id}` gives the progress
+    and the report."""
+    body = body or RobustnessBody()
+    try:
+        job = services.robustness.start(samples=body.samples, seed=body.seed)
+    except JobBusy as exc:
+        raise ApiError(409, str(exc), "job_running", loc=["job", exc.job.id]) from exc
+    response.headers["Location"] = f"/api/jobs/{job.id}"
+    return job.to_dict()

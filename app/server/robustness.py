@@ -1,0 +1,50 @@
+"""The dashboard's robustness job: the current gait walks the paper's cases and CA ±0.1 on N
+model variations in the background (docs/DESIGN.md §13), with progress and cancellation; the
+report is `artro bench robust`'s, for the page to draw."""
+
+from __future__ import annotations
+
+from typing import Any
+
+from app.core.evaluation import evaluator_for
+from app.core.robot import RobotModel
+from app.core.variations import VariationRanges
+from app.server.jobs import Job, Jobs, Progress
+from app.server.param_store import ParameterStore
+from app.study.robust import ROBUST_CASES, run_robust
+
+KIND = "robustness"
+SAMPLES, DURATION_S, WARMUP_S = 24, 12.0, 4.0  # ~4 minutes of one core for 225 runs
+
+
+class RobustnessRunner:
+    """Starts robustness jobs on the store's current gait (one at a time)."""
+
+    def __init__(
+        self, jobs: Jobs, store: ParameterStore, robot: RobotModel, cluster: str | None = None
+    ) -> None:
+        self.jobs, self.store, self.robot, self.cluster = jobs, store, robot, cluster
+
+    def start(self, *, samples: int = SAMPLES, seed: int = 0) -> Job:
+        snap = self.store.snapshot()
+        name = f"{snap.name} (v{snap.version})"
+
+        def work(progress: Progress) -> dict[str, Any]:
+            # one thread locally: the live simulation keeps the other core
+            evaluator = evaluator_for(self.robot, cluster=self.cluster, threads=1)
+            return run_robust(
+                [(name, snap.gait, snap.name)],
+                evaluator,
+                samples=samples,
+                seed=seed,
+                ranges=VariationRanges(),
+                duration_s=DURATION_S,
+                warmup_s=WARMUP_S,
+                progress=lambda done, total: progress(done / total),
+            )
+
+        return self.jobs.start(KIND, work)
+
+
+def runs_of(samples: int) -> int:
+    return (samples + 1) * len(ROBUST_CASES)
