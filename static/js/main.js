@@ -13,6 +13,7 @@ import { initServoLoad } from "./servo-load.js";
 import { initStatus } from "./status.js";
 import { initTransfer } from "./transfer.js";
 import { initViser } from "./viser.js";
+import { initWorld } from "./world.js";
 
 initStatus();
 initDrive();
@@ -27,4 +28,5 @@ initTransfer();
 initServoLoad();
 initGhost();
 initReplay();
+initWorld();
 refreshParams();
