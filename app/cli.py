@@ -13,8 +13,8 @@ from pathlib import Path
 from typing import Any
 
 from app.core.axle_fit import walking_amplitude
-from app.core.batch import BatchEvaluator
 from app.core.ca_calibration import CalibrationError, calibrate_ca, with_k
+from app.core.evaluation import evaluator_for
 from app.core.headless import run
 from app.core.mcu.build import export_firmware_folder
 from app.core.mcu.cli import add_firmware_parser, cmd_firmware, wiring
@@ -216,6 +216,7 @@ def build_parser() -> argparse.ArgumentParser:
         "(steer.yaw_per_ca_backward), or both (default; a given --a-p picks its own)",
     )
     c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
+    c.add_argument("--cluster", metavar="tcp://HOST:PORT", help="evaluate on this Dask scheduler")
     c.add_argument("-o", "--output", metavar="FILE", help="write the parameter set with K here")
     c.add_argument("--json", action="store_true", help="print the result as one JSON object")
     b = _subcommand(sub, "bench", "simulate what the papers measured and compare (tables, PNGs)")
@@ -302,7 +303,7 @@ def _cmd_calibrate_ca(args: argparse.Namespace) -> int:
             result = calibrate_ca(
                 gait,
                 dataclasses.replace(motion, a_p=a_p),
-                BatchEvaluator(robot, threads=args.threads),
+                evaluator_for(robot, cluster=args.cluster, threads=args.threads),
                 duration_s=args.duration,
                 warmup_s=args.warmup,
                 iterations=args.iterations,

@@ -14,7 +14,8 @@ from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import stamped, write_parameter_set
 from app.study.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
 from app.study.study_store import DEFAULT_STUDY, StudyStore, open_storage
-from app.study.tune import Tuner, case_loss, curve_loss, dimensions, meets_all_criteria, total_loss
+from app.study.tune import Tuner, dimensions
+from app.study.tune_loss import case_loss, curve_loss, meets_all_criteria, total_loss
 from gait import GaitParams
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -7,7 +7,7 @@ from app.core.batch import BatchEvaluator, Job
 from app.params.document import load_parameter_set
 from app.params.presets import BUILTIN_DIR
 from app.study.cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measured, steering
-from app.study.tune import meets_all_criteria
+from app.study.tune_loss import meets_all_criteria
 
 
 @pytest.mark.slow

@@ -1,0 +1,65 @@
+"""The World panel in a real headless Chromium (docs/DESIGN.md §13), at both window sizes: the
+header names the robot; the sliders set the live robot's world and the header says it is varied;
+the robustness report is drawn as bars, and a worst variation's button loads it."""
+
+import httpx
+import pytest
+from playwright.sync_api import expect, sync_playwright
+
+from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
+
+SIZES = [(1600, 1000), (1280, 720)]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("width", "height"), SIZES)
+def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, width, height):
+    with (
+        running_server(tmp_path) as (base_url, _app),
+        httpx.Client(base_url=base_url, timeout=10) as http,
+        sync_playwright() as p,
+    ):
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": width, "height": height})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(base_url + "/")
+        expect(page.locator("#robot-badge")).to_have_text("robot artro", timeout=30_000)
+        world_badge = page.locator("#world-badge")
+        expect(world_badge).to_be_hidden()
+        expect(page.locator("#world-friction-out")).to_have_text("0.70", timeout=30_000)
+
+        page.locator("#world-friction").fill("0.5")  # a range input takes its value so
+        page.locator("#world-latency_ms").fill("30")
+        page.click("#world-apply")
+        expect(world_badge).to_be_visible(timeout=30_000)
+        world = http.get("/api/state").json()["world"]
+        assert "friction=0.5" in world and "latency_ms=30" in world
+        expect(page.locator("#world-state")).to_have_text(world)
+
+        page.fill("#world-text", "friction=7")  # refused, nothing changes
+        page.click("#world-text-apply")
+        expect(page.locator("#world-message")).to_contain_text("friction must be")
+        assert http.get("/api/state").json()["world"] == world
+
+        page.fill("#robust-samples", "4")
+        page.click("#robust-start")
+        rows = page.locator("#robust-bars .robust-row")
+        expect(rows).to_have_count(9, timeout=600_000)
+        bars = page.locator("#robust-bars .robust-bar")
+        widths = [bars.nth(i).evaluate("e => e.style.width") for i in range(9)]
+        job_shares = [float(w.rstrip("%")) for w in widths]
+        assert all(0 <= s <= 100 for s in job_shares)
+        page.locator("#world-panel").screenshot(path=str(tmp_path / f"world-{width}.png"))
+        walk = page.locator("#robust-worst button")
+        if walk.count():  # a variation that failed a case: watch it there
+            walk.first.click()
+            expect(page.locator("#world-message")).to_contain_text(
+                "in the variation", timeout=30_000
+            )
+            assert http.get("/api/state").json()["world"] != "nominal"
+
+        page.click("#world-nominal")
+        expect(world_badge).to_be_hidden(timeout=30_000)
+        browser.close()
+        assert errors == [], f"JavaScript errors on the page: {errors}"
