@@ -398,6 +398,8 @@ def run_paper_bench(
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from app.study.robust_cli import add_range_option  # it imports this module
+
     parser.add_argument(
         "suite",
         choices=["paper", "robust"],
@@ -423,13 +425,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     robust = parser.add_argument_group("bench robust")
     robust.add_argument("--samples", type=int, default=200, metavar="N", help="variations")
     robust.add_argument("--seed", type=int, default=0, help="of the variations drawn")
-    robust.add_argument(
-        "--range",
-        action="append",
-        default=[],
-        metavar="NAME=LOW:HIGH",
-        help="narrow or widen one parameter's range, e.g. friction=0.3:0.6 (repeatable)",
-    )
+    add_range_option(robust, "")
     robust.add_argument("--json", action="store_true", help="print the report as one JSON object")
     robust.add_argument(
         "--cluster",

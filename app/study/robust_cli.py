@@ -7,6 +7,7 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import Any
 
 from app.core.evaluation import evaluator_for
 from app.core.robot import RobotModel
@@ -18,6 +19,17 @@ from app.study.runs import resolve_presets
 
 DEFAULT_OUT = Path("out/bench-robust")
 DURATION_S = 20.0
+
+
+def add_range_option(parser: Any, purpose: str) -> None:
+    """`--range NAME=LOW:HIGH` (repeatable), read by `ranges_from`."""
+    parser.add_argument(
+        "--range",
+        action="append",
+        default=[],
+        metavar="NAME=LOW:HIGH",
+        help=f"narrow or widen one variation range{purpose}, e.g. friction=0.3:0.6 (repeatable)",
+    )
 
 
 def ranges_from(texts: list[str]) -> VariationRanges:

@@ -21,7 +21,7 @@ import numpy as np
 from app.core.batch import BatchEvaluator, Job
 from app.core.evaluation import Evaluator, evaluator_for
 from app.core.robot import RobotModel
-from app.core.variations import NOMINAL, Variation, VariationRanges, parse_range, sample
+from app.core.variations import NOMINAL, Variation, VariationRanges, sample
 from app.params.document import ParameterSet
 from app.params.presets import stamped, write_parameter_set
 from app.study.cases import (
@@ -33,6 +33,7 @@ from app.study.cases import (
     steering,
     target,
 )
+from app.study.robust_cli import add_range_option, ranges_from
 from app.study.study_store import DEFAULT_STUDY, StudyStore
 from app.study.tune_loss import (
     LossWeights,
@@ -423,13 +424,7 @@ def add_arguments(parser: Any) -> None:
         "and drawn anew each generation; the loss adds the mean of the worst quarter",
     )
     parser.add_argument("--robust-weight", type=float, default=1.0, help="weight of that term")
-    parser.add_argument(
-        "--range",
-        action="append",
-        default=[],
-        metavar="NAME=LOW:HIGH",
-        help="narrow or widen one variation range for --robust (repeatable)",
-    )
+    add_range_option(parser, " for --robust")
     parser.add_argument(
         "--cluster", metavar="tcp://HOST:PORT", help="evaluate on this Dask scheduler"
     )
@@ -451,9 +446,7 @@ def command(args: Any) -> int:
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
     robot = RobotModel.load(args.robot)
-    ranges = VariationRanges()
-    for text in args.range:
-        ranges = ranges.with_range(*parse_range(text))
+    ranges = ranges_from(args.range)
     tuner = Tuner(
         base,
         names,
