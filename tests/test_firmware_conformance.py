@@ -95,3 +95,26 @@ def test_gait_clock_matches_frame_loop_phase() -> None:
             mcu.run_to_frame(k, 100)
             phases.append(read_active_plan(mcu).phase_rad)
     assert np.max(np.abs(np.array(phases) - model.phase)) < 1e-6
+
+
+@pytest.mark.slow
+def test_the_second_robots_firmware_is_conformant_tick_for_tick() -> None:
+    """The micro robot's firmware (its leg lengths in artro_schema.h, its wiring) carries the
+    Python model's edges of the same robot, as ArtRo's does (docs/DESIGN.md §12)."""
+    from app.core.mcu.build import build_firmware
+    from app.core.mcu.cli import wiring
+    from app.core.mcu.emulator import Mcu
+    from app.core.robot import RobotModel
+
+    robot = RobotModel.load("micro")
+    doc = preset("micro-tuned", a_p=0.07, ca=0.05)
+    n_frames = frames_for_cycles(doc, 3)
+    build = build_firmware(doc, **wiring(robot))
+    model = model_frames(doc, n_frames, robot.hardware(), geometry=robot.geometry)
+    schema = (build.directory / "gen" / "artro_schema.h").read_text(encoding="ascii")
+    assert "#define ARTRO_GEOM_UPPER_LEG_M 0.045f" in schema  # its own legs, not ArtRo's 0.09
+    with Mcu(build.elf) as mcu:
+        result = run_comparison(mcu, model, robot.hardware())
+    assert result.mismatches == [], result.mismatches[:5]
+    assert result.select_outside_guard == 0 and result.pulses == 12 * n_frames
+    assert result.one_tick <= 0.01 * result.pulses and result.max_angle_error_rad <= 1e-4
