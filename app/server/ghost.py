@@ -94,8 +94,12 @@ class Ghost:
         self.source = source
         self.params = params
         self.live_freq_hz = live.params.clock.freq_hz
-        self.loop = FrameLoop(
-            robot=live.robot, params=params, motion=live.motion, hardware=live.hardware
+        self.loop = FrameLoop(  # the same robot in the same world (docs/DESIGN.md §13)
+            robot=live.nominal_robot,
+            params=params,
+            motion=live.motion,
+            hardware=live.hardware,
+            variation=live.variation,
         )
         self._live_track, self._ghost_track = _Track(), _Track()
         self.place_beside(live)

@@ -328,6 +328,8 @@ class SimThread:
                 restart = True
             elif command is Command.WORLD:
                 self._loop.set_variation(value)  # the state carries over: it walks on there
+                if self._ghost is not None:  # the A/B comparison stays in one world
+                    self._ghost.loop.set_variation(value)
             elif command is Command.GHOST:
                 self._ghost = None if value is None else Ghost(self._loop, *value)
                 self._ghost_status = None if value is None else self._ghost.status()
