@@ -79,7 +79,7 @@ def test_a_blown_up_frame_ends_the_run_unsampled():
     # a real one-second rollout, then a NaN in the state after frame 11's last step, as a
     # blow-up leaves it: frames 1-10 are sampled, the run counts 11 frames, fell and blew up
     job = Job(GaitParams(), Motion(a_p=0.07))
-    sims, starts, controls, initial = EVALUATOR._plan([job], 50)
+    sims, starts, controls, initial, _models = EVALUATOR._plan([job], 50)
     states, sensors = rollout.rollout(EVALUATOR.model, EVALUATOR._datas[:1], initial, controls)
     steps = sims[0].steps_per_frame
     original = states[0, 11 * steps - 1, 3]  # time, then qpos: the trunk's height
