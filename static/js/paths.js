@@ -62,39 +62,59 @@ async function clearPath() {
   }
 }
 
+/** A "by hand" field in its own unit: null when empty; an Error saying what it takes (in that
+ *  unit, with the page's name for it) for junk or a value out of its range. */
+function byHand(id, what, unit, empty) {
+  const input = $(id);
+  const raw = input.value.trim();
+  const takes = `${what} by hand takes ${input.min} to ${input.max} ${unit}, or nothing for ${empty}`;
+  if (input.validity.badInput) throw new Error(`${what}: not a number, nothing changed — ${takes}`);
+  if (raw === "") return null;
+  const v = Number(raw);
+  if (!Number.isFinite(v) || v < Number(input.min) || v > Number(input.max)) {
+    throw new Error(`${what} = ${raw} ${unit} not applied — ${takes}`);
+  }
+  return v;
+}
+
+/** The server's refusal of a by-hand value, told in the field's unit and name. */
+function refusal(err, what, raw, unit, id) {
+  const input = $(id);
+  if (err.status !== 422) return err.message;
+  return `${what} = ${raw} ${unit} not applied — ${what} by hand takes ${input.min} to ${input.max} ${unit}`;
+}
+
 async function reanchor() {
   const msg = $("path-message");
-  const raw = $("anchor-speed").value.trim();
-  let body = {};
-  if (raw !== "") {
-    const cm = Number(raw);
-    if (!Number.isFinite(cm)) {
-      setMessage(msg, "V must be a number (cm/s), or empty to measure it", "error");
-      return;
-    }
-    body = { speed_m_s: cm / 100 };
-  }
+  let cm;
   try {
-    await api.post("/api/path/anchor", body);
-    setMessage(msg, raw === "" ? "re-anchored; V measured" : `re-anchored with V = ${raw} cm/s`, "ok");
+    cm = byHand("anchor-speed", "V", "cm/s", "the measured speed");
   } catch (err) {
     setMessage(msg, err.message, "error");
+    return;
+  }
+  try {
+    await api.post("/api/path/anchor", cm === null ? {} : { speed_m_s: cm / 100 });
+    setMessage(msg, cm === null ? "re-anchored; V measured" : `re-anchored with V = ${cm} cm/s`, "ok");
+  } catch (err) {
+    setMessage(msg, refusal(err, "V", cm, "cm/s", "anchor-speed"), "error");
   }
 }
 
 async function setAxle() {
   const msg = $("path-message");
-  const raw = $("axle-cm").value.trim();
-  const cm = Number(raw);
-  if (raw !== "" && !Number.isFinite(cm)) {
-    setMessage(msg, "b must be a number (cm), or empty for the distance between the feet", "error");
+  let cm;
+  try {
+    cm = byHand("axle-cm", "b", "cm", "the distance between the feet");
+  } catch (err) {
+    setMessage(msg, err.message, "error"); // junk never drops the b in use
     return;
   }
   try {
-    await api.put("/api/path/axle", { axle_m: raw === "" ? null : cm / 100 });
-    setMessage(msg, raw === "" ? "b = the distance between the feet" : `b = ${raw} cm`, "ok");
+    await api.put("/api/path/axle", { axle_m: cm === null ? null : cm / 100 });
+    setMessage(msg, cm === null ? "b = the distance between the feet" : `b = ${cm} cm`, "ok");
   } catch (err) {
-    setMessage(msg, err.message, "error");
+    setMessage(msg, refusal(err, "b", cm, "cm", "axle-cm"), "error");
   }
 }
 

@@ -5,7 +5,7 @@
 import { api } from "./api.js";
 import { showRecorded } from "./scope-panel.js";
 import { note } from "./status.js";
-import { $, fmt } from "./util.js";
+import { $, fmt, setMessage } from "./util.js";
 
 let active = false;
 let seeking = null; // the index being fetched; a newer drag position waits for it
@@ -26,6 +26,7 @@ async function act(call) {
   try {
     show(await call());
     note("");
+    setMessage($("replay-message"), "", "");
   } catch (err) {
     note(`replay: ${err.message}`);
   }
@@ -35,11 +36,14 @@ async function importFile(e) {
   const file = e.target.files[0];
   e.target.value = "";
   if (!file) return;
+  const msg = $("replay-message");
+  setMessage(msg, `importing ${file.name}…`, "");
   try {
     show(await api.postRaw("/api/recording/import", await file.text(), "application/json"));
-    note(`replaying ${file.name}`);
+    setMessage(msg, `replaying ${file.name}`, "ok");
   } catch (err) {
-    note(`${file.name}: ${err.message}`);
+    // stays until the next import or replay: a refusal is read at the reader's pace
+    setMessage(msg, `${file.name}: not imported, nothing changed — ${err.message}`, "error");
   }
 }
 
