@@ -25,7 +25,7 @@ from app.core.mcu.emulator import EmulatorError
 from app.core.robot import RobotModel
 from app.core.servo_load import ServoLoadMeter, ServoLoadReport
 from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, FirmwareStatus
-from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp
+from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.ghost import Ghost, GhostStatus
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
@@ -338,8 +338,13 @@ class SimThread:
             firmware.send(snap)  # over the emulated UART; it reaches the frame the ACK names
         if snap.gait == old.gait:
             self._loop.set_gait(motion=snap.motion)  # a ramp under way goes on
-        elif self._firmware is None and snap.gait.engine == self._loop.params.engine:
-            # new constants reach the servos over GAIT_RAMP_S, from those in effect now
+        elif (
+            self._firmware is None
+            and snap.gait.engine == self._loop.params.engine
+            and (self._gait_ramp is not None or gait_fields_changed(old.gait, snap.gait) > 1)
+        ):
+            # a new set of constants (a preset, an import, an undo of one) reaches the servos
+            # over GAIT_RAMP_S, from those in effect now; one constant (a slider) at once
             self._gait_ramp = GaitRamp(self._loop.params, snap.gait, round(GAIT_RAMP_S / FRAME_S))
             self._loop.set_gait(motion=snap.motion)
         else:  # the firmware takes a set whole; a new engine has its own start-up
