@@ -259,6 +259,8 @@ class Viewer:
                 for d in ("forward", "backward")
                 if (r := job.result.get(d))
             ]
+            if job.result.get("conflict"):
+                parts.append(f"not applied: {job.result['conflict']['msg']}")
             self._fit_text.content = "  \n".join(parts)
         except Exception as exc:  # a callback thread: say what went wrong instead of dying
             self._fit_text.content = f"no calibration: {exc}"
@@ -277,11 +279,13 @@ class Viewer:
         except Exception as exc:  # a callback thread: say what went wrong instead of dying
             self._fit_text.content = f"no fit: {exc}"
         else:
-            if r.applies and r.axle_eff_m is not None and r.gain is not None:
+            if r["applied"] and r["gain"] is not None:
                 self._fit_text.content = (
-                    f"b_eff = {100 * r.axle_eff_m:.1f} cm (feet {100 * r.feet_m:.1f} cm): "
-                    f"CA steers at {100 * r.gain:.0f} % of eq (13), at a_p = {r.a_p:+.3f}"
+                    f"b_eff = {100 * r['axle_eff_m']:.1f} cm (feet {100 * r['feet_m']:.1f} cm): "
+                    f"CA steers at {100 * r['gain']:.0f} % of eq (13), at a_p = {r['a_p']:+.3f}"
                 )
+            elif r.get("conflict"):
+                self._fit_text.content = f"not applied: {r['conflict']['msg']}"
             else:
                 self._fit_text.content = f"not applied: {NOT_APPLIED}"
         finally:
