@@ -10,6 +10,7 @@ import { $, fmt, setMessage } from "./util.js";
 let active = false;
 let seeking = null; // the index being fetched; a newer drag position waits for it
 let wanted = null;
+let epoch = 0; // counts the user's actions: a poll's answer from before the latest one is stale
 
 export function initReplay() {
   $("replay-enter").addEventListener("click", () => act(() => api.post("/api/recording/replay", {})));
@@ -23,6 +24,7 @@ export function initReplay() {
 }
 
 async function act(call) {
+  epoch++;
   try {
     show(await call());
     note("");
@@ -37,6 +39,7 @@ async function importFile(e) {
   e.target.value = "";
   if (!file) return;
   const msg = $("replay-message");
+  epoch++;
   setMessage(msg, `importing ${file.name}…`, "");
   try {
     show(await api.postRaw("/api/recording/import", await file.text(), "application/json"));
@@ -58,6 +61,7 @@ async function seek(index) {
     return;
   }
   seeking = index;
+  epoch++;
   try {
     show(await api.post("/api/recording/replay", { index }));
   } catch (err) {
@@ -73,8 +77,10 @@ async function seek(index) {
 }
 
 async function refresh() {
+  const asked = epoch;
   try {
     const summary = await api.get("/api/recording");
+    if (asked !== epoch) return; // asked before an action that changed the replay
     if (summary.replay.active) show(summary.replay, false);
     else {
       if (active) show(summary.replay);
