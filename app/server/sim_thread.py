@@ -42,6 +42,7 @@ SPEED_RANGE = (0.25, 4.0)
 BEHIND_SHOWN_S = 2.0  # "behind" stays set this long after frames were dropped
 LOAD_PUBLISH_FRAMES = 25  # the servo load budget is published twice a second
 GHOST_PUBLISH_FRAMES = 10  # the ghost's metrics five times a second
+DRIVE_ANSWER_S = 10.0  # how long a drive switch waits for the simulation thread's verdict
 
 
 class Command(enum.Enum):
@@ -53,7 +54,7 @@ class Command(enum.Enum):
     STEP = "step"  # one 20 ms frame, pausing first
     SPEED = "speed"  # value: x real time, within SPEED_RANGE
     REANCHOR = "reanchor"  # value: V in m/s fixed by hand, or None to measure it
-    DRIVE = "drive"  # value: a booted FirmwareDriver (the firmware drive), or None (the model)
+    DRIVE = "drive"  # value: a DriveRequest (or a booted FirmwareDriver, or None: the model)
     GHOST = "ghost"  # value: (GaitParams, source label) of the A/B ghost, or None: no ghost
 
 
@@ -62,6 +63,15 @@ class Drive(enum.Enum):
 
     MODEL = "model"
     FIRMWARE = "firmware"
+
+
+@dataclass
+class DriveRequest:
+    """A switch of the drive, answered by the simulation thread: `refused` says why not."""
+
+    driver: FirmwareDriver | None  # booted, or None: the model
+    answered: threading.Event = dataclasses.field(default_factory=threading.Event)
+    refused: str | None = None
 
 
 @dataclass(frozen=True)
@@ -197,8 +207,10 @@ class SimThread:
         except ValueError:
             allowed = ", ".join(c.value for c in Command)
             raise ValueError(f"unknown command {command!r}; allowed: {allowed}") from None
-        if command is Command.DRIVE and not (value is None or isinstance(value, FirmwareDriver)):
-            raise ValueError("the drive command takes a booted FirmwareDriver or None")
+        if command is Command.DRIVE and not isinstance(value, DriveRequest | FirmwareDriver | None):
+            raise ValueError(
+                "the drive command takes a DriveRequest, a booted FirmwareDriver or None"
+            )
         if command is Command.GHOST and value is not None:
             params, source = value
             if not isinstance(params, GaitParams) or not isinstance(source, str):
@@ -223,7 +235,11 @@ class SimThread:
         driver = None
         if drive is Drive.FIRMWARE:
             driver = FirmwareDriver.boot(self.store.snapshot(), self.hardware)
-        self.command(Command.DRIVE, driver)
+        request = DriveRequest(driver)
+        self.command(Command.DRIVE, request)
+        # the set may change while the firmware boots: the simulation thread has the last word
+        if self.alive and request.answered.wait(DRIVE_ANSWER_S) and request.refused:
+            raise ValueError(request.refused)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
         self.recorder.keep_params(snapshot.version, snapshot.parameter_set().to_dict())
@@ -315,8 +331,7 @@ class SimThread:
             elif command is Command.REANCHOR:
                 self.paths.reanchor(value)
             elif command is Command.DRIVE:
-                self._set_drive(value)
-                restart = True
+                restart = self._take_drive(value)
             elif command is Command.GHOST:
                 self._ghost = None if value is None else Ghost(self._loop, *value)
                 self._ghost_status = None if value is None else self._ghost.status()
@@ -415,6 +430,27 @@ class SimThread:
                 self.param_latency_frames.extend(n + self._firmware_waited for n in latencies)
                 return self._loop.step_pins(pins)
         return self._loop.step_frame()
+
+    def _take_drive(self, request: DriveRequest | FirmwareDriver | None) -> bool:
+        """A drive switch asked for; the firmware is refused if the set in use, or the one
+        coming, names another engine (it may have changed while the firmware booted). True if
+        the drive changed."""
+        if not isinstance(request, DriveRequest):
+            request = DriveRequest(request)
+        driver = request.driver
+        engines = {self._applied.gait.engine, self.store.snapshot().gait.engine}
+        if driver is not None and engines != {FIRMWARE_ENGINE}:
+            driver.close()
+            request.refused = (
+                f"firmware drive not started: the firmware runs the {FIRMWARE_ENGINE} gait "
+                f"engine; the set in use now names {(engines - {FIRMWARE_ENGINE}).pop()!r} (it "
+                f"changed while the firmware booted): choose engine {FIRMWARE_ENGINE} first"
+            )
+            self.errors.append(request.refused)  # also when no one waits for the answer
+        else:
+            self._set_drive(driver)
+        request.answered.set()
+        return request.refused is None
 
     def _set_drive(self, driver: FirmwareDriver | None, *, reset: bool = True) -> None:
         """Hand the pulses to `driver` (None: the model). A firmware boots at its start phase,
