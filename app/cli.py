@@ -164,8 +164,10 @@ def build_parser() -> argparse.ArgumentParser:
         "preset, else paper values)",
     )
     add_robot_option(r)
-    r.add_argument("--duration", type=float, default=30.0, metavar="S", help="simulated seconds")
-    r.add_argument("--warmup", type=float, default=5.0, metavar="S", help="seconds not measured")
+    seconds = tune.number(0, tune.MAX_DURATION_S, above=True, what="duration")
+    r.add_argument("--duration", type=seconds, default=30.0, metavar="S", help="simulated seconds")
+    warmup = tune.number(0, tune.MAX_DURATION_S, what="warmup")
+    r.add_argument("--warmup", type=warmup, default=5.0, metavar="S", help="seconds not measured")
     r.add_argument(
         "--engine", choices=ENGINES, default=None, help="gait engine (default: the parameter set's)"
     )
@@ -246,6 +248,7 @@ def _cmd_run(args: argparse.Namespace) -> int:
     if args.ca is not None:
         motion = dataclasses.replace(motion, ca=args.ca)
     gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
+    tune.check_timing((), gait, args.duration, args.warmup)  # a whole cycle to measure
     start = Motion() if args.from_rest else None
     result = run(
         gait,

@@ -1,11 +1,13 @@
 """`artro link`: the dashboard's parameter set, live, to a robot's ATmega128 over its serial port.
 
 Sends the whole set, follows every change (polling `GET /api/params`), switches the servos off on
-exit; the same code drives the emulated robot on its pty (hardware/firmware/PROTOCOL.md)."""
+every exit (Ctrl-C, SIGTERM, SIGHUP, an error); the same code drives the emulated robot on its pty
+(hardware/firmware/PROTOCOL.md)."""
 
 from __future__ import annotations
 
 import argparse
+import signal
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -16,14 +18,22 @@ import httpx
 from app.core.mcu import protocol as proto
 from app.core.mcu.link import SerialLink, SerialPort
 from app.params.document import ParameterSet, load_parameter_set
-from hardware.firmware.schema import schema_hash, values_from_document
+from hardware.firmware.schema import FIRMWARE_ENGINE, schema_hash, values_from_document
 
 DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 %
 POLL_S = 0.2  # how often the dashboard is asked for its parameter version
 
 
+STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
+
+
 class LinkError(RuntimeError):
     """The robot did not answer, refused a set, or runs firmware of another schema."""
+
+
+class LinkStopped(BaseException):
+    """A signal asked the link to end (SIGTERM, SIGHUP); like KeyboardInterrupt, no `except
+    Exception` on the way swallows it."""
 
 
 class DryRunPort:
@@ -83,7 +93,15 @@ class RobotLink:
         )
 
     def send_set(self, doc: dict[str, Any], version: int | None = None) -> int | None:
-        """The whole set (motion, CA and every constant) in one SET_PARAMS; the frame it reaches."""
+        """The whole set (motion, CA and every constant) in one SET_PARAMS; the frame it reaches.
+        LinkError for a set the firmware refuses (another gait engine), also in a dry run."""
+        engine = doc.get("gait", {}).get("engine", FIRMWARE_ENGINE)
+        if engine != FIRMWARE_ENGINE:
+            tag = "" if version is None else f" (dashboard version {version})"
+            raise LinkError(
+                f"the set{tag} names the {engine!r} gait engine; the robot's firmware runs only "
+                f"{FIRMWARE_ENGINE!r} and would refuse it: choose engine {FIRMWARE_ENGINE}"
+            )
         ack = self.expect(proto.set_params(values_from_document(doc)), "parameter set")
         frame = ack.effective_frame if isinstance(ack, proto.Ack) else None
         where = "" if frame is None else f" from frame {frame}"
@@ -137,7 +155,8 @@ def add_link_parser(sub: Any, epilog: str) -> None:
         "link",
         help="send the dashboard's parameters to a robot over its serial port, live",
         description="Send the dashboard's parameter set to a robot's ATmega128 over its serial "
-        "port and follow every change; the servos are switched off on exit (Ctrl-C).",
+        "port and follow every change; the servos are switched off on every exit (Ctrl-C, "
+        "SIGTERM, SIGHUP, an error).",
         epilog=epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
@@ -146,6 +165,25 @@ def add_link_parser(sub: Any, epilog: str) -> None:
     p.add_argument("--server", default="http://127.0.0.1:8000", help="the dashboard to follow")
     p.add_argument("--params", metavar="FILE", help="send this file once instead of following")
     p.add_argument("--dry-run", action="store_true", help="print the messages, open no port")
+
+
+def _stop_on_signals() -> dict[int, Any]:
+    """SIGTERM and SIGHUP end the link as Ctrl-C does (the servos go off); the handlers before
+    (to put back). Only the main thread can take signals: elsewhere nothing changes."""
+
+    def stop(signum: int, _frame: Any) -> None:
+        for name in STOP_SIGNALS:  # a second signal must not cut the switching off short
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+        raise LinkStopped(signal.Signals(signum).name)
+
+    previous: dict[int, Any] = {}
+    if threading.current_thread() is not threading.main_thread():
+        return previous
+    for name in STOP_SIGNALS:
+        number = getattr(signal, name, None)
+        if number is not None:
+            previous[number] = signal.signal(number, stop)
+    return previous
 
 
 def cmd_link(args: argparse.Namespace, out: TextIO) -> int:
@@ -162,6 +200,7 @@ def cmd_link(args: argparse.Namespace, out: TextIO) -> int:
         port = serial.Serial(args.port, args.baud, timeout=0.02)
     robot = RobotLink(SerialLink(port), dry_run=args.dry_run, log=lambda s: print(s, file=out))
     stop = threading.Event()
+    previous = _stop_on_signals()
     try:
         robot.hello()
         if args.params:
@@ -173,13 +212,20 @@ def cmd_link(args: argparse.Namespace, out: TextIO) -> int:
         return 0
     except KeyboardInterrupt:
         return 0
+    except LinkStopped as exc:
+        print(f"{exc}: stopping", file=out)
+        return 0
     except httpx.HTTPError as exc:
         raise LinkError(f"the dashboard at {args.server} did not answer: {exc}") from exc
     finally:
         stop.set()
+        for number in previous:  # nothing cuts the switching off short
+            signal.signal(number, signal.SIG_IGN)
         try:
             robot.torque_off()
         except LinkError as exc:  # say so, but do not hide why the link ended
             print(f"could not switch the servos off: {exc}", file=out)
         finally:
             robot.link.close()
+            for number, handler in previous.items():
+                signal.signal(number, handler)

@@ -176,10 +176,10 @@ def test_the_prediction_axle_set_on_the_page(dashboard):
     assert http.get("/api/path").json()["axle_m"] == 0.25
     expect(page.locator("#path-readout-bsrc")).to_have_text("(manual)", timeout=10_000)
     expect(page.locator("#path-readout-b")).to_have_text("25.0 cm")
-    page.locator("#axle-cm").fill("0")  # the server refuses it and says what is allowed
+    page.locator("#axle-cm").fill("0")  # refused, saying what is allowed in the field's unit
     page.locator("#axle-set").click()
     expect(page.locator("#path-message")).to_have_class(ERROR, timeout=10_000)
-    expect(page.locator("#path-message")).to_contain_text("0.01")
+    expect(page.locator("#path-message")).to_contain_text("1 to 200 cm")
     assert http.get("/api/path").json()["axle_m"] == 0.25
     page.locator("#axle-cm").fill("")
     page.locator("#axle-set").click()

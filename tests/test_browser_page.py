@@ -180,3 +180,138 @@ def test_a_preset_loaded_mid_walk_is_ramped_in_and_said_so(server, walking, brow
     ramp = largest_step(ocr[k - 1 : k + 110])
     assert ramp <= 1.1 * max(before, after), f"pulses jumped {ramp} ticks (walking: {before})"
     assert not http.get("/api/state").json()["fell"]
+
+
+# --- item 5: the smaller defects ------------------------------------------------------------------
+
+
+def _type_into(page: Page, selector: str, text: str) -> None:
+    """As a person does: click, select what is there, type, Enter."""
+    page.locator(selector).click()
+    page.keyboard.press("Control+a")
+    page.keyboard.type(text)
+    page.keyboard.press("Enter")
+
+
+@SIZED
+def test_typed_values_that_cannot_be_applied_say_why_and_change_nothing(
+    server, walking, browser, width, height
+):
+    base_url, http = server
+    with open_page(browser, base_url, width, height) as page:
+        number, message = page.locator("#motion-a_p-number"), page.locator("#motion-message")
+        expect(number).to_have_value("0.07", timeout=10_000)
+        before = http.get("/api/params").json()
+        _type_into(page, "#motion-a_p-number", "abc")  # letters: the field would go blank
+        expect(message).to_have_class(ERROR)
+        expect(message).to_contain_text("not a number")
+        expect(number).to_have_value("0.07")
+        _type_into(page, "#motion-a_p-number", "5")  # out of range
+        expect(message).to_contain_text("5 not applied")
+        expect(message).to_contain_text("-0.3 to 0.3")
+        expect(number).to_be_focused()
+        expect(number).to_have_value("0.07")  # the value in use, though the field has the focus
+        expect(page.locator("#motion-a_p")).to_have_value("0.07")
+        assert http.get("/api/params").json()["version"] == before["version"]
+        # the by-hand fields answer in their own unit and name, never in metres or API names
+        path_message = page.locator("#path-message")
+        page.locator("#axle-cm").fill("0")
+        page.locator("#axle-set").click()
+        expect(path_message).to_have_class(ERROR)
+        expect(path_message).to_contain_text("b = 0 cm not applied")
+        expect(path_message).to_contain_text("1 to 200 cm")
+        page.locator("#anchor-speed").fill("80")
+        page.locator("#path-anchor").click()
+        expect(path_message).to_contain_text("V = 80 cm/s not applied")
+        expect(path_message).to_contain_text("-50 to 50 cm/s")
+        assert "axle_m" not in (path_message.text_content() or "")
+        # junk in "b by hand" keeps the b in use
+        page.locator("#axle-cm").fill("25")
+        page.locator("#axle-set").click()
+        expect(path_message).to_have_class(OK)
+        _type_into(page, "#axle-cm", "1e")
+        page.locator("#axle-set").click()
+        expect(path_message).to_have_class(ERROR)
+        expect(path_message).to_contain_text("not a number")
+        path = http.get("/api/path").json()
+        assert (path["axle_m"], path["axle_source"]) == (0.25, "manual")
+
+
+@SIZED
+def test_the_scope_badge_says_fallen_and_paused(server, walking, browser, width, height):
+    base_url, http = server
+    with open_page(browser, base_url, width, height) as page:
+        badge = page.locator("#scope-run")
+        expect(badge).to_have_text("RUN", timeout=10_000)
+        # from standing, this throws `tuned` within ~1 s (test_browser.py's fall test)
+        http.patch("/api/params", json={"motion": {"a_p": 0.3, "a_r": 0.3, "a_y": 0.6}})
+        http.post("/api/sim/reset")
+        wait_for(lambda: http.get("/api/state").json()["fell"], "the robot falls")
+        expect(badge).to_have_text("FALLEN", timeout=10_000)
+        http.patch("/api/params", json={"motion": {"a_p": 0.0, "a_r": 0.0, "a_y": 0.0}})
+        http.post("/api/sim/reset")
+        expect(badge).to_have_text("RUN", timeout=10_000)
+        http.post("/api/sim/pause")
+        expect(badge).to_have_text("PAUSED", timeout=10_000)
+        http.post("/api/sim/resume")
+        expect(badge).to_have_text("RUN", timeout=10_000)
+
+
+@SIZED
+def test_a_new_page_shows_the_ghost_that_walks(server, walking, browser, width, height):
+    base_url, http = server
+    assert http.put("/api/ghost", json={"preset": "tuned"}).status_code == 200
+    try:
+        with open_page(browser, base_url, width, height) as page:
+            expect(page.locator("#ghost-state")).to_contain_text("preset tuned", timeout=10_000)
+            expect(page.locator("#ghost-source")).to_have_value("preset:tuned")
+    finally:
+        http.delete("/api/ghost")
+    with open_page(browser, base_url, width, height) as page:  # no ghost: another set than ours
+        expect(page.locator("#ghost-state")).to_have_text("no ghost", timeout=10_000)
+        expect(page.locator("#ghost-source")).to_have_value("preset:paper")
+
+
+@SIZED
+def test_a_failed_recording_import_stays_said(server, walking, browser, width, height, tmp_path):
+    base_url, _http = server
+    bad = tmp_path / "not-a-recording.json"
+    bad.write_text('{"format": "artro-recording", "format_version": 1, "columns": {}}')
+    with open_page(browser, base_url, width, height) as page:
+        expect(page.locator("#replay-info")).to_contain_text("recorded", timeout=10_000)
+        # the page's timers from here on are Playwright's: a minute passes at once. (expect()
+        # polls with the page's animation frames, which the clock holds: read the text directly)
+        page.clock.install()
+        page.locator("#replay-import").set_input_files(str(bad))
+        message = page.locator("#replay-message")
+
+        def said() -> str:
+            text = message.text_content() or ""
+            return "not imported" in text and message.is_visible() and text
+
+        text = wait_for(said, "the import's refusal on the page")
+        assert "not-a-recording.json" in text and "columns" in text
+        page.clock.fast_forward(60_000)
+        assert said() == text, "the refusal went away"
+
+
+@SIZED
+def test_the_hint_names_what_is_there_and_red_servos_are_explained(
+    server, walking, browser, width, height
+):
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        hint = page.locator(".param-extra span.dim", has_text="every other constant")
+        expect(hint).to_contain_text('"Control panel"')
+        assert "☰" not in (hint.text_content() or "")
+        viser = page.frame_locator("#viser-frame")
+        tab = viser.locator('[data-dock-tab="viser-control-panel"]')
+        expect(tab).to_contain_text("Control panel", timeout=30_000)
+        # `tuned` walking: its knees are red; the page says what that means
+        expect(page.locator("#servo-body tr.level-critical").first).to_be_visible(timeout=30_000)
+        note = page.locator("#servo-note")
+        expect(note).to_be_visible(timeout=10_000)
+        critical = page.locator("#servo-body tr.level-critical").first.get_attribute("data-servo")
+        expect(note).to_contain_text(critical or "?")
+        expect(note).to_contain_text("expected")
+        expect(note).to_contain_text("motion 0 still steps")

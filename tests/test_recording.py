@@ -16,7 +16,8 @@ from app.core.mcu.emulator import Edges
 from app.core.mcu.vcd import VCD_NAMES, edges_of_frames, vcd_text
 from app.params.presets import builtin_presets
 from app.server.param_store import ParameterStore
-from app.server.recorder import Recorder, recording_from_json
+from app.server.recorder import Recorder
+from app.server.recording_file import recording_from_json
 from app.server.replay import Replay
 from app.server.sim_thread import SimThread
 from gait import Motion
@@ -74,7 +75,7 @@ def test_a_recording_file_reads_back_the_same(walked) -> None:
     assert again.events == rec.events
     broken = rec.to_json()
     broken["columns"]["ocr"] = broken["columns"]["ocr"][:-1]
-    with pytest.raises(ValueError, match=r"columns\.ocr has 39 frames"):
+    with pytest.raises(ValueError, match=r"columns\.ocr: has 39 frames"):
         recording_from_json(broken, loop.model.nq)
     with pytest.raises(ValueError, match="not an ArtRo recording"):
         recording_from_json({"format": "wav"}, loop.model.nq)
@@ -148,7 +149,8 @@ def test_the_recording_api(http: httpx.Client) -> None:
             content=b'{"format": "artro-recording", "format_version": 1, "columns": {}}',
             headers={"content-type": "application/json"},
         )
-        assert broken.status_code == 422 and "columns.frame is missing" in broken.text
+        assert broken.status_code == 422 and "columns.frame: missing" in broken.text
+        assert broken.json()["detail"][0]["loc"] == ["body", "columns", "frame"]
         assert http.get("/api/recording").json()["replay"]["origin"] == "file"  # unchanged
         assert http.post("/api/recording/live").json() == {"active": False}
         wait_for(lambda: not http.get("/api/state").json()["paused"], "resumed")

@@ -1,6 +1,6 @@
 """The server's axle fit, a background job (app/server/jobs.py): one at a time; the path tracker
-then predicts with b_eff if it applies. The page (`POST /api/jobs/axle-fit`) and the viser button
-(`fit`, from its own thread) start the same job."""
+then predicts with b_eff if it applies and nothing changed meanwhile (§12). The page (`POST
+/api/jobs/axle-fit`) and the viser button (`fit`, from its own thread) start the same job."""
 
 from __future__ import annotations
 
@@ -9,7 +9,8 @@ from typing import Any
 from app.core.axle_fit import AxleFitResult, fit_effective_axle
 from app.core.batch import BatchEvaluator
 from app.core.robot import RobotModel
-from app.server.jobs import Job, Jobs, Progress
+from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict
+from app.server.param_store import ParameterStore
 from app.server.path_tracker import PathTracker
 from gait import GaitParams, Motion
 
@@ -32,37 +33,81 @@ class _Counting:
 
 
 class AxleFitter:
-    def __init__(self, jobs: Jobs | None = None, robot: RobotModel | None = None) -> None:
+    def __init__(
+        self,
+        jobs: Jobs | None = None,
+        store: ParameterStore | None = None,
+        robot: RobotModel | None = None,
+    ) -> None:
         self.robot = robot  # the fits walk this robot (default: the built-in one)
         self.jobs = jobs or Jobs()
+        self.store = store  # what a fit's version is checked against, when there is one
         self.last: AxleFitResult | None = None
         self.fitted_gait: GaitParams | None = None  # the gait whose b_eff the paths use
 
     def start(
-        self, params: GaitParams, motion: Motion, paths: PathTracker, *, params_version: int = 0
+        self,
+        params: GaitParams,
+        motion: Motion,
+        paths: PathTracker,
+        *,
+        params_version: int | None = None,
     ) -> Job:
-        """Fit in the background; raises JobBusy (a RuntimeError) while a fit runs."""
+        """Fit in the background; raises JobBusy (a RuntimeError) while a fit runs. The fitted
+        b_eff applies only if the parameter version (default: the store's now) and the axle are
+        still those of the start; otherwise the result says so (a 409) and keeps it for
+        `Job.applier`."""
+        if params_version is None and self.store is not None:
+            params_version = self.store.snapshot().version
+        axle_serial = paths.axle_serial
 
-        def work(progress: Progress) -> AxleFitResult:
+        def apply(version: int | None, serial: int | None = None) -> dict[str, Any]:
+            if self.store is not None and version is not None:
+                current = self.store.snapshot()
+                if current.version != version:
+                    raise StaleVersion(
+                        f"the parameters changed while the fit ran (version {version} is now "
+                        f"{current.version}, changed by {current.source}): not applied; the "
+                        "result is kept: POST /api/jobs/{id}/apply with the version to apply "
+                        "it onto"
+                    )
+            result = self.last
+            assert result is not None and result.axle_eff_m is not None
+            if not paths.set_axle(result.axle_eff_m, "fitted", only_onto=serial):
+                raise StaleVersion(
+                    "the axle b was set while the fit ran: not applied; the result is kept: "
+                    "POST /api/jobs/{id}/apply with the parameter version to apply it onto"
+                )
+            self.fitted_gait = params
+            return {"applied": True}
+
+        def work(progress: Progress) -> dict[str, Any]:
             result = fit_effective_axle(params, motion, _Counting(progress, self.robot))  # type: ignore[arg-type]
             self.last = result
-            if result.applies and result.axle_eff_m is not None:
-                self.fitted_gait = params
-                paths.set_axle(result.axle_eff_m, "fitted")
-            return result
+            done = result.to_dict() | {
+                "params_version": params_version,
+                "fitted_from_version": params_version,
+                "applied": False,
+            }
+            if not (result.applies and result.axle_eff_m is not None):
+                return done
+            try:
+                return done | apply(params_version, axle_serial)
+            except StaleVersion as exc:
+                progress.job.applier = apply  # type: ignore[attr-defined]
+                now = None if self.store is None else self.store.snapshot().version
+                return done | {"conflict": conflict(exc, now)}
 
-        def describe(result: AxleFitResult) -> dict[str, Any]:
-            return result.to_dict() | {"params_version": params_version}
+        return self.jobs.start(KIND, work, from_version=params_version)
 
-        return self.jobs.start(KIND, work, describe)
-
-    def fit(self, params: GaitParams, motion: Motion, paths: PathTracker) -> AxleFitResult:
-        """Start the job and wait for it (for a caller's own thread, never the event loop)."""
+    def fit(self, params: GaitParams, motion: Motion, paths: PathTracker) -> dict[str, Any]:
+        """Start the job and wait for it (for a caller's own thread, never the event loop); its
+        result (`AxleFitResult.to_dict()` with `applied` and any `conflict`)."""
         job = self.start(params, motion, paths)
         job.finished.wait()
-        if job.status != "done":
+        if job.status != "done" or job.result is None:
             raise RuntimeError(job.error)
-        return job.value
+        return job.result
 
     def stale(self, axle_source: str, gait: GaitParams) -> bool:
         """A fitted axle belongs to the gait it was fitted for: another gait makes it stale."""

@@ -1,6 +1,7 @@
 """The dashboard's "Calibrate CA", a background job (app/server/jobs.py): fits the steering term's
 K for the current gait walking forward and backward (`app.core.ca_calibration`), applies both
-as one undoable change, and lets the predicted path use the fitted b_eff (docs/DESIGN.md §4)."""
+as one undoable change onto the version it fitted, and lets the predicted path use the fitted
+b_eff (docs/DESIGN.md §4, §12)."""
 
 from __future__ import annotations
 
@@ -11,13 +12,28 @@ from app.core.axle_fit import walking_amplitude
 from app.core.batch import BatchEvaluator
 from app.core.ca_calibration import CalibrationError, calibrate_ca, with_k
 from app.core.robot import RobotModel
-from app.server.jobs import Job, Jobs, Progress
+from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict, only_onto
 from app.server.param_store import ParameterStore
 from app.server.path_tracker import PathTracker
 
 KIND = "calibrate-ca"
 SOURCE = "calibration"  # the store's source of the change it makes
 STAGES = 8  # progress lines a direction prints, about (for a progress fraction)
+
+
+class _Checked:
+    """A BatchEvaluator that runs walks one by one, asking the job after each whether to stop."""
+
+    def __init__(self, progress: Progress, robot: RobotModel | None = None) -> None:
+        self.inner = BatchEvaluator(robot, threads=1)  # the live simulation keeps the other core
+        self.progress = progress
+
+    def evaluate(self, jobs: list[Any], **kwargs: Any) -> list[dict[str, Any]]:
+        results = []
+        for job in jobs:
+            self.progress(None)  # a cancelled job stops here
+            results.extend(self.inner.evaluate([job], **kwargs))
+        return results
 
 
 class CaCalibrator:
@@ -34,7 +50,9 @@ class CaCalibrator:
         self.jobs, self.store, self.paths = jobs, store, paths
 
     def start(self, *, duration_s: float = 20.0) -> Job:
-        """Calibrate the gait in the store now; raises JobBusy while one runs."""
+        """Calibrate the gait in the store now; raises JobBusy while one runs. The fitted K apply
+        only onto the version calibrated; otherwise the result says so (a 409) and keeps them
+        for `Job.applier`."""
         snap = self.store.snapshot()
         size = abs(walking_amplitude(snap.motion))
 
@@ -51,8 +69,7 @@ class CaCalibrator:
                     result = calibrate_ca(
                         gait,
                         dataclasses.replace(snap.motion, a_p=a_p),
-                        # one thread: the live simulation keeps the other core
-                        BatchEvaluator(self.robot, threads=1),
+                        _Checked(progress, self.robot),  # type: ignore[arg-type]
                         duration_s=duration_s,
                         say=say,
                     )
@@ -64,10 +81,26 @@ class CaCalibrator:
             if all("error" in v for v in found.values()):
                 raise CalibrationError("; ".join(f"{d}: {v['error']}" for d, v in found.items()))
             steer = dataclasses.asdict(gait.steer)
-            version = self.store.update({"gait": {"steer": steer}}, SOURCE).version
-            forward = found.get("forward", {})
-            if forward.get("axle_eff_m") and forward["axle_eff_m"] > 0:
-                self.paths.set_axle(forward["axle_eff_m"], "fitted")
-            return {"steer": steer, "params_version": version, **found}
+            axle = found.get("forward", {}).get("axle_eff_m")
 
-        return self.jobs.start(KIND, work)
+            def apply(version: int) -> dict[str, Any]:
+                changed = self.store.update(
+                    {"gait": {"steer": steer}}, SOURCE, check=only_onto(version)
+                )
+                if axle and axle > 0:
+                    self.paths.set_axle(axle, "fitted")
+                return {"applied": True, "params_version": changed.version}
+
+            kept = {"steer": steer, "fitted_from_version": snap.version, **found}
+            try:
+                return kept | apply(snap.version)
+            except StaleVersion as exc:
+                progress.job.applier = apply  # type: ignore[attr-defined]
+                now = self.store.snapshot().version
+                return kept | {
+                    "applied": False,
+                    "params_version": None,
+                    "conflict": conflict(exc, now),
+                }
+
+        return self.jobs.start(KIND, work, from_version=snap.version)

@@ -172,6 +172,13 @@ def install_handlers(app: FastAPI) -> None:
     async def value_error(_request: Request, exc: ValueError) -> JSONResponse:
         return error_response(422, str(exc), "value_error", loc=["body"])
 
+    @app.exception_handler(Exception)
+    async def unexpected(_request: Request, exc: Exception) -> JSONResponse:
+        """A fault of the server's, never of the request: the one shape, a 500, and the server
+        carries on (the traceback goes to the log)."""
+        msg = f"the server failed on this request ({type(exc).__name__}); it carries on"
+        return error_response(500, msg, "internal_error")
+
 
 def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     """OpenAPI `responses=` entries with the error shape for these statuses."""

@@ -1,6 +1,6 @@
-"""A change of gait constants reaches the servos over GAIT_RAMP_S, as a change of motion goes
-through the motion ramp (docs/DESIGN.md §4, "Gait ramp" in §12): the simulation thread gives the
-frame loop a blend of the old and the new constants each frame."""
+"""A change of several gait constants at once (a preset, an import) reaches the servos over
+GAIT_RAMP_S, as a change of motion goes through the motion ramp (docs/DESIGN.md §4, §12): the
+simulation thread gives the frame loop a blend of the old and the new constants each frame."""
 
 from __future__ import annotations
 
@@ -10,6 +10,12 @@ from gait import GaitParams
 from gait.params import merge
 
 GAIT_RAMP_S = 2.0
+
+
+def gait_fields_changed(a: GaitParams, b: GaitParams) -> int:
+    """How many constants (and the engine) differ between two sets."""
+    fb = b.flat()
+    return sum(1 for name, value in a.flat().items() if fb[name] != value)
 
 
 def blend(a: GaitParams, b: GaitParams, s: float) -> GaitParams:

@@ -1,23 +1,27 @@
 """The guard in front of the app, a pure ASGI middleware (docs/DESIGN.md §6):
 a Host allow-list against DNS rebinding; API and WebSocket requests from other sites refused
 (Origin, Sec-Fetch-Site); state-changing requests only as JSON (or YAML for the import);
-bodies counted, a 413 as soon as one is too large.
+bodies counted, a 413 as soon as one is too large; a client gone mid-upload ends quietly.
 """
 
 from __future__ import annotations
 
 import ipaddress
 import json
+import logging
 import socket
 from collections.abc import Iterable
 from typing import Any
 from urllib.parse import urlsplit
 
 from starlette.datastructures import Headers
+from starlette.requests import ClientDisconnect
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.params.formats import MAX_IMPORT_BYTES
 from app.server.errors import error_content
+
+log = logging.getLogger(__name__)
 
 SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 JSON_TYPES = frozenset({"application/json"})
@@ -152,6 +156,11 @@ class Guard:
             await self.app(scope, counting_receive, guarded_send)
         except _TooLarge:
             pass
+        except ClientDisconnect:  # left mid-upload: no one to answer, nothing to report
+            log.debug(
+                "%s %s: the client left before its body arrived", scope["method"], scope["path"]
+            )
+            return
         if state["over"] and not state["started"]:
             await _send_json(send, *_too_large(limit))
 

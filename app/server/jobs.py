@@ -1,5 +1,6 @@
-"""Background jobs of the server (the axle fit): started by a request that answers 202 at once,
-run in a thread, read back with their progress and result (docs/DESIGN.md §6)."""
+"""Background jobs of the server (the axle fit, the CA calibration): started by a request that
+answers 202 at once, run in a thread, read back with their progress and result, cancelled on
+request; a job's result applies only onto what it was fitted from (docs/DESIGN.md §6, §12)."""
 
 from __future__ import annotations
 
@@ -14,7 +15,11 @@ from typing import Any
 
 KEEP_JOBS = 20
 
-Progress = Callable[[float], None]
+#: Report progress (0..1), or None just to check for cancellation; raises JobCancelled then
+#: (a `Reporter`).
+Progress = Callable[[float | None], None]
+#: Apply a job's kept result onto the parameter version named: returns what changed.
+Applier = Callable[[int], dict[str, Any]]
 
 
 class JobBusy(RuntimeError):
@@ -25,25 +30,56 @@ class JobBusy(RuntimeError):
         self.job = job
 
 
+class JobCancelled(RuntimeError):
+    """The job was cancelled (DELETE /api/jobs/{id}) or the server is stopping: a running job
+    ends at its next progress report."""
+
+
+class StaleVersion(RuntimeError):
+    """What a job fitted belongs to another parameter version than the one in use."""
+
+
+HIDDEN = frozenset({"value", "finished", "cancel", "applier"})
+
+
 @dataclass
 class Job:
     id: str
     kind: str
-    status: str = "running"  # running | done | failed
+    status: str = "running"  # running | done | failed | cancelled
     progress: float = 0.0  # 0..1
     result: dict[str, Any] | None = None
     error: str | None = None
     started_s: float = field(default_factory=time.time)
     finished_s: float | None = None
+    from_version: int | None = None  # the parameter version the job works on
     value: Any = field(default=None, repr=False)  # what the work returned
     finished: threading.Event = field(default_factory=threading.Event, repr=False)
+    cancel: threading.Event = field(default_factory=threading.Event, repr=False)
+    #: applies the kept result of a job that could not apply it itself (a conflict)
+    applier: Applier | None = field(default=None, repr=False)
 
     def to_dict(self) -> dict[str, Any]:
-        return {f.name: getattr(self, f.name) for f in dataclasses.fields(self)[:-2]}
+        return {
+            f.name: getattr(self, f.name) for f in dataclasses.fields(self) if f.name not in HIDDEN
+        }
 
 
-class JobCancelled(RuntimeError):
-    """The server is stopping: a running job ends at its next progress report."""
+class Reporter:
+    """The `progress` a job's work gets: `progress(fraction)` reports (None only checks), and
+    raises JobCancelled once the job is cancelled or the server stops; `progress.job` is the job
+    (for a work that leaves a result to apply later: `job.applier`)."""
+
+    def __init__(self, job: Job, stopping: threading.Event) -> None:
+        self.job, self._stopping = job, stopping
+
+    def __call__(self, fraction: float | None = None) -> None:
+        if self._stopping.is_set():  # no simulation outlives the server
+            raise JobCancelled("the server stopped before the job finished")
+        if self.job.cancel.is_set():
+            raise JobCancelled("cancelled (DELETE /api/jobs/{id}); nothing was applied")
+        if fraction is not None:
+            self.job.progress = min(max(float(fraction), 0.0), 1.0)
 
 
 class Jobs:
@@ -60,6 +96,8 @@ class Jobs:
         kind: str,
         work: Callable[[Progress], Any],
         describe: Callable[[Any], dict[str, Any]] = dict,
+        *,
+        from_version: int | None = None,
     ) -> Job:
         """Run `work(progress)` in a thread; `describe(its value)` is the result, an exception
         the error. Raises JobBusy while a job of this kind runs."""
@@ -69,20 +107,20 @@ class Jobs:
             for job in self._jobs.values():
                 if job.kind == kind and job.status == "running":
                     raise JobBusy(job)
-            job = Job(id=f"{kind}-{next(self._ids)}", kind=kind)
+            job = Job(id=f"{kind}-{next(self._ids)}", kind=kind, from_version=from_version)
             self._jobs[job.id] = job
             while len(self._jobs) > KEEP_JOBS:
                 self._jobs.popitem(last=False)
 
-        def progress(fraction: float) -> None:
-            if self._stopping.is_set():  # no simulation outlives the server
-                raise JobCancelled("the server stopped before the job finished")
-            job.progress = min(max(float(fraction), 0.0), 1.0)
+        progress = Reporter(job, self._stopping)
 
         def run() -> None:
             try:
                 job.value = work(progress)
                 job.result = describe(job.value)
+            except JobCancelled as exc:
+                cancelled = job.cancel.is_set() and not self._stopping.is_set()
+                job.error, job.status = str(exc), "cancelled" if cancelled else "failed"
             except Exception as exc:  # reported in the job, never lost in a thread
                 job.error, job.status = str(exc) or type(exc).__name__, "failed"
             else:
@@ -105,3 +143,31 @@ class Jobs:
     def get(self, job_id: str) -> Job | None:
         with self._lock:
             return self._jobs.get(job_id)
+
+    def cancel(self, job: Job, timeout_s: float = 10.0) -> bool:
+        """Ask a running job to stop at its next progress report and wait for it (bounded);
+        False if it had already finished."""
+        if job.finished.is_set():
+            return False
+        job.cancel.set()
+        job.finished.wait(timeout_s)
+        return True
+
+
+def only_onto(version: int) -> Callable[[Any], None]:
+    """A store check (app/server/param_store.py): the change applies only onto `version`."""
+
+    def check(current: Any) -> None:
+        if current.version != version:
+            raise StaleVersion(
+                f"the parameters changed while the job ran (version {version} is now "
+                f"{current.version}, changed by {current.source}): not applied; the result is "
+                f"kept: POST /api/jobs/{{id}}/apply with the version to apply it onto"
+            )
+
+    return check
+
+
+def conflict(exc: StaleVersion, current_version: int) -> dict[str, Any]:
+    """What a job that could not apply its result says about it (a 409 in the job's result)."""
+    return {"status": 409, "type": "version_conflict", "msg": str(exc), "version": current_version}

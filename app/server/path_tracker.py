@@ -40,6 +40,7 @@ class PathTracker:
         self._anchor: Anchor | None = None
         self._manual_speed: float | None = None
         self._axle: tuple[float, str] | None = None  # (b in m, "manual" | "fitted")
+        self._axle_serial = 0  # counts the axle settings: a fit applies only onto its own
         self._ca = 0.0
         self._freq_hz = 1.0
 
@@ -79,12 +80,24 @@ class PathTracker:
             else:
                 self._anchor = None
 
-    def set_axle(self, axle_m: float | None, source: str = "manual") -> None:
-        """Use this axle b for the prediction; None goes back to the measured feet distance."""
+    def set_axle(
+        self, axle_m: float | None, source: str = "manual", *, only_onto: int | None = None
+    ) -> bool:
+        """Use this axle b for the prediction; None goes back to the measured feet distance.
+        With `only_onto` (an `axle_serial`), only if the axle was not set since: False then."""
         if axle_m is not None and not (math.isfinite(axle_m) and axle_m > 0.0):
             raise ValueError(f"the axle must be a length > 0 m, got {axle_m}")
         with self._lock:
+            if only_onto is not None and only_onto != self._axle_serial:
+                return False
             self._axle = None if axle_m is None else (float(axle_m), source)
+            self._axle_serial += 1
+            return True
+
+    @property
+    def axle_serial(self) -> int:
+        """How many times the axle was set: what a fit started at applies onto."""
+        return self._axle_serial
 
     # --- read by anyone ---------------------------------------------------------------------------
 

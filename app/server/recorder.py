@@ -65,57 +65,6 @@ class Recording:
         }
 
 
-def recording_from_json(data: Any, nq: int) -> Recording:
-    """A recording file read back. ValueError naming what is wrong; nothing is half-loaded."""
-    if not isinstance(data, dict) or data.get("format") != FORMAT:
-        raise ValueError(f"not an ArtRo recording: 'format' must be {FORMAT!r}")
-    if data.get("format_version") != FORMAT_VERSION:
-        raise ValueError(
-            f"format_version must be {FORMAT_VERSION}, got {data.get('format_version')!r}"
-        )
-    columns = data.get("columns")
-    if not isinstance(columns, dict):
-        raise ValueError("'columns' must be an object of arrays")
-    shapes = {
-        "frame": ((), np.int64),
-        "t_s": ((), np.float64),
-        "sim_t_s": ((), np.float64),
-        "phase": ((), np.float32),
-        "qpos": ((nq,), np.float32),
-        "ocr": ((len(CHANNELS), SLOTS_PER_FRAME), np.int16),
-        "version": ((), np.int32),
-        "drive": ((), np.int8),
-    }
-    arrays: dict[str, np.ndarray] = {}
-    n = None
-    for name, (shape, dtype) in shapes.items():
-        try:
-            array = np.asarray(columns[name], dtype=np.float64)
-        except KeyError:
-            raise ValueError(f"columns.{name} is missing") from None
-        except (TypeError, ValueError):
-            raise ValueError(f"columns.{name} must be an array of numbers") from None
-        if array.ndim == 0 or array.shape[1:] != shape or not np.isfinite(array).all():
-            raise ValueError(f"columns.{name} must have shape (frames, {shape}) of finite numbers")
-        n = len(array) if n is None else n
-        if len(array) != n:
-            raise ValueError(f"columns.{name} has {len(array)} frames, the others {n}")
-        arrays[name] = array.astype(dtype)
-    if not n or n > RECORD_FRAMES:
-        raise ValueError(f"a recording has 1 to {RECORD_FRAMES} frames, this one {n}")
-    events, params = data.get("events", []), data.get("params", {})
-    if not isinstance(events, list) or not all(isinstance(e, dict) for e in events):
-        raise ValueError("'events' must be a list of objects")
-    if not isinstance(params, dict):
-        raise ValueError("'params' must be an object: version -> parameter document")
-    return Recording(
-        **arrays,
-        events=tuple(events[:MAX_EVENTS]),
-        params={int(v): doc for v, doc in params.items() if str(v).isdigit()},
-        model=str(data.get("model", "")),
-    )
-
-
 class Recorder:
     """The ring buffer. `add` and `event` are cheap; `recording()` copies under the lock."""
 

@@ -23,6 +23,14 @@ class NothingRecorded(ValueError):
     """A replay was asked for before any frame was recorded."""
 
 
+class Replaying(RuntimeError):
+    """The live simulation may not run while a replay owns the 3D view and the scope."""
+
+
+#: what would run the live simulation under the replay's views
+RUNS_LIVE = (Command.RESUME, Command.STEP)
+
+
 @dataclass(frozen=True)
 class ReplayPoses:
     """The bodies' poses at the replay position (the same fields the 3D view reads live)."""
@@ -74,6 +82,18 @@ class Replay:
                 self.origin = "live" if recording is None else "file"
             self.recording = rec
             self._show(index)
+
+    def live_command(self, command: Command) -> None:
+        """Send a command to the live simulation; Replaying (nothing sent) for one that would run
+        it while a replay is shown (resume, step): leave the replay first."""
+        with self._lock:  # as `enter` pauses and `leave` resumes: one order
+            if self.recording is not None and command in RUNS_LIVE:
+                raise Replaying(
+                    f"a replay is shown: {command.value} would run the live simulation under "
+                    "it; go back to live first (POST /api/recording/live, 'Back to live'), "
+                    "which resumes it"
+                )
+            self.sim.command(command)
 
     def leave(self) -> None:
         """Back to the live simulation (resumed if it was running before the replay)."""

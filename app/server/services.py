@@ -46,7 +46,8 @@ class Services:
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
-        self.axle_fitter = AxleFitter(robot=self.robot)  # its jobs: GET /api/jobs/{id}
+        # their jobs: GET /api/jobs/{id}
+        self.axle_fitter = AxleFitter(store=self.store, robot=self.robot)
         self.ca_calibrator = CaCalibrator(
             self.axle_fitter.jobs, self.store, self.sim.paths, self.robot
         )

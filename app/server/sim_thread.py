@@ -26,7 +26,7 @@ from app.core.robot import RobotModel
 from app.core.servo_load import ServoLoadMeter, ServoLoadReport
 from app.core.variations import Variation
 from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, FirmwareStatus
-from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp
+from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.ghost import Ghost, GhostStatus
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
@@ -43,6 +43,7 @@ SPEED_RANGE = (0.25, 4.0)
 BEHIND_SHOWN_S = 2.0  # "behind" stays set this long after frames were dropped
 LOAD_PUBLISH_FRAMES = 25  # the servo load budget is published twice a second
 GHOST_PUBLISH_FRAMES = 10  # the ghost's metrics five times a second
+DRIVE_ANSWER_S = 10.0  # how long a drive switch waits for the simulation thread's verdict
 
 
 class Command(enum.Enum):
@@ -54,7 +55,7 @@ class Command(enum.Enum):
     STEP = "step"  # one 20 ms frame, pausing first
     SPEED = "speed"  # value: x real time, within SPEED_RANGE
     REANCHOR = "reanchor"  # value: V in m/s fixed by hand, or None to measure it
-    DRIVE = "drive"  # value: a booted FirmwareDriver (the firmware drive), or None (the model)
+    DRIVE = "drive"  # value: a DriveRequest (or a booted FirmwareDriver, or None: the model)
     GHOST = "ghost"  # value: (GaitParams, source label) of the A/B ghost, or None: no ghost
     WORLD = "world"  # value: the Variation the robot walks in (docs/DESIGN.md §13)
 
@@ -64,6 +65,15 @@ class Drive(enum.Enum):
 
     MODEL = "model"
     FIRMWARE = "firmware"
+
+
+@dataclass
+class DriveRequest:
+    """A switch of the drive, answered by the simulation thread: `refused` says why not."""
+
+    driver: FirmwareDriver | None  # booted, or None: the model
+    answered: threading.Event = dataclasses.field(default_factory=threading.Event)
+    refused: str | None = None
 
 
 @dataclass(frozen=True)
@@ -202,8 +212,10 @@ class SimThread:
         except ValueError:
             allowed = ", ".join(c.value for c in Command)
             raise ValueError(f"unknown command {command!r}; allowed: {allowed}") from None
-        if command is Command.DRIVE and not (value is None or isinstance(value, FirmwareDriver)):
-            raise ValueError("the drive command takes a booted FirmwareDriver or None")
+        if command is Command.DRIVE and not isinstance(value, DriveRequest | FirmwareDriver | None):
+            raise ValueError(
+                "the drive command takes a DriveRequest, a booted FirmwareDriver or None"
+            )
         if command is Command.GHOST and value is not None:
             params, source = value
             if not isinstance(params, GaitParams) or not isinstance(source, str):
@@ -232,7 +244,11 @@ class SimThread:
             driver = FirmwareDriver.boot(
                 self.store.snapshot(), self.hardware, self._loop.robot.geometry
             )
-        self.command(Command.DRIVE, driver)
+        request = DriveRequest(driver)
+        self.command(Command.DRIVE, request)
+        # the set may change while the firmware boots: the simulation thread has the last word
+        if self.alive and request.answered.wait(DRIVE_ANSWER_S) and request.refused:
+            raise ValueError(request.refused)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
         self.recorder.keep_params(snapshot.version, snapshot.parameter_set().to_dict())
@@ -324,8 +340,7 @@ class SimThread:
             elif command is Command.REANCHOR:
                 self.paths.reanchor(value)
             elif command is Command.DRIVE:
-                self._set_drive(value)
-                restart = True
+                restart = self._take_drive(value)
             elif command is Command.WORLD:
                 self._loop.set_variation(value)  # the state carries over: it walks on there
                 if self._ghost is not None:  # the A/B comparison stays in one world
@@ -351,8 +366,13 @@ class SimThread:
             firmware.send(snap)  # over the emulated UART; it reaches the frame the ACK names
         if snap.gait == old.gait:
             self._loop.set_gait(motion=snap.motion)  # a ramp under way goes on
-        elif self._firmware is None and snap.gait.engine == self._loop.params.engine:
-            # new constants reach the servos over GAIT_RAMP_S, from those in effect now
+        elif (
+            self._firmware is None
+            and snap.gait.engine == self._loop.params.engine
+            and (self._gait_ramp is not None or gait_fields_changed(old.gait, snap.gait) > 1)
+        ):
+            # a new set of constants (a preset, an import, an undo of one) reaches the servos
+            # over GAIT_RAMP_S, from those in effect now; one constant (a slider) at once
             self._gait_ramp = GaitRamp(self._loop.params, snap.gait, round(GAIT_RAMP_S / FRAME_S))
             self._loop.set_gait(motion=snap.motion)
         else:  # the firmware takes a set whole; a new engine has its own start-up
@@ -423,6 +443,27 @@ class SimThread:
                 self.param_latency_frames.extend(n + self._firmware_waited for n in latencies)
                 return self._loop.step_pins(pins)
         return self._loop.step_frame()
+
+    def _take_drive(self, request: DriveRequest | FirmwareDriver | None) -> bool:
+        """A drive switch asked for; the firmware is refused if the set in use, or the one
+        coming, names another engine (it may have changed while the firmware booted). True if
+        the drive changed."""
+        if not isinstance(request, DriveRequest):
+            request = DriveRequest(request)
+        driver = request.driver
+        engines = {self._applied.gait.engine, self.store.snapshot().gait.engine}
+        if driver is not None and engines != {FIRMWARE_ENGINE}:
+            driver.close()
+            request.refused = (
+                f"firmware drive not started: the firmware runs the {FIRMWARE_ENGINE} gait "
+                f"engine; the set in use now names {(engines - {FIRMWARE_ENGINE}).pop()!r} (it "
+                f"changed while the firmware booted): choose engine {FIRMWARE_ENGINE} first"
+            )
+            self.errors.append(request.refused)  # also when no one waits for the answer
+        else:
+            self._set_drive(driver)
+        request.answered.set()
+        return request.refused is None
 
     def _set_drive(self, driver: FirmwareDriver | None, *, reset: bool = True) -> None:
         """Hand the pulses to `driver` (None: the model). A firmware boots at its start phase,

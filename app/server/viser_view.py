@@ -19,6 +19,7 @@ from app.core.axle_fit import NOT_APPLIED
 from app.core.mcu.emulator import FRAME_CYCLES
 from app.params.schema import schema_description
 from app.server.param_store import NothingToUndo, Snapshot
+from app.server.replay import Replaying
 from app.server.sim_thread import Command, Drive
 from app.server.viser_ghost import GhostDrawing
 from gait.params import ENGINES
@@ -121,7 +122,7 @@ class Viewer:
             self._fell_reset_zero = gui.add_button("Reset with motion 0", visible=False)
             self._fell_reset_zero.on_click(lambda _e: self._reset_with_motion_zero())
             pause = gui.add_button_group("Run", ("Pause", "Resume", "Step", "Reset"))
-            pause.on_click(lambda e: self.sim.command(Command(e.target.value.lower())))
+            pause.on_click(self._run_button)
             speed = gui.add_slider("Speed (x real time)", 0.25, 4.0, 0.25, 1.0)
             speed.on_update(lambda e: e.client and self.sim.command(Command.SPEED, speed.value))
             follow = gui.add_checkbox("Follow the robot", True)
@@ -187,6 +188,13 @@ class Viewer:
             self._feet_button = gui.add_button("Axle b = distance between the feet")
             self._feet_button.on_click(lambda _e: self.paths.set_axle(None))
             self._fit_text = gui.add_markdown("")
+
+    def _run_button(self, event: viser.GuiEvent) -> None:
+        try:
+            self.replay.live_command(Command(event.target.value.lower()))
+        except Replaying as exc:  # told to the person who pressed it; nothing ran
+            if event.client is not None:
+                event.client.add_notification("Replaying", str(exc)[:300], color="yellow")
 
     def _drive_callback(self, event: viser.GuiEvent) -> None:
         if event.client is None:  # a programmatic set: the status already says it
@@ -259,6 +267,8 @@ class Viewer:
                 for d in ("forward", "backward")
                 if (r := job.result.get(d))
             ]
+            if job.result.get("conflict"):
+                parts.append(f"not applied: {job.result['conflict']['msg']}")
             self._fit_text.content = "  \n".join(parts)
         except Exception as exc:  # a callback thread: say what went wrong instead of dying
             self._fit_text.content = f"no calibration: {exc}"
@@ -277,11 +287,13 @@ class Viewer:
         except Exception as exc:  # a callback thread: say what went wrong instead of dying
             self._fit_text.content = f"no fit: {exc}"
         else:
-            if r.applies and r.axle_eff_m is not None and r.gain is not None:
+            if r["applied"] and r["gain"] is not None:
                 self._fit_text.content = (
-                    f"b_eff = {100 * r.axle_eff_m:.1f} cm (feet {100 * r.feet_m:.1f} cm): "
-                    f"CA steers at {100 * r.gain:.0f} % of eq (13), at a_p = {r.a_p:+.3f}"
+                    f"b_eff = {100 * r['axle_eff_m']:.1f} cm (feet {100 * r['feet_m']:.1f} cm): "
+                    f"CA steers at {100 * r['gain']:.0f} % of eq (13), at a_p = {r['a_p']:+.3f}"
                 )
+            elif r.get("conflict"):
+                self._fit_text.content = f"not applied: {r['conflict']['msg']}"
             else:
                 self._fit_text.content = f"not applied: {NOT_APPLIED}"
         finally:

@@ -1,11 +1,12 @@
 """`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking.
 
 Each candidate is scored on `app.study.cases.JUDGED_RUNS` by `total_loss`; the search, its
-resumable results file and its output are described at `Tuner`.
+study store (`app.study.study_store`) and its output are described at `Tuner`.
 """
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import math
 import sys
@@ -104,10 +105,9 @@ class Tuner:
     """CMA-ES over `names` (dotted gait fields), starting from `base`, scored by `total_loss`.
 
     The search runs in a box normalised to [0, 1] per parameter (the schema's range). Every
-    evaluation is appended to a JSON-lines results file. Resuming replays that file through the
-    same seeded CMA-ES: the optimiser proposes the same candidates again, takes the recorded losses
-    instead of simulating, and carries on where the file ends. `artro tune` (`command`) writes the
-    best set found as a parameter-set file with provenance.
+    evaluation is a trial in the study store (`run`), written as soon as it is done; resuming
+    replays the store through the same seeded CMA-ES (docs/DESIGN.md §15). `artro tune`
+    (`command`) writes the best set found as a parameter-set file with provenance.
     """
 
     def __init__(
@@ -358,6 +358,47 @@ def _progress_bar(
 
 # --- the command line ---------------------------------------------------------------------------
 
+MAX_DURATION_S = 3600.0  # one simulated hour per case at most
+
+
+def number(
+    low: float, high: float, *, integer: bool = False, above: bool = False, what: str = "it"
+) -> Any:
+    """An argparse type: a finite number from `low` (exclusive if `above`) to `high`; the error
+    says what is allowed (argparse exits with status 2)."""
+    kind = "a whole number " if integer else ""
+    allowed = f"> {low:g} and at most {high:g}" if above else f"{low:g} to {high:g}"
+
+    def parse(text: str) -> float | int:
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value) or value > high or (value <= low if above else value < low):
+            raise argparse.ArgumentTypeError(f"{what} must be {kind}{allowed}, got {text!r}")
+        return value
+
+    return parse
+
+
+def check_timing(
+    names: Sequence[str], base: GaitParams, duration_s: float, warmup_s: float
+) -> None:
+    """Each run must leave at least one whole gait cycle after the warm-up (the metrics are
+    measured over whole cycles): of the slowest clock the search may try. ValueError otherwise."""
+    slowest = base.clock.freq_hz
+    if "clock.freq_hz" in names:
+        slowest = next(
+            m["min"] for f, _d, m in describe_fields(group_class("clock")) if f == "freq_hz"
+        )
+    need = warmup_s + 1.0 / slowest
+    if duration_s < need:
+        raise ValueError(
+            f"--duration {duration_s:g} leaves no whole gait cycle after --warmup {warmup_s:g}: "
+            f"the runs are measured over whole cycles after the warm-up, and a cycle at "
+            f"{slowest:g} Hz takes {1.0 / slowest:g} s; allowed: --duration of at least {need:g}"
+        )
+
 
 def add_arguments(parser: Any) -> None:
     parser.add_argument("--base", default="paper", help="parameter-set file, or 'paper'")
@@ -381,31 +422,49 @@ def add_arguments(parser: Any) -> None:
     parser.add_argument(
         "--tune", default=",".join(DEFAULT_NAMES), help="comma-separated parameters to tune"
     )
-    parser.add_argument("--generations", type=int, default=30)
-    parser.add_argument("--popsize", type=int, default=10)
-    parser.add_argument("--sigma", type=float, default=0.12, help="initial step, share of range")
-    parser.add_argument("--duration", type=float, default=20.0, help="simulated s per case")
-    parser.add_argument("--warmup", type=float, default=4.0)
-    parser.add_argument("--seed", type=int, default=1)
+    whole = {"integer": True}
+    parser.add_argument(
+        "--generations", type=number(1, 100_000, **whole, what="generations"), default=30
+    )
+    parser.add_argument(
+        "--popsize",
+        type=number(2, 1000, **whole, what="popsize"),
+        default=10,
+        help="candidates per generation (CMA-ES needs 2 or more)",
+    )
+    parser.add_argument(
+        "--sigma",
+        type=number(0, 1, above=True, what="sigma"),
+        default=0.12,
+        help="initial step, share of range",
+    )
+    parser.add_argument(
+        "--duration",
+        type=number(0, MAX_DURATION_S, above=True, what="duration"),
+        default=20.0,
+        help="simulated s per case; at least one gait cycle longer than --warmup",
+    )
+    parser.add_argument("--warmup", type=number(0, MAX_DURATION_S, what="warmup"), default=4.0)
+    parser.add_argument("--seed", type=number(0, 2**32 - 1, **whole, what="seed"), default=1)
     parser.add_argument(
         "--band-weight",
-        type=float,
+        type=number(0, 1000, what="band weight"),
         default=0.0,
         help="extra penalty per case for errors beyond 20 %% (the tolerance is 25 %%)",
     )
     parser.add_argument(
         "--steering-weight",
-        type=float,
+        type=number(0, 1000, what="steering weight"),
         default=1.0,
         help="scale of the CA steering terms (gain toward eq (13), bend) in the loss",
     )
     parser.add_argument(
         "--cross-talk-weight",
-        type=float,
+        type=number(0, 1000, what="cross-talk weight"),
         default=0.2,
         help="weight of unwanted rotation while translating and translation while turning",
     )
-    parser.add_argument("--threads", type=int, default=None)
+    parser.add_argument("--threads", type=number(1, 1024, **whole, what="threads"), default=None)
     parser.add_argument(
         "--study",
         default="out/tune/study.log",
@@ -445,6 +504,7 @@ def command(args: Any) -> int:
     base = ParameterSet() if args.base == "paper" else load_parameter_set(args.base)
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
+    check_timing(names, base.gait, args.duration, args.warmup)
     robot = RobotModel.load(args.robot)
     ranges = ranges_from(args.range)
     tuner = Tuner(

@@ -12,7 +12,13 @@ const METRICS = [
   ["gyro_rms_deg_s", "gyro RMS, °/s", -1], // lower is steadier
 ];
 
+let liveName = null; // the name of the parameter set in use
+let shownSource = null; // the walking ghost's source the dropdown was last set to
+let chosen = false; // the dropdown holds a choice (the user's, or the default offered once)
+
 export function initGhost() {
+  document.addEventListener("artro:params", (e) => (liveName = e.detail.name ?? liveName));
+  $("ghost-source").addEventListener("change", () => (chosen = true));
   $("ghost-start").addEventListener("click", start);
   $("ghost-stop").addEventListener("click", async () => {
     await api.del("/api/ghost");
@@ -49,11 +55,30 @@ async function sources(state) {
     ...state.versions.slice(1).map((v) => [`version:${v.version}`, `v${v.version} (${v.source})`]),
   ];
   const key = options.map((o) => o[0]).join("|");
-  if (select.dataset.key === key) return;
-  const keep = select.value;
-  select.replaceChildren(...options.map(([value, label]) => h("option", { value }, label)));
-  select.dataset.key = key;
-  if (options.some((o) => o[0] === keep)) select.value = keep;
+  if (select.dataset.key !== key) {
+    const keep = select.value;
+    select.replaceChildren(...options.map(([value, label]) => h("option", { value }, label)));
+    select.dataset.key = key;
+    if (options.some((o) => o[0] === keep)) select.value = keep;
+  }
+  const has = (value) => options.some((o) => o[0] === value);
+  const walking = state.enabled ? optionOf(state.source) : null;
+  if (walking !== shownSource && has(walking)) {
+    select.value = walking; // the dropdown shows what walks beside the robot
+    chosen = true;
+  } else if (!chosen && !state.enabled && liveName !== null) {
+    // a new page: offer a set to compare with, not the one in use
+    const other = presets.find((name) => name !== liveName);
+    if (other) select.value = `preset:${other}`;
+    chosen = true;
+  }
+  shownSource = walking;
+}
+
+/** "preset paper" -> "preset:paper", "version 7" -> "version:7" (the dropdown's values). */
+function optionOf(source) {
+  const [kind, ...rest] = String(source ?? "").split(" ");
+  return kind === "preset" || kind === "version" ? `${kind}:${rest.join(" ")}` : null;
 }
 
 async function refresh() {

@@ -83,7 +83,16 @@ function buildRow(f, field) {
     send(f.key, round(range.value), f.key);
   });
   number.addEventListener("change", () => {
-    if (number.value === "" || !Number.isFinite(Number(number.value))) return;
+    const v = Number(number.value);
+    const allowed = `${f.label} takes ${field.min} to ${field.max} (${f.neg} … ${f.pos})`;
+    if (number.value === "" || number.validity.badInput || !Number.isFinite(v)) {
+      refuse(f.key, `${f.label}: not a number, not applied — ${allowed}; it stays ${shown(f.key)}`);
+      return;
+    }
+    if (v < field.min || v > field.max) {
+      refuse(f.key, `${f.label}: ${v} not applied — ${allowed}; it stays ${shown(f.key)}`);
+      return;
+    }
     range.value = number.value;
     startGesture(f.key); // a typed value is a change of its own
     send(f.key, round(number.value), f.key);
@@ -139,12 +148,32 @@ async function flush() {
     document.dispatchEvent(new CustomEvent("artro:params", { detail: p }));
   } catch (err) {
     setMessage($("motion-message"), `not applied: ${err.message}`, "error");
-    for (const k of Object.keys(motion)) lastLocal[k] = 0; // show the server's value again
-    if (current) render(current);
+    for (const k of Object.keys(motion)) showInUse(k); // the server's value again, focused or not
   } finally {
     inFlight = false;
     flush();
   }
+}
+
+/** The value in use for `key`, as the server last said. */
+const shown = (key) => String(current?.motion?.[key] ?? 0);
+
+/** Put the value in use back into a field's slider and number (also while it has the focus). */
+function showInUse(key) {
+  const row = rows[key];
+  lastLocal[key] = 0;
+  delete pending[key];
+  if (!row || !current) return;
+  const v = current.motion?.[key] ?? 0;
+  row.range.value = v;
+  row.number.value = v;
+  markBand(key, v);
+}
+
+/** A typed value that cannot be applied: say why, and show the value in use again. */
+function refuse(key, text) {
+  setMessage($("motion-message"), text, "error");
+  showInUse(key);
 }
 
 function render(p) {

@@ -20,6 +20,8 @@ export function initPaths() {
   $("axle-set").addEventListener("click", setAxle);
   $("axle-fit").addEventListener("click", fitAxle);
   $("ca-calibrate").addEventListener("click", calibrateCa);
+  $("job-cancel").addEventListener("click", cancelJob);
+  $("job-apply").addEventListener("click", applyKept);
   $("path-cycles").addEventListener("change", () => last && show(last));
   document.addEventListener("artro:state", (e) => {
     fallen = !!e.detail.fell;
@@ -62,65 +64,141 @@ async function clearPath() {
   }
 }
 
+/** A "by hand" field in its own unit: null when empty; an Error saying what it takes (in that
+ *  unit, with the page's name for it) for junk or a value out of its range. */
+function byHand(id, what, unit, empty) {
+  const input = $(id);
+  const raw = input.value.trim();
+  const takes = `${what} by hand takes ${input.min} to ${input.max} ${unit}, or nothing for ${empty}`;
+  if (input.validity.badInput) throw new Error(`${what}: not a number, nothing changed — ${takes}`);
+  if (raw === "") return null;
+  const v = Number(raw);
+  if (!Number.isFinite(v) || v < Number(input.min) || v > Number(input.max)) {
+    throw new Error(`${what} = ${raw} ${unit} not applied — ${takes}`);
+  }
+  return v;
+}
+
+/** The server's refusal of a by-hand value, told in the field's unit and name. */
+function refusal(err, what, raw, unit, id) {
+  const input = $(id);
+  if (err.status !== 422) return err.message;
+  return `${what} = ${raw} ${unit} not applied — ${what} by hand takes ${input.min} to ${input.max} ${unit}`;
+}
+
 async function reanchor() {
   const msg = $("path-message");
-  const raw = $("anchor-speed").value.trim();
-  let body = {};
-  if (raw !== "") {
-    const cm = Number(raw);
-    if (!Number.isFinite(cm)) {
-      setMessage(msg, "V must be a number (cm/s), or empty to measure it", "error");
-      return;
-    }
-    body = { speed_m_s: cm / 100 };
-  }
+  let cm;
   try {
-    await api.post("/api/path/anchor", body);
-    setMessage(msg, raw === "" ? "re-anchored; V measured" : `re-anchored with V = ${raw} cm/s`, "ok");
+    cm = byHand("anchor-speed", "V", "cm/s", "the measured speed");
   } catch (err) {
     setMessage(msg, err.message, "error");
+    return;
+  }
+  try {
+    await api.post("/api/path/anchor", cm === null ? {} : { speed_m_s: cm / 100 });
+    setMessage(msg, cm === null ? "re-anchored; V measured" : `re-anchored with V = ${cm} cm/s`, "ok");
+  } catch (err) {
+    setMessage(msg, refusal(err, "V", cm, "cm/s", "anchor-speed"), "error");
   }
 }
 
 async function setAxle() {
   const msg = $("path-message");
-  const raw = $("axle-cm").value.trim();
-  const cm = Number(raw);
-  if (raw !== "" && !Number.isFinite(cm)) {
-    setMessage(msg, "b must be a number (cm), or empty for the distance between the feet", "error");
+  let cm;
+  try {
+    cm = byHand("axle-cm", "b", "cm", "the distance between the feet");
+  } catch (err) {
+    setMessage(msg, err.message, "error"); // junk never drops the b in use
     return;
   }
   try {
-    await api.put("/api/path/axle", { axle_m: raw === "" ? null : cm / 100 });
-    setMessage(msg, raw === "" ? "b = the distance between the feet" : `b = ${raw} cm`, "ok");
+    await api.put("/api/path/axle", { axle_m: cm === null ? null : cm / 100 });
+    setMessage(msg, cm === null ? "b = the distance between the feet" : `b = ${cm} cm`, "ok");
   } catch (err) {
-    setMessage(msg, err.message, "error");
+    setMessage(msg, refusal(err, "b", cm, "cm", "axle-cm"), "error");
   }
 }
 
-/** Follow a background job (202 at once) to its end, showing its progress in `msg`. */
+let running = null; // the job being followed: Cancel stops it
+let kept = null; // a finished job whose result could not be applied: Apply applies it
+
+/** Follow a background job (202 at once) to its end, showing its progress in `msg`; Cancel
+ *  stops it meanwhile. The job's result, or null once cancelled. */
 async function followJob(job, msg, label) {
-  while (job.status === "running") {
-    setMessage(msg, `${label} … ${fmt(job.progress * 100, 0)} %`, "");
-    await new Promise((resolve) => setTimeout(resolve, 500));
-    job = await api.get(`/api/jobs/${job.id}`);
+  running = job;
+  showJobActions();
+  try {
+    while (job.status === "running") {
+      setMessage(msg, `${label} … ${fmt(job.progress * 100, 0)} %`, "");
+      await new Promise((resolve) => setTimeout(resolve, 500));
+      job = await api.get(`/api/jobs/${job.id}`);
+    }
+  } finally {
+    running = null;
+    showJobActions();
+  }
+  if (job.status === "cancelled") {
+    setMessage(msg, `${label}: cancelled, nothing applied`, "quiet");
+    return null;
   }
   if (job.status !== "done") throw new Error(`${label}: ${job.error}`);
+  if (job.result?.conflict) {
+    kept = job; // the parameters (or b) changed while it ran: the user may still apply it
+    showJobActions();
+  }
   return job.result;
 }
+
+function showJobActions() {
+  $("job-cancel").hidden = !running;
+  $("job-apply").hidden = !kept || !!running;
+  $("job-actions").hidden = $("job-cancel").hidden && $("job-apply").hidden;
+}
+
+async function cancelJob() {
+  if (!running) return;
+  try {
+    await api.del(`/api/jobs/${running.id}`);
+  } catch (err) {
+    setMessage($("path-message"), err.message, "error");
+  }
+}
+
+/** Apply a kept result onto the parameters in use now. */
+async function applyKept() {
+  const msg = $("path-message");
+  const job = kept;
+  if (!job) return;
+  try {
+    const { version } = await api.get("/api/params");
+    const done = await api.post(`/api/jobs/${job.id}/apply`, { version });
+    kept = null;
+    const what = done.result.params_version ? ` as version ${done.result.params_version}` : "";
+    setMessage(msg, `${job.kind} result applied onto version ${version}${what}`, "ok");
+  } catch (err) {
+    setMessage(msg, err.message, "error");
+  }
+  showJobActions();
+}
+
+const notApplied = (r) => `not applied — ${r.conflict.msg.replace(/: POST .*$/, "")}; Apply applies it now`;
 
 async function calibrateCa() {
   const msg = $("path-message");
   const button = $("ca-calibrate");
   button.disabled = true;
+  kept = null;
   try {
     const label = "calibrating CA: curve walks forward and backward";
     const r = await followJob(await api.post("/api/jobs/calibrate-ca", {}), msg, label);
+    if (!r) return;
     const part = (name, d) =>
       !d ? "" : d.error ? `${name}: ${d.error}` :
         `${name} K = ${fmt(d.yaw_per_ca, 3)} (${fmt(d.gain * 100, 0)} % of eq (13))`;
     const text = [part("forward", r.forward), part("backward", r.backward)].filter(Boolean).join("; ");
-    setMessage(msg, `${text} — applied as version ${r.params_version} (undoable)`, "ok");
+    if (r.conflict) setMessage(msg, `${text} — ${notApplied(r)}`, "error");
+    else setMessage(msg, `${text} — applied as version ${r.params_version} (undoable)`, "ok");
   } catch (err) {
     setMessage(msg, err.message, "error");
   } finally {
@@ -132,22 +210,17 @@ async function fitAxle() {
   const msg = $("path-message");
   const button = $("axle-fit");
   button.disabled = true;
-  setMessage(msg, "fitting: simulating CA = -0.1, 0, +0.1 for 20 s each …", "");
+  kept = null;
   try {
     // a background job (202 at once); its progress is polled, never a minute-long request
-    let job = await api.post("/api/jobs/axle-fit", {});
-    while (job.status === "running") {
-      setMessage(msg, `fitting: simulating CA = -0.1, 0, +0.1 … ${fmt(job.progress * 100, 0)} %`, "");
-      await new Promise((resolve) => setTimeout(resolve, 500));
-      job = await api.get(`/api/jobs/${job.id}`);
-    }
-    if (job.status !== "done") throw new Error(`no fit: ${job.error}`);
-    const r = job.result;
+    const label = "fitting b: simulating CA = -0.1, 0, +0.1 for 20 s each";
+    const r = await followJob(await api.post("/api/jobs/axle-fit", {}), msg, label);
+    if (!r) return;
     const gain = r.gain == null ? "no steering" : `${fmt(r.gain * 100, 0)} % of eq (13)`;
-    const text = r.applied
-      ? `b_eff = ${fmt(r.axle_eff_m * 100, 1)} cm (feet ${fmt(r.feet_m * 100, 1)} cm): CA steers at ${gain}`
-      : `not applied: ${r.reason}`;
-    setMessage(msg, text, r.applied ? "ok" : "error");
+    const fit = `b_eff = ${fmt(r.axle_eff_m * 100, 1)} cm (feet ${fmt(r.feet_m * 100, 1)} cm): CA steers at ${gain}`;
+    if (r.applied) setMessage(msg, fit, "ok");
+    else if (r.conflict) setMessage(msg, `${fit} — ${notApplied(r)}`, "error");
+    else setMessage(msg, `not applied: ${r.reason}`, "error");
   } catch (err) {
     setMessage(msg, err.message, "error");
   } finally {

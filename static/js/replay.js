@@ -5,11 +5,12 @@
 import { api } from "./api.js";
 import { showRecorded } from "./scope-panel.js";
 import { note } from "./status.js";
-import { $, fmt } from "./util.js";
+import { $, fmt, setMessage } from "./util.js";
 
 let active = false;
 let seeking = null; // the index being fetched; a newer drag position waits for it
 let wanted = null;
+let epoch = 0; // counts the user's actions: a poll's answer from before the latest one is stale
 
 export function initReplay() {
   $("replay-enter").addEventListener("click", () => act(() => api.post("/api/recording/replay", {})));
@@ -23,9 +24,11 @@ export function initReplay() {
 }
 
 async function act(call) {
+  epoch++;
   try {
     show(await call());
     note("");
+    setMessage($("replay-message"), "", "");
   } catch (err) {
     note(`replay: ${err.message}`);
   }
@@ -35,11 +38,15 @@ async function importFile(e) {
   const file = e.target.files[0];
   e.target.value = "";
   if (!file) return;
+  const msg = $("replay-message");
+  epoch++;
+  setMessage(msg, `importing ${file.name}…`, "");
   try {
     show(await api.postRaw("/api/recording/import", await file.text(), "application/json"));
-    note(`replaying ${file.name}`);
+    setMessage(msg, `replaying ${file.name}`, "ok");
   } catch (err) {
-    note(`${file.name}: ${err.message}`);
+    // stays until the next import or replay: a refusal is read at the reader's pace
+    setMessage(msg, `${file.name}: not imported, nothing changed — ${err.message}`, "error");
   }
 }
 
@@ -54,6 +61,7 @@ async function seek(index) {
     return;
   }
   seeking = index;
+  epoch++;
   try {
     show(await api.post("/api/recording/replay", { index }));
   } catch (err) {
@@ -69,8 +77,10 @@ async function seek(index) {
 }
 
 async function refresh() {
+  const asked = epoch;
   try {
     const summary = await api.get("/api/recording");
+    if (asked !== epoch) return; // asked before an action that changed the replay
     if (summary.replay.active) show(summary.replay, false);
     else {
       if (active) show(summary.replay);

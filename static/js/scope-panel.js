@@ -24,6 +24,8 @@ const state = {
   latest: null,
   cursors: { a: null, b: null },
   axis: null, // what the last draw returned: maps x px <-> time
+  sim: "running", // "running" | "paused" | "fallen": what the simulation does (GET /api/state)
+  replaying: false,
 };
 const buffer = new RollBuffer(Math.ceil((ROLL_WINDOW_S / 0.02) * 1.2));
 let feed;
@@ -67,6 +69,10 @@ export function initScope() {
     },
   });
   feed.connect();
+  document.addEventListener("artro:state", (e) => {
+    state.sim = e.detail.fell ? "fallen" : e.detail.paused ? "paused" : "running";
+    showRun();
+  });
   prefill();
   setInterval(updateFpsReadout, 500);
   setMode("single");
@@ -149,13 +155,30 @@ function setMode(mode) {
 /** Replay: show this recorded frame, frozen (null: back to the live frames). */
 export function showRecorded(frame) {
   state.frozen = !!frame;
+  state.replaying = !!frame;
   state.frozenFrame = frame;
   if (frame) state.frozenSamples = buffer.toArray();
-  const run = $("scope-run");
-  run.textContent = frame ? "REPLAY" : "RUN";
-  run.className = `badge ${frame ? "warn" : "ok"}`;
   $("scope-freeze").disabled = !!frame;
+  showRun();
   requestDraw();
+}
+
+/** The badge says what the scope shows: a replay, a frozen picture, a fallen or paused robot (no
+ *  new frames come then), or frames as they run. */
+function showRun() {
+  const [text, kind, title] = state.replaying
+    ? ["REPLAY", "warn", "a recorded frame of the replay"]
+    : state.frozen
+      ? ["STOP", "bad", "frozen: frames keep arriving, the picture stays"]
+      : state.sim === "fallen"
+        ? ["FALLEN", "bad", "the robot has fallen: no new frames until a reset"]
+        : state.sim === "paused"
+          ? ["PAUSED", "warn", "the simulation is paused: no new frames until it resumes"]
+          : ["RUN", "ok", "frames as the simulation makes them"];
+  const run = $("scope-run");
+  run.textContent = text;
+  run.className = `badge ${kind}`;
+  run.title = title;
 }
 
 function toggleFreeze() {
@@ -168,9 +191,7 @@ function toggleFreeze() {
   btn.textContent = state.frozen ? "Unfreeze" : "Freeze";
   btn.classList.toggle("active", state.frozen);
   btn.setAttribute("aria-pressed", String(state.frozen));
-  const run = $("scope-run");
-  run.textContent = state.frozen ? "STOP" : "RUN";
-  run.className = `badge ${state.frozen ? "bad" : "ok"}`;
+  showRun();
   requestDraw();
 }
 

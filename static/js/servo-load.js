@@ -1,5 +1,7 @@
 // The servo load budget panel: GET /api/servos/load twice a second, one row per servo,
-// each margin coloured by the level the server gives it (app/core/servo_load.py).
+// each margin coloured by the level the server gives it (app/core/servo_load.py), and for red
+// rows what red means: the gait asks that much of the servo, whether or not the robot goes
+// anywhere (motion 0 still steps on the spot).
 
 import { api, poll } from "./api.js";
 import { $, fmt, h } from "./util.js";
@@ -22,11 +24,38 @@ function row(j) {
   );
 }
 
+const AT_STALL = 0.99; // a peak this close to the stall torque: the servo was at its limit
+
+/** What the red rows mean, in words: null when no row is red. */
+export function redNote(report) {
+  const red = report.joints.filter((j) => j.torque_level === "critical");
+  if (!red.length) return null;
+  const names = red.map((j) => j.joint).join(", ");
+  const sf = Math.round(100 * report.safety_factor);
+  const stalled = red.filter((j) => j.peak_torque_nm >= AT_STALL * j.stall_torque_nm);
+  const stall = fmt(red[0].stall_torque_nm);
+  const need = fmt(Math.max(...red.map((j) => j.required_torque_nm)));
+  const limit = stalled.length
+    ? `${stalled.map((j) => j.joint).join(", ")} reached the stall torque (${stall} N·m) at some moment: ` +
+      `the servo was at its limit there (the simulated one gives no more, like the real one), so ` +
+      `eq (1), which asks ${sf} % more than the peak, reads −${sf} %, the lowest it can. `
+    : `eq (1) asks ${sf} % more than the peak torque, and that comes within 10 % of the stall torque. `;
+  return (
+    `Red — ${names}: ${limit}` +
+    `It is what this gait asks of them, walking or not (motion 0 still steps on the spot), so it ` +
+    `is expected while this gait runs and is no fault of the simulation; a real robot walking ` +
+    `it would need servos of ${need} N·m there (eq (1)), or a gait that asks less of them.`
+  );
+}
+
 export function initServoLoad() {
   const body = $("servo-body");
   poll(async () => {
     const report = await api.get("/api/servos/load");
     $("servo-frames").textContent = `${report.frames} frames (${(report.frames * 0.02).toFixed(1)} s)`;
     body.replaceChildren(...report.joints.map(row));
+    const note = redNote(report);
+    $("servo-note").hidden = !note;
+    $("servo-note").textContent = note ?? "";
   }, 500);
 }

@@ -13,6 +13,7 @@ const NOTE_MS = 8000; // a status note goes away after this long
 let noteTimer = null;
 
 export function initStatus() {
+  for (const id of ["sim-resume", "sim-step"]) $(id).dataset.title = $(id).title;
   for (const action of ["pause", "resume", "step", "reset"]) {
     $(`sim-${action}`).addEventListener("click", () => control(action));
   }
@@ -65,6 +66,11 @@ async function refresh() {
   show("paused-badge", !!s.paused);
   $("sim-pause").hidden = !!s.paused;
   $("sim-resume").hidden = !s.paused;
+  const replaying = !!s.replay?.active; // the live simulation may not run under a replay
+  for (const id of ["sim-resume", "sim-step"]) {
+    $(id).disabled = replaying;
+    $(id).title = replaying ? "a replay is shown: 'Back to live' resumes the simulation" : $(id).dataset.title ?? $(id).title;
+  }
   const errors = s.errors || [];
   show("errors-badge", errors.length > 0, `${errors.length} error${errors.length > 1 ? "s" : ""}`);
   $("errors-badge").title = errors.map((e) => (typeof e === "string" ? e : JSON.stringify(e))).join("\n");

@@ -19,6 +19,9 @@ from app.core.robot import RobotModel
 from gait import GaitParams, Motion
 from gait.params import replace_checked
 
+FRAMES, MIN_FRAMES, MAX_FRAMES = 250, 2, 15_000  # 5 s by default, 5 min at most
+COMPARISON_ONLY = ("frames", "json", "vcd")  # options of the comparison run, not of --pty
+
 EPILOG = """examples:
   artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
   artro firmware run --motion 0,0.07,0 --frames 250 --json
@@ -54,7 +57,10 @@ def add_firmware_parser(subparsers: Any) -> argparse.ArgumentParser:
     run.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
     run.add_argument("--motion", type=_motion, metavar="AR,AP,AY", help="motion vector")
     run.add_argument("--ca", type=float, help="curve amount")
-    run.add_argument("--frames", type=int, default=250, metavar="N", help="20 ms frames")
+    run.add_argument(
+        "--frames", type=int, default=None, metavar="N", help=f"20 ms frames (default {FRAMES}, "
+        f"{MIN_FRAMES} to {MAX_FRAMES})"
+    )  # fmt: skip
     run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
     run.add_argument("--vcd", metavar="FILE", help="write the nine drive lines as VCD")
     run.add_argument("--json", action="store_true", help="print one JSON object")
@@ -154,10 +160,23 @@ def cmd_firmware(args: argparse.Namespace) -> int:
         )
         return 0
     if args.pty:
+        given = [
+            f"--{name}" for name in COMPARISON_ONLY if getattr(args, name) not in (None, False)
+        ]
+        if given:
+            raise ValueError(
+                f"--pty serves the emulated robot on a pseudo-terminal until Ctrl-C; "
+                f"{', '.join(given)} belong{'s' if len(given) == 1 else ''} to the comparison "
+                f"run (without --pty): leave {'it' if len(given) == 1 else 'them'} out "
+                "(--params, --motion and --ca apply)"
+            )
         return _serve_pty(doc, robot)
-    if args.frames < 2:
-        raise ValueError("--frames must be at least 2")
-    summary = firmware_run(doc, args.frames, args.vcd, robot)
+    frames = FRAMES if args.frames is None else args.frames
+    if not MIN_FRAMES <= frames <= MAX_FRAMES:
+        raise ValueError(
+            f"--frames must be {MIN_FRAMES} to {MAX_FRAMES} (20 ms each), got {frames}"
+        )
+    summary = firmware_run(doc, frames, args.vcd, robot)
     if args.json:
         print(json.dumps(summary))
     else:

@@ -1,26 +1,48 @@
-"""Background jobs: start the axle fit or the CA calibration (202 at once), read any job."""
+"""Background jobs: start the axle fit or the CA calibration (202 at once), read any job, cancel
+a running one, apply the kept result of one that could not apply it (docs/DESIGN.md §12)."""
 
 from typing import Annotated, Any
 
 from fastapi import APIRouter, Path, Response
+from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
-from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.axle_fitter import KIND
 from app.server.ca_calibrator import KIND as CALIBRATE
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
-from app.server.jobs import JobBusy
+from app.server.jobs import Job, JobBusy, StaleVersion
+from app.server.services import Services
 
 router = APIRouter(
     prefix="/api/jobs", tags=["jobs"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
 )
 
+JobId = Annotated[str, Path(max_length=64, description="as POST returned it")]
 
-@router.post("/axle-fit", status_code=202, responses=responses(409))
-def start_axle_fit(services: ServicesDep, response: Response) -> dict[str, Any]:
+
+class StartBody(BaseModel):
+    """A job takes no options: an empty object (or no body)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+
+
+class ApplyBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    version: json_int(1) = Field(
+        description="the parameter version in use to apply the result onto (GET /api/params); "
+        "409 if it is no longer the one in use"
+    )
+
+
+@router.post("/axle-fit", status_code=202, responses=responses(409, 422))
+def start_axle_fit(
+    services: ServicesDep, response: Response, body: StartBody | None = None
+) -> dict[str, Any]:
     """Fit the effective axle b_eff of the current gait from simulated curve walks (CA = -0.1,
-    0, +0.1 at the current a_p, 20 s each) in the background, then predict with it. Answers at
-    once with the job; `GET /api/jobs/{id}` gives its progress and, when done, the fit."""
+    0, +0.1 at the current a_p, 20 s each) in the background, then predict with it, if neither
+    the parameters nor the axle changed meanwhile. Answers at once with the job (`from_version`:
+    the version it fits); `GET /api/jobs/{id}` gives its progress and, when done, the fit."""
     snap = services.store.snapshot()
     try:
         job = services.axle_fitter.start(
@@ -32,12 +54,15 @@ def start_axle_fit(services: ServicesDep, response: Response) -> dict[str, Any]:
     return job.to_dict()
 
 
-@router.post("/calibrate-ca", status_code=202, responses=responses(409))
-def start_ca_calibration(services: ServicesDep, response: Response) -> dict[str, Any]:
+@router.post("/calibrate-ca", status_code=202, responses=responses(409, 422))
+def start_ca_calibration(
+    services: ServicesDep, response: Response, body: StartBody | None = None
+) -> dict[str, Any]:
     """Fit the steering term K for the current gait, walking forward and backward (CA = -0.1,
     0, +0.1, 20 s each, a few rounds) in the background, so that CA turns it as eq (13) says;
-    applies both K as one undoable change (source "calibration") and predicts the path with the
-    fitted b_eff. `GET /api/jobs/{id}` gives the progress and, when done, the fit."""
+    applies both K as one undoable change (source "calibration") onto the version it fitted
+    (`from_version`) and predicts the path with the fitted b_eff. Changed meanwhile, the result
+    says so (`applied` false, `conflict`) and is kept: `POST /api/jobs/{id}/apply`."""
     try:
         job = services.ca_calibrator.start()
     except JobBusy as exc:
@@ -46,15 +71,51 @@ def start_ca_calibration(services: ServicesDep, response: Response) -> dict[str,
     return job.to_dict()
 
 
-@router.get("/{job_id}", responses=responses(404, 422))
-def get_job(
-    job_id: Annotated[str, Path(max_length=64, description="as POST returned it")],
-    services: ServicesDep,
-) -> dict[str, Any]:
-    """A job: status (running, done, failed), progress 0..1, and its result or error."""
+def _job(job_id: str, services: Services) -> Job:
     if job_id in (KIND, CALIBRATE):  # these start jobs (POST), they are not one
         raise StarletteHTTPException(405)
     job = services.axle_fitter.jobs.get(job_id)
     if job is None:
         raise ApiError(404, f"no job {job_id[:64]!r} (the latest 20 are kept)", "not_found")
+    return job
+
+
+@router.get("/{job_id}", responses=responses(404, 422))
+def get_job(job_id: JobId, services: ServicesDep) -> dict[str, Any]:
+    """A job: status (running, done, failed, cancelled), progress 0..1, the version it works on
+    (`from_version`), and its result or error."""
+    return _job(job_id, services).to_dict()
+
+
+@router.delete("/{job_id}", responses=responses(404, 409, 422))
+def cancel_job(job_id: JobId, services: ServicesDep) -> dict[str, Any]:
+    """Cancel a running job: it stops at its next simulated walk and applies nothing (status
+    cancelled). 409 if it has already finished."""
+    job = _job(job_id, services)
+    if not services.axle_fitter.jobs.cancel(job):
+        raise ApiError(
+            409, f"job {job.id} has already finished ({job.status}): nothing to cancel",
+            "job_finished", loc=["path", "job_id"],
+        )  # fmt: skip
+    return job.to_dict()
+
+
+@router.post("/{job_id}/apply", responses=responses(404, 409, 422))
+def apply_job(job_id: JobId, body: ApplyBody, services: ServicesDep) -> dict[str, Any]:
+    """Apply the result a finished job kept because the parameters (or the axle) changed while
+    it ran, onto the version in use, named in the body (409 if that is no longer the one)."""
+    job = _job(job_id, services)
+    applier, job.applier = job.applier, None  # applied once, also by two clients at a time
+    if job.status != "done" or applier is None:
+        state = "has nothing kept to apply" if job.status == "done" else f"is {job.status}"
+        raise ApiError(409, f"job {job.id} {state}", "nothing_to_apply", loc=["path", "job_id"])
+    try:
+        applied = applier(body.version)
+    except StaleVersion as exc:
+        job.applier = applier  # still kept
+        current = services.store.snapshot().version
+        raise ApiError(
+            409, str(exc), "version_conflict", loc=["body", "version"], version=current
+        ) from exc
+    job.result = (job.result or {}) | applied | {"conflict": None}
     return job.to_dict()

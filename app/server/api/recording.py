@@ -16,10 +16,21 @@ from app.core.mcu.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
-from app.server.recorder import Recording, recording_from_json
+from app.server.recorder import RECORD_FRAMES, Recording
+from app.server.recording_file import (
+    EVENT_KINDS,
+    INT32_MAX,
+    KEYS,
+    MAX_SECONDS,
+    NQ,
+    OCR_IDLE,
+    PHASE_MAX,
+    RecordingError,
+    recording_from_json,
+)
 from app.server.replay import NothingRecorded
 from app.server.services import Services
-from hardware import frame_edges
+from hardware import CHANNELS, OCR_MAX, SLOTS_PER_FRAME, frame_edges
 
 router = APIRouter(
     prefix="/api/recording",
@@ -114,6 +125,39 @@ def export_vcd(services: ServicesDep) -> Response:
     return _download(text, "vcd", "text/plain; charset=utf-8")
 
 
+def _frames(item: dict[str, Any]) -> dict[str, Any]:
+    return {"type": "array", "minItems": 1, "maxItems": RECORD_FRAMES, "items": item}
+
+
+def _list(item: dict[str, Any], n: int) -> dict[str, Any]:
+    return {"type": "array", "minItems": n, "maxItems": n, "items": item}
+
+
+SECONDS = {"type": "number", "minimum": 0, "maximum": MAX_SECONDS}
+COLUMNS_SCHEMA = {
+    "type": "object",
+    "description": "one array per column, all with as many frames (JSON Schema cannot say that; "
+    "a file whose columns differ in length is refused with 422)",
+    "required": ["frame", "t_s", "sim_t_s", "phase", "qpos", "ocr", "version", "drive"],
+    "additionalProperties": False,
+    "properties": {
+        "frame": _frames({"type": "integer", "minimum": 0}),
+        "t_s": _frames(SECONDS),
+        "sim_t_s": _frames(SECONDS),
+        "phase": _frames({"type": "number", "minimum": -PHASE_MAX, "maximum": PHASE_MAX}),
+        "qpos": _frames(_list({"type": "number"}, NQ)),
+        "ocr": _frames(
+            _list(
+                _list(
+                    {"type": "integer", "minimum": OCR_IDLE, "maximum": OCR_MAX}, SLOTS_PER_FRAME
+                ),
+                len(CHANNELS),
+            )
+        ),
+        "version": _frames({"type": "integer", "minimum": 1, "maximum": INT32_MAX}),
+        "drive": _frames({"type": "integer", "minimum": 0, "maximum": 1}),
+    },
+}
 IMPORT_BODY = {
     "requestBody": {
         "required": True,
@@ -123,26 +167,48 @@ IMPORT_BODY = {
                 "schema": {
                     "type": "object",
                     "required": ["format", "format_version", "columns"],
+                    "additionalProperties": False,
                     "properties": {
                         "format": {"const": "artro-recording"},
                         "format_version": {"const": 1},
-                        "columns": {"type": "object"},
-                        "events": {"type": "array", "items": {"type": "object"}},
-                        "params": {"type": "object"},
+                        "model": {"type": "string", "maxLength": 200},
+                        "frame_s": {"const": 0.02},
+                        "frames": {"type": "integer", "minimum": 1, "maximum": RECORD_FRAMES},
+                        "columns": COLUMNS_SCHEMA,
+                        "events": {
+                            "type": "array",
+                            "items": {
+                                "type": "object",
+                                "required": ["t_s", "kind"],
+                                "properties": {"t_s": SECONDS, "kind": {"enum": list(EVENT_KINDS)}},
+                            },
+                        },
+                        "params": {
+                            "type": "object",
+                            "description": "version -> the parameter document it was",
+                            "patternProperties": {"^[0-9]+$": {"type": "object"}},
+                            "additionalProperties": False,
+                        },
                     },
                 }
             }
         },
     }
 }
+assert set(
+    IMPORT_BODY["requestBody"]["content"]["application/json"]["schema"]["properties"]
+) == set(KEYS)
 
 
 @router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(413, 422))
 async def import_recording(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Load a recording file (from export) and replay it from its first frame."""
     body, nq = await request.body(), services.sim.model.nq
-    try:  # megabytes of JSON: parsed off the event loop
+    try:  # megabytes of JSON: parsed and checked off the event loop
         rec = await run_in_threadpool(lambda: recording_from_json(load_json_strict(body), nq))
+    except RecordingError as exc:
+        loc = ["body", *exc.loc]
+        raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=loc) from exc
     except (ValueError, ParameterImportError, UnicodeDecodeError) as exc:
         raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=["body"]) from exc
     services.replay.enter(0, recording=rec)

@@ -11,6 +11,7 @@ from app.core.mcu.emulator import EmulatorError
 from app.params.document import project_version
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.replay import Replaying
 from app.server.services import Services
 from app.server.sim_thread import SPEED_RANGE, Command, Drive
 
@@ -54,7 +55,10 @@ def state(services: ServicesDep) -> dict[str, Any]:
 
 def _control(command: Command, doc: str) -> Callable[[Services], dict[str, str]]:
     def control(services: ServicesDep) -> dict[str, str]:
-        services.sim.command(command)
+        try:
+            services.replay.live_command(command)
+        except Replaying as exc:
+            raise ApiError(409, str(exc), "replaying", loc=["path"]) from exc
         return {"accepted": command.value}
 
     control.__doc__ = doc
@@ -65,8 +69,8 @@ def _control(command: Command, doc: str) -> Callable[[Services], dict[str, str]]
 for _command, _doc in (
     (Command.RESET, "Put the robot back at the start; the real-time factor restarts."),
     (Command.PAUSE, "Pause the simulation."),
-    (Command.RESUME, "Resume the simulation."),
-    (Command.STEP, "Advance one 20 ms frame (pausing first)."),
+    (Command.RESUME, "Resume the simulation; 409 while a replay is shown (go back to live)."),
+    (Command.STEP, "Advance one 20 ms frame (pausing first); 409 while a replay is shown."),
 ):
     router.add_api_route(
         f"/api/sim/{_command.value}",
@@ -74,6 +78,7 @@ for _command, _doc in (
         methods=["POST"],
         name=f"sim_{_command.value}",
         summary=f"{_command.value.title()}",
+        responses=responses(409) if _command in (Command.RESUME, Command.STEP) else None,
     )
 
 

@@ -1,0 +1,51 @@
+"""The CLI's bad input (issue 18, item 10), through the installed `artro` command: each is an
+error that names what is allowed, exit status 2, no traceback, nothing written or run."""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ARTRO = shutil.which("artro", path=str(Path(sys.executable).parent)) or "artro"
+
+CASES = {
+    "tune: duration within the warm-up": (
+        ["tune", "--generations", "1", "--popsize", "2", "--duration", "1"],
+        "allowed: --duration of at least",
+    ),
+    "tune: duration equal to the warm-up": (
+        ["tune", "--duration", "4", "--warmup", "4", "--tune", "swing.v"],
+        "leaves no whole gait cycle",
+    ),
+    "tune: no population": (["tune", "--popsize", "0"], "popsize must be a whole number 2 to"),
+    "tune: nan weight": (["tune", "--band-weight", "nan"], "band weight must be 0 to 1000"),
+    "tune: infinite sigma": (["tune", "--sigma", "inf"], "sigma must be > 0 and at most 1"),
+    "tune: no generations": (["tune", "--generations", "0"], "generations must be a whole"),
+    "run: infinite duration": (["run", "--duration", "inf"], "duration must be > 0 and at most"),
+    "run: a duration of ages": (["run", "--duration", "1e12"], "at most 3600"),
+    "run: all warm-up": (
+        ["run", "--warmup", "10", "--duration", "2"],
+        "allowed: --duration of at least 11",
+    ),
+    "run: nan warm-up": (["run", "--warmup", "nan"], "warmup must be 0 to 3600"),
+    "firmware: --pty with comparison options": (
+        ["firmware", "run", "--pty", "--frames", "5", "--json"],
+        "--frames, --json belong to the comparison run",
+    ),
+    "firmware: --pty with a VCD": (["firmware", "run", "--pty", "--vcd", "x.vcd"], "--vcd belongs"),
+    "firmware: frames for hours": (["firmware", "run", "--frames", "1000000"], "2 to 15000"),
+}
+
+
+@pytest.mark.parametrize("case", list(CASES))
+def test_bad_input_is_an_error_that_says_what_is_allowed(tmp_path, case):
+    args, message = CASES[case]
+    out = subprocess.run([ARTRO, *args], capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert out.returncode == 2, (out.returncode, out.stdout[-2000:], out.stderr[-2000:])
+    assert message in out.stderr, out.stderr
+    assert "Traceback" not in out.stderr
+    assert list(tmp_path.iterdir()) == []  # no results file, no VCD: nothing ran

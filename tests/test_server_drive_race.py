@@ -1,0 +1,79 @@
+"""A switch to the firmware drive raced by a switch to the pfs engine (issue 18, item 7): the
+firmware boots for the set it was asked with; if the set names pfs by the time the simulation
+thread takes the firmware over, the switch is refused (409 over HTTP) and the model drives on.
+Never does the firmware drive a set it refuses."""
+
+from __future__ import annotations
+
+import threading
+
+import httpx
+import pytest
+
+from app.params.document import ParameterSet
+from app.server.firmware_driver import FirmwareDriver
+from app.server.param_store import ParameterStore
+from app.server.sim_thread import Command, SimThread
+from tests.firmware_support import preset
+from tests.server_harness import client, wait_for
+
+
+@pytest.fixture
+def sim_thread():
+    store = ParameterStore(ParameterSet.from_dict(preset("tuned", a_p=0.06)))
+    sim = SimThread(store)
+    sim.start()
+    try:
+        yield sim, store
+    finally:
+        sim.stop()
+
+
+def test_a_firmware_booted_for_behnke_is_refused_once_the_set_names_pfs(sim_thread):
+    """The race, step by step: the firmware boots for the behnke set (as `switch_drive` does in
+    the HTTP thread), the set becomes pfs and the simulation applies it, then the booted firmware
+    is handed over."""
+    sim, store = sim_thread
+    driver = FirmwareDriver.boot(store.snapshot(), sim.hardware)
+    changed = store.update({"gait": {"engine": "pfs"}}, "test")
+    wait_for(lambda: sim.status().params_version_applied == changed.version, "pfs applied")
+    sim.command(Command.DRIVE, driver)
+
+    def verdict():
+        s = sim.status()
+        return (s.drive == "firmware" or any("not started" in e for e in s.errors)) and s
+
+    status = wait_for(verdict, "the simulation thread's verdict")
+    assert status.drive == "model", "the firmware drives a pfs set it refuses"
+    assert any("runs the behnke gait engine" in e and "'pfs'" in e for e in status.errors)
+    frame = status.frame
+    wait_for(lambda: sim.status().frame > frame + 10, "the model drives on")
+
+
+def test_the_drive_route_raced_by_pfs_ends_with_the_model_driving(server, http):
+    """Over HTTP, however the race falls out: refused at once (409), or switched and then ended
+    by the pfs set; the model drives the pfs set in the end."""
+    for _attempt in range(5):
+        http.put("/api/sim/drive", json={"drive": "model"})
+        http.patch("/api/params", json={"gait": {"engine": "behnke"}})
+        wait_for(lambda: http.get("/api/state").json()["drive"] == "model", "the model drive")
+        answers: dict[str, httpx.Response] = {}
+
+        def switch(answers: dict[str, httpx.Response] = answers) -> None:
+            with client(server[0]) as other:
+                answers["drive"] = other.put("/api/sim/drive", json={"drive": "firmware"})
+
+        thread = threading.Thread(target=switch)
+        thread.start()
+        engine = http.patch("/api/params", json={"gait": {"engine": "pfs"}})
+        thread.join(60)
+        assert engine.status_code == 200 and engine.json()["gait"]["engine"] == "pfs"
+        drive = answers["drive"]
+        assert drive.status_code in (200, 409), drive.text
+        if drive.status_code == 409:
+            assert "behnke" in drive.json()["message"] and "pfs" in drive.json()["message"]
+        wait_for(
+            lambda: http.get("/api/state").json()["drive"] == "model",
+            "the model drives the pfs set",
+        )
+    http.patch("/api/params", json={"gait": {"engine": "behnke"}})
