@@ -66,7 +66,8 @@ async function apply(text) {
     const done = await api.put("/api/world", { variation: text.trim() });
     setMessage($("world-message"), `walking in: ${done.variation}`, "ok");
   } catch (err) {
-    setMessage($("world-message"), `not changed: ${formatDetail(err.raw) || err.message}`, "error");
+    const why = Array.isArray(err.raw) && err.raw[0]?.msg ? err.raw[0].msg : err.message;
+    setMessage($("world-message"), `not changed: ${why}`, "error");
   }
 }
 
