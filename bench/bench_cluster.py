@@ -19,9 +19,9 @@ from app.core.cluster import ClusterEvaluator
 from app.core.cluster_local import LoopbackCluster
 from app.core.evaluation import same_results
 from app.core.robot import RobotModel
+from app.core.robustness import jobs_for
 from app.core.variations import VariationRanges, sample
 from app.params.presets import builtin_presets
-from app.study.robust import jobs_for
 
 GOAL = 0.85
 

@@ -13,9 +13,9 @@ import pytest
 
 from app.core.batch import BatchEvaluator
 from app.core.robot import RobotModel
+from app.core.robustness import ROBUST_CASES, dependence, passes, run_robust, wilson
 from app.core.variations import Variation, VariationRanges, parse_variation, sample
 from app.params.presets import builtin_presets
-from app.study.robust import ROBUST_CASES, dependence, passes, run_robust, wilson
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = {c.name: c for c in ROBUST_CASES}
@@ -112,3 +112,9 @@ def test_artro_bench_robust_json_and_files(tmp_path):
         capture_output=True, text=True, cwd=ROOT,
     )  # fmt: skip
     assert bad.returncode == 2 and "friction" in bad.stderr
+
+
+def test_the_cases_are_the_paper_benchs():
+    from app.study.cases import CASES
+
+    assert [(c.name, c.motion) for c in CASES] == [(c.name, c.motion) for c in ROBUST_CASES[:7]]

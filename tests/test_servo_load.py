@@ -13,9 +13,9 @@ from gait import JOINT_NAMES, GaitParams, Motion
 def test_the_limits_come_from_the_model():
     loop = FrameLoop()
     limits = ServoLimits.of(loop.robot)
-    # models/README.md: 1.08 N m stall torque, no-load speed 1.08 / 0.144 = 7.5 rad/s
-    np.testing.assert_allclose(limits.stall_torque_nm, 1.08)
-    np.testing.assert_allclose(limits.no_load_speed_rad_s, 1.08 / 0.144)
+    # models/servos.yaml: the MG996R's 11 kgf·cm (1.0787 N m) and 0.14 s / 60° (7.48 rad/s) at 6 V
+    np.testing.assert_allclose(limits.stall_torque_nm, 11 * 0.0980665)
+    np.testing.assert_allclose(limits.no_load_speed_rad_s, (np.pi / 3) / 0.14)
 
 
 def test_the_meter_follows_the_frames_it_is_given():
@@ -70,4 +70,4 @@ def test_the_route_reports_the_live_gait(http):
     assert report["safety_factor"] == SAFETY_FACTOR
     for j in report["joints"]:
         assert j["level"] in ("ok", "warn", "critical")
-        assert j["stall_torque_nm"] == pytest.approx(1.08)
+        assert j["stall_torque_nm"] == pytest.approx(11 * 0.0980665)

@@ -97,7 +97,10 @@ def test_a_study_killed_mid_generation_resumes_without_losing_a_finished_evaluat
     finished_before = 0
     for _ in range(3000):  # bounded: until some, not all, candidates of the generation are in
         if study_file.exists():
-            finished_before = len(trials_in(study_file))
+            try:
+                finished_before = len(trials_in(study_file))
+            except KeyError:  # the tuner is still creating the study in the file
+                finished_before = 0
             if finished_before >= 1:
                 tuner.send_signal(signal.SIGKILL)
                 break

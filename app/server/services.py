@@ -13,7 +13,7 @@ from app.server.ca_calibrator import CaCalibrator
 from app.server.guard import served_hosts
 from app.server.param_store import ParameterStore
 from app.server.replay import Replay
-from app.server.robustness import RobustnessRunner
+from app.server.robustness_job import RobustnessRunner
 from app.server.sim_thread import SimThread
 
 

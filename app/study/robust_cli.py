@@ -11,9 +11,9 @@ from typing import Any
 
 from app.core.evaluation import evaluator_for
 from app.core.robot import RobotModel
+from app.core.robustness import ROBUST_CASES, run_robust
 from app.core.variations import VariationRanges, parse_range
 from app.study.bench import progress_printer
-from app.study.robust import ROBUST_CASES, run_robust
 from app.study.robust_report import render, write_plot
 from app.study.runs import resolve_presets
 

@@ -8,10 +8,10 @@ from typing import Any
 
 from app.core.evaluation import evaluator_for
 from app.core.robot import RobotModel
+from app.core.robustness import ROBUST_CASES, run_robust
 from app.core.variations import VariationRanges
 from app.server.jobs import Job, Jobs, Progress
 from app.server.param_store import ParameterStore
-from app.study.robust import ROBUST_CASES, run_robust
 
 KIND = "robustness"
 SAMPLES, DURATION_S, WARMUP_S = 24, 12.0, 4.0  # ~4 minutes of one core for 225 runs
