@@ -90,7 +90,7 @@ def test_a_study_killed_mid_generation_resumes_without_losing_a_finished_evaluat
     study_file = tmp_path / "killed.log"
     command = [
         sys.executable, "-m", "app.cli", "tune", "--tune", ",".join(NAMES), "--generations", "1",
-        "--popsize", "6", "--duration", "4", "--warmup", "1", "--seed", "3", "--study",
+        "--popsize", "6", "--duration", "7", "--warmup", "1", "--seed", "3", "--study",
         str(study_file), "--out", str(tmp_path / "out.json"), "--threads", "2",
     ]  # fmt: skip
     tuner = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)

@@ -8,7 +8,7 @@ from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.core.variations import FIELDS, NOMINAL, VariationRanges, parse_variation
-from app.server.api.deps import ServicesDep, StrictJsonRoute
+from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.jobs import JobBusy
 from app.server.sim_thread import Command
@@ -19,7 +19,7 @@ router = APIRouter(
 
 
 class WorldBody(BaseModel):
-    model_config = ConfigDict(extra="forbid")
+    model_config = ConfigDict(extra="forbid", strict=True)
     variation: str = Field(
         max_length=2000,
         description="as `artro run --vary` takes it, e.g. friction=0.4,latency_ms=40,cal.l_knee=1;"
@@ -28,9 +28,9 @@ class WorldBody(BaseModel):
 
 
 class RobustnessBody(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-    samples: int = Field(24, ge=4, le=400, description="variations to walk")
-    seed: int = Field(0, ge=0, le=2**31 - 1)
+    model_config = ConfigDict(extra="forbid", strict=True)
+    samples: json_int(4) = Field(24, le=400, description="variations to walk (4 to 400)")
+    seed: json_int(0) = Field(0, le=2**31 - 1, description="of the variations drawn")
 
 
 def _world(services: Any) -> dict[str, Any]:
