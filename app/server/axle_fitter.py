@@ -1,5 +1,5 @@
 """The server's axle fit, a background job (app/server/jobs.py): one at a time; the path tracker
-then predicts with b_eff if it applies and nothing changed meanwhile (§12). The page (`POST
+then predicts with b_eff if it applies and nothing changed meanwhile (§16). The page (`POST
 /api/jobs/axle-fit`) and the viser button (`fit`, from its own thread) start the same job."""
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """The dashboard's "Calibrate CA", a background job (app/server/jobs.py): fits the steering term's
 K for the current gait walking forward and backward (`app.core.ca_calibration`), applies both
 as one undoable change onto the version it fitted, and lets the predicted path use the fitted
-b_eff (docs/DESIGN.md §4, §12)."""
+b_eff (docs/DESIGN.md §4, §16)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,6 @@
 """The one parameter store: an immutable snapshot plus a version number (docs/DESIGN.md §9).
 Every change goes through `ParameterStore.update` or `replace` (validated, diffed, applied under a
-lock, announced outside it); undo and redo walk a bounded history of snapshots, one entry per
-gesture (a drag, a burst of key presses) however many versions it made."""
+lock, announced outside it); undo and redo walk a bounded history, one step per gesture (§16)."""
 
 from __future__ import annotations
 

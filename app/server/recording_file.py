@@ -1,6 +1,6 @@
 """A recording file read back (POST /api/recording/import) as strictly as PUT /api/params reads a
 parameter set: every column's shape, JSON type and range, the events, the parameter documents;
-the first problem is named with where it is; nothing is half-loaded (docs/DESIGN.md §8, §12)."""
+the first problem is named with where it is; nothing is half-loaded (docs/DESIGN.md §8, §16)."""
 
 from __future__ import annotations
 

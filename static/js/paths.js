@@ -174,15 +174,21 @@ async function applyKept() {
     const { version } = await api.get("/api/params");
     const done = await api.post(`/api/jobs/${job.id}/apply`, { version });
     kept = null;
-    const what = done.result.params_version ? ` as version ${done.result.params_version}` : "";
-    setMessage(msg, `${job.kind} result applied onto version ${version}${what}`, "ok");
+    const r = done.result;
+    const text = job.kind === "calibrate-ca"
+      ? `the fitted K applied as version ${r.params_version} (undoable)`
+      : `b_eff = ${fmt(r.axle_eff_m * 100, 1)} cm applied`;
+    setMessage(msg, text, "ok");
   } catch (err) {
     setMessage(msg, err.message, "error");
   }
   showJobActions();
 }
 
-const notApplied = (r) => `not applied — ${r.conflict.msg.replace(/: POST .*$/, "")}; Apply applies it now`;
+/** Why a finished job's result was not applied, for the page: "not applied: the axle b was set
+ *  while the fit ran; 'Apply it anyway' applies it now". */
+const notApplied = (r) =>
+  `not applied: ${r.conflict.msg.split(": not applied")[0]}; "Apply it anyway" applies it now`;
 
 async function calibrateCa() {
   const msg = $("path-message");
