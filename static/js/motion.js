@@ -22,7 +22,7 @@ const PAGE = Math.random().toString(36).slice(2, 10); // this page's gestures ar
 
 const rows = {}; // key -> {range, number, value, field}
 const pending = {};
-const lastLocal = {};
+const lastLocal = {}; // performance.now() of each field's last local edit; none: never edited
 let holding = null;
 let inFlight = false;
 let bands = null;
@@ -161,7 +161,7 @@ const shown = (key) => String(current?.motion?.[key] ?? 0);
 /** Put the value in use back into a field's slider and number (also while it has the focus). */
 function showInUse(key) {
   const row = rows[key];
-  lastLocal[key] = 0;
+  delete lastLocal[key];
   delete pending[key];
   if (!row || !current) return;
   const v = current.motion?.[key] ?? 0;
@@ -184,7 +184,10 @@ function render(p) {
     const row = rows[f.key];
     if (!row) return; // not built yet: initMotion renders `current` when it is
     const v = p.motion?.[f.key] ?? 0;
-    const busy = holding === f.key || now - (lastLocal[f.key] ?? 0) < HOLD_MS || f.key in pending;
+    // a field never edited here is never busy (performance.now() starts at the page's load, so a
+    // default of 0 would hide the server's values for the page's first HOLD_MS)
+    const edited = f.key in lastLocal && now - lastLocal[f.key] < HOLD_MS;
+    const busy = holding === f.key || edited || f.key in pending;
     if (!busy) {
       row.range.value = v;
       if (document.activeElement !== row.number) row.number.value = v;
