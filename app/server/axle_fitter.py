@@ -4,6 +4,7 @@ then predicts with b_eff if it applies and nothing changed meanwhile (§16). The
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from app.core.axle_fit import AxleFitResult, fit_effective_axle
@@ -37,9 +38,11 @@ class AxleFitter:
         self,
         jobs: Jobs | None = None,
         store: ParameterStore | None = None,
-        robot: RobotModel | None = None,
+        robot: RobotModel | Callable[[], RobotModel] | None = None,
     ) -> None:
-        self.robot = robot  # the fits walk this robot (default: the built-in one)
+        # the fits walk this robot, or the one the callable names when a fit starts (default:
+        # the built-in one)
+        self.robot_now = robot if callable(robot) else lambda: robot
         self.jobs = jobs or Jobs()
         self.store = store  # what a fit's version is checked against, when there is one
         self.last: AxleFitResult | None = None
@@ -60,6 +63,7 @@ class AxleFitter:
         if params_version is None and self.store is not None:
             params_version = self.store.snapshot().version
         axle_serial = paths.axle_serial
+        robot = self.robot_now()
 
         def apply(version: int | None, serial: int | None = None) -> dict[str, Any]:
             if self.store is not None and version is not None:
@@ -82,7 +86,7 @@ class AxleFitter:
             return {"applied": True}
 
         def work(progress: Progress) -> dict[str, Any]:
-            result = fit_effective_axle(params, motion, _Counting(progress, self.robot))  # type: ignore[arg-type]
+            result = fit_effective_axle(params, motion, _Counting(progress, robot))  # type: ignore[arg-type]
             self.last = result
             done = result.to_dict() | {
                 "params_version": params_version,

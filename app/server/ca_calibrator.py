@@ -6,6 +6,7 @@ b_eff (docs/DESIGN.md §4, §16)."""
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Callable
 from typing import Any
 
 from app.core.axle_fit import walking_amplitude
@@ -44,9 +45,11 @@ class CaCalibrator:
         jobs: Jobs,
         store: ParameterStore,
         paths: PathTracker,
-        robot: RobotModel | None = None,
+        robot: RobotModel | Callable[[], RobotModel] | None = None,
     ) -> None:
-        self.robot = robot  # the calibration walks this robot (default: the built-in one)
+        # the calibration walks this robot, or the one the callable names when it starts
+        # (default: the built-in one)
+        self.robot_now = robot if callable(robot) else lambda: robot
         self.jobs, self.store, self.paths = jobs, store, paths
 
     def start(self, *, duration_s: float = 20.0) -> Job:
@@ -55,6 +58,7 @@ class CaCalibrator:
         for `Job.applier`."""
         snap = self.store.snapshot()
         size = abs(walking_amplitude(snap.motion))
+        robot = self.robot_now()
 
         def work(progress: Progress) -> dict[str, Any]:
             gait, found, lines = snap.gait, {}, [0]
@@ -69,7 +73,7 @@ class CaCalibrator:
                     result = calibrate_ca(
                         gait,
                         dataclasses.replace(snap.motion, a_p=a_p),
-                        _Checked(progress, self.robot),  # type: ignore[arg-type]
+                        _Checked(progress, robot),  # type: ignore[arg-type]
                         duration_s=duration_s,
                         say=say,
                     )

@@ -140,6 +140,11 @@ class Jobs:
         for job in running:
             job.finished.wait(max(0.0, deadline - time.monotonic()))
 
+    def running(self) -> list[Job]:
+        """The jobs running now."""
+        with self._lock:
+            return [job for job in self._jobs.values() if job.status == "running"]
+
     def get(self, job_id: str) -> Job | None:
         with self._lock:
             return self._jobs.get(job_id)

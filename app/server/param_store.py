@@ -1,6 +1,8 @@
 """The one parameter store: an immutable snapshot plus a version number (docs/DESIGN.md §9).
 Every change goes through `ParameterStore.update` or `replace` (validated, diffed, applied under a
-lock, announced outside it); undo and redo walk a bounded history, one step per gesture (§16)."""
+lock, announced outside it); undo and redo walk a bounded history, one step per gesture (§16).
+The robot being simulated is part of each version: switching robots is a change that undo takes
+back like any other (§12)."""
 
 from __future__ import annotations
 
@@ -57,10 +59,10 @@ class NothingToUndo(LookupError):
 
 class ParameterStore:
     def __init__(self, initial: ParameterSet | None = None, robot: str = DEFAULT_ROBOT) -> None:
-        """A store of parameter sets for `robot` (whatever robot `initial` names)."""
+        """A store of parameter sets, the first simulated on `robot` (whatever robot `initial`
+        names)."""
         initial = initial or ParameterSet()
         self._lock = threading.Lock()
-        self.robot = robot
         self._snapshot = Snapshot(1, initial.name, initial.motion, initial.gait, robot=robot)
         self._undo: list[Snapshot] = []
         self._redo: list[Snapshot] = []
@@ -68,6 +70,11 @@ class ParameterStore:
 
     def snapshot(self) -> Snapshot:
         return self._snapshot  # immutable: safe to hand out without the lock
+
+    @property
+    def robot(self) -> str:
+        """The robot the version in use is simulated on."""
+        return self._snapshot.robot
 
     def subscribe(self, callback: Subscriber) -> Callable[[], None]:
         """Call `callback(snapshot, changed, source)` after every change; returns unsubscribe."""
@@ -110,9 +117,19 @@ class ParameterStore:
 
         return self._commit(build, source, check, gesture)
 
-    def replace(self, pset: ParameterSet, source: str, *, check: Check | None = None) -> Snapshot:
-        """Replace every parameter (a PUT, a loaded preset, an import)."""
-        return self._commit(lambda _current: (pset.name, pset.motion, pset.gait), source, check)
+    def replace(
+        self,
+        pset: ParameterSet,
+        source: str,
+        *,
+        check: Check | None = None,
+        robot: str | None = None,
+    ) -> Snapshot:
+        """Replace every parameter (a PUT, a loaded preset, an import); with `robot`, also the
+        robot it is simulated on (a switch of robots; default: the robot in use stays)."""
+        return self._commit(
+            lambda _current: (pset.name, pset.motion, pset.gait), source, check, robot=robot
+        )
 
     def undo(self, source: str, *, check: Check | None = None) -> Snapshot:
         """Go back one change (whoever made it: `check` sees the snapshot being replaced)."""
@@ -143,6 +160,8 @@ class ParameterStore:
         source: str,
         check: Check | None,
         gesture: str | None = None,
+        *,
+        robot: str | None = None,
     ) -> Snapshot:
         with self._lock:
             current = self._snapshot
@@ -150,7 +169,13 @@ class ParameterStore:
                 check(current)  # raises before anything changes
             name, motion, gait = build(current)  # raises before anything changes
             candidate = Snapshot(
-                current.version + 1, name, motion, gait, source, gesture=gesture, robot=self.robot
+                current.version + 1,
+                name,
+                motion,
+                gait,
+                source,
+                gesture=gesture,
+                robot=robot or current.robot,
             )
             changed = _changed(current, candidate)
             if not changed:
@@ -190,7 +215,7 @@ class ParameterStore:
                 previous.motion,
                 previous.gait,
                 source,
-                robot=self.robot,
+                robot=previous.robot,
             )
             self._snapshot = candidate
             changed = _changed(current, candidate)
@@ -209,6 +234,5 @@ class ParameterStore:
 def _changed(a: Snapshot, b: Snapshot) -> frozenset[str]:
     fa, fb = a.flat(), b.flat()
     names = {k for k in fa if fa[k] != fb[k]}
-    if a.name != b.name:
-        names.add("name")
+    names |= {key for key in ("name", "robot") if getattr(a, key) != getattr(b, key)}
     return frozenset(names)

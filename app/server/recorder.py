@@ -83,6 +83,13 @@ class Recorder:
         self._events: list[dict[str, Any]] = []
         self._params: dict[int, dict[str, Any]] = {}
 
+    def restart(self, model: str) -> None:
+        """Forget the frames and events: what follows is another robot's (`model`), and a
+        replay must not draw one robot's poses with the other's bodies."""
+        with self._lock:
+            self.model, self._written = model, 0
+            self._events.clear()
+
     @property
     def session_s(self) -> float:
         return self._written * FRAME_S

@@ -75,6 +75,8 @@ class Replay:
             if index is None:
                 index = len(rec) - 1 if new else self.index
             self._check(rec, index)
+            if self.model is not self.sim.model:  # the robot was switched since the last replay
+                self.model, self._data = self.sim.model, mujoco.MjData(self.sim.model)
             if self.recording is None:  # from live: pause it, resume it when leaving
                 self._resume_after = not self.sim.status().paused
                 self.sim.command(Command.PAUSE)

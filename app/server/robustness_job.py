@@ -4,6 +4,7 @@ report is `artro bench robust`'s, for the page to draw."""
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any
 
 from app.core.evaluation import evaluator_for
@@ -21,17 +22,23 @@ class RobustnessRunner:
     """Starts robustness jobs on the store's current gait (one at a time)."""
 
     def __init__(
-        self, jobs: Jobs, store: ParameterStore, robot: RobotModel, cluster: str | None = None
+        self,
+        jobs: Jobs,
+        store: ParameterStore,
+        robot_now: Callable[[], RobotModel],
+        cluster: str | None = None,
     ) -> None:
-        self.jobs, self.store, self.robot, self.cluster = jobs, store, robot, cluster
+        """Jobs walk the robot `robot_now()` names when they start."""
+        self.jobs, self.store, self.robot_now, self.cluster = jobs, store, robot_now, cluster
 
     def start(self, *, samples: int = SAMPLES, seed: int = 0) -> Job:
         snap = self.store.snapshot()
         name = f"{snap.name} (v{snap.version})"
+        robot = self.robot_now()
 
         def work(progress: Progress) -> dict[str, Any]:
             # one thread locally: the live simulation keeps the other core
-            evaluator = evaluator_for(self.robot, cluster=self.cluster, threads=1)
+            evaluator = evaluator_for(robot, cluster=self.cluster, threads=1)
             return run_robust(
                 [(name, snap.gait, snap.name)],
                 evaluator,

@@ -11,10 +11,11 @@ from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.server.axle_fitter import AxleFitter
 from app.server.ca_calibrator import CaCalibrator
 from app.server.guard import served_hosts
-from app.server.param_store import ParameterStore
+from app.server.param_store import ParameterStore, Snapshot
 from app.server.replay import Replay
+from app.server.robot_shelf import RobotShelf
 from app.server.robustness_job import RobustnessRunner
-from app.server.sim_thread import SimThread
+from app.server.sim_thread import Drive, SimThread
 
 
 @dataclass(frozen=True)
@@ -31,28 +32,35 @@ class ServerConfig:
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
 
 
+class RobotBusy(RuntimeError):
+    """A switch of robots refused: something runs on the robot in use."""
+
+
 class Services:
     def __init__(self, config: ServerConfig) -> None:
         self.config = config
         builtins = builtin_presets()
-        self.robot = RobotModel.load(config.robot)
+        self.robots = RobotShelf(RobotModel.load(config.robot))
+        started = self.robots.started
         if config.params_file:
             initial = load_parameter_set(config.params_file)
         else:  # the robot's own preset: a new user should see a robot that walks
-            initial = builtins.get(self.robot.description.default_preset, builtins["paper"])
-        self.store = ParameterStore(initial, robot=self.robot.name)
+            initial = self.default_preset(started)
+        self.store = ParameterStore(initial, robot=started.name)
         self.presets = PresetStore(config.data_dir, builtins)
-        self.sim = SimThread(self.store, robot=self.robot)
+        self.sim = SimThread(self.store, robot=started, robots=self.robots.get)
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
         # their jobs: GET /api/jobs/{id}
-        self.axle_fitter = AxleFitter(store=self.store, robot=self.robot)
+        # each job walks the robot of the version it starts from
+        robot_now = self._robot_now
+        self.axle_fitter = AxleFitter(store=self.store, robot=robot_now)
         self.ca_calibrator = CaCalibrator(
-            self.axle_fitter.jobs, self.store, self.sim.paths, self.robot
+            self.axle_fitter.jobs, self.store, self.sim.paths, robot_now
         )
         self.robustness = RobustnessRunner(
-            self.axle_fitter.jobs, self.store, self.robot, config.cluster
+            self.axle_fitter.jobs, self.store, robot_now, config.cluster
         )
         self.viewer = None
         if config.viewer:
@@ -72,6 +80,46 @@ class Services:
                 port=config.viser_port,
             )
             guard_viser(self.viewer.server, served_hosts(config.host, config.allowed_hosts))
+
+    @property
+    def robot(self) -> RobotModel:
+        """The robot of the parameter version in use (the simulation follows it within a frame)."""
+        return self.robots.get(self.store.robot)
+
+    def _robot_now(self) -> RobotModel:
+        return self.robot
+
+    @staticmethod
+    def default_preset(robot: RobotModel) -> ParameterSet:
+        """The parameter set `robot` names as its own (a built-in preset), else `paper`."""
+        builtins = builtin_presets()
+        return builtins.get(robot.description.default_preset, builtins["paper"])
+
+    def switch_robot(self, name: str) -> tuple[Snapshot, bool]:
+        """Simulate the robot `name` from the next frame, standing at the start in its default
+        preset: a new parameter version, which undo takes back. (snapshot, whether it changed).
+        UnknownRobot for a robot not on offer; RobotBusy, with nothing changed, while a job or
+        a replay runs or the firmware drives (which are all for the robot in use)."""
+        robot = self.robots.get(name)  # built here, in the caller's thread
+        if robot.name == self.store.robot:
+            return self.store.snapshot(), False
+        if running := self.axle_fitter.jobs.running():
+            kinds = ", ".join(sorted({job.kind for job in running}))
+            raise RobotBusy(
+                f"a job runs on {self.store.robot!r} ({kinds}): wait for it or cancel it "
+                f"(DELETE /api/jobs/{{id}}) before switching robots"
+            )
+        if self.replay.active:
+            raise RobotBusy(
+                "a replay is shown: go back to live (POST /api/recording/live) before "
+                "switching robots"
+            )
+        if self.sim.status().drive != Drive.MODEL.value:
+            raise RobotBusy(
+                f"the firmware drives {self.store.robot!r}: switch the drive to the model "
+                "(PUT /api/sim/drive) before switching robots"
+            )
+        return self.store.replace(self.default_preset(robot), "robot", robot=robot.name), True
 
     def robot_warnings(self, pset: ParameterSet) -> list[str]:
         """What to tell a user who loads `pset` here: that it was tuned for another robot."""

@@ -15,6 +15,7 @@ import threading
 import time
 import traceback
 from collections import deque
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -114,6 +115,7 @@ class SimStatus:
     firmware: FirmwareStatus | None = None  # while the firmware drive is on
     gait_ramp: float | None = None  # how far a change of gait constants has come (0..1), if so
     world: str = "nominal"  # the variation the robot walks in, as `artro run --vary` takes it
+    robot: str = ""  # the robot simulated (the store's version in use names it)
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self) | {"errors": list(self.errors)}
@@ -137,10 +139,16 @@ class SimThread:
         *,
         robot: RobotModel | None = None,
         hardware: HardwareSetup | None = None,
+        robots: Callable[[str], RobotModel] | None = None,
     ) -> None:
+        """Simulate the store's sets on `robot` (default: the store's robot, built-in); a
+        version that names another robot switches to `robots(name)` (default: built-ins)."""
         self.store = store
-        robot = robot or RobotModel.load()
-        self.robot = robot  # its description and model are not changed: any thread may read it
+        robot = robot or RobotModel.load(store.robot)
+        # the robot and model in use are replaced whole on a switch of robots, never changed:
+        # any thread may read them
+        self.robot = robot
+        self._robots = robots or _builtin_or(robot)
         self.hardware = hardware or robot.hardware()
         snap = store.snapshot()
         self._loop = FrameLoop(  # this thread's alone, with its MjData
@@ -156,8 +164,7 @@ class SimThread:
         self._load_report = self._load.report()
         self.scope = ScopeFeed(self.hardware.tdm)
         self.paths = PathTracker()
-        model_name = bytes(self.model.names).split(b"\0", 1)[0].decode() or "robot"
-        self.recorder = Recorder(self.model.nq, model_name)  # written by this thread only
+        self.recorder = Recorder(self.model.nq, _model_name(self.model))  # this thread writes
         self.recorder.keep_params(snap.version, snap.parameter_set().to_dict())
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         self._commands: queue.SimpleQueue[tuple[Command, Any]] = queue.SimpleQueue()
@@ -356,7 +363,9 @@ class SimThread:
             return
         old = self._applied
         firmware = self._firmware
-        if firmware is not None and snap.gait.engine != FIRMWARE_ENGINE:
+        if snap.robot != self.robot.name:
+            self._switch_robot(self._robots(snap.robot), snap)
+        elif firmware is not None and snap.gait.engine != FIRMWARE_ENGINE:
             self.errors.append(
                 f"firmware drive ended: the firmware runs the {FIRMWARE_ENGINE} engine and "
                 f"version {snap.version} names {snap.gait.engine!r}; the model drives now"
@@ -364,7 +373,9 @@ class SimThread:
             self._set_drive(None, reset=False)
         elif firmware is not None:
             firmware.send(snap)  # over the emulated UART; it reaches the frame the ACK names
-        if snap.gait == old.gait:
+        if snap.robot != old.robot:
+            pass  # the new robot's loop was built with this set
+        elif snap.gait == old.gait:
             self._loop.set_gait(motion=snap.motion)  # a ramp under way goes on
         elif (
             self._firmware is None
@@ -391,6 +402,38 @@ class SimThread:
             else:
                 self._firmware_waited = waited  # the rest comes with the firmware's ACK
             self._pending = None
+
+    def _switch_robot(self, robot: RobotModel, snap: Snapshot) -> None:
+        """Simulate `robot` from now, standing at the start in `snap`'s set, in the same world.
+        The firmware drive (built for the other robot's legs) and the ghost (the other
+        robot's) end, said so; the recording, paths and scope start over."""
+        if self._firmware is not None:
+            self.errors.append(
+                f"firmware drive ended: the robot is now {robot.name!r} (the firmware was built "
+                f"for {self.robot.name!r}); the model drives now"
+            )
+            self._set_drive(None, reset=False)
+        if self._ghost is not None:
+            self.errors.append(
+                f"the ghost ({self._ghost.source}) was removed: it walked {self.robot.name!r}"
+            )
+            self._ghost, self._ghost_status = None, None
+        self._gait_ramp = None
+        self.hardware = robot.hardware()
+        self._loop = FrameLoop(
+            robot=robot,
+            params=snap.gait,
+            motion=snap.motion,
+            hardware=self.hardware,
+            variation=self._loop.variation,
+        )
+        self.robot, self.model = robot, self._loop.model
+        self._load = ServoLoadMeter(self._loop.robot)
+        self._load_report = self._load.report()
+        self.scope.tdm = self.hardware.tdm
+        self.recorder.restart(_model_name(self.model))
+        self.recorder.event("robot", robot=robot.name)
+        self._reset()
 
     def _frame(self) -> None:
         sim = self._loop
@@ -549,9 +592,19 @@ class SimThread:
             errors=tuple(self.errors),
             drive=(Drive.MODEL if self._firmware is None else Drive.FIRMWARE).value,
             world=self._loop.variation.name,
+            robot=self.robot.name,
             firmware=None if self._firmware is None else self._firmware.status(),
             gait_ramp=None if self._gait_ramp is None else self._gait_ramp.progress,
         )
+
+
+def _model_name(model: Any) -> str:
+    return bytes(model.names).split(b"\0", 1)[0].decode() or "robot"
+
+
+def _builtin_or(robot: RobotModel) -> Callable[[str], RobotModel]:
+    """`robot` by its name, any other by its built-in name."""
+    return lambda name: robot if name == robot.name else RobotModel.load(name)
 
 
 def _summary(values: deque[int]) -> LatencySummary:

@@ -84,6 +84,7 @@ class Viewer:
         self.server.gui.configure_theme(control_width="medium", show_share_button=False)
         self.server.gui.main_panel.dock_right()
         self.server.gui.main_panel.minimize()
+        self._model = model  # the robot drawn; the scene is built again when the robot changes
         self.scene = mjviser.ViserMujocoScene(self.server, model, num_envs=1)
         # a 35 cm robot: start close, looking at the trunk from the front left
         self.server.initial_camera.position = (0.55, 0.45, 0.12)
@@ -440,6 +441,9 @@ class Viewer:
                 if not self.server.get_clients():
                     shown = None  # nobody is watching: no scene updates until someone connects
                     continue
+                if self.sim.model is not self._model and not self.replay.active:
+                    self._rebuild_scene(self.sim.model)
+                    shown = None
                 replaying = self.replay.active
                 poses = self.replay.poses() if replaying else self.sim.body_poses()
                 if poses is not None and (replaying, poses.serial) != shown:
@@ -455,6 +459,14 @@ class Viewer:
                     self._update_status()
             except Exception:  # the view must not take the server down
                 log.exception("viewer refresh failed")
+
+    def _rebuild_scene(self, model: mujoco.MjModel) -> None:
+        """Draw another robot: the bodies, the paths and the ghost's bodies anew."""
+        self.server.scene.reset()
+        self._model = model
+        self.scene = mjviser.ViserMujocoScene(self.server, model, num_envs=1)
+        self._build_paths()
+        self._ghost = GhostDrawing(self.server, model, self.scene.fixed_bodies_frame.name)
 
     def _update_status(self) -> None:
         s = self.sim.status()

@@ -49,7 +49,6 @@ def state(services: ServicesDep) -> dict[str, Any]:
         "scope": {"clients": sim.scope.client_count, "dropped": sim.scope.dropped},
         "running": sim.alive,
         "replay": services.replay.status(),
-        "robot": services.robot.name,
     }
 
 

@@ -1,0 +1,36 @@
+"""The robots a running server can simulate: the built-in ones and the one it was started with,
+each built once and kept (a switch of robots, or an undo of one, is then a frame's work). The API
+switches only among these; no request names a file on the server's disk (docs/DESIGN.md §12)."""
+
+from __future__ import annotations
+
+import threading
+
+from app.core.robot import RobotModel
+from app.robots import builtin_robot_names
+
+
+class UnknownRobot(ValueError):
+    """A robot name this server does not offer; the message lists those it does."""
+
+
+class RobotShelf:
+    def __init__(self, started: RobotModel) -> None:
+        self.started = started
+        self._built: dict[str, RobotModel] = {started.name: started}
+        self._lock = threading.Lock()
+
+    def names(self) -> list[str]:
+        """The robots on offer: the one started with first, then the built-in ones."""
+        return [self.started.name, *(n for n in builtin_robot_names() if n != self.started.name)]
+
+    def get(self, name: str) -> RobotModel:
+        """The built model of `name` (built on first use); UnknownRobot for any other name."""
+        if name not in self.names():
+            raise UnknownRobot(
+                f"unknown robot {name!r}; this server offers {', '.join(self.names())}"
+            )
+        with self._lock:
+            if name not in self._built:
+                self._built[name] = RobotModel.load(name)
+            return self._built[name]

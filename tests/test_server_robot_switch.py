@@ -1,0 +1,110 @@
+"""Switching robots on a running server (docs/DESIGN.md §12): the simulation follows within a
+frame, in the new robot's own preset; undo and redo take it back and forth; a robot not on
+offer, or a switch while a job or a replay runs, is refused and changes nothing."""
+
+from __future__ import annotations
+
+import pytest
+
+from tests.server_harness import client, running_server, wait_for
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    with running_server(tmp_path_factory.mktemp("data")) as (base_url, _app):
+        with client(base_url) as http:
+            yield http
+
+
+@pytest.fixture
+def http(server):
+    """Whatever a test switches, the server is back on ArtRo afterwards."""
+    yield server
+    server.post("/api/recording/live")
+    server.put("/api/robot", json={"name": "artro"})
+
+
+def _simulated(http, robot: str):
+    return wait_for(
+        lambda: (s := http.get("/api/state").json())["robot"] == robot and s,
+        f"the simulation runs {robot}",
+    )
+
+
+def test_the_robots_on_offer_are_listed_with_their_figures(http):
+    offer = http.get("/api/robots").json()
+    assert offer["loaded"] == "artro"
+    by_name = {r["name"]: r for r in offer["robots"]}
+    assert offer["robots"][0]["name"] == "artro" and "micro" in by_name
+    assert by_name["artro"]["total_mass_kg"] == pytest.approx(1.65)
+    assert by_name["micro"]["total_mass_kg"] < 0.5 * by_name["artro"]["total_mass_kg"]
+    assert by_name["micro"]["default_preset"] == "micro-tuned"
+
+
+def test_a_switch_simulates_the_new_robot_in_its_preset_and_undo_takes_it_back(http):
+    before = http.get("/api/params").json()
+    switched = http.put("/api/robot", json={"name": "micro"})
+    assert switched.status_code == 200, switched.text
+    body = switched.json()
+    assert body["changed"] and body["params"]["robot"] == "micro"
+    assert body["params"]["name"] == "micro-tuned" and body["params"]["version"] > before["version"]
+    state = _simulated(http, "micro")
+    micro = http.get("/api/robot").json()
+    assert micro["name"] == "micro" and micro["derived"]["total_mass_kg"] < 0.5
+    # the recording starts over with the new robot: a replay never mixes two robots' frames
+    events = http.get("/api/recording").json()["events"]
+    assert events[0]["kind"] == "robot" and events[0]["robot"] == "micro"
+    # it walks: frames go on and it stands at the micro robot's height, not ArtRo's
+    wait_for(lambda: http.get("/api/state").json()["frame"] > state["frame"] + 25,
+             "the micro robot walks on")  # fmt: skip
+    standing = http.get("/api/state").json()["trunk"]["z_m"]
+    again = http.put("/api/robot", json={"name": "micro"}).json()
+    assert not again["changed"] and again["params"]["version"] == body["params"]["version"]
+
+    undone = http.post("/api/params/undo").json()
+    assert undone["robot"] == "artro" and undone["name"] == before["name"]
+    assert undone["gait"] == before["gait"] and undone["motion"] == before["motion"]
+    _simulated(http, "artro")
+    wait_for(lambda: http.get("/api/state").json()["trunk"]["z_m"] > standing + 0.03,
+             "ArtRo stands taller than the micro robot")  # fmt: skip
+    redone = http.post("/api/params/redo").json()
+    assert redone["robot"] == "micro" and redone["name"] == "micro-tuned"
+    _simulated(http, "micro")
+
+
+@pytest.mark.parametrize(
+    "body",
+    [
+        {"name": "nao"},
+        {"name": "../models/robots/micro.yaml"},
+        {"name": 3},
+        {},
+        {"name": "micro", "x": 1},
+    ],
+)
+def test_a_robot_not_on_offer_is_refused_and_changes_nothing(http, body):
+    before = http.get("/api/params").json()["version"]
+    bad = http.put("/api/robot", json=body)
+    assert bad.status_code == 422, bad.text
+    if body.get("name") == "nao":
+        assert (
+            "artro" in bad.json()["detail"][0]["msg"] and "micro" in bad.json()["detail"][0]["msg"]
+        )
+    assert http.get("/api/params").json()["version"] == before
+    assert http.get("/api/state").json()["robot"] == "artro"
+
+
+def test_no_switch_while_a_job_runs_or_a_replay_is_shown(http):
+    before = http.get("/api/params").json()["version"]
+    job = http.post("/api/jobs/robustness", json={"samples": 4}).json()
+    try:
+        busy = http.put("/api/robot", json={"name": "micro"})
+        assert busy.status_code == 409 and "job" in busy.json()["detail"][0]["msg"]
+    finally:
+        http.delete(f"/api/jobs/{job['id']}")
+    wait_for(lambda: http.get(f"/api/jobs/{job['id']}").json()["status"] != "running", "cancelled")
+    assert http.post("/api/recording/replay", json={}).status_code == 200
+    replaying = http.put("/api/robot", json={"name": "micro"})
+    assert replaying.status_code == 409 and "replay" in replaying.json()["detail"][0]["msg"]
+    assert http.get("/api/params").json()["version"] == before
+    assert http.get("/api/state").json()["robot"] == "artro"
