@@ -2,6 +2,8 @@
 header names the robot; the sliders set the live robot's world and the header says it is varied;
 the robustness report is drawn as bars, and a worst variation's button loads it."""
 
+import re
+
 import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
@@ -63,3 +65,44 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
         expect(world_badge).to_be_hidden(timeout=30_000)
         browser.close()
         assert errors == [], f"JavaScript errors on the page: {errors}"
+
+
+@pytest.mark.parametrize(("width", "height"), SIZES)
+def test_the_robot_is_switched_on_the_page_and_undo_takes_it_back(tmp_path, width, height):
+    with (
+        running_server(tmp_path) as (base_url, _app),
+        httpx.Client(base_url=base_url, timeout=10) as http,
+        sync_playwright() as p,
+    ):
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": width, "height": height})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(base_url + "/")
+        badge, select = page.locator("#robot-badge"), page.locator("#robot-select")
+        expect(badge).to_have_text("robot artro", timeout=30_000)
+        expect(select).to_have_value("artro")
+        expect(page.locator("#robot-figures")).to_contain_text("1.65 kg")
+
+        select.select_option("micro")
+        message = page.locator("#robot-message")
+        expect(message).to_contain_text("now micro", timeout=30_000)
+        expect(message).to_contain_text("Undo goes back to artro")
+        expect(badge).to_have_text("robot micro")
+        expect(page.locator("#params-name")).to_have_text("micro-tuned", timeout=30_000)
+        assert http.get("/api/state").json()["robot"] == "micro"
+        page.locator("#world-panel").screenshot(path=str(tmp_path / f"robot-{width}.png"))
+
+        # a set tuned for ArtRo, loaded on the micro robot: the page says so and keeps saying it
+        page.locator('button[data-preset="paper"]', has_text="Load").click()
+        preset_message = page.locator("#preset-message")
+        expect(preset_message).to_contain_text("tuned for the robot 'artro'", timeout=30_000)
+        expect(preset_message).to_have_class(re.compile(r"\bwarn\b"))
+
+        page.click("#params-undo")  # the preset load
+        page.click("#params-undo")  # the switch
+        expect(badge).to_have_text("robot artro", timeout=30_000)
+        expect(select).to_have_value("artro")
+        assert http.get("/api/params").json()["robot"] == "artro"
+        assert errors == []
+        browser.close()

@@ -72,7 +72,10 @@ async function load_(name) {
     const p = await api.post(`/api/presets/${encodeURIComponent(name)}/load?keep_motion=${keep}`);
     const how = keep ? "its gait, the motion kept" : "its gait and motion";
     const text = `loaded '${name}': ${how}, ${arrival(before, p)} (parameters v${p.version})`;
-    setMessage($("preset-message"), text, "ok");
+    const warnings = p.warnings ?? [];
+    // a set tuned for another robot: said, and kept in view (a warning does not expire)
+    if (warnings.length) setMessage($("preset-message"), `${text}. ⚠ ${warnings.join("; ")}`, "warn");
+    else setMessage($("preset-message"), text, "ok");
     refreshParams();
   } catch (err) {
     setMessage($("preset-message"), err.message, "error");

@@ -34,11 +34,12 @@ export function fmtSigned(x, digits = 3) {
 const EXPIRE_MS = 8000; // an "ok" or "quiet" message goes away after this long
 const expiry = new WeakMap();
 
-/** Set a message element's text and state class ("ok" | "error" | "quiet" | "" for neutral).
- *  Success and quiet messages expire; errors and progress lines stay until replaced. */
+/** Set a message element's text and state class ("ok" | "warn" | "error" | "quiet" | "" for
+ *  neutral). Success and quiet messages expire; warnings, errors and progress lines stay until
+ *  replaced. */
 export function setMessage(el, text, kind = "") {
   el.textContent = text;
-  el.classList.remove("ok", "error", "quiet");
+  el.classList.remove("ok", "warn", "error", "quiet");
   if (kind) el.classList.add(kind);
   clearTimeout(expiry.get(el));
   if (text && (kind === "ok" || kind === "quiet")) {

@@ -4,6 +4,7 @@
 // loads it into the live simulation, so the gait can be watched failing and tuned there.
 
 import { api, formatDetail, poll } from "./api.js";
+import { showRobot } from "./robot.js";
 import { $, fmt, h, setMessage } from "./util.js";
 
 const FIELDS = [
@@ -85,7 +86,7 @@ async function refresh() {
   badge.textContent = "world varied";
   badge.title = state.world;
   $("world-state").textContent = varied ? state.world : "nominal model";
-  $("robot-badge").textContent = `robot ${state.robot}`;
+  showRobot(state.robot);
   if (document.activeElement !== $("world-text")) $("world-text").value = varied ? state.world : "";
   if (job) await followJob();
 }

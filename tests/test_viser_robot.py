@@ -1,0 +1,38 @@
+"""The 3D view follows a switch of robots (docs/DESIGN.md §12): with a browser watching, the
+scene is built again from the new robot's model, and the view's refresh goes on without errors."""
+
+from __future__ import annotations
+
+import logging
+
+from playwright.sync_api import sync_playwright
+
+from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, client, running_server, wait_for
+
+
+def test_the_view_draws_the_robot_switched_to(tmp_path, caplog):
+    caplog.set_level(logging.ERROR)
+    with (
+        running_server(tmp_path, viewer=True) as (base_url, app),
+        client(base_url) as http,
+        sync_playwright() as p,
+    ):
+        services = app.state.services
+        viewer = services.viewer
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 900, "height": 700})
+        page.goto(f"http://127.0.0.1:{http.get('/api/health').json()['viser_port']}/")
+        wait_for(lambda: viewer.server.get_clients(), "the browser watches the 3D view")
+        artro_scene = viewer.scene
+        assert http.put("/api/robot", json={"name": "micro"}).status_code == 200
+        wait_for(
+            lambda: viewer._model is services.sim.model and viewer.scene is not artro_scene,
+            "the view drew the micro robot",
+        )
+        assert services.sim.robot.name == "micro"
+        page.screenshot(path=str(tmp_path / "micro-3d.png"))  # to look at
+        http.post("/api/params/undo")
+        wait_for(lambda: services.sim.robot.name == "artro", "back on ArtRo")
+        wait_for(lambda: viewer._model is services.sim.model, "the view drew ArtRo again")
+        browser.close()
+    assert not [r for r in caplog.records if "viewer refresh failed" in r.getMessage()]
