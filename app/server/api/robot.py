@@ -56,16 +56,17 @@ def robots(services: ServicesDep) -> dict[str, Any]:
     return {"loaded": services.robot.name, "robots": offered}
 
 
-@router.put("/robot", responses=responses(409, 422))
+@router.put("/robot", responses=responses(404, 409, 422))
 def switch_robot(body: RobotBody, services: ServicesDep) -> dict[str, Any]:
     """Simulate another robot from the next frame: the robot starts over, standing, in its
     default preset, in the same world. A new parameter version: undo (POST /api/params/undo)
     goes back to the robot and set before. Refused, with nothing changed, for a robot not on
-    offer (422) and while a job or a replay runs or the firmware drives (409)."""
+    offer (404, as for a preset or ghost named that is not there) and while a job or a replay runs
+    or the firmware drives (409)."""
     try:
         snapshot, changed = services.switch_robot(body.name)
     except UnknownRobot as exc:
-        raise ApiError(422, str(exc), "unknown_robot", loc=["body", "name"]) from exc
+        raise ApiError(404, str(exc), "unknown_robot", loc=["body", "name"]) from exc
     except RobotBusy as exc:
         raise ApiError(
             409, str(exc), "robot_busy", version=services.store.snapshot().version
