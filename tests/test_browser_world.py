@@ -3,6 +3,7 @@ header names the robot; the sliders set the live robot's world and the header sa
 the robustness report is drawn as bars, and a worst variation's button loads it."""
 
 import re
+from contextlib import contextmanager
 
 import httpx
 import pytest
@@ -13,9 +14,9 @@ from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 SIZES = [(1600, 1000), (1280, 720)]
 
 
-@pytest.mark.slow
-@pytest.mark.parametrize(("width", "height"), SIZES)
-def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, width, height):
+@contextmanager
+def opened_page(tmp_path, width: int, height: int):
+    """(page, http client, JavaScript errors) of the dashboard on a fresh server."""
     with (
         running_server(tmp_path) as (base_url, _app),
         httpx.Client(base_url=base_url, timeout=10) as http,
@@ -26,6 +27,14 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
         errors: list[str] = []
         page.on("pageerror", lambda exc: errors.append(str(exc)))
         page.goto(base_url + "/")
+        yield page, http, errors
+        browser.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize(("width", "height"), SIZES)
+def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, width, height):
+    with opened_page(tmp_path, width, height) as (page, http, errors):
         expect(page.locator("#robot-badge")).to_have_text("robot artro", timeout=30_000)
         world_badge = page.locator("#world-badge")
         expect(world_badge).to_be_hidden()
@@ -63,22 +72,12 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
 
         page.click("#world-nominal")
         expect(world_badge).to_be_hidden(timeout=30_000)
-        browser.close()
         assert errors == [], f"JavaScript errors on the page: {errors}"
 
 
 @pytest.mark.parametrize(("width", "height"), SIZES)
 def test_the_robot_is_switched_on_the_page_and_undo_takes_it_back(tmp_path, width, height):
-    with (
-        running_server(tmp_path) as (base_url, _app),
-        httpx.Client(base_url=base_url, timeout=10) as http,
-        sync_playwright() as p,
-    ):
-        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        page = browser.new_page(viewport={"width": width, "height": height})
-        errors: list[str] = []
-        page.on("pageerror", lambda exc: errors.append(str(exc)))
-        page.goto(base_url + "/")
+    with opened_page(tmp_path, width, height) as (page, http, errors):
         badge, select = page.locator("#robot-badge"), page.locator("#robot-select")
         expect(badge).to_have_text("robot artro", timeout=30_000)
         expect(select).to_have_value("artro")
@@ -104,5 +103,4 @@ def test_the_robot_is_switched_on_the_page_and_undo_takes_it_back(tmp_path, widt
         expect(badge).to_have_text("robot artro", timeout=30_000)
         expect(select).to_have_value("artro")
         assert http.get("/api/params").json()["robot"] == "artro"
-        assert errors == []
-        browser.close()
+        assert errors == [], f"JavaScript errors on the page: {errors}"
