@@ -10,12 +10,14 @@ import signal
 import threading
 from collections.abc import Iterator
 
+import numpy as np
 import pytest
 
 from app.core.batch import BatchEvaluator
 from app.core.cluster import ClusterError, ClusterEvaluator, evaluate_chunk
 from app.core.cluster_local import LoopbackCluster
 from app.core.evaluation import Job, job_to_dict, same_results
+from app.core.metrics import Trace
 from app.core.robot import RobotModel
 from app.core.variations import parse_variation
 from app.params.presets import builtin_presets
@@ -51,11 +53,24 @@ def test_two_workers_give_the_local_results_to_the_bit(cluster):
     try:
         runs = jobs(8)
         seen: list[int] = []
+        remote_traces: list[Trace] = []
+        local_traces: list[Trace] = []
         remote = evaluator.evaluate(
-            runs, duration_s=4.0, warmup_s=1.0, progress=lambda d, n: seen.append(d)
+            runs,
+            duration_s=4.0,
+            warmup_s=1.0,
+            progress=lambda d, n: seen.append(d),
+            traces=remote_traces,
         )
-        local = BatchEvaluator(ROBOT, threads=2).evaluate(runs, duration_s=4.0, warmup_s=1.0)
+        local = BatchEvaluator(ROBOT, threads=2).evaluate(
+            runs, duration_s=4.0, warmup_s=1.0, traces=local_traces
+        )
         assert same_results(remote, local)
+        # the trunk paths come back too (`bench paper --cluster` draws them), in job order
+        assert len(remote_traces) == len(local_traces) == 8
+        for a, b in zip(remote_traces, local_traces, strict=True):
+            for name in ("t_s", "x_m", "y_m", "yaw_rad", "gyro_rad_s", "feet_distance_m"):
+                assert np.array_equal(getattr(a, name), getattr(b, name)), name
         assert seen == sorted(seen) and seen[-1] == 8
         assert len({m["forward_cm_s"] for m in remote}) == 8  # eight different runs came back
     finally:

@@ -13,7 +13,7 @@ from typing import Any
 
 from app.assets import project_version
 from app.core.batch import BatchEvaluator, Cancelled, Job
-from app.core.metrics import RunMetrics
+from app.core.metrics import RunMetrics, Trace
 from app.core.robot import RobotModel
 from app.robots import parse_description
 
@@ -38,10 +38,16 @@ def _worker_evaluator(robot_json: str) -> BatchEvaluator:
 
 
 def evaluate_chunk(
-    robot_json: str, jobs: list[dict[str, Any]], duration_s: float, warmup_s: float, version: str
-) -> list[RunMetrics]:
-    """One task: the metrics of `jobs` on the robot described by `robot_json` (runs on a worker;
-    refuses to run for another version of the project)."""
+    robot_json: str,
+    jobs: list[dict[str, Any]],
+    duration_s: float,
+    warmup_s: float,
+    version: str,
+    with_traces: bool = False,
+) -> list[RunMetrics] | list[tuple[RunMetrics, Trace]]:
+    """One task: the metrics of `jobs` on the robot described by `robot_json`, with each run's
+    trunk trace if asked (runs on a worker; refuses to run for another version of the
+    project)."""
     from app.core.evaluation import job_from_dict
 
     ours = project_version()
@@ -51,9 +57,11 @@ def evaluate_chunk(
             f"version on both"
         )
     evaluator = _worker_evaluator(robot_json)
-    return evaluator.evaluate(
-        [job_from_dict(j) for j in jobs], duration_s=duration_s, warmup_s=warmup_s
+    traces: list[Trace] | None = [] if with_traces else None
+    metrics = evaluator.evaluate(
+        [job_from_dict(j) for j in jobs], duration_s=duration_s, warmup_s=warmup_s, traces=traces
     )
+    return metrics if traces is None else list(zip(metrics, traces, strict=True))
 
 
 class ClusterEvaluator:
@@ -103,9 +111,12 @@ class ClusterEvaluator:
         duration_s: float,
         warmup_s: float = 5.0,
         progress: Callable[[int, int], None] | None = None,
+        traces: list[Trace] | None = None,
         cancel: threading.Event | None = None,
         on_result: Callable[[int, RunMetrics], None] | None = None,
     ) -> list[RunMetrics]:
+        """As `BatchEvaluator.evaluate`; with `traces`, the workers send each run's trunk trace
+        back too (one sample per frame: ~40 kB a minute of walking)."""
         from distributed import as_completed
 
         from app.core.evaluation import job_to_dict
@@ -117,18 +128,22 @@ class ClusterEvaluator:
             futures = [
                 self.client.submit(
                     evaluate_chunk, self._robot_json, chunk, duration_s, warmup_s, version,
-                    pure=False, retries=1,
+                    traces is not None, pure=False, retries=1,
                 )
                 for chunk in chunks
             ]  # fmt: skip
             index = {f.key: i for i, f in enumerate(futures)}
             results: list[list[RunMetrics] | None] = [None] * len(chunks)
+            chunk_traces: list[list[Trace]] = [[] for _ in chunks]
             done = 0
             for future in as_completed(futures, loop=self.client.loop):
                 if cancel is not None and cancel.is_set():
                     self.client.cancel(futures)
                     raise Cancelled(f"cancelled after {done} of {len(jobs)} runs")
                 chunk_result = future.result()
+                if traces is not None:
+                    chunk_traces[index[future.key]] = [trace for _m, trace in chunk_result]
+                    chunk_result = [metrics for metrics, _t in chunk_result]
                 results[index[future.key]] = chunk_result
                 if on_result is not None:
                     first = index[future.key] * size
@@ -144,4 +159,6 @@ class ClusterEvaluator:
                 f"the Dask scheduler at {self.address} went away ({type(exc).__name__}: {exc}); "
                 f"the runs not finished have no result"
             ) from exc
+        if traces is not None:
+            traces.extend(trace for chunk in chunk_traces for trace in chunk)
         return [m for chunk in results if chunk is not None for m in chunk]

@@ -10,7 +10,7 @@ from collections.abc import Callable, Sequence
 from typing import Any, Protocol
 
 from app.core.batch import BatchEvaluator, Cancelled, Job
-from app.core.metrics import RunMetrics
+from app.core.metrics import RunMetrics, Trace
 from app.core.robot import RobotModel
 from app.core.variations import NOMINAL, parse_variation
 from gait import GaitParams, Motion
@@ -34,12 +34,14 @@ class Evaluator(Protocol):
         duration_s: float,
         warmup_s: float = 5.0,
         progress: Progress | None = None,
+        traces: list[Trace] | None = None,
         cancel: threading.Event | None = None,
         on_result: Callable[[int, RunMetrics], None] | None = None,
     ) -> list[RunMetrics]:
         """Metrics of each job, in order; `progress(done, total)` as runs finish and
-        `on_result(index, metrics)` with each; Cancelled as soon as `cancel` is set (runs
-        under way are dropped)."""
+        `on_result(index, metrics)` with each; each run's trunk `Trace` appended to `traces`,
+        in job order, when given; Cancelled as soon as `cancel` is set (runs under way are
+        dropped)."""
         ...
 
 

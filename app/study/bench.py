@@ -427,11 +427,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     robust.add_argument("--seed", type=int, default=0, help="of the variations drawn")
     add_range_option(robust, "")
     robust.add_argument("--json", action="store_true", help="print the report as one JSON object")
-    robust.add_argument(
-        "--cluster",
-        metavar="tcp://HOST:PORT",
-        help="run on this Dask scheduler (docs/CLUSTER.md) instead of local threads",
-    )
+
     parser.add_argument(
         "--out",
         type=Path,
@@ -441,6 +437,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--threads", type=int, metavar="N", help="rollout threads (default: all cores, <= 8)"
+    )
+    parser.add_argument(
+        "--cluster",
+        metavar="tcp://HOST:PORT",
+        help="run on this Dask scheduler (docs/CLUSTER.md) instead of local threads",
     )
     parser.add_argument(
         "--quick", action="store_true", help="short runs and a coarse CA sweep (smoke test)"
@@ -462,6 +463,8 @@ def cmd_bench(args: argparse.Namespace) -> int:
         config = replace(config, warmup_s=args.warmup)
     if args.robot is not None:
         config = replace(config, robot=args.robot)
+    if args.cluster is not None:
+        config = replace(config, cluster=args.cluster)
     if args.threads is not None:
         if args.threads < 1:
             raise ValueError(f"--threads must be >= 1, got {args.threads}")

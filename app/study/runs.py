@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from app.core.batch import BatchEvaluator, Job
+from app.core.batch import Job
+from app.core.evaluation import Evaluator, evaluator_for
 from app.core.metrics import Trace, whole_cycles
 from app.core.robot import RobotModel
 from app.params.document import ParameterSet, load_parameter_set
@@ -60,6 +61,7 @@ class BenchConfig:
     limit_duration_s: float = 30.0
     threads: int | None = None
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
+    cluster: str | None = None  # a Dask scheduler (tcp://HOST:PORT) instead of local threads
 
 
 QUICK = BenchConfig(
@@ -202,17 +204,20 @@ def run_all(
     case of `app.study.cases.CASES` and a curve-walking sweep (seed 004): a_p = +0.07 and -0.07 with
     CA up to the ends of its range (+-0.5), to find where the robot falls; and CA = -0.1, 0 and
     +0.1 forward at other amplitudes a_p (`BenchConfig.steer_a_p`): how CA steers at other speeds.
-    All these runs of all presets go to one `BatchEvaluator.evaluate` call so its threads stay
+    All these runs of all presets go to one `evaluate` call so its threads (or workers) stay
     busy. A second call walks CA = 0.058 forward long enough for a full circle (seed 004, Fig. 5).
     """
     if not presets:
         raise ValueError("no presets to run")
     if 0.0 not in config.ca_values:
         raise ValueError("the CA sweep must contain 0: it gives V for eq (13)")
-    by_label = _walk(plan_jobs(presets, config), config.duration_s, config, progress)
+    evaluator = evaluator_for(
+        RobotModel.load(config.robot), cluster=config.cluster, threads=config.threads
+    )
+    by_label = _walk(evaluator, plan_jobs(presets, config), config.duration_s, config, progress)
     circle_motion = Motion(a_p=WALK_A_P["forward"], ca=CIRCLE_CA)
     circle_traces: list[Trace] = []
-    circle_metrics = BatchEvaluator(RobotModel.load(config.robot), threads=config.threads).evaluate(
+    circle_metrics = evaluator.evaluate(
         [Job(preset.params, circle_motion) for preset in presets],
         duration_s=config.circle_s,
         warmup_s=config.warmup_s,
@@ -227,7 +232,7 @@ def run_all(
         for preset in presets
         for item in speed_limits.plan(preset, config.limit_a_p, config.limit_ca)
     ]
-    by_label |= _walk(limit_planned, config.limit_duration_s, config)
+    by_label |= _walk(evaluator, limit_planned, config.limit_duration_s, config)
     limit_cas = speed_limits.limit_ca_values(config.limit_ca)
     out = []
     for preset, circle in zip(presets, circles, strict=True):
@@ -254,6 +259,7 @@ def run_all(
 
 
 def _walk(
+    evaluator: Evaluator,
     planned: list[tuple[Preset, str, Job]],
     duration_s: float,
     config: BenchConfig,
@@ -261,7 +267,7 @@ def _walk(
 ) -> dict[tuple[str, str], Run]:
     """Every planned run in one batch, keyed by (preset name, label), with its trunk path."""
     traces: list[Trace] = []
-    metrics = BatchEvaluator(RobotModel.load(config.robot), threads=config.threads).evaluate(
+    metrics = evaluator.evaluate(
         [job for _, _, job in planned],
         duration_s=duration_s,
         warmup_s=config.warmup_s,
