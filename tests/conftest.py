@@ -1,5 +1,12 @@
+import threading
+
 import pytest
 
+from app.core.mcu.pty_bridge import PtyBridge
+from app.params.document import ParameterSet
+from app.server.param_store import ParameterStore
+from app.server.sim_thread import SimThread
+from tests.firmware_support import emulator, preset
 from tests.server_harness import client, running_server
 
 
@@ -23,3 +30,31 @@ def http(server):
             c.put("/api/sim/speed", json={"speed": 1.0})
             c.post("/api/sim/resume")
             c.put("/api/sim/drive", json={"drive": "model"})
+
+
+@pytest.fixture
+def sim_thread():
+    """(simulation thread, its store) walking `tuned` at a_p 0.06, running until the test ends."""
+    store = ParameterStore(ParameterSet.from_dict(preset("tuned", a_p=0.06)))
+    sim = SimThread(store)
+    sim.start()
+    try:
+        yield sim, store
+    finally:
+        sim.stop()
+
+
+@pytest.fixture
+def robot_on_a_pty():
+    """The emulated robot (paper) served on a pseudo-terminal until the test ends: its path."""
+    stop = threading.Event()
+    with emulator(preset("paper")) as mcu:
+        bridge = PtyBridge(mcu, realtime=False)
+        thread = threading.Thread(target=bridge.serve, args=(stop, 600.0), daemon=True)
+        thread.start()
+        try:
+            yield bridge.port
+        finally:
+            stop.set()
+            thread.join()
+            bridge.close()

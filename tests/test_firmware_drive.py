@@ -12,9 +12,7 @@ import pytest
 
 from app.core.frame_loop import FrameLoop, PinFrame
 from app.core.mcu.drive import FirmwareDrive
-from app.params.document import ParameterSet
-from app.server.param_store import ParameterStore
-from app.server.sim_thread import Command, SimThread
+from app.server.sim_thread import Command
 from gait import GaitParams, Motion
 from hardware import TICK_US, US_PER_DEG
 from tests.firmware_support import preset
@@ -68,17 +66,6 @@ def test_a_servo_whose_output_carried_no_pulse_keeps_its_set_point() -> None:
     on_timer1 = channel < 3
     assert np.array_equal(record.setpoint[on_timer1], held[on_timer1])
     assert not np.array_equal(record.setpoint[~on_timer1], held[~on_timer1])
-
-
-@pytest.fixture
-def sim_thread():
-    store = ParameterStore(ParameterSet.from_dict(preset("tuned", a_p=0.06)))
-    sim = SimThread(store)
-    sim.start()
-    try:
-        yield sim, store
-    finally:
-        sim.stop()
 
 
 def test_the_simulation_thread_switches_to_the_firmware_and_sends_it_changes(sim_thread) -> None:

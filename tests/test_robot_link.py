@@ -11,27 +11,9 @@ import serial
 
 from app.core.mcu import protocol as proto
 from app.core.mcu.link import SerialLink
-from app.core.mcu.pty_bridge import PtyBridge
 from app.robot_link import LinkError, RobotLink, _plain, cmd_link, follow
 from hardware.firmware.schema import values_from_document
-from tests.firmware_support import emulator, preset
 from tests.server_harness import client, running_server
-
-
-@pytest.fixture
-def robot_on_a_pty():
-    """(pty path, mcu): the emulated robot served on a pseudo-terminal until the test ends."""
-    stop = threading.Event()
-    with emulator(preset("paper")) as mcu:
-        bridge = PtyBridge(mcu, realtime=False)
-        thread = threading.Thread(target=bridge.serve, args=(stop, 120.0), daemon=True)
-        thread.start()
-        try:
-            yield bridge.port
-        finally:
-            stop.set()
-            thread.join()
-            bridge.close()
 
 
 def test_the_dashboards_set_and_its_change_reach_the_robot(robot_on_a_pty, tmp_path):

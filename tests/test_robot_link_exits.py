@@ -17,27 +17,10 @@ import serial
 
 from app.core.mcu import protocol as proto
 from app.core.mcu.link import SerialLink
-from app.core.mcu.pty_bridge import PtyBridge
-from tests.firmware_support import emulator, preset
+from tests.firmware_support import preset
 from tests.server_harness import running_server, wait_for
 
 ARTRO = Path(sys.executable).with_name("artro")
-
-
-@pytest.fixture
-def robot_on_a_pty():
-    """The emulated robot served on a pseudo-terminal until the test ends: its path."""
-    stop = threading.Event()
-    with emulator(preset("paper")) as mcu:
-        bridge = PtyBridge(mcu, realtime=False)
-        thread = threading.Thread(target=bridge.serve, args=(stop, 600.0), daemon=True)
-        thread.start()
-        try:
-            yield bridge.port
-        finally:
-            stop.set()
-            thread.join()
-            bridge.close()
 
 
 class Lines:

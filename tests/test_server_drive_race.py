@@ -8,25 +8,10 @@ from __future__ import annotations
 import threading
 
 import httpx
-import pytest
 
-from app.params.document import ParameterSet
 from app.server.firmware_driver import FirmwareDriver
-from app.server.param_store import ParameterStore
-from app.server.sim_thread import Command, SimThread
-from tests.firmware_support import preset
+from app.server.sim_thread import Command
 from tests.server_harness import client, wait_for
-
-
-@pytest.fixture
-def sim_thread():
-    store = ParameterStore(ParameterSet.from_dict(preset("tuned", a_p=0.06)))
-    sim = SimThread(store)
-    sim.start()
-    try:
-        yield sim, store
-    finally:
-        sim.stop()
 
 
 def test_a_firmware_booted_for_behnke_is_refused_once_the_set_names_pfs(sim_thread):

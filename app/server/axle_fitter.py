@@ -38,11 +38,10 @@ class AxleFitter:
         self,
         jobs: Jobs | None = None,
         store: ParameterStore | None = None,
-        robot: RobotModel | Callable[[], RobotModel] | None = None,
+        robot_now: Callable[[], RobotModel] | None = None,
     ) -> None:
-        # the fits walk this robot, or the one the callable names when a fit starts (default:
-        # the built-in one)
-        self.robot_now = robot if callable(robot) else lambda: robot
+        # a fit walks the robot `robot_now()` names when it starts (default: the built-in one)
+        self.robot_now = robot_now or RobotModel.load
         self.jobs = jobs or Jobs()
         self.store = store  # what a fit's version is checked against, when there is one
         self.last: AxleFitResult | None = None

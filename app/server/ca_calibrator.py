@@ -45,11 +45,10 @@ class CaCalibrator:
         jobs: Jobs,
         store: ParameterStore,
         paths: PathTracker,
-        robot: RobotModel | Callable[[], RobotModel] | None = None,
+        robot_now: Callable[[], RobotModel],
     ) -> None:
-        # the calibration walks this robot, or the one the callable names when it starts
-        # (default: the built-in one)
-        self.robot_now = robot if callable(robot) else lambda: robot
+        """A calibration walks the robot `robot_now()` names when it starts."""
+        self.robot_now = robot_now
         self.jobs, self.store, self.paths = jobs, store, paths
 
     def start(self, *, duration_s: float = 20.0) -> Job:

@@ -55,7 +55,7 @@ class Services:
         # their jobs: GET /api/jobs/{id}
         # each job walks the robot of the version it starts from
         robot_now = self._robot_now
-        self.axle_fitter = AxleFitter(store=self.store, robot=robot_now)
+        self.axle_fitter = AxleFitter(store=self.store, robot_now=robot_now)
         self.ca_calibrator = CaCalibrator(
             self.axle_fitter.jobs, self.store, self.sim.paths, robot_now
         )

@@ -32,6 +32,7 @@ from app.server.ghost import Ghost, GhostStatus
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.recorder import Recorder
+from app.server.robot_shelf import RobotShelf
 from app.server.scope_feed import ScopeFeed
 from gait import GaitParams
 from hardware import HardwareSetup
@@ -148,7 +149,7 @@ class SimThread:
         # the robot and model in use are replaced whole on a switch of robots, never changed:
         # any thread may read them
         self.robot = robot
-        self._robots = robots or _builtin_or(robot)
+        self._robots = robots or RobotShelf(robot).get
         self.hardware = hardware or robot.hardware()
         snap = store.snapshot()
         self._loop = FrameLoop(  # this thread's alone, with its MjData
@@ -363,7 +364,8 @@ class SimThread:
             return
         old = self._applied
         firmware = self._firmware
-        if snap.robot != self.robot.name:
+        switched = snap.robot != self.robot.name
+        if switched:
             self._switch_robot(self._robots(snap.robot), snap)
         elif firmware is not None and snap.gait.engine != FIRMWARE_ENGINE:
             self.errors.append(
@@ -373,7 +375,7 @@ class SimThread:
             self._set_drive(None, reset=False)
         elif firmware is not None:
             firmware.send(snap)  # over the emulated UART; it reaches the frame the ACK names
-        if snap.robot != old.robot:
+        if switched:
             pass  # the new robot's loop was built with this set
         elif snap.gait == old.gait:
             self._loop.set_gait(motion=snap.motion)  # a ramp under way goes on
@@ -600,11 +602,6 @@ class SimThread:
 
 def _model_name(model: Any) -> str:
     return bytes(model.names).split(b"\0", 1)[0].decode() or "robot"
-
-
-def _builtin_or(robot: RobotModel) -> Callable[[str], RobotModel]:
-    """`robot` by its name, any other by its built-in name."""
-    return lambda name: robot if name == robot.name else RobotModel.load(name)
 
 
 def _summary(values: deque[int]) -> LatencySummary:
