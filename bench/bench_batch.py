@@ -4,8 +4,10 @@ Prints, for the same 10 s walks (a_p = 0.07, CA spread over -0.1..0.1):
   - raw mj_step, one thread: the walk's set-points replayed with MuJoCo's own C loop,
     mj_step(nstep=20) per frame with the frame's set-points written at its start (as the C-loop
     variant of bench_pipeline.py), no Python between steps;
-  - BatchEvaluator.evaluate with 1 thread and with N threads (N = os.cpu_count()), end to end
-    (planning the gait + hardware for every step, the rollout, measuring) and the rollout alone;
+  - BatchEvaluator.evaluate with N threads (N = os.cpu_count()), end to end (planning the gait
+    + hardware for every step, the rollout, measuring) and the rollout alone;
+  - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end
+    (does the loss of N MuJoCo threads in one process go away in N processes?);
   - the machine's ceiling: N separate processes each running the raw C loop at the same time
     (no Python threads, no shared MuJoCo data), in total;
   - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw steps per CPU second;
@@ -31,6 +33,7 @@ import numpy as np
 
 from app.core.batch import BatchEvaluator, Job
 from app.core.frame_loop import FrameLoop, plan_frames
+from app.core.processes import ProcessEvaluator
 from app.core.variations import NOMINAL, VariationRanges, sample
 from gait import GaitParams, Motion
 
@@ -88,13 +91,21 @@ def batch_steps_per_s(
 ) -> tuple[float, float, float]:
     """One evaluate call: steps per wall second end to end and for the rollout alone, and
     steps per CPU second of this process (all its threads) end to end."""
-    steps_per_run = round(seconds / evaluator.model.opt.timestep)
+    steps_per_run = round(seconds / evaluator.robot.model.opt.timestep)
     start, cpu_start = time.perf_counter(), time.process_time()
     metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     rollout_wall = sum(m["wall_s"] for m in metrics)  # wall_s = a call's rollout time / its runs
     total = steps_per_run * len(jobs)
     return total / wall, total / rollout_wall, total / cpu
+
+
+def processes_steps_per_s(evaluator: ProcessEvaluator, jobs: list[Job], seconds: float) -> float:
+    """One evaluate call on worker processes: steps per wall second end to end."""
+    steps_per_run = round(seconds / evaluator.robot.model.opt.timestep)
+    start = time.perf_counter()
+    evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
+    return steps_per_run * len(jobs) / (time.perf_counter() - start)
 
 
 def main() -> None:
@@ -110,6 +121,9 @@ def main() -> None:
     raw, raw_cpu, raw_parallel = [], [], []
     evaluators = {k: BatchEvaluator(threads=n_threads) for k in kinds}
     batch: dict[str, list[tuple[float, float, float]]] = {k: [] for k in kinds}
+    in_processes: dict[str, list[float]] = {k: [] for k in kinds}
+    workers = ProcessEvaluator(processes=n_threads)
+    workers.evaluate(kinds["varied"][:n_threads], duration_s=0.5, warmup_s=0.2)  # start, load
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike
         trials = [raw_steps_per_s(j, frames) for j in kinds["nominal"][:4]]
         raw.append(statistics.median(t[0] for t in trials))
@@ -120,6 +134,8 @@ def main() -> None:
         )
         for kind, jobs in kinds.items():
             batch[kind].append(batch_steps_per_s(evaluators[kind], jobs, args.seconds))
+            in_processes[kind].append(processes_steps_per_s(workers, jobs, args.seconds))
+    workers.close()
     raw_m, raw_cpu_m = statistics.median(raw), statistics.median(raw_cpu)
     ceiling = statistics.median(raw_parallel)
 
@@ -145,6 +161,13 @@ def main() -> None:
             f"{pairs[-1]:.3f}; goal >= {CEILING_GOAL}), rollout alone "
             f"{roll:8.0f}; {per_cpu:8.0f} per CPU s = {per_cpu / raw_cpu_m:.3f} of raw "
             f"(goal >= {CPU_GOAL}); per call: {per_stage}"
+        )
+        pairs = sorted(p / c for p, c in zip(in_processes[kind], raw_parallel, strict=True))
+        print(
+            f"processes, {kind:7s}, {n_threads} x 1 thread: "
+            f"{statistics.median(in_processes[kind]):8.0f} steps/s end to end = "
+            f"{statistics.median(pairs):.3f} of the ceiling (repeats {pairs[0]:.3f}…"
+            f"{pairs[-1]:.3f})"
         )
     if load_before > 0.5:
         print(

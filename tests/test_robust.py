@@ -13,7 +13,15 @@ import pytest
 
 from app.core.batch import BatchEvaluator
 from app.core.robot import RobotModel
-from app.core.robustness import ROBUST_CASES, dependence, passes, run_robust, wilson
+from app.core.robustness import (
+    FALL_MARGIN_LOSS,
+    ROBUST_CASES,
+    dependence,
+    pass_margin_loss,
+    passes,
+    run_robust,
+    wilson,
+)
 from app.core.variations import Variation, VariationRanges, parse_variation, sample
 from app.params.presets import builtin_presets
 
@@ -49,6 +57,32 @@ def test_a_curve_passes_when_it_turns_the_nominal_way_and_keeps_walking():
     assert passes(CASE["curve CA +0.1"], turning, nominal)
     straight = turning | {"turn_deg_s": -1.0}
     assert not passes(CASE["curve CA +0.1"], straight, nominal)
+
+
+@pytest.mark.parametrize(
+    ("forward", "turn", "margin"),
+    [(1.9, 1.0, "none"), (1.6, 1.0, "some"), (1.4, 1.0, "some"), (3.0, 4.5, "some")],
+)
+def test_the_margin_loss_is_zero_only_when_a_run_passes_with_room(forward, turn, margin):
+    """The loss `tune --robust` minimises: 0 at >= 1.2 x the pass line, growing as a run
+    nears and crosses it; whether it passes is still `passes` alone."""
+    run = {"fell": False, "forward_cm_s": forward, "lateral_cm_s": 0.0, "turn_deg_s": turn}
+    loss = pass_margin_loss(CASE["forward"], run, NOMINAL_FORWARD)
+    assert (loss == 0.0) == (margin == "none")
+    assert 0.0 <= loss < FALL_MARGIN_LOSS
+
+
+def test_the_margin_loss_grows_with_the_shortfall_and_a_fall_costs_most():
+    def loss(forward: float, fell: bool = False) -> float:
+        run = {"fell": fell, "forward_cm_s": forward, "lateral_cm_s": 0.0, "turn_deg_s": 0.0}
+        return pass_margin_loss(CASE["forward"], run, NOMINAL_FORWARD)
+
+    assert loss(1.7) < loss(1.5) < loss(1.0) < loss(-1.0) < loss(3.0, fell=True)
+    assert loss(3.0, fell=True) == FALL_MARGIN_LOSS
+    spot = {"fell": False, "forward_cm_s": 0.5, "lateral_cm_s": 0.5, "turn_deg_s": 0.0}
+    drifting = {**spot, "forward_cm_s": 1.5}
+    assert pass_margin_loss(CASE["on the spot"], spot, spot) == 0.0
+    assert pass_margin_loss(CASE["on the spot"], drifting, spot) > 0.0
 
 
 def test_the_wilson_interval_holds_the_share_and_narrows_with_runs():

@@ -10,6 +10,7 @@ import optuna
 import pytest
 
 from app.core.batch import BatchEvaluator, Job
+from app.core.robustness import ROBUST_CASES
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import stamped, write_parameter_set
 from app.study.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
@@ -241,3 +242,22 @@ def test_a_tuner_limited_to_some_cases_walks_only_those_and_their_ca_pairs():
     assert any("CA=" in n for n in runs)  # the curve pairs at the forward/backward speed
     with pytest.raises(ValueError, match="allowed: on the spot"):
         judged_runs(["forwards"])
+
+
+def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_path):
+    """`--robust N`: every candidate walks the same N worlds; its loss is the paper loss on the
+    nominal model plus the mean of its worst quarter of worlds' pass-margin losses, and the
+    store keeps how many varied runs passed."""
+    tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS, robust=3)
+    tuner.run(1, store(tmp_path, tuner), progress=None)
+    trials = trials_in(tmp_path / "study.log")
+    assert len(trials) == 4
+    for trial in trials:
+        robust = trial.user_attrs["metrics"]["robust"]
+        assert len(robust["losses"]) == 3 and robust["runs"] == 3 * len(ROBUST_CASES)
+        assert 0 <= robust["passed"] <= robust["runs"]
+        assert robust["cvar25"] == max(robust["losses"])  # the worst quarter of 3 is 1 world
+        nominal = total_loss(trial.user_attrs["metrics"]["nominal"], SETTINGS["duration_s"])
+        assert trial.value == pytest.approx(nominal + robust["cvar25"])
+    # a poor gait fails some varied runs: the margins are not all zero
+    assert any(t.user_attrs["metrics"]["robust"]["cvar25"] > 0 for t in trials)

@@ -1,6 +1,7 @@
 """The one evaluation API (docs/DESIGN.md §14): runs of a robot in, their metrics out, in order,
-with progress and cancellation, identical whether they run in local threads (`BatchEvaluator`)
-or on a Dask cluster (`app.core.cluster`); `evaluator_for` picks one. A run is a `Job`."""
+with progress and cancellation, identical whether they run in local threads (`BatchEvaluator`),
+in local processes (`app.core.processes`) or on a Dask cluster (`app.core.cluster`);
+`evaluator_for` picks one. A run is a `Job`."""
 
 from __future__ import annotations
 
@@ -46,14 +47,23 @@ class Evaluator(Protocol):
 
 
 def evaluator_for(
-    robot: RobotModel, *, cluster: str | None = None, threads: int | None = None
+    robot: RobotModel,
+    *,
+    cluster: str | None = None,
+    threads: int | None = None,
+    processes: int | None = None,
 ) -> Evaluator:
-    """Local threads (default: every core), or the Dask scheduler at `cluster`
-    (tcp://HOST:PORT; the `cluster` extra); ClusterError if it cannot be reached."""
+    """Local threads (default: every core), local worker processes of one thread each
+    (`processes`; close it when done), or the Dask scheduler at `cluster` (tcp://HOST:PORT;
+    the `cluster` extra); ClusterError if it cannot be reached."""
     if cluster:
         from app.core.cluster import ClusterEvaluator  # Dask is an optional extra
 
         return ClusterEvaluator(cluster, robot)
+    if processes:
+        from app.core.processes import ProcessEvaluator
+
+        return ProcessEvaluator(robot, processes)
     return BatchEvaluator(robot, threads=threads)
 
 

@@ -75,6 +75,39 @@ def passes(case: RobustCase, m: dict, nominal: dict) -> bool:
     return along
 
 
+#: `pass_margin_loss` aims this far above the pass line, so a tuned gait passes with room to spare
+MARGIN = 1.2
+FALL_MARGIN_LOSS = 2.0  # a fall, or a nominal run that fell: worse than any miss while walking
+
+
+def pass_margin_loss(case: RobustCase, m: dict, nominal: dict) -> float:
+    """How far one varied run is from passing with room (0 when it passes by MARGIN): the
+    smooth form of `passes` that `artro tune --robust` minimises. Each shortfall (of the motion
+    along, the forward speed of a curve, the heading or spot drift allowed) is relative to its
+    line, squared and capped at 1; a fall costs FALL_MARGIN_LOSS."""
+    if m["fell"] or nominal["fell"]:
+        return FALL_MARGIN_LOSS
+    value, goal, turn = _figure(case, m), _figure(case, nominal), m.get("turn_deg_s")
+    if value is None or goal is None or turn is None:
+        return FALL_MARGIN_LOSS
+
+    def short(have: float, line: float) -> float:  # have should be at least line (> 0)
+        return min(1.0, max(0.0, (line - have) / line) ** 2) if line > 0 else 0.0
+
+    def over(have: float, limit: float) -> float:  # have should be at most limit (> 0)
+        return min(1.0, max(0.0, (have - limit) / limit) ** 2)
+
+    steady = over(abs(turn), MAX_TURN_DEG_S / MARGIN)
+    if case.kind == "spot":
+        return over(value, SPOT_DRIFT_CM_S / MARGIN) + steady
+    loss = short(value * math.copysign(1.0, goal), MARGIN * PASS_SHARE * abs(goal))
+    if case.kind in ("forward", "lateral"):
+        loss += steady
+    if case.kind == "curve":
+        loss += short(m["forward_cm_s"], MARGIN * PASS_SHARE * nominal["forward_cm_s"])
+    return loss
+
+
 def wilson(k: int, n: int) -> tuple[float, float]:
     """The 95 % Wilson score interval of a share k / n (it stays inside [0, 1] at 0 % and 100 %,
     where the normal approximation's ±1.96·sqrt(p(1-p)/n), ±9.8 points at n = 100 and 50 %,

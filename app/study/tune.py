@@ -22,6 +22,7 @@ import numpy as np
 from app.core.batch import BatchEvaluator, Job
 from app.core.evaluation import Evaluator, evaluator_for
 from app.core.robot import RobotModel
+from app.core.robustness import ROBUST_CASES, RobustCase, pass_margin_loss, passes
 from app.core.variations import NOMINAL, Variation, VariationRanges, sample
 from app.params.document import ParameterSet
 from app.params.presets import stamped, write_parameter_set
@@ -219,9 +220,11 @@ class Tuner:
 
     def score(self, runs: list[dict[str, Any]]) -> tuple[float, dict[str, Any]]:
         """A candidate's loss from its runs (nominal first, then each world's): the paper loss
-        on the nominal model, plus with --robust the mean of the worst quarter of its losses in
-        the varied worlds (CVaR at 25 %: a gait is judged by the worlds it handles worst, not by
-        its luck), times the robust weight."""
+        on the nominal model, plus with --robust the mean of the worst quarter of its worlds'
+        pass-margin losses (CVaR at 25 %: a gait is judged by the worlds it handles worst, not
+        by its luck), times the robust weight. A world's pass-margin loss sums, over the
+        robustness report's cases, how far each run is from passing with room
+        (`pass_margin_loss`): in a varied world the goal is to walk, not the paper's speed."""
         n = len(self.runs)
         by_world = [
             {name: m for (name, _), m in zip(self.runs, runs[k : k + n], strict=True)}
@@ -231,11 +234,28 @@ class Tuner:
         stored: dict[str, Any] = {"nominal": by_world[0]}
         if len(by_world) == 1:
             return nominal, stored
-        varied = sorted(total_loss(w, self.duration_s, self.weights) for w in by_world[1:])
-        tail = varied[-max(1, math.ceil(len(varied) / 4)) :]
+        cases = [(c, self._run_of(c)) for c in ROBUST_CASES if self._run_of(c) is not None]
+        home = by_world[0]
+        varied = [
+            sum(pass_margin_loss(c, world[name], home[name]) for c, name in cases)
+            for world in by_world[1:]
+        ]
+        passed = sum(
+            passes(c, world[name], home[name]) for world in by_world[1:] for c, name in cases
+        )
+        tail = sorted(varied)[-max(1, math.ceil(len(varied) / 4)) :]
         cvar = float(np.mean(tail))
-        stored["robust"] = {"losses": varied, "cvar25": cvar}
+        stored["robust"] = {
+            "losses": varied,
+            "cvar25": cvar,
+            "passed": passed,
+            "runs": len(cases) * len(varied),
+        }
         return nominal + self.robust_weight * cvar, stored
+
+    def _run_of(self, case: RobustCase) -> str | None:
+        """The tuner's run that walks a robustness case's motion."""
+        return next((name for name, motion in self.runs if motion == case.motion), None)
 
     def run(
         self,

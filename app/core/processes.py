@@ -1,0 +1,125 @@
+"""Evaluations in local worker processes (docs/DESIGN.md §14): the same `evaluate` as the local
+threads and the cluster, each process one MuJoCo thread. On this project's 2-core VM two MuJoCo
+threads in one process step ~15 % slower than two processes do; this is the executor that
+measures (and, where it holds, removes) that loss. The runs travel as plain data in chunks, as on
+a cluster (`app.core.cluster.evaluate_chunk`); each process compiles the robot once."""
+
+from __future__ import annotations
+
+import json
+import math
+import multiprocessing
+import os
+import threading
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+
+from app.assets import project_version
+from app.core.batch import Cancelled, Job
+from app.core.cluster import RUNS_PER_TASK, evaluate_chunk
+from app.core.metrics import RunMetrics, Trace
+from app.core.robot import RobotModel
+
+
+class WorkerDied(RuntimeError):
+    """A worker process ended mid-evaluation (killed, out of memory): the runs not finished have
+    no result."""
+
+
+class ProcessEvaluator:
+    """`Evaluator` on `processes` local worker processes (default: every core, at most 8),
+    started once (spawned: no MuJoCo state is forked) and kept until `close`. A task is up to
+    `runs_per_task` runs, fewer when a call has too few runs to give every process as many
+    (so both cores stay busy to the end of a call)."""
+
+    def __init__(
+        self,
+        robot: RobotModel | None = None,
+        processes: int | None = None,
+        *,
+        runs_per_task: int = RUNS_PER_TASK,
+    ) -> None:
+        self.robot = robot or RobotModel.load()
+        self.processes = processes or min(os.cpu_count() or 1, 8)
+        self.runs_per_task = runs_per_task
+        self._robot_json = json.dumps(
+            self.robot.description.model_dump(mode="json"), sort_keys=True
+        )
+        self._pool = self._start_pool()
+
+    def _start_pool(self) -> ProcessPoolExecutor:
+        return ProcessPoolExecutor(self.processes, mp_context=multiprocessing.get_context("spawn"))
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True, cancel_futures=True)
+
+    def __enter__(self) -> ProcessEvaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    def task_size(self, runs: int) -> int:
+        return max(1, min(self.runs_per_task, math.ceil(runs / self.processes)))
+
+    def evaluate(
+        self,
+        jobs: Sequence[Job],
+        *,
+        duration_s: float,
+        warmup_s: float = 5.0,
+        progress: Callable[[int, int], None] | None = None,
+        traces: list[Trace] | None = None,
+        cancel: threading.Event | None = None,
+        on_result: Callable[[int, RunMetrics], None] | None = None,
+    ) -> list[RunMetrics]:
+        """As `BatchEvaluator.evaluate`; runs under way when `cancel` is set are dropped."""
+        from app.core.evaluation import job_to_dict
+
+        size = self.task_size(len(jobs))
+        chunks = [[job_to_dict(j) for j in jobs[i : i + size]] for i in range(0, len(jobs), size)]
+        version, with_traces = project_version(), traces is not None
+        futures: dict[Future, int] = {}
+        results: list[list[RunMetrics] | None] = [None] * len(chunks)
+        chunk_traces: list[list[Trace]] = [[] for _ in chunks]
+        done = 0
+        try:
+            for i, chunk in enumerate(chunks):
+                future = self._pool.submit(
+                    evaluate_chunk, self._robot_json, chunk, duration_s, warmup_s, version,
+                    with_traces,
+                )  # fmt: skip
+                futures[future] = i
+            pending = set(futures)
+            while pending:
+                finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
+                for future in sorted(finished, key=futures.__getitem__):
+                    if cancel is not None and cancel.is_set():
+                        break
+                    i = futures[future]
+                    chunk_result = future.result()
+                    if with_traces:
+                        chunk_traces[i] = [trace for _m, trace in chunk_result]
+                        chunk_result = [metrics for metrics, _t in chunk_result]
+                    results[i] = chunk_result
+                    if on_result is not None:
+                        for k, metrics in enumerate(chunk_result):
+                            on_result(i * size + k, metrics)
+                    done += len(chunk_result)
+                    if progress is not None:
+                        progress(done, len(jobs))
+                if cancel is not None and cancel.is_set():
+                    for future in pending:
+                        future.cancel()
+                    raise Cancelled(f"cancelled after {done} of {len(jobs)} runs")
+        except BrokenProcessPool as exc:
+            self._pool.shutdown(wait=False, cancel_futures=True)
+            self._pool = self._start_pool()  # the next call runs on new processes
+            raise WorkerDied(
+                f"a worker process ended after {done} of {len(jobs)} runs ({exc}); the runs not "
+                f"finished have no result"
+            ) from exc
+        if traces is not None:
+            traces.extend(trace for chunk in chunk_traces for trace in chunk)
+        return [m for chunk in results if chunk is not None for m in chunk]

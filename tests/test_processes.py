@@ -1,0 +1,97 @@
+"""The process evaluator (docs/DESIGN.md §14): two real spawned worker processes give the local
+threads' results to the bit, in order, with progress and traces; a cancel stops it; a killed
+worker is a clear error and the next call runs on new processes."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+
+import numpy as np
+import pytest
+
+from app.core.batch import BatchEvaluator, Cancelled
+from app.core.evaluation import Job, evaluator_for, same_results
+from app.core.metrics import Trace
+from app.core.processes import ProcessEvaluator, WorkerDied
+from app.core.robot import RobotModel
+from app.core.variations import parse_variation
+from app.params.presets import builtin_presets
+from gait import Motion
+
+pytestmark = pytest.mark.slow
+ROBOT = RobotModel.load()
+TUNED = builtin_presets()["tuned"].gait
+
+
+def jobs(n: int) -> list[Job]:
+    motions = (Motion(a_p=0.07), Motion(a_r=0.1), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1))
+    return [
+        Job(TUNED, motions[i % 4], variation=parse_variation(f"friction={0.5 + 0.04 * i:.2f}"))
+        for i in range(n)
+    ]
+
+
+@pytest.fixture(scope="module")
+def workers():
+    evaluator = evaluator_for(ROBOT, processes=2)
+    assert isinstance(evaluator, ProcessEvaluator)
+    with evaluator:
+        yield evaluator
+
+
+def test_two_processes_give_the_threads_results_to_the_bit(workers):
+    runs = jobs(6)
+    seen: list[int] = []
+    found: list[int] = []
+    traces: list[Trace] = []
+    local_traces: list[Trace] = []
+    here = workers.evaluate(
+        runs,
+        duration_s=3.0,
+        warmup_s=1.0,
+        progress=lambda d, n: seen.append(d),
+        traces=traces,
+        on_result=lambda i, m: found.append(i),
+    )
+    local = BatchEvaluator(ROBOT, threads=2).evaluate(
+        runs, duration_s=3.0, warmup_s=1.0, traces=local_traces
+    )
+    assert same_results(here, local)
+    assert len({m["forward_cm_s"] for m in here}) == 6  # six different runs, in job order
+    for a, b in zip(traces, local_traces, strict=True):
+        assert np.array_equal(a.x_m, b.x_m) and np.array_equal(a.yaw_rad, b.yaw_rad)
+    assert seen == sorted(seen) and seen[-1] == 6 and sorted(found) == list(range(6))
+    assert workers.task_size(6) == 3  # both processes get a share of a small call
+
+
+def test_a_cancel_stops_the_evaluation(workers):
+    cancel = threading.Event()
+
+    def progress(done: int, _total: int) -> None:
+        cancel.set()
+
+    with pytest.raises(Cancelled, match="cancelled after"):
+        workers.evaluate(
+            jobs(12), duration_s=3.0, warmup_s=1.0, progress=progress, cancel=cancel
+        )  # fmt: skip
+
+
+def test_a_killed_worker_is_a_clear_error_and_the_next_call_runs():
+    with ProcessEvaluator(ROBOT, 2, runs_per_task=1) as evaluator:
+        evaluator.evaluate(jobs(2), duration_s=0.5, warmup_s=0.2)  # the processes are up
+        pids = list(evaluator._pool._processes)
+        killed = threading.Event()
+
+        def progress(done: int, _total: int) -> None:
+            if not killed.is_set():
+                killed.set()
+                os.kill(pids[0], signal.SIGKILL)
+
+        with pytest.raises(WorkerDied, match="a worker process ended after"):
+            evaluator.evaluate(jobs(8), duration_s=3.0, warmup_s=1.0, progress=progress)
+        again = evaluator.evaluate(jobs(2), duration_s=1.0, warmup_s=0.2)
+        assert same_results(
+            again, BatchEvaluator(ROBOT).evaluate(jobs(2), duration_s=1.0, warmup_s=0.2)
+        )
