@@ -261,3 +261,12 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
         assert trial.value == pytest.approx(nominal + robust["cvar25"])
     # a poor gait fails some varied runs: the margins are not all zero
     assert any(t.user_attrs["metrics"]["robust"]["cvar25"] > 0 for t in trials)
+    # bench/robust_frontier.py reads the same store: a table of the frontier and its plot
+    png = tmp_path / "frontier.png"
+    drawn = subprocess.run(
+        [sys.executable, "bench/robust_frontier.py", str(tmp_path / "study.log"),
+         "--png", str(png)],
+        cwd=ROOT, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert drawn.returncode == 0, drawn.stderr
+    assert drawn.stdout.startswith("4 candidates") and png.stat().st_size > 10_000
