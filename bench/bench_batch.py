@@ -41,6 +41,24 @@ CEILING_GOAL = 0.95  # end to end, of N raw processes at once
 CPU_GOAL = 0.9  # steps per CPU second, of raw's
 
 
+def cpu_times() -> list[int] | None:
+    """The machine's CPU time counters (/proc/stat: user nice system idle iowait irq softirq
+    steal ...), or None where there is no /proc."""
+    try:
+        with open("/proc/stat") as stat:
+            return [int(x) for x in stat.readline().split()[1:]]
+    except OSError:
+        return None
+
+
+def steal_share(before: list[int] | None, after: list[int] | None) -> float | None:
+    """The share of the CPU time the hypervisor gave to others in between (0 on bare metal)."""
+    if before is None or after is None or len(before) < 8:
+        return None
+    delta = [b - a for a, b in zip(before, after, strict=True)]
+    return delta[7] / max(1, sum(delta[:8]))
+
+
 def walks(runs: int, varied: bool = False) -> list[Job]:
     worlds = sample(VariationRanges(), runs, seed=0) if varied else [NOMINAL] * runs
     return [
@@ -117,7 +135,7 @@ def main() -> None:
     n_threads = os.cpu_count() or 1
     kinds = {"nominal": walks(args.runs), "varied": walks(args.runs, varied=True)}
     frames = round(args.seconds / 0.02)
-    load_before = os.getloadavg()[0]
+    load_before, counters_before = os.getloadavg()[0], cpu_times()
     raw, raw_cpu, raw_parallel = [], [], []
     evaluators = {k: BatchEvaluator(threads=n_threads) for k in kinds}
     batch: dict[str, list[tuple[float, float, float]]] = {k: [] for k in kinds}
@@ -136,6 +154,7 @@ def main() -> None:
             batch[kind].append(batch_steps_per_s(evaluators[kind], jobs, args.seconds))
             in_processes[kind].append(processes_steps_per_s(workers, jobs, args.seconds))
     workers.close()
+    steal = steal_share(counters_before, cpu_times())
     raw_m, raw_cpu_m = statistics.median(raw), statistics.median(raw_cpu)
     ceiling = statistics.median(raw_parallel)
 
@@ -146,6 +165,7 @@ def main() -> None:
         f"{args.runs} walks of {args.seconds:g} s (a_p = 0.07, CA -0.1..0.1), "
         f"{args.repeats} repeats, medians; {n_threads} CPU(s), load average before "
         f"{load_before:.2f}, after {os.getloadavg()[0]:.2f}"
+        + ("" if steal is None else f"; CPU time stolen by the hypervisor {100 * steal:.1f} %")
     )
     print(f"raw mj_step, 1 thread (C loop): {raw_m:8.0f} steps/s wall, {raw_cpu_m:8.0f} per CPU s")
     print(f"raw mj_step, {n_threads} processes at once (the ceiling): {ceiling:8.0f} steps/s")

@@ -53,3 +53,15 @@ def test_bad_options_are_refused_with_what_is_allowed():
     not_a_number = run_script("bench/ca_phases.py", "--set", "swing.v=fast")
     assert not_a_number.returncode != 0
     assert "'fast' is not a number" in not_a_number.stderr
+
+
+def test_robust_factors_tries_each_departure_alone():
+    done = run_script(
+        "bench/robust_factors.py", "--presets", "tuned", "--duration", "3", "--warmup", "1"
+    )
+    assert done.returncode == 0, done.stderr
+    rows = [line for line in done.stdout.splitlines() if re.search(r" \d/9$", line)]
+    # 16 ends of 11 fields' ranges that depart from the model, 4 tilts, 2 calibrations
+    assert len(rows) == 22, done.stdout
+    assert rows[0].startswith("friction 0.4") and "downhill behind" in rows[18]
+    assert all(len(r[34:].split()) >= 10 for r in rows)  # nine cells and the pass count

@@ -1,0 +1,89 @@
+"""Which single departure from the model breaks a gait (docs/DESIGN.md §13): each variation
+field alone at the ends of its default range (the tilt downhill in four directions, the
+calibration error on every joint at once, both signs), every case of `artro bench robust`, and
+whether it passes by `bench robust`'s rule, with the run's figure as a share of the nominal one.
+
+    python bench/robust_factors.py [--presets paper,tuned] [--duration 20]
+
+The random draws of `bench robust` mix ten departures at once; this shows what each one alone
+costs, which is where a robust gait has to give something up.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+
+from app.core.batch import BatchEvaluator, Job
+from app.core.robustness import ROBUST_CASES, _figure, passes
+from app.core.variations import NOMINAL, Variation, VariationRanges
+from app.params.document import load_parameter_set
+from app.params.presets import builtin_presets
+from gait import JOINT_NAMES
+
+
+def one_factor_worlds(ranges: VariationRanges | None = None) -> list[Variation]:
+    """Every field alone at each end of its range that departs from the model."""
+    ranges = ranges or VariationRanges()
+    worlds = []
+    for f in dataclasses.fields(Variation):
+        if f.name in ("tilt_direction_deg", "tilt_deg", "calibration_deg"):
+            continue
+        for end in getattr(ranges, f.name):
+            if end != (0.7 if f.name == "friction" else f.default):
+                worlds.append(dataclasses.replace(NOMINAL, **{f.name: end}))
+    tilt = ranges.tilt_deg[1]
+    worlds += [Variation(tilt_deg=tilt, tilt_direction_deg=d) for d in (0.0, 90.0, 180.0, 270.0)]
+    for end in ranges.calibration_deg:
+        worlds.append(Variation(calibration_deg=(end,) * len(JOINT_NAMES)))
+    return worlds
+
+
+def label(world: Variation) -> str:
+    if world.tilt_deg:
+        downhill = {0.0: "ahead", 90.0: "left", 180.0: "behind", 270.0: "right"}
+        return f"tilt {world.tilt_deg:g}°, downhill {downhill[world.tilt_direction_deg]}"
+    if any(world.calibration_deg):
+        return f"calibration {world.calibration_deg[0]:+g}° on every joint"
+    return world.to_text().replace("=", " ")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--presets", default="paper,tuned", help="built-in names or files")
+    parser.add_argument("--duration", type=float, default=20.0)
+    parser.add_argument("--warmup", type=float, default=4.0)
+    args = parser.parse_args()
+    shelf = builtin_presets()
+    worlds = one_factor_worlds()
+    evaluator = BatchEvaluator()
+    short = ["spot", "fwd", "bwd", "side R", "side L", "turn CW", "turn CCW", "CA+", "CA-"]
+    for name in [n.strip() for n in args.presets.split(",") if n.strip()]:
+        gait = (shelf[name] if name in shelf else load_parameter_set(name)).gait
+        jobs = [Job(gait, c.motion, variation=w) for w in [NOMINAL, *worlds] for c in ROBUST_CASES]
+        metrics = evaluator.evaluate(jobs, duration_s=args.duration, warmup_s=args.warmup)
+        n = len(ROBUST_CASES)
+        nominal = metrics[:n]
+        print(f"\n{name}: each departure alone; a cell is the run's figure as a share of the")
+        print("nominal one (the spot: its drift in cm/s), x = does not pass, F = falls")
+        print(f"{'':34s}" + "".join(f"{s:>9s}" for s in short) + "   pass")
+        for k, world in enumerate(worlds):
+            runs = metrics[(k + 1) * n : (k + 2) * n]
+            cells, passed = [], 0
+            for case, m, home in zip(ROBUST_CASES, runs, nominal, strict=True):
+                ok = passes(case, m, home)
+                passed += ok
+                value, goal = _figure(case, m), _figure(case, home)
+                if m["fell"]:
+                    cells.append("F")
+                elif value is None or goal is None:
+                    cells.append("-")
+                elif case.kind == "spot":
+                    cells.append(f"{value:.2f}" + ("" if ok else " x"))
+                else:
+                    cells.append(f"{value / goal:.2f}" + ("" if ok else " x"))
+            print(f"{label(world):34s}" + "".join(f"{c:>9s}" for c in cells) + f"   {passed}/{n}")
+
+
+if __name__ == "__main__":
+    main()
