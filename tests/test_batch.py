@@ -91,3 +91,30 @@ def test_a_blown_up_frame_ends_the_run_unsampled():
     clean, whole = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, steps, 0.1)
     assert not clean["fell"] and len(whole.t_s) == 50
     assert whole.x_m[:10] == trace.x_m and whole.feet_distance_m[:10] == trace.feet_distance_m
+
+
+def test_reused_output_arrays_change_no_result():
+    """The rollout writes into two kept arrays in turn: a call of many chunks, calls of other
+    lengths in between, and one run per call all give the same metrics and traces."""
+    from app.core.evaluation import same_results
+    from app.core.variations import VariationRanges, sample
+
+    worlds = sample(VariationRanges(), 19, seed=5)
+    jobs = [Job(GaitParams(), Motion(a_p=0.07, ca=0.01 * (i % 5)), variation=w)
+            for i, w in enumerate(worlds)]  # fmt: skip
+    evaluator = BatchEvaluator(threads=2)
+    traces: list = []
+    together = evaluator.evaluate(jobs, duration_s=1.5, warmup_s=0.5, traces=traces)
+    evaluator.evaluate(jobs[:3], duration_s=0.7, warmup_s=0.2)  # other lengths in between
+    alone_traces: list = []
+    alone = [
+        BatchEvaluator(threads=1).evaluate([j], duration_s=1.5, warmup_s=0.5, traces=alone_traces)[
+            0
+        ]
+        for j in jobs[::6]
+    ]
+    again = evaluator.evaluate(jobs, duration_s=1.5, warmup_s=0.5)
+    assert same_results(together, again) and same_results(together[::6], alone)
+    for a, b in zip(traces[::6], alone_traces, strict=True):
+        assert np.array_equal(a.x_m, b.x_m) and np.array_equal(a.gyro_rad_s, b.gyro_rad_s)
+    assert len({m["forward_cm_s"] for m in together}) > 10

@@ -124,6 +124,10 @@ class BatchEvaluator:
         self.threads = threads or min(os.cpu_count() or 1, 8)
         self._datas = [mujoco.MjData(self.model) for _ in range(self.threads)]
         self._varied_cache: dict[Variation, RobotModel] = {}  # the planner thread's alone
+        #: the rollout's output arrays, two (one is rolled into while the other is measured),
+        #: kept and reused: on this project's VM, fresh arrays of 32 MB per call (their page
+        #: faults, two threads faulting in one process) cost the rollout ~5 % (DESIGN §14)
+        self._outputs: list[tuple[np.ndarray, np.ndarray]] = []
         #: seconds spent per stage since creation (the planner and the measurer overlap the
         #: rollout in a worker thread; bench/bench_batch.py reports them)
         self.stage_s = {"plan": 0.0, "rollout": 0.0, "measure": 0.0}
@@ -168,10 +172,12 @@ class BatchEvaluator:
                 sims, starts, controls, initial, models = planned.result()
                 if index + 1 < len(chunks):
                     planned = worker.submit(self._plan, chunks[index + 1], n_frames)
+                state_out, sensor_out = self._output(index % 2, len(chunk), controls.shape[1])
                 t0 = time.perf_counter()
                 states, sensors = rollout.rollout(
-                    models, self._datas[: len(chunk)], initial, controls
-                )
+                    models, self._datas[: len(chunk)], initial, controls,
+                    state=state_out, sensordata=sensor_out,
+                )  # fmt: skip
                 wall = time.perf_counter() - t0
                 self.stage_s["rollout"] += wall
                 if measuring is not None:
@@ -187,6 +193,20 @@ class BatchEvaluator:
                 if progress is not None:
                     progress(len(results), len(jobs))
         return results
+
+    def _output(self, slot: int, runs: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """Output arrays for `runs` rollouts of `steps` steps in `slot` (0 or 1), grown when a
+        call needs more steps, else reused (what the measurer keeps of them is copied out)."""
+        while len(self._outputs) <= slot:
+            self._outputs.append((np.empty((0, 0, 0)), np.empty((0, 0, 0))))
+        state, sensors = self._outputs[slot]
+        if state.shape[1] != steps or state.shape[0] < runs:
+            spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+            size = max(runs, min(RUNS_PER_CALL, state.shape[0]))
+            state = np.empty((size, steps, mujoco.mj_stateSize(self.model, spec)))
+            sensors = np.empty((size, steps, self.model.nsensordata))
+            self._outputs[slot] = (state, sensors)
+        return state[:runs], sensors[:runs]
 
     def _varied(self, variation: Variation) -> RobotModel:
         if variation.is_nominal:
