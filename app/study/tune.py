@@ -22,8 +22,8 @@ import numpy as np
 from app.core.batch import BatchEvaluator, Job
 from app.core.evaluation import Evaluator, evaluator_for
 from app.core.robot import RobotModel
-from app.core.robustness import ROBUST_CASES, RobustCase, pass_margin_loss, passes
-from app.core.variations import NOMINAL, Variation, VariationRanges, sample
+from app.core.robustness import ROBUST_CASES, pass_margin_loss, passes
+from app.core.variations import Variation, VariationRanges, sample
 from app.params.document import ParameterSet
 from app.params.presets import stamped, write_parameter_set
 from app.study.cases import (
@@ -186,9 +186,17 @@ class Tuner:
         """Loss and runs of each candidate; `done(i, loss, metrics)` as soon as candidate i's
         runs are all finished (the study store keeps it then)."""
         sets = [with_values(self.base.gait, self.dims, u) for u in candidates]
-        worlds: list[Variation] = [NOMINAL, *self.variations(self.generation)]
-        per = len(self.runs) * len(worlds)
-        jobs = [Job(p, m, variation=v) for p in sets for v in worlds for _n, m in self.runs]
+        worlds = self.variations(self.generation)
+        varied = self.robust_runs()  # in a varied world only what the robust term judges
+        per = len(self.runs) + len(worlds) * len(varied)
+        jobs = [
+            job
+            for p in sets
+            for job in (
+                *(Job(p, m) for _n, m in self.runs),
+                *(Job(p, m, variation=v) for v in worlds for _n, m in varied),
+            )
+        ]
         started = time.monotonic()
         finished: dict[int, dict[int, Any]] = {}
         out: list[tuple[float, dict[str, dict[str, Any]]] | None] = [None] * len(sets)
@@ -219,29 +227,33 @@ class Tuner:
         return out  # type: ignore[return-value]
 
     def score(self, runs: list[dict[str, Any]]) -> tuple[float, dict[str, Any]]:
-        """A candidate's loss from its runs (nominal first, then each world's): the paper loss
+        """A candidate's loss from its runs (every judged run on the nominal model, then each
+        world's `robust_runs`, world by world): the paper loss
         on the nominal model, plus with --robust the mean of the worst quarter of its worlds'
         pass-margin losses (CVaR at 25 %: a gait is judged by the worlds it handles worst, not
         by its luck), times the robust weight. A world's pass-margin loss sums, over the
         robustness report's cases, how far each run is from passing with room
         (`pass_margin_loss`): in a varied world the goal is to walk, not the paper's speed."""
         n = len(self.runs)
-        by_world = [
-            {name: m for (name, _), m in zip(self.runs, runs[k : k + n], strict=True)}
-            for k in range(0, len(runs), n)
-        ]
-        nominal = total_loss(by_world[0], self.duration_s, self.weights)
-        stored: dict[str, Any] = {"nominal": by_world[0]}
-        if len(by_world) == 1:
+        home = {name: m for (name, _), m in zip(self.runs, runs[:n], strict=True)}
+        nominal = total_loss(home, self.duration_s, self.weights)
+        stored: dict[str, Any] = {"nominal": home}
+        if len(runs) == n:
             return nominal, stored
-        cases = [(c, self._run_of(c)) for c in ROBUST_CASES if self._run_of(c) is not None]
-        home = by_world[0]
+        judged = self.robust_runs()
+        cases = [next(c for c in ROBUST_CASES if c.motion == m) for _n, m in judged]
+        worlds = [runs[k : k + len(judged)] for k in range(n, len(runs), len(judged))]
         varied = [
-            sum(pass_margin_loss(c, world[name], home[name]) for c, name in cases)
-            for world in by_world[1:]
+            sum(
+                pass_margin_loss(c, m, home[name])
+                for c, (name, _), m in zip(cases, judged, world, strict=True)
+            )
+            for world in worlds
         ]
         passed = sum(
-            passes(c, world[name], home[name]) for world in by_world[1:] for c, name in cases
+            passes(c, m, home[name])
+            for world in worlds
+            for c, (name, _), m in zip(cases, judged, world, strict=True)
         )
         tail = sorted(varied)[-max(1, math.ceil(len(varied) / 4)) :]
         cvar = float(np.mean(tail))
@@ -249,13 +261,15 @@ class Tuner:
             "losses": varied,
             "cvar25": cvar,
             "passed": passed,
-            "runs": len(cases) * len(varied),
+            "runs": len(cases) * len(worlds),
         }
         return nominal + self.robust_weight * cvar, stored
 
-    def _run_of(self, case: RobustCase) -> str | None:
-        """The tuner's run that walks a robustness case's motion."""
-        return next((name for name, motion in self.runs if motion == case.motion), None)
+    def robust_runs(self) -> list[tuple[str, Motion]]:
+        """The tuner's runs that walk a case of the robustness report (a tuner limited to
+        some cases walks only theirs): what each varied world is judged on."""
+        robust = {c.motion for c in ROBUST_CASES}
+        return [(name, motion) for name, motion in self.runs if motion in robust]
 
     def run(
         self,
