@@ -1,8 +1,9 @@
 """Evaluations in local worker processes (docs/DESIGN.md §14): the same `evaluate` as the local
-threads and the cluster, each process one MuJoCo thread. On this project's 2-core VM two MuJoCo
-threads in one process step ~15 % slower than two processes do; this is the executor that
-measures (and, where it holds, removes) that loss. The runs travel as plain data in chunks, as on
-a cluster (`app.core.cluster.evaluate_chunk`); each process compiles the robot once."""
+threads and the cluster, each process one MuJoCo thread. The rollout on two threads in one
+process measured ~15 % below two raw processes on this project's 2-core VM; this executor asks
+whether processes remove that loss (there, they do not: §14 has the numbers). The runs travel as
+plain data in chunks, as on a cluster (`app.core.cluster.evaluate_chunk`); each process compiles
+the robot once."""
 
 from __future__ import annotations
 
