@@ -229,8 +229,9 @@ class Tuner:
     def score(self, runs: list[dict[str, Any]]) -> tuple[float, dict[str, Any]]:
         """A candidate's loss from its runs (every judged run on the nominal model, then each
         world's `robust_runs`, world by world): the paper loss on the nominal model, plus with
-        --robust the mean of the worst quarter of its worlds' pass-margin losses (CVaR at 25 %: a gait is judged by the worlds it handles worst, not
-        by its luck), times the robust weight. A world's pass-margin loss sums, over the
+        --robust the mean of the worst quarter of its worlds' pass-margin losses (CVaR at
+        25 %: a gait is judged by the worlds it handles worst, not by its luck), times the
+        robust weight. A world's pass-margin loss sums, over the
         robustness report's cases, how far each run is from passing with room
         (`pass_margin_loss`): in a varied world the goal is to walk, not the paper's speed."""
         n = len(self.runs)
