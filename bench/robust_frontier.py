@@ -4,9 +4,13 @@ paper's table on the nominal model, with the goal lines (>= 90 % passing; within
 candidates no other beats on both (the frontier).
 
     python bench/robust_frontier.py out/tune/robust2.log [--png out/tune/frontier.png]
+        [--save TRIAL --out FILE]
 
 Prints the frontier as a table; the PNG draws every candidate, coloured by generation. The pass
-share here is over all cases of the study's worlds together (per case, `artro bench robust`).
+share here is over all cases of the study's worlds together, each generation on its own worlds
+(per case and on common worlds: `artro bench robust --presets FILE`). `--save` writes one
+trial's set as a parameter-set file (the study's base with the trial's values), to bench, steer
+(`artro calibrate-ca`) or load in the dashboard.
 """
 
 from __future__ import annotations
@@ -14,12 +18,16 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+import numpy as np
 import optuna
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from app.params.document import ParameterSet, load_parameter_set
+from app.params.presets import builtin_presets, stamped, write_parameter_set
 from app.study.cases import CASES, measured, target
 from app.study.study_store import DEFAULT_STUDY, open_storage
+from app.study.tune import dimensions, with_values
 
 PASS_GOAL = 0.9
 PAPER_TOLERANCE = 0.25
@@ -39,9 +47,34 @@ def worst_paper_error(nominal: dict) -> float:
     return worst
 
 
-def candidates(store: str) -> list[dict]:
+def load(store: str) -> optuna.Study:
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    study = optuna.load_study(study_name=DEFAULT_STUDY, storage=open_storage(Path(store)))
+    return optuna.load_study(study_name=DEFAULT_STUDY, storage=open_storage(Path(store)))
+
+
+def save_trial(study: optuna.Study, number: int, path: Path, base: str | None) -> ParameterSet:
+    """Trial `number`'s set: the study's base (a built-in name or a file; by default the name
+    the study recorded) with the trial's point, as a preset file named after the file."""
+    trial = next((t for t in study.get_trials() if t.number == number), None)
+    if trial is None or "unit" not in trial.user_attrs:
+        raise SystemExit(f"the study has no finished trial {number}")
+    settings = study.user_attrs["settings"]
+    base = base or settings["base"]
+    shelf = builtin_presets()
+    if base in shelf:
+        gait = shelf[base].gait
+    elif Path(base).is_file():
+        gait = load_parameter_set(base).gait
+    else:
+        raise SystemExit(f"the study's base {base!r} is no built-in preset: give it as --base FILE")
+    unit = np.array(trial.user_attrs["unit"], dtype=float)
+    tuned = with_values(gait, dimensions(settings["names"]), unit)
+    pset = stamped(ParameterSet(name=path.stem, gait=tuned), path.stem)
+    write_parameter_set(path, pset)
+    return pset
+
+
+def candidates(study: optuna.Study) -> list[dict]:
     out = []
     for trial in study.get_trials(states=(optuna.trial.TrialState.COMPLETE,)):
         metrics = trial.user_attrs["metrics"]
@@ -109,8 +142,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("store", help="the study store (journal file) of a tune --robust")
     parser.add_argument("--png", default="out/tune/frontier.png")
+    parser.add_argument("--save", type=int, metavar="TRIAL", help="write this trial's set")
+    parser.add_argument("--out", metavar="FILE", help="where --save writes (a .json file)")
+    parser.add_argument("--base", help="the study's base set, if not a built-in (for --save)")
     args = parser.parse_args()
-    rows = candidates(args.store)
+    if (args.save is None) != (args.out is None):
+        parser.error("--save TRIAL and --out FILE go together")
+    study = load(args.store)
+    if args.save is not None:
+        pset = save_trial(study, args.save, Path(args.out), args.base)
+        print(f"wrote trial {args.save} as {args.out} ('{pset.name}')")
+        return
+    rows = candidates(study)
     if not rows:
         raise SystemExit(f"{args.store} holds no tune --robust candidate with pass counts")
     front = frontier(rows)

@@ -270,3 +270,21 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
     )  # fmt: skip
     assert drawn.returncode == 0, drawn.stderr
     assert drawn.stdout.startswith("4 candidates") and png.stat().st_size > 10_000
+    # and writes a candidate as a parameter set: the POOR base with that trial's values
+    best = min(trials, key=lambda t: t.value)
+    saved = subprocess.run(
+        [sys.executable, "bench/robust_frontier.py", str(tmp_path / "study.log"),
+         "--save", str(best.number), "--out", str(tmp_path / "pick.json"),
+         "--base", str(tmp_path / "poor.json")],
+        cwd=ROOT, capture_output=True, text=True, timeout=300,
+    )  # fmt: skip
+    assert saved.returncode == 1  # the base file does not exist yet
+    assert "give it as --base FILE" in saved.stderr
+    write_parameter_set(tmp_path / "poor.json", POOR)
+    saved = subprocess.run(saved.args, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert saved.returncode == 0, saved.stderr
+    pick = load_parameter_set(tmp_path / "pick.json").gait
+    assert (pick.clock.freq_hz, pick.short.amp_base) == pytest.approx(
+        (best.params["clock.freq_hz"], best.params["short.amp_base"]), abs=1e-6
+    )
+    assert pick.leg == POOR.gait.leg  # untuned fields come from the base
