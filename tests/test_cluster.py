@@ -16,24 +16,13 @@ import pytest
 from app.core.batch import BatchEvaluator
 from app.core.cluster import ClusterError, ClusterEvaluator, evaluate_chunk
 from app.core.cluster_local import LoopbackCluster
-from app.core.evaluation import Job, job_to_dict, same_results
+from app.core.evaluation import job_to_dict, same_results
 from app.core.metrics import Trace
 from app.core.robot import RobotModel
-from app.core.variations import parse_variation
-from app.params.presets import builtin_presets
-from gait import Motion
+from tests.evaluation_support import varied_jobs
 
 pytestmark = pytest.mark.slow
 ROBOT = RobotModel.load()
-TUNED = builtin_presets()["tuned"].gait
-
-
-def jobs(n: int) -> list[Job]:
-    motions = (Motion(a_p=0.07), Motion(a_r=0.1), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1))
-    return [
-        Job(TUNED, motions[i % 4], variation=parse_variation(f"friction={0.5 + 0.04 * i:.2f}"))
-        for i in range(n)
-    ]
 
 
 @pytest.fixture
@@ -51,7 +40,7 @@ def connect(cluster: LoopbackCluster, workers: int = 2) -> ClusterEvaluator:
 def test_two_workers_give_the_local_results_to_the_bit(cluster):
     evaluator = connect(cluster)
     try:
-        runs = jobs(8)
+        runs = varied_jobs(8)
         seen: list[int] = []
         remote_traces: list[Trace] = []
         local_traces: list[Trace] = []
@@ -79,7 +68,7 @@ def test_two_workers_give_the_local_results_to_the_bit(cluster):
 
 def test_a_killed_worker_loses_no_result(cluster):
     evaluator = connect(cluster)
-    runs = jobs(12)
+    runs = varied_jobs(12)
     local = BatchEvaluator(ROBOT, threads=2).evaluate(runs, duration_s=4.0, warmup_s=1.0)
     first_result = threading.Event()
     victim = cluster.workers[0]
@@ -102,7 +91,7 @@ def test_a_worker_of_another_version_refuses_naming_both(cluster):
     evaluator = connect(cluster)
     try:
         future = evaluator.client.submit(
-            evaluate_chunk, "{}", [job_to_dict(jobs(1)[0])], 1.0, 0.0, "0.0.0-other"
+            evaluate_chunk, "{}", [job_to_dict(varied_jobs(1)[0])], 1.0, 0.0, "0.0.0-other"
         )
         with pytest.raises(
             ClusterError, match=r"this worker runs artro-gait-studio .+, the client 0\.0\.0-other"
@@ -118,7 +107,7 @@ def test_a_scheduler_that_goes_away_is_a_clear_error(cluster):
         cluster.scheduler.kill()
         cluster.scheduler.wait(30)
         with pytest.raises(ClusterError, match="went away"):
-            evaluator.evaluate(jobs(2), duration_s=2.0, warmup_s=0.0)
+            evaluator.evaluate(varied_jobs(2), duration_s=2.0, warmup_s=0.0)
     finally:
         evaluator.close()
 

@@ -12,25 +12,14 @@ import numpy as np
 import pytest
 
 from app.core.batch import BatchEvaluator, Cancelled
-from app.core.evaluation import Job, evaluator_for, same_results
+from app.core.evaluation import evaluator_for, same_results
 from app.core.metrics import Trace
 from app.core.processes import ProcessEvaluator, WorkerDied
 from app.core.robot import RobotModel
-from app.core.variations import parse_variation
-from app.params.presets import builtin_presets
-from gait import Motion
+from tests.evaluation_support import varied_jobs
 
 pytestmark = pytest.mark.slow
 ROBOT = RobotModel.load()
-TUNED = builtin_presets()["tuned"].gait
-
-
-def jobs(n: int) -> list[Job]:
-    motions = (Motion(a_p=0.07), Motion(a_r=0.1), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1))
-    return [
-        Job(TUNED, motions[i % 4], variation=parse_variation(f"friction={0.5 + 0.04 * i:.2f}"))
-        for i in range(n)
-    ]
 
 
 @pytest.fixture(scope="module")
@@ -42,7 +31,7 @@ def workers():
 
 
 def test_two_processes_give_the_threads_results_to_the_bit(workers):
-    runs = jobs(6)
+    runs = varied_jobs(6)
     seen: list[int] = []
     found: list[int] = []
     traces: list[Trace] = []
@@ -74,13 +63,13 @@ def test_a_cancel_stops_the_evaluation(workers):
 
     with pytest.raises(Cancelled, match="cancelled after"):
         workers.evaluate(
-            jobs(12), duration_s=3.0, warmup_s=1.0, progress=progress, cancel=cancel
+            varied_jobs(12), duration_s=3.0, warmup_s=1.0, progress=progress, cancel=cancel
         )  # fmt: skip
 
 
 def test_a_killed_worker_is_a_clear_error_and_the_next_call_runs():
     with ProcessEvaluator(ROBOT, 2, runs_per_task=1) as evaluator:
-        evaluator.evaluate(jobs(2), duration_s=0.5, warmup_s=0.2)  # the processes are up
+        evaluator.evaluate(varied_jobs(2), duration_s=0.5, warmup_s=0.2)  # the processes are up
         pids = list(evaluator._pool._processes)
         killed = threading.Event()
 
@@ -90,8 +79,8 @@ def test_a_killed_worker_is_a_clear_error_and_the_next_call_runs():
                 os.kill(pids[0], signal.SIGKILL)
 
         with pytest.raises(WorkerDied, match="a worker process ended after"):
-            evaluator.evaluate(jobs(8), duration_s=3.0, warmup_s=1.0, progress=progress)
-        again = evaluator.evaluate(jobs(2), duration_s=1.0, warmup_s=0.2)
+            evaluator.evaluate(varied_jobs(8), duration_s=3.0, warmup_s=1.0, progress=progress)
+        again = evaluator.evaluate(varied_jobs(2), duration_s=1.0, warmup_s=0.2)
         assert same_results(
-            again, BatchEvaluator(ROBOT).evaluate(jobs(2), duration_s=1.0, warmup_s=0.2)
+            again, BatchEvaluator(ROBOT).evaluate(varied_jobs(2), duration_s=1.0, warmup_s=0.2)
         )

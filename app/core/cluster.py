@@ -64,6 +64,54 @@ def evaluate_chunk(
     return metrics if traces is None else list(zip(metrics, traces, strict=True))
 
 
+class ChunkedRuns:
+    """The jobs of one `evaluate` call cut into chunks as plain data (what `evaluate_chunk`
+    takes), and their results as chunks come back in any order: `metrics` and `traces` in job
+    order, `on_result` and `progress` called as each chunk arrives. Shared by the executors that
+    send chunks away (a cluster, local processes)."""
+
+    def __init__(
+        self,
+        jobs: Sequence[Job],
+        size: int,
+        *,
+        with_traces: bool,
+        progress: Callable[[int, int], None] | None,
+        on_result: Callable[[int, RunMetrics], None] | None,
+    ) -> None:
+        from app.core.evaluation import job_to_dict
+
+        self.size, self.total, self.with_traces = size, len(jobs), with_traces
+        self.chunks = [
+            [job_to_dict(j) for j in jobs[i : i + size]] for i in range(0, len(jobs), size)
+        ]
+        self._metrics: list[list[RunMetrics]] = [[] for _ in self.chunks]
+        self._traces: list[list[Trace]] = [[] for _ in self.chunks]
+        self._progress, self._on_result = progress, on_result
+        self.done = 0
+
+    def arrived(self, i: int, result: list) -> None:
+        """Chunk i's result (metrics, or (metrics, trace) pairs with traces)."""
+        if self.with_traces:
+            self._traces[i] = [trace for _m, trace in result]
+            result = [metrics for metrics, _t in result]
+        self._metrics[i] = result
+        if self._on_result is not None:
+            for k, metrics in enumerate(result):
+                self._on_result(i * self.size + k, metrics)
+        self.done += len(result)
+        if self._progress is not None:
+            self._progress(self.done, self.total)
+
+    def cancelled(self) -> Cancelled:
+        return Cancelled(f"cancelled after {self.done} of {self.total} runs")
+
+    def results(self, traces: list[Trace] | None) -> list[RunMetrics]:
+        if traces is not None:
+            traces.extend(trace for chunk in self._traces for trace in chunk)
+        return [m for chunk in self._metrics for m in chunk]
+
+
 class ClusterEvaluator:
     """`Evaluator` on the Dask scheduler at `address`. A worker that dies loses no result: its
     tasks run again on another (Dask recomputes what a lost worker held); a scheduler that goes
@@ -119,10 +167,10 @@ class ClusterEvaluator:
         back too (one sample per frame: ~40 kB a minute of walking)."""
         from distributed import as_completed
 
-        from app.core.evaluation import job_to_dict
-
-        size = self.runs_per_task
-        chunks = [[job_to_dict(j) for j in jobs[i : i + size]] for i in range(0, len(jobs), size)]
+        runs = ChunkedRuns(
+            jobs, self.runs_per_task, with_traces=traces is not None, progress=progress,
+            on_result=on_result,
+        )  # fmt: skip
         version = project_version()
         try:
             futures = [
@@ -130,28 +178,14 @@ class ClusterEvaluator:
                     evaluate_chunk, self._robot_json, chunk, duration_s, warmup_s, version,
                     traces is not None, pure=False, retries=1,
                 )
-                for chunk in chunks
+                for chunk in runs.chunks
             ]  # fmt: skip
             index = {f.key: i for i, f in enumerate(futures)}
-            results: list[list[RunMetrics] | None] = [None] * len(chunks)
-            chunk_traces: list[list[Trace]] = [[] for _ in chunks]
-            done = 0
             for future in as_completed(futures, loop=self.client.loop):
                 if cancel is not None and cancel.is_set():
                     self.client.cancel(futures)
-                    raise Cancelled(f"cancelled after {done} of {len(jobs)} runs")
-                chunk_result = future.result()
-                if traces is not None:
-                    chunk_traces[index[future.key]] = [trace for _m, trace in chunk_result]
-                    chunk_result = [metrics for metrics, _t in chunk_result]
-                results[index[future.key]] = chunk_result
-                if on_result is not None:
-                    first = index[future.key] * size
-                    for k, metrics in enumerate(chunk_result):
-                        on_result(first + k, metrics)
-                done += len(chunk_result)
-                if progress is not None:
-                    progress(done, len(jobs))
+                    raise runs.cancelled()
+                runs.arrived(index[future.key], future.result())
         except (Cancelled, ClusterError):
             raise
         except (OSError, TimeoutError, CancelledError) as exc:  # Dask's, when it lost the line
@@ -159,6 +193,4 @@ class ClusterEvaluator:
                 f"the Dask scheduler at {self.address} went away ({type(exc).__name__}: {exc}); "
                 f"the runs not finished have no result"
             ) from exc
-        if traces is not None:
-            traces.extend(trace for chunk in chunk_traces for trace in chunk)
-        return [m for chunk in results if chunk is not None for m in chunk]
+        return runs.results(traces)

@@ -13,12 +13,12 @@ import multiprocessing
 import os
 import threading
 from collections.abc import Callable, Sequence
-from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 
 from app.assets import project_version
-from app.core.batch import Cancelled, Job
-from app.core.cluster import RUNS_PER_TASK, evaluate_chunk
+from app.core.batch import Job
+from app.core.cluster import RUNS_PER_TASK, ChunkedRuns, evaluate_chunk
 from app.core.metrics import RunMetrics, Trace
 from app.core.robot import RobotModel
 
@@ -76,51 +76,35 @@ class ProcessEvaluator:
         on_result: Callable[[int, RunMetrics], None] | None = None,
     ) -> list[RunMetrics]:
         """As `BatchEvaluator.evaluate`; runs under way when `cancel` is set are dropped."""
-        from app.core.evaluation import job_to_dict
-
-        size = self.task_size(len(jobs))
-        chunks = [[job_to_dict(j) for j in jobs[i : i + size]] for i in range(0, len(jobs), size)]
-        version, with_traces = project_version(), traces is not None
-        futures: dict[Future, int] = {}
-        results: list[list[RunMetrics] | None] = [None] * len(chunks)
-        chunk_traces: list[list[Trace]] = [[] for _ in chunks]
-        done = 0
+        runs = ChunkedRuns(
+            jobs, self.task_size(len(jobs)), with_traces=traces is not None, progress=progress,
+            on_result=on_result,
+        )  # fmt: skip
+        version = project_version()
         try:
-            for i, chunk in enumerate(chunks):
-                future = self._pool.submit(
+            futures = {
+                self._pool.submit(
                     evaluate_chunk, self._robot_json, chunk, duration_s, warmup_s, version,
-                    with_traces,
-                )  # fmt: skip
-                futures[future] = i
+                    traces is not None,
+                ): i
+                for i, chunk in enumerate(runs.chunks)
+            }  # fmt: skip
             pending = set(futures)
             while pending:
                 finished, pending = wait(pending, timeout=0.2, return_when=FIRST_COMPLETED)
                 for future in sorted(finished, key=futures.__getitem__):
                     if cancel is not None and cancel.is_set():
                         break
-                    i = futures[future]
-                    chunk_result = future.result()
-                    if with_traces:
-                        chunk_traces[i] = [trace for _m, trace in chunk_result]
-                        chunk_result = [metrics for metrics, _t in chunk_result]
-                    results[i] = chunk_result
-                    if on_result is not None:
-                        for k, metrics in enumerate(chunk_result):
-                            on_result(i * size + k, metrics)
-                    done += len(chunk_result)
-                    if progress is not None:
-                        progress(done, len(jobs))
+                    runs.arrived(futures[future], future.result())
                 if cancel is not None and cancel.is_set():
                     for future in pending:
                         future.cancel()
-                    raise Cancelled(f"cancelled after {done} of {len(jobs)} runs")
+                    raise runs.cancelled()
         except BrokenProcessPool as exc:
             self._pool.shutdown(wait=False, cancel_futures=True)
             self._pool = self._start_pool()  # the next call runs on new processes
             raise WorkerDied(
-                f"a worker process ended after {done} of {len(jobs)} runs ({exc}); the runs not "
-                f"finished have no result"
+                f"a worker process ended after {runs.done} of {len(jobs)} runs ({exc}); the runs "
+                f"not finished have no result"
             ) from exc
-        if traces is not None:
-            traces.extend(trace for chunk in chunk_traces for trace in chunk)
-        return [m for chunk in results if chunk is not None for m in chunk]
+        return runs.results(traces)
