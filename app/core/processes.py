@@ -1,9 +1,7 @@
 """Evaluations in local worker processes (docs/DESIGN.md §14): the same `evaluate` as the local
-threads and the cluster, each process one MuJoCo thread. The rollout on two threads in one
-process measured ~15 % below two raw processes on this project's 2-core VM; this executor asks
-whether processes remove that loss (there, they do not: §14 has the numbers). The runs travel as
-plain data in chunks, as on a cluster (`app.core.cluster.evaluate_chunk`); each process compiles
-the robot once."""
+threads and the cluster, each process one MuJoCo thread, the runs sent as a cluster's chunks
+(`app.core.cluster.evaluate_chunk`), the robot compiled once per process. It asks whether
+processes remove the loss of two MuJoCo threads in one process; on this VM they do not (§14)."""
 
 from __future__ import annotations
 
