@@ -125,8 +125,7 @@ class BatchEvaluator:
         self._datas = [mujoco.MjData(self.model) for _ in range(self.threads)]
         self._varied_cache: dict[Variation, RobotModel] = {}  # the planner thread's alone
         #: the rollout's output arrays, two (one is rolled into while the other is measured),
-        #: kept and reused: on this project's VM, fresh arrays of 32 MB per call (their page
-        #: faults, two threads faulting in one process) cost the rollout ~5 % (DESIGN §14)
+        #: kept and reused instead of 32 MB of fresh arrays per call to page-fault (DESIGN §14)
         self._outputs: list[tuple[np.ndarray, np.ndarray]] = []
         #: seconds spent per stage since creation (the planner and the measurer overlap the
         #: rollout in a worker thread; bench/bench_batch.py reports them)
