@@ -165,12 +165,14 @@ def test_periodic_in_the_trunk_phase(params: GaitParams, motion: Motion, phi: fl
 @settings(max_examples=30, deadline=None)
 @given(params=pfs_params(), motion=motions())
 def test_continuous(params: GaitParams, motion: Motion) -> None:
-    """No joint moves faster than its sines allow: |d/dphi| <= (1 + |CA|) * sum of amplitudes."""
+    """No joint moves faster than its sines allow: |d/dphi| <= (1 + |CA|) * sum of amplitudes
+    (a stride oscillator's amplitude is stride_gain times its motion component)."""
     phi = np.linspace(-np.pi, 3 * np.pi, 20_001)
     q = joint_angles(params, motion, phi)
     p = params.pfs
     amplitude = max(p.hip_pitch_a, p.ankle_pitch_a, p.knee_a, p.hip_roll_a, p.ankle_roll_a)
-    stride = max(abs(motion.a_p), abs(motion.a_r), 2 * 0.8)  # a_y,eff <= 0.3 + 1 * 0.5
+    # a_y,eff <= 0.3 + 1 * 0.5; the stride oscillators are stride_gain * a * sin(...)
+    stride = p.stride_gain * max(abs(motion.a_p), abs(motion.a_r), 2 * 0.8)
     bound = (1 + abs(motion.ca)) * (amplitude + stride) * (phi[1] - phi[0])
     assert np.abs(np.diff(q, axis=0)).max() <= bound * (1 + 1e-9)
 
