@@ -1,21 +1,20 @@
 """Benchmark: the batch evaluator's throughput against raw mj_step, nominal and with variations.
 
-Prints, for the same 10 s walks (a_p = 0.07, CA spread over -0.1..0.1):
-  - raw mj_step, one thread: the walk's set-points replayed with MuJoCo's own C loop,
-    mj_step(nstep=20) per frame with the frame's set-points written at its start (as the C-loop
-    variant of bench_pipeline.py), no Python between steps;
-  - BatchEvaluator.evaluate with N threads (N = os.cpu_count()), end to end (planning the gait
-    + hardware for every step, the rollout, measuring) and the rollout alone;
-  - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end
-    (does the loss of N MuJoCo threads in one process go away in N processes?);
-  - the machine's ceiling: N separate processes each running the raw C loop at the same time
-    (no Python threads, no shared MuJoCo data), in total;
-  - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw steps per CPU second;
-  - all of it once for nominal runs and once with every run on its own sampled variation
-    (a list of models in one rollout call, and the set-point path), and the seconds per stage
-    (planning, rollout, measuring; planning and measuring overlap the rollout).
-Steps per CPU second stay meaningful when other processes compete for the cores (the
-wall-clock ratio then only says how many were free).
+Prints, for the same 10 s walks (a_p = 0.07, CA spread over -0.1..0.1), once on the nominal
+model and once with every walk on its own sampled variation:
+  - the machine's ceiling: N processes (N = os.cpu_count()) at once, each replaying its share
+    of the very same walks with MuJoCo's own C loop -- each walk on its own (varied) model, the
+    control it ends each frame with written at the frame's start, mj_step(nstep=20), no Python
+    between steps -- in total, and raw's steps per CPU second;
+  - BatchEvaluator.evaluate with N lanes, end to end (planning the gait + hardware for every
+    step, the rollout, measuring), the rollout alone, and its steps per CPU second;
+  - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end;
+  - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw's steps per CPU second,
+    each repeat against the ceiling measured just before it; and the CPU seconds per stage.
+The varied models are built once before (a robust study reuses each for every case). Raw
+mj_step on one thread (4 nominal walks) shows what one core does. Steps per CPU second
+stay meaningful when other processes compete for the cores (the wall-clock ratio then only
+says how many were free).
 
     python bench/bench_batch.py [--seconds 10] [--runs 16] [--repeats 3]
 """
@@ -31,8 +30,8 @@ import time
 import mujoco
 import numpy as np
 
-from app.core.batch import BatchEvaluator, Job
-from app.core.frame_loop import FrameLoop, plan_frames
+from app.core.batch import BatchEvaluator, Job, control_sequence, start_of
+from app.core.frame_loop import FrameLoop
 from app.core.processes import ProcessEvaluator
 from app.core.variations import NOMINAL, VariationRanges, sample
 from gait import GaitParams, Motion
@@ -67,41 +66,49 @@ def walks(runs: int, varied: bool = False) -> list[Job]:
     ]
 
 
-def raw_steps_per_s(job: Job, frames: int, walks: int = 1) -> tuple[float, float]:
-    """Single thread: the walk's frame set-points, MuJoCo's C loop for the 20 steps of a frame,
-    `walks` times from the start (as much work as a share of one evaluate call).
+def replay_plan(job: Job, frames: int) -> tuple[FrameLoop, np.ndarray, np.ndarray]:
+    """The run's loop on its own (varied) model, its start state, and the control it ends each
+    frame with (latency, calibration and play included), for MuJoCo's C loop to replay."""
+    sim = FrameLoop(params=job.params, motion=job.motion, variation=job.variation)
+    start = start_of(sim)
+    ctrl = control_sequence(sim, start, frames, job.variation)
+    return sim, start.state, ctrl[sim.steps_per_frame - 1 :: sim.steps_per_frame]
 
-    Returns (steps per wall second, steps per CPU second of this process)."""
-    sim = FrameLoop(params=job.params, motion=job.motion)
-    plan = plan_frames(
-        job.params, job.motion, sim.hardware, sim.phase, frames, sim.steps_per_frame, sim.timestep_s
-    )
-    model, data, act, steps = sim.model, sim.data, sim.robot.actuator_ids, sim.steps_per_frame
-    spec = mujoco.mjtState.mjSTATE_INTEGRATION
-    start_state = np.empty(mujoco.mj_stateSize(model, spec))
-    mujoco.mj_getState(model, data, start_state, spec)
+
+def raw_replay(jobs: list[Job], frames: int) -> tuple[int, float, float]:
+    """Single thread: each run's frame controls, MuJoCo's C loop for the 20 steps of a frame
+    (mj_step(nstep=20), no Python between steps), on the run's own model from its start.
+
+    Returns (steps, wall seconds, CPU seconds of this process)."""
+    planned = [replay_plan(job, frames) for job in jobs]
+    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
     start, cpu_start = time.perf_counter(), time.process_time()
-    for _ in range(walks):
-        mujoco.mj_setState(model, data, start_state, spec)
+    for sim, state, ctrl in planned:
+        mujoco.mj_setState(sim.model, sim.data, state, spec)
         for k in range(frames):
-            data.ctrl[act] = plan.setpoint[k]
-            mujoco.mj_step(model, data, steps)
-    total = walks * frames * steps
-    return total / (time.perf_counter() - start), total / (time.process_time() - cpu_start)
+            sim.data.ctrl[:] = ctrl[k]
+            mujoco.mj_step(sim.model, sim.data, sim.steps_per_frame)
+    steps = sum(frames * sim.steps_per_frame for sim, _state, _ctrl in planned)
+    return steps, time.perf_counter() - start, time.process_time() - cpu_start
 
 
-def _raw_in_process(args: tuple[Job, int, int]) -> tuple[float, float]:
-    return raw_steps_per_s(*args)
+def _raw_in_process(args: tuple[list[Job], int]) -> tuple[int, float, float]:
+    return raw_replay(*args)
 
 
-def concurrent_raw_steps_per_s(job: Job, frames: int, processes: int, walks: int) -> float:
-    """Total steps/s of `processes` raw C loops running at once, one per process, each doing
-    `walks` walks (together as much work as one evaluate call)."""
+def concurrent_raw(jobs: list[Job], frames: int, processes: int) -> tuple[float, float]:
+    """The machine's ceiling for these runs: `processes` raw C loops at once, one per process,
+    each replaying its share of the runs (every `processes`-th).
+
+    Returns (total steps/s, the sum of each process's own rate; steps per CPU second)."""
     ctx = multiprocessing.get_context("spawn")
     with ctx.Pool(processes) as pool:
-        pool.map(_raw_in_process, [(job, 10, 1)] * processes)  # import and load the model first
-        results = pool.map(_raw_in_process, [(job, frames, walks)] * processes)
-    return sum(wall for wall, _cpu in results)
+        pool.map(_raw_in_process, [(jobs[:1], 2)] * processes)  # import and load the model first
+        shares = [(jobs[p::processes], frames) for p in range(processes)]
+        results = pool.map(_raw_in_process, shares)
+    rate = sum(steps / wall for steps, wall, _cpu in results)
+    per_cpu = sum(steps for steps, _w, _c in results) / sum(cpu for _s, _w, cpu in results)
+    return rate, per_cpu
 
 
 def batch_steps_per_s(
@@ -113,7 +120,8 @@ def batch_steps_per_s(
     start, cpu_start = time.perf_counter(), time.process_time()
     metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
-    rollout_wall = sum(m["wall_s"] for m in metrics)  # wall_s = a call's rollout time / its runs
+    lanes = min(evaluator.threads, len(jobs))
+    rollout_wall = sum(m["wall_s"] for m in metrics) / lanes  # wall_s: the run's own rollout
     total = steps_per_run * len(jobs)
     return total / wall, total / rollout_wall, total / cpu
 
@@ -136,27 +144,23 @@ def main() -> None:
     kinds = {"nominal": walks(args.runs), "varied": walks(args.runs, varied=True)}
     frames = round(args.seconds / 0.02)
     load_before, counters_before = os.getloadavg()[0], cpu_times()
-    raw, raw_cpu, raw_parallel = [], [], []
+    single: list[tuple[int, float, float]] = []
+    ceilings: dict[str, list[tuple[float, float]]] = {k: [] for k in kinds}
     evaluators = {k: BatchEvaluator(threads=n_threads) for k in kinds}
     batch: dict[str, list[tuple[float, float, float]]] = {k: [] for k in kinds}
     in_processes: dict[str, list[float]] = {k: [] for k in kinds}
     workers = ProcessEvaluator(processes=n_threads)
     workers.evaluate(kinds["varied"][:n_threads], duration_s=0.5, warmup_s=0.2)  # start, load
+    for kind, jobs in kinds.items():  # build the varied models once (a study reuses each)
+        evaluators[kind].evaluate(jobs, duration_s=0.1, warmup_s=0.0)
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike
-        trials = [raw_steps_per_s(j, frames) for j in kinds["nominal"][:4]]
-        raw.append(statistics.median(t[0] for t in trials))
-        raw_cpu.append(statistics.median(t[1] for t in trials))
-        share = max(1, args.runs // n_threads)  # each process: its share of a call's walks
-        raw_parallel.append(
-            concurrent_raw_steps_per_s(kinds["nominal"][0], frames, n_threads, share)
-        )
-        for kind, jobs in kinds.items():
+        single.append(raw_replay(kinds["nominal"][:4], frames))
+        for kind, jobs in kinds.items():  # the ceiling replays the very runs just before them
+            ceilings[kind].append(concurrent_raw(jobs, frames, n_threads))
             batch[kind].append(batch_steps_per_s(evaluators[kind], jobs, args.seconds))
             in_processes[kind].append(processes_steps_per_s(workers, jobs, args.seconds))
     workers.close()
     steal = steal_share(counters_before, cpu_times())
-    raw_m, raw_cpu_m = statistics.median(raw), statistics.median(raw_cpu)
-    ceiling = statistics.median(raw_parallel)
 
     print(
         f"model: artro (generated), timestep {evaluators['nominal'].model.opt.timestep * 1e3:g} ms"
@@ -167,22 +171,34 @@ def main() -> None:
         f"{load_before:.2f}, after {os.getloadavg()[0]:.2f}"
         + ("" if steal is None else f"; CPU time stolen by the hypervisor {100 * steal:.1f} %")
     )
-    print(f"raw mj_step, 1 thread (C loop): {raw_m:8.0f} steps/s wall, {raw_cpu_m:8.0f} per CPU s")
-    print(f"raw mj_step, {n_threads} processes at once (the ceiling): {ceiling:8.0f} steps/s")
+    wall_rate = statistics.median(steps / wall for steps, wall, _cpu in single)
+    cpu_rate = statistics.median(steps / cpu for steps, _wall, cpu in single)
+    print(
+        f"raw mj_step, 1 thread (C loop), 4 nominal walks: {wall_rate:8.0f} steps/s wall, "
+        f"{cpu_rate:8.0f} per CPU s"
+    )
     for kind, results in batch.items():
+        ceiling = statistics.median(rate for rate, _per_cpu in ceilings[kind])
+        raw_cpu = statistics.median(per_cpu for _rate, per_cpu in ceilings[kind])
+        print(
+            f"raw mj_step, {kind:7s}, the same walks in {n_threads} processes at once (the "
+            f"ceiling): {ceiling:8.0f} steps/s, {raw_cpu:8.0f} per CPU s"
+        )
         e2e, roll, per_cpu = (statistics.median(r[i] for r in results) for i in range(3))
         # side by side: each repeat's batch against the ceiling measured just before it
-        pairs = sorted(r[0] / c for r, c in zip(results, raw_parallel, strict=True))
+        pairs = sorted(r[0] / c[0] for r, c in zip(results, ceilings[kind], strict=True))
+        cpu_pairs = sorted(r[2] / c[1] for r, c in zip(results, ceilings[kind], strict=True))
         stages = evaluators[kind].stage_s
         per_stage = ", ".join(f"{k} {v / args.repeats:.2f} s" for k, v in stages.items())
         print(
             f"batch, {kind:7s}, {n_threads} threads: {e2e:8.0f} steps/s end to end = "
             f"{statistics.median(pairs):.3f} of the ceiling (repeats {pairs[0]:.3f}…"
-            f"{pairs[-1]:.3f}; goal >= {CEILING_GOAL}), rollout alone "
-            f"{roll:8.0f}; {per_cpu:8.0f} per CPU s = {per_cpu / raw_cpu_m:.3f} of raw "
-            f"(goal >= {CPU_GOAL}); per call: {per_stage}"
+            f"{pairs[-1]:.3f}; goal >= {CEILING_GOAL}), rollout alone {roll:8.0f}; "
+            f"{per_cpu:8.0f} per CPU s = {statistics.median(cpu_pairs):.3f} of raw's (repeats "
+            f"{cpu_pairs[0]:.3f}…{cpu_pairs[-1]:.3f}; goal >= {CPU_GOAL}); CPU s per call, all "
+            f"lanes: {per_stage}"
         )
-        pairs = sorted(p / c for p, c in zip(in_processes[kind], raw_parallel, strict=True))
+        pairs = sorted(p / c[0] for p, c in zip(in_processes[kind], ceilings[kind], strict=True))
         print(
             f"processes, {kind:7s}, {n_threads} x 1 thread: "
             f"{statistics.median(in_processes[kind]):8.0f} steps/s end to end = "

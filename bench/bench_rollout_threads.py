@@ -1,11 +1,12 @@
-"""Benchmark: where the batch evaluator loses against the machine's ceiling (docs/DESIGN.md §14).
+"""Benchmark: `mujoco.rollout` alone against the machine's ceiling (docs/DESIGN.md §14).
 
 The same planned walks (a_p = 0.07, CA spread over -0.1..0.1, 10 s) are stepped, interleaved
 in each repeat, by:
   - raw mj_step in a C loop, 1 process, and in N processes at once (the ceiling);
-  - `mujoco.rollout` alone (no planning, no measuring), with 1 thread and with N threads, the
-    latter once into fresh output arrays and once into arrays kept from call to call (as
-    `BatchEvaluator` does since session 8).
+  - one rollout call of all walks on 1 thread, and on N threads (MuJoCo's pool: a barrier at
+    the call's end, where the thread that finished first waits for the other);
+  - N lanes: N Python threads, each rolling out one walk per call (the GIL released) and taking
+    the next, as `BatchEvaluator` does since session 9.
 Each repeat prints rollout / raw side by side, so a machine whose speed drifts between repeats
 shows as spread rather than as a bias.
 
@@ -16,29 +17,58 @@ from __future__ import annotations
 
 import argparse
 import os
+import queue
 import statistics
+import threading
 import time
 
 import mujoco
-from bench_batch import concurrent_raw_steps_per_s, raw_steps_per_s, walks
+import numpy as np
+from bench_batch import concurrent_raw, raw_replay, walks
 from mujoco import rollout
 
-from app.core.batch import BatchEvaluator
+from app.core.batch import STATE_SPEC, BatchEvaluator
 
 FRAMES = 500  # 10 s
 
 
-def rollout_steps_per_s(
-    evaluator: BatchEvaluator, runs: int, threads: int, reuse: bool = False
-) -> float:
-    """Steps/s of one rollout call of `runs` planned walks on `threads` threads, into fresh
-    output arrays or (`reuse`) the evaluator's kept ones."""
-    _sims, _starts, controls, initial, models = evaluator._plan(walks(runs), FRAMES)
+def one_call(evaluator: BatchEvaluator, planned: tuple, threads: int) -> float:
+    """Steps/s of one rollout call of the planned walks on `threads` MuJoCo threads."""
+    _sims, _starts, controls, initial, models = planned
     datas = [mujoco.MjData(evaluator.model) for _ in range(threads)]
-    state, sensors = evaluator._output(0, runs, controls.shape[1]) if reuse else (None, None)
     start = time.perf_counter()
-    rollout.rollout(models, datas, initial, controls, state=state, sensordata=sensors)
-    return runs * controls.shape[1] / (time.perf_counter() - start)
+    rollout.rollout(models, datas, initial, controls)
+    return controls.shape[0] * controls.shape[1] / (time.perf_counter() - start)
+
+
+def lanes(evaluator: BatchEvaluator, planned: tuple, threads: int) -> float:
+    """Steps/s of `threads` Python threads taking one walk per rollout call from a queue."""
+    _sims, _starts, controls, initial, _models = planned
+    todo: queue.SimpleQueue[int] = queue.SimpleQueue()
+    for i in range(len(controls)):
+        todo.put(i)
+
+    def lane() -> None:
+        data = mujoco.MjData(evaluator.model)
+        out = np.empty((1, controls.shape[1], mujoco.mj_stateSize(evaluator.model, STATE_SPEC)))
+        sensors = np.empty((1, controls.shape[1], evaluator.model.nsensordata))
+        while True:
+            try:
+                i = todo.get_nowait()
+            except queue.Empty:
+                return
+            rollout.rollout(
+                evaluator.model, data, initial[i : i + 1], controls[i : i + 1],
+                state=out, sensordata=sensors,
+            )  # fmt: skip
+
+    workers = [threading.Thread(target=lane) for _ in range(threads)]
+    start = time.perf_counter()
+    for worker in workers:
+        worker.start()
+    for worker in workers:
+        worker.join()
+    return controls.shape[0] * controls.shape[1] / (time.perf_counter() - start)
 
 
 def main() -> None:
@@ -47,16 +77,16 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=8, help="walks per rollout call")
     args = parser.parse_args()
     n = os.cpu_count() or 1
-    evaluator, job = BatchEvaluator(threads=n), walks(1)[0]
-    reused = f"{n} threads, kept output arrays"
-    ratios: dict[str, list[float]] = {"1 thread": [], f"{n} threads": [], reused: []}
-    rollout_steps_per_s(evaluator, args.runs, n, reuse=True)  # the kept arrays exist from here
+    evaluator, jobs = BatchEvaluator(threads=n), walks(args.runs)
+    planned = evaluator._plan(jobs, FRAMES)
+    share = evaluator._plan(jobs[: max(1, args.runs // n)], FRAMES)
+    ratios: dict[str, list[float]] = {"1 thread": [], f"{n} threads": [], f"{n} lanes": []}
     for _ in range(args.repeats):
-        one = raw_steps_per_s(job, FRAMES, max(1, args.runs // n))[0]
-        ratios["1 thread"].append(rollout_steps_per_s(evaluator, max(1, args.runs // n), 1) / one)
-        ceiling = concurrent_raw_steps_per_s(job, FRAMES, n, max(1, args.runs // n))
-        ratios[f"{n} threads"].append(rollout_steps_per_s(evaluator, args.runs, n) / ceiling)
-        ratios[reused].append(rollout_steps_per_s(evaluator, args.runs, n, reuse=True) / ceiling)
+        steps, wall, _cpu = raw_replay(jobs[: max(1, args.runs // n)], FRAMES)
+        ratios["1 thread"].append(one_call(evaluator, share, 1) / (steps / wall))
+        ceiling, _per_cpu = concurrent_raw(jobs, FRAMES, n)
+        ratios[f"{n} threads"].append(one_call(evaluator, planned, n) / ceiling)
+        ratios[f"{n} lanes"].append(lanes(evaluator, planned, n) / ceiling)
     print(
         f"{args.runs} walks of 10 s, {args.repeats} repeats, load average {os.getloadavg()[0]:.2f}"
     )

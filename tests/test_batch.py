@@ -1,10 +1,12 @@
 """The batch evaluator gives exactly the numbers `artro run` gives."""
 
+import threading
+
 import numpy as np
 import pytest
 from mujoco import rollout
 
-from app.core.batch import BatchEvaluator, Job, control_sequence, start_of
+from app.core.batch import BatchEvaluator, Cancelled, Job, control_sequence, start_of
 from app.core.frame_loop import FrameLoop, plan_frames
 from app.core.headless import run
 from app.core.metrics import MOTION_METRICS
@@ -94,8 +96,8 @@ def test_a_blown_up_frame_ends_the_run_unsampled():
 
 
 def test_reused_output_arrays_change_no_result():
-    """The rollout writes into two kept arrays in turn: a call of many chunks, calls of other
-    lengths in between, and one run per call all give the same metrics and traces."""
+    """Each lane rolls out into arrays it keeps from run to run: a call of many runs, calls of
+    other lengths in between, and one run per evaluator all give the same metrics and traces."""
     from app.core.evaluation import same_results
     from app.core.variations import VariationRanges, sample
 
@@ -118,3 +120,20 @@ def test_reused_output_arrays_change_no_result():
     for a, b in zip(traces[::6], alone_traces, strict=True):
         assert np.array_equal(a.x_m, b.x_m) and np.array_equal(a.gyro_rad_s, b.gyro_rad_s)
     assert len({m["forward_cm_s"] for m in together}) > 10
+
+
+def test_a_cancel_stops_before_the_next_run_and_keeps_what_finished_in_order():
+    evaluator = BatchEvaluator(threads=2)
+    jobs = [Job(GaitParams(), Motion(a_p=0.01 * i)) for i in range(8)]
+    cancel, kept = threading.Event(), []
+
+    def on_result(index, metrics):
+        kept.append((index, metrics))
+        cancel.set()  # after the first result
+
+    with pytest.raises(Cancelled, match="cancelled after 1 of 8 runs"):
+        evaluator.evaluate(jobs, duration_s=0.4, warmup_s=0.1, cancel=cancel, on_result=on_result)
+    assert [index for index, _m in kept] == [0]
+    # the lanes gave their MjData and arrays back: the same evaluator runs on, to the same bits
+    again = evaluator.evaluate(jobs[:3], duration_s=0.4, warmup_s=0.1)
+    assert again[0]["forward_cm_s"] == kept[0][1]["forward_cm_s"]

@@ -282,6 +282,25 @@ def test_any_chunking_gives_the_same_output_to_the_bit(variation, seed, cuts):
     assert np.concatenate([frames(f) for f in np.split(x, 10)]).tobytes() == whole.tobytes()
 
 
+@settings(max_examples=40, deadline=None)
+@given(
+    width_deg=st.sampled_from([0.1, 1.0, 4.0]),
+    seed=st.integers(0, 2**32 - 1),
+    frames=st.integers(1, 12),
+)
+def test_the_play_equals_its_definition_applied_step_by_step_to_the_bit(width_deg, seed, frames):
+    """ServoPath works only at the steps where a command changes; the definition clips the
+    output into the band around the command at every step."""
+    x = piecewise_commands(np.random.default_rng(seed), frames=frames)
+    path = ServoPath(Variation(backlash_deg=width_deg), TIMESTEP_S, x[0])
+    half = 0.5 * math.radians(width_deg)
+    out, expected = x[0].copy(), np.empty_like(x)
+    for k, command in enumerate(x):
+        out = np.minimum(np.maximum(out, command - half), command + half)
+        expected[k] = out
+    assert path(x).tobytes() == expected.tobytes()
+
+
 # --- samples ----------------------------------------------------------------------------------
 
 

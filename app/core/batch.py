@@ -1,13 +1,14 @@
 """Batch evaluation of parameter sets with `mujoco.rollout`, metrics identical to `artro run`.
 
-The open-loop gait is planned up front and rolled out by MuJoCo's thread pool, many runs at once,
-with the frame loop's timing, fall test and metrics (docs/DESIGN.md §2, §6); see `BatchEvaluator`.
+The open-loop gait is planned up front and rolled out in C, a run at a time in a lane per core,
+with the frame loop's timing, fall test and metrics: `BatchEvaluator` (docs/DESIGN.md §6, §14).
 """
 
 from __future__ import annotations
 
 import math
 import os
+import queue
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -33,7 +34,6 @@ from app.core.variations import NOMINAL, Variation, varied_robot
 from gait import GaitParams, Motion
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
-RUNS_PER_CALL = 8  # bounds memory: a 60 s run's states take ~18 MB
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
 
 
@@ -101,21 +101,42 @@ def control_sequence(
     return ctrl
 
 
+class _LaneKit:
+    """What one lane needs at a time: an MjData of the robot's size and kept output arrays."""
+
+    def __init__(self, data: mujoco.MjData) -> None:
+        self.data = data
+        self._state = np.empty((1, 0, 0))
+        self._sensors = np.empty((1, 0, 0))
+
+    def output(self, steps: int, model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+        """(1, steps, state size) and (1, steps, sensors) arrays, grown when a run is longer."""
+        if self._state.shape[1] < steps:
+            size = mujoco.mj_stateSize(model, STATE_SPEC)
+            self._state = np.empty((1, steps, size))
+            self._sensors = np.empty((1, steps, model.nsensordata))
+        return self._state[:, :steps], self._sensors[:, :steps]
+
+
 class BatchEvaluator:
     """Evaluates many (parameters, motion) runs in parallel on one model.
 
     The gait is open loop: a run's servo set-points are a pure function of the parameters and time.
     So the whole run is planned up front (`plan_frames`, vectorised), turned into the control of
     every physics step -- each servo switching to its new set-point at its pulse's falling edge,
-    exactly as `FrameLoop` does (`control_sequence`) -- and rolled out by MuJoCo's C thread pool.
+    exactly as `FrameLoop` does (`control_sequence`) -- and rolled out by `mujoco.rollout` in C.
     The states are sampled once per 20 ms frame, in whole arrays (the distance between the feet
     from the model's sole-position sensors, no Python per frame), and measured with the same fall
     test and the same `compute_metrics` as `artro run`; a test checks both give the same numbers,
     to the bit.
 
+    Runs go to `threads` lanes: each lane plans a run, rolls it out (one MuJoCo thread, the GIL
+    released), measures it, and takes the next, so no lane waits for another at a call's end
+    (docs/DESIGN.md §14). A run of a varied robot rolls out on its varied model.
+
     Args:
         robot: the model (default: the built-in one).
-        threads: rollout threads (default: the CPU count, at most 8).
+        threads: lanes, each one MuJoCo thread (default: the CPU count, at most 8).
     """
 
     def __init__(self, robot: RobotModel | None = None, threads: int | None = None) -> None:
@@ -123,12 +144,15 @@ class BatchEvaluator:
         self.model = self.robot.model
         self.threads = threads or min(os.cpu_count() or 1, 8)
         self._datas = [mujoco.MjData(self.model) for _ in range(self.threads)]
-        self._varied_cache: dict[Variation, RobotModel] = {}  # the planner thread's alone
-        #: the rollout's output arrays, two (one is rolled into while the other is measured),
-        #: kept and reused instead of 32 MB of fresh arrays per call to page-fault (DESIGN §14)
-        self._outputs: list[tuple[np.ndarray, np.ndarray]] = []
-        #: seconds spent per stage since creation (the planner and the measurer overlap the
-        #: rollout in a worker thread; bench/bench_batch.py reports them)
+        #: one lane's kit at a time: its MjData and its kept rollout output arrays (a run's
+        #: states, reused run after run rather than fresh arrays to page-fault, DESIGN §14)
+        self._kits: queue.SimpleQueue[_LaneKit] = queue.SimpleQueue()
+        for data in self._datas:
+            self._kits.put(_LaneKit(data))
+        self._lock = threading.Lock()  # guards the varied-model cache and stage_s
+        self._varied_cache: dict[Variation, RobotModel] = {}
+        #: seconds spent per stage since creation, summed over the lanes (bench/bench_batch.py
+        #: reports them)
         self.stage_s = {"plan": 0.0, "rollout": 0.0, "measure": 0.0}
 
     def evaluate(
@@ -149,121 +173,90 @@ class BatchEvaluator:
             jobs: the runs; each starts standing at the frame loop's start phase.
             duration_s: simulated time per run in s (a fall ends a run early, `fell` says so).
             warmup_s: the first seconds, left out of the motion metrics.
-            progress: called with (runs done, runs in all) after each chunk.
+            progress: called with (runs done, runs in all) after each run, in job order.
             traces: if given, each run's `Trace` is appended to it, in job order.
-            cancel: when set, the evaluation stops before its next chunk: Cancelled.
-            on_result: called with (job index, metrics) as each run's result is known, so a
-                caller can keep what finished before a crash or a cancel.
+            cancel: when set, no further run starts (those under way finish): Cancelled.
+            on_result: called with (job index, metrics) as each run's result is known, in job
+                order, so a caller can keep what finished before a crash or a cancel.
 
-        Runs go to MuJoCo in chunks; while one chunk rolls out (MuJoCo's threads, no GIL), a
-        Python worker plans the next chunk and measures the previous one.
+        The callbacks are called in the calling thread.
         """
         n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
-        chunks = [jobs[i : i + RUNS_PER_CALL] for i in range(0, len(jobs), RUNS_PER_CALL)]
         results: list[RunMetrics] = []
-        with ThreadPoolExecutor(max_workers=1) as worker:
-            planned = worker.submit(self._plan, chunks[0], n_frames) if chunks else None
-            measuring = None
-            for index, chunk in enumerate(chunks):
-                assert planned is not None
+        if not jobs:
+            return results
+        pool = ThreadPoolExecutor(max_workers=min(self.threads, len(jobs)))
+        try:
+            runs = [pool.submit(self._run, job, n_frames, warmup_s) for job in jobs]
+            for run in runs:
                 if cancel is not None and cancel.is_set():
                     raise Cancelled(f"cancelled after {len(results)} of {len(jobs)} runs")
-                sims, starts, controls, initial, models = planned.result()
-                if index + 1 < len(chunks):
-                    planned = worker.submit(self._plan, chunks[index + 1], n_frames)
-                state_out, sensor_out = self._output(index % 2, len(chunk), controls.shape[1])
-                t0 = time.perf_counter()
-                states, sensors = rollout.rollout(
-                    models, self._datas[: len(chunk)], initial, controls,
-                    state=state_out, sensordata=sensor_out,
-                )  # fmt: skip
-                wall = time.perf_counter() - t0
-                self.stage_s["rollout"] += wall
-                if measuring is not None:
-                    self._collect(measuring.result(), results, traces, on_result)
-                    if progress is not None:
-                        progress(len(results), len(jobs))
-                measuring = worker.submit(
-                    self._measure_chunk, chunk, sims, starts, states, sensors, n_frames, wall,
-                    warmup_s,
-                )  # fmt: skip
-            if measuring is not None:
-                self._collect(measuring.result(), results, traces, on_result)
+                self._collect([run.result()], results, traces, on_result)
                 if progress is not None:
                     progress(len(results), len(jobs))
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
         return results
 
-    def _output(self, slot: int, runs: int, steps: int) -> tuple[np.ndarray, np.ndarray]:
-        """Output arrays for `runs` rollouts of `steps` steps in `slot` (0 or 1), grown when a
-        call needs more steps, else reused (what the measurer keeps of them is copied out)."""
-        while len(self._outputs) <= slot:
-            self._outputs.append((np.empty((0, 0, 0)), np.empty((0, 0, 0))))
-        state, sensors = self._outputs[slot]
-        if state.shape[1] != steps or state.shape[0] < runs:
-            spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
-            size = max(runs, min(RUNS_PER_CALL, state.shape[0]))
-            state = np.empty((size, steps, mujoco.mj_stateSize(self.model, spec)))
-            sensors = np.empty((size, steps, self.model.nsensordata))
-            self._outputs[slot] = (state, sensors)
-        return state[:runs], sensors[:runs]
+    def _run(self, job: Job, n_frames: int, warmup_s: float) -> tuple[RunMetrics, Trace]:
+        """One run in a lane: plan, roll out into the lane's kept arrays, measure."""
+        t0 = time.perf_counter()
+        sim, start, control = self._plan_run(job, n_frames)
+        t1 = time.perf_counter()
+        kit = self._kits.get()
+        try:
+            state_out, sensor_out = kit.output(control.shape[0], self.model)
+            rollout.rollout(
+                sim.model, kit.data, start.state[None, :], control[None, :, :],
+                state=state_out, sensordata=sensor_out,
+            )  # fmt: skip
+            t2 = time.perf_counter()
+            metrics, trace = self._measure(
+                state_out[0], sensor_out[0], start, job, n_frames, sim.steps_per_frame, warmup_s
+            )
+        finally:
+            self._kits.put(kit)
+        t3 = time.perf_counter()
+        metrics["wall_s"] = t2 - t1
+        metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
+        with self._lock:
+            self.stage_s["plan"] += t1 - t0
+            self.stage_s["rollout"] += t2 - t1
+            self.stage_s["measure"] += t3 - t2
+        return metrics, trace
 
     def _varied(self, variation: Variation) -> RobotModel:
         if variation.is_nominal:
             return self.robot
-        if variation not in self._varied_cache:
-            if len(self._varied_cache) >= VARIED_CACHE:
-                self._varied_cache.pop(next(iter(self._varied_cache)))
-            self._varied_cache[variation] = varied_robot(self.robot, variation)
-        return self._varied_cache[variation]
+        with self._lock:
+            if variation not in self._varied_cache:
+                if len(self._varied_cache) >= VARIED_CACHE:
+                    self._varied_cache.pop(next(iter(self._varied_cache)))
+                self._varied_cache[variation] = varied_robot(self.robot, variation)
+            return self._varied_cache[variation]
+
+    def _plan_run(self, job: Job, n_frames: int) -> tuple[FrameLoop, Start, np.ndarray]:
+        """A run's loop (on its varied model), start and control of every physics step."""
+        sim = FrameLoop(
+            self._varied(job.variation), job.params, job.motion, start_motion=job.start_motion
+        )
+        start = start_of(sim)
+        return sim, start, control_sequence(sim, start, n_frames, job.variation)
 
     def _plan(
         self, chunk: Sequence[Job], n_frames: int
     ) -> tuple[
         list[FrameLoop], list[Start], np.ndarray, np.ndarray, mujoco.MjModel | list[mujoco.MjModel]
     ]:
-        """The chunk's loops, starts, controls and initial states, and its model: one for a
-        chunk of nominal runs, else one per run, so runs that differ only in model values share
-        one rollout call (docs/DESIGN.md §13)."""
-        t0 = time.perf_counter()
-        sims = [
-            FrameLoop(self._varied(j.variation), j.params, j.motion, start_motion=j.start_motion)
-            for j in chunk
-        ]
-        starts = [start_of(s) for s in sims]
-        controls = np.stack(
-            [
-                control_sequence(s, st, n_frames, j.variation)
-                for s, st, j in zip(sims, starts, chunk, strict=True)
-            ]
-        )
+        """Several runs planned for one `rollout` call (tests and benches): their loops, starts,
+        controls, initial states, and model -- one for nominal runs, else one per run."""
+        planned = [self._plan_run(job, n_frames) for job in chunk]
+        sims = [sim for sim, _start, _control in planned]
+        starts = [start for _sim, start, _control in planned]
+        controls = np.stack([control for _sim, _start, control in planned])
         nominal = all(j.variation.is_nominal for j in chunk)
         models = self.model if nominal else [s.model for s in sims]
-        initial = np.stack([st.state for st in starts])
-        self.stage_s["plan"] += time.perf_counter() - t0
-        return sims, starts, controls, initial, models
-
-    def _measure_chunk(
-        self,
-        chunk: Sequence[Job],
-        sims: list[FrameLoop],
-        starts: list[Start],
-        states: np.ndarray,
-        sensors: np.ndarray,
-        n_frames: int,
-        wall_s: float,
-        warmup_s: float,
-    ) -> list[tuple[RunMetrics, Trace]]:
-        t0 = time.perf_counter()
-        out = []
-        for i, job in enumerate(chunk):
-            metrics, trace = self._measure(
-                states[i], sensors[i], starts[i], job, n_frames, sims[i].steps_per_frame, warmup_s
-            )
-            metrics["wall_s"] = wall_s / len(chunk)
-            metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
-            out.append((metrics, trace))
-        self.stage_s["measure"] += time.perf_counter() - t0
-        return out
+        return sims, starts, controls, np.stack([st.state for st in starts]), models
 
     @staticmethod
     def _collect(
