@@ -113,17 +113,32 @@ def concurrent_raw(jobs: list[Job], frames: int, processes: int) -> tuple[float,
 
 def batch_steps_per_s(
     evaluator: BatchEvaluator, jobs: list[Job], seconds: float
-) -> tuple[float, float, float]:
-    """One evaluate call: steps per wall second end to end and for the rollout alone, and
-    steps per CPU second of this process (all its threads) end to end."""
+) -> tuple[float, float, float, float]:
+    """One evaluate call: steps per wall second end to end and for the rollout alone, steps
+    per CPU second of this process (all its threads) end to end, and the share of the call
+    the lanes were busy (planning, rolling out or measuring; the rest is the call's tail)."""
     steps_per_run = round(seconds / evaluator.robot.model.opt.timestep)
+    stages_before = sum(evaluator.stage_s.values())
     start, cpu_start = time.perf_counter(), time.process_time()
     metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
     lanes = min(evaluator.threads, len(jobs))
     rollout_wall = sum(m["wall_s"] for m in metrics) / lanes  # wall_s: the run's own rollout
+    busy = (sum(evaluator.stage_s.values()) - stages_before) / (lanes * wall)
     total = steps_per_run * len(jobs)
-    return total / wall, total / rollout_wall, total / cpu
+    return total / wall, total / rollout_wall, total / cpu, busy
+
+
+def planning_alone_ms(jobs: list[Job], seconds: float) -> float:
+    """Planning one run, ms, in one thread with nothing else running (against what it costs
+    in a lane beside another, the stage seconds)."""
+    evaluator, frames = BatchEvaluator(threads=1), round(seconds / 0.02)
+    for job in jobs:  # the varied models are built outside the timing
+        evaluator._varied(job.variation)
+    start = time.perf_counter()
+    for job in jobs:
+        evaluator._plan_run(job, frames)
+    return 1e3 * (time.perf_counter() - start) / len(jobs)
 
 
 def processes_steps_per_s(evaluator: ProcessEvaluator, jobs: list[Job], seconds: float) -> float:
@@ -147,12 +162,13 @@ def main() -> None:
     single: list[tuple[int, float, float]] = []
     ceilings: dict[str, list[tuple[float, float]]] = {k: [] for k in kinds}
     evaluators = {k: BatchEvaluator(threads=n_threads) for k in kinds}
-    batch: dict[str, list[tuple[float, float, float]]] = {k: [] for k in kinds}
+    batch: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in kinds}
     in_processes: dict[str, list[float]] = {k: [] for k in kinds}
     workers = ProcessEvaluator(processes=n_threads)
     workers.evaluate(kinds["varied"][:n_threads], duration_s=0.5, warmup_s=0.2)  # start, load
     for kind, jobs in kinds.items():  # build the varied models once (a study reuses each)
         evaluators[kind].evaluate(jobs, duration_s=0.1, warmup_s=0.0)
+        evaluators[kind].stage_s = dict.fromkeys(evaluators[kind].stage_s, 0.0)
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike
         single.append(raw_replay(kinds["nominal"][:4], frames))
         for kind, jobs in kinds.items():  # the ceiling replays the very runs just before them
@@ -184,19 +200,22 @@ def main() -> None:
             f"raw mj_step, {kind:7s}, the same walks in {n_threads} processes at once (the "
             f"ceiling): {ceiling:8.0f} steps/s, {raw_cpu:8.0f} per CPU s"
         )
-        e2e, roll, per_cpu = (statistics.median(r[i] for r in results) for i in range(3))
+        e2e, roll, per_cpu, busy = (statistics.median(r[i] for r in results) for i in range(4))
         # side by side: each repeat's batch against the ceiling measured just before it
         pairs = sorted(r[0] / c[0] for r, c in zip(results, ceilings[kind], strict=True))
         cpu_pairs = sorted(r[2] / c[1] for r, c in zip(results, ceilings[kind], strict=True))
-        stages = evaluators[kind].stage_s
-        per_stage = ", ".join(f"{k} {v / args.repeats:.2f} s" for k, v in stages.items())
+        runs = args.repeats * len(kinds[kind])
+        per_run = ", ".join(
+            f"{k} {1e3 * v / runs:.1f} ms" for k, v in evaluators[kind].stage_s.items()
+        )
         print(
             f"batch, {kind:7s}, {n_threads} threads: {e2e:8.0f} steps/s end to end = "
             f"{statistics.median(pairs):.3f} of the ceiling (repeats {pairs[0]:.3f}…"
             f"{pairs[-1]:.3f}; goal >= {CEILING_GOAL}), rollout alone {roll:8.0f}; "
             f"{per_cpu:8.0f} per CPU s = {statistics.median(cpu_pairs):.3f} of raw's (repeats "
-            f"{cpu_pairs[0]:.3f}…{cpu_pairs[-1]:.3f}; goal >= {CPU_GOAL}); CPU s per call, all "
-            f"lanes: {per_stage}"
+            f"{cpu_pairs[0]:.3f}…{cpu_pairs[-1]:.3f}; goal >= {CPU_GOAL}); per run in a lane: "
+            f"{per_run}; planning alone {planning_alone_ms(kinds[kind], args.seconds):.1f} ms; "
+            f"lanes busy {100 * busy:.1f} % of the call"
         )
         pairs = sorted(p / c[0] for p, c in zip(in_processes[kind], ceilings[kind], strict=True))
         print(

@@ -1,4 +1,4 @@
-"""The CA experiments in bench/ run end to end on the real model and refuse bad options clearly."""
+"""The experiments and benchmarks in bench/ run end to end on the real model; bad options are refused."""
 
 import re
 import subprocess
@@ -65,3 +65,23 @@ def test_robust_factors_tries_each_departure_alone():
     assert len(rows) == 22, done.stdout
     assert rows[0].startswith("friction 0.4") and "downhill behind" in rows[18]
     assert all(len(r[34:].split()) >= 10 for r in rows)  # nine cells and the pass count
+
+
+def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs():
+    done = run_script("bench/bench_batch.py", "--seconds", "0.4", "--runs", "2", "--repeats", "1")
+    assert done.returncode == 0, done.stderr
+    for kind in ("nominal", "varied"):
+        ceiling = re.search(
+            rf"raw mj_step, {kind} *, the same walks in \d+ processes at once \(the ceiling\): +"
+            r"(\d+) steps/s, +(\d+) per CPU s",
+            done.stdout,
+        )
+        assert ceiling and int(ceiling[1]) > 0 and int(ceiling[2]) > 0, done.stdout
+        batch = re.search(
+            rf"batch, {kind} *, \d+ threads: +\d+ steps/s end to end = (\d\.\d+) of the ceiling"
+            r".* = (\d\.\d+) of raw's .*plan (\d+\.\d) ms.*lanes busy (\d+\.\d) % of the call",
+            done.stdout,
+        )
+        assert batch, done.stdout
+        assert 0 < float(batch[1]) < 2 and 0 < float(batch[2]) < 2 and float(batch[3]) > 0
+        assert 0 < float(batch[4]) <= 100
