@@ -1,4 +1,4 @@
-"""The experiments and benchmarks in bench/ run end to end on the real model; bad options are refused."""
+"""The experiments and benchmarks in bench/ run end to end on the real model; bad options fail."""
 
 import re
 import subprocess
