@@ -1,7 +1,10 @@
-"""Runs the executor tests share: `tuned` walking four ways on floors of rising friction, so
-every run differs and a result out of order shows."""
+"""Runs the executor tests share -- `tuned` walking four ways on floors of rising friction, so
+every run differs and a result out of order shows -- and their trace comparison."""
+
+import numpy as np
 
 from app.core.evaluation import Job
+from app.core.metrics import Trace
 from app.core.variations import parse_variation
 from app.params.presets import builtin_presets
 from gait import Motion
@@ -15,3 +18,14 @@ def varied_jobs(n: int) -> list[Job]:
         Job(TUNED, MOTIONS[i % 4], variation=parse_variation(f"friction={0.5 + 0.04 * i:.2f}"))
         for i in range(n)
     ]
+
+
+TRACE_FIELDS = ("t_s", "x_m", "y_m", "yaw_rad", "gyro_rad_s", "feet_distance_m")
+
+
+def assert_same_traces(got: list[Trace], local: list[Trace]) -> None:
+    """Every field of every trace equals the local threads' to the bit, in job order."""
+    assert len(got) == len(local)
+    for a, b in zip(got, local, strict=True):
+        for name in TRACE_FIELDS:
+            assert np.array_equal(getattr(a, name), getattr(b, name)), name

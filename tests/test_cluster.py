@@ -10,7 +10,6 @@ import signal
 import threading
 from collections.abc import Iterator
 
-import numpy as np
 import pytest
 
 from app.core.batch import BatchEvaluator
@@ -19,7 +18,7 @@ from app.core.cluster_local import LoopbackCluster
 from app.core.evaluation import job_to_dict, same_results
 from app.core.metrics import Trace
 from app.core.robot import RobotModel
-from tests.evaluation_support import varied_jobs
+from tests.evaluation_support import assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow
 ROBOT = RobotModel.load()
@@ -56,10 +55,8 @@ def test_two_workers_give_the_local_results_to_the_bit(cluster):
         )
         assert same_results(remote, local)
         # the trunk paths come back too (`bench paper --cluster` draws them), in job order
-        assert len(remote_traces) == len(local_traces) == 8
-        for a, b in zip(remote_traces, local_traces, strict=True):
-            for name in ("t_s", "x_m", "y_m", "yaw_rad", "gyro_rad_s", "feet_distance_m"):
-                assert np.array_equal(getattr(a, name), getattr(b, name)), name
+        assert len(remote_traces) == 8
+        assert_same_traces(remote_traces, local_traces)
         assert seen == sorted(seen) and seen[-1] == 8
         assert len({m["forward_cm_s"] for m in remote}) == 8  # eight different runs came back
     finally:

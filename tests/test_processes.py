@@ -8,7 +8,6 @@ import os
 import signal
 import threading
 
-import numpy as np
 import pytest
 
 from app.core.batch import BatchEvaluator, Cancelled
@@ -16,7 +15,7 @@ from app.core.evaluation import evaluator_for, same_results
 from app.core.metrics import Trace
 from app.core.processes import ProcessEvaluator, WorkerDied
 from app.core.robot import RobotModel
-from tests.evaluation_support import varied_jobs
+from tests.evaluation_support import assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow
 ROBOT = RobotModel.load()
@@ -49,8 +48,7 @@ def test_two_processes_give_the_threads_results_to_the_bit(workers):
     )
     assert same_results(here, local)
     assert len({m["forward_cm_s"] for m in here}) == 6  # six different runs, in job order
-    for a, b in zip(traces, local_traces, strict=True):
-        assert np.array_equal(a.x_m, b.x_m) and np.array_equal(a.yaw_rad, b.yaw_rad)
+    assert_same_traces(traces, local_traces)
     assert seen == sorted(seen) and seen[-1] == 6 and sorted(found) == list(range(6))
     assert workers.task_size(6) == 3  # both processes get a share of a small call
 
