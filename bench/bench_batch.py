@@ -30,8 +30,7 @@ import time
 import mujoco
 import numpy as np
 
-from app.core.batch import BatchEvaluator, Job, control_sequence, start_of
-from app.core.frame_loop import FrameLoop
+from app.core.batch import STATE_SPEC, BatchEvaluator, Job
 from app.core.processes import ProcessEvaluator
 from app.core.variations import NOMINAL, VariationRanges, sample
 from gait import GaitParams, Motion
@@ -66,29 +65,22 @@ def walks(runs: int, varied: bool = False) -> list[Job]:
     ]
 
 
-def replay_plan(job: Job, frames: int) -> tuple[FrameLoop, np.ndarray, np.ndarray]:
-    """The run's loop on its own (varied) model, its start state, and the control it ends each
-    frame with (latency, calibration and play included), for MuJoCo's C loop to replay."""
-    sim = FrameLoop(params=job.params, motion=job.motion, variation=job.variation)
-    start = start_of(sim)
-    ctrl = control_sequence(sim, start, frames, job.variation)
-    return sim, start.state, ctrl[sim.steps_per_frame - 1 :: sim.steps_per_frame]
-
-
 def raw_replay(jobs: list[Job], frames: int) -> tuple[int, float, float]:
-    """Single thread: each run's frame controls, MuJoCo's C loop for the 20 steps of a frame
-    (mj_step(nstep=20), no Python between steps), on the run's own model from its start.
+    """Single thread: each run planned as the evaluator plans it (on its own varied model,
+    latency, calibration and play included), then replayed by MuJoCo's C loop -- the control
+    it ends each frame with, mj_step(nstep=20), no Python between steps -- from its start.
 
     Returns (steps, wall seconds, CPU seconds of this process)."""
-    planned = [replay_plan(job, frames) for job in jobs]
-    spec = mujoco.mjtState.mjSTATE_FULLPHYSICS
+    planner = BatchEvaluator(threads=1)
+    planned = [planner._plan_run(job, frames) for job in jobs]
     start, cpu_start = time.perf_counter(), time.process_time()
-    for sim, state, ctrl in planned:
-        mujoco.mj_setState(sim.model, sim.data, state, spec)
+    for sim, begin, ctrl in planned:
+        mujoco.mj_setState(sim.model, sim.data, begin.state, STATE_SPEC)
+        per_frame = ctrl[sim.steps_per_frame - 1 :: sim.steps_per_frame]
         for k in range(frames):
-            sim.data.ctrl[:] = ctrl[k]
+            sim.data.ctrl[:] = per_frame[k]
             mujoco.mj_step(sim.model, sim.data, sim.steps_per_frame)
-    steps = sum(frames * sim.steps_per_frame for sim, _state, _ctrl in planned)
+    steps = sum(frames * sim.steps_per_frame for sim, _begin, _ctrl in planned)
     return steps, time.perf_counter() - start, time.process_time() - cpu_start
 
 

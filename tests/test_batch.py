@@ -4,7 +4,7 @@ import threading
 
 import numpy as np
 import pytest
-from mujoco import rollout
+from mujoco import MjData, rollout
 
 from app.core.batch import BatchEvaluator, Cancelled, Job, control_sequence, start_of
 from app.core.frame_loop import FrameLoop, plan_frames
@@ -82,7 +82,7 @@ def test_a_blown_up_frame_ends_the_run_unsampled():
     # blow-up leaves it: frames 1-10 are sampled, the run counts 11 frames, fell and blew up
     job = Job(GaitParams(), Motion(a_p=0.07))
     sims, starts, controls, initial, _models = EVALUATOR._plan([job], 50)
-    states, sensors = rollout.rollout(EVALUATOR.model, EVALUATOR._datas[:1], initial, controls)
+    states, sensors = rollout.rollout(EVALUATOR.model, MjData(EVALUATOR.model), initial, controls)
     steps = sims[0].steps_per_frame
     original = states[0, 11 * steps - 1, 3]  # time, then qpos: the trunk's height
     states[0, 11 * steps - 1, 3] = np.nan

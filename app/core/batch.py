@@ -104,17 +104,16 @@ def control_sequence(
 class _LaneKit:
     """What one lane needs at a time: an MjData of the robot's size and kept output arrays."""
 
-    def __init__(self, data: mujoco.MjData) -> None:
-        self.data = data
-        self._state = np.empty((1, 0, 0))
-        self._sensors = np.empty((1, 0, 0))
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.data = mujoco.MjData(model)
+        self._state = np.empty((1, 0, mujoco.mj_stateSize(model, STATE_SPEC)))
+        self._sensors = np.empty((1, 0, model.nsensordata))
 
-    def output(self, steps: int, model: mujoco.MjModel) -> tuple[np.ndarray, np.ndarray]:
+    def output(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
         """(1, steps, state size) and (1, steps, sensors) arrays, grown when a run is longer."""
         if self._state.shape[1] < steps:
-            size = mujoco.mj_stateSize(model, STATE_SPEC)
-            self._state = np.empty((1, steps, size))
-            self._sensors = np.empty((1, steps, model.nsensordata))
+            self._state = np.empty((1, steps, self._state.shape[2]))
+            self._sensors = np.empty((1, steps, self._sensors.shape[2]))
         return self._state[:, :steps], self._sensors[:, :steps]
 
 
@@ -143,12 +142,11 @@ class BatchEvaluator:
         self.robot = robot or RobotModel.load()
         self.model = self.robot.model
         self.threads = threads or min(os.cpu_count() or 1, 8)
-        self._datas = [mujoco.MjData(self.model) for _ in range(self.threads)]
         #: one lane's kit at a time: its MjData and its kept rollout output arrays (a run's
         #: states, reused run after run rather than fresh arrays to page-fault, DESIGN §14)
         self._kits: queue.SimpleQueue[_LaneKit] = queue.SimpleQueue()
-        for data in self._datas:
-            self._kits.put(_LaneKit(data))
+        for _ in range(self.threads):
+            self._kits.put(_LaneKit(self.model))
         self._lock = threading.Lock()  # guards the varied-model cache and stage_s
         self._varied_cache: dict[Variation, RobotModel] = {}
         #: seconds spent per stage since creation, summed over the lanes (bench/bench_batch.py
@@ -191,7 +189,12 @@ class BatchEvaluator:
             for run in runs:
                 if cancel is not None and cancel.is_set():
                     raise Cancelled(f"cancelled after {len(results)} of {len(jobs)} runs")
-                self._collect([run.result()], results, traces, on_result)
+                metrics, trace = run.result()
+                if on_result is not None:
+                    on_result(len(results), metrics)
+                results.append(metrics)
+                if traces is not None:
+                    traces.append(trace)
                 if progress is not None:
                     progress(len(results), len(jobs))
         finally:
@@ -205,7 +208,7 @@ class BatchEvaluator:
         t1 = time.perf_counter()
         kit = self._kits.get()
         try:
-            state_out, sensor_out = kit.output(control.shape[0], self.model)
+            state_out, sensor_out = kit.output(control.shape[0])
             rollout.rollout(
                 sim.model, kit.data, start.state[None, :], control[None, :, :],
                 state=state_out, sensordata=sensor_out,
@@ -257,20 +260,6 @@ class BatchEvaluator:
         nominal = all(j.variation.is_nominal for j in chunk)
         models = self.model if nominal else [s.model for s in sims]
         return sims, starts, controls, np.stack([st.state for st in starts]), models
-
-    @staticmethod
-    def _collect(
-        measured: list[tuple[RunMetrics, Trace]],
-        results: list[RunMetrics],
-        traces: list[Trace] | None,
-        on_result: Callable[[int, RunMetrics], None] | None = None,
-    ) -> None:
-        for metrics, trace in measured:
-            if on_result is not None:
-                on_result(len(results), metrics)
-            results.append(metrics)
-            if traces is not None:
-                traces.append(trace)
 
     def _measure(
         self,
