@@ -72,16 +72,17 @@ def raw_replay(jobs: list[Job], frames: int) -> tuple[int, float, float]:
 
     Returns (steps, wall seconds, CPU seconds of this process)."""
     planner = BatchEvaluator(threads=1)
-    planned = [planner._plan_run(job, frames) for job in jobs]
+    data, steps = mujoco.MjData(planner.model), planner.steps_per_frame
+    planned = [planner._plan_run(job, frames, data) for job in jobs]
     start, cpu_start = time.perf_counter(), time.process_time()
-    for sim, begin, ctrl in planned:
-        mujoco.mj_setState(sim.model, sim.data, begin.state, STATE_SPEC)
-        per_frame = ctrl[sim.steps_per_frame - 1 :: sim.steps_per_frame]
+    for robot, begin, ctrl in planned:
+        mujoco.mj_setState(robot.model, data, begin.state, STATE_SPEC)
+        per_frame = ctrl[steps - 1 :: steps]
         for k in range(frames):
-            sim.data.ctrl[:] = per_frame[k]
-            mujoco.mj_step(sim.model, sim.data, sim.steps_per_frame)
-    steps = sum(frames * sim.steps_per_frame for sim, _begin, _ctrl in planned)
-    return steps, time.perf_counter() - start, time.process_time() - cpu_start
+            data.ctrl[:] = per_frame[k]
+            mujoco.mj_step(robot.model, data, steps)
+    wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
+    return len(planned) * frames * steps, wall, cpu
 
 
 def _raw_in_process(args: tuple[list[Job], int]) -> tuple[int, float, float]:
@@ -125,11 +126,12 @@ def planning_alone_ms(jobs: list[Job], seconds: float) -> float:
     """Planning one run, ms, in one thread with nothing else running (against what it costs
     in a lane beside another, the stage seconds)."""
     evaluator, frames = BatchEvaluator(threads=1), round(seconds / 0.02)
+    data = mujoco.MjData(evaluator.model)
     for job in jobs:  # the varied models are built outside the timing
         evaluator._varied(job.variation)
     start = time.perf_counter()
     for job in jobs:
-        evaluator._plan_run(job, frames)
+        evaluator._plan_run(job, frames, data)
     return 1e3 * (time.perf_counter() - start) / len(jobs)
 
 

@@ -34,7 +34,7 @@ FRAMES = 500  # 10 s
 
 def one_call(evaluator: BatchEvaluator, planned: tuple, threads: int) -> float:
     """Steps/s of one rollout call of the planned walks on `threads` MuJoCo threads."""
-    _sims, _starts, controls, initial, models = planned
+    _starts, controls, initial, models = planned
     datas = [mujoco.MjData(evaluator.model) for _ in range(threads)]
     start = time.perf_counter()
     rollout.rollout(models, datas, initial, controls)
@@ -43,7 +43,7 @@ def one_call(evaluator: BatchEvaluator, planned: tuple, threads: int) -> float:
 
 def lanes(evaluator: BatchEvaluator, planned: tuple, threads: int) -> float:
     """Steps/s of `threads` Python threads taking one walk per rollout call from a queue."""
-    _sims, _starts, controls, initial, _models = planned
+    _starts, controls, initial, _models = planned
     todo: queue.SimpleQueue[int] = queue.SimpleQueue()
     for i in range(len(controls)):
         todo.put(i)

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from mujoco import MjData, rollout
 
-from app.core.batch import BatchEvaluator, Cancelled, Job, control_sequence, start_of
+from app.core.batch import BatchEvaluator, Cancelled, Job, control_sequence, start_at_rest
 from app.core.frame_loop import FrameLoop, plan_frames
 from app.core.headless import run
 from app.core.metrics import MOTION_METRICS
@@ -37,20 +37,17 @@ def test_a_fall_ends_the_measurement_as_in_artro_run():
 
 
 def test_the_control_switches_at_each_falling_edge():
-    sim = FrameLoop(motion=Motion(a_p=0.1, a_y=0.2))
-    start = start_of(sim)
-    frames = 5
-    ctrl = control_sequence(sim, start, frames).reshape(frames, sim.steps_per_frame, -1)
+    robot, motion = EVALUATOR.robot, Motion(a_p=0.1, a_y=0.2)
+    sim = FrameLoop(robot, motion=motion)
+    start = start_at_rest(robot, MjData(robot.model), sim.params, motion)
+    frames, steps = 5, sim.steps_per_frame
     plan = plan_frames(
-        sim.params,
-        sim.motion,
-        sim.hardware,
-        start.phase,
-        frames,
-        sim.steps_per_frame,
-        sim.timestep_s,
+        sim.params, sim.motion, sim.hardware, start.phase, frames, steps, sim.timestep_s
     )
+    ctrl = control_sequence(robot, start, plan).reshape(frames, steps, -1)
     act = sim.robot.actuator_ids
+    assert start.phase == sim.phase and start.standing_height_m == sim.standing_height_m
+    assert np.array_equal(start.ctrl, sim.data.ctrl)  # the frame loop's start, to the bit
     previous = start.ctrl[act]
     for k in range(frames):
         for servo, actuator in enumerate(act):
@@ -81,9 +78,9 @@ def test_a_blown_up_frame_ends_the_run_unsampled():
     # a real one-second rollout, then a NaN in the state after frame 11's last step, as a
     # blow-up leaves it: frames 1-10 are sampled, the run counts 11 frames, fell and blew up
     job = Job(GaitParams(), Motion(a_p=0.07))
-    sims, starts, controls, initial, _models = EVALUATOR._plan([job], 50)
+    starts, controls, initial, _models = EVALUATOR._plan([job], 50)
     states, sensors = rollout.rollout(EVALUATOR.model, MjData(EVALUATOR.model), initial, controls)
-    steps = sims[0].steps_per_frame
+    steps = EVALUATOR.steps_per_frame
     original = states[0, 11 * steps - 1, 3]  # time, then qpos: the trunk's height
     states[0, 11 * steps - 1, 3] = np.nan
     metrics, trace = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, steps, 0.1)

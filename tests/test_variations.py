@@ -15,7 +15,7 @@ from hypothesis import strategies as st
 
 from app.core.frame_loop import FrameLoop
 from app.core.robot import RobotModel
-from app.core.servo_path import ServoPath, latency_steps
+from app.core.servo_path import ServoPath, acting_setpoints, latency_steps
 from app.core.variations import (
     FIELDS,
     FRICTION_GEOMS,
@@ -299,6 +299,55 @@ def test_the_play_equals_its_definition_applied_step_by_step_to_the_bit(width_de
         out = np.minimum(np.maximum(out, command - half), command + half)
         expected[k] = out
     assert path(x).tobytes() == expected.tobytes()
+
+
+def sent_per_step(initial, setpoint, substep, steps):
+    """The step-level set-points the frame loop sends: in frame f each servo sends the last
+    frame's set-point until its substep, then frame f's (at step `steps`: never this frame)."""
+    out = np.empty((len(setpoint) * steps, 12))
+    previous = initial
+    for f, (value, at) in enumerate(zip(setpoint, substep, strict=True)):
+        local = np.arange(steps)[:, None]
+        out[f * steps : (f + 1) * steps] = np.where(local >= at, value, previous)
+        previous = value
+    return out
+
+
+@settings(max_examples=60, deadline=None)
+@given(
+    variation=path_parts,
+    seed=st.integers(0, 2**32 - 1),
+    frames=st.integers(1, 12),
+    edge_share=st.sampled_from([0.0, 0.2, 0.5]),
+)
+def test_acting_setpoints_from_frames_equal_the_path_of_every_step_to_the_bit(
+    variation, seed, frames, edge_share
+):
+    """The batch builds what the servos act on from each frame's switches; the path fed every
+    step gives the same bits -- frame-end switches (step 20) and repeated values included."""
+    rng = np.random.default_rng(seed)
+    initial = rng.uniform(-0.5, 0.5, 12)
+    setpoint = initial + np.cumsum(rng.choice([-0.05, -0.004, 0.0, 0.003, 0.06], (frames, 12)), 0)
+    substep = rng.integers(0, 20, (frames, 12))
+    edge = rng.random((frames, 12))
+    substep[edge < edge_share] = 20  # at the frame's end, often met by the next frame's step 0
+    substep[edge > 1.0 - edge_share] = 0
+    sent = sent_per_step(initial, setpoint, substep, 20)
+    expected = ServoPath(variation, TIMESTEP_S, initial)(sent)
+    got = acting_setpoints(variation, TIMESTEP_S, initial, setpoint, substep, 20)
+    assert got.shape == expected.shape
+    assert np.ascontiguousarray(got).tobytes() == expected.tobytes()
+
+
+def test_acting_setpoints_refuse_a_switch_outside_the_frame_and_a_wrong_shape():
+    with pytest.raises(ValueError, match=r"substep must lie in 0\.\.20"):
+        acting_setpoints(
+            NOMINAL, TIMESTEP_S, np.zeros(12), np.zeros((2, 12)), np.full((2, 12), 21), 20
+        )
+    with pytest.raises(ValueError, match=r"shape \(n, 12\)"):
+        acting_setpoints(
+            NOMINAL, TIMESTEP_S, np.zeros(12), np.zeros((2, 11)), np.zeros((2, 11)), 20
+        )
 
 
 # --- samples ----------------------------------------------------------------------------------

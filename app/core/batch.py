@@ -21,15 +21,18 @@ from mujoco import rollout
 
 from app.core.frame_loop import (
     FRAME_S,
-    FrameLoop,
+    START_PHASE_RAD,
+    FramePlan,
+    frame_steps,
     has_fallen,
     plan_frames,
     planar_distance_m,
-    trunk_yaw,
+    stand,
+    trunk_yaws,
 )
 from app.core.metrics import RunMetrics, Trace, compute_metrics
 from app.core.robot import RobotModel
-from app.core.servo_path import ServoPath
+from app.core.servo_path import acting_setpoints
 from app.core.variations import NOMINAL, Variation, varied_robot
 from gait import GaitParams, Motion
 
@@ -63,41 +66,37 @@ class Start:
     standing_height_m: float
 
 
-def start_of(sim: FrameLoop) -> Start:
-    """The rollout start of `sim` as it stands (freshly reset: standing in the gait's pose)."""
-    state = np.empty(mujoco.mj_stateSize(sim.model, STATE_SPEC))
-    mujoco.mj_getState(sim.model, sim.data, state, STATE_SPEC)
-    return Start(state, sim.data.ctrl.copy(), sim.phase, sim.standing_height_m)
+def start_at_rest(
+    robot: RobotModel, data: mujoco.MjData, params: GaitParams, motion: Motion
+) -> Start:
+    """The rollout start of a run, as `FrameLoop(robot, params, start_motion=motion)` stands
+    after its reset, made in `data` (which it overwrites)."""
+    phase = float(START_PHASE_RAD)
+    stand(robot, data, params, motion, phase)
+    state = np.empty(mujoco.mj_stateSize(robot.model, STATE_SPEC))
+    mujoco.mj_getState(robot.model, data, state, STATE_SPEC)
+    return Start(state, data.ctrl.copy(), phase, float(data.qpos[2]))
 
 
 def control_sequence(
-    sim: FrameLoop, start: Start, n_frames: int, variation: Variation = NOMINAL
+    robot: RobotModel, start: Start, plan: FramePlan, variation: Variation = NOMINAL
 ) -> np.ndarray:
-    """ctrl of every physics step (n_frames * steps_per_frame, nu), as the frame loop applies it,
-    through the variation's set-point path (latency, calibration, play)."""
-    steps = sim.steps_per_frame
-    plan = plan_frames(
-        sim.params,
-        sim.motion,
-        sim.hardware,
-        start.phase,
-        n_frames,
-        steps,
-        sim.timestep_s,
-        motion_now=sim.motion_now,
-        frame0=sim.frame_index,
-        geometry=sim.robot.geometry,
+    """ctrl of every physics step (frames * steps per frame, nu), as the frame loop applies it:
+    each servo switches to its frame's set-point at the step after its pulse's falling edge
+    (`plan.substep`), through the variation's set-point path (latency, calibration, play)."""
+    act = robot.actuator_ids
+    acting = acting_setpoints(
+        variation,
+        float(robot.model.opt.timestep),
+        start.ctrl[act],
+        plan.setpoint,
+        plan.substep,
+        frame_steps(robot.model),
     )
-    act = sim.robot.actuator_ids
-    previous = np.vstack([start.ctrl[act][None, :], plan.setpoint[:-1]])  # (n, 12)
-    switched = np.arange(steps)[None, :, None] >= plan.substep[:, None, :]  # (n, steps, 12)
-    servo_ctrl = np.where(switched, plan.setpoint[:, None, :], previous[:, None, :])
-    ctrl = np.broadcast_to(start.ctrl, (n_frames, steps, sim.model.nu)).copy()
-    ctrl[..., act] = servo_ctrl
-    ctrl = ctrl.reshape(n_frames * steps, sim.model.nu)
-    if not variation.is_nominal:
-        path = ServoPath(variation, sim.timestep_s, start.ctrl[act])
-        ctrl[:, act] = path(ctrl[:, act])
+    ctrl = np.empty((len(acting), robot.model.nu))
+    if len(act) < robot.model.nu:
+        ctrl[:] = start.ctrl
+    ctrl[:, act] = acting
     return ctrl
 
 
@@ -142,6 +141,7 @@ class BatchEvaluator:
         self.robot = robot or RobotModel.load()
         self.model = self.robot.model
         self.threads = threads or min(os.cpu_count() or 1, 8)
+        self.steps_per_frame = frame_steps(self.model)  # variations keep the timestep
         #: one lane's kit at a time: its MjData and its kept rollout output arrays (a run's
         #: states, reused run after run rather than fresh arrays to page-fault, DESIGN §14)
         self._kits: queue.SimpleQueue[_LaneKit] = queue.SimpleQueue()
@@ -202,20 +202,21 @@ class BatchEvaluator:
         return results
 
     def _run(self, job: Job, n_frames: int, warmup_s: float) -> tuple[RunMetrics, Trace]:
-        """One run in a lane: plan, roll out into the lane's kept arrays, measure."""
-        t0 = time.perf_counter()
-        sim, start, control = self._plan_run(job, n_frames)
-        t1 = time.perf_counter()
+        """One run in a lane: plan (standing it in the lane's MjData), roll out into the lane's
+        kept arrays, measure."""
         kit = self._kits.get()
         try:
+            t0 = time.perf_counter()
+            robot, start, control = self._plan_run(job, n_frames, kit.data)
+            t1 = time.perf_counter()
             state_out, sensor_out = kit.output(control.shape[0])
             rollout.rollout(
-                sim.model, kit.data, start.state[None, :], control[None, :, :],
+                robot.model, kit.data, start.state[None, :], control[None, :, :],
                 state=state_out, sensordata=sensor_out,
             )  # fmt: skip
             t2 = time.perf_counter()
             metrics, trace = self._measure(
-                state_out[0], sensor_out[0], start, job, n_frames, sim.steps_per_frame, warmup_s
+                state_out[0], sensor_out[0], start, job, n_frames, self.steps_per_frame, warmup_s
             )
         finally:
             self._kits.put(kit)
@@ -238,28 +239,38 @@ class BatchEvaluator:
                 self._varied_cache[variation] = varied_robot(self.robot, variation)
             return self._varied_cache[variation]
 
-    def _plan_run(self, job: Job, n_frames: int) -> tuple[FrameLoop, Start, np.ndarray]:
-        """A run's loop (on its varied model), start and control of every physics step."""
-        sim = FrameLoop(
-            self._varied(job.variation), job.params, job.motion, start_motion=job.start_motion
+    def _plan_run(
+        self, job: Job, n_frames: int, data: mujoco.MjData
+    ) -> tuple[RobotModel, Start, np.ndarray]:
+        """A run's (varied) robot, its start (made in `data`), and the control of every step."""
+        robot = self._varied(job.variation)
+        start_motion = job.motion if job.start_motion is None else job.start_motion
+        start = start_at_rest(robot, data, job.params, start_motion)
+        plan = plan_frames(
+            job.params,
+            job.motion,
+            robot.hardware(),
+            start.phase,
+            n_frames,
+            self.steps_per_frame,
+            float(robot.model.opt.timestep),
+            motion_now=start_motion,
+            geometry=robot.geometry,
         )
-        start = start_of(sim)
-        return sim, start, control_sequence(sim, start, n_frames, job.variation)
+        return robot, start, control_sequence(robot, start, plan, job.variation)
 
     def _plan(
         self, chunk: Sequence[Job], n_frames: int
-    ) -> tuple[
-        list[FrameLoop], list[Start], np.ndarray, np.ndarray, mujoco.MjModel | list[mujoco.MjModel]
-    ]:
-        """Several runs planned for one `rollout` call (tests and benches): their loops, starts,
+    ) -> tuple[list[Start], np.ndarray, np.ndarray, mujoco.MjModel | list[mujoco.MjModel]]:
+        """Several runs planned for one `rollout` call (tests and benches): their starts,
         controls, initial states, and model -- one for nominal runs, else one per run."""
-        planned = [self._plan_run(job, n_frames) for job in chunk]
-        sims = [sim for sim, _start, _control in planned]
-        starts = [start for _sim, start, _control in planned]
-        controls = np.stack([control for _sim, _start, control in planned])
+        data = mujoco.MjData(self.model)
+        planned = [self._plan_run(job, n_frames, data) for job in chunk]
+        starts = [start for _robot, start, _control in planned]
+        controls = np.stack([control for _robot, _start, control in planned])
         nominal = all(j.variation.is_nominal for j in chunk)
-        models = self.model if nominal else [s.model for s in sims]
-        return sims, starts, controls, np.stack([st.state for st in starts]), models
+        models = self.model if nominal else [robot.model for robot, _start, _c in planned]
+        return starts, controls, np.stack([st.state for st in starts]), models
 
     def _measure(
         self,
@@ -298,7 +309,7 @@ class BatchEvaluator:
             t_s=(np.arange(1, samples + 1) * FRAME_S).tolist(),
             x_m=qpos[:, 0].tolist(),
             y_m=qpos[:, 1].tolist(),
-            yaw_rad=[trunk_yaw(q) for q in qpos[:, 3:7]],
+            yaw_rad=trunk_yaws(qpos[:, 3:7]),
             gyro_rad_s=list(sens[:, gyro : gyro + 3]),
             feet_distance_m=planar_distance_m(
                 sens[:, left : left + 3], sens[:, right : right + 3]

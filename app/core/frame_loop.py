@@ -59,6 +59,15 @@ def trunk_yaw(quat_wxyz: NDArray[np.float64]) -> float:
     return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
 
 
+def trunk_yaws(quats_wxyz: NDArray[np.float64]) -> list[float]:
+    """`trunk_yaw` of each row of (n, 4) quaternions, to the bit: the same float arithmetic in
+    whole arrays, then `math.atan2` per row."""
+    w, x, y, z = quats_wxyz.T
+    along = 2.0 * (w * z + x * y)
+    across = 1.0 - 2.0 * (y * y + z * z)
+    return list(map(math.atan2, along.tolist(), across.tolist()))
+
+
 def has_fallen(qpos: NDArray[np.float64], standing_height_m: float) -> NDArray[np.bool_]:
     """Trunk below 60 % of its standing height, or tilted more than 50 degrees; qpos may be one
     state (nq,) or many (..., nq), with the same arithmetic either way."""
@@ -149,7 +158,9 @@ def _gait(
     start = 0
     while start < len(motions):
         end = start + 1
-        while end < len(motions) and motions[end] == motions[start]:
+        while end < len(motions) and (
+            motions[end] is motions[start] or motions[end] == motions[start]
+        ):
             end += 1
         part = slice(start, end)
         out = joint_angles_with_flags(
@@ -241,6 +252,33 @@ def plan_frames(
     )
 
 
+def frame_steps(model: mujoco.MjModel) -> int:
+    """Physics steps per 20 ms frame; ValueError if the model's timestep does not divide it."""
+    timestep_s = float(model.opt.timestep)
+    steps = FRAME_S / timestep_s
+    if abs(steps - round(steps)) > 1e-9:
+        raise ValueError(f"model timestep {timestep_s} s must divide the 20 ms frame")
+    return round(steps)
+
+
+def stand(
+    robot: RobotModel, data: mujoco.MjData, params: GaitParams, motion: Motion, phase: float
+) -> NDArray[np.float64]:
+    """Reset `data` and stand the robot on the floor in the gait's pose of `motion` at `phase`
+    (start-up gain at time 0), feet flat, at rest, each servo's set-point on its angle; returns
+    the pose. `data` is the scratch for the standing height first: no MjData is made."""
+    pose = joint_angles_with_flags(
+        params, motion, phase, robot.geometry, startup=startup_gain(params, 0.0)
+    ).values
+    height = robot.standing_height_m(pose, scratch=data)
+    mujoco.mj_resetData(robot.model, data)
+    data.qpos[robot.qpos_adr] = pose
+    data.qpos[2] = height + 1e-4
+    data.ctrl[robot.actuator_ids] = pose
+    mujoco.mj_forward(robot.model, data)
+    return pose
+
+
 def _varied(robot: RobotModel, variation: Variation) -> RobotModel:
     return robot if variation.is_nominal else varied_robot(robot, variation)
 
@@ -279,10 +317,7 @@ class FrameLoop:
         self.hardware = hardware or self.robot.hardware()
         self.block_frames = block_frames
         self.timestep_s = float(self.model.opt.timestep)
-        steps = FRAME_S / self.timestep_s
-        if abs(steps - round(steps)) > 1e-9:
-            raise ValueError(f"model timestep {self.timestep_s} s must divide the 20 ms frame")
-        self.steps_per_frame = round(steps)
+        self.steps_per_frame = frame_steps(self.model)
         self._plan: FramePlan | None = None
         self.reset(start_motion=start_motion)
 
@@ -291,24 +326,13 @@ class FrameLoop:
     def reset(self, phase: float = START_PHASE_RAD, *, start_motion: Motion | None = None) -> None:
         """Stand the robot on the floor in the gait's pose at `phase`, feet flat, at rest: the
         pose of `start_motion` (default: the requested motion), from which the ramp starts."""
-        mujoco.mj_resetData(self.model, self.data)
         self.phase = float(phase)
         self.frame_index = 0
         self.engine_start_frame = 0  # the start-up gain counts from here (reset, engine switch)
         self.fell = False
         self.blew_up = False
         self.motion_now = self.motion if start_motion is None else start_motion
-        pose = joint_angles_with_flags(
-            self.params,
-            self.motion_now,
-            self.phase,
-            self.robot.geometry,
-            startup=startup_gain(self.params, 0.0),
-        ).values
-        self.data.qpos[self.robot.qpos_adr] = pose
-        self.data.qpos[2] = self.robot.standing_height_m(pose) + 1e-4
-        self.data.ctrl[self.robot.actuator_ids] = pose
-        mujoco.mj_forward(self.model, self.data)
+        pose = stand(self.robot, self.data, self.params, self.motion_now, self.phase)
         self.standing_height_m = float(self.data.qpos[2])
         self._plan = None
         self._new_path(pose)

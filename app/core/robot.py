@@ -120,9 +120,14 @@ class RobotModel:
         """Mass of the whole robot (the trunk body's subtree), kg."""
         return float(self.model.body_subtreemass[self.trunk_id])
 
-    def standing_height_m(self, joint_angles: NDArray[np.float64]) -> float:
-        """Trunk height at which the lower sole just touches the floor, for the given pose."""
-        data = mujoco.MjData(self.model)
+    def standing_height_m(
+        self, joint_angles: NDArray[np.float64], scratch: mujoco.MjData | None = None
+    ) -> float:
+        """Trunk height at which the lower sole just touches the floor, for the given pose;
+        `scratch` (reset here, left in that pose) spares making an MjData."""
+        data = mujoco.MjData(self.model) if scratch is None else scratch
+        if scratch is not None:
+            mujoco.mj_resetData(self.model, data)
         data.qpos[self.qpos_adr] = joint_angles
         data.qpos[2] = 0.0
         data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)

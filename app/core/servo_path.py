@@ -1,6 +1,7 @@
 """The set-point path of a varied robot: what 12 servos act on, step by step, given what they
 were sent -- latency, calibration offset, and dead band plus backlash as a play operator
 (docs/DESIGN.md §13). One `ServoPath` per run; chunks of any size give the same output.
+`acting_setpoints` gives a fresh path's output for whole frames from their switches alone.
 """
 
 from __future__ import annotations
@@ -81,10 +82,9 @@ class ServoPath:
         return x
 
     def _play(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The play operator over the chunk, sequential only over the steps where a servo's
-        command changes (a command that repeats leaves the output where it is). No array of
-        the chunk's size is sorted or summed: a 10 s run plans in a fraction of a millisecond
-        (docs/DESIGN.md §14)."""
+        """The play operator over the chunk, only at the steps where a servo's command changes
+        (a command that repeats leaves the output where it is). No array of the chunk's size is
+        sorted or summed (docs/DESIGN.md §14)."""
         n = len(x)
         changed = np.empty(x.shape, dtype=bool)
         np.not_equal(x[0], self._last_command, out=changed[0])
@@ -100,11 +100,7 @@ class ServoPath:
             events = np.tile(x[-1], (n_events, 1))
             events[np.arange(len(servo)) - first[servo], servo] = x[row, servo]
             low, high = events - self.half_width_rad, events + self.half_width_rad
-            out = self._output.copy()
-            for k in range(n_events):
-                np.maximum(out, low[k], out=out)
-                np.minimum(out, high[k], out=out)
-                held[k + 1] = out
+            held[1:] = play_outputs(self._output, low, high)
         result = np.empty_like(x)
         for j in range(N_SERVOS):  # held[k] from the k-th change up to the next one
             rows = row[first[j] : first[j] + per_servo[j]]
@@ -113,3 +109,74 @@ class ServoPath:
         self._last_command = x[-1].copy()
         self._output = held[n_events].copy()
         return result
+
+
+def play_outputs(
+    start: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The play's output after each of K events per servo, (K, 12): out_k = clip(out_k-1,
+    low_k, high_k) from out_0 = `start`, with low <= high (an event of (-inf, inf) changes
+    nothing).
+
+    A clip of a clip is a clip: clip(clip(v, a1, b1), a2, b2) = clip(v, clip(a1, a2, b2),
+    clip(b1, a2, b2)). So the events compose in log2(K) whole-array rounds (a prefix scan)
+    rather than K Python steps, and since min and max only pick among their inputs, every
+    output has the bits of the step-by-step definition (docs/DESIGN.md §14)."""
+    low, high = low.copy(), high.copy()  # after round r: events k-2^r+1 .. k composed
+    span = 1
+    while span < len(low):
+        later_low, later_high = low[span:], high[span:]
+        earlier_low = np.minimum(np.maximum(low[:-span], later_low), later_high)
+        earlier_high = np.minimum(np.maximum(high[:-span], later_low), later_high)
+        low[span:], high[span:] = earlier_low, earlier_high
+        span *= 2
+    return np.minimum(np.maximum(start, low), high)
+
+
+def acting_setpoints(
+    variation: Variation,
+    timestep_s: float,
+    initial_rad: ArrayLike,
+    setpoint: ArrayLike,
+    substep: ArrayLike,
+    steps_per_frame: int,
+) -> NDArray[np.float64]:
+    """What a fresh `ServoPath(variation, timestep_s, initial_rad)` returns for the set-points
+    sent in n frames, (n * steps_per_frame, 12), to the bit -- built from the <= 12 n switches
+    alone, never from the step-level input (docs/DESIGN.md §14).
+
+    Servo j sends `initial_rad[j]` until its first switch; in frame f it switches to
+    `setpoint[f, j]` at step `substep[f, j]` of the frame (0 .. steps_per_frame; the last: at
+    the next frame's first step, where the next frame's switch at its step 0 overrides it).
+    The nominal variation gives the sent set-points themselves. ValueError for a wrong shape
+    or a step outside the frame."""
+    path = ServoPath(variation, timestep_s, initial_rad)
+    sent = np.asarray(setpoint, dtype=np.float64)
+    at = np.asarray(substep, dtype=np.int64)
+    if sent.ndim != 2 or sent.shape[1] != N_SERVOS or at.shape != sent.shape:
+        raise ValueError(
+            f"setpoint and substep must both have shape (n, {N_SERVOS}), "
+            f"got {sent.shape} and {at.shape}"
+        )
+    if at.size and (at.min() < 0 or at.max() > steps_per_frame):
+        raise ValueError(f"substep must lie in 0..{steps_per_frame} (steps_per_frame)")
+    n_frames, n_steps = len(sent), len(sent) * steps_per_frame
+    rows = np.arange(n_frames)[:, None] * steps_per_frame + at + path.delay_steps
+    superseded = np.zeros(rows.shape, dtype=bool)  # met at its step by the next frame's switch
+    np.equal(rows[:-1], rows[1:], out=superseded[:-1])
+    held = np.empty((n_frames + 1, N_SERVOS))  # what servo j acts on after its k-th switch
+    held[0] = path._output
+    command = sent + path.offset_rad if path.has_offset else sent
+    if path.half_width_rad:
+        ignored = superseded | (rows >= n_steps)
+        low = np.where(ignored, -np.inf, command - path.half_width_rad)
+        high = np.where(ignored, np.inf, command + path.half_width_rad)
+        held[1:] = play_outputs(held[0], low, high)
+    else:
+        held[1:] = command
+    # held[k] from the k-th switch up to the next (the steps never decrease: 0 <= substep <= steps)
+    spans = np.diff(np.minimum(rows, n_steps), axis=0, prepend=0, append=n_steps)
+    out = np.empty((N_SERVOS, n_steps))
+    for j in range(N_SERVOS):
+        out[j] = np.repeat(held[:, j], spans[:, j])
+    return out.T
