@@ -469,8 +469,9 @@ class FrameLoop:
     def _apply_varied_frame(
         self, substep: NDArray[np.int64], setpoint: NDArray[np.float64]
     ) -> None:
-        """The frame's set-points per physics step, as `batch.control_sequence` builds them,
-        through the path; physics steps between the steps where what the servos act on changes."""
+        """The frame's set-points per physics step through the path (the step-level input
+        `servo_path.acting_setpoints` never builds); physics steps between the steps where what
+        the servos act on changes."""
         assert self._path is not None
         steps = np.arange(self.steps_per_frame)[:, None]
         sent = np.where(steps >= substep[None, :], setpoint[None, :], self._sent[None, :])
