@@ -7,6 +7,7 @@ import pytest
 from mujoco import MjData, rollout
 
 from app.core.batch import BatchEvaluator, Cancelled, Job, control_sequence, start_at_rest
+from app.core.evaluation import same_results
 from app.core.frame_loop import FrameLoop, plan_frames
 from app.core.headless import run
 from app.core.metrics import MOTION_METRICS
@@ -34,6 +35,33 @@ def test_a_fall_ends_the_measurement_as_in_artro_run():
     single = run(falls.params, falls.motion, duration_s=10.0, warmup_s=1.0).metrics
     assert metrics["fell"] and single["fell"]
     assert metrics["fall_time_s"] == single["fall_time_s"] < 10.0
+
+
+def test_a_run_stops_rolling_out_after_the_call_it_fell_in_and_measures_the_same(monkeypatch):
+    """Runs roll out SEGMENT_FRAMES frames per call, each call from the last one's state and
+    warm start; a run that falls stops after its call. Metrics and traces equal those of one
+    call over the whole run, to the bit."""
+    from app.core import batch
+    from tests.evaluation_support import assert_same_traces
+
+    falls = Job(
+        GaitParams.from_dict({"shift": {"amp_base": 0.4, "amp_lateral": 2.0}}),
+        Motion(a_r=0.3, a_p=0.3, a_y=0.6),
+    )
+    jobs = [falls, Job(GaitParams(), Motion(a_p=0.07, ca=0.05))]
+    segmented, traces = BatchEvaluator(threads=2), []
+    got = segmented.evaluate(jobs, duration_s=6.0, warmup_s=1.0, traces=traces)
+    assert got[0]["fell"] and not got[1]["fell"]
+    fall_frame = round(got[0]["fall_time_s"] / 0.02)
+    called = -(-fall_frame // batch.SEGMENT_FRAMES) * batch.SEGMENT_FRAMES
+    assert called < 300 and segmented.frames_rolled == called + 300
+
+    monkeypatch.setattr(batch, "SEGMENT_FRAMES", 10**6)  # one call per run, to its end
+    whole, whole_traces = BatchEvaluator(threads=2), []
+    expected = whole.evaluate(jobs, duration_s=6.0, warmup_s=1.0, traces=whole_traces)
+    assert whole.frames_rolled == 600
+    assert same_results(got, expected)
+    assert_same_traces(traces, whole_traces)
 
 
 def test_the_control_switches_at_each_falling_edge():
@@ -83,11 +111,11 @@ def test_a_blown_up_frame_ends_the_run_unsampled():
     steps = EVALUATOR.steps_per_frame
     original = states[0, 11 * steps - 1, 3]  # time, then qpos: the trunk's height
     states[0, 11 * steps - 1, 3] = np.nan
-    metrics, trace = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, steps, 0.1)
+    metrics, trace = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, 0.1)
     assert metrics["fell"] and metrics["blew_up"] and "fall_time_s" in metrics
     assert metrics["sim_s"] == pytest.approx(11 * 0.02) and len(trace.t_s) == 10
     states[0, 11 * steps - 1, 3] = original
-    clean, whole = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, steps, 0.1)
+    clean, whole = EVALUATOR._measure(states[0], sensors[0], starts[0], job, 50, 0.1)
     assert not clean["fell"] and len(whole.t_s) == 50
     assert whole.x_m[:10] == trace.x_m and whole.feet_distance_m[:10] == trace.feet_distance_m
 

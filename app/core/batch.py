@@ -14,6 +14,7 @@ import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -37,6 +38,8 @@ from app.core.variations import NOMINAL, Variation, varied_robot
 from gait import GaitParams, Motion
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+#: a run rolls out this many frames per `rollout` call and stops after the call it fell in
+SEGMENT_FRAMES = 50
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
 
 
@@ -100,6 +103,15 @@ def control_sequence(
     return ctrl
 
 
+class _FrameEnds(NamedTuple):
+    """Frames' last physics steps: their rows in the run's states, qpos, blown up, fallen."""
+
+    rows: np.ndarray
+    qpos: np.ndarray
+    bad: np.ndarray
+    down: np.ndarray
+
+
 class _LaneKit:
     """What one lane needs at a time: an MjData of the robot's size and kept output arrays."""
 
@@ -152,6 +164,8 @@ class BatchEvaluator:
         #: seconds spent per stage since creation, summed over the lanes (bench/bench_batch.py
         #: reports them)
         self.stage_s = {"plan": 0.0, "rollout": 0.0, "measure": 0.0}
+        #: frames rolled out since creation (a run that falls stops at the end of its call)
+        self.frames_rolled = 0
 
     def evaluate(
         self,
@@ -210,13 +224,10 @@ class BatchEvaluator:
             robot, start, control = self._plan_run(job, n_frames, kit.data)
             t1 = time.perf_counter()
             state_out, sensor_out = kit.output(control.shape[0])
-            rollout.rollout(
-                robot.model, kit.data, start.state[None, :], control[None, :, :],
-                state=state_out, sensordata=sensor_out,
-            )  # fmt: skip
+            frames = self._roll_out(robot, kit.data, start, control, state_out, sensor_out)
             t2 = time.perf_counter()
             metrics, trace = self._measure(
-                state_out[0], sensor_out[0], start, job, n_frames, self.steps_per_frame, warmup_s
+                state_out[0], sensor_out[0], start, job, frames, warmup_s
             )
         finally:
             self._kits.put(kit)
@@ -227,7 +238,46 @@ class BatchEvaluator:
             self.stage_s["plan"] += t1 - t0
             self.stage_s["rollout"] += t2 - t1
             self.stage_s["measure"] += t3 - t2
+            self.frames_rolled += frames
         return metrics, trace
+
+    def _roll_out(
+        self,
+        robot: RobotModel,
+        data: mujoco.MjData,
+        start: Start,
+        control: np.ndarray,
+        state_out: np.ndarray,
+        sensor_out: np.ndarray,
+    ) -> int:
+        """Roll the run out in calls of `SEGMENT_FRAMES` frames, each from the last one's state
+        and solver warm start (the same bits as one call), until a call's frames show a fall or
+        a blow-up: the frames after it are never measured. Returns the frames rolled out."""
+        steps, n_frames = self.steps_per_frame, control.shape[0] // self.steps_per_frame
+        done, initial, warmstart = 0, start.state[None, :], None
+        while done < n_frames:
+            frames = min(SEGMENT_FRAMES, n_frames - done)
+            part = slice(done * steps, (done + frames) * steps)
+            rollout.rollout(
+                robot.model, data, initial, control[None, part], initial_warmstart=warmstart,
+                state=state_out[:, part], sensordata=sensor_out[:, part],
+            )  # fmt: skip
+            ends = self._frame_ends(state_out[0], start, done, done + frames)
+            done += frames
+            if ends.bad.any() or ends.down.any():
+                break
+            initial, warmstart = state_out[:, part.stop - 1], data.qacc_warmstart[None].copy()
+        return done
+
+    def _frame_ends(self, states: np.ndarray, start: Start, first: int, end: int) -> _FrameEnds:
+        """Frames first..end-1 of a run as `FrameLoop` checks them after each frame: the state
+        after the frame's last step, blown up (not finite, or MuJoCo reset it: time restarts
+        at 0) or fallen."""
+        rows = np.arange(first + 1, end + 1) * self.steps_per_frame - 1
+        qpos = states[rows, 1 : 1 + self.model.nq]
+        expected_time = start.state[0] + (rows + 1) * self.model.opt.timestep
+        bad = ~np.all(np.isfinite(qpos), axis=1) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
+        return _FrameEnds(rows, qpos, bad, has_fallen(qpos, start.standing_height_m))
 
     def _varied(self, variation: Variation) -> RobotModel:
         if variation.is_nominal:
@@ -279,20 +329,15 @@ class BatchEvaluator:
         start: Start,
         job: Job,
         n_frames: int,
-        steps: int,
         warmup_s: float,
     ) -> tuple[RunMetrics, Trace]:
-        """The run's frames as `FrameLoop` samples them, in whole arrays: the state after each
-        frame's last physics step, and the sensors of that step -- whose sole positions MuJoCo
-        computed from the state one step earlier, as `FrameLoop` reads the sites after it."""
-        model = self.model
-        rows = np.arange(1, n_frames + 1) * steps - 1
-        qpos = states[rows, 1 : 1 + model.nq]
-        # MuJoCo resets a blown-up state itself (time restarts at 0): that is a blow-up too
-        expected_time = start.state[0] + (rows + 1) * model.opt.timestep
-        bad = ~np.all(np.isfinite(qpos), axis=1) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
+        """The run's first `n_frames` frames (those rolled out) as `FrameLoop` samples them, in
+        whole arrays: the state after each frame's last physics step, and the sensors of that
+        step -- whose sole positions MuJoCo computed from the state one step earlier, as
+        `FrameLoop` reads the sites after it."""
+        rows, qpos, bad, down = self._frame_ends(states, start, 0, n_frames)
         first_bad = int(np.argmax(bad)) if bad.any() else n_frames
-        down = has_fallen(qpos[:first_bad], start.standing_height_m)
+        down = down[:first_bad]
         if down.any():  # the frame it fell in is still sampled, as in `FrameLoop`
             fell, blew_up = True, False
             samples = frames_done = int(np.argmax(down)) + 1
