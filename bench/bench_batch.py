@@ -5,12 +5,16 @@ model and once with every walk on its own sampled variation:
   - the machine's ceiling: N processes (N = os.cpu_count()) at once, each replaying its share
     of the very same walks with MuJoCo's own C loop -- each walk on its own (varied) model, the
     control it ends each frame with written at the frame's start, mj_step(nstep=20), no Python
-    between steps -- in total, and raw's steps per CPU second;
+    between steps, up to the frame its measurement ends (a fall) -- in total, and raw's steps
+    per CPU second;
   - BatchEvaluator.evaluate with N lanes, end to end (planning the gait + hardware for every
     step, the rollout, measuring), the rollout alone, and its steps per CPU second;
   - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end;
   - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw's steps per CPU second,
     each repeat against the ceiling measured just before it; and the CPU seconds per stage.
+Steps are the steps the walks' measurements need (a walk that falls needs none after its fall;
+the evaluator stops rolling it out at the end of that call, and the steps it rolls out beyond
+the fall count as its loss); the share of all steps the falls spare is printed too.
 The varied models are built once before (a robust study reuses each for every case). Raw
 mj_step on one thread (4 nominal walks) shows what one core does. Steps per CPU second
 stay meaningful when other processes compete for the cores (the wall-clock ratio then only
@@ -65,52 +69,58 @@ def walks(runs: int, varied: bool = False) -> list[Job]:
     ]
 
 
-def raw_replay(jobs: list[Job], frames: int) -> tuple[int, float, float]:
+def raw_replay(jobs: list[Job], frames: list[int]) -> tuple[int, float, float]:
     """Single thread: each run planned as the evaluator plans it (on its own varied model,
     latency, calibration and play included), then replayed by MuJoCo's C loop -- the control
-    it ends each frame with, mj_step(nstep=20), no Python between steps -- from its start.
+    it ends each frame with, mj_step(nstep=20), no Python between steps -- from its start, for
+    its number of frames.
 
     Returns (steps, wall seconds, CPU seconds of this process)."""
     planner = BatchEvaluator(threads=1)
     data, steps = mujoco.MjData(planner.model), planner.steps_per_frame
-    planned = [planner._plan_run(job, frames, data) for job in jobs]
+    planned = [planner._plan_run(job, n, data) for job, n in zip(jobs, frames, strict=True)]
     start, cpu_start = time.perf_counter(), time.process_time()
-    for robot, begin, ctrl in planned:
+    for (robot, begin, ctrl), n in zip(planned, frames, strict=True):
         mujoco.mj_setState(robot.model, data, begin.state, STATE_SPEC)
         per_frame = ctrl[steps - 1 :: steps]
-        for k in range(frames):
+        for k in range(n):
             data.ctrl[:] = per_frame[k]
             mujoco.mj_step(robot.model, data, steps)
     wall, cpu = time.perf_counter() - start, time.process_time() - cpu_start
-    return len(planned) * frames * steps, wall, cpu
+    return sum(frames) * steps, wall, cpu
 
 
-def _raw_in_process(args: tuple[list[Job], int]) -> tuple[int, float, float]:
+def _raw_in_process(args: tuple[list[Job], list[int]]) -> tuple[int, float, float]:
     return raw_replay(*args)
 
 
-def concurrent_raw(jobs: list[Job], frames: int, processes: int) -> tuple[float, float]:
+def concurrent_raw(jobs: list[Job], frames: list[int], processes: int) -> tuple[float, float]:
     """The machine's ceiling for these runs: `processes` raw C loops at once, one per process,
-    each replaying its share of the runs (every `processes`-th).
+    each replaying its share of the runs (every `processes`-th), each for its frames.
 
     Returns (total steps/s, the sum of each process's own rate; steps per CPU second)."""
     ctx = multiprocessing.get_context("spawn")
     with ctx.Pool(processes) as pool:
-        pool.map(_raw_in_process, [(jobs[:1], 2)] * processes)  # import and load the model first
-        shares = [(jobs[p::processes], frames) for p in range(processes)]
+        pool.map(_raw_in_process, [(jobs[:1], [2])] * processes)  # import, load the model first
+        shares = [(jobs[p::processes], frames[p::processes]) for p in range(processes)]
         results = pool.map(_raw_in_process, shares)
     rate = sum(steps / wall for steps, wall, _cpu in results)
     per_cpu = sum(steps for steps, _w, _c in results) / sum(cpu for _s, _w, cpu in results)
     return rate, per_cpu
 
 
+def needed_frames(evaluator: BatchEvaluator, jobs: list[Job], seconds: float) -> list[int]:
+    """The frames each run's measurement needs: all, or up to the frame it fell in."""
+    metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
+    return [round(m["sim_s"] / 0.02) for m in metrics]
+
+
 def batch_steps_per_s(
-    evaluator: BatchEvaluator, jobs: list[Job], seconds: float
+    evaluator: BatchEvaluator, jobs: list[Job], seconds: float, needed: list[int]
 ) -> tuple[float, float, float, float]:
-    """One evaluate call: steps per wall second end to end and for the rollout alone, steps
+    """One evaluate call: needed steps per wall second end to end and for the rollout alone,
     per CPU second of this process (all its threads) end to end, and the share of the call
     the lanes were busy (planning, rolling out or measuring; the rest is the call's tail)."""
-    steps_per_run = round(seconds / evaluator.robot.model.opt.timestep)
     stages_before = sum(evaluator.stage_s.values())
     start, cpu_start = time.perf_counter(), time.process_time()
     metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
@@ -118,7 +128,7 @@ def batch_steps_per_s(
     lanes = min(evaluator.threads, len(jobs))
     rollout_wall = sum(m["wall_s"] for m in metrics) / lanes  # wall_s: the run's own rollout
     busy = (sum(evaluator.stage_s.values()) - stages_before) / (lanes * wall)
-    total = steps_per_run * len(jobs)
+    total = sum(needed) * evaluator.steps_per_frame
     return total / wall, total / rollout_wall, total / cpu, busy
 
 
@@ -135,12 +145,14 @@ def planning_alone_ms(jobs: list[Job], seconds: float) -> float:
     return 1e3 * (time.perf_counter() - start) / len(jobs)
 
 
-def processes_steps_per_s(evaluator: ProcessEvaluator, jobs: list[Job], seconds: float) -> float:
-    """One evaluate call on worker processes: steps per wall second end to end."""
-    steps_per_run = round(seconds / evaluator.robot.model.opt.timestep)
+def processes_steps_per_s(
+    evaluator: ProcessEvaluator, jobs: list[Job], seconds: float, needed: list[int]
+) -> float:
+    """One evaluate call on worker processes: needed steps per wall second end to end."""
     start = time.perf_counter()
     evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
-    return steps_per_run * len(jobs) / (time.perf_counter() - start)
+    steps = sum(needed) * round(0.02 / evaluator.robot.model.opt.timestep)
+    return steps / (time.perf_counter() - start)
 
 
 def main() -> None:
@@ -160,15 +172,18 @@ def main() -> None:
     in_processes: dict[str, list[float]] = {k: [] for k in kinds}
     workers = ProcessEvaluator(processes=n_threads)
     workers.evaluate(kinds["varied"][:n_threads], duration_s=0.5, warmup_s=0.2)  # start, load
-    for kind, jobs in kinds.items():  # build the varied models once (a study reuses each)
-        evaluators[kind].evaluate(jobs, duration_s=0.1, warmup_s=0.0)
+    needed: dict[str, list[int]] = {}
+    for kind, jobs in kinds.items():  # builds the varied models once (a study reuses each)
+        needed[kind] = needed_frames(evaluators[kind], jobs, args.seconds)
         evaluators[kind].stage_s = dict.fromkeys(evaluators[kind].stage_s, 0.0)
+        evaluators[kind].frames_rolled = 0
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike
-        single.append(raw_replay(kinds["nominal"][:4], frames))
+        single.append(raw_replay(kinds["nominal"][:4], [frames] * 4))
         for kind, jobs in kinds.items():  # the ceiling replays the very runs just before them
-            ceilings[kind].append(concurrent_raw(jobs, frames, n_threads))
-            batch[kind].append(batch_steps_per_s(evaluators[kind], jobs, args.seconds))
-            in_processes[kind].append(processes_steps_per_s(workers, jobs, args.seconds))
+            ceilings[kind].append(concurrent_raw(jobs, needed[kind], n_threads))
+            need = needed[kind]
+            batch[kind].append(batch_steps_per_s(evaluators[kind], jobs, args.seconds, need))
+            in_processes[kind].append(processes_steps_per_s(workers, jobs, args.seconds, need))
     workers.close()
     steal = steal_share(counters_before, cpu_times())
 
@@ -190,6 +205,13 @@ def main() -> None:
     for kind, results in batch.items():
         ceiling = statistics.median(rate for rate, _per_cpu in ceilings[kind])
         raw_cpu = statistics.median(per_cpu for _rate, per_cpu in ceilings[kind])
+        falls = sum(n < frames for n in needed[kind])
+        rolled = evaluators[kind].frames_rolled / (args.repeats * sum(needed[kind]))
+        print(
+            f"{kind:7s}: {falls} of {len(needed[kind])} walks fall, their measurements need "
+            f"{100 * sum(needed[kind]) / (frames * len(needed[kind])):.1f} % of all steps; the "
+            f"evaluator rolls out {rolled:.3f} times that (a fall's call runs to its end)"
+        )
         print(
             f"raw mj_step, {kind:7s}, the same walks in {n_threads} processes at once (the "
             f"ceiling): {ceiling:8.0f} steps/s, {raw_cpu:8.0f} per CPU s"
