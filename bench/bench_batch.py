@@ -35,6 +35,7 @@ import mujoco
 import numpy as np
 
 from app.core.batch import STATE_SPEC, BatchEvaluator, Job
+from app.core.frame_loop import FRAME_S, frame_steps
 from app.core.processes import ProcessEvaluator
 from app.core.variations import NOMINAL, VariationRanges, sample
 from gait import GaitParams, Motion
@@ -112,7 +113,7 @@ def concurrent_raw(jobs: list[Job], frames: list[int], processes: int) -> tuple[
 def needed_frames(evaluator: BatchEvaluator, jobs: list[Job], seconds: float) -> list[int]:
     """The frames each run's measurement needs: all, or up to the frame it fell in."""
     metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
-    return [round(m["sim_s"] / 0.02) for m in metrics]
+    return [round(m["sim_s"] / FRAME_S) for m in metrics]
 
 
 def batch_steps_per_s(
@@ -135,7 +136,7 @@ def batch_steps_per_s(
 def planning_alone_ms(jobs: list[Job], seconds: float) -> float:
     """Planning one run, ms, in one thread with nothing else running (against what it costs
     in a lane beside another, the stage seconds)."""
-    evaluator, frames = BatchEvaluator(threads=1), round(seconds / 0.02)
+    evaluator, frames = BatchEvaluator(threads=1), round(seconds / FRAME_S)
     data = mujoco.MjData(evaluator.model)
     for job in jobs:  # the varied models are built outside the timing
         evaluator._varied(job.variation)
@@ -151,7 +152,7 @@ def processes_steps_per_s(
     """One evaluate call on worker processes: needed steps per wall second end to end."""
     start = time.perf_counter()
     evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
-    steps = sum(needed) * round(0.02 / evaluator.robot.model.opt.timestep)
+    steps = sum(needed) * frame_steps(evaluator.robot.model)
     return steps / (time.perf_counter() - start)
 
 
@@ -163,7 +164,7 @@ def main() -> None:
     args = parser.parse_args()
     n_threads = os.cpu_count() or 1
     kinds = {"nominal": walks(args.runs), "varied": walks(args.runs, varied=True)}
-    frames = round(args.seconds / 0.02)
+    frames = round(args.seconds / FRAME_S)
     load_before, counters_before = os.getloadavg()[0], cpu_times()
     single: list[tuple[int, float, float]] = []
     ceilings: dict[str, list[tuple[float, float]]] = {k: [] for k in kinds}
@@ -178,7 +179,8 @@ def main() -> None:
         evaluators[kind].stage_s = dict.fromkeys(evaluators[kind].stage_s, 0.0)
         evaluators[kind].frames_rolled = 0
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike
-        single.append(raw_replay(kinds["nominal"][:4], [frames] * 4))
+        one_core = kinds["nominal"][:4]
+        single.append(raw_replay(one_core, [frames] * len(one_core)))
         for kind, jobs in kinds.items():  # the ceiling replays the very runs just before them
             ceilings[kind].append(concurrent_raw(jobs, needed[kind], n_threads))
             need = needed[kind]

@@ -141,8 +141,9 @@ class BatchEvaluator:
     to the bit.
 
     Runs go to `threads` lanes: each lane plans a run, rolls it out (one MuJoCo thread, the GIL
-    released), measures it, and takes the next, so no lane waits for another at a call's end
-    (docs/DESIGN.md §14). A run of a varied robot rolls out on its varied model.
+    released; 1 s per call, stopping after the call it fell in), measures it, and takes the
+    next, so no lane waits for another at a call's end (docs/DESIGN.md §14). A run of a varied
+    robot rolls out on its varied model.
 
     Args:
         robot: the model (default: the built-in one).
