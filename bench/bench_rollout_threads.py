@@ -79,12 +79,13 @@ def main() -> None:
     n = os.cpu_count() or 1
     evaluator, jobs = BatchEvaluator(threads=n), walks(args.runs)
     planned = evaluator._plan(jobs, FRAMES)
-    share = evaluator._plan(jobs[: max(1, args.runs // n)], FRAMES)
     ratios: dict[str, list[float]] = {"1 thread": [], f"{n} threads": [], f"{n} lanes": []}
+    one_core = jobs[: max(1, args.runs // n)]
+    share = evaluator._plan(one_core, FRAMES)
     for _ in range(args.repeats):
-        steps, wall, _cpu = raw_replay(jobs[: max(1, args.runs // n)], FRAMES)
+        steps, wall, _cpu = raw_replay(one_core, [FRAMES] * len(one_core))
         ratios["1 thread"].append(one_call(evaluator, share, 1) / (steps / wall))
-        ceiling, _per_cpu = concurrent_raw(jobs, FRAMES, n)
+        ceiling, _per_cpu = concurrent_raw(jobs, [FRAMES] * len(jobs), n)
         ratios[f"{n} threads"].append(one_call(evaluator, planned, n) / ceiling)
         ratios[f"{n} lanes"].append(lanes(evaluator, planned, n) / ceiling)
     print(

@@ -85,3 +85,11 @@ def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs():
         assert batch, done.stdout
         assert 0 < float(batch[1]) < 2 and 0 < float(batch[2]) < 2 and float(batch[3]) > 0
         assert 0 < float(batch[4]) <= 100
+
+
+def test_bench_rollout_threads_compares_rollout_alone_with_raw_processes():
+    done = run_script("bench/bench_rollout_threads.py", "--repeats", "1", "--runs", "2")
+    assert done.returncode == 0, done.stderr
+    ratios = re.findall(r"rollout alone, (.+?): median (\d\.\d+) of raw", done.stdout)
+    assert len(ratios) == 3 and ratios[0][0] == "1 thread", done.stdout
+    assert all(0 < float(value) < 2 for _, value in ratios)

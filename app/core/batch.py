@@ -160,7 +160,7 @@ class BatchEvaluator:
         self._kits: queue.SimpleQueue[_LaneKit] = queue.SimpleQueue()
         for _ in range(self.threads):
             self._kits.put(_LaneKit(self.model))
-        self._lock = threading.Lock()  # guards the varied-model cache and stage_s
+        self._lock = threading.Lock()  # guards the varied cache, stage_s, frames_rolled
         self._varied_cache: dict[Variation, RobotModel] = {}
         #: seconds spent per stage since creation, summed over the lanes (bench/bench_batch.py
         #: reports them)
@@ -349,7 +349,7 @@ class BatchEvaluator:
             fell = blew_up = False
             samples = frames_done = n_frames
         rows, qpos = rows[:samples], qpos[:samples]
-        sens = sensors[rows]  # a copy: the trace keeps none of the chunk's arrays alive
+        sens = sensors[rows]  # a copy: the trace keeps none of the lane's arrays alive
         gyro, (left, right) = self.robot.gyro_adr, self.robot.sole_adr
         trace = Trace(
             t_s=(np.arange(1, samples + 1) * FRAME_S).tolist(),

@@ -102,10 +102,9 @@ class ServoPath:
             low, high = events - self.half_width_rad, events + self.half_width_rad
             held[1:] = play_outputs(self._output, low, high)
         result = np.empty_like(x)
-        for j in range(N_SERVOS):  # held[k] from the k-th change up to the next one
-            rows = row[first[j] : first[j] + per_servo[j]]
-            spans = np.diff(rows, prepend=0, append=n)
-            result[:, j] = np.repeat(held[: per_servo[j] + 1, j], spans)
+        for j in range(N_SERVOS):
+            changes = row[first[j] : first[j] + per_servo[j]]
+            result[:, j] = _spread(held[: per_servo[j] + 1, j], changes, n)
         self._last_command = x[-1].copy()
         self._output = held[n_events].copy()
         return result
@@ -174,9 +173,14 @@ def acting_setpoints(
         held[1:] = play_outputs(held[0], low, high)
     else:
         held[1:] = command
-    # held[k] from the k-th switch up to the next (the steps never decrease: 0 <= substep <= steps)
-    spans = np.diff(np.minimum(rows, n_steps), axis=0, prepend=0, append=n_steps)
+    switches = np.minimum(rows, n_steps)  # never decreasing: 0 <= substep <= steps_per_frame
     out = np.empty((N_SERVOS, n_steps))
     for j in range(N_SERVOS):
-        out[j] = np.repeat(held[:, j], spans[:, j])
+        out[j] = _spread(held[:, j], switches[:, j], n_steps)
     return out.T
+
+
+def _spread(held: NDArray[np.float64], switches: NDArray[np.int64], n: int) -> NDArray[np.float64]:
+    """One servo's n steps: held[0] until its first switch, held[k] from the k-th switch up to
+    the next (switch steps never decreasing, len(held) = len(switches) + 1)."""
+    return np.repeat(held, np.diff(switches, prepend=0, append=n))
