@@ -5,6 +5,7 @@ servo drive (calibration, TDM map) come from the same description (docs/DESIGN.m
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -72,7 +73,12 @@ class RobotModel:
         return LegGeometry(upper_m=geo.thigh_m, lower_m=geo.shank_m)
 
     def hardware(self) -> HardwareSetup:
-        """The servo drive of the description: each joint's calibration and the TDM map."""
+        """The servo drive of the description: each joint's calibration and the TDM map (built
+        once per model: it is frozen, and the batch evaluator plans every run with it)."""
+        return self._hardware
+
+    @cached_property
+    def _hardware(self) -> HardwareSetup:
         joints = [self.description.joints[name] for name in JOINT_NAMES]
         limits = [j.calibration.angle_limits_rad() for j in joints]
         calibration = ServoCalibration(

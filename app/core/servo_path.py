@@ -174,10 +174,9 @@ def acting_setpoints(
     else:
         held[1:] = command
     switches = np.minimum(rows, n_steps)  # never decreasing: 0 <= substep <= steps_per_frame
-    out = np.empty((N_SERVOS, n_steps))
-    for j in range(N_SERVOS):
-        out[j] = _spread(held[:, j], switches[:, j], n_steps)
-    return out.T
+    # every servo has n_frames switches: one repeat of all 12 rows (servo-major), no loop
+    counts = np.diff(switches.T, prepend=0, append=n_steps)
+    return np.repeat(held.T, counts.ravel()).reshape(N_SERVOS, n_steps).T
 
 
 def _spread(held: NDArray[np.float64], switches: NDArray[np.int64], n: int) -> NDArray[np.float64]:
