@@ -11,7 +11,9 @@ model and once with every walk on its own sampled variation:
     step, the rollout, measuring), the rollout alone, and its steps per CPU second;
   - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end;
   - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw's steps per CPU second,
-    each repeat against the ceiling measured just before it; and the CPU seconds per stage.
+    each measurement against the mean of the ceilings measured just before and just after it
+    (ceiling, batch, ceiling, processes, ceiling: a machine whose speed drifts biases neither);
+    and the CPU seconds per stage.
 Steps are the steps the walks' measurements need (a walk that falls needs none after its fall;
 the evaluator stops rolling it out at the end of that call, and the steps it rolls out beyond
 the fall count as its loss); the share of all steps the falls spare is printed too.
@@ -27,6 +29,7 @@ from __future__ import annotations
 
 import argparse
 import multiprocessing
+import multiprocessing.pool
 import os
 import statistics
 import time
@@ -95,19 +98,43 @@ def _raw_in_process(args: tuple[list[Job], list[int]]) -> tuple[int, float, floa
     return raw_replay(*args)
 
 
-def concurrent_raw(jobs: list[Job], frames: list[int], processes: int) -> tuple[float, float]:
+def raw_pool(processes: int) -> multiprocessing.pool.Pool:
+    """`processes` spawned processes, each with the project imported and the model loaded, to
+    measure the ceiling with again and again (idle in between)."""
+    pool = multiprocessing.get_context("spawn").Pool(processes)
+    pool.map(_raw_in_process, [(walks(1), [2])] * processes)
+    return pool
+
+
+def concurrent_raw(
+    jobs: list[Job],
+    frames: list[int],
+    processes: int,
+    pool: multiprocessing.pool.Pool | None = None,
+) -> tuple[float, float]:
     """The machine's ceiling for these runs: `processes` raw C loops at once, one per process,
-    each replaying its share of the runs (every `processes`-th), each for its frames.
+    each replaying its share of the runs (every `processes`-th), each for its frames; in
+    `pool` (`raw_pool(processes)`) if given, else in a pool made for the call.
 
     Returns (total steps/s, the sum of each process's own rate; steps per CPU second)."""
-    ctx = multiprocessing.get_context("spawn")
-    with ctx.Pool(processes) as pool:
-        pool.map(_raw_in_process, [(jobs[:1], [2])] * processes)  # import, load the model first
+    own = pool is None
+    pool = raw_pool(processes) if pool is None else pool
+    try:
         shares = [(jobs[p::processes], frames[p::processes]) for p in range(processes)]
-        results = pool.map(_raw_in_process, shares)
+        results = pool.map(_raw_in_process, shares, chunksize=1)
+    finally:
+        if own:
+            pool.close()
+            pool.join()
     rate = sum(steps / wall for steps, wall, _cpu in results)
     per_cpu = sum(steps for steps, _w, _c in results) / sum(cpu for _s, _w, cpu in results)
     return rate, per_cpu
+
+
+def bracketed(measured: float, before: float, after: float) -> float:
+    """A measurement as a share of the ceiling around it: the mean of the one measured just
+    before and the one just after."""
+    return measured / (0.5 * (before + after))
 
 
 def needed_frames(evaluator: BatchEvaluator, jobs: list[Job], seconds: float) -> list[int]:
@@ -167,7 +194,6 @@ def main() -> None:
     frames = round(args.seconds / FRAME_S)
     load_before, counters_before = os.getloadavg()[0], cpu_times()
     single: list[tuple[int, float, float]] = []
-    ceilings: dict[str, list[tuple[float, float]]] = {k: [] for k in kinds}
     evaluators = {k: BatchEvaluator(threads=n_threads) for k in kinds}
     batch: dict[str, list[tuple[float, float, float, float]]] = {k: [] for k in kinds}
     in_processes: dict[str, list[float]] = {k: [] for k in kinds}
@@ -178,14 +204,23 @@ def main() -> None:
         needed[kind] = needed_frames(evaluators[kind], jobs, args.seconds)
         evaluators[kind].stage_s = dict.fromkeys(evaluators[kind].stage_s, 0.0)
         evaluators[kind].frames_rolled = 0
+    #: per kind and repeat: the ceilings (steps/s, per CPU s) before the batch, between the
+    #: batch and the processes, and after the processes
+    ceilings: dict[str, list[list[tuple[float, float]]]] = {k: [] for k in kinds}
+    pool = raw_pool(n_threads)
     for _ in range(args.repeats):  # interleaved, so machine load affects all alike
         one_core = kinds["nominal"][:4]
         single.append(raw_replay(one_core, [frames] * len(one_core)))
-        for kind, jobs in kinds.items():  # the ceiling replays the very runs just before them
-            ceilings[kind].append(concurrent_raw(jobs, needed[kind], n_threads))
+        for kind, jobs in kinds.items():  # the ceiling replays the very runs around them
             need = needed[kind]
+            around = [concurrent_raw(jobs, need, n_threads, pool)]
             batch[kind].append(batch_steps_per_s(evaluators[kind], jobs, args.seconds, need))
+            around.append(concurrent_raw(jobs, need, n_threads, pool))
             in_processes[kind].append(processes_steps_per_s(workers, jobs, args.seconds, need))
+            around.append(concurrent_raw(jobs, need, n_threads, pool))
+            ceilings[kind].append(around)
+    pool.close()
+    pool.join()
     workers.close()
     steal = steal_share(counters_before, cpu_times())
 
@@ -205,8 +240,8 @@ def main() -> None:
         f"{cpu_rate:8.0f} per CPU s"
     )
     for kind, results in batch.items():
-        ceiling = statistics.median(rate for rate, _per_cpu in ceilings[kind])
-        raw_cpu = statistics.median(per_cpu for _rate, per_cpu in ceilings[kind])
+        ceiling = statistics.median(c[0] for around in ceilings[kind] for c in around)
+        raw_cpu = statistics.median(c[1] for around in ceilings[kind] for c in around)
         falls = sum(n < frames for n in needed[kind])
         rolled = evaluators[kind].frames_rolled / (args.repeats * sum(needed[kind]))
         print(
@@ -219,9 +254,13 @@ def main() -> None:
             f"ceiling): {ceiling:8.0f} steps/s, {raw_cpu:8.0f} per CPU s"
         )
         e2e, roll, per_cpu, busy = (statistics.median(r[i] for r in results) for i in range(4))
-        # side by side: each repeat's batch against the ceiling measured just before it
-        pairs = sorted(r[0] / c[0] for r, c in zip(results, ceilings[kind], strict=True))
-        cpu_pairs = sorted(r[2] / c[1] for r, c in zip(results, ceilings[kind], strict=True))
+        # side by side: each repeat's batch against the ceilings measured around it
+        pairs = sorted(
+            bracketed(r[0], c[0][0], c[1][0]) for r, c in zip(results, ceilings[kind], strict=True)
+        )
+        cpu_pairs = sorted(
+            bracketed(r[2], c[0][1], c[1][1]) for r, c in zip(results, ceilings[kind], strict=True)
+        )
         runs = args.repeats * len(kinds[kind])
         per_run = ", ".join(
             f"{k} {1e3 * v / runs:.1f} ms" for k, v in evaluators[kind].stage_s.items()
@@ -235,7 +274,10 @@ def main() -> None:
             f"{per_run}; planning alone {planning_alone_ms(kinds[kind], args.seconds):.1f} ms; "
             f"lanes busy {100 * busy:.1f} % of the call"
         )
-        pairs = sorted(p / c[0] for p, c in zip(in_processes[kind], ceilings[kind], strict=True))
+        pairs = sorted(
+            bracketed(p, c[1][0], c[2][0])
+            for p, c in zip(in_processes[kind], ceilings[kind], strict=True)
+        )
         print(
             f"processes, {kind:7s}, {n_threads} x 1 thread: "
             f"{statistics.median(in_processes[kind]):8.0f} steps/s end to end = "
