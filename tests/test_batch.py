@@ -162,3 +162,26 @@ def test_a_cancel_stops_before_the_next_run_and_keeps_what_finished_in_order():
     # the lanes gave their MjData and arrays back: the same evaluator runs on, to the same bits
     again = evaluator.evaluate(jobs[:3], duration_s=0.4, warmup_s=0.1)
     assert again[0]["forward_cm_s"] == kept[0][1]["forward_cm_s"]
+
+
+def test_arrays_a_lane_would_roll_out_unchecked_are_checked_first():
+    """A lane calls `rollout` unchecked, so the run's arrays are checked once before: a wrong
+    shape, dtype or order is a ValueError naming the array, and nothing is rolled out."""
+    from app.core.batch import _check_rollout_arrays, _LaneKit
+
+    robot = EVALUATOR.robot
+    kit = _LaneKit(robot.model)
+    robot_, start, control = EVALUATOR._plan_run(Job(GaitParams(), Motion()), 3, kit.data)
+    state_out, sensor_out = (np.zeros_like(a) for a in kit.output(control.shape[0]))
+    _check_rollout_arrays(robot.model, start, control, state_out, sensor_out)  # passes
+    bad = {
+        "control": (control[:, :-1], state_out),
+        "control ": (np.asfortranarray(control), state_out),
+        "state output": (control, state_out[:, :-1]),
+        "state output ": (control, state_out.astype(np.float32)),
+    }
+    for name, (ctrl, states) in bad.items():
+        before = states.copy()
+        with pytest.raises(ValueError, match=f"^{name.strip()} must be a C-ordered float64"):
+            EVALUATOR._roll_out(kit.rollout, robot_, kit.data, start, ctrl, states, sensor_out)
+        assert np.array_equal(states, before)
