@@ -1,7 +1,7 @@
 """The package data: the built-in robots, the servo table, the presets and the dashboard page.
 
 `models/` and `static/` of a checkout install as `app.models` and `app.static`, found with
-importlib.resources, so a wheel works as the source tree does (docs/DESIGN.md §10).
+importlib.resources, so a wheel works as the source tree does (docs/DESIGN.md §13).
 """
 
 from __future__ import annotations

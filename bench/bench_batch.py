@@ -40,10 +40,11 @@ import time
 import mujoco
 import numpy as np
 
-from app.core.batch import STATE_SPEC, BatchEvaluator, Job
-from app.core.frame_loop import FRAME_S, frame_steps
-from app.core.processes import ProcessEvaluator
-from app.core.variations import NOMINAL, VariationRanges, sample
+from app.evaluation import BatchEvaluator, Job
+from app.evaluation._lanes import STATE_SPEC
+from app.evaluation._processes import ProcessEvaluator
+from app.sim.frame_loop import FRAME_S, frame_steps
+from app.worlds.variations import NOMINAL, VariationRanges, sample
 from gait import GaitParams, Motion
 
 CEILING_GOAL = 0.95  # end to end, of N raw processes at once

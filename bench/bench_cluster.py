@@ -14,14 +14,13 @@ import argparse
 import os
 import time
 
-from app.core.batch import BatchEvaluator
-from app.core.cluster import ClusterEvaluator
-from app.core.cluster_local import LoopbackCluster
-from app.core.evaluation import same_results
-from app.core.robot import RobotModel
-from app.core.robustness import jobs_for
-from app.core.variations import VariationRanges, sample
+from app.analysis.robustness import jobs_for
+from app.evaluation import BatchEvaluator, same_results
+from app.evaluation._dask import ClusterEvaluator
+from app.evaluation.local_cluster import LoopbackCluster
 from app.params.presets import builtin_presets
+from app.robots.model import RobotModel
+from app.worlds.variations import VariationRanges, sample
 
 GOAL = 0.85
 

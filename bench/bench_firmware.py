@@ -19,8 +19,8 @@ import time
 import numpy as np
 
 from app.assets import builtin_presets_dir
-from app.core.mcu.build import build_firmware
-from app.core.mcu.emulator import FRAME_CYCLES, Mcu
+from app.firmware.build import build_firmware
+from app.firmware.emulator import FRAME_CYCLES, Mcu
 
 BUDGET_CYCLES = 80_000
 MOTIONS = {
@@ -48,10 +48,10 @@ def frame_cycles(doc: dict, gait_cycles: float) -> tuple[np.ndarray, float]:
 def ramp_cycles(doc: dict) -> np.ndarray:
     """Busy cycles of each frame while a whole set sent over the UART (SET_PARAMS: a_p 0.07,
     a_y 0.2, CA 0.1 from standing) is received and its motion ramped in (`ramp.c`)."""
-    from app.core.mcu.drive import FirmwareDrive
+    from app.firmware.pulses import FirmwarePulses
 
     standing = {**doc, "motion": {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}}
-    drive = FirmwareDrive(standing)
+    drive = FirmwarePulses(standing)
     try:
         for _ in range(3):
             drive.next_frame()

@@ -23,7 +23,7 @@ import time
 import mujoco
 import numpy as np
 
-from app.core.frame_loop import FrameLoop, plan_frames
+from app.sim.frame_loop import FrameLoop, plan_frames
 from gait import GaitParams, Motion
 
 MOTION = Motion(a_p=0.07)

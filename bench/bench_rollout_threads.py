@@ -1,4 +1,4 @@
-"""Benchmark: `mujoco.rollout` alone against the machine's ceiling (docs/DESIGN.md §14).
+"""Benchmark: `mujoco.rollout` alone against the machine's ceiling (docs/DESIGN.md §9).
 
 The same planned walks (a_p = 0.07, CA spread over -0.1..0.1, 10 s) are stepped, interleaved
 in each repeat, by:
@@ -27,7 +27,8 @@ import numpy as np
 from bench_batch import concurrent_raw, raw_replay, walks
 from mujoco import rollout
 
-from app.core.batch import STATE_SPEC, BatchEvaluator
+from app.evaluation import BatchEvaluator
+from app.evaluation._lanes import STATE_SPEC
 
 FRAMES = 500  # 10 s
 

@@ -12,10 +12,10 @@ from __future__ import annotations
 import argparse
 import time
 
-from app.core.frame_loop import FRAME_S, FrameLoop
 from app.params.presets import builtin_presets
 from app.server.ghost import Ghost
 from app.server.recorder import Recorder
+from app.sim.frame_loop import FRAME_S, FrameLoop
 from gait import Motion
 
 

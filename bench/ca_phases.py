@@ -21,8 +21,8 @@ import mujoco
 import numpy as np
 from ca_response import add_variant_arguments, describe_variant, load_variant, walking
 
-from app.core.frame_loop import FRAME_S, FrameLoop
-from app.core.robot import RobotModel
+from app.robots.model import RobotModel
+from app.sim.frame_loop import FRAME_S, FrameLoop
 from gait import GaitParams, Motion
 
 WARMUP_S = 5.0

@@ -2,7 +2,7 @@
 
 Backs the "CA steering on this model" section of models/README.md. Walks a preset at a_p with CA
 over a sweep (batch rollouts) and prints, per CA, the measured heading rate next to eq (13)'s,
-then the gain and bend of the CA = +-0.1 pair (`app.study.cases.Steering`). Variants of the
+then the gain and bend of the CA = +-0.1 pair (`app.analysis.cases.Steering`). Variants of the
 model, for the experiment only (the shipped model is unchanged):
 
   --friction MU   every geom's sliding friction set to MU
@@ -15,7 +15,7 @@ model, for the experiment only (the shipped model is unchanged):
 
 and, for the gait, --set GROUP.FIELD=VALUE (repeatable) on top of the preset. --yaw-per-ca K
 walks each CA with a_y = K * CA added (a_y > 0 turns clockwise, as CA > 0 does): the steering
-term of docs/DESIGN.md §10 (`steer.yaw_per_ca`), emulated on the motion vector.
+term of docs/DESIGN.md §4 (`steer.yaw_per_ca`), emulated on the motion vector.
 
     python bench/ca_response.py [--preset tuned] [--a-p 0.07] [--duration 30] \
         [--friction 0.5] [--sole-grid] [--contact-timeconst 0.005] [--elliptic] \
@@ -28,12 +28,12 @@ import argparse
 
 import mujoco
 
-from app.core.batch import BatchEvaluator, Job
-from app.core.robot import RobotModel
+from app.analysis.cases import steering
+from app.evaluation import BatchEvaluator, Job
 from app.robots import build_spec, load_description
-from app.study.cases import steering
+from app.robots.model import RobotModel
 from app.study.report import fmt
-from app.study.runs import resolve_presets
+from app.study.walks import resolve_presets
 from gait import GaitParams, Motion
 from gait.params import merge, parse_settings
 

@@ -1,4 +1,4 @@
-"""Which single departure from the model breaks a gait (docs/DESIGN.md §13): each variation
+"""Which single departure from the model breaks a gait (docs/DESIGN.md §8): each variation
 field alone at the ends of its default range (the tilt downhill in four directions, the
 calibration error on every joint at once, both signs), every case of `artro bench robust`, and
 whether it passes by `bench robust`'s rule, with the run's figure as a share of the nominal one.
@@ -14,11 +14,11 @@ from __future__ import annotations
 import argparse
 import dataclasses
 
-from app.core.batch import BatchEvaluator, Job
-from app.core.robustness import ROBUST_CASES, _figure, passes
-from app.core.variations import NOMINAL, Variation, VariationRanges
+from app.analysis.robustness import ROBUST_CASES, _figure, passes
+from app.evaluation import BatchEvaluator, Job
 from app.params.document import load_parameter_set
 from app.params.presets import builtin_presets
+from app.worlds.variations import NOMINAL, Variation, VariationRanges
 from gait import JOINT_NAMES
 
 

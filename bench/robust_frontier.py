@@ -1,4 +1,4 @@
-"""Where robustness and the paper's figures pull apart (docs/DESIGN.md §13): every candidate of a
+"""Where robustness and the paper's figures pull apart (docs/DESIGN.md §12): every candidate of a
 `tune --robust` study, the share of its varied runs that pass against its largest error from the
 paper's table on the nominal model, with the goal lines (>= 90 % passing; within 25 %) and the
 candidates no other beats on both (the frontier).
@@ -23,9 +23,9 @@ import optuna
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from app.analysis.cases import CASES, measured, target
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import builtin_presets, stamped, write_parameter_set
-from app.study.cases import CASES, measured, target
 from app.study.study_store import DEFAULT_STUDY, open_storage
 from app.study.tune import dimensions, with_values
 

@@ -15,10 +15,10 @@ import argparse
 import math
 import sys
 
-from app.core.batch import BatchEvaluator, Job
-from app.core.ca_analysis import eq13_turn_rate_rad_s
-from app.core.ca_calibration import calibrate_ca, with_k
-from app.study.runs import resolve_presets
+from app.analysis.ca_analysis import eq13_turn_rate_rad_s
+from app.analysis.ca_calibration import calibrate_ca, with_k
+from app.evaluation import BatchEvaluator, Job
+from app.study.walks import resolve_presets
 from gait import Motion
 
 SPEEDS = (0.05, 0.07, 0.09, -0.07)

@@ -2,7 +2,7 @@ import threading
 
 import pytest
 
-from app.core.mcu.pty_bridge import PtyBridge
+from app.firmware.pty_bridge import PtyBridge
 from app.params.document import ParameterSet
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import SimThread

@@ -3,10 +3,10 @@ every run differs and a result out of order shows -- and their trace comparison.
 
 import numpy as np
 
-from app.core.evaluation import Job
-from app.core.metrics import Trace
-from app.core.variations import parse_variation
+from app.evaluation import Job
 from app.params.presets import builtin_presets
+from app.sim.metrics import Trace
+from app.worlds.variations import parse_variation
 from gait import Motion
 
 TUNED = builtin_presets()["tuned"].gait

@@ -7,8 +7,8 @@ import json
 from typing import Any
 
 from app.assets import builtin_presets_dir
-from app.core.mcu.build import build_firmware
-from app.core.mcu.emulator import Mcu
+from app.firmware.build import build_firmware
+from app.firmware.emulator import Mcu
 
 
 def preset(name: str, **motion: float) -> dict[str, Any]:

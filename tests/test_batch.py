@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 from mujoco import MjData, rollout
 
-from app.core.batch import BatchEvaluator, Cancelled, Job, control_sequence, start_at_rest
-from app.core.evaluation import same_results
-from app.core.frame_loop import FrameLoop, plan_frames
-from app.core.headless import run
-from app.core.metrics import MOTION_METRICS
+from app.evaluation import BatchEvaluator, Cancelled, Job, same_results
+from app.evaluation._lanes import control_sequence, start_at_rest
+from app.sim.frame_loop import FrameLoop, plan_frames
+from app.sim.headless import run
+from app.sim.metrics import MOTION_METRICS
 from gait import GaitParams, Motion
 
 EVALUATOR = BatchEvaluator(threads=2)
@@ -41,7 +41,7 @@ def test_a_run_stops_rolling_out_after_the_call_it_fell_in_and_measures_the_same
     """Runs roll out SEGMENT_FRAMES frames per call, each call from the last one's state and
     warm start; a run that falls stops after its call. Metrics and traces equal those of one
     call over the whole run, to the bit."""
-    from app.core import batch
+    from app.evaluation import _lanes as batch
     from tests.evaluation_support import assert_same_traces
 
     falls = Job(
@@ -123,8 +123,8 @@ def test_a_blown_up_frame_ends_the_run_unsampled():
 def test_reused_output_arrays_change_no_result():
     """Each lane rolls out into arrays it keeps from run to run: a call of many runs, calls of
     other lengths in between, and one run per evaluator all give the same metrics and traces."""
-    from app.core.evaluation import same_results
-    from app.core.variations import VariationRanges, sample
+    from app.evaluation import same_results
+    from app.worlds.variations import VariationRanges, sample
 
     worlds = sample(VariationRanges(), 19, seed=5)
     jobs = [Job(GaitParams(), Motion(a_p=0.07, ca=0.01 * (i % 5)), variation=w)
@@ -167,7 +167,7 @@ def test_a_cancel_stops_before_the_next_run_and_keeps_what_finished_in_order():
 def test_arrays_a_lane_would_roll_out_unchecked_are_checked_first():
     """A lane calls `rollout` unchecked, so the run's arrays are checked once before: a wrong
     shape, dtype or order is a ValueError naming the array, and nothing is rolled out."""
-    from app.core.batch import _check_rollout_arrays, _LaneKit
+    from app.evaluation._lanes import _check_rollout_arrays, _LaneKit
 
     robot = EVALUATOR.robot
     kit = _LaneKit(robot.model)

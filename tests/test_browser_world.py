@@ -1,4 +1,4 @@
-"""The World panel in a real headless Chromium (docs/DESIGN.md §13), at both window sizes: the
+"""The World panel in a real headless Chromium (docs/DESIGN.md §8), at both window sizes: the
 header names the robot; the sliders set the live robot's world and the header says it is varied;
 the robustness report is drawn as bars, and a worst variation's button loads it."""
 

@@ -6,9 +6,9 @@ import math
 
 import pytest
 
+from app.analysis.ca_calibration import CalibrationError, calibrate_ca
 from app.cli import main
-from app.core.batch import Job
-from app.core.ca_calibration import CalibrationError, calibrate_ca
+from app.evaluation import Job
 from app.params.document import load_parameter_set
 from gait import GaitParams, Motion
 

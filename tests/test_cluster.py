@@ -1,4 +1,4 @@
-"""Evaluations on a real Dask cluster (docs/DESIGN.md §14): a `dask scheduler` and two
+"""Evaluations on a real Dask cluster (docs/DESIGN.md §9): a `dask scheduler` and two
 `dask worker` processes on loopback. Results equal the local threads' to the bit; a worker killed
 mid-evaluation (SIGKILL) loses no result; a client of another version is refused naming both
 versions; a scheduler that goes away is a clear error."""
@@ -12,12 +12,12 @@ from collections.abc import Iterator
 
 import pytest
 
-from app.core.batch import BatchEvaluator
-from app.core.cluster import ClusterError, ClusterEvaluator, evaluate_chunk
-from app.core.cluster_local import LoopbackCluster
-from app.core.evaluation import job_to_dict, same_results
-from app.core.metrics import Trace
-from app.core.robot import RobotModel
+from app.evaluation import BatchEvaluator, job_to_dict, same_results
+from app.evaluation._chunks import VersionMismatch, evaluate_chunk
+from app.evaluation._dask import ClusterError, ClusterEvaluator
+from app.evaluation.local_cluster import LoopbackCluster
+from app.robots.model import RobotModel
+from app.sim.metrics import Trace
 from tests.evaluation_support import assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow
@@ -91,7 +91,8 @@ def test_a_worker_of_another_version_refuses_naming_both(cluster):
             evaluate_chunk, "{}", [job_to_dict(varied_jobs(1)[0])], 1.0, 0.0, "0.0.0-other"
         )
         with pytest.raises(
-            ClusterError, match=r"this worker runs artro-gait-studio .+, the client 0\.0\.0-other"
+            VersionMismatch,
+            match=r"this worker runs artro-gait-studio .+, the client 0\.0\.0-other",
         ):
             future.result(timeout=120)
     finally:

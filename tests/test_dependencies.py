@@ -1,4 +1,4 @@
-"""The package declares what it imports, and the environment is the lock (docs/DESIGN.md §11):
+"""The package declares what it imports, and the environment is the lock (docs/DESIGN.md §13):
 every third-party module that `app/`, `gait/` and `hardware/` import belongs to a runtime
 dependency of pyproject.toml; every declared dependency is pinned in requirements.lock at a
 version its range admits; and this environment holds exactly the pinned versions."""

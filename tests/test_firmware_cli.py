@@ -1,4 +1,4 @@
-"""`artro firmware build|run` (app.core.mcu.cli) and the exported firmware folder."""
+"""`artro firmware build|run` (app.cli.firmware) and the exported firmware folder."""
 
 from __future__ import annotations
 
@@ -11,8 +11,9 @@ from pathlib import Path
 
 import pytest
 
-from app.core.mcu.build import export_firmware_folder, memory_use
-from app.core.mcu.cli import add_firmware_parser, cmd_firmware
+from app.cli.firmware import add_parser as add_firmware_parser
+from app.cli.firmware import command as cmd_firmware
+from app.firmware.build import export_firmware_folder, memory_use
 from tests.firmware_support import preset
 
 

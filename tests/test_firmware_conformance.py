@@ -13,7 +13,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from app.core.mcu.conformance import model_frames, run_comparison
+from app.firmware.conformance import model_frames, run_comparison
 from hardware.firmware.schema import param_specs
 from tests.firmware_support import emulator, frames_for_cycles, preset
 
@@ -87,7 +87,7 @@ def test_gait_clock_matches_frame_loop_phase() -> None:
     """The firmware's phase per frame is the frame loop's phi_Trunk (float32 of it)."""
     doc = preset("tuned", a_p=0.05)
     model = model_frames(doc, 40)
-    from app.core.mcu.emulator import read_active_plan
+    from app.firmware.emulator import read_active_plan
 
     with emulator(doc) as mcu:
         phases = []
@@ -100,11 +100,10 @@ def test_gait_clock_matches_frame_loop_phase() -> None:
 @pytest.mark.slow
 def test_the_second_robots_firmware_is_conformant_tick_for_tick() -> None:
     """The micro robot's firmware (its leg lengths in artro_schema.h, its wiring) carries the
-    Python model's edges of the same robot, as ArtRo's does (docs/DESIGN.md §12)."""
-    from app.core.mcu.build import build_firmware
-    from app.core.mcu.cli import wiring
-    from app.core.mcu.emulator import Mcu
-    from app.core.robot import RobotModel
+    Python model's edges of the same robot, as ArtRo's does (docs/DESIGN.md §7)."""
+    from app.firmware.build import build_firmware, wiring
+    from app.firmware.emulator import Mcu
+    from app.robots.model import RobotModel
 
     robot = RobotModel.load("micro")
     doc = preset("micro-tuned", a_p=0.07, ca=0.05)

@@ -10,9 +10,9 @@ import httpx
 import numpy as np
 import pytest
 
-from app.core.frame_loop import FrameLoop, PinFrame
-from app.core.mcu.drive import FirmwareDrive
+from app.firmware.pulses import FirmwarePulses
 from app.server.sim_thread import Command
+from app.sim.frame_loop import FrameLoop, PinFrame
 from gait import GaitParams, Motion
 from hardware import TICK_US, US_PER_DEG
 from tests.firmware_support import preset
@@ -30,7 +30,7 @@ def test_the_servos_read_the_firmwares_pins_and_walk_as_the_model_does() -> None
     params, motion = GaitParams.from_dict(doc["gait"]), Motion(**doc["motion"])
     model = FrameLoop(params=params, motion=motion)
     pins = FrameLoop(params=params, motion=motion)
-    drive = FirmwareDrive(doc)
+    drive = FirmwarePulses(doc)
     try:
         worst = 0.0
         for _ in range(150):  # 3 s, several gait cycles
@@ -49,7 +49,7 @@ def test_the_servos_read_the_firmwares_pins_and_walk_as_the_model_does() -> None
 
 def test_a_servo_whose_output_carried_no_pulse_keeps_its_set_point() -> None:
     loop = FrameLoop(params=GaitParams(), motion=Motion())
-    drive = FirmwareDrive(preset("paper"))
+    drive = FirmwarePulses(preset("paper"))
     try:
         frame = drive.next_frame()
     finally:

@@ -7,8 +7,8 @@ from pathlib import Path
 
 import pytest
 
-from app.core.mcu.build import SOURCE_DIR, build_firmware, generated_headers
-from app.core.mcu.conformance import model_frames, run_comparison
+from app.firmware.build import SOURCE_DIR, build_firmware, generated_headers
+from app.firmware.conformance import model_frames, run_comparison
 from hardware.firmware import HEADER_NAME
 from hardware.firmware.schema import param_specs, values_from_document
 from tests.firmware_support import emulator, frames_for_cycles, preset

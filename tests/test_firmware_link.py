@@ -7,10 +7,10 @@ import threading
 import numpy as np
 import serial
 
-from app.core.mcu import protocol as proto
-from app.core.mcu.link import SerialLink
-from app.core.mcu.protocol import Ack, Info, Msg, Params
-from app.core.mcu.pty_bridge import PtyBridge
+from app.firmware import protocol as proto
+from app.firmware.link import SerialLink
+from app.firmware.protocol import Ack, Info, Msg, Params
+from app.firmware.pty_bridge import PtyBridge
 from hardware.firmware.schema import param_specs, schema_hash
 from tests.firmware_support import emulator, preset
 
@@ -39,11 +39,11 @@ def test_pyserial_talks_to_the_emulated_robot_through_a_pty() -> None:
 
 
 def test_firmware_drive_frames_equal_the_model_and_follow_a_new_set() -> None:
-    from app.core.mcu.conformance import model_frames
-    from app.core.mcu.drive import FirmwareDrive
+    from app.firmware.conformance import model_frames
+    from app.firmware.pulses import FirmwarePulses
 
     old, new = preset("paper", a_p=0.07), preset("tuned", a_r=-0.05)
-    drive = FirmwareDrive(old)
+    drive = FirmwarePulses(old)
     try:
         frames = [drive.next_frame() for _ in range(5)]
         effective = drive.set_parameters(new)

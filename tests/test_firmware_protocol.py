@@ -12,13 +12,13 @@ import struct
 import numpy as np
 import pytest
 
-from app.core.frame_loop import START_PHASE_RAD
-from app.core.mcu import protocol as proto
-from app.core.mcu.build import build_firmware
-from app.core.mcu.conformance import model_frames, run_comparison, split_frames
-from app.core.mcu.emulator import FRAME_CYCLES, Mcu, read_active_plan
-from app.core.mcu.link import EmulatedLink
-from app.core.mcu.protocol import Ack, Info, Msg, Nak, NakReason, Params, Telemetry
+from app.firmware import protocol as proto
+from app.firmware.build import build_firmware
+from app.firmware.conformance import model_frames, run_comparison, split_frames
+from app.firmware.emulator import FRAME_CYCLES, Mcu, read_active_plan
+from app.firmware.link import EmulatedLink
+from app.firmware.protocol import Ack, Info, Msg, Nak, NakReason, Params, Telemetry
+from app.sim.frame_loop import START_PHASE_RAD
 from gait import GaitParams, Motion, joint_angles
 from hardware import ServoCalibration, angles_to_pulses_us, pulse_us_to_ocr
 from hardware.firmware.schema import param_specs, schema_hash, values_from_document

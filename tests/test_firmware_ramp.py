@@ -5,9 +5,9 @@ the ramp off."""
 import numpy as np
 import pytest
 
-from app.core.mcu import protocol as proto
-from app.core.mcu.conformance import model_frames
-from app.core.mcu.drive import FirmwareDrive
+from app.firmware import protocol as proto
+from app.firmware.conformance import model_frames
+from app.firmware.pulses import FirmwarePulses
 from tests.firmware_support import preset
 
 
@@ -17,7 +17,7 @@ def test_a_motion_change_reaches_the_gait_as_the_model_ramps_it(ramp: bool) -> N
     old["gait"]["ramp"]["enabled"] = ramp
     new = preset("tuned", a_p=0.07, ca=0.1)
     new["gait"]["ramp"]["enabled"] = ramp
-    drive = FirmwareDrive(old)
+    drive = FirmwarePulses(old)
     try:
         frames = [drive.next_frame() for _ in range(3)]
         drive.send_parameters(new)  # on the wire while the frames run, as in the dashboard

@@ -8,11 +8,11 @@ import math
 
 import httpx
 
-from app.core.frame_loop import FrameLoop
 from app.params.presets import builtin_presets
 from app.server.ghost import BESIDE_M, Ghost
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import Command, SimThread
+from app.sim.frame_loop import FrameLoop
 from gait import GaitParams, Motion
 from tests.server_harness import wait_for
 

@@ -1,5 +1,6 @@
-"""The house rules of docs/DESIGN.md (§2, §3), read from the source: who may import whom, one joint
-order everywhere, short module docstrings, and no citation of a file outside the repository."""
+"""The house rules of docs/DESIGN.md (§2, §3), read from the source: the package table of §2 and
+every import (who may import whom, no circle anywhere), one joint order everywhere, short module
+docstrings, and no citation of a file outside the repository."""
 
 from __future__ import annotations
 
@@ -11,69 +12,12 @@ from pathlib import Path
 import mujoco
 import pytest
 
-from app.core.robot import RobotModel
+from app.robots.model import RobotModel
 from gait import JOINT_NAMES
 from hardware import CHANNELS, SERVO_NAMES, ChannelMap
 
 ROOT = Path(__file__).resolve().parent.parent
 STDLIB = sys.stdlib_module_names
-
-# package -> the project packages and third-party modules it may import (besides the stdlib)
-ALLOWED = {
-    "gait": {"gait", "numpy"},
-    "hardware": {"hardware", "gait", "numpy"},
-    "app.assets": set(),
-    "app.core": {
-        "app.core",
-        "app.assets",
-        "app.robots",
-        "gait",
-        "hardware",
-        "numpy",
-        "mujoco",
-        "serial",
-        "distributed",  # app/core/cluster.py, the `cluster` extra
-    },
-    "app.robots": {
-        "app.robots",
-        "app.assets",
-        "gait",
-        "hardware",
-        "numpy",
-        "mujoco",
-        "pydantic",
-        "yaml",
-    },
-    "app.params": {"app.params", "app.assets", "gait", "hardware", "numpy", "pydantic", "yaml"},
-}
-FORBIDDEN = {  # package -> project packages it must never import
-    "app.server": {"app.study", "app.cli"},
-    "app.study": {"app.server", "app.cli"},
-}
-
-
-def module_name(path: Path) -> str:
-    parts = path.relative_to(ROOT).with_suffix("").parts
-    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
-
-
-def imports_of(path: Path) -> set[str]:
-    """Every module imported anywhere in the file (also inside functions and TYPE_CHECKING)."""
-    found: set[str] = set()
-    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
-        if isinstance(node, ast.Import):
-            found.update(alias.name for alias in node.names)
-        elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-            found.add(node.module)
-    return found
-
-
-def owner(module: str, packages: set[str]) -> str | None:
-    """The longest of `packages` that `module` is or lies in."""
-    hits = [p for p in packages if module == p or module.startswith(p + ".")]
-    return max(hits, key=len) if hits else None
-
-
 SOURCES = sorted(
     p
     for d in ("gait", "hardware", "app")
@@ -82,32 +26,158 @@ SOURCES = sorted(
 )
 
 
+def layer_table(design: str) -> dict[str, set[str]]:
+    """DESIGN §2's table: package -> what it may import (project packages and third-party
+    modules), the package itself included."""
+    section = design.split("## §2", 1)[1].split("\n## ", 1)[0]
+    table: dict[str, set[str]] = {}
+    for line in section.splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) != 3 or not cells[0].startswith("`"):
+            continue
+        package = cells[0].strip("`")
+        allowed = {a.strip().strip("`") for a in cells[2].split(",")} - {"—", ""}
+        table[package] = allowed | {package}
+    return table
+
+
+ALLOWED = layer_table((ROOT / "docs" / "DESIGN.md").read_text(encoding="utf-8"))
+
+
+def module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+MODULES = {module_name(p): p for p in SOURCES}
+
+
+def imports_of(path: Path) -> set[str]:
+    """Every module imported anywhere in the file (also inside functions and TYPE_CHECKING),
+    relative imports resolved; `from package import name` also names `package.name`."""
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+        if isinstance(node, ast.Import):
+            found.update(alias.name for alias in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            base = node.module or ""
+            if node.level:
+                package = module_name(path).split(".")[: None if path.name == "__init__.py" else -1]
+                up = package[: len(package) - node.level + 1]
+                base = ".".join([*up, *([node.module] if node.module else [])])
+            found.add(base)
+            found.update(f"{base}.{alias.name}" for alias in node.names)
+    return {m for m in found if m}
+
+
+def project_module(imported: str) -> str | None:
+    """The module of ours that an import names (its longest prefix that is one), or None."""
+    while imported and imported not in MODULES:
+        imported = imported.rpartition(".")[0]
+    return imported or None
+
+
+def owner(module: str, packages: set[str]) -> str | None:
+    """The longest of `packages` that `module` is or lies in."""
+    hits = [p for p in packages if module == p or module.startswith(p + ".")]
+    return max(hits, key=len) if hits else None
+
+
+def test_the_table_lists_every_package_of_app_and_nothing_else() -> None:
+    packages = {
+        module_name(p.parent / "__init__.py")
+        for p in (ROOT / "app").glob("*/__init__.py")
+        if p.parent.name not in ("models", "static")
+    } | {module_name(p) for p in (ROOT / "app").glob("*.py") if p.name != "__init__.py"}
+    assert set(ALLOWED) == packages | {"gait", "hardware"}, (
+        "docs/DESIGN.md §2's table and the packages under app/ differ: "
+        f"unlisted {sorted(packages - set(ALLOWED))}, "
+        f"listed but absent {sorted(set(ALLOWED) - packages - {'gait', 'hardware'})}"
+    )
+
+
 @pytest.mark.parametrize("path", SOURCES, ids=lambda p: str(p.relative_to(ROOT)))
 def test_imports_run_one_way(path: Path) -> None:
     name = module_name(path)
-    package = owner(name, set(ALLOWED) | set(FORBIDDEN))
+    package = owner(name, set(ALLOWED))
     if package is None:
-        return  # app/__init__.py and app/cli.py may import anything
+        assert name == "app", f"{name} lies in no package of docs/DESIGN.md §2's table"
+        return
+    allowed = ALLOWED[package]
     for imported in imports_of(path):
         top = imported.split(".")[0]
-        if package in ALLOWED:
-            if top in STDLIB or top == "__future__":
-                continue
-            allowed = ALLOWED[package]
-            assert owner(imported, allowed) is not None or top in allowed, (
-                f"{name} imports {imported}; {package} may import only {sorted(allowed)}"
+        if top in STDLIB or top == "__future__":
+            continue
+        if top in ("app", "gait", "hardware"):
+            ours = project_module(imported)
+            if ours is None:
+                continue  # `from app.x import name` also lists `app.x.name`
+            assert owner(ours, allowed) is not None, (
+                f"{name} imports {ours}; {package} may import only {sorted(allowed)}"
             )
         else:
-            bad = owner(imported, FORBIDDEN[package])
-            assert bad is None, f"{name} imports {imported}; {package} never imports {bad}"
+            assert top in allowed, (
+                f"{name} imports {top}; {package} may import only {sorted(allowed)}"
+            )
 
 
-def test_the_rule_catches_a_wrong_import(tmp_path: Path) -> None:
-    """The reader sees imports inside functions and TYPE_CHECKING blocks too."""
+def import_graph() -> dict[str, set[str]]:
+    """Module -> the modules of ours it imports (a package's own __init__ is not an edge)."""
+    graph: dict[str, set[str]] = {}
+    for name, path in MODULES.items():
+        found = {project_module(i) for i in imports_of(path)}
+        graph[name] = {m for m in found if m is not None and m != name}
+    return graph
+
+
+def circles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """The strongly connected components of more than one module (Tarjan), each sorted."""
+    index: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    on_stack: set[str] = set()
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on_stack.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on_stack:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            component = []
+            while True:
+                w = stack.pop()
+                on_stack.discard(w)
+                component.append(w)
+                if w == v:
+                    break
+            if len(component) > 1:
+                found.append(sorted(component))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    return found
+
+
+def test_no_import_circle_anywhere() -> None:
+    assert circles(import_graph()) == []
+
+
+def test_the_rules_catch_a_wrong_import_and_a_circle(tmp_path: Path) -> None:
+    """The reader sees imports inside functions and TYPE_CHECKING blocks too, and a circle of
+    three modules is found."""
     src = tmp_path / "m.py"
     src.write_text("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    import app.server.x\n")
     assert "app.server.x" in imports_of(src)
-    assert owner("app.server.x", FORBIDDEN["app.study"]) == "app.server"
+    assert owner("app.server.x", ALLOWED["app.study"]) is None
+    assert circles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
+    assert circles({"a": {"b"}, "b": set()}) == []
 
 
 def test_no_code_cites_a_file_outside_the_repository() -> None:

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from app.core.metrics import Trace, compute_metrics, whole_cycles
+from app.sim.metrics import Trace, compute_metrics, whole_cycles
 from gait import Pose2D, predict_path
 
 

@@ -1,5 +1,5 @@
 """Forward kinematics of the built-in ArtRo model, generated from models/robots/artro.yaml,
-against the leg interface (docs/DESIGN.md §3, §12)."""
+against the leg interface (docs/DESIGN.md §3, §7)."""
 
 import mujoco
 import numpy as np
@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.core.robot import RobotModel
 from app.robots import build_spec, load_description
+from app.robots.model import RobotModel
 from gait import ARTRO_LEG, JOINT_NAMES, leg_to_joint_angles
 
 ROBOT = RobotModel.load()

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from app.core.batch import BatchEvaluator, Job
-from app.core.frame_loop import FRAME_S, FrameLoop
-from app.core.headless import run
-from app.core.metrics import MOTION_METRICS
+from app.evaluation import BatchEvaluator, Job
+from app.sim.frame_loop import FRAME_S, FrameLoop
+from app.sim.headless import run
+from app.sim.metrics import MOTION_METRICS
 from gait import GaitParams, Motion, joint_angles, ramp_steps
 
 STEP = Motion(a_p=0.07, ca=0.1)

@@ -8,18 +8,20 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from app.cli import main
-from app.core.ca_analysis import (
+from app.analysis.ca_analysis import (
     CircleCheck,
     antisymmetry_pairs,
     eq13_turn_rate_rad_s,
     fit_axle,
     largest_stable_ca,
 )
+from app.analysis.cases import CASES
+from app.cli import main
 from app.study import runs as paper_runs
-from app.study.cases import CASES
+from app.study import walks
 from app.study.report import table
-from app.study.runs import ca_sweep, cycle_mean, resolve_presets
+from app.study.runs import ca_sweep
+from app.study.walks import cycle_mean, resolve_presets
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -112,7 +114,7 @@ def test_unknown_preset_is_a_clear_error(capsys):
 
 
 def test_missing_named_presets(tmp_path, monkeypatch):
-    monkeypatch.setattr(paper_runs, "BUILTIN_DIR", tmp_path)
+    monkeypatch.setattr(walks, "BUILTIN_DIR", tmp_path)
     presets, notes = resolve_presets(["paper", "tuned"])
     assert [p.name for p in presets] == ["paper"]  # paper falls back to ParameterSet()
     assert any("tuned" in n and "skipped" in n for n in notes)

@@ -3,7 +3,7 @@ forward,backward`) walks forward and backward on the unchanged model without fal
 
 from __future__ import annotations
 
-from app.core.batch import BatchEvaluator, Job
+from app.evaluation import BatchEvaluator, Job
 from app.params.document import load_parameter_set
 from app.params.presets import BUILTIN_DIR
 from gait import Motion

@@ -1,4 +1,4 @@
-"""The process evaluator (docs/DESIGN.md §14): two real spawned worker processes give the local
+"""The process evaluator (docs/DESIGN.md §9): two real spawned worker processes give the local
 threads' results to the bit, in order, with progress and traces; a cancel stops it; a killed
 worker is a clear error and the next call runs on new processes."""
 
@@ -10,11 +10,10 @@ import threading
 
 import pytest
 
-from app.core.batch import BatchEvaluator, Cancelled
-from app.core.evaluation import evaluator_for, same_results
-from app.core.metrics import Trace
-from app.core.processes import ProcessEvaluator, WorkerDied
-from app.core.robot import RobotModel
+from app.evaluation import BatchEvaluator, Cancelled, evaluator_for, same_results
+from app.evaluation._processes import ProcessEvaluator, WorkerDied
+from app.robots.model import RobotModel
+from app.sim.metrics import Trace
 from tests.evaluation_support import assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow

@@ -10,16 +10,16 @@ import mujoco
 import numpy as np
 import pytest
 
-from app.core.frame_loop import FrameLoop
-from app.core.mcu.conformance import split_frames
-from app.core.mcu.emulator import Edges
-from app.core.mcu.vcd import VCD_NAMES, edges_of_frames, vcd_text
+from app.firmware.conformance import split_frames
+from app.firmware.emulator import Edges
+from app.firmware.vcd import VCD_NAMES, edges_of_frames, vcd_text
 from app.params.presets import builtin_presets
 from app.server.param_store import ParameterStore
 from app.server.recorder import Recorder
 from app.server.recording_file import recording_from_json
 from app.server.replay import Replay
 from app.server.sim_thread import SimThread
+from app.sim.frame_loop import FrameLoop
 from gait import Motion
 from hardware import HardwareSetup, frame_edges
 from tests.server_harness import wait_for

@@ -9,9 +9,10 @@ import numpy as np
 import pytest
 import serial
 
-from app.core.mcu import protocol as proto
-from app.core.mcu.link import SerialLink
-from app.robot_link import LinkError, RobotLink, _plain, cmd_link, follow
+from app.cli.link import command as cmd_link
+from app.firmware import protocol as proto
+from app.firmware.link import SerialLink
+from app.firmware.robot_link import LinkError, RobotLink, _plain, follow
 from hardware.firmware.schema import values_from_document
 from tests.server_harness import client, running_server
 

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 import serial
 
-from app.core.mcu import protocol as proto
-from app.core.mcu.link import SerialLink
+from app.firmware import protocol as proto
+from app.firmware.link import SerialLink
 from tests.firmware_support import preset
 from tests.server_harness import running_server, wait_for
 

@@ -1,4 +1,4 @@
-"""Robot descriptions (docs/DESIGN.md §12): the schema refuses what cannot be built or walked and
+"""Robot descriptions (docs/DESIGN.md §7): the schema refuses what cannot be built or walked and
 names the field, the servo table's rule gives the MuJoCo settings, the model is built in code with
 the names and sites of docs/DESIGN.md §3, and a second robot of another size works the same way."""
 
@@ -16,7 +16,6 @@ import pytest
 import yaml
 
 from app.assets import builtin_robots_dir
-from app.core.robot import RobotModel
 from app.robots import (
     RobotError,
     build_spec,
@@ -28,6 +27,7 @@ from app.robots import (
     servo_table,
 )
 from app.robots.checks import eq1_torques, robot_warnings
+from app.robots.model import RobotModel
 from app.robots.servos import KGF_CM_TO_NM
 from gait import ARTRO_LEG, JOINT_NAMES, GaitParams, Motion, joint_angles_with_flags
 from hardware import ChannelMap
@@ -134,7 +134,7 @@ def test_the_gait_uses_the_loaded_robots_legs():
     q_long = joint_angles_with_flags(GaitParams(), Motion(a_p=0.07), phi, longer.geometry).values
     assert longer.geometry.upper_m == 0.12
     np.testing.assert_allclose(q_long, q_artro, atol=1e-12)  # eta drives the knee: equal shape
-    from app.core.frame_loop import FrameLoop
+    from app.sim.frame_loop import FrameLoop
 
     sim = FrameLoop(longer, motion=Motion(a_p=0.07))
     assert sim.standing_height_m > FrameLoop(ROBOT).standing_height_m + 0.05

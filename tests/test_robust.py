@@ -1,4 +1,4 @@
-"""`artro bench robust` (docs/DESIGN.md §13): one definition of passing, intervals that hold,
+"""`artro bench robust` (docs/DESIGN.md §12): one definition of passing, intervals that hold,
 failures traced to the parameter they depend on, and the same seed giving the same report to
 the bit."""
 
@@ -11,9 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from app.core.batch import BatchEvaluator
-from app.core.robot import RobotModel
-from app.core.robustness import (
+from app.analysis.robustness import (
     FALL_MARGIN_LOSS,
     ROBUST_CASES,
     dependence,
@@ -22,8 +20,10 @@ from app.core.robustness import (
     run_robust,
     wilson,
 )
-from app.core.variations import Variation, VariationRanges, parse_variation, sample
+from app.evaluation import BatchEvaluator
 from app.params.presets import builtin_presets
+from app.robots.model import RobotModel
+from app.worlds.variations import Variation, VariationRanges, parse_variation, sample
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = {c.name: c for c in ROBUST_CASES}
@@ -149,6 +149,6 @@ def test_artro_bench_robust_json_and_files(tmp_path):
 
 
 def test_the_cases_are_the_paper_benchs():
-    from app.study.cases import CASES
+    from app.analysis.cases import CASES
 
     assert [(c.name, c.motion) for c in CASES] == [(c.name, c.motion) for c in ROBUST_CASES[:7]]

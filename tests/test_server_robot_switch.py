@@ -1,4 +1,4 @@
-"""Switching robots on a running server (docs/DESIGN.md §12): the simulation follows within a
+"""Switching robots on a running server (docs/DESIGN.md §7): the simulation follows within a
 frame, in the new robot's own preset; undo and redo take it back and forth; a robot not on
 offer, or a switch while a job or a replay runs, is refused and changes nothing."""
 

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from app.core.frame_loop import FrameLoop
-from app.core.servo_load import SAFETY_FACTOR, ServoLimits, ServoLoadMeter, level
+from app.sim.frame_loop import FrameLoop
+from app.sim.servo_load import SAFETY_FACTOR, ServoLimits, ServoLoadMeter, level
 from gait import JOINT_NAMES, GaitParams, Motion
 
 

@@ -6,8 +6,8 @@ import mujoco
 import numpy as np
 import pytest
 
-from app.core.frame_loop import FRAME_S, FrameLoop, plan_frames
-from app.core.robot import lowest_sole_z
+from app.robots.model import lowest_sole_z
+from app.sim.frame_loop import FRAME_S, FrameLoop, plan_frames
 from gait import GaitParams, Motion, joint_angles
 from hardware import SLOT_TICKS, TICK_US, ServoCalibration, TdmConfig, pulses_to_angles_rad
 

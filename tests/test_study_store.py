@@ -1,4 +1,4 @@
-"""The study store (docs/DESIGN.md §15): Optuna's journal file by default, an RDB URL on
+"""The study store (docs/DESIGN.md §12): Optuna's journal file by default, an RDB URL on
 request; settings fixed at creation; and `optuna-dashboard FILE` opens it, offline."""
 
 from __future__ import annotations

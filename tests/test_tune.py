@@ -9,11 +9,11 @@ from pathlib import Path
 import optuna
 import pytest
 
-from app.core.batch import BatchEvaluator, Job
-from app.core.robustness import ROBUST_CASES
+from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
+from app.analysis.robustness import ROBUST_CASES
+from app.evaluation import BatchEvaluator, Job
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import stamped, write_parameter_set
-from app.study.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
 from app.study.study_store import DEFAULT_STUDY, StudyStore, open_storage
 from app.study.tune import Tuner, dimensions
 from app.study.tune_loss import case_loss, curve_loss, meets_all_criteria, total_loss

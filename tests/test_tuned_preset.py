@@ -3,10 +3,10 @@ exactly as `artro tune --select passing` chose it (60 s runs, 5 s warm-up, on th
 
 import pytest
 
-from app.core.batch import BatchEvaluator, Job
+from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measured, steering
+from app.evaluation import BatchEvaluator, Job
 from app.params.document import load_parameter_set
 from app.params.presets import BUILTIN_DIR
-from app.study.cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measured, steering
 from app.study.tune_loss import meets_all_criteria
 
 

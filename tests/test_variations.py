@@ -1,4 +1,4 @@
-"""Model variations (docs/DESIGN.md §13): each field changes what it claims in the compiled model
+"""Model variations (docs/DESIGN.md §8): each field changes what it claims in the compiled model
 and nothing else, the set-point path delays, offsets and plays as stated in any chunking, samples
 and names reproduce to the bit, bad input is refused, and a varied world behaves as it should."""
 
@@ -13,10 +13,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from app.core.frame_loop import FrameLoop
-from app.core.robot import RobotModel
-from app.core.servo_path import ServoPath, acting_setpoints, latency_steps
-from app.core.variations import (
+from app.robots.model import RobotModel
+from app.sim.frame_loop import FrameLoop
+from app.worlds.servo_path import ServoPath, acting_setpoints, latency_steps
+from app.worlds.variations import (
     FIELDS,
     FRICTION_GEOMS,
     NOMINAL,

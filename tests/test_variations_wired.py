@@ -1,4 +1,4 @@
-"""Variations in the runs (docs/DESIGN.md §13): a varied run in the batch evaluator equals the
+"""Variations in the runs (docs/DESIGN.md §8): a varied run in the batch evaluator equals the
 same run frame by frame to the bit, runs that differ only in model values share one rollout,
 and a variation changes the walk the way it claims."""
 
@@ -12,11 +12,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from app.core.batch import BatchEvaluator, Job
-from app.core.headless import run
-from app.core.robot import RobotModel
-from app.core.variations import NOMINAL, parse_variation
+from app.evaluation import BatchEvaluator, Job
 from app.params.presets import builtin_presets
+from app.robots.model import RobotModel
+from app.sim.headless import run
+from app.worlds.variations import NOMINAL, parse_variation
 from gait import Motion
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -66,7 +66,7 @@ def test_the_nominal_variation_changes_nothing_to_the_bit():
 
 def test_a_latency_delays_the_servos_by_that_many_milliseconds():
     """The knee's actuator force follows the set-point 30 ms later on a 30 ms variation."""
-    from app.core.frame_loop import FrameLoop
+    from app.sim.frame_loop import FrameLoop
 
     def knee_ctrl(variation_text: str) -> np.ndarray:
         sim = FrameLoop(ROBOT, TUNED, FORWARD, variation=parse_variation(variation_text))
@@ -100,7 +100,7 @@ def test_artro_run_vary_names_the_variation():
 
 @pytest.mark.parametrize("text", ["", "tilt_deg=2,tilt_direction_deg=90"])
 def test_a_varied_robot_stands_in_the_frame_loop(text):
-    from app.core.frame_loop import FrameLoop
+    from app.sim.frame_loop import FrameLoop
 
     sim = FrameLoop(ROBOT, TUNED, Motion(), variation=parse_variation(text))
     for _ in range(50):

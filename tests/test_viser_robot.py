@@ -1,4 +1,4 @@
-"""The 3D view follows a switch of robots (docs/DESIGN.md §12): with a browser watching, the
+"""The 3D view follows a switch of robots (docs/DESIGN.md §7): with a browser watching, the
 scene is built again from the new robot's model, and the view's refresh goes on without errors."""
 
 from __future__ import annotations

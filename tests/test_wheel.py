@@ -12,10 +12,12 @@ import shutil
 import subprocess
 import sys
 import venv
+import zipfile
 from pathlib import Path
 
 import httpx
 import pytest
+import tomllib
 
 from tests.server_harness import free_port
 
@@ -24,9 +26,8 @@ pytestmark = pytest.mark.slow
 
 
 @pytest.fixture(scope="module")
-def installed(tmp_path_factory) -> Path:
-    """A fresh venv with the project's wheel and its declared runtime dependencies, constrained by
-    requirements.lock, and no checkout on its path; returns its bin dir."""
+def wheel(tmp_path_factory) -> Path:
+    """The project's wheel, built from the checkout."""
     tmp = tmp_path_factory.mktemp("wheel")
     built = subprocess.run(
         [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(tmp), str(ROOT)],
@@ -35,8 +36,15 @@ def installed(tmp_path_factory) -> Path:
         timeout=600,
     )
     assert built.returncode == 0, built.stderr[-2000:]
-    (wheel,) = tmp.glob("artro_gait_studio-*.whl")
-    env_dir = tmp / "venv"
+    (found,) = tmp.glob("artro_gait_studio-*.whl")
+    return found
+
+
+@pytest.fixture(scope="module")
+def installed(wheel: Path, tmp_path_factory) -> Path:
+    """A fresh venv with the project's wheel and its declared runtime dependencies, constrained by
+    requirements.lock, and no checkout on its path; returns its bin dir."""
+    env_dir = tmp_path_factory.mktemp("venv") / "venv"
     venv.create(env_dir, with_pip=False)  # no system site-packages, nothing of this venv's
     uv = shutil.which("uv", path=str(Path(sys.executable).parent)) or shutil.which("uv")
     assert uv, "uv is installed by scripts/setup.sh"
@@ -47,6 +55,36 @@ def installed(tmp_path_factory) -> Path:
     )
     assert installed.returncode == 0, installed.stderr[-2000:]
     return env_dir / "bin"
+
+
+def source_packages() -> set[str]:
+    """Every Python package of the checkout: a folder of gait/, hardware/ or app/ with an
+    __init__.py (models/ and static/ install as app.models and app.static)."""
+    return {
+        ".".join(init.parent.relative_to(ROOT).parts)
+        for top in ("gait", "hardware", "app")
+        for init in (ROOT / top).rglob("__init__.py")
+    } | {"app.models", "app.static"}
+
+
+def test_the_wheel_holds_every_package_of_the_source_tree(wheel):
+    with zipfile.ZipFile(wheel) as archive:
+        names = archive.namelist()
+    in_wheel = {str(Path(n).parent).replace("/", ".") for n in names if n.endswith(".py")}
+    assert source_packages() - {"app.models", "app.static"} <= in_wheel, (
+        f"missing from the wheel (pyproject.toml's packages): "
+        f"{sorted(source_packages() - in_wheel)}"
+    )
+    data = {str(Path(n).parent).replace("/", ".") for n in names}
+    assert {"app.models", "app.static", "app.models.robots"} <= data
+    assert "app/firmware/harness.c" in names and "hardware/firmware/src/gait.c" in names
+
+
+def test_the_source_tree_and_pyproject_list_the_same_packages():
+    """Fast, without a wheel: pyproject.toml's list is the tree's."""
+    listed = set(tomllib.loads((ROOT / "pyproject.toml").read_text())["tool"]["setuptools"]
+                 ["packages"])  # fmt: skip
+    assert listed == source_packages()
 
 
 def outside_env() -> dict[str, str]:

@@ -54,7 +54,7 @@ class ParameterSet:
     """
 
     name: str = "paper"
-    #: the robot it was tuned for (docs/DESIGN.md §12); optional in a document, default artro
+    #: the robot it was tuned for (docs/DESIGN.md §7); optional in a document, default artro
     robot: str = DEFAULT_ROBOT
     motion: Motion = field(default_factory=Motion)
     gait: GaitParams = field(default_factory=GaitParams)

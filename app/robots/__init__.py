@@ -1,4 +1,4 @@
-"""Robots as descriptions (docs/DESIGN.md §12): the schema, the servo table, the model builder,
+"""Robots as descriptions (docs/DESIGN.md §7): the schema, the servo table, the model builder,
 the checks that run before anything simulates, and the built-in robots."""
 
 from app.robots.builder import build_model, build_spec, joint_settings, model_xml

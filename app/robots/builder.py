@@ -1,7 +1,7 @@
 """The MuJoCo model of a robot description, built in code with `mujoco.MjSpec`: floor, robot,
 joints and actuators named as the gait's joints, sites and sensors as docs/DESIGN.md §3 says, axes
 so that qpos is the paper's angle; the right leg built with the side sign, not mirrored. Servo
-figures become settings through `servo_settings` alone (docs/DESIGN.md §12)."""
+figures become settings through `servo_settings` alone (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 

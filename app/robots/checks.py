@@ -1,6 +1,6 @@
 """Eq (1) of seed 000 on a robot description: each joint's static load, swing and stance,
 standing and over the gait's poses, times (1 + sf) against its servo's stall torque; a servo too
-weak gets a warning with the numbers (docs/DESIGN.md §12 says how the load is computed)."""
+weak gets a warning with the numbers (docs/DESIGN.md §7 says how the load is computed)."""
 
 from __future__ import annotations
 

@@ -1,6 +1,6 @@
 """A robot description: one validated document that says what a biped of ArtRo's structure is;
 the model, leg geometry, servo settings, calibration, TDM map and firmware header follow from it.
-The left leg is described, the right one mirrors it; m, kg, rad (docs/DESIGN.md §3, §12). What
+The left leg is described, the right one mirrors it; m, kg, rad (docs/DESIGN.md §3, §7). What
 needs the model or the gait's poses (eq (1)) is `app.robots.checks`."""
 
 from __future__ import annotations
@@ -155,7 +155,7 @@ class Contact(_Strict):
 
 
 class RobotDescription(_Strict):
-    """A biped of ArtRo's structure (docs/DESIGN.md §3, §12)."""
+    """A biped of ArtRo's structure (docs/DESIGN.md §3, §7)."""
 
     schema_version: Literal[1] = 1
     name: str = Field(pattern=r"^[a-z][a-z0-9_-]{0,39}$")

@@ -1,5 +1,5 @@
 """Finding robots: the built-in descriptions (`models/robots/*.yaml`) by name, or a file of the
-user's; each read, validated and refused with errors that name the field (docs/DESIGN.md §12)."""
+user's; each read, validated and refused with errors that name the field (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 

@@ -1,7 +1,7 @@
 """The servo table (`models/servos.yaml`: datasheet figures at stated voltages, with sources)
 and `servo_settings`, the one rule from a datasheet to MuJoCo: force range = stall torque, damping
 = stall torque / no-load speed, kp = stall torque / saturation error, armature and friction loss
-as the table assumes; linear between stated voltages, refused outside (docs/DESIGN.md §12)."""
+as the table assumes; linear between stated voltages, refused outside (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The server's axle fit, a background job (app/server/jobs.py): one at a time; the path tracker
-then predicts with b_eff if it applies and nothing changed meanwhile (§16). The page (`POST
+then predicts with b_eff if it applies and nothing changed meanwhile (§14). The page (`POST
 /api/jobs/axle-fit`) and the viser button (`fit`, from its own thread) start the same job."""
 
 from __future__ import annotations
@@ -7,9 +7,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from app.core.axle_fit import AxleFitResult, fit_effective_axle
-from app.core.batch import BatchEvaluator
-from app.core.robot import RobotModel
+from app.analysis.axle_fit import AxleFitResult, fit_effective_axle
+from app.evaluation import BatchEvaluator
+from app.robots.model import RobotModel
 from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict
 from app.server.param_store import ParameterStore
 from app.server.path_tracker import PathTracker

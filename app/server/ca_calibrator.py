@@ -1,7 +1,7 @@
 """The dashboard's "Calibrate CA", a background job (app/server/jobs.py): fits the steering term's
-K for the current gait walking forward and backward (`app.core.ca_calibration`), applies both
+K for the current gait walking forward and backward (`app.analysis.ca_calibration`), applies both
 as one undoable change onto the version it fitted, and lets the predicted path use the fitted
-b_eff (docs/DESIGN.md §4, §16)."""
+b_eff (docs/DESIGN.md §4, §14)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,10 @@ import dataclasses
 from collections.abc import Callable
 from typing import Any
 
-from app.core.axle_fit import walking_amplitude
-from app.core.batch import BatchEvaluator
-from app.core.ca_calibration import CalibrationError, calibrate_ca, with_k
-from app.core.robot import RobotModel
+from app.analysis.axle_fit import walking_amplitude
+from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
+from app.evaluation import BatchEvaluator
+from app.robots.model import RobotModel
 from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict, only_onto
 from app.server.param_store import ParameterStore
 from app.server.path_tracker import PathTracker

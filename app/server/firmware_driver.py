@@ -1,6 +1,6 @@
 """The firmware drive of `artro serve`: the emulated ATmega128 makes the pulses, the simulation's
 servos read them off its pins, parameter changes travel over its emulated UART (docs/DESIGN.md
-§5, §8). Booted in the caller's thread, then owned by the simulation thread alone.
+§5, §10). Booted in the caller's thread, then owned by the simulation thread alone.
 """
 
 from __future__ import annotations
@@ -8,10 +8,10 @@ from __future__ import annotations
 from collections import deque
 from dataclasses import dataclass
 
-from app.core.frame_loop import FRAME_S, PinFrame
-from app.core.mcu import protocol as proto
-from app.core.mcu.drive import FirmwareDrive
+from app.firmware import protocol as proto
+from app.firmware.pulses import FirmwarePulses
 from app.server.param_store import Snapshot
+from app.sim.frame_loop import FRAME_S, PinFrame
 from gait import ARTRO_LEG, LegGeometry, ramp_motion
 from hardware import HardwareSetup
 
@@ -36,7 +36,7 @@ class FirmwareStatus:
 class FirmwareDriver:
     """One emulated controller and what travels to it: sets sent, answers, the active motion."""
 
-    def __init__(self, drive: FirmwareDrive, snapshot: Snapshot) -> None:
+    def __init__(self, drive: FirmwarePulses, snapshot: Snapshot) -> None:
         self.drive = drive
         self.built_version = snapshot.version  # the set compiled in as the firmware's defaults
         self._target = snapshot  # the set in force on the MCU
@@ -61,7 +61,7 @@ class FirmwareDriver:
                 f"{snapshot.gait.engine!r}: choose engine {FIRMWARE_ENGINE} first"
             )
         doc = snapshot.parameter_set().to_dict()
-        drive = FirmwareDrive(
+        drive = FirmwarePulses(
             doc, calibration=hardware.calibration, tdm=hardware.tdm, geometry=geometry
         )
         return cls(drive, snapshot)

@@ -1,5 +1,5 @@
 """A change of several gait constants at once (a preset, an import) reaches the servos over
-GAIT_RAMP_S, as a change of motion goes through the motion ramp (docs/DESIGN.md §4, §16): the
+GAIT_RAMP_S, as a change of motion goes through the motion ramp (docs/DESIGN.md §4, §14): the
 simulation thread gives the frame loop a blend of the old and the new constants each frame."""
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """The A/B ghost: a second parameter set walking beside the live robot, phase-locked, with the
-same motion vector, for comparison (docs/DESIGN.md §8). Owned by the simulation thread: its own
+same motion vector, for comparison (docs/DESIGN.md §10). Owned by the simulation thread: its own
 FrameLoop and MjData of the same model; others read the published `GhostStatus` and poses.
 """
 
@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from app.core.frame_loop import FRAME_S, FrameLoop
+from app.sim.frame_loop import FRAME_S, FrameLoop
 from gait import GaitParams, Motion
 
 BESIDE_M = 0.35  # the ghost starts this far to the live robot's left
@@ -94,7 +94,7 @@ class Ghost:
         self.source = source
         self.params = params
         self.live_freq_hz = live.params.clock.freq_hz
-        self.loop = FrameLoop(  # the same robot in the same world (docs/DESIGN.md §13)
+        self.loop = FrameLoop(  # the same robot in the same world (docs/DESIGN.md §8)
             robot=live.nominal_robot,
             params=params,
             motion=live.motion,

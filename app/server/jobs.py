@@ -1,6 +1,6 @@
 """Background jobs of the server (the axle fit, the CA calibration): started by a request that
 answers 202 at once, run in a thread, read back with their progress and result, cancelled on
-request; a job's result applies only onto what it was fitted from (docs/DESIGN.md §6, §16)."""
+request; a job's result applies only onto what it was fitted from (docs/DESIGN.md §6, §14)."""
 
 from __future__ import annotations
 

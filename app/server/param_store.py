@@ -1,8 +1,8 @@
-"""The one parameter store: an immutable snapshot plus a version number (docs/DESIGN.md §9).
+"""The one parameter store: an immutable snapshot plus a version number (docs/DESIGN.md §11).
 Every change goes through `ParameterStore.update` or `replace` (validated, diffed, applied under a
-lock, announced outside it); undo and redo walk a bounded history, one step per gesture (§16).
+lock, announced outside it); undo and redo walk a bounded history, one step per gesture (§14).
 The robot being simulated is part of each version: switching robots is a change that undo takes
-back like any other (§12)."""
+back like any other (§7)."""
 
 from __future__ import annotations
 

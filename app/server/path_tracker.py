@@ -14,7 +14,7 @@ from typing import Any
 
 import numpy as np
 
-from app.core.metrics import mean_body_velocity
+from app.sim.metrics import mean_body_velocity
 from gait import Pose2D, predict_path, turn_radius_m, turn_rate_rad_s
 
 SAMPLE_EVERY_FRAMES = 5  # 10 Hz path samples

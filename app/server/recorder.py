@@ -1,5 +1,5 @@
 """Record the session: per frame the robot's pose (qpos) and the pulses (OCR), plus parameter
-changes with their sources, resets and falls, in a 60 s ring buffer (docs/DESIGN.md §8). The
+changes with their sources, resets and falls, in a 60 s ring buffer (docs/DESIGN.md §10). The
 simulation thread writes; others take an immutable `Recording` copy.
 """
 
@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from app.core.frame_loop import FRAME_S, FrameRecord
+from app.sim.frame_loop import FRAME_S, FrameRecord
 from hardware import CHANNELS, SLOTS_PER_FRAME
 
 RECORD_SECONDS = 60.0

@@ -1,6 +1,6 @@
 """A recording file read back (POST /api/recording/import) as strictly as PUT /api/params reads a
 parameter set: every column's shape, JSON type and range, the events, the parameter documents;
-the first problem is named with where it is; nothing is half-loaded (docs/DESIGN.md §8, §16)."""
+the first problem is named with where it is; nothing is half-loaded (docs/DESIGN.md §10, §14)."""
 
 from __future__ import annotations
 
@@ -10,7 +10,6 @@ from typing import Any
 
 import numpy as np
 
-from app.core.frame_loop import FRAME_S
 from app.params.document import ParameterSet
 from app.params.formats import every_problem
 from app.server.recorder import (
@@ -21,6 +20,7 @@ from app.server.recorder import (
     RECORD_FRAMES,
     Recording,
 )
+from app.sim.frame_loop import FRAME_S
 from gait import JOINT_NAMES, Motion
 from gait.params import replace_checked
 from hardware import CHANNELS, OCR_MAX, SLOTS_PER_FRAME

@@ -1,6 +1,6 @@
 """Replay a recording: the live simulation pauses, a position in the recording gives the 3D
 view its poses (forward kinematics of the recorded qpos on this module's own MjData) and the
-scope its frame (docs/DESIGN.md §8). Called from HTTP and viewer threads, under one lock.
+scope its frame (docs/DESIGN.md §10). Called from HTTP and viewer threads, under one lock.
 """
 
 from __future__ import annotations

@@ -1,13 +1,13 @@
 """The robots a running server can simulate: the built-in ones and the one it was started with,
 each built once and kept (a switch of robots, or an undo of one, is then a frame's work). The API
-switches only among these; no request names a file on the server's disk (docs/DESIGN.md §12)."""
+switches only among these; no request names a file on the server's disk (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 
 import threading
 
-from app.core.robot import RobotModel
 from app.robots import builtin_robot_names
+from app.robots.model import RobotModel
 
 
 class UnknownRobot(ValueError):

@@ -2,7 +2,7 @@
 
 The simulation thread appends; each frame's JSON is made once, when first wanted, and shared by
 every WebSocket and `GET /api/scope`; per-client queues drop their oldest frames; the client set is
-replaced, never changed in place (docs/DESIGN.md §8)."""
+replaced, never changed in place (docs/DESIGN.md §10)."""
 
 from __future__ import annotations
 
@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from app.core.frame_loop import FrameRecord
 from app.server.scope_frames import frame_message
+from app.sim.frame_loop import FrameRecord
 from hardware import TdmConfig
 
 HISTORY_FRAMES = 250  # 5 s of frames for GET /api/scope

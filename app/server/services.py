@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.core.robot import RobotModel
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
+from app.robots.model import RobotModel
 from app.server.axle_fitter import AxleFitter
 from app.server.ca_calibrator import CaCalibrator
 from app.server.guard import served_hosts

@@ -1,6 +1,6 @@
 """The simulation thread of `artro serve`: paces the frame loop to the wall clock.
 
-It alone owns the `FrameLoop` and its MjData (docs/DESIGN.md §8). Others send `Command`s,
+It alone owns the `FrameLoop` and its MjData (docs/DESIGN.md §10). Others send `Command`s,
 change the parameter store, and read what it publishes: a `SimStatus` snapshot and body poses.
 """
 
@@ -21,11 +21,8 @@ from typing import Any
 
 import numpy as np
 
-from app.core.frame_loop import FRAME_S, START_PHASE_RAD, FrameLoop, FrameRecord
-from app.core.mcu.emulator import EmulatorError
-from app.core.robot import RobotModel
-from app.core.servo_load import ServoLoadMeter, ServoLoadReport
-from app.core.variations import Variation
+from app.firmware.emulator import EmulatorError
+from app.robots.model import RobotModel
 from app.server.firmware_driver import FIRMWARE_ENGINE, FirmwareDriver, FirmwareStatus
 from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.ghost import Ghost, GhostStatus
@@ -34,6 +31,9 @@ from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.recorder import Recorder
 from app.server.robot_shelf import RobotShelf
 from app.server.scope_feed import ScopeFeed
+from app.sim.frame_loop import FRAME_S, START_PHASE_RAD, FrameLoop, FrameRecord
+from app.sim.servo_load import ServoLoadMeter, ServoLoadReport
+from app.worlds.variations import Variation
 from gait import GaitParams
 from hardware import HardwareSetup
 
@@ -59,7 +59,7 @@ class Command(enum.Enum):
     REANCHOR = "reanchor"  # value: V in m/s fixed by hand, or None to measure it
     DRIVE = "drive"  # value: a DriveRequest (or a booted FirmwareDriver, or None: the model)
     GHOST = "ghost"  # value: (GaitParams, source label) of the A/B ghost, or None: no ghost
-    WORLD = "world"  # value: the Variation the robot walks in (docs/DESIGN.md §13)
+    WORLD = "world"  # value: the Variation the robot walks in (docs/DESIGN.md §8)
 
 
 class Drive(enum.Enum):

@@ -1,5 +1,5 @@
 """The A/B ghost in the viser 3D view: the robot's bodies as translucent meshes under the floor's
-frame, placed from the published ghost poses (docs/DESIGN.md §8)."""
+frame, placed from the published ghost poses (docs/DESIGN.md §10)."""
 
 from __future__ import annotations
 

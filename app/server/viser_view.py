@@ -1,7 +1,7 @@
 """The viser 3D view: the robot (mjviser), schema-generated sliders, paths on the floor, controls.
 
 Built once, refreshed at <= 30 Hz only when something changed and someone watches (docs/DESIGN.md
-§8); sliders and store keep one direction of truth (§9).
+§10); sliders and store keep one direction of truth (§11).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import mjviser
 import numpy as np
 import viser
 
-from app.core.axle_fit import NOT_APPLIED
-from app.core.mcu.emulator import FRAME_CYCLES
+from app.analysis.axle_fit import NOT_APPLIED
+from app.firmware.emulator import FRAME_CYCLES
 from app.params.schema import schema_description
 from app.server.param_store import NothingToUndo, Snapshot
 from app.server.replay import Replaying

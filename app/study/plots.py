@@ -16,10 +16,11 @@ from matplotlib.axes import Axes
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from app.core.ca_analysis import FIT_CA_LIMIT
-from app.core.frame_loop import FRAME_S
+from app.analysis.ca_analysis import FIT_CA_LIMIT
+from app.sim.frame_loop import FRAME_S
 from app.study import speed_limits
-from app.study.runs import CIRCLE_CA, PresetRuns, Run, cycle_mean
+from app.study.runs import CIRCLE_CA, PresetRuns
+from app.study.walks import Run, cycle_mean
 from gait import Pose2D, predict_path
 
 CA_AXIS = "curve amount CA  (> 0: left steps longer, turns clockwise)"

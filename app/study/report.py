@@ -9,15 +9,15 @@ from __future__ import annotations
 from collections.abc import Sequence
 from typing import Any
 
-from app.core.ca_analysis import FIT_CA_LIMIT
-from app.study import speed_limits
-from app.study.cases import (
+from app.analysis.ca_analysis import FIT_CA_LIMIT
+from app.analysis.cases import (
     BEND_LIMIT,
     MIRROR_TOLERANCE,
     SPEED_TOLERANCE,
     SPOT_DRIFT_LIMIT_CM_S,
     STEERING_TOLERANCE,
 )
+from app.study import speed_limits
 
 METRIC_LABELS = {
     "drift_cm_s": "drift cm/s",

@@ -1,4 +1,4 @@
-"""The report of `artro bench robust` (docs/DESIGN.md §13): a table for the terminal or as
+"""The report of `artro bench robust` (docs/DESIGN.md §12): a table for the terminal or as
 markdown, and a PNG of the pass share per case with its 95 % interval, preset beside preset."""
 
 from __future__ import annotations

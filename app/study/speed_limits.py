@@ -1,24 +1,22 @@
 """Seed 004 §V: slower walking allows more CA. The largest stable CA against walking speed.
 
 Each forward amplitude a_p walks CA = 0 and +-LIMIT_CA; a CA is stable when the robot does not
-fall and its trunk gyro RMS stays within GYRO_FACTOR of the straight walk's (docs/DESIGN.md §7).
+fall and its trunk gyro RMS stays within GYRO_FACTOR of the straight walk's (docs/DESIGN.md §12).
 """
 
 from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
-from app.core.batch import Job
+from app.evaluation import Job
+from app.study.walks import Preset, Run
 from gait import Motion
-
-if TYPE_CHECKING:
-    from app.study.runs import Preset, Run
 
 #: forward amplitudes walked for the limit (the CA sweep adds +-0.07, seed 000's)
 LIMIT_A_P = (-0.09, -0.05, -0.035, 0.035, 0.05, 0.09)

@@ -1,4 +1,4 @@
-"""The tuner's study store (docs/DESIGN.md §15): every evaluated candidate is an Optuna trial,
+"""The tuner's study store (docs/DESIGN.md §12): every evaluated candidate is an Optuna trial,
 written the moment its runs are done, in a journal file (default: no server) or any RDB URL;
 a study resumes from the store alone, and `optuna-dashboard FILE` opens it."""
 

@@ -1,5 +1,5 @@
-"""The loss `artro tune` minimises and the criteria a tuned set must meet (docs/DESIGN.md §7,
-§15): each paper case's speed against its target, CA steering against eq (13), falls, cross-talk
+"""The loss `artro tune` minimises and the criteria a tuned set must meet (docs/DESIGN.md §12,
+§12): each paper case's speed against its target, CA steering against eq (13), falls, cross-talk
 and a calm trunk; `meets_all_criteria` is the pass/fail of `--select passing`."""
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from app.study.cases import (
+from app.analysis.cases import (
     CASES,
     CURVES,
     MIRROR_TOLERANCE,
@@ -89,7 +89,7 @@ def curve_loss(
     weights: LossWeights = LossWeights(),
 ) -> float:
     """A fall as in `case_loss` (the straight walk is a case of its own); else the squared
-    distance of the steering gain from 1 and the squared bend (`app.study.cases.Steering`)."""
+    distance of the steering gain from 1 and the squared bend (`app.analysis.cases.Steering`)."""
     falls = [m for m in (plus, minus) if m["fell"]]
     if falls:
         return sum(FALL_LOSS * (2.0 - m.get("fall_time_s", 0.0) / duration_s) for m in falls)

@@ -5,7 +5,7 @@
 // gesture (one drag, one burst of key presses on a slider, one typed value, one Stop): the store
 // makes the whole gesture one undo step. Values the server reports are shown unless the user is
 // holding that control; the page never writes back what it was told, so nothing echoes
-// (docs/DESIGN.md §9).
+// (docs/DESIGN.md §11).
 
 import { api } from "./api.js";
 import { $, fmtSigned, h, setMessage } from "./util.js";

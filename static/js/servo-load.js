@@ -1,5 +1,5 @@
 // The servo load budget panel: GET /api/servos/load twice a second, one row per servo,
-// each margin coloured by the level the server gives it (app/core/servo_load.py), and for red
+// each margin coloured by the level the server gives it (app/sim/servo_load.py), and for red
 // rows what red means: the gait asks that much of the servo, whether or not the robot goes
 // anywhere (motion 0 still steps on the spot).
 

@@ -1,4 +1,5 @@
-"""The A/B ghost: a preset or an earlier version walks beside the live robot (docs/DESIGN.md §8)."""
+"""The A/B ghost: a preset or an earlier version walks beside the live robot (docs/DESIGN.md
+§10)."""
 
 from __future__ import annotations
 

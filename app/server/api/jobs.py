@@ -1,5 +1,5 @@
 """Background jobs: start the axle fit or the CA calibration (202 at once), read any job, cancel
-a running one, apply the kept result of one that could not apply it (docs/DESIGN.md §16)."""
+a running one, apply the kept result of one that could not apply it (docs/DESIGN.md §14)."""
 
 from typing import Annotated, Any
 

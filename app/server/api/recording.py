@@ -12,7 +12,7 @@ from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.concurrency import run_in_threadpool
 
-from app.core.mcu.vcd import edges_of_frames, vcd_text
+from app.firmware.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GUARD_RESPONSES, ApiError, responses

@@ -1,5 +1,5 @@
 """The robot being simulated: its description, the figures that follow from it, the JSON Schema
-of a description, the robots on offer, and a switch to another (docs/DESIGN.md §12)."""
+of a description, the robots on offer, and a switch to another (docs/DESIGN.md §7)."""
 
 from typing import Any
 

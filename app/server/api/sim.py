@@ -6,8 +6,8 @@ from typing import Any, Literal
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
-from app.core.mcu.build import BuildError
-from app.core.mcu.emulator import EmulatorError
+from app.firmware.build import BuildError
+from app.firmware.emulator import EmulatorError
 from app.params.document import project_version
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GUARD_RESPONSES, ApiError, responses

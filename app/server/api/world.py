@@ -1,4 +1,4 @@
-"""The world the live robot walks in (a model variation, docs/DESIGN.md §13) and the robustness
+"""The world the live robot walks in (a model variation, docs/DESIGN.md §12) and the robustness
 job that walks the current gait on many of them."""
 
 from dataclasses import asdict
@@ -7,11 +7,11 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
 
-from app.core.variations import FIELDS, NOMINAL, VariationRanges, parse_variation
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GUARD_RESPONSES, ApiError, responses
 from app.server.jobs import JobBusy
 from app.server.sim_thread import Command
+from app.worlds.variations import FIELDS, NOMINAL, VariationRanges, parse_variation
 
 router = APIRouter(
     prefix="/api", tags=["world"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute

@@ -1,0 +1,273 @@
+"""Will a gait walk on the real robot (`artro bench robust`, the dashboard's robustness job)?
+Each preset walks the paper's cases and CA = ±0.1 forward on N model variations drawn with a seed;
+per case the share that passes with its 95 % interval, the parameter failures depend on most,
+and the worst variations, each repeatable with `artro run --vary` (docs/DESIGN.md §8)."""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from app.analysis.cases import CA_PROBE, CASES
+from app.evaluation import Evaluator, Job
+from app.worlds.variations import FIELDS, Variation, VariationRanges, sample
+from gait import GaitParams, Motion
+
+#: "Passes": no fall, and the case's motion in the right direction at >= this share of the
+#: nominal model's figure; translating, the heading drifts by at most MAX_TURN_DEG_S.
+PASS_SHARE = 0.5
+MAX_TURN_DEG_S = 5.0
+SPOT_DRIFT_CM_S = 1.0  # on the spot: drift at most this, and the heading as above
+Z95 = 1.959964  # the normal quantile of a two-sided 95 % interval
+WORST = 5
+
+
+@dataclass(frozen=True)
+class RobustCase:
+    name: str
+    motion: Motion
+    kind: str  # "spot", "forward", "lateral", "turn", "curve"
+
+
+#: the paper's cases (`app.analysis.cases.CASES`), and CA = +-0.1 walking forward
+ROBUST_CASES = (
+    *(RobustCase(c.name, c.motion, c.kind) for c in CASES),
+    RobustCase(f"curve CA +{CA_PROBE:g}", Motion(a_p=0.07, ca=CA_PROBE), "curve"),
+    RobustCase(f"curve CA -{CA_PROBE:g}", Motion(a_p=0.07, ca=-CA_PROBE), "curve"),
+)
+
+
+def _figure(case: RobustCase, m: dict) -> float | None:
+    if case.kind == "spot":
+        fwd, lat = m.get("forward_cm_s"), m.get("lateral_cm_s")
+        return None if fwd is None or lat is None else math.hypot(fwd, lat)
+    key = {"forward": "forward_cm_s", "lateral": "lateral_cm_s"}.get(case.kind, "turn_deg_s")
+    return m.get(key)
+
+
+def passes(case: RobustCase, m: dict, nominal: dict) -> bool:
+    """The one definition of passing (see PASS_SHARE)."""
+    if m["fell"] or nominal["fell"]:
+        return False
+    value, goal = _figure(case, m), _figure(case, nominal)
+    turn = m.get("turn_deg_s")
+    if value is None or goal is None or turn is None:
+        return False
+    if case.kind == "spot":
+        return value <= SPOT_DRIFT_CM_S and abs(turn) <= MAX_TURN_DEG_S
+    along = value * math.copysign(1.0, goal) >= PASS_SHARE * abs(goal)
+    if case.kind in ("forward", "lateral"):
+        return along and abs(turn) <= MAX_TURN_DEG_S
+    if case.kind == "curve":
+        ahead = m["forward_cm_s"] >= PASS_SHARE * nominal["forward_cm_s"]
+        return along and ahead
+    return along
+
+
+#: `pass_margin_loss` aims this far above the pass line, so a tuned gait passes with room to spare
+MARGIN = 1.2
+FALL_MARGIN_LOSS = 2.0  # a fall, or a nominal run that fell: worse than any miss while walking
+
+
+def pass_margin_loss(case: RobustCase, m: dict, nominal: dict) -> float:
+    """How far one varied run is from passing with room (0 when it passes by MARGIN): the
+    smooth form of `passes` that `artro tune --robust` minimises. Each shortfall (of the motion
+    along, the forward speed of a curve, the heading or spot drift allowed) is relative to its
+    line, squared and capped at 1; a fall costs FALL_MARGIN_LOSS."""
+    if m["fell"] or nominal["fell"]:
+        return FALL_MARGIN_LOSS
+    value, goal, turn = _figure(case, m), _figure(case, nominal), m.get("turn_deg_s")
+    if value is None or goal is None or turn is None:
+        return FALL_MARGIN_LOSS
+
+    def short(have: float, line: float) -> float:  # have should be at least line (> 0)
+        return min(1.0, max(0.0, (line - have) / line) ** 2) if line > 0 else 0.0
+
+    def over(have: float, limit: float) -> float:  # have should be at most limit (> 0)
+        return min(1.0, max(0.0, (have - limit) / limit) ** 2)
+
+    steady = over(abs(turn), MAX_TURN_DEG_S / MARGIN)
+    if case.kind == "spot":
+        return over(value, SPOT_DRIFT_CM_S / MARGIN) + steady
+    loss = short(value * math.copysign(1.0, goal), MARGIN * PASS_SHARE * abs(goal))
+    if case.kind in ("forward", "lateral"):
+        loss += steady
+    if case.kind == "curve":
+        loss += short(m["forward_cm_s"], MARGIN * PASS_SHARE * nominal["forward_cm_s"])
+    return loss
+
+
+def wilson(k: int, n: int) -> tuple[float, float]:
+    """The 95 % Wilson score interval of a share k / n (it stays inside [0, 1] at 0 % and 100 %,
+    where the normal approximation's ±1.96·sqrt(p(1-p)/n), ±9.8 points at n = 100 and 50 %,
+    does not)."""
+    if n == 0:
+        return 0.0, 1.0
+    p = k / n
+    centre = (p + Z95**2 / (2 * n)) / (1 + Z95**2 / n)
+    half = Z95 * math.sqrt(p * (1 - p) / n + Z95**2 / (4 * n * n)) / (1 + Z95**2 / n)
+    return max(0.0, centre - half), min(1.0, centre + half)
+
+
+def features(v: Variation) -> dict[str, float]:
+    """What a failure may depend on: the scalar fields, the tilt split into its downhill-forward
+    and sideways parts, and the largest calibration error."""
+    out = {f: float(getattr(v, f)) for f in FIELDS if f not in ("calibration_deg", "friction")}
+    out["friction"] = 0.7 if v.friction is None else v.friction
+    direction = math.radians(v.tilt_direction_deg)
+    out["tilt_forward_deg"] = v.tilt_deg * math.cos(direction)
+    out["tilt_sideways_deg"] = v.tilt_deg * abs(math.sin(direction))
+    out["calibration_max_deg"] = max(abs(c) for c in v.calibration_deg)
+    del out["tilt_direction_deg"]
+    return out
+
+
+def dependence(variations: Sequence[Variation], failed: Sequence[bool]) -> dict[str, Any] | None:
+    """The parameter most correlated with failing (point-biserial r), and the failure shares
+    below and above its median; None when all pass or all fail."""
+    y = np.array(failed, dtype=float)
+    if y.min() == y.max():
+        return None
+    table = [features(v) for v in variations]
+    best: dict[str, Any] | None = None
+    for name in table[0]:
+        x = np.array([row[name] for row in table])
+        if x.std() == 0:
+            continue
+        r = float(np.corrcoef(x, y)[0, 1])
+        if best is None or abs(r) > abs(best["r"]):
+            median = float(np.median(x))
+            best = {
+                "parameter": name,
+                "r": r,
+                "median": median,
+                "fail_below": float(y[x <= median].mean()),
+                "fail_above": float(y[x > median].mean()) if (x > median).any() else 0.0,
+            }
+    return best
+
+
+def jobs_for(gait: GaitParams, variations: Sequence[Variation]) -> list[Job]:
+    """The nominal runs of every case, then every variation's, case by case."""
+    nominal = [Job(gait, c.motion) for c in ROBUST_CASES]
+    return nominal + [Job(gait, c.motion, variation=v) for v in variations for c in ROBUST_CASES]
+
+
+def summarise(
+    name: str,
+    variations: Sequence[Variation],
+    metrics: Sequence[dict],
+    *,
+    repeat: str = "artro run",
+) -> dict[str, Any]:
+    """One preset's report from its `jobs_for` metrics; `repeat` starts the command that
+    repeats a worst variation's first failed case."""
+    n_cases = len(ROBUST_CASES)
+    nominal, varied = metrics[:n_cases], metrics[n_cases:]
+    grid = [varied[i * n_cases : (i + 1) * n_cases] for i in range(len(variations))]
+    cases = []
+    shortfall = np.zeros(len(variations))
+    failures = np.zeros(len(variations), dtype=int)
+    for k, case in enumerate(ROBUST_CASES):
+        ok = [passes(case, row[k], nominal[k]) for row in grid]
+        failures += ~np.array(ok, dtype=bool)
+        goal = _figure(case, nominal[k]) or 0.0
+        for i, row in enumerate(grid):
+            value = _figure(case, row[k])
+            if row[k]["fell"] or value is None:
+                shortfall[i] += 2.0
+            elif case.kind != "spot" and goal:
+                shortfall[i] += max(0.0, 1.0 - value / goal)
+        lo, hi = wilson(sum(ok), len(ok))
+        cases.append(
+            {
+                "case": case.name,
+                "motion": f"{case.motion.a_r:g},{case.motion.a_p:g},{case.motion.a_y:g}",
+                "ca": case.motion.ca,
+                "nominal": _figure(case, nominal[k]),
+                "nominal_fell": nominal[k]["fell"],
+                "passed": sum(ok),
+                "runs": len(ok),
+                "share": sum(ok) / len(ok) if ok else 0.0,
+                "interval": [lo, hi],
+                "falls": sum(row[k]["fell"] for row in grid),
+                "depends_on": dependence(variations, [not o for o in ok]),
+            }
+        )
+    order = sorted(range(len(variations)), key=lambda i: (-failures[i], -shortfall[i], i))
+    worst = []
+    for i in order[:WORST]:
+        failed = [c for k, c in enumerate(ROBUST_CASES) if not passes(c, grid[i][k], nominal[k])]
+        if not failed:
+            continue
+        m = failed[0].motion
+        worst.append(
+            {
+                "variation": variations[i].name,
+                "failed_cases": len(failed),
+                "failed": [c.name for c in failed],
+                "command": f"{repeat} --motion {m.a_r:g},{m.a_p:g},{m.a_y:g} --ca {m.ca:g} "
+                f"--vary {variations[i].name}",
+            }
+        )
+    every = sum(c["passed"] for c in cases) / max(1, sum(c["runs"] for c in cases))
+    return {"preset": name, "cases": cases, "worst": worst, "overall_share": every}
+
+
+def run_robust(
+    presets: Sequence[tuple[str, GaitParams, str]],
+    evaluator: Evaluator,
+    *,
+    samples: int,
+    seed: int,
+    ranges: VariationRanges,
+    duration_s: float,
+    warmup_s: float,
+    progress: Callable[[int, int], None] | None = None,
+    cancel: threading.Event | None = None,
+) -> dict[str, Any]:
+    """Every preset (name, gait, file) on the same `samples` variations (one evaluation call, so
+    the threads or workers stay busy); the report as a JSON-ready dict, the same to the bit for a
+    seed."""
+    variations = sample(ranges, samples, seed)
+    all_jobs: list[Job] = []
+    for _, gait, _ in presets:
+        all_jobs += jobs_for(gait, variations)
+    metrics = evaluator.evaluate(
+        all_jobs, duration_s=duration_s, warmup_s=warmup_s, progress=progress, cancel=cancel
+    )
+    per = len(all_jobs) // max(1, len(presets))
+    robot = evaluator.robot.name
+    reports = [
+        summarise(
+            name,
+            variations,
+            metrics[i * per : (i + 1) * per],
+            repeat=f"artro run --robot {robot} --params {source} --duration {duration_s:g} "
+            f"--warmup {warmup_s:g}",
+        )
+        for i, (name, _, source) in enumerate(presets)
+    ]
+    return {
+        "robot": evaluator.robot.name,
+        "samples": samples,
+        "seed": seed,
+        "duration_s": duration_s,
+        "warmup_s": warmup_s,
+        "ranges": {f: list(getattr(ranges, f)) for f in FIELDS},
+        "pass_rule": PASS_RULE,
+        "presets": reports,
+    }
+
+
+PASS_RULE = (
+    f"no fall, and the case's motion in the right direction at >= {PASS_SHARE:.0%} of the "
+    f"nominal model's figure (forward or sideways speed, turn rate; a CA curve also keeps "
+    f">= {PASS_SHARE:.0%} of the forward speed); translating or on the spot the heading drifts "
+    f"<= {MAX_TURN_DEG_S:g} deg/s, and on the spot the trunk drifts <= {SPOT_DRIFT_CM_S:g} cm/s"
+)

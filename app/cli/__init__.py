@@ -1,0 +1,37 @@
+"""The `artro` command line: one module per command, each adding its parser and its `handler`;
+the options several share are `app.cli.options` (`artro COMMAND --help` for each)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Sequence
+
+from app.cli import bench, calibrate_ca, export, firmware, link, robot, run, serve, tune
+from app.cli.options import join_negative_values
+
+COMMANDS = (serve, run, export, calibrate_ca, bench, tune, firmware, link, robot)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="artro",
+        description="ArtRo Gait Studio: tune the ArtRo biped's gait in a MuJoCo simulation.",
+        epilog="Directions: a_p > 0 walks forward, a_r > 0 steps to the right, a_y > 0 and "
+        "CA > 0 turn clockwise.",
+    )
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    for command in COMMANDS:
+        command.add_parser(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else argv))
+    try:
+        return args.handler(args)
+    # RuntimeError: BuildError, EmulatorError, LinkError, CalibrationError, ExecutorError
+    except (ValueError, OSError, RuntimeError) as exc:
+        parser.exit(2, f"artro {args.command}: error: {exc}\n")
+    return 1

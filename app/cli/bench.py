@@ -1,0 +1,163 @@
+"""`artro bench paper|robust`: the papers' cases and seed 004's curve walks against what the
+papers measured (tables, PNGs, results.json), or the paper's cases on N varied robots with the
+pass share per case (docs/DESIGN.md §7). Not to be confused with `bench/`, the benchmarks."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from app.analysis.robustness import ROBUST_CASES, run_robust
+from app.cli.options import add_range_option, ranges_from, subcommand
+from app.evaluation import evaluator_for
+from app.evaluation.progress import progress_printer
+from app.robots.model import RobotModel
+from app.study.paper_bench import run_paper_bench
+from app.study.robust_report import render, write_plot
+from app.study.runs import QUICK, BenchConfig
+from app.study.walks import resolve_presets
+
+PAPER_OUT = Path("out/bench-paper")
+ROBUST_OUT = Path("out/bench-robust")
+ROBUST_DURATION_S = 20.0
+EXAMPLES = """examples:
+  artro bench paper                        both presets, 60 s runs (~4 min on 2 cores)
+  artro bench paper --quick --presets tuned
+  artro bench robust --presets tuned --samples 100 --seed 1"""
+
+
+def add_parser(sub: Any) -> None:
+    parser = subcommand(
+        sub,
+        "bench",
+        "simulate what the papers measured and compare (tables, PNGs); or the paper's cases on "
+        "varied robots",
+        command,
+        EXAMPLES,
+    )
+    parser.add_argument(
+        "suite",
+        choices=["paper", "robust"],
+        help="which bench: 'paper' (the papers' figures, docs/DESIGN.md §12) or 'robust' (the "
+        "paper's cases on model variations, §8)",
+    )
+    parser.add_argument(
+        "--presets",
+        default=None,
+        metavar="NAME_OR_FILE,...",
+        help="parameter sets: built-in names (models/presets/NAME.json) or JSON files "
+        "(default: paper,tuned,pfs; robust: tuned)",
+    )
+    parser.add_argument(
+        "--duration",
+        type=float,
+        metavar="S",
+        help="simulated seconds per run (paper 60, --quick 10; robust 20)",
+    )
+    parser.add_argument(
+        "--warmup", type=float, metavar="S", help="seconds not measured (5; --quick 2)"
+    )
+    robust = parser.add_argument_group("bench robust")
+    robust.add_argument("--samples", type=int, default=200, metavar="N", help="variations")
+    robust.add_argument("--seed", type=int, default=0, help="of the variations drawn")
+    add_range_option(robust, "")
+    robust.add_argument("--json", action="store_true", help="print the report as one JSON object")
+
+    parser.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        metavar="DIR",
+        help=f"where the PNGs and results.json go (default {PAPER_OUT}, {ROBUST_OUT})",
+    )
+    parser.add_argument(
+        "--threads", type=int, metavar="N", help="rollout threads (default: all cores, <= 8)"
+    )
+    parser.add_argument(
+        "--cluster",
+        metavar="tcp://HOST:PORT",
+        help="run on this Dask scheduler (docs/CLUSTER.md) instead of local threads",
+    )
+    parser.add_argument(
+        "--quick", action="store_true", help="short runs and a coarse CA sweep (smoke test)"
+    )
+    parser.add_argument(
+        "--robot", default=None, metavar="NAME|FILE", help="the robot to walk (default: artro)"
+    )
+
+
+def command(args: argparse.Namespace) -> int:
+    if args.suite == "robust":
+        return robust(args)
+    config = QUICK if args.quick else BenchConfig()
+    if args.duration is not None:
+        config = replace(config, duration_s=args.duration)
+    if args.warmup is not None:
+        config = replace(config, warmup_s=args.warmup)
+    if args.robot is not None:
+        config = replace(config, robot=args.robot)
+    if args.cluster is not None:
+        config = replace(config, cluster=args.cluster)
+    if args.threads is not None:
+        if args.threads < 1:
+            raise ValueError(f"--threads must be >= 1, got {args.threads}")
+        config = replace(config, threads=args.threads)
+    if not config.duration_s > config.warmup_s >= 0:
+        raise ValueError(
+            f"need duration > warm-up >= 0 s, got --duration {config.duration_s:g} "
+            f"--warmup {config.warmup_s:g}"
+        )
+    specs = [s.strip() for s in (args.presets or "paper,tuned,pfs").split(",") if s.strip()]
+    run_paper_bench(specs, config, args.out or PAPER_OUT)
+    return 0
+
+
+def robust(args: argparse.Namespace) -> int:
+    if args.samples < 1:
+        raise ValueError(f"--samples must be >= 1, got {args.samples}")
+    if args.seed < 0:
+        raise ValueError(f"--seed must be >= 0, got {args.seed}")
+    duration = ROBUST_DURATION_S if args.duration is None else args.duration
+    warmup = 5.0 if args.warmup is None else args.warmup
+    if not duration > warmup >= 0:
+        raise ValueError(f"need duration > warm-up >= 0 s, got {duration:g} and {warmup:g}")
+    ranges = ranges_from(args.range)
+    specs = [s.strip() for s in (args.presets or "tuned").split(",") if s.strip()]
+    presets, notes = resolve_presets(specs)
+    if not presets:
+        raise ValueError(f"no presets to run (asked for {specs}): {'; '.join(notes)}")
+    robot = RobotModel.load(args.robot)
+    evaluator = evaluator_for(robot, cluster=args.cluster, threads=args.threads)
+    n_runs = len(presets) * (args.samples + 1) * len(ROBUST_CASES)
+    progress = progress_printer(
+        f"bench robust: {n_runs} runs of {duration:g} s ({', '.join(p.name for p in presets)} "
+        f"on {args.samples} variations of {robot.name}, seed {args.seed}) ...",
+        sys.stderr,
+        label="bench robust",
+    )
+    results = run_robust(
+        [(p.name, p.params, p.name if p.name in specs else p.source) for p in presets],
+        evaluator,
+        samples=args.samples,
+        seed=args.seed,
+        ranges=ranges,
+        duration_s=duration,
+        warmup_s=warmup,
+        progress=progress,
+    )
+    out = args.out or ROBUST_OUT
+    out.mkdir(parents=True, exist_ok=True)
+    text = json.dumps(results, indent=1, allow_nan=False)
+    (out / "results.json").write_text(text + "\n", encoding="utf-8")
+    (out / "report.md").write_text(render(results, markdown=True) + "\n", encoding="utf-8")
+    plot = write_plot(results, out / "robust.png")
+    if args.json:
+        print(json.dumps(results, allow_nan=False))
+    else:
+        print(render(results))
+        print(f"\nwritten to {out}: results.json, report.md, {plot.name}")
+    return 0

@@ -1,0 +1,116 @@
+"""`artro calibrate-ca`: fit the steering term K (`steer.yaw_per_ca`, walking forward and
+backward) and the effective axle b_eff of a gait from short curve walks (docs/DESIGN.md §4)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+from app.analysis.axle_fit import walking_amplitude
+from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
+from app.cli.options import add_robot_option, robot_and_set, subcommand
+from app.evaluation import evaluator_for
+from app.params.formats import export_text
+from gait import ENGINES
+
+EXAMPLES = """examples:
+  artro calibrate-ca                       the paper gait, forward at a_p = 0.07
+  artro calibrate-ca --params models/presets/tuned.json -o tuned_steered.json"""
+
+
+def add_parser(sub: Any) -> None:
+    c = subcommand(
+        sub,
+        "calibrate-ca",
+        "fit the steering term K (steer.yaw_per_ca) and the effective axle b_eff from curve walks",
+        command,
+        EXAMPLES,
+    )
+    c.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    add_robot_option(c)
+    c.add_argument("--engine", choices=ENGINES, default=None, help="gait engine to calibrate")
+    c.add_argument(
+        "--a-p", type=float, default=None, help="forward amplitude to walk at (default: the set's)"
+    )
+    c.add_argument("--duration", type=float, default=20.0, metavar="S", help="seconds per walk")
+    c.add_argument("--warmup", type=float, default=4.0, metavar="S", help="seconds not measured")
+    c.add_argument("--iterations", type=int, default=2, help="checks of a fitted K (default 2)")
+    c.add_argument(
+        "--direction",
+        choices=("forward", "backward", "both"),
+        default="both",
+        help="which K to fit: walking forward (steer.yaw_per_ca), backward "
+        "(steer.yaw_per_ca_backward), or both (default; a given --a-p picks its own)",
+    )
+    c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
+    c.add_argument("--cluster", metavar="tcp://HOST:PORT", help="evaluate on this Dask scheduler")
+    c.add_argument("-o", "--output", metavar="FILE", help="write the parameter set with K here")
+    c.add_argument("--json", action="store_true", help="print the result as one JSON object")
+
+
+def command(args: argparse.Namespace) -> int:
+    robot, pset = robot_and_set(args)
+    gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
+    motion = pset.motion if args.a_p is None else dataclasses.replace(pset.motion, a_p=args.a_p)
+    size = abs(walking_amplitude(motion))
+    signs = {"forward": (1.0,), "backward": (-1.0,), "both": (1.0, -1.0)}[args.direction]
+    if args.a_p is not None and args.direction == "both":
+        signs = (1.0 if args.a_p >= 0 else -1.0,)  # a given a_p names its direction
+    log = sys.stderr if args.json else sys.stdout
+    results, failed = {}, {}
+    for sign in signs:
+        a_p, direction = sign * size, "forward" if sign > 0 else "backward"
+        try:
+            result = calibrate_ca(
+                gait,
+                dataclasses.replace(motion, a_p=a_p),
+                evaluator_for(robot, cluster=args.cluster, threads=args.threads),
+                duration_s=args.duration,
+                warmup_s=args.warmup,
+                iterations=args.iterations,
+                say=lambda line: print(line, file=log, flush=True),
+            )
+        except CalibrationError as exc:
+            if len(signs) == 1:
+                raise
+            failed[direction] = str(exc)  # the other direction may still calibrate
+            print(f"{direction}: no calibration, K left as it was: {exc}", file=log, flush=True)
+            continue
+        gait = with_k(gait, a_p, result.yaw_per_ca)
+        results[direction] = result
+    if not results:
+        raise CalibrationError("; ".join(f"{d}: {e}" for d, e in failed.items()))
+    if args.output:
+        out = dataclasses.replace(pset, gait=gait, created="", project_version="")
+        text, _media, _name = export_text(out, "json")
+        Path(args.output).write_text(text, encoding="utf-8")
+    if args.json:
+        document = {d: r.to_dict() for d, r in results.items()}
+        document |= {d: {"error": e} for d, e in failed.items()}
+        print(json.dumps(document, allow_nan=False))
+        return 0
+
+    def cm(m: float | None) -> str:
+        if m is None:
+            return "none (CA does not turn it)"
+        return f"{100 * m:.1f} cm" + (" (CA turns it the other way)" if m < 0 else "")
+
+    for direction, result in results.items():
+        print(
+            f"{direction}: steer.{result.field} = K = {result.yaw_per_ca:+.4f} for {pset.name!r} "
+            f"({gait.engine}) at a_p = {result.a_p:+.3f}: CA turns it at "
+            f"{100 * result.gain:.0f} % of eq (13)"
+            + ("" if result.converged else " (not within 10 %)")
+        )
+        print(
+            f"  b_eff = {cm(result.axle_eff_m)} with K (feet {100 * result.feet_m:.1f} cm apart; "
+            f"without K: {cm(result.axle_eff_without_m)}), V = {100 * result.speed_m_s:.2f} cm/s, "
+            f"{result.sim_s:.0f} s simulated"
+        )
+    if args.output:
+        print(f"wrote {args.output}")
+    return 0

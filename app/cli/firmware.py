@@ -1,0 +1,144 @@
+"""`artro firmware build|run`: a firmware folder for a parameter set, and the firmware emulated
+on simavr and compared with the Python model pin for pin, or served on a pseudo-terminal
+(docs/DESIGN.md §5)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+from app.cli.options import motion_triple, subcommand
+from app.firmware.build import build_firmware, export_firmware_folder, wiring
+from app.firmware.conformance import check_firmware
+from app.firmware.emulator import Mcu
+from app.robots.model import RobotModel
+from gait import GaitParams, Motion
+from gait.params import replace_checked
+
+FRAMES, MIN_FRAMES, MAX_FRAMES = 250, 2, 15_000  # 5 s by default, 5 min at most
+COMPARISON_ONLY = ("frames", "json", "vcd")  # options of the comparison run, not of --pty
+
+EXAMPLES = """examples:
+  artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
+  artro firmware run --motion 0,0.07,0 --frames 250 --json
+  artro firmware run --params models/presets/tuned.json --ca 0.1 --vcd walk.vcd
+  artro firmware run --pty                 the emulated robot on a serial pseudo-terminal"""
+
+
+def add_parser(sub: Any) -> None:
+    fw = subcommand(
+        sub,
+        "firmware",
+        "the ATmega128 firmware: build it, run it emulated against the model",
+        command,
+        EXAMPLES,
+    )
+    sub = fw.add_subparsers(dest="firmware_command", required=True, metavar="ACTION")
+    build = sub.add_parser("build", help="write and build a firmware folder")
+    build.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
+    build.add_argument("-o", "--output", metavar="DIR", default="artro_firmware")
+    build.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
+    run = sub.add_parser("run", help="emulate on simavr and compare with the model")
+    run.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
+    run.add_argument("--motion", type=motion_triple, metavar="AR,AP,AY", help="motion vector")
+    run.add_argument("--ca", type=float, help="curve amount")
+    run.add_argument(
+        "--frames", type=int, default=None, metavar="N", help=f"20 ms frames (default {FRAMES}, "
+        f"{MIN_FRAMES} to {MAX_FRAMES})"
+    )  # fmt: skip
+    run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
+    run.add_argument("--vcd", metavar="FILE", help="write the nine drive lines as VCD")
+    run.add_argument("--json", action="store_true", help="print one JSON object")
+    run.add_argument(
+        "--pty",
+        action="store_true",
+        help="instead: serve the emulated robot's UART on a pseudo-terminal in real time until "
+        "Ctrl-C (57600 baud, PROTOCOL.md)",
+    )
+
+
+def load_document(path: str | None) -> dict[str, Any]:
+    """A parameter-set document (as `ParameterSet.to_dict()` writes it), validated by the gait
+    schema; the paper values without a file."""
+    data: dict[str, Any] = {"name": "paper"}
+    if path:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        if not isinstance(data, dict):
+            raise ValueError(f"{path}: a parameter set is a JSON object")
+    motion = replace_checked(Motion(), data.get("motion", {}), "motion")
+    return {
+        "schema_version": data.get("schema_version", 1),
+        "name": str(data.get("name", "unnamed")),
+        "created": str(data.get("created", "")),
+        "project_version": str(data.get("project_version", "")),
+        "motion": dataclasses.asdict(motion),
+        "gait": GaitParams.from_dict(data.get("gait", {})).to_dict(),
+    }
+
+
+def _document(args: argparse.Namespace) -> dict[str, Any]:
+    doc = load_document(args.params)
+    motion = dict(doc["motion"])
+    if getattr(args, "motion", None) is not None:
+        motion.update(zip(("a_r", "a_p", "a_y"), args.motion, strict=True))
+    if getattr(args, "ca", None) is not None:
+        motion["ca"] = args.ca
+    doc["motion"] = dataclasses.asdict(Motion(**motion))  # validated
+    return doc
+
+
+def _serve_pty(doc: dict[str, Any], robot: RobotModel) -> int:
+    import threading
+
+    from app.firmware.pty_bridge import PtyBridge
+
+    with Mcu(build_firmware(doc, **wiring(robot)).elf) as mcu:
+        bridge = PtyBridge(mcu)
+        print(f"emulated robot on {bridge.port} (57600 8N1); Ctrl-C ends", flush=True)
+        try:
+            bridge.serve(threading.Event())
+        except KeyboardInterrupt:
+            pass
+        finally:
+            bridge.close()
+    return 0
+
+
+def command(args: argparse.Namespace) -> int:
+    doc = _document(args)
+    robot = RobotModel.load(getattr(args, "robot", None))
+    if args.firmware_command == "build":
+        folder = export_firmware_folder(doc, Path(args.output), **wiring(robot))
+        build = build_firmware(doc, out_dir=folder, **wiring(robot))
+        print(
+            f"{folder}: {build.hex.relative_to(folder)} built; flash {build.flash_bytes} B, "
+            f"SRAM {build.sram_bytes} B (without the stack); `make -C {folder} flash` programs it"
+        )
+        return 0
+    if args.pty:
+        given = [
+            f"--{name}" for name in COMPARISON_ONLY if getattr(args, name) not in (None, False)
+        ]
+        if given:
+            raise ValueError(
+                f"--pty serves the emulated robot on a pseudo-terminal until Ctrl-C; "
+                f"{', '.join(given)} belong{'s' if len(given) == 1 else ''} to the comparison "
+                f"run (without --pty): leave {'it' if len(given) == 1 else 'them'} out "
+                "(--params, --motion and --ca apply)"
+            )
+        return _serve_pty(doc, robot)
+    frames = FRAMES if args.frames is None else args.frames
+    if not MIN_FRAMES <= frames <= MAX_FRAMES:
+        raise ValueError(
+            f"--frames must be {MIN_FRAMES} to {MAX_FRAMES} (20 ms each), got {frames}"
+        )
+    summary = check_firmware(doc, frames, args.vcd, robot)
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for key, value in summary.items():
+            print(f"{key:24s} {value}")
+    return 0 if summary["mismatches"] == 0 else 1

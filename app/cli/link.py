@@ -1,0 +1,113 @@
+"""`artro link`: the dashboard's parameter set, live, to a robot's ATmega128 over its serial
+port; the servos are switched off on every exit (Ctrl-C, SIGTERM, SIGHUP, an error)."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import threading
+from typing import Any, TextIO
+
+import httpx
+
+from app.cli.options import subcommand
+from app.firmware.link import SerialLink, SerialPort
+from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
+from app.params.document import load_parameter_set
+
+STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
+EXAMPLES = """examples:
+  artro link --port /dev/ttyUSB0             follow the dashboard on http://127.0.0.1:8000
+  artro link --port /dev/pts/5 --params models/presets/tuned.json   send one set
+  artro link --dry-run                       print the messages it would send"""
+
+
+def add_parser(sub: Any) -> None:
+    p = subcommand(
+        sub,
+        "link",
+        "send the dashboard's parameters to a robot over its serial port, live",
+        command,
+        EXAMPLES,
+    )
+    p.description = (
+        "Send the dashboard's parameter set to a robot's ATmega128 over its serial port and "
+        "follow every change; the servos are switched off on every exit (Ctrl-C, SIGTERM, "
+        "SIGHUP, an error)."
+    )
+    p.add_argument("--port", help="serial device, e.g. /dev/ttyUSB0 (not needed with --dry-run)")
+    p.add_argument("--baud", type=int, default=DEFAULT_BAUD, help=f"(default {DEFAULT_BAUD})")
+    p.add_argument("--server", default="http://127.0.0.1:8000", help="the dashboard to follow")
+    p.add_argument("--params", metavar="FILE", help="send this file once instead of following")
+    p.add_argument("--dry-run", action="store_true", help="print the messages, open no port")
+
+
+class LinkStopped(BaseException):
+    """A signal asked the link to end (SIGTERM, SIGHUP); like KeyboardInterrupt, no `except
+    Exception` on the way swallows it."""
+
+
+def _stop_on_signals() -> dict[int, Any]:
+    """SIGTERM and SIGHUP end the link as Ctrl-C does (the servos go off); the handlers before
+    (to put back). Only the main thread can take signals: elsewhere nothing changes."""
+
+    def stop(signum: int, _frame: Any) -> None:
+        for name in STOP_SIGNALS:  # a second signal must not cut the switching off short
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+        raise LinkStopped(signal.Signals(signum).name)
+
+    previous: dict[int, Any] = {}
+    if threading.current_thread() is not threading.main_thread():
+        return previous
+    for name in STOP_SIGNALS:
+        number = getattr(signal, name, None)
+        if number is not None:
+            previous[number] = signal.signal(number, stop)
+    return previous
+
+
+def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
+    if not args.dry_run and not args.port:
+        raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")
+    if args.baud <= 0:
+        raise ValueError(f"--baud must be a positive rate such as {DEFAULT_BAUD}, got {args.baud}")
+    port: SerialPort
+    if args.dry_run:
+        port = DryRunPort(out)
+    else:
+        import serial  # pyserial
+
+        port = serial.Serial(args.port, args.baud, timeout=0.02)
+    robot = RobotLink(SerialLink(port), dry_run=args.dry_run, log=lambda s: print(s, file=out))
+    stop = threading.Event()
+    previous = _stop_on_signals()
+    try:
+        robot.hello()
+        if args.params:
+            robot.send_set(load_parameter_set(args.params).to_dict())
+            robot.start()
+            return 0
+        print(f"following {args.server} (Ctrl-C stops and switches the servos off)", file=out)
+        follow(robot, args.server, stop, max_updates=0 if args.dry_run else None)
+        return 0
+    except KeyboardInterrupt:
+        return 0
+    except LinkStopped as exc:
+        print(f"{exc}: stopping", file=out)
+        return 0
+    except httpx.HTTPError as exc:
+        raise LinkError(f"the dashboard at {args.server} did not answer: {exc}") from exc
+    finally:
+        stop.set()
+        for number in previous:  # nothing cuts the switching off short
+            signal.signal(number, signal.SIG_IGN)
+        try:
+            robot.torque_off()
+        except LinkError as exc:  # say so, but do not hide why the link ended
+            print(f"could not switch the servos off: {exc}", file=out)
+        finally:
+            robot.link.close()
+            for number, handler in previous.items():
+                signal.signal(number, handler)

@@ -1,0 +1,174 @@
+"""What several `artro` commands share: argument types that say what is allowed, the `--robot`,
+`--range` and `--vary` options, the robot and parameter set a command starts with, and the
+subcommand layout (help, examples, `handler`)."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import re
+import sys
+from collections.abc import Callable, Sequence
+from pathlib import Path
+from typing import Any, TextIO
+
+from app.params.document import ParameterSet, load_parameter_set
+from app.params.presets import builtin_presets
+from app.robots.model import RobotModel
+from app.worlds.variations import Variation, VariationRanges, parse_range, parse_variation
+from gait import GaitParams
+from gait.params import describe_fields, group_class
+
+MAX_DURATION_S = 3600.0  # one simulated hour per run at most
+ROBOT_HELP = "the robot: a built-in name (artro, ...) or a description .yaml (default: artro)"
+_NUMBERS = re.compile(r"^-\d*\.?\d+(e[-+]?\d+)?(,[-+]?\d*\.?\d+(e[-+]?\d+)?)*$", re.IGNORECASE)
+
+Handler = Callable[[argparse.Namespace], int]
+
+
+def subcommand(
+    sub: Any, name: str, help_text: str, handler: Handler, examples: str | None = None
+) -> argparse.ArgumentParser:
+    """A command of `artro`: its help, its examples under --help, and the `handler` `main`
+    calls with the parsed arguments."""
+    parser = sub.add_parser(
+        name,
+        help=help_text,
+        description=help_text,
+        epilog=examples,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.set_defaults(handler=handler)
+    return parser
+
+
+def join_negative_values(argv: Sequence[str]) -> list[str]:
+    """`--motion -0.1,0,0` -> `--motion=-0.1,0,0`: argparse would take the value for an option."""
+    out: list[str] = []
+    for token in argv:
+        if out and out[-1].startswith("--") and "=" not in out[-1] and _NUMBERS.match(token):
+            out[-1] = f"{out[-1]}={token}"
+        else:
+            out.append(token)
+    return out
+
+
+def motion_triple(text: str) -> tuple[float, float, float]:
+    """An argparse type: `a_r,a_p,a_y`, three finite numbers."""
+    parts = text.split(",")
+    try:
+        values = tuple(float(p) for p in parts)
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(math.isfinite(v) for v in values):
+        raise argparse.ArgumentTypeError(
+            f"expected three numbers a_r,a_p,a_y such as 0,0.07,0; got {text!r}"
+        )
+    return values  # type: ignore[return-value]
+
+
+def number(
+    low: float, high: float, *, integer: bool = False, above: bool = False, what: str = "it"
+) -> Any:
+    """An argparse type: a finite number from `low` (exclusive if `above`) to `high`; the error
+    says what is allowed (argparse exits with status 2)."""
+    kind = "a whole number " if integer else ""
+    allowed = f"> {low:g} and at most {high:g}" if above else f"{low:g} to {high:g}"
+
+    def parse(text: str) -> float | int:
+        try:
+            value = int(text) if integer else float(text)
+        except ValueError:
+            value = math.nan
+        if not math.isfinite(value) or value > high or (value <= low if above else value < low):
+            raise argparse.ArgumentTypeError(f"{what} must be {kind}{allowed}, got {text!r}")
+        return value
+
+    return parse
+
+
+def variation(text: str) -> Variation:
+    """An argparse type: a variation's `key=value,...` text."""
+    try:
+        return parse_variation(text)
+    except (ValueError, TypeError) as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_range_option(parser: Any, purpose: str) -> None:
+    """`--range NAME=LOW:HIGH` (repeatable), read by `ranges_from`."""
+    parser.add_argument(
+        "--range",
+        action="append",
+        default=[],
+        metavar="NAME=LOW:HIGH",
+        help=f"narrow or widen one variation range{purpose}, e.g. friction=0.3:0.6 (repeatable)",
+    )
+
+
+def ranges_from(texts: list[str]) -> VariationRanges:
+    ranges = VariationRanges()
+    for text in texts:
+        ranges = ranges.with_range(*parse_range(text))
+    return ranges
+
+
+def add_robot_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--robot", metavar="NAME|FILE", default=None, help=ROBOT_HELP)
+
+
+def check_timing(
+    names: Sequence[str], base: GaitParams, duration_s: float, warmup_s: float
+) -> None:
+    """Each run must leave at least one whole gait cycle after the warm-up (the metrics are
+    measured over whole cycles): of the slowest clock the search may try (`names` are the
+    parameters a tune varies). ValueError otherwise."""
+    slowest = base.clock.freq_hz
+    if "clock.freq_hz" in names:
+        slowest = next(
+            m["min"] for f, _d, m in describe_fields(group_class("clock")) if f == "freq_hz"
+        )
+    need = warmup_s + 1.0 / slowest
+    if duration_s < need:
+        raise ValueError(
+            f"--duration {duration_s:g} leaves no whole gait cycle after --warmup {warmup_s:g}: "
+            f"the runs are measured over whole cycles after the warm-up, and a cycle at "
+            f"{slowest:g} Hz takes {1.0 / slowest:g} s; allowed: --duration of at least {need:g}"
+        )
+
+
+def starting_set(robot: RobotModel, params_file: str | None, *, robot_given: bool) -> ParameterSet:
+    """The parameter set a command starts with: the file (or a built-in preset's name), else the
+    robot's default preset when a robot was named, else the paper's values (ArtRo, as before
+    robots existed)."""
+    if params_file:
+        presets = builtin_presets()
+        if params_file in presets and not Path(params_file).exists():
+            return presets[params_file]  # a built-in preset by name: --params tuned
+        return load_parameter_set(params_file)
+    if robot_given:
+        presets = builtin_presets()
+        name = robot.description.default_preset
+        if name not in presets:
+            raise ValueError(
+                f"robot {robot.name!r} names the preset {name!r}, which is not built in"
+            )
+        return presets[name]
+    return ParameterSet()
+
+
+def warn_if_other_robot(pset: ParameterSet, robot: RobotModel, out: TextIO = sys.stderr) -> None:
+    if pset.robot != robot.name:
+        print(
+            f"warning: parameter set {pset.name!r} was tuned for the robot {pset.robot!r}, "
+            f"not {robot.name!r}",
+            file=out,
+        )
+
+
+def robot_and_set(args: argparse.Namespace) -> tuple[RobotModel, ParameterSet]:
+    """The `--robot` and the `--params` a command starts with (a warning if they do not match)."""
+    robot = RobotModel.load(args.robot)
+    pset = starting_set(robot, args.params, robot_given=args.robot is not None)
+    warn_if_other_robot(pset, robot)
+    return robot, pset

@@ -1,0 +1,92 @@
+"""`artro robot list|show|check|export-mjcf`: the built-in robots, a description with the
+figures that follow from it (eq (1) per joint), its checks, its MuJoCo model as MJCF
+(docs/DESIGN.md §12)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any, TextIO
+
+from app.cli.options import subcommand
+from app.robots import builtin_robot_names, load_description, model_xml
+from app.robots.checks import robot_warnings
+from app.robots.model import RobotModel
+
+EXAMPLES = """examples:
+  artro robot list
+  artro robot show minibot --json
+  cp models/robots/artro.yaml my.yaml; artro robot check my.yaml   then: artro serve --robot my.yaml
+  artro robot export-mjcf artro -o artro.xml"""
+
+
+def add_parser(sub: Any) -> None:
+    robot = subcommand(
+        sub, "robot", "list, show, check and export robot descriptions", command, EXAMPLES
+    )
+    sub = robot.add_subparsers(dest="robot_command", required=True, metavar="ACTION")
+    sub.add_parser("list", help="the built-in robots")
+    show = sub.add_parser("show", help="a description and the figures that follow from it")
+    show.add_argument("robot", metavar="NAME|FILE")
+    show.add_argument("--json", action="store_true", help="print one JSON object")
+    check = sub.add_parser("check", help="validate a description; exit 2 with every error")
+    check.add_argument("robot", metavar="NAME|FILE")
+    export = sub.add_parser("export-mjcf", help="write the generated MuJoCo model as MJCF")
+    export.add_argument("robot", metavar="NAME|FILE")
+    export.add_argument("-o", "--output", metavar="FILE", help="default: standard output")
+
+
+def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
+    if args.robot_command == "list":
+        for name in builtin_robot_names():
+            desc = load_description(name)
+            print(f"{name:12s} {desc.title}", file=out)
+        return 0
+    desc = load_description(args.robot)  # RobotError (a ValueError) names every bad field
+    if args.robot_command == "check":
+        robot = RobotModel.load(desc)  # compiles
+        warnings = robot_warnings(desc)
+        print(
+            f"{desc.name}: valid; {robot.total_mass_kg():.3f} kg, legs "
+            f"{desc.geometry.thigh_m:g} + {desc.geometry.shank_m:g} m",
+            file=out,
+        )
+        for w in warnings:
+            print(f"warning: {w}", file=out)
+        return 0
+    if args.robot_command == "export-mjcf":
+        text = model_xml(desc)
+        if args.output:
+            Path(args.output).write_text(text, encoding="utf-8")
+        else:
+            out.write(text)
+        return 0
+    summary = RobotModel.load(desc).summary()
+    if args.json:
+        print(json.dumps(summary, allow_nan=False), file=out)
+        return 0
+    d = summary["derived"]
+    print(f"{desc.name}: {desc.title}", file=out)
+    print(
+        f"  {d['total_mass_kg']:.3f} kg, thigh {desc.geometry.thigh_m} m, shank "
+        f"{desc.geometry.shank_m} m, standing {d['standing_height_m']:.3f} m, supply "
+        f"{desc.supply_voltage_v:g} V, default preset {desc.default_preset!r}",
+        file=out,
+    )
+    print(
+        "  joint           servo    stall N·m  kp N·m/rad  damping  eq (1) need  margin", file=out
+    )
+    for t in d["eq1"]:
+        s = d["servos"][t["joint"]]
+        print(
+            f"  {t['joint']:15s} {t['servo']:8s} {s['stall_torque_nm']:9.3f} "
+            f"{s['kp_nm_rad']:11.3f} {s['damping_nm_s_rad']:8.4f} {t['required_nm']:12.3f} "
+            f"{t['margin']:+7.0%}",
+            file=out,
+        )
+    for w in d["warnings"]:
+        print(f"warning: {w}", file=out)
+    return 0

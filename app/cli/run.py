@@ -1,0 +1,121 @@
+"""`artro run`: simulate a parameter set headless (optionally on a varied robot) and print the
+run metrics of docs/DESIGN.md §6, as text or one JSON object."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from typing import Any
+
+from app.cli.options import (
+    MAX_DURATION_S,
+    add_robot_option,
+    check_timing,
+    motion_triple,
+    number,
+    robot_and_set,
+    subcommand,
+    variation,
+)
+from app.sim.headless import run
+from app.worlds.variations import NOMINAL
+from gait import ENGINES, Motion
+
+EXAMPLES = """examples:
+  artro run --motion 0,0.07,0 --json       forward, the paper's case, metrics as JSON
+  artro run --motion -0.1,0,0 --params models/presets/tuned.json   step to the left
+  artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking
+  artro run --motion 0,0.07,0 --engine pfs --from-rest    seed 004's gait, from standing"""
+
+
+def add_parser(sub: Any) -> None:
+    r = subcommand(sub, "run", "simulate headless and print the run metrics", command, EXAMPLES)
+    r.add_argument(
+        "--motion",
+        type=motion_triple,
+        default=None,
+        metavar="AR,AP,AY",
+        help="motion vector; a_r > 0 steps right, a_p > 0 walks forward, a_y > 0 turns clockwise "
+        "(default: the parameter set's)",
+    )
+    r.add_argument("--ca", type=float, default=None, help="curve amount, > 0 turns clockwise")
+    r.add_argument(
+        "--params",
+        metavar="FILE",
+        help="parameter-set JSON or a built-in preset's name (default: the --robot's default "
+        "preset, else paper values)",
+    )
+    add_robot_option(r)
+    seconds = number(0, MAX_DURATION_S, above=True, what="duration")
+    r.add_argument("--duration", type=seconds, default=30.0, metavar="S", help="simulated seconds")
+    warmup = number(0, MAX_DURATION_S, what="warmup")
+    r.add_argument("--warmup", type=warmup, default=5.0, metavar="S", help="seconds not measured")
+    r.add_argument(
+        "--engine", choices=ENGINES, default=None, help="gait engine (default: the parameter set's)"
+    )
+    r.add_argument(
+        "--from-rest",
+        action="store_true",
+        help="start standing (motion 0, CA 0) and ramp to the motion (the ramp parameters)",
+    )
+    r.add_argument(
+        "--vary",
+        type=variation,
+        default=NOMINAL,
+        metavar="KEY=VALUE,...",
+        help="walk a varied model, e.g. friction=0.4,latency_ms=40,tilt_deg=2,cal.l_knee=1.2 "
+        "(docs/DESIGN.md §10; `artro bench robust` names its worst variations so)",
+    )
+    r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
+
+
+def command(args: argparse.Namespace) -> int:
+    robot, pset = robot_and_set(args)
+    motion = pset.motion
+    if args.motion is not None:
+        a_r, a_p, a_y = args.motion
+        motion = dataclasses.replace(motion, a_r=a_r, a_p=a_p, a_y=a_y)
+    if args.ca is not None:
+        motion = dataclasses.replace(motion, ca=args.ca)
+    gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
+    check_timing((), gait, args.duration, args.warmup)  # a whole cycle to measure
+    start = Motion() if args.from_rest else None
+    result = run(
+        gait,
+        motion,
+        duration_s=args.duration,
+        warmup_s=args.warmup,
+        start_motion=start,
+        robot=robot,
+        variation=args.vary,
+    )
+    m = result.metrics
+    if args.json:
+        named = {"robot": robot.name, "variation": args.vary.name}
+        print(json.dumps({**m, **named}, allow_nan=False))
+        return 0
+    print(
+        f"robot {robot.name!r}, parameter set {pset.name!r} ({gait.engine}), motion "
+        f"a_r={motion.a_r} a_p={motion.a_p} a_y={motion.a_y} CA={motion.ca}"
+        + (", ramped from rest" if args.from_rest else "")
+        + ("" if args.vary.is_nominal else f", varied: {args.vary.name}")
+    )
+    if m["fell"]:
+        print(f"FELL after {m['fall_time_s']} s")
+    if m["forward_cm_s"] is not None:
+        print(
+            f"forward {m['forward_cm_s']:+.2f} cm/s, lateral {m['lateral_cm_s']:+.2f} cm/s (left +)"
+        )
+        print(
+            f"turn {m['turn_deg_s']:+.2f} deg/s (CCW +), differential drive predicts "
+            f"{m['predicted_turn_deg_s']:+.2f} deg/s, path error {m['path_error_cm']:.2f} cm"
+        )
+        print(f"gyro RMS {m['gyro_rms']:.3f} rad/s")
+    print(f"{m['sim_s']:.1f} s simulated in {m['wall_s']:.2f} s: {m['rtf']:.1f}x real time")
+    peak = max(result.required_torque_nm.items(), key=lambda kv: kv[1])
+    print(f"largest required servo torque (eq 1, sf 0.2): {peak[1]:.2f} N m at {peak[0]}")
+    flags = {k: v for k, v in m["flags"].items() if v}
+    if flags:
+        print(f"flags: {flags}")
+    return 0

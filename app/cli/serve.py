@@ -1,0 +1,90 @@
+"""`artro serve`: the dashboard (simulation, API, 3D view and scope page) on one port."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from app.cli.options import add_robot_option, subcommand
+from app.params.document import load_parameter_set
+from app.robots.model import RobotModel
+
+EXAMPLES = """examples:
+  artro serve                              the dashboard on http://localhost:8000
+  artro serve --params my_gait.json --port 9000
+  artro serve --drive firmware             pulses from the robot's firmware on an emulated MCU"""
+
+
+def add_parser(sub: Any) -> None:
+    s = subcommand(
+        sub, "serve", "the dashboard: simulation, API, 3D view and scope page", serve, EXAMPLES
+    )
+    s.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    s.add_argument("--port", type=int, default=8000, help="HTTP port of the dashboard and API")
+    s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
+    s.add_argument("--params", metavar="FILE", help="start with this parameter set")
+    add_robot_option(s)
+    s.add_argument(
+        "--cluster",
+        metavar="tcp://HOST:PORT",
+        help="run the dashboard's robustness job on this Dask scheduler (docs/CLUSTER.md)",
+    )
+    s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
+    s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
+    s.add_argument(
+        "--drive",
+        choices=("model", "firmware"),
+        default="model",
+        help="who makes the servo pulses: the Python hardware model (default) or the robot's "
+        "firmware on an emulated ATmega128 (needs gcc-avr and simavr); switchable in the page",
+    )
+    s.add_argument(
+        "--allowed-host",
+        action="append",
+        default=[],
+        metavar="NAME",
+        help="also serve requests for this Host name (repeatable); localhost, 127.0.0.1, ::1 "
+        "and the bind host always are, others are refused against DNS rebinding",
+    )
+
+
+def serve(args: argparse.Namespace) -> int:
+    import uvicorn
+
+    from app.firmware.build import missing_tools
+    from app.params.presets import default_data_dir
+    from app.server.app import create_app
+    from app.server.services import ServerConfig
+    from app.server.viser_view import viser_url
+
+    config = ServerConfig(
+        host=args.host,
+        port=args.port,
+        viser_port=args.viser_port,
+        params_file=Path(args.params) if args.params else None,
+        robot=args.robot,
+        cluster=args.cluster,
+        data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
+        viewer=not args.no_viewer,
+        allowed_hosts=tuple(args.allowed_host),
+        drive=args.drive,
+    )
+    RobotModel.load(args.robot)  # fail here, clearly, naming the field, not inside the server
+    if config.params_file:
+        load_parameter_set(config.params_file)
+    if config.drive == "firmware" and (missing := missing_tools()):
+        print(f"artro serve --drive firmware: missing {', '.join(missing)}", file=sys.stderr)
+        print("install them with: bash scripts/setup.sh", file=sys.stderr)
+        return 2
+    app = create_app(config)
+    url = viser_url(args.host, args.port)
+    print(
+        f"ArtRo Gait Studio: {url}  (3D view alone: {viser_url(args.host, args.viser_port)}, "
+        f"API docs: {url}/docs)",
+        flush=True,
+    )
+    # WebSocket clients only listen: a message larger than this closes their socket
+    uvicorn.run(app, host=args.host, port=args.port, log_level="warning", ws_max_size=65536)
+    return 0

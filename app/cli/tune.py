@@ -1,0 +1,196 @@
+"""`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking,
+optionally scored on varied robots too; the study resumes from its store, the best set is saved
+as a preset file (docs/DESIGN.md §7)."""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+from pathlib import Path
+from typing import Any
+
+from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
+from app.cli.options import (
+    MAX_DURATION_S,
+    add_range_option,
+    check_timing,
+    number,
+    ranges_from,
+    subcommand,
+)
+from app.evaluation import evaluator_for
+from app.params.document import ParameterSet, load_parameter_set
+from app.params.presets import stamped, write_parameter_set
+from app.robots.model import RobotModel
+from app.study.study_store import DEFAULT_STUDY, StudyStore
+from app.study.tune import DEFAULT_NAMES, Tuner
+from app.study.tune_loss import LossWeights, is_judged
+from gait import ARTRO_LEG
+from gait.params import merge, parse_settings
+
+EXAMPLES = """examples:
+  artro tune --base paper --tune swing.v,short.amp_base --generations 4 --popsize 6
+  artro tune --base models/presets/tuned.json --set leg.paper_signs=false --select passing"""
+
+
+def add_parser(sub: Any) -> None:
+    parser = subcommand(
+        sub, "tune", "CMA-ES over gait parameters toward the paper's walking", command, EXAMPLES
+    )
+    parser.add_argument("--base", default="paper", help="parameter-set file, or 'paper'")
+    parser.add_argument(
+        "--robot", default=None, metavar="NAME|FILE", help="the robot to tune for (default: artro)"
+    )
+    parser.add_argument(
+        "--cases",
+        default=None,
+        metavar="NAME,...",
+        help="judge only these paper cases (e.g. forward,backward) and the CA pairs at their "
+        "speed; default: all of them",
+    )
+    parser.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="GROUP.FIELD=VALUE",
+        help="change the base before tuning, e.g. leg.paper_signs=false or engine=pfs (repeatable)",
+    )
+    parser.add_argument(
+        "--tune", default=",".join(DEFAULT_NAMES), help="comma-separated parameters to tune"
+    )
+    whole = {"integer": True}
+    parser.add_argument(
+        "--generations", type=number(1, 100_000, **whole, what="generations"), default=30
+    )
+    parser.add_argument(
+        "--popsize",
+        type=number(2, 1000, **whole, what="popsize"),
+        default=10,
+        help="candidates per generation (CMA-ES needs 2 or more)",
+    )
+    parser.add_argument(
+        "--sigma",
+        type=number(0, 1, above=True, what="sigma"),
+        default=0.12,
+        help="initial step, share of range",
+    )
+    parser.add_argument(
+        "--duration",
+        type=number(0, MAX_DURATION_S, above=True, what="duration"),
+        default=20.0,
+        help="simulated s per case; at least one gait cycle longer than --warmup",
+    )
+    parser.add_argument("--warmup", type=number(0, MAX_DURATION_S, what="warmup"), default=4.0)
+    parser.add_argument("--seed", type=number(0, 2**32 - 1, **whole, what="seed"), default=1)
+    parser.add_argument(
+        "--band-weight",
+        type=number(0, 1000, what="band weight"),
+        default=0.0,
+        help="extra penalty per case for errors beyond 20 %% (the tolerance is 25 %%)",
+    )
+    parser.add_argument(
+        "--steering-weight",
+        type=number(0, 1000, what="steering weight"),
+        default=1.0,
+        help="scale of the CA steering terms (gain toward eq (13), bend) in the loss",
+    )
+    parser.add_argument(
+        "--cross-talk-weight",
+        type=number(0, 1000, what="cross-talk weight"),
+        default=0.2,
+        help="weight of unwanted rotation while translating and translation while turning",
+    )
+    parser.add_argument("--threads", type=number(1, 1024, **whole, what="threads"), default=None)
+    parser.add_argument(
+        "--study",
+        default="out/tune/study.log",
+        metavar="FILE|URL",
+        help="the study store: an Optuna journal file (default out/tune/study.log) or an RDB URL "
+        "such as sqlite:///tune.db; an interrupted study resumes from it, optuna-dashboard opens "
+        "it (docs/DESIGN.md §7)",
+    )
+    parser.add_argument("--study-name", default=DEFAULT_STUDY, help="the study within the store")
+    parser.add_argument(
+        "--robust",
+        type=int,
+        default=0,
+        metavar="N",
+        help="also score each candidate on N model variations, the same for a whole generation "
+        "and drawn anew each generation; the loss adds the mean of the worst quarter",
+    )
+    parser.add_argument("--robust-weight", type=float, default=1.0, help="weight of that term")
+    add_range_option(parser, " for --robust")
+    parser.add_argument(
+        "--cluster", metavar="tcp://HOST:PORT", help="evaluate on this Dask scheduler"
+    )
+    parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
+    parser.add_argument("--name", default="tuned", help="name of the saved preset")
+    parser.add_argument(
+        "--select",
+        choices=("best", "passing", "steering"),
+        default="best",
+        help="save the lowest loss; the lowest loss that meets every paper criterion; or of "
+        "those, the one CA steers most (forward)",
+    )
+
+
+def command(args: argparse.Namespace) -> int:
+    base = ParameterSet() if args.base == "paper" else load_parameter_set(args.base)
+    base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
+    names = [n.strip() for n in args.tune.split(",") if n.strip()]
+    check_timing(names, base.gait, args.duration, args.warmup)
+    robot = RobotModel.load(args.robot)
+    ranges = ranges_from(args.range)
+    tuner = Tuner(
+        base,
+        names,
+        evaluator=evaluator_for(robot, cluster=args.cluster, threads=args.threads),
+        duration_s=args.duration,
+        warmup_s=args.warmup,
+        popsize=args.popsize,
+        sigma0=args.sigma,
+        seed=args.seed,
+        weights=LossWeights(
+            band=args.band_weight,
+            steering=args.steering_weight,
+            cross_talk=args.cross_talk_weight,
+            speed_scale=robot.geometry.max_length_m / ARTRO_LEG.max_length_m,
+        ),
+        cases=[c.strip() for c in args.cases.split(",") if c.strip()] if args.cases else None,
+        robust=args.robust,
+        robust_weight=args.robust_weight,
+        ranges=ranges,
+    )
+    tuner.settings["set"] = args.set
+    settings = {**tuner.settings, "robot": robot.name}
+    tuner.run(args.generations, StudyStore(args.study, settings, name=args.study_name))
+    chosen = tuner.best
+    if args.select in ("passing", "steering"):
+        chosen = tuner.best_passing(by="loss" if args.select == "passing" else "steering")
+        if chosen is None:
+            print("no candidate met every criterion; saving the lowest loss instead")
+            chosen = tuner.best
+    assert chosen is not None
+    out = Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    write_parameter_set(out, stamped(ParameterSet(robot=robot.name, gait=chosen[1]), args.name))
+    print(
+        f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
+        f"saved {args.out}"
+    )
+    for case in CASES:
+        if case.name not in chosen[2]:
+            continue  # not judged (--cases)
+        metrics = chosen[2][case.name]
+        value = measured(case, metrics)
+        shown = "fell" if metrics["fell"] else f"{value:+.2f}"
+        goal = target(case, tuner.weights.speed_scale)
+        print(f"  {case.name:24s} target {goal:+6.2f}  tuned {shown}")
+    for pair in CURVES:
+        if not is_judged(pair, chosen[2]):
+            continue
+        plus, minus = (chosen[2][name] for name in curve_run_names(pair))
+        s = steering(plus, minus, chosen[2][pair.straight])
+        shown = "fell" if s is None else f"gain {s.gain:.2f}, bend {s.bend:+.2f}"
+        print(f"  {pair.name:24s} eq (13): gain 1, bend 0;  tuned {shown}")
+    return 0

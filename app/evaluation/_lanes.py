@@ -1,0 +1,389 @@
+"""Batch evaluation of parameter sets with `mujoco.rollout`, metrics identical to `artro run`.
+
+The open-loop gait is planned up front and rolled out in C, a run at a time in a lane per core,
+with the frame loop's timing, fall test and metrics: `BatchEvaluator` (docs/DESIGN.md §6, §9).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import queue
+import threading
+import time
+from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import NamedTuple
+
+import mujoco
+import numpy as np
+from mujoco import rollout
+
+from app.evaluation._api import Cancelled, Job, OnResult, Progress
+from app.robots.model import RobotModel
+from app.sim.frame_loop import (
+    FRAME_S,
+    START_PHASE_RAD,
+    FramePlan,
+    frame_steps,
+    has_fallen,
+    plan_frames,
+    planar_distance_m,
+    stand,
+    trunk_yaws,
+)
+from app.sim.metrics import RunMetrics, Trace, compute_metrics
+from app.worlds.servo_path import acting_setpoints
+from app.worlds.variations import NOMINAL, Variation, varied_robot
+from gait import GaitParams, Motion
+
+STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
+#: a run rolls out this many frames per `rollout` call and stops after the call it fell in
+SEGMENT_FRAMES = 50
+VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
+
+
+@dataclass(frozen=True)
+class Start:
+    """A run's initial physics state and set-points, and the standing height for the fall test."""
+
+    state: np.ndarray
+    ctrl: np.ndarray
+    phase: float
+    standing_height_m: float
+
+
+def start_at_rest(
+    robot: RobotModel, data: mujoco.MjData, params: GaitParams, motion: Motion
+) -> Start:
+    """The rollout start of a run, as `FrameLoop(robot, params, start_motion=motion)` stands
+    after its reset, made in `data` (which it overwrites)."""
+    phase = float(START_PHASE_RAD)
+    stand(robot, data, params, motion, phase)
+    state = np.empty(mujoco.mj_stateSize(robot.model, STATE_SPEC))
+    mujoco.mj_getState(robot.model, data, state, STATE_SPEC)
+    return Start(state, data.ctrl.copy(), phase, float(data.qpos[2]))
+
+
+def control_sequence(
+    robot: RobotModel, start: Start, plan: FramePlan, variation: Variation = NOMINAL
+) -> np.ndarray:
+    """ctrl of every physics step (frames * steps per frame, nu), as the frame loop applies it:
+    each servo switches to its frame's set-point at the step after its pulse's falling edge
+    (`plan.substep`), through the variation's set-point path (latency, calibration, play)."""
+    act = robot.actuator_ids
+    acting = acting_setpoints(
+        variation,
+        float(robot.model.opt.timestep),
+        start.ctrl[act],
+        plan.setpoint,
+        plan.substep,
+        frame_steps(robot.model),
+    )
+    ctrl = np.empty((len(acting), robot.model.nu))
+    if len(act) < robot.model.nu:
+        ctrl[:] = start.ctrl
+    ctrl[:, act] = acting
+    return ctrl
+
+
+def _check_rollout_arrays(
+    model: mujoco.MjModel,
+    start: Start,
+    control: np.ndarray,
+    state_out: np.ndarray,
+    sensor_out: np.ndarray,
+) -> None:
+    """What `rollout` checks on every call (it then runs unchecked): C-ordered float64 arrays of
+    the model's sizes, one run, an output row per step. ValueError otherwise."""
+    steps = control.shape[0]
+    shapes = {
+        "start state": (start.state, (mujoco.mj_stateSize(model, STATE_SPEC),)),
+        "control": (control, (steps, model.nu)),
+        "state output": (state_out, (1, steps, mujoco.mj_stateSize(model, STATE_SPEC))),
+        "sensor output": (sensor_out, (1, steps, model.nsensordata)),
+    }
+    for name, (array, shape) in shapes.items():
+        if array.shape != shape or array.dtype != np.float64 or not array.flags.c_contiguous:
+            raise ValueError(
+                f"{name} must be a C-ordered float64 array of shape {shape}, got "
+                f"{array.dtype} {array.shape}"
+            )
+
+
+class _FrameEnds(NamedTuple):
+    """Frames' last physics steps: their rows in the run's states, qpos, blown up, fallen."""
+
+    rows: np.ndarray
+    qpos: np.ndarray
+    bad: np.ndarray
+    down: np.ndarray
+
+
+class _LaneKit:
+    """What one lane needs at a time: an MjData of the robot's size, kept output arrays, and a
+    kept `Rollout` on the calling thread (one per call costs ~1.4 % of a run, DESIGN §9)."""
+
+    def __init__(self, model: mujoco.MjModel) -> None:
+        self.data = mujoco.MjData(model)
+        self.rollout = rollout.Rollout(nthread=0)
+        self._state = np.empty((1, 0, mujoco.mj_stateSize(model, STATE_SPEC)))
+        self._sensors = np.empty((1, 0, model.nsensordata))
+
+    def output(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
+        """(1, steps, state size) and (1, steps, sensors) arrays, grown when a run is longer."""
+        if self._state.shape[1] < steps:
+            self._state = np.empty((1, steps, self._state.shape[2]))
+            self._sensors = np.empty((1, steps, self._sensors.shape[2]))
+        return self._state[:, :steps], self._sensors[:, :steps]
+
+
+class BatchEvaluator:
+    """Evaluates many (parameters, motion) runs in parallel on one model.
+
+    The gait is open loop: a run's servo set-points are a pure function of the parameters and time.
+    So the whole run is planned up front (`plan_frames`, vectorised), turned into the control of
+    every physics step -- each servo switching to its new set-point at its pulse's falling edge,
+    exactly as `FrameLoop` does (`control_sequence`) -- and rolled out by `mujoco.rollout` in C.
+    The states are sampled once per 20 ms frame, in whole arrays (the distance between the feet
+    from the model's sole-position sensors, no Python per frame), and measured with the same fall
+    test and the same `compute_metrics` as `artro run`; a test checks both give the same numbers,
+    to the bit.
+
+    Runs go to `threads` lanes: each lane plans a run, rolls it out (one MuJoCo thread, the GIL
+    released; 1 s per call, stopping after the call it fell in), measures it, and takes the
+    next, so no lane waits for another at a call's end (docs/DESIGN.md §9). A run of a varied
+    robot rolls out on its varied model.
+
+    Args:
+        robot: the model (default: the built-in one).
+        threads: lanes, each one MuJoCo thread (default: the CPU count, at most 8).
+    """
+
+    def __init__(self, robot: RobotModel | None = None, threads: int | None = None) -> None:
+        self.robot = robot or RobotModel.load()
+        self.model = self.robot.model
+        self.threads = threads or min(os.cpu_count() or 1, 8)
+        self.steps_per_frame = frame_steps(self.model)  # variations keep the timestep
+        #: one lane's kit at a time: its MjData and its kept rollout output arrays (a run's
+        #: states, reused run after run rather than fresh arrays to page-fault, DESIGN §9)
+        self._kits: queue.SimpleQueue[_LaneKit] = queue.SimpleQueue()
+        for _ in range(self.threads):
+            self._kits.put(_LaneKit(self.model))
+        self._lock = threading.Lock()  # guards the varied cache, stage_s, frames_rolled
+        self._varied_cache: dict[Variation, RobotModel] = {}
+        #: seconds spent per stage since creation, summed over the lanes (bench/bench_batch.py
+        #: reports them)
+        self.stage_s = {"plan": 0.0, "rollout": 0.0, "measure": 0.0}
+        #: frames rolled out since creation (a run that falls stops at the end of its call)
+        self.frames_rolled = 0
+
+    def evaluate(
+        self,
+        jobs: Sequence[Job],
+        *,
+        duration_s: float,
+        warmup_s: float = 5.0,
+        progress: Progress | None = None,
+        traces: list[Trace] | None = None,
+        cancel: threading.Event | None = None,
+        on_result: OnResult | None = None,
+    ) -> list[RunMetrics]:
+        """Metrics of each job, in order, as `artro run` would print them (wall time aside).
+        Pass a list as `traces` to also get each run's trunk trace (one sample per frame).
+
+        Args:
+            jobs: the runs; each starts standing at the frame loop's start phase.
+            duration_s: simulated time per run in s (a fall ends a run early, `fell` says so).
+            warmup_s: the first seconds, left out of the motion metrics.
+            progress: called with (runs done, runs in all) after each run, in job order.
+            traces: if given, each run's `Trace` is appended to it, in job order.
+            cancel: when set, no further run starts (those under way finish): Cancelled.
+            on_result: called with (job index, metrics) as each run's result is known, in job
+                order, so a caller can keep what finished before a crash or a cancel.
+
+        The callbacks are called in the calling thread.
+        """
+        n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
+        results: list[RunMetrics] = []
+        if not jobs:
+            return results
+        pool = ThreadPoolExecutor(max_workers=min(self.threads, len(jobs)))
+        try:
+            runs = [pool.submit(self._run, job, n_frames, warmup_s) for job in jobs]
+            for run in runs:
+                if cancel is not None and cancel.is_set():
+                    raise Cancelled(f"cancelled after {len(results)} of {len(jobs)} runs")
+                metrics, trace = run.result()
+                if on_result is not None:
+                    on_result(len(results), metrics)
+                results.append(metrics)
+                if traces is not None:
+                    traces.append(trace)
+                if progress is not None:
+                    progress(len(results), len(jobs))
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+        return results
+
+    def _run(self, job: Job, n_frames: int, warmup_s: float) -> tuple[RunMetrics, Trace]:
+        """One run in a lane: plan (standing it in the lane's MjData), roll out into the lane's
+        kept arrays, measure."""
+        kit = self._kits.get()
+        try:
+            t0 = time.perf_counter()
+            robot, start, control = self._plan_run(job, n_frames, kit.data)
+            t1 = time.perf_counter()
+            state_out, sensor_out = kit.output(control.shape[0])
+            frames = self._roll_out(
+                kit.rollout, robot, kit.data, start, control, state_out, sensor_out
+            )
+            t2 = time.perf_counter()
+            metrics, trace = self._measure(
+                state_out[0], sensor_out[0], start, job, frames, warmup_s
+            )
+        finally:
+            self._kits.put(kit)
+        t3 = time.perf_counter()
+        metrics["wall_s"] = t2 - t1
+        metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
+        with self._lock:
+            self.stage_s["plan"] += t1 - t0
+            self.stage_s["rollout"] += t2 - t1
+            self.stage_s["measure"] += t3 - t2
+            self.frames_rolled += frames
+        return metrics, trace
+
+    def _roll_out(
+        self,
+        runner: rollout.Rollout,
+        robot: RobotModel,
+        data: mujoco.MjData,
+        start: Start,
+        control: np.ndarray,
+        state_out: np.ndarray,
+        sensor_out: np.ndarray,
+    ) -> int:
+        """Roll the run out in calls of `SEGMENT_FRAMES` frames, each from the last one's state
+        and solver warm start (the same bits as one call), until a call's frames show a fall or
+        a blow-up: the frames after it are never measured. Returns the frames rolled out."""
+        model, steps = robot.model, self.steps_per_frame
+        n_frames = control.shape[0] // steps
+        _check_rollout_arrays(model, start, control, state_out, sensor_out)
+        done, initial, warmstart = 0, start.state[None, :], None
+        while done < n_frames:
+            frames = min(SEGMENT_FRAMES, n_frames - done)
+            part = slice(done * steps, (done + frames) * steps)
+            runner.rollout(
+                [model], [data], initial, control[None, part], initial_warmstart=warmstart,
+                state=state_out[:, part], sensordata=sensor_out[:, part], nstep=frames * steps,
+                skip_checks=True,  # checked once above, in Python: ~20 us a call less
+            )  # fmt: skip
+            ends = self._frame_ends(state_out[0], start, done, done + frames)
+            done += frames
+            if ends.bad.any() or ends.down.any():
+                break
+            initial, warmstart = state_out[:, part.stop - 1], data.qacc_warmstart[None].copy()
+        return done
+
+    def _frame_ends(self, states: np.ndarray, start: Start, first: int, end: int) -> _FrameEnds:
+        """Frames first..end-1 of a run as `FrameLoop` checks them after each frame: the state
+        after the frame's last step, blown up (not finite, or MuJoCo reset it: time restarts
+        at 0) or fallen."""
+        rows = np.arange(first + 1, end + 1) * self.steps_per_frame - 1
+        qpos = states[rows, 1 : 1 + self.model.nq]
+        expected_time = start.state[0] + (rows + 1) * self.model.opt.timestep
+        bad = ~np.all(np.isfinite(qpos), axis=1) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
+        return _FrameEnds(rows, qpos, bad, has_fallen(qpos, start.standing_height_m))
+
+    def _varied(self, variation: Variation) -> RobotModel:
+        if variation.is_nominal:
+            return self.robot
+        with self._lock:
+            if variation not in self._varied_cache:
+                if len(self._varied_cache) >= VARIED_CACHE:
+                    self._varied_cache.pop(next(iter(self._varied_cache)))
+                self._varied_cache[variation] = varied_robot(self.robot, variation)
+            return self._varied_cache[variation]
+
+    def _plan_run(
+        self, job: Job, n_frames: int, data: mujoco.MjData
+    ) -> tuple[RobotModel, Start, np.ndarray]:
+        """A run's (varied) robot, its start (made in `data`), and the control of every step."""
+        robot = self._varied(job.variation)
+        start_motion = job.motion if job.start_motion is None else job.start_motion
+        start = start_at_rest(robot, data, job.params, start_motion)
+        plan = plan_frames(
+            job.params,
+            job.motion,
+            robot.hardware(),
+            start.phase,
+            n_frames,
+            self.steps_per_frame,
+            float(robot.model.opt.timestep),
+            motion_now=start_motion,
+            geometry=robot.geometry,
+        )
+        return robot, start, control_sequence(robot, start, plan, job.variation)
+
+    def _plan(
+        self, chunk: Sequence[Job], n_frames: int
+    ) -> tuple[list[Start], np.ndarray, np.ndarray, mujoco.MjModel | list[mujoco.MjModel]]:
+        """Several runs planned for one `rollout` call (tests and benches): their starts,
+        controls, initial states, and model -- one for nominal runs, else one per run."""
+        data = mujoco.MjData(self.model)
+        planned = [self._plan_run(job, n_frames, data) for job in chunk]
+        starts = [start for _robot, start, _control in planned]
+        controls = np.stack([control for _robot, _start, control in planned])
+        nominal = all(j.variation.is_nominal for j in chunk)
+        models = self.model if nominal else [robot.model for robot, _start, _c in planned]
+        return starts, controls, np.stack([st.state for st in starts]), models
+
+    def _measure(
+        self,
+        states: np.ndarray,
+        sensors: np.ndarray,
+        start: Start,
+        job: Job,
+        n_frames: int,
+        warmup_s: float,
+    ) -> tuple[RunMetrics, Trace]:
+        """The run's first `n_frames` frames (those rolled out) as `FrameLoop` samples them, in
+        whole arrays: the state after each frame's last physics step, and the sensors of that
+        step -- whose sole positions MuJoCo computed from the state one step earlier, as
+        `FrameLoop` reads the sites after it."""
+        rows, qpos, bad, down = self._frame_ends(states, start, 0, n_frames)
+        first_bad = int(np.argmax(bad)) if bad.any() else n_frames
+        down = down[:first_bad]
+        if down.any():  # the frame it fell in is still sampled, as in `FrameLoop`
+            fell, blew_up = True, False
+            samples = frames_done = int(np.argmax(down)) + 1
+        elif first_bad < n_frames:  # the blown-up frame is not
+            fell = blew_up = True
+            samples, frames_done = first_bad, first_bad + 1
+        else:
+            fell = blew_up = False
+            samples = frames_done = n_frames
+        rows, qpos = rows[:samples], qpos[:samples]
+        sens = sensors[rows]  # a copy: the trace keeps none of the lane's arrays alive
+        gyro, (left, right) = self.robot.gyro_adr, self.robot.sole_adr
+        trace = Trace(
+            t_s=(np.arange(1, samples + 1) * FRAME_S).tolist(),
+            x_m=qpos[:, 0].tolist(),
+            y_m=qpos[:, 1].tolist(),
+            yaw_rad=trunk_yaws(qpos[:, 3:7]),
+            gyro_rad_s=list(sens[:, gyro : gyro + 3]),
+            feet_distance_m=planar_distance_m(
+                sens[:, left : left + 3], sens[:, right : right + 3]
+            ).tolist(),
+        )
+        metrics: RunMetrics = {"fell": fell}
+        if fell:
+            metrics["fall_time_s"] = round(frames_done * FRAME_S, 3)
+        metrics |= compute_metrics(
+            trace, ca=job.motion.ca, freq_hz=job.params.clock.freq_hz, warmup_s=warmup_s
+        )
+        metrics["sim_s"] = frames_done * FRAME_S
+        metrics["blew_up"] = blew_up
+        return metrics, trace

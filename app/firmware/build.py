@@ -1,0 +1,225 @@
+"""Building the ArtRo firmware (avr-gcc, its two generated headers for a parameter set) and the
+simavr harness library (cc), each cached by a hash of its inputs (docs/DESIGN.md §5)."""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import re
+import shutil
+import subprocess
+import tempfile
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import hardware.firmware as firmware_package
+from app.robots.model import RobotModel
+from gait import ARTRO_LEG, LegGeometry
+from hardware import ChannelMap, ServoCalibration, TdmConfig
+from hardware.firmware import HEADER_NAME, c_header
+from hardware.firmware.schema import (
+    FIRMWARE_ENGINE,
+    SCHEMA_HEADER_NAME,
+    c_schema_header,
+    complete_document,
+)
+
+FIRMWARE_DIR = Path(firmware_package.__file__).resolve().parent
+SOURCE_DIR = FIRMWARE_DIR / "src"
+MAKEFILE = FIRMWARE_DIR / "Makefile"
+HARNESS_SOURCE = Path(__file__).resolve().parent / "harness.c"
+TOOLS = ("avr-gcc", "avr-objcopy", "avr-size", "make")
+
+
+class BuildError(RuntimeError):
+    """A tool is missing or a compile failed; the message carries the tool's output."""
+
+
+@dataclass(frozen=True)
+class FirmwareBuild:
+    """A built firmware: the ELF and HEX, and its memory use as avr-size reports it."""
+
+    directory: Path
+    elf: Path
+    hex: Path
+    flash_bytes: int  # .text + .data (the initial values live in flash)
+    sram_bytes: int  # .data + .bss + .noinit, without the stack
+    flash_size: int = 128 * 1024
+    sram_size: int = 4 * 1024
+
+
+def cache_dir() -> Path:
+    """$ARTRO_CACHE_DIR, else $XDG_CACHE_HOME/artro-gait-studio, else ~/.cache/artro-gait-studio."""
+    if os.environ.get("ARTRO_CACHE_DIR"):
+        return Path(os.environ["ARTRO_CACHE_DIR"])
+    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
+    return Path(base) / "artro-gait-studio"
+
+
+def missing_tools(tools: tuple[str, ...] = TOOLS) -> list[str]:
+    return [tool for tool in tools if shutil.which(tool) is None]
+
+
+def _run(command: list[str], cwd: Path) -> str:
+    result = subprocess.run(command, cwd=cwd, capture_output=True, text=True)
+    if result.returncode != 0:
+        raise BuildError(f"{' '.join(command)} failed:\n{result.stdout}{result.stderr}")
+    return result.stdout
+
+
+def generated_headers(
+    doc: dict[str, Any],
+    *,
+    calibration: ServoCalibration | None = None,
+    tdm: TdmConfig | None = None,
+    geometry: LegGeometry = ARTRO_LEG,
+) -> dict[str, str]:
+    """{file name: text} of the two generated headers for a parameter-set document (fields left
+    out take the schema's defaults); ValueError if it names an engine the firmware does not run."""
+    tdm = tdm or TdmConfig()
+    full = complete_document(doc)  # a define for every id of artro_schema.h
+    if full["gait"]["engine"] != FIRMWARE_ENGINE:
+        raise ValueError(
+            f"the firmware runs the {FIRMWARE_ENGINE} gait engine; this parameter set names "
+            f"{full['gait']['engine']!r} (docs/DESIGN.md §4)"
+        )
+    params_h = c_header(
+        full,
+        calibration=calibration or ServoCalibration.default(),
+        channel_map=tdm.channel_map or ChannelMap.default(),
+        select_change_ticks=tdm.select_change_ticks,
+    )
+    return {HEADER_NAME: params_h, SCHEMA_HEADER_NAME: c_schema_header(geometry)}
+
+
+def source_files() -> dict[str, bytes]:
+    """The firmware's C sources and Makefile: {relative path: content}."""
+    files = {f"src/{p.name}": p.read_bytes() for p in sorted(SOURCE_DIR.iterdir()) if p.is_file()}
+    files["Makefile"] = MAKEFILE.read_bytes()
+    return files
+
+
+def _digest(parts: dict[str, bytes | str]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(parts):
+        data = parts[name]
+        h.update(name.encode() + b"\0" + (data.encode() if isinstance(data, str) else data) + b"\0")
+    return h.hexdigest()[:16]
+
+
+def memory_use(elf: Path) -> tuple[int, int]:
+    """(flash bytes, SRAM bytes) from `avr-size -A`: .text + .data, and .data + .bss + .noinit."""
+    out = _run(["avr-size", "-A", str(elf)], elf.parent)
+    sizes = {m[0]: int(m[1]) for m in re.findall(r"^(\.\w+)\s+(\d+)\s+\d+", out, re.MULTILINE)}
+    flash = sizes.get(".text", 0) + sizes.get(".data", 0)
+    sram = sizes.get(".data", 0) + sizes.get(".bss", 0) + sizes.get(".noinit", 0)
+    return flash, sram
+
+
+def build_firmware(
+    doc: dict[str, Any],
+    *,
+    calibration: ServoCalibration | None = None,
+    tdm: TdmConfig | None = None,
+    geometry: LegGeometry = ARTRO_LEG,
+    out_dir: Path | None = None,
+    defines: dict[str, str] | None = None,
+) -> FirmwareBuild:
+    """Generate the headers for `doc`, compile, link; cached unless `out_dir` is given.
+
+    Args:
+        doc: a parameter-set document (`ParameterSet.to_dict()`); its values are the defaults
+            the firmware boots with.
+        calibration, tdm: servo calibration and TDM set-up (default: uncalibrated, default map,
+            select change at 4900 ticks); geometry: the robot's leg (`RobotModel.geometry`).
+        out_dir: build here (gen/, build/) instead of the cache.
+        defines: extra -D options, e.g. {"ARTRO_BOOT_STATE": "1"}.
+
+    Raises:
+        BuildError: a tool is missing or the compile failed.
+    """
+    if missing := missing_tools():
+        raise BuildError(f"missing tools: {', '.join(missing)} (install gcc-avr, avr-libc, make)")
+    headers = generated_headers(doc, calibration=calibration, tdm=tdm, geometry=geometry)
+    extra = " ".join(f"-D{k}={v}" for k, v in sorted((defines or {}).items()))
+    if out_dir is None:
+        key = _digest({**source_files(), **headers, "cflags": extra})
+        out_dir = cache_dir() / "firmware" / key
+    out_dir = Path(out_dir).resolve()
+    elf, hexfile = out_dir / "build" / "artro.elf", out_dir / "build" / "artro.hex"
+    if not (elf.exists() and hexfile.exists()):
+        gen = out_dir / "gen"
+        gen.mkdir(parents=True, exist_ok=True)
+        for name, text in headers.items():
+            (gen / name).write_text(text, encoding="ascii")
+        with tempfile.TemporaryDirectory(dir=out_dir) as tmp:
+            _run(
+                [
+                    "make",
+                    "-f",
+                    str(MAKEFILE),
+                    f"SRC_DIR={SOURCE_DIR}",
+                    f"GEN={gen}",
+                    f"BUILD={tmp}",
+                    f"EXTRA_CFLAGS={extra}",
+                ],
+                out_dir,
+            )
+            (out_dir / "build").mkdir(exist_ok=True)
+            for name in ("artro.elf", "artro.hex"):
+                os.replace(Path(tmp) / name, out_dir / "build" / name)  # atomic for other runs
+    flash, sram = memory_use(elf)
+    (out_dir / "build" / "size.json").write_text(json.dumps({"flash": flash, "sram": sram}))
+    return FirmwareBuild(out_dir, elf, hexfile, flash, sram)
+
+
+def harness_library() -> Path:
+    """The simavr harness as a shared library, compiled on first use."""
+    if missing := missing_tools(("cc",)):
+        raise BuildError(f"missing tools: {', '.join(missing)}")
+    source = HARNESS_SOURCE.read_bytes()
+    target = cache_dir() / "mcu" / f"libartro_mcu-{_digest({'harness.c': source})}.so"
+    if target.exists():
+        return target
+    target.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
+        out = Path(tmp) / target.name
+        command = ["cc", "-shared", "-fPIC", "-O2", "-o", str(out), str(HARNESS_SOURCE)]
+        _run([*command, "-lsimavr", "-lelf"], Path(tmp))
+        os.replace(out, target)
+    return target
+
+
+def export_firmware_folder(
+    doc: dict[str, Any],
+    out_dir: Path | str,
+    *,
+    calibration: ServoCalibration | None = None,
+    tdm: TdmConfig | None = None,
+    geometry: LegGeometry = ARTRO_LEG,
+) -> Path:
+    """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
+    programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
+    headers), Makefile, PROTOCOL.md, README.md, parameters.json (the document). Returns the
+    folder."""
+    out = Path(out_dir)
+    (out / "src").mkdir(parents=True, exist_ok=True)
+    (out / "gen").mkdir(exist_ok=True)
+    for name, data in source_files().items():
+        (out / name).write_bytes(data)
+    for doc_name in ("PROTOCOL.md", "README.md"):
+        shutil.copyfile(FIRMWARE_DIR / doc_name, out / doc_name)
+    headers = generated_headers(doc, calibration=calibration, tdm=tdm, geometry=geometry)
+    for name, text in headers.items():
+        (out / "gen" / name).write_text(text, encoding="ascii")
+    (out / "parameters.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
+    return out
+
+
+def wiring(robot: RobotModel) -> dict[str, Any]:
+    """What the firmware takes from a robot (`build_firmware`'s keywords): calibration, TDM map
+    and leg geometry."""
+    hardware = robot.hardware()
+    return {"calibration": hardware.calibration, "tdm": hardware.tdm, "geometry": robot.geometry}

@@ -1,0 +1,65 @@
+"""The emulated UART0 on a pseudo-terminal, so any serial program talks to the emulated robot as
+to the real one (docs/DESIGN.md §5): `PtyBridge(mcu).port`, then `serve(stop_event)`."""
+
+from __future__ import annotations
+
+import os
+import threading
+import time
+import tty
+
+from app.firmware.emulator import Mcu
+from app.firmware.link import SLOT_CYCLES
+
+SLOT_S = 0.0025
+
+
+class PtyBridge:
+    """Moves bytes between a pty and the emulated UART0 while running the MCU."""
+
+    def __init__(self, mcu: Mcu, *, realtime: bool = True) -> None:
+        self.mcu = mcu
+        self.realtime = realtime
+        self._master, self._slave = os.openpty()
+        tty.setraw(self._slave)  # bytes as they are: no echo, no line editing
+        os.set_blocking(self._master, False)
+        self.port = os.ttyname(self._slave)
+        self.bytes_in = self.bytes_out = 0
+
+    def step(self) -> None:
+        """One TDM slot: host bytes in, 2.5 ms of MCU time, MCU bytes out."""
+        try:
+            data = os.read(self._master, 4096)
+        except (BlockingIOError, OSError):
+            data = b""
+        if data:
+            self.mcu.send(data)
+            self.bytes_in += len(data)
+        self.mcu.run_until(self.mcu.cycle + SLOT_CYCLES)
+        _, out = self.mcu.take_uart()
+        if out:
+            os.write(self._master, out)
+            self.bytes_out += len(out)
+        self.mcu.take_edges()  # not kept: a long session would pile them up
+
+    def serve(self, stop: threading.Event, max_seconds: float | None = None) -> None:
+        """Run until `stop` is set (or `max_seconds` of MCU time), paced to wall time if
+        `realtime` (the emulator may be slower than real time; then it runs flat out)."""
+        start = time.monotonic()
+        slots = 0
+        while not stop.is_set():
+            self.step()
+            slots += 1
+            if max_seconds is not None and slots * SLOT_S >= max_seconds:
+                break
+            if self.realtime:
+                ahead = start + slots * SLOT_S - time.monotonic()
+                if ahead > 0:
+                    stop.wait(ahead)
+
+    def close(self) -> None:
+        for fd in (self._master, self._slave):
+            try:
+                os.close(fd)
+            except OSError:
+                pass

@@ -1,0 +1,79 @@
+"""Emulated drive-line traces as a Value Change Dump (IEEE 1364 VCD), for GTKWave or sigrok.
+
+Signals `OC1A OC1B OC1C OC3A OC3B OC3C SEL0 SEL1 SEL2`, one bit each; time in picoseconds from
+the start of frame 0 (one CPU cycle = 62.5 ns at 16 MHz). docs/DESIGN.md §5.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from app.firmware.emulator import CYCLES_PER_TICK, Edges
+from hardware import FRAME_TICKS, FrameEdges
+
+VCD_NAMES = ("OC1A", "OC1B", "OC1C", "OC3A", "OC3B", "OC3C", "SEL0", "SEL1", "SEL2")
+PS_PER_CYCLE = 62_500  # 16 MHz
+
+
+def write_vcd(path: Path | str, edges: Edges, t0_cycle: int, *, comment: str = "") -> None:
+    """Write the edges from frame 0 on (earlier ones set the initial values)."""
+    Path(path).write_text(vcd_text(edges, t0_cycle, comment=comment), encoding="ascii")
+
+
+def edges_of_frames(frames: list[FrameEdges]) -> Edges:
+    """Consecutive frames' edges as one trace, cycle 0 = the first frame's start (a line whose
+    level at a frame's start differs from where the frame before left it changes at tick 0)."""
+    cycles, lines, levels = [], [], []
+    level = list(frames[0].initial) if frames else []
+    for k, frame in enumerate(frames):
+        start = k * FRAME_TICKS
+        for line, (initial, edges) in enumerate(zip(frame.initial, frame.edges, strict=True)):
+            if initial != level[line] or k == 0:
+                cycles.append(start * CYCLES_PER_TICK)
+                lines.append(line)
+                levels.append(initial)
+            for tick, new in edges:
+                cycles.append((start + tick) * CYCLES_PER_TICK)
+                lines.append(line)
+                levels.append(new)
+            level[line] = edges[-1][1] if edges else initial
+    order = np.argsort(np.asarray(cycles, np.int64), kind="stable")
+    return Edges(
+        np.asarray(cycles, np.uint64)[order],
+        np.asarray(lines, np.uint8)[order],
+        np.asarray(levels, np.uint8)[order],
+    )
+
+
+def vcd_text(edges: Edges, t0_cycle: int, *, comment: str = "") -> str:
+    """The VCD file's text (see `write_vcd`)."""
+    codes = [chr(ord("!") + i) for i in range(len(VCD_NAMES))]
+    lines = [
+        "$date artro-gait-studio $end",
+        "$version artro-gait-studio $end",
+    ]
+    if comment:
+        lines.append(f"$comment {comment} $end")
+    lines += ["$timescale 1ps $end", "$scope module artro $end"]
+    lines += [f"$var wire 1 {c} {n} $end" for c, n in zip(codes, VCD_NAMES, strict=True)]
+    lines += ["$upscope $end", "$enddefinitions $end"]
+    time = np.maximum(edges.cycle.astype(np.int64) - t0_cycle, 0) * PS_PER_CYCLE
+    initial = [0] * len(VCD_NAMES)
+    start = int(np.searchsorted(time, 1))  # edges at or before t0 give the initial levels
+    for line, level in zip(edges.line[:start].tolist(), edges.level[:start].tolist(), strict=True):
+        initial[line] = level
+    lines += ["#0", "$dumpvars", *(f"{v}{c}" for v, c in zip(initial, codes, strict=True)), "$end"]
+    last = 0
+    for t, line, level in zip(
+        time[start:].tolist(),
+        edges.line[start:].tolist(),
+        edges.level[start:].tolist(),
+        strict=True,
+    ):
+        if t != last:
+            lines.append(f"#{t}")
+            last = t
+        lines.append(f"{level}{codes[line]}")
+    return "\n".join(lines) + "\n"

@@ -1,0 +1,155 @@
+"""A robot's MuJoCo model, built from its description, and the indices that map the gait onto it:
+joint and site names of docs/DESIGN.md §3 are looked up in one place, and the leg geometry and the
+servo drive (calibration, TDM map) come from the same description (docs/DESIGN.md §7)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from app.robots import RobotDescription, build_model, joint_settings, load_description
+from app.robots.checks import eq1_torques, robot_warnings
+from gait import JOINT_NAMES, LegGeometry
+from hardware import ChannelMap, HardwareSetup, ServoCalibration, TdmConfig
+
+
+@dataclass(frozen=True)
+class RobotModel:
+    """A compiled model of a described robot plus the addresses of the 12 leg joints in the
+    gait's joint order."""
+
+    description: RobotDescription
+    model: mujoco.MjModel
+    qpos_adr: NDArray[np.int_]  # (12,) qpos index of each joint, JOINT_NAMES order
+    dof_adr: NDArray[np.int_]  # (12,) qvel index
+    actuator_ids: NDArray[np.int_]  # (12,) actuator index
+    trunk_id: int
+    gyro_adr: int  # sensordata index of the 3-axis trunk gyro
+    sole_adr: tuple[int, int]  # sensordata index of the left and right sole centre positions
+
+    @classmethod
+    def load(cls, robot: str | Path | RobotDescription | None = None) -> RobotModel:
+        """Build the model of `robot`: a built-in name (default `artro`), a description file or a
+        description (`app.robots.load_description`); RobotError if it is not a valid robot."""
+        description = load_description(robot)
+        return cls.of_model(description, build_model(description))
+
+    @classmethod
+    def of_model(cls, description: RobotDescription, model: mujoco.MjModel) -> RobotModel:
+        """`model` as the model of `description` (e.g. the built model edited as MJCF by an
+        experiment); KeyError if a joint, actuator, body or sensor of docs/DESIGN.md §3 is
+        missing."""
+        qpos, dof, act = [], [], []
+        for name in JOINT_NAMES:
+            joint = model.joint(name)
+            qpos.append(int(joint.qposadr[0]))
+            dof.append(int(joint.dofadr[0]))
+            act.append(int(model.actuator(name).id))
+        return cls(
+            description=description,
+            model=model,
+            qpos_adr=np.array(qpos),
+            dof_adr=np.array(dof),
+            actuator_ids=np.array(act),
+            trunk_id=int(model.body("trunk").id),
+            gyro_adr=_sensor_adr(model, "imu_gyro"),
+            sole_adr=(_sensor_adr(model, "l_sole_pos"), _sensor_adr(model, "r_sole_pos")),
+        )
+
+    @property
+    def name(self) -> str:
+        return self.description.name
+
+    @property
+    def geometry(self) -> LegGeometry:
+        """L_UL and L_LL of the description: the gait's inverse kinematics (eqs 3–6)."""
+        geo = self.description.geometry
+        return LegGeometry(upper_m=geo.thigh_m, lower_m=geo.shank_m)
+
+    def hardware(self) -> HardwareSetup:
+        """The servo drive of the description: each joint's calibration and the TDM map (built
+        once per model: it is frozen, and the batch evaluator plans every run with it)."""
+        return self._hardware
+
+    @cached_property
+    def _hardware(self) -> HardwareSetup:
+        joints = [self.description.joints[name] for name in JOINT_NAMES]
+        limits = [j.calibration.angle_limits_rad() for j in joints]
+        calibration = ServoCalibration(
+            direction=[j.calibration.direction for j in joints],
+            trim_us=[j.calibration.trim_us for j in joints],
+            min_rad=[lo for lo, _ in limits],
+            max_rad=[hi for _, hi in limits],
+        )
+        channels = ChannelMap(assignments=self.description.channel_assignments())
+        return HardwareSetup(calibration=calibration, tdm=TdmConfig(channel_map=channels))
+
+    def summary(self) -> dict[str, Any]:
+        """The description and the figures that follow from it (`artro robot show`,
+        `GET /api/robot`): masses, leg, each joint's servo settings, eq (1) per joint."""
+        desc = self.description
+        return {
+            "name": desc.name,
+            "title": desc.title,
+            "default_preset": desc.default_preset,
+            "description": desc.model_dump(mode="json"),
+            "derived": {
+                "total_mass_kg": self.total_mass_kg(),
+                "link_masses_kg": desc.link_masses_kg(),
+                "leg": {"upper_m": self.geometry.upper_m, "lower_m": self.geometry.lower_m},
+                "standing_height_m": desc.geometry.standing_height_m,
+                "servos": {k: v.to_dict() for k, v in joint_settings(desc).items()},
+                "eq1": [t.to_dict() for t in eq1_torques(desc)],
+                "warnings": robot_warnings(desc),
+            },
+        }
+
+    def measured_leg_geometry(self) -> LegGeometry:
+        """L_UL and L_LL measured from the model's hip, knee and ankle positions (a check of
+        the builder against `geometry`)."""
+        data = mujoco.MjData(self.model)
+        mujoco.mj_kinematics(self.model, data)
+        hip = data.site("l_hip").xpos
+        knee = data.body("l_shank").xpos
+        ankle = data.site("l_ankle").xpos
+        return LegGeometry(
+            upper_m=float(np.linalg.norm(knee - hip)), lower_m=float(np.linalg.norm(ankle - knee))
+        )
+
+    def total_mass_kg(self) -> float:
+        """Mass of the whole robot (the trunk body's subtree), kg."""
+        return float(self.model.body_subtreemass[self.trunk_id])
+
+    def standing_height_m(
+        self, joint_angles: NDArray[np.float64], scratch: mujoco.MjData | None = None
+    ) -> float:
+        """Trunk height at which the lower sole just touches the floor, for the given pose;
+        `scratch` (reset here, left in that pose) spares making an MjData."""
+        data = mujoco.MjData(self.model) if scratch is None else scratch
+        if scratch is not None:
+            mujoco.mj_resetData(self.model, data)
+        data.qpos[self.qpos_adr] = joint_angles
+        data.qpos[2] = 0.0
+        data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+        mujoco.mj_kinematics(self.model, data)
+        lowest = min(lowest_sole_z(data, side) for side in ("l", "r"))
+        return -lowest
+
+
+def _sensor_adr(model: mujoco.MjModel, name: str) -> int:
+    return int(model.sensor(name).adr[0])
+
+
+def lowest_sole_z(data: mujoco.MjData, side: str) -> float:
+    """Lowest z of the four bottom corners of a foot plate."""
+    geom = data.geom(f"{side}_foot_plate")
+    half = data.model.geom(f"{side}_foot_plate").size
+    corners = np.array([[sx * half[0], sy * half[1], -half[2]] for sx in (-1, 1) for sy in (-1, 1)])
+    world = geom.xpos + corners @ geom.xmat.reshape(3, 3).T
+    return float(world[:, 2].min())

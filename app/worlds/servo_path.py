@@ -1,0 +1,185 @@
+"""The set-point path of a varied robot: what 12 servos act on, step by step, given what they
+were sent -- latency, calibration offset, and dead band plus backlash as a play operator
+(docs/DESIGN.md §8). One `ServoPath` per run; chunks of any size give the same output.
+`acting_setpoints` gives a fresh path's output for whole frames from their switches alone.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from app.worlds.variations import Variation
+from gait import JOINT_NAMES
+
+N_SERVOS = len(JOINT_NAMES)
+
+
+def latency_steps(latency_ms: float, timestep_s: float) -> int:
+    """The delay in whole physics steps: latency_ms / timestep rounded half up."""
+    return math.floor(latency_ms * 1e-3 / timestep_s + 0.5)
+
+
+class ServoPath:
+    """A stateful filter from the set-points sent to the 12 servos to what they act on.
+
+    Per physics step and servo, in this order:
+      1. latency: the set-point of `delay_steps` steps before (`latency_steps`); before the
+         run's first step the initial set-point holds.
+      2. calibration: + `calibration_deg` of the joint (the servo's zero is off by it).
+      3. dead band and backlash, one play operator of full width w = deadband + backlash
+         (two plays in series are one play of the summed width): the output holds until the
+         command leaves the band [out - w/2, out + w/2], then trails it at the band's edge,
+         out = clip(out, x - w/2, x + w/2); it starts at the initial set-point (+ offset).
+         So a reversal smaller than w is not followed at all, a move larger than w is followed
+         w/2 short, and a held command ends up w/2 behind on the side it came from -- the
+         lost motion of a servo that ignores small pulse changes and of gears whose teeth must
+         cross their gap before the output turns.
+    Not modelled: the output shaft's free play under load (with a load torque that reverses,
+    a real joint swings through the gap with no servo torque; that needs a separate hinge in
+    the model), the dead band's zero stiffness for small errors (the actuator keeps its kp
+    about the shifted target), and any dependence on speed or temperature.
+
+    Args:
+        variation: the `Variation`; only latency, calibration, dead band, backlash matter here.
+        timestep_s: the physics step, s.
+        initial_rad: (12,) the set-points in force before the first step (`gait.JOINT_NAMES`).
+
+    `__call__` takes the next chunk of steps, (n, 12) in rad, and returns (n, 12); feeding a
+    run in one chunk or in any split gives the same bits. A variation without these parts
+    passes every value through unchanged. ValueError for a wrong shape.
+    """
+
+    def __init__(self, variation: Variation, timestep_s: float, initial_rad: ArrayLike) -> None:
+        initial = np.array(initial_rad, dtype=np.float64)
+        if initial.shape != (N_SERVOS,):
+            raise ValueError(f"initial_rad must have shape ({N_SERVOS},), got {initial.shape}")
+        self.delay_steps = latency_steps(variation.latency_ms, timestep_s)
+        self.offset_rad = np.radians(np.array(variation.calibration_deg, dtype=np.float64))
+        self.has_offset = bool(np.any(self.offset_rad))
+        self.half_width_rad = 0.5 * math.radians(variation.deadband_deg + variation.backlash_deg)
+        self.passthrough = self.delay_steps == 0 and not self.has_offset and not self.half_width_rad
+        self._queue = np.tile(initial, (self.delay_steps, 1))  # the last delay_steps inputs
+        start = initial + self.offset_rad if self.has_offset else initial
+        self._last_command = start.copy()  # the play's input at the last step
+        self._output = start.copy()  # the play's output at the last step
+
+    def __call__(self, ctrl_rad: ArrayLike) -> NDArray[np.float64]:
+        x = np.array(ctrl_rad, dtype=np.float64)  # a copy: the caller's array is left alone
+        if x.ndim != 2 or x.shape[1] != N_SERVOS:
+            raise ValueError(f"ctrl_rad must have shape (n, {N_SERVOS}), got {x.shape}")
+        if self.passthrough or len(x) == 0:
+            return x
+        if self.delay_steps:
+            joined = np.concatenate([self._queue, x])
+            x, self._queue = joined[: len(x)], joined[len(x) :].copy()
+        if self.has_offset:
+            x = x + self.offset_rad
+        if self.half_width_rad:
+            x = self._play(x)
+        return x
+
+    def _play(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The play operator over the chunk, only at the steps where a servo's command changes
+        (a command that repeats leaves the output where it is). No array of the chunk's size is
+        sorted or summed (docs/DESIGN.md §9)."""
+        n = len(x)
+        changed = np.empty(x.shape, dtype=bool)
+        np.not_equal(x[0], self._last_command, out=changed[0])
+        np.not_equal(x[1:], x[:-1], out=changed[1:])
+        servo, row = np.nonzero(changed.T)  # each servo's changes, in step order
+        per_servo = np.bincount(servo, minlength=N_SERVOS)
+        first = np.cumsum(per_servo) - per_servo  # where each servo's changes start in `row`
+        n_events = int(per_servo.max())
+        held = np.empty((n_events + 1, N_SERVOS))  # output after k changes, per servo
+        held[0] = self._output
+        if n_events:
+            # each servo's k-th new command; after its last one, its last command repeats
+            events = np.tile(x[-1], (n_events, 1))
+            events[np.arange(len(servo)) - first[servo], servo] = x[row, servo]
+            low, high = events - self.half_width_rad, events + self.half_width_rad
+            held[1:] = play_outputs(self._output, low, high)
+        result = np.empty_like(x)
+        for j in range(N_SERVOS):
+            changes = row[first[j] : first[j] + per_servo[j]]
+            result[:, j] = _spread(held[: per_servo[j] + 1, j], changes, n)
+        self._last_command = x[-1].copy()
+        self._output = held[n_events].copy()
+        return result
+
+
+def play_outputs(
+    start: NDArray[np.float64], low: NDArray[np.float64], high: NDArray[np.float64]
+) -> NDArray[np.float64]:
+    """The play's output after each of K events per servo, (K, 12): out_k = clip(out_k-1,
+    low_k, high_k) from out_0 = `start`, with low <= high (an event of (-inf, inf) changes
+    nothing).
+
+    A clip of a clip is a clip: clip(clip(v, a1, b1), a2, b2) = clip(v, clip(a1, a2, b2),
+    clip(b1, a2, b2)). So the events compose in log2(K) whole-array rounds (a prefix scan)
+    rather than K Python steps, and since min and max only pick among their inputs, every
+    output has the bits of the step-by-step definition (docs/DESIGN.md §9)."""
+    low, high = low.copy(), high.copy()  # after round r: events k-2^r+1 .. k composed
+    span = 1
+    while span < len(low):
+        later_low, later_high = low[span:], high[span:]
+        earlier_low = np.minimum(np.maximum(low[:-span], later_low), later_high)
+        earlier_high = np.minimum(np.maximum(high[:-span], later_low), later_high)
+        low[span:], high[span:] = earlier_low, earlier_high
+        span *= 2
+    return np.minimum(np.maximum(start, low), high)
+
+
+def acting_setpoints(
+    variation: Variation,
+    timestep_s: float,
+    initial_rad: ArrayLike,
+    setpoint: ArrayLike,
+    substep: ArrayLike,
+    steps_per_frame: int,
+) -> NDArray[np.float64]:
+    """What a fresh `ServoPath(variation, timestep_s, initial_rad)` returns for the set-points
+    sent in n frames, (n * steps_per_frame, 12), to the bit -- built from the <= 12 n switches
+    alone, never from the step-level input (docs/DESIGN.md §9).
+
+    Servo j sends `initial_rad[j]` until its first switch; in frame f it switches to
+    `setpoint[f, j]` at step `substep[f, j]` of the frame (0 .. steps_per_frame; the last: at
+    the next frame's first step, where the next frame's switch at its step 0 overrides it).
+    The nominal variation gives the sent set-points themselves. ValueError for a wrong shape
+    or a step outside the frame."""
+    path = ServoPath(variation, timestep_s, initial_rad)
+    sent = np.asarray(setpoint, dtype=np.float64)
+    at = np.asarray(substep, dtype=np.int64)
+    if sent.ndim != 2 or sent.shape[1] != N_SERVOS or at.shape != sent.shape:
+        raise ValueError(
+            f"setpoint and substep must both have shape (n, {N_SERVOS}), "
+            f"got {sent.shape} and {at.shape}"
+        )
+    if at.size and (at.min() < 0 or at.max() > steps_per_frame):
+        raise ValueError(f"substep must lie in 0..{steps_per_frame} (steps_per_frame)")
+    n_frames, n_steps = len(sent), len(sent) * steps_per_frame
+    rows = np.arange(n_frames)[:, None] * steps_per_frame + at + path.delay_steps
+    superseded = np.zeros(rows.shape, dtype=bool)  # met at its step by the next frame's switch
+    np.equal(rows[:-1], rows[1:], out=superseded[:-1])
+    held = np.empty((n_frames + 1, N_SERVOS))  # what servo j acts on after its k-th switch
+    held[0] = path._output
+    command = sent + path.offset_rad if path.has_offset else sent
+    if path.half_width_rad:
+        ignored = superseded | (rows >= n_steps)
+        low = np.where(ignored, -np.inf, command - path.half_width_rad)
+        high = np.where(ignored, np.inf, command + path.half_width_rad)
+        held[1:] = play_outputs(held[0], low, high)
+    else:
+        held[1:] = command
+    switches = np.minimum(rows, n_steps)  # never decreasing: 0 <= substep <= steps_per_frame
+    # every servo has n_frames switches: one repeat of all 12 rows (servo-major), no loop
+    counts = np.diff(switches.T, prepend=0, append=n_steps)
+    return np.repeat(held.T, counts.ravel()).reshape(N_SERVOS, n_steps).T
+
+
+def _spread(held: NDArray[np.float64], switches: NDArray[np.int64], n: int) -> NDArray[np.float64]:
+    """One servo's n steps: held[0] until its first switch, held[k] from the k-th switch up to
+    the next (switch steps never decreasing, len(held) = len(switches) + 1)."""
+    return np.repeat(held, np.diff(switches, prepend=0, append=n))
