@@ -1,1 +1,3 @@
-"""ArtRo Gait Studio application: simulation loop, server, viser view and CLI."""
+"""ArtRo Gait Studio: robots, worlds, the simulation, evaluations, analysis, firmware, parameter
+sets, the dashboard server, studies and the `artro` command, one package each (docs/DESIGN.md
+§2)."""

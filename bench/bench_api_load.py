@@ -3,6 +3,9 @@ against a real server process for N s; prints the real-time factor (min/mean of 
 goal >= 0.98), skipped and lost frames, polls answered and the server's CPU.
 
     python bench/bench_api_load.py [--seconds 20] [--pollers 8] [--sockets 2] [--pythonpath DIR]
+        [--json PATH]
+
+Writes the figures to bench/results/<bench>.json, or to --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ from pathlib import Path
 from tempfile import TemporaryDirectory
 
 import httpx
+import results
 from websockets.sync.client import connect
 
 GOAL = 0.98
@@ -66,7 +70,7 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=250)
     parser.add_argument("--warmup", type=float, default=5.0, help="s before measuring")
     parser.add_argument("--pythonpath", default=str(Path(__file__).resolve().parents[1]))
-    args = parser.parse_args()
+    args = results.parse_args(parser)
 
     port = free_port()
     base = f"http://127.0.0.1:{port}"
@@ -85,6 +89,14 @@ def main() -> None:
     print(json.dumps(report, indent=2))
     verdict = "meets" if report["rtf_min"] >= GOAL else "misses"
     print(f"RTF min {report['rtf_min']:.3f}, mean {report['rtf_mean']:.3f}: {verdict} {GOAL}")
+    headline = {
+        f"real-time factor, min (goal ≥ {GOAL})": report["rtf_min"],
+        "real-time factor, mean": report["rtf_mean"],
+        "polls answered (/s)": report["polls_per_s"],
+        "scope frames lost": sum(report["ws_frames_lost"]),
+        "server CPU (% of one core)": report["server_cpu_pct_of_one_core"],
+    }
+    results.write("bench_api_load", args, {**report, "goal_rtf_min": GOAL}, headline)
 
 
 def load(base: str, pid: int, args: argparse.Namespace) -> dict:

@@ -26,6 +26,11 @@ A call of 64 walks (the default) leaves a lane idle at its end for under 1 % of 
 `bench robust` and `tune` evaluate whole generations (hundreds of runs) in one call.
 
     python bench/bench_batch.py [--seconds 10] [--runs 64] [--repeats 6]   # ~5 min on 2 cores
+        [--json PATH]
+
+Writes every figure (per kind, nominal and varied: the ceiling, batch and processes, each
+repeat's ratio to the ceilings around it, the stages) to bench/results/<bench>.json, or to
+--json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -39,12 +44,14 @@ import time
 
 import mujoco
 import numpy as np
+import results
 
 from app.evaluation import BatchEvaluator, Job
 from app.evaluation._lanes import STATE_SPEC
 from app.evaluation._processes import ProcessEvaluator
-from app.sim.frame_loop import FRAME_S, frame_steps
-from app.worlds.variations import NOMINAL, VariationRanges, sample
+from app.sim.planning import FRAME_S, frame_steps
+from app.worlds.sampling import VariationRanges, sample
+from app.worlds.variations import NOMINAL
 from gait import GaitParams, Motion
 
 CEILING_GOAL = 0.95  # end to end, of N raw processes at once
@@ -125,13 +132,13 @@ def concurrent_raw(
     pool = raw_pool(processes) if pool is None else pool
     try:
         shares = [(jobs[p::processes], frames[p::processes]) for p in range(processes)]
-        results = pool.map(_raw_in_process, shares, chunksize=1)
+        done = pool.map(_raw_in_process, shares, chunksize=1)
     finally:
         if own:
             pool.close()
             pool.join()
-    rate = sum(steps / wall for steps, wall, _cpu in results)
-    per_cpu = sum(steps for steps, _w, _c in results) / sum(cpu for _s, _w, cpu in results)
+    rate = sum(steps / wall for steps, wall, _cpu in done)
+    per_cpu = sum(steps for steps, _w, _c in done) / sum(cpu for _s, _w, cpu in done)
     return rate, per_cpu
 
 
@@ -192,7 +199,7 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated seconds per walk")
     parser.add_argument("--runs", type=int, default=64, help="walks per evaluate call")
     parser.add_argument("--repeats", type=int, default=6)
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     n_threads = os.cpu_count() or 1
     kinds = {"nominal": walks(args.runs), "varied": walks(args.runs, varied=True)}
     frames = round(args.seconds / FRAME_S)
@@ -239,11 +246,25 @@ def main() -> None:
     )
     wall_rate = statistics.median(steps / wall for steps, wall, _cpu in single)
     cpu_rate = statistics.median(steps / cpu for steps, _wall, cpu in single)
+    figures: dict = {
+        "threads": n_threads,
+        "timestep_ms": evaluators["nominal"].model.opt.timestep * 1e3,
+        "load_average_before": load_before,
+        "load_average_after": os.getloadavg()[0],
+        "cpu_stolen_pct": None if steal is None else 100 * steal,
+        "goals": {"of_ceiling": CEILING_GOAL, "of_raw_per_cpu_s": CPU_GOAL},
+        "raw_one_thread": {
+            "walks": 4,
+            "steps_per_s": wall_rate,
+            "steps_per_cpu_s": cpu_rate,
+        },
+        "kinds": {},
+    }
     print(
         f"raw mj_step, 1 thread (C loop), 4 nominal walks: {wall_rate:8.0f} steps/s wall, "
         f"{cpu_rate:8.0f} per CPU s"
     )
-    for kind, results in batch.items():
+    for kind, measured in batch.items():
         ceiling = statistics.median(c[0] for around in ceilings[kind] for c in around)
         raw_cpu = statistics.median(c[1] for around in ceilings[kind] for c in around)
         falls = sum(n < frames for n in needed[kind])
@@ -257,31 +278,58 @@ def main() -> None:
             f"raw mj_step, {kind:7s}, the same walks in {n_threads} processes at once (the "
             f"ceiling): {ceiling:8.0f} steps/s, {raw_cpu:8.0f} per CPU s"
         )
-        e2e, roll, per_cpu, busy = (statistics.median(r[i] for r in results) for i in range(4))
+        e2e, roll, per_cpu, busy = (statistics.median(r[i] for r in measured) for i in range(4))
         # side by side: each repeat's batch against the ceilings measured around it
         pairs = sorted(
-            bracketed(r[0], c[0][0], c[1][0]) for r, c in zip(results, ceilings[kind], strict=True)
+            bracketed(r[0], c[0][0], c[1][0]) for r, c in zip(measured, ceilings[kind], strict=True)
         )
         cpu_pairs = sorted(
-            bracketed(r[2], c[0][1], c[1][1]) for r, c in zip(results, ceilings[kind], strict=True)
+            bracketed(r[2], c[0][1], c[1][1]) for r, c in zip(measured, ceilings[kind], strict=True)
         )
         runs = args.repeats * len(kinds[kind])
         per_run = ", ".join(
             f"{k} {1e3 * v / runs:.1f} ms" for k, v in evaluators[kind].stage_s.items()
         )
+        planning_ms = planning_alone_ms(kinds[kind], args.seconds)
         print(
             f"batch, {kind:7s}, {n_threads} threads: {e2e:8.0f} steps/s end to end = "
             f"{statistics.median(pairs):.3f} of the ceiling (repeats {pairs[0]:.3f}…"
             f"{pairs[-1]:.3f}; goal >= {CEILING_GOAL}), rollout alone {roll:8.0f}; "
             f"{per_cpu:8.0f} per CPU s = {statistics.median(cpu_pairs):.3f} of raw's (repeats "
             f"{cpu_pairs[0]:.3f}…{cpu_pairs[-1]:.3f}; goal >= {CPU_GOAL}); per run in a lane: "
-            f"{per_run}; planning alone {planning_alone_ms(kinds[kind], args.seconds):.1f} ms; "
+            f"{per_run}; planning alone {planning_ms:.1f} ms; "
             f"lanes busy {100 * busy:.1f} % of the call"
         )
+        batch_figures = {
+            "steps_per_s": e2e,
+            "of_ceiling": statistics.median(pairs),
+            "of_ceiling_repeats": pairs,
+            "rollout_steps_per_s": roll,
+            "steps_per_cpu_s": per_cpu,
+            "of_raw_per_cpu_s": statistics.median(cpu_pairs),
+            "of_raw_per_cpu_s_repeats": cpu_pairs,
+            "stage_ms_per_run": {k: 1e3 * v / runs for k, v in evaluators[kind].stage_s.items()},
+            "planning_alone_ms": planning_ms,
+            "lanes_busy_pct": 100 * busy,
+        }
         pairs = sorted(
             bracketed(p, c[1][0], c[2][0])
             for p, c in zip(in_processes[kind], ceilings[kind], strict=True)
         )
+        figures["kinds"][kind] = {
+            "walks": len(needed[kind]),
+            "falls": falls,
+            "needed_steps_pct": 100 * sum(needed[kind]) / (frames * len(needed[kind])),
+            "rolled_of_needed": rolled,
+            "ceiling": {"processes": n_threads, "steps_per_s": ceiling, "steps_per_cpu_s": raw_cpu},
+            "batch": batch_figures,
+            "processes": {
+                "workers": n_threads,
+                "steps_per_s": statistics.median(in_processes[kind]),
+                "of_ceiling": statistics.median(pairs),
+                "of_ceiling_repeats": pairs,
+            },
+        }
         print(
             f"processes, {kind:7s}, {n_threads} x 1 thread: "
             f"{statistics.median(in_processes[kind]):8.0f} steps/s end to end = "
@@ -294,6 +342,16 @@ def main() -> None:
             "then say how many cores were free, the per-CPU-second figures how efficient the "
             "batch is"
         )
+    headline = {}
+    for kind, k in figures["kinds"].items():
+        headline[f"{kind}: batch end to end, of the ceiling (goal ≥ {CEILING_GOAL})"] = k["batch"][
+            "of_ceiling"
+        ]
+        headline[f"{kind}: batch per CPU s, of raw's (goal ≥ {CPU_GOAL})"] = k["batch"][
+            "of_raw_per_cpu_s"
+        ]
+        headline[f"{kind}: ceiling (steps/s)"] = k["ceiling"]["steps_per_s"]
+    results.write("bench_batch", args, figures, headline)
 
 
 if __name__ == "__main__":

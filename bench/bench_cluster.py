@@ -5,7 +5,11 @@ Prints runs/s of each, the speed-up over 1 worker, and the efficiency against lo
 (goal for 2 workers against 2 threads on a 2-core machine: >= 0.85), and checks the results are
 the same to the bit. Each evaluation is warmed once first (workers import and build the model).
 
-    python bench/bench_cluster.py [--samples 12] [--seconds 10] [--runs-per-task 8]
+    python bench/bench_cluster.py [--samples 12] [--seconds 10] [--runs-per-task 8] [--json PATH]
+
+Writes the figures (runs/s locally and per cluster size, speed-ups, efficiencies, whether the
+results are the same to the bit) to bench/results/<bench>.json, or to --json PATH
+(bench/results.py).
 """
 
 from __future__ import annotations
@@ -14,13 +18,15 @@ import argparse
 import os
 import time
 
+import results
+
 from app.analysis.robustness import jobs_for
 from app.evaluation import BatchEvaluator, same_results
 from app.evaluation._dask import ClusterEvaluator
 from app.evaluation.local_cluster import LoopbackCluster
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
-from app.worlds.variations import VariationRanges, sample
+from app.worlds.sampling import VariationRanges, sample
 
 GOAL = 0.85
 
@@ -37,7 +43,7 @@ def main() -> None:
     parser.add_argument("--samples", type=int, default=12, help="variations (x 9 cases + 9)")
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated seconds per run")
     parser.add_argument("--runs-per-task", type=int, default=8)
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     robot = RobotModel.load()
     jobs = jobs_for(builtin_presets()["tuned"].gait, sample(VariationRanges(), args.samples, 0))
     threads = os.cpu_count() or 1
@@ -48,6 +54,7 @@ def main() -> None:
     local_rate, local = timed(BatchEvaluator(robot, threads=threads), jobs, args.seconds)
     print(f"local threads ({threads}): {local_rate:6.2f} runs/s")
     rates = {}
+    clusters = []
     for workers in (1, 2):
         with LoopbackCluster(workers) as cluster:
             evaluator = ClusterEvaluator(cluster.address, robot, runs_per_task=args.runs_per_task)
@@ -55,18 +62,40 @@ def main() -> None:
             rate, remote = timed(evaluator, jobs, args.seconds)
             evaluator.close()
         rates[workers] = rate
-        same = "same results to the bit" if same_results(remote, local) else "RESULTS DIFFER"
+        identical = same_results(remote, local)
+        same = "same results to the bit" if identical else "RESULTS DIFFER"
+        efficiency = rate / local_rate * threads / workers
+        clusters.append(
+            {"workers": workers, "runs_per_s": rate, "speed_up_over_1_worker": rate / rates[1],
+             "efficiency_against_local_threads": efficiency, "same_results": identical}
+        )  # fmt: skip
         print(
             f"Dask, {workers} worker process(es): {rate:6.2f} runs/s, speed-up over 1 worker "
             f"{rate / rates[1]:.2f}, efficiency against {threads} local threads "
-            f"{rate / local_rate * threads / workers:.3f}; {same}"
+            f"{efficiency:.3f}; {same}"
         )
     print(
         f"2 workers against {threads} local threads: {rates[2] / local_rate:.3f} "
         f"(goal >= {GOAL} for 2 workers on 2 cores)"
     )
-    if os.getloadavg()[0] > 0.5 + threads:
+    load = os.getloadavg()[0]
+    if load > 0.5 + threads:
         print("note: the machine was busy; the ratios then say how many cores were free")
+    figures = {
+        "runs": len(jobs),
+        "threads": threads,
+        "load_average_after": load,
+        "local_runs_per_s": local_rate,
+        "clusters": clusters,
+        "two_workers_of_local_threads": rates[2] / local_rate,
+        "goal_two_workers_of_local_threads": GOAL,
+    }
+    headline = {
+        f"2 Dask workers, of {threads} local threads (goal ≥ {GOAL})": rates[2] / local_rate,
+        "local threads (runs/s)": local_rate,
+        "every cluster's results the same to the bit": all(c["same_results"] for c in clusters),
+    }
+    results.write("bench_cluster", args, figures, headline)
 
 
 if __name__ == "__main__":

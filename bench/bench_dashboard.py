@@ -10,7 +10,7 @@ client of the scope WebSocket and of the embedded viser 3D view), and for `--sec
     with it (the servos receive it at that frame's pulse falling edges, within the frame).
 
     python bench/bench_dashboard.py [--clients 2] [--seconds 60] [--no-3d] [--drive firmware]
-                                    [--cycle-view] [--ghost PRESET]
+                                    [--cycle-view] [--ghost PRESET] [--json PATH]
 
 --no-3d opens the pages with the 3D view hidden (the iframe is removed), to separate what
 software WebGL rendering in headless Chromium costs on this machine from the server's own load.
@@ -19,7 +19,8 @@ drawn in every 3D view, its metrics in every page). --cycle-view shows the scope
 plots (mean ± band over the gait phase) in every page instead of the single frame.
 --drive firmware serves with the robot's firmware on the emulated
 ATmega128 making the pulses; the changes then travel over its emulated UART (57600 baud), which
-the latency includes.
+the latency includes. Writes the figures to bench/results/<bench>.json, or to --json PATH
+(bench/results.py).
 """
 
 from __future__ import annotations
@@ -33,6 +34,7 @@ import time
 from pathlib import Path
 
 import httpx
+import results
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the tests' shared harness
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, free_port
@@ -51,7 +53,7 @@ def main() -> None:
     parser.add_argument("--drive", choices=("model", "firmware"), default="model")
     parser.add_argument("--cycle-view", action="store_true", help="the scope's folded plots")
     parser.add_argument("--ghost", metavar="PRESET", help="an A/B ghost walking this preset")
-    args = parser.parse_args()
+    args = results.parse_args(parser)
 
     port, viser_port = free_port(), free_port()
     data_dir = tempfile.mkdtemp(prefix="artro-bench-")
@@ -78,13 +80,22 @@ def main() -> None:
         http.patch("/api/params", json={"motion": {"a_p": 0.07}})
         if args.ghost:
             http.put("/api/ghost", json={"preset": args.ghost}).raise_for_status()
-        run(args, base, http, server.pid)
+        figures = run(args, base, http, server.pid)
     finally:
         server.terminate()
         server.wait(10)
+    headline = {
+        "real-time factor": figures["rtf"],
+        "real-time factor, worst 2 s window": figures["rtf_window_min"],
+        "scope frames/s, slowest page": min(figures["page_scope_frames_per_s"]),
+        "server CPU (% of one core)": figures["server_cpu_pct_of_one_core"],
+        "change → servos, median (frames)": figures["change_latency_frames"]["median"],
+    }
+    results.write("bench_dashboard", args, figures, headline)
 
 
-def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> None:
+def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> dict:
+    """Measures with the pages open, prints the figures and returns them."""
     from playwright.sync_api import sync_playwright
 
     with sync_playwright() as p:
@@ -151,6 +162,24 @@ def run(args: argparse.Namespace, base: str, http: httpx.Client, pid: int) -> No
         f"over {latency['count']} changes: from entering the store to the frame that carries it "
         "(its pulses reach the servos within that 20 ms frame)"
     )
+    return {
+        "clients": args.clients,
+        "window_s": wall,
+        "rtf": rtf,
+        "rtf_window_min": min(windows),
+        "rtf_window_max": max(windows),
+        "frames_dropped": state1["frames_dropped"] - state0["frames_dropped"],
+        "page_scope_frames_per_s": page_fps,
+        "page_frames_advanced": [n for n, _r in numbered],
+        "page_frames_received": [r for _n, r in numbered],
+        "server_cpu_pct_of_one_core": 100 * (cpu1 - cpu0) / wall,
+        "firmware_busy_cycles_max": (state1.get("firmware") or {}).get("busy_cycles_max"),
+        "change_latency_frames": {
+            "median": latency["median"],
+            "max": latency["max"],
+            "count": latency["count"],
+        },
+    }
 
 
 if __name__ == "__main__":

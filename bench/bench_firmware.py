@@ -7,7 +7,10 @@ their wait for the select tick, and the UART. Prints the worst and mean frame ag
 (goal <= 80 000 cycles = 25 % of the 320 000-cycle frame), the flash and SRAM use (avr-size), and
 how fast the emulator runs (emulated time / wall time; the firmware drive needs > 1).
 
-    python bench/bench_firmware.py [--cycles 1.0]
+    python bench/bench_firmware.py [--cycles 1.0] [--json PATH]
+
+Writes the figures (per preset and motion: worst and mean cycles per frame; the ramp; flash, SRAM,
+the emulator's speed) to bench/results/<bench>.json, or to --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import json
 import time
 
 import numpy as np
+import results
 
 from app.assets import builtin_presets_dir
 from app.firmware.build import build_firmware
@@ -64,8 +68,9 @@ def ramp_cycles(doc: dict) -> np.ndarray:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cycles", type=float, default=1.0, help="gait cycles per case")
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     worst_all, worst_uart, speeds = 0, 0, []
+    cases: list[dict] = []
     for name in ("paper", "tuned"):
         base = json.loads((builtin_presets_dir() / f"{name}.json").read_text())
         for label, motion in MOTIONS.items():
@@ -73,6 +78,10 @@ def main() -> None:
             cycles, speed = frame_cycles(doc, args.cycles)
             speeds.append(speed)
             worst_all = max(worst_all, int(cycles.max()))
+            cases.append(
+                {"preset": name, "motion": label, "worst_cycles": cycles.max(),
+                 "mean_cycles": cycles.mean(), "frames": len(cycles), "emulator_x_real_time": speed}
+            )  # fmt: skip
             print(
                 f"{name:6s} {label:9s} cycles/frame: worst {cycles.max():6d}  "
                 f"mean {cycles.mean():8.0f}  ({100 * cycles.max() / FRAME_CYCLES:4.1f} % of the "
@@ -80,6 +89,10 @@ def main() -> None:
             )
         cycles = ramp_cycles(base)
         worst_uart = max(worst_uart, int(cycles.max()))
+        cases.append(
+            {"preset": name, "motion": "ramp", "worst_cycles": cycles.max(),
+             "mean_cycles": cycles.mean(), "frames": len(cycles)}
+        )  # fmt: skip
         print(
             f"{name:6s} {'ramp':9s} cycles/frame: worst {cycles.max():6d}  "
             f"mean {cycles.mean():8.0f}  ({100 * cycles.max() / FRAME_CYCLES:4.1f} % of the "
@@ -99,6 +112,27 @@ def main() -> None:
         f"SRAM {build.sram_bytes} B of {build.sram_size} ({sram_pct:.1f} %) without the stack"
     )
     print(f"emulator speed {min(speeds):.1f}-{max(speeds):.1f}x real time (simavr, this machine)")
+    figures = {
+        "frame_cycles": FRAME_CYCLES,
+        "budget_cycles": BUDGET_CYCLES,
+        "cases": cases,
+        "worst_walking_cycles": worst_all,
+        "worst_uart_cycles": worst_uart,
+        "flash_bytes": build.flash_bytes,
+        "flash_size_bytes": build.flash_size,
+        "sram_bytes": build.sram_bytes,
+        "sram_size_bytes": build.sram_size,
+        "emulator_x_real_time_min": min(speeds),
+        "emulator_x_real_time_max": max(speeds),
+    }
+    headline = {
+        f"worst frame walking (cycles; budget {BUDGET_CYCLES})": worst_all,
+        "worst frame receiving a set over the UART (cycles)": worst_uart,
+        "flash (%)": flash_pct,
+        "SRAM without the stack (%)": sram_pct,
+        "emulator, slowest case (x real time)": min(speeds),
+    }
+    results.write("bench_firmware", args, figures, headline)
 
 
 if __name__ == "__main__":

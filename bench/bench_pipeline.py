@@ -11,7 +11,9 @@ Prints, from one run:
   - the cost of gait + hardware model per frame in us (goal <= 30), as the loop pays it (evaluated
     in blocks of 50 frames) and for a single frame evaluated alone.
 
-    python bench/bench_pipeline.py [--seconds 20] [--repeats 5]
+    python bench/bench_pipeline.py [--seconds 20] [--repeats 5] [--json PATH]
+
+Writes the figures to bench/results/<bench>.json, or to --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -22,8 +24,10 @@ import time
 
 import mujoco
 import numpy as np
+import results
 
-from app.sim.frame_loop import FrameLoop, plan_frames
+from app.sim.frame_loop import FrameLoop
+from app.sim.planning import plan_frames
 from gait import GaitParams, Motion
 
 MOTION = Motion(a_p=0.07)
@@ -87,7 +91,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seconds", type=float, default=20.0, help="simulated seconds per trial")
     parser.add_argument("--repeats", type=int, default=5)
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     frames = round(args.seconds / 0.02)
 
     reference = FrameLoop(motion=MOTION)
@@ -116,6 +120,26 @@ def main() -> None:
     print(f"real-time factor  : {pipe_med / 1000:10.1f} x      (pipeline, 1 ms steps)")
     print(f"gait + hardware   : {block_us:10.1f} us/frame (blocks of 50 frames, as the loop runs)")
     print(f"                    {single_us:10.1f} us/frame (one frame at a time; goal <= 30)")
+    figures = {
+        "timestep_ms": reference.timestep_s * 1e3,
+        "a_p": MOTION.a_p,
+        "raw_step_replay_steps_per_s": raw_med,
+        "raw_c_loop_steps_per_s": c_med,
+        "pipeline_steps_per_s": pipe_med,
+        "pipeline_of_replay": pipe_med / raw_med,
+        "pipeline_of_c_loop": pipe_med / c_med,
+        "real_time_factor": pipe_med * reference.timestep_s,
+        "gait_hardware_us_per_frame_blocks_of_50": block_us,
+        "gait_hardware_us_per_frame_alone": single_us,
+        "goals": {"pipeline_of_replay": 0.9, "gait_hardware_us_per_frame_alone": 30.0},
+        "trials": {"raw_step_replay": raw, "raw_c_loop": c_loop, "pipeline": pipe},
+    }
+    headline = {
+        "pipeline, of raw step replay (goal ≥ 0.9)": pipe_med / raw_med,
+        "pipeline (steps/s)": pipe_med,
+        "gait + hardware, one frame alone (µs; goal ≤ 30)": single_us,
+    }
+    results.write("bench_pipeline", args, figures, headline)
 
 
 if __name__ == "__main__":

@@ -10,7 +10,10 @@ in each repeat, by:
 Each repeat prints rollout / raw side by side, so a machine whose speed drifts between repeats
 shows as spread rather than as a bias.
 
-    python bench/bench_rollout_threads.py [--repeats 5] [--runs 8]
+    python bench/bench_rollout_threads.py [--repeats 5] [--runs 8] [--json PATH]
+
+Writes the ratios (per way: the median and every repeat's) to
+bench/results/<bench>.json, or to --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -24,6 +27,7 @@ import time
 
 import mujoco
 import numpy as np
+import results
 from bench_batch import concurrent_raw, raw_replay, walks
 from mujoco import rollout
 
@@ -76,7 +80,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--runs", type=int, default=8, help="walks per rollout call")
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     n = os.cpu_count() or 1
     evaluator, jobs = BatchEvaluator(threads=n), walks(args.runs)
     planned = evaluator._plan(jobs, FRAMES)
@@ -89,14 +93,18 @@ def main() -> None:
         ceiling, _per_cpu = concurrent_raw(jobs, [FRAMES] * len(jobs), n)
         ratios[f"{n} threads"].append(one_call(evaluator, planned, n) / ceiling)
         ratios[f"{n} lanes"].append(lanes(evaluator, planned, n) / ceiling)
-    print(
-        f"{args.runs} walks of 10 s, {args.repeats} repeats, load average {os.getloadavg()[0]:.2f}"
-    )
+    load = os.getloadavg()[0]
+    print(f"{args.runs} walks of 10 s, {args.repeats} repeats, load average {load:.2f}")
+    ways = []
     for label, values in ratios.items():
         spread = ", ".join(f"{v:.3f}" for v in values)
         against = "raw, 1 process" if label == "1 thread" else f"raw, {n} processes at once"
         median = statistics.median(values)
         print(f"rollout alone, {label}: median {median:.3f} of {against} ({spread})")
+        ways.append({"way": label, "against": against, "median": median, "repeats": values})
+    figures = {"threads": n, "walk_s": FRAMES * 0.02, "load_average_after": load, "ratios": ways}
+    headline = {f"rollout alone, {w['way']}, of {w['against']}": w["median"] for w in ways}
+    results.write("bench_rollout_threads", args, figures, headline)
 
 
 if __name__ == "__main__":

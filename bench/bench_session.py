@@ -4,7 +4,9 @@ Times, on one core, a frame of the live robot (`FrameLoop.step_frame`), a frame 
 (`Ghost.step`: a second robot), the recorder's write of a frame (`Recorder.add`), a copy of the
 60 s ring (`Recorder.recording`, what an export or a replay takes), and the memory of the ring.
 
-    python bench/bench_session.py [--frames 500]
+    python bench/bench_session.py [--frames 500] [--json PATH]
+
+Writes the figures to bench/results/<bench>.json, or to --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -12,10 +14,13 @@ from __future__ import annotations
 import argparse
 import time
 
+import results
+
 from app.params.presets import builtin_presets
 from app.server.ghost import Ghost
 from app.server.recorder import Recorder
-from app.sim.frame_loop import FRAME_S, FrameLoop
+from app.sim.frame_loop import FrameLoop
+from app.sim.planning import FRAME_S
 from gait import Motion
 
 
@@ -29,7 +34,7 @@ def per_frame_ms(step, frames: int) -> float:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--frames", type=int, default=500)
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     presets = builtin_presets()
     live = FrameLoop(params=presets["tuned"].gait, motion=Motion(a_p=0.07))
     ghost = Ghost(live, presets["paper"].gait, "preset paper")
@@ -48,6 +53,21 @@ def main() -> None:
     print(f"A/B ghost frame     : {ghost_ms:.3f} ms ({100 * ghost_ms / frame_ms:.1f} % of 20 ms)")
     print(f"recorder, per frame : {1000 * add_ms:.1f} µs")
     print(f"copy of the ring    : {copy_ms:.2f} ms ({len(ring)} frames, {ring_bytes / 1e6:.2f} MB)")
+    figures = {
+        "frame_ms": frame_ms,
+        "live_frame_ms": live_ms,
+        "ghost_frame_ms": ghost_ms,
+        "recorder_us_per_frame": 1000 * add_ms,
+        "ring_copy_ms": copy_ms,
+        "ring_frames": len(ring),
+        "ring_mb": ring_bytes / 1e6,
+    }
+    headline = {
+        "live robot frame (ms of 20)": live_ms,
+        "A/B ghost frame (ms of 20)": ghost_ms,
+        "recorder, per frame (µs)": 1000 * add_ms,
+    }
+    results.write("bench_session", args, figures, headline)
 
 
 if __name__ == "__main__":

@@ -9,7 +9,10 @@ trunk can turn. The model variants of `ca_response.py` apply here too.
 
     python bench/ca_phases.py [--preset tuned] [--a-p 0.07] [--ca 0.1] [--duration 40] \
         [--bins 20] [--friction MU] [--sole-grid] [--contact-timeconst S] [--elliptic] \
-        [--set GROUP.FIELD=VALUE] [--yaw-per-ca K]
+        [--set GROUP.FIELD=VALUE] [--yaw-per-ca K] [--json PATH]
+
+Writes its figures (per CA: the trunk's turn per cycle and every bin's turns, loads and what CA
+adds) to bench/results/<bench>.json, or to --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -19,10 +22,12 @@ import math
 
 import mujoco
 import numpy as np
+import results
 from ca_response import add_variant_arguments, describe_variant, load_variant, walking
 
 from app.robots.model import RobotModel
-from app.sim.frame_loop import FRAME_S, FrameLoop
+from app.sim.frame_loop import FrameLoop
+from app.sim.planning import FRAME_S
 from gait import GaitParams, Motion
 
 WARMUP_S = 5.0
@@ -81,7 +86,7 @@ def main() -> None:
     parser.add_argument("--ca", type=float, default=0.1, help="p: walks CA = -p, 0, +p")
     parser.add_argument("--duration", type=float, default=40.0)
     parser.add_argument("--bins", type=int, default=20)
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     params, robot = load_variant(args)
     freq = params.clock.freq_hz
     cas = (0.0, args.ca, -args.ca)
@@ -94,17 +99,43 @@ def main() -> None:
         f"{freq:.3f} Hz; {describe_variant(args)}"
     )
     print("turn in degrees per gait cycle (+ = counter-clockwise), load in N")
+    walks = []
     for ca in cas:
         t = table[ca]
         print(f"\nCA = {ca:+g}: trunk {t[:, 0].sum():+.2f} deg per cycle")
         print(" bin  phase   trunk  l_foot  r_foot  l_load  r_load  CA adds (trunk)")
+        bins = []
         for b in range(args.bins):
             phase = -math.pi + (b + 0.5) * 2.0 * math.pi / args.bins
-            added = t[b, 0] - table[0.0][b, 0]
+            added = t[b, 0] - table[0.0][b, 0] if ca else 0.0
             print(
                 f" {b:3d} {phase:+6.2f}  {t[b, 0]:+6.2f}  {t[b, 1]:+6.2f}  {t[b, 2]:+6.2f}  "
-                f"{t[b, 3]:6.1f}  {t[b, 4]:6.1f}  {added if ca else 0.0:+6.2f}"
+                f"{t[b, 3]:6.1f}  {t[b, 4]:6.1f}  {added:+6.2f}"
             )
+            bins.append(
+                {
+                    "bin": b,
+                    "phase_rad": phase,
+                    "trunk_deg_per_cycle": t[b, 0],
+                    "l_foot_deg_per_cycle": t[b, 1],
+                    "r_foot_deg_per_cycle": t[b, 2],
+                    "l_load_n": t[b, 3],  # null: no frame fell in the bin
+                    "r_load_n": t[b, 4],
+                    "ca_adds_trunk_deg_per_cycle": added,
+                }
+            )
+        walks.append({"ca": ca, "trunk_deg_per_cycle": t[:, 0].sum(), "bins": bins})
+    figures = {
+        "variant": describe_variant(args),
+        "warmup_s": WARMUP_S,
+        "freq_hz": freq,
+        "walks": walks,
+    }
+    headline = {
+        f"trunk turn at CA {ca:+g} (deg/cycle)": walk["trunk_deg_per_cycle"]
+        for ca, walk in zip(cas, walks, strict=True)
+    }
+    results.write("ca_phases", args, figures, headline)
 
 
 if __name__ == "__main__":

@@ -19,7 +19,10 @@ term of docs/DESIGN.md §4 (`steer.yaw_per_ca`), emulated on the motion vector.
 
     python bench/ca_response.py [--preset tuned] [--a-p 0.07] [--duration 30] \
         [--friction 0.5] [--sole-grid] [--contact-timeconst 0.005] [--elliptic] \
-        [--set swing.v=3.0 --set swing.o=0.226] [--yaw-per-ca 0.15]
+        [--set swing.v=3.0 --set swing.o=0.226] [--yaw-per-ca 0.15] [--json PATH]
+
+Writes its figures (per CA of the sweep: the heading rate, eq (13)'s, a fall; the pair's gain
+and bend; V at CA = 0) to bench/results/<bench>.json, or to --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -27,6 +30,7 @@ from __future__ import annotations
 import argparse
 
 import mujoco
+import results
 
 from app.analysis.cases import steering
 from app.evaluation import BatchEvaluator, Job
@@ -132,16 +136,30 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     add_variant_arguments(parser)
     parser.add_argument("--duration", type=float, default=30.0, help="s per run, warm-up included")
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     params, robot = load_variant(args)
     jobs = [Job(params, walking(args, ca)) for ca in SWEEP]
-    results = BatchEvaluator(robot).evaluate(jobs, duration_s=args.duration, warmup_s=WARMUP_S)
+    metrics = BatchEvaluator(robot).evaluate(jobs, duration_s=args.duration, warmup_s=WARMUP_S)
     print(
         f"preset {args.preset}, a_p = {args.a_p:+.3f}, {args.duration:g} s runs; "
         f"{describe_variant(args)}"
     )
     print("   CA    turn    eq13  (deg/s, + = counter-clockwise)")
-    for ca, m in zip(SWEEP, results, strict=True):
+    sweep = []
+    for ca, m in zip(SWEEP, metrics, strict=True):
+        measured = not m["fell"] and m["turn_deg_s"] is not None
+        sweep.append(
+            {
+                "ca": ca,
+                "a_y": args.yaw_per_ca * ca,
+                "fell": m["fell"],
+                "fall_time_s": m.get("fall_time_s"),
+                "measured": measured,
+                "turn_deg_s": m["turn_deg_s"] if measured else None,
+                "eq13_turn_deg_s": m["predicted_turn_deg_s"] if measured else None,
+                "forward_cm_s": m["forward_cm_s"] if measured else None,
+            }
+        )
         if m["fell"]:
             print(f"{ca:+.3f}  fell at {m['fall_time_s']} s")
             continue
@@ -149,13 +167,30 @@ def main() -> None:
             print(f"{ca:+.3f}  nothing measured after the {WARMUP_S:g} s warm-up: run longer")
             continue
         print(f"{ca:+.3f}  {m['turn_deg_s']:+6.2f}  {fmt(m['predicted_turn_deg_s'], '+6.2f')}")
-    by_ca = dict(zip(SWEEP, results, strict=True))
+    by_ca = dict(zip(SWEEP, metrics, strict=True))
     s = steering(by_ca[0.1], by_ca[-0.1], by_ca[0.0])
     if s is None:
         print("CA = +-0.1: no steering figure (a run fell, or was not measured)")
     else:
         print(f"CA = +-0.1: gain {s.gain:.2f} (eq (13): 1), bend {s.bend:+.2f} (linear: 0)")
         print(f"V (CA = 0) {fmt(by_ca[0.0]['forward_cm_s'])} cm/s")
+    pair = None if s is None else {"gain": s.gain, "bend": s.bend}
+    straight_cm_s = by_ca[0.0]["forward_cm_s"] if sweep[SWEEP.index(0.0)]["measured"] else None
+    figures = {
+        "variant": describe_variant(args),
+        "warmup_s": WARMUP_S,
+        "sweep": sweep,
+        "pair_ca_0.1": pair,
+        "forward_cm_s_at_ca_0": straight_cm_s,
+    }
+    headline = {
+        "steering gain, CA ±0.1 (eq 13: 1)": None if s is None else s.gain,
+        "bend, CA ±0.1 (linear: 0)": None if s is None else s.bend,
+        "turn at CA +0.1 (deg/s)": sweep[SWEEP.index(0.1)]["turn_deg_s"],
+        "V at CA 0 (cm/s)": straight_cm_s,
+        "falls (of 11 runs)": sum(row["fell"] for row in sweep),
+    }
+    results.write("ca_response", args, figures, headline)
 
 
 if __name__ == "__main__":

@@ -4,13 +4,15 @@ paper's table on the nominal model, with the goal lines (>= 90 % passing; within
 candidates no other beats on both (the frontier).
 
     python bench/robust_frontier.py out/tune/robust2.log [--png out/tune/frontier.png]
-        [--save TRIAL --out FILE]
+        [--save TRIAL --out FILE] [--json PATH]
 
 Prints the frontier as a table; the PNG draws every candidate, coloured by generation. The pass
 share here is over all cases of the study's worlds together, each generation on its own worlds
 (per case and on common worlds: `artro bench robust --presets FILE`). `--save` writes one
 trial's set as a parameter-set file (the study's base with the trial's values), to bench, steer
-(`artro calibrate-ca`) or load in the dashboard.
+(`artro calibrate-ca`) or load in the dashboard. The frontier (every candidate on it, and how
+many candidates there were) goes to bench/results/<bench>.json, or to --json PATH
+(bench/results.py); --save writes no results.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import optuna
+import results
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
@@ -145,7 +148,7 @@ def main() -> None:
     parser.add_argument("--save", type=int, metavar="TRIAL", help="write this trial's set")
     parser.add_argument("--out", metavar="FILE", help="where --save writes (a .json file)")
     parser.add_argument("--base", help="the study's base set, if not a built-in (for --save)")
-    args = parser.parse_args()
+    args = results.parse_args(parser)
     if (args.save is None) != (args.out is None):
         parser.error("--save TRIAL and --out FILE go together")
     study = load(args.store)
@@ -168,6 +171,36 @@ def main() -> None:
     Path(args.png).parent.mkdir(parents=True, exist_ok=True)
     plot(rows, front, Path(args.png))
     print(f"wrote {args.png}")
+    figures = {
+        "store": args.store,
+        "candidates": len(rows),
+        "fall_or_stand_still": falls,
+        "goals": {"pass_share_pct": 100 * PASS_GOAL, "paper_error_pct": 100 * PAPER_TOLERANCE},
+        "frontier": [
+            {
+                "trial": r["number"],
+                "generation": r["generation"],
+                "paper_error_pct": 100 * r["paper_error"],
+                "pass_share_pct": 100 * r["pass_share"],
+                "loss": r["loss"],
+                "params": r["params"],
+            }
+            for r in front
+        ],
+        "png": args.png,
+    }
+    meeting = [r for r in front if r["pass_share"] >= PASS_GOAL]
+    headline = {
+        "candidates": len(rows),
+        "on the frontier": len(front),
+        "smallest paper error with ≥ 90 % passing (%)": min(
+            (100 * r["paper_error"] for r in meeting), default=None
+        ),
+        "largest pass share on the frontier (%)": max(
+            (100 * r["pass_share"] for r in front), default=None
+        ),
+    }
+    results.write("robust_frontier", args, figures, headline)
 
 
 if __name__ == "__main__":

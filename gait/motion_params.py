@@ -13,7 +13,7 @@ from gait.schema_fields import tunable as _param
 
 @dataclass(frozen=True)
 class SteerParams:
-    """The steering term (docs/DESIGN.md §4, §4): CA also feeds the leg-yaw swing of eq (29).
+    """The steering term (docs/DESIGN.md §4): CA also feeds the leg-yaw swing of eq (29).
 
     a_y,eff = a_y + K*CA*s(a_p), K = `yaw_per_ca` walking forward, `yaw_per_ca_backward` backward;
     s = clip(a_p / `full_at_a_p`, -1, 1) turns it as eq (13) does (V < 0: the other way; V = 0:

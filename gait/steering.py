@@ -1,7 +1,7 @@
 """Differential steering of a biped, seed 004 eqs (9), (12)–(13): CA -> heading rate and path.
 
 V_L,R = (1 ± CA)·V on an axle b gives θ̇ = −2·CA·V/b (CA > 0 turns clockwise); `predict_path` is
-the exact unicycle, not the printed closed forms (7)–(8), (14)–(15) (docs/DESIGN.md §4, §4).
+the exact unicycle, not the printed closed forms (7)–(8), (14)–(15) (docs/DESIGN.md §4).
 """
 
 from __future__ import annotations

@@ -1,8 +1,7 @@
-"""ArtRo's servo drive hardware, seed 000 §2–3 and eq (1): pure numpy models (docs/DESIGN.md §5).
-
-joint angle -> servo pulse (servo) -> timer OCR ticks (timer) -> TDM-PWM frame of six lines and
-three shared select lines (tdm) -> wire edges and demultiplexed pulses (demux); eq (1) (torque).
-"""
+"""ArtRo's servo hardware, seed 000 §2–3 (its TDM-PWM "servo drive") and eq (1), pure numpy
+(docs/DESIGN.md §5): joint angle -> servo pulse (servo) -> timer OCR ticks (timer) -> TDM-PWM
+frame of six lines and three shared select lines (tdm) -> wire edges and demultiplexed pulses
+(demux); eq (1) (torque); the servo set-up (setup)."""
 
 from hardware.demux import (
     DemuxResult,
@@ -11,7 +10,6 @@ from hardware.demux import (
     demultiplex,
     frame_edges,
 )
-from hardware.drive import HardwareSetup
 from hardware.servo import (
     PERIOD_US,
     PULSE_CENTER_US,
@@ -22,6 +20,7 @@ from hardware.servo import (
     angles_to_pulses_us,
     pulses_to_angles_rad,
 )
+from hardware.setup import HardwareSetup
 from hardware.tdm import (
     CHANNELS,
     DEFAULT_SELECT_CHANGE_TICKS,

@@ -27,7 +27,7 @@ Edge = tuple[int, int]  # (tick from frame start, level after the edge: 0 or 1)
 
 @dataclass(frozen=True)
 class FrameEdges:
-    """Logic levels of the nine drive lines over one frame [0, FRAME_TICKS).
+    """Logic levels of the nine output lines over one frame [0, FRAME_TICKS).
 
     Attributes:
         names: the lines, CHANNELS then SELECT_LINES: ("OC1A", ..., "OC3C", "S0", "S1", "S2").

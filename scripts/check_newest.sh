@@ -6,7 +6,7 @@
 #   bash scripts/check_newest.sh            # report only
 #   bash scripts/check_newest.sh --adopt    # and, when the quick tests pass, take the new lock
 #
-# The quick tests are `pytest -m "not slow"`; the figures (`artro bench paper`, docs/DESIGN.md §11)
+# The quick tests are `pytest -m "not slow"`; the figures (`artro bench paper`, docs/DESIGN.md §13)
 # are not re-measured here: after adopting, run the whole suite and the paper bench.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -52,7 +52,7 @@ fi
 if [ "${1:-}" = "--adopt" ]; then
   cp "$scratch/newest.lock" requirements.lock
   echo "adopted: requirements.lock now holds the newest releases; run bash scripts/setup.sh --test,"
-  echo "the whole suite, and artro bench paper to check the figures (docs/DESIGN.md §11)"
+  echo "the whole suite, and artro bench paper to check the figures (docs/DESIGN.md §13)"
 else
   echo "the quick tests pass on the newest releases: bash scripts/check_newest.sh --adopt takes them"
 fi

@@ -8,7 +8,7 @@
 #   LOCK_OUT=FILE bash scripts/lock.sh ...          # write FILE instead (scripts/check_newest.sh)
 #
 # scripts/setup.sh installs the lock as constraints; scripts/check_newest.sh tries the newest
-# releases in a scratch environment before a refresh. See docs/DESIGN.md §11.
+# releases in a scratch environment before a refresh. See docs/DESIGN.md §13.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 

@@ -16,7 +16,7 @@ python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {
 # uv installs: it checks the lock's hashes when the lock is given as constraints (pip asks then
 # for a hash of the editable checkout too, which has none). Its own version is pinned.
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r scripts/uv-requirement.txt
-# The lock constrains, the package keeps its own ranges for `pip install .` (docs/DESIGN.md §11).
+# The lock constrains, the package keeps its own ranges for `pip install .` (docs/DESIGN.md §13).
 .venv/bin/uv pip install --quiet --python .venv/bin/python -c requirements.lock -e ".${extras}"
 
 # Debian packages: the AVR tool chain and emulator for the firmware (always: `artro firmware`

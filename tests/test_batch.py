@@ -8,9 +8,10 @@ from mujoco import MjData, rollout
 
 from app.evaluation import BatchEvaluator, Cancelled, Job, same_results
 from app.evaluation._lanes import control_sequence, start_at_rest
-from app.sim.frame_loop import FrameLoop, plan_frames
+from app.sim.frame_loop import FrameLoop
 from app.sim.headless import run
 from app.sim.metrics import MOTION_METRICS
+from app.sim.planning import plan_frames
 from gait import GaitParams, Motion
 
 EVALUATOR = BatchEvaluator(threads=2)
@@ -124,7 +125,7 @@ def test_reused_output_arrays_change_no_result():
     """Each lane rolls out into arrays it keeps from run to run: a call of many runs, calls of
     other lengths in between, and one run per evaluator all give the same metrics and traces."""
     from app.evaluation import same_results
-    from app.worlds.variations import VariationRanges, sample
+    from app.worlds.sampling import VariationRanges, sample
 
     worlds = sample(VariationRanges(), 19, seed=5)
     jobs = [Job(GaitParams(), Motion(a_p=0.07, ca=0.01 * (i % 5)), variation=w)

@@ -1,9 +1,17 @@
-"""The experiments and benchmarks in bench/ run end to end on the real model; bad options fail."""
+"""The experiments and benchmarks in bench/ run end to end on the real model and write their
+figures as JSON (bench/results.py); the checks read that JSON, never the printed text. Bad
+options fail with what is allowed."""
 
-import re
+from __future__ import annotations
+
+import json
+import math
 import subprocess
 import sys
 from pathlib import Path
+from typing import Any
+
+import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -14,82 +22,151 @@ def run_script(*args: str) -> subprocess.CompletedProcess:
     )
 
 
-def test_ca_response_prints_the_sweep_and_the_pair():
-    done = run_script("bench/ca_response.py", "--duration", "8", "--yaw-per-ca", "0.1")
+def run_bench(tmp_path: Path, name: str, *args: str) -> dict[str, Any]:
+    """Runs bench/<name>.py with `args`, its results written under tmp_path: the document."""
+    out = tmp_path / f"{name}.json"
+    done = run_script(f"bench/{name}.py", *args, "--json", str(out))
     assert done.returncode == 0, done.stderr
-    assert "a_y = 0.1 CA" in done.stdout.splitlines()[0]
-    rows = [line for line in done.stdout.splitlines() if re.match(r"^[+-]0\.\d{3} ", line)]
-    assert len(rows) == 11  # the SWEEP, -0.2 .. +0.2
-    assert all(re.match(r"^[+-]0\.\d{3} +[+-]\d+\.\d\d +[+-]\d+\.\d\d$", r) for r in rows), rows
-    assert re.search(r"CA = \+-0\.1: gain -?\d+\.\d\d ", done.stdout)
+    doc = json.loads(out.read_text(encoding="utf-8"))
+    assert doc["bench"] == name
+    assert doc["command"] == " ".join(["python", f"bench/{name}.py", *args])
+    env = doc["environment"]
+    assert env["machine"]["logical_cpus"] >= 1 and env["machine"]["cpu_model"]
+    assert env["mujoco"] and env["numpy"] and env["python"] and env["project_version"]
+    assert env["finished_utc"].endswith("+00:00")
+    return doc
 
 
-def test_ca_response_says_when_a_run_is_too_short_to_measure():
-    done = run_script("bench/ca_response.py", "--duration", "4")
-    assert done.returncode == 0, done.stderr
-    assert "nothing measured after the 4 s warm-up: run longer" in done.stdout
-    assert "CA = +-0.1: no steering figure" in done.stdout
+def finite(value: Any) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
 
 
-def test_ca_phases_bins_add_up_to_the_cycle_turn():
-    done = run_script("bench/ca_phases.py", "--duration", "2", "--bins", "4", "--ca", "0.1")
-    assert done.returncode == 0, done.stderr
-    sections = re.findall(
-        r"CA = ([+-][\d.]+): trunk ([+-][\d.]+) deg per cycle\n.*\n((?: +\d+ .*\n?){4})",
-        done.stdout,
-    )
-    assert [float(ca) for ca, _total, _rows in sections] == [0.0, 0.1, -0.1]
-    for ca, total, rows in sections:
-        cells = [line.split() for line in rows.strip().splitlines()]
-        assert abs(sum(float(c[2]) for c in cells) - float(total)) < 0.05
-        if float(ca) == 0.0:
-            assert all(float(c[7]) == 0.0 for c in cells)  # CA = 0 adds nothing to itself
+def test_ca_response_writes_the_sweep_and_the_pair(tmp_path):
+    doc = run_bench(tmp_path, "ca_response", "--duration", "8", "--yaw-per-ca", "0.1")
+    assert doc["arguments"]["duration"] == 8.0 and doc["arguments"]["yaw_per_ca"] == 0.1
+    assert "a_y = 0.1 CA" in doc["figures"]["variant"]
+    sweep = doc["figures"]["sweep"]
+    assert [row["ca"] for row in sweep] == [
+        -0.2, -0.15, -0.1, -0.05, -0.025, 0.0, 0.025, 0.05, 0.1, 0.15, 0.2
+    ]  # fmt: skip
+    for row in sweep:
+        assert row["measured"] and not row["fell"], row
+        assert finite(row["turn_deg_s"]) and finite(row["eq13_turn_deg_s"]), row
+        assert row["a_y"] == pytest.approx(0.1 * row["ca"])
+    pair = doc["figures"]["pair_ca_0.1"]
+    assert finite(pair["gain"]) and finite(pair["bend"])
+    assert doc["headline"]["steering gain, CA ±0.1 (eq 13: 1)"] == pair["gain"]
 
 
-def test_bad_options_are_refused_with_what_is_allowed():
-    out_of_range = run_script("bench/ca_response.py", "--set", "swing.v=9")
+def test_ca_response_says_when_a_run_is_too_short_to_measure(tmp_path):
+    doc = run_bench(tmp_path, "ca_response", "--duration", "4")
+    sweep = doc["figures"]["sweep"]
+    assert len(sweep) == 11
+    assert all(not row["measured"] and row["turn_deg_s"] is None for row in sweep)
+    assert doc["figures"]["pair_ca_0.1"] is None  # no steering figure
+    assert doc["headline"]["steering gain, CA ±0.1 (eq 13: 1)"] is None
+
+
+def test_ca_phases_bins_add_up_to_the_cycle_turn(tmp_path):
+    doc = run_bench(tmp_path, "ca_phases", "--duration", "2", "--bins", "4", "--ca", "0.1")
+    walks = doc["figures"]["walks"]
+    assert [w["ca"] for w in walks] == [0.0, 0.1, -0.1]
+    for w in walks:
+        bins = w["bins"]
+        assert [b["bin"] for b in bins] == [0, 1, 2, 3]
+        assert abs(sum(b["trunk_deg_per_cycle"] for b in bins) - w["trunk_deg_per_cycle"]) < 0.05
+        assert all(finite(b["l_load_n"]) and finite(b["r_load_n"]) for b in bins)
+        if w["ca"] == 0.0:  # CA = 0 adds nothing to itself
+            assert all(b["ca_adds_trunk_deg_per_cycle"] == 0.0 for b in bins)
+        else:
+            zero = walks[0]["bins"]
+            for b, z in zip(bins, zero, strict=True):
+                added = b["trunk_deg_per_cycle"] - z["trunk_deg_per_cycle"]
+                assert b["ca_adds_trunk_deg_per_cycle"] == pytest.approx(added, abs=1e-4)
+
+
+def test_bad_options_are_refused_with_what_is_allowed(tmp_path):
+    out = tmp_path / "never.json"
+    out_of_range = run_script("bench/ca_response.py", "--set", "swing.v=9", "--json", str(out))
     assert out_of_range.returncode != 0
     assert "swing.v = 9.0 is out of range; allowed: 1.5 to 6.0" in out_of_range.stderr
-    not_a_number = run_script("bench/ca_phases.py", "--set", "swing.v=fast")
+    not_a_number = run_script("bench/ca_phases.py", "--set", "swing.v=fast", "--json", str(out))
     assert not_a_number.returncode != 0
     assert "'fast' is not a number" in not_a_number.stderr
+    assert not out.exists()  # a refused run writes no results
 
 
-def test_robust_factors_tries_each_departure_alone():
-    done = run_script(
-        "bench/robust_factors.py", "--presets", "tuned", "--duration", "3", "--warmup", "1"
+def test_robust_factors_tries_each_departure_alone(tmp_path):
+    doc = run_bench(
+        tmp_path, "robust_factors", "--presets", "tuned", "--duration", "3", "--warmup", "1"
     )
-    assert done.returncode == 0, done.stderr
-    rows = [line for line in done.stdout.splitlines() if re.search(r" \d/9$", line)]
+    tuned = doc["figures"]["presets"]["tuned"]
+    rows = tuned["departures"]
     # 16 ends of 11 fields' ranges that depart from the model, 4 tilts, 2 calibrations
-    assert len(rows) == 22, done.stdout
-    assert rows[0].startswith("friction 0.4") and "downhill behind" in rows[18]
-    assert all(len(r[34:].split()) >= 10 for r in rows)  # nine cells and the pass count
+    assert len(rows) == 22
+    assert rows[0]["departure"].startswith("friction 0.4")
+    assert "downhill behind" in rows[18]["departure"]
+    for row in rows:
+        assert len(row["cases"]) == 9  # nine cells and the pass count
+        assert row["passed"] == sum(c["passes"] for c in row["cases"])
+        for c in row["cases"]:
+            assert not (c["passes"] and c["fell"])
+            if c["kind"] != "spot" and c["figure"] is not None and c["nominal_figure"]:
+                assert c["share_of_nominal"] == pytest.approx(
+                    c["figure"] / c["nominal_figure"], rel=1e-4
+                )
+    assert tuned["passed"] == sum(r["passed"] for r in rows) and tuned["runs"] == 22 * 9
 
 
-def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs():
-    done = run_script("bench/bench_batch.py", "--seconds", "0.4", "--runs", "2", "--repeats", "1")
-    assert done.returncode == 0, done.stderr
-    for kind in ("nominal", "varied"):
-        ceiling = re.search(
-            rf"raw mj_step, {kind} *, the same walks in \d+ processes at once \(the ceiling\): +"
-            r"(\d+) steps/s, +(\d+) per CPU s",
-            done.stdout,
-        )
-        assert ceiling and int(ceiling[1]) > 0 and int(ceiling[2]) > 0, done.stdout
-        batch = re.search(
-            rf"batch, {kind} *, \d+ threads: +\d+ steps/s end to end = (\d\.\d+) of the ceiling"
-            r".* = (\d\.\d+) of raw's .*plan (\d+\.\d) ms.*lanes busy (\d+\.\d) % of the call",
-            done.stdout,
-        )
-        assert batch, done.stdout
-        assert 0 < float(batch[1]) < 2 and 0 < float(batch[2]) < 2 and float(batch[3]) > 0
-        assert 0 < float(batch[4]) <= 100
+def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs(tmp_path):
+    doc = run_bench(tmp_path, "bench_batch", "--seconds", "0.4", "--runs", "2", "--repeats", "1")
+    kinds = doc["figures"]["kinds"]
+    assert set(kinds) == {"nominal", "varied"}
+    for kind in kinds.values():
+        assert kind["ceiling"]["steps_per_s"] > 0 and kind["ceiling"]["steps_per_cpu_s"] > 0
+        batch = kind["batch"]
+        assert 0 < batch["of_ceiling"] < 2 and 0 < batch["of_raw_per_cpu_s"] < 2
+        assert len(batch["of_ceiling_repeats"]) == 1
+        assert batch["stage_ms_per_run"]["plan"] > 0 and batch["planning_alone_ms"] > 0
+        assert 0 < batch["lanes_busy_pct"] <= 100
+        assert 0 < kind["processes"]["of_ceiling"] < 2
+        assert kind["walks"] == 2 and 0 <= kind["falls"] <= 2
 
 
-def test_bench_rollout_threads_compares_rollout_alone_with_raw_processes():
-    done = run_script("bench/bench_rollout_threads.py", "--repeats", "1", "--runs", "2")
-    assert done.returncode == 0, done.stderr
-    ratios = re.findall(r"rollout alone, (.+?): median (\d\.\d+) of raw", done.stdout)
-    assert len(ratios) == 3 and ratios[0][0] == "1 thread", done.stdout
-    assert all(0 < float(value) < 2 for _, value in ratios)
+def test_bench_rollout_threads_compares_rollout_alone_with_raw_processes(tmp_path):
+    doc = run_bench(tmp_path, "bench_rollout_threads", "--repeats", "1", "--runs", "2")
+    ratios = doc["figures"]["ratios"]
+    assert len(ratios) == 3 and ratios[0]["way"] == "1 thread"
+    assert all(0 < r["median"] < 2 and len(r["repeats"]) == 1 for r in ratios)
+
+
+def test_bench_pipeline_session_and_firmware_write_their_figures(tmp_path):
+    pipeline = run_bench(tmp_path, "bench_pipeline", "--seconds", "0.2", "--repeats", "1")[
+        "figures"
+    ]
+    for key in ("raw_step_replay", "raw_c_loop", "pipeline"):
+        assert pipeline[f"{key}_steps_per_s"] > 0
+    assert pipeline["pipeline_of_replay"] > 0 and pipeline["gait_hardware_us_per_frame_alone"] > 0
+    session = run_bench(tmp_path, "bench_session", "--frames", "10")["figures"]
+    assert session["live_frame_ms"] > 0 and session["ghost_frame_ms"] > 0
+    assert session["ring_frames"] > 0 and session["ring_mb"] > 0
+    firmware = run_bench(tmp_path, "bench_firmware", "--cycles", "0.1")["figures"]
+    cases = {(c["preset"], c["motion"]) for c in firmware["cases"]}
+    assert cases == {
+        (p, m) for p in ("paper", "tuned") for m in ("forward", "sideways", "turn", "curve", "ramp")
+    }
+    assert firmware["worst_walking_cycles"] == max(
+        c["worst_cycles"] for c in firmware["cases"] if c["motion"] != "ramp"
+    )
+    assert 0 < firmware["flash_bytes"] < firmware["flash_size_bytes"]
+
+
+def test_bench_api_load_writes_what_the_clients_saw(tmp_path):
+    doc = run_bench(
+        tmp_path, "bench_api_load",
+        "--seconds", "2", "--warmup", "1", "--pollers", "2", "--sockets", "1",
+    )  # fmt: skip
+    figures = doc["figures"]
+    assert figures["rtf_samples"] > 0 and figures["rtf_min"] > 0
+    assert figures["polls_per_s"] > 0 and len(figures["ws_frames_received"]) == 1
+    assert doc["arguments"]["pollers"] == 2

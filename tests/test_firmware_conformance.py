@@ -1,6 +1,6 @@
 """The emulated firmware carries the Python model's edges tick for tick and its joint angles.
 
-Real avr-gcc, real simavr (ATmega128 core): over at least five gait cycles the nine drive lines
+Real avr-gcc, real simavr (ATmega128 core): over at least five gait cycles the nine output lines
 must equal `hardware.frame_edges` of the simulation's frame pipeline, a falling edge one tick off
 being allowed only where float32 and float64 round a pulse to neighbouring ticks (counted, < 1 %);
 select lines change only at the guard's change tick; angles within 1e-4 rad.

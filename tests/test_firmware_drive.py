@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from app.firmware.pulses import FirmwarePulses
-from app.server.sim_thread import Command
+from app.server.sim_commands import Reset
 from app.sim.frame_loop import FrameLoop, PinFrame
 from gait import GaitParams, Motion
 from hardware import TICK_US, US_PER_DEG
@@ -30,17 +30,17 @@ def test_the_servos_read_the_firmwares_pins_and_walk_as_the_model_does() -> None
     params, motion = GaitParams.from_dict(doc["gait"]), Motion(**doc["motion"])
     model = FrameLoop(params=params, motion=motion)
     pins = FrameLoop(params=params, motion=motion)
-    drive = FirmwarePulses(doc)
+    firmware = FirmwarePulses(doc)
     try:
         worst = 0.0
         for _ in range(150):  # 3 s, several gait cycles
             by_model = model.step_frame()
-            by_pins = pins.step_pins(pins_of(drive.next_frame()))
+            by_pins = pins.step_pins(pins_of(firmware.next_frame()))
             worst = max(worst, float(np.abs(by_pins.setpoint - by_model.setpoint).max()))
             assert by_pins.phase == pytest.approx(by_model.phase, abs=1e-6)
             assert by_pins.pin_edges is not None
     finally:
-        drive.close()
+        firmware.close()
     assert worst <= ONE_TICK_RAD + 1e-12  # float32 on the MCU: at most a tick apart
     (x_model, y_model, _), (x_pins, y_pins, _) = model.trunk_pose(), pins.trunk_pose()
     assert x_pins > 0.05  # it walked forward
@@ -49,11 +49,11 @@ def test_the_servos_read_the_firmwares_pins_and_walk_as_the_model_does() -> None
 
 def test_a_servo_whose_output_carried_no_pulse_keeps_its_set_point() -> None:
     loop = FrameLoop(params=GaitParams(), motion=Motion())
-    drive = FirmwarePulses(preset("paper"))
+    firmware = FirmwarePulses(preset("paper"))
     try:
-        frame = drive.next_frame()
+        frame = firmware.next_frame()
     finally:
-        drive.close()
+        firmware.close()
     held = loop.data.ctrl[loop.robot.actuator_ids].copy()
     names, initial, lines = frame.edges.names, frame.edges.initial, frame.edges.edges
     silent = tuple(0 if n.startswith("OC1") else i for n, i in zip(names, initial, strict=True))
@@ -112,7 +112,7 @@ def test_reset_with_the_firmware_driving_keeps_the_mcu_running(sim_thread) -> No
     sim, _store = sim_thread
     sim.switch_drive("firmware")
     before = wait_for(lambda: (s := sim.status()).firmware and s.frame > 30 and s, "frames")
-    sim.command(Command.RESET)
+    sim.send(Reset())
     after = wait_for(lambda: (s := sim.status()).resets == before.resets + 1 and s, "reset")
     assert after.frame < before.frame  # the simulation restarted
     assert after.firmware.mcu_frame >= before.firmware.mcu_frame  # the MCU did not

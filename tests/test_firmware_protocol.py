@@ -18,7 +18,7 @@ from app.firmware.conformance import model_frames, run_comparison, split_frames
 from app.firmware.emulator import FRAME_CYCLES, Mcu, read_active_plan
 from app.firmware.link import EmulatedLink
 from app.firmware.protocol import Ack, Info, Msg, Nak, NakReason, Params, Telemetry
-from app.sim.frame_loop import START_PHASE_RAD
+from app.sim.planning import START_PHASE_RAD
 from gait import GaitParams, Motion, joint_angles
 from hardware import ServoCalibration, angles_to_pulses_us, pulse_us_to_ocr
 from hardware.firmware.schema import param_specs, schema_hash, values_from_document

@@ -11,7 +11,8 @@ import httpx
 from app.params.presets import builtin_presets
 from app.server.ghost import BESIDE_M, Ghost
 from app.server.param_store import ParameterStore
-from app.server.sim_thread import Command, SimThread
+from app.server.sim_commands import RemoveGhost, Reset, SetGhost
+from app.server.sim_thread import SimThread
 from app.sim.frame_loop import FrameLoop
 from gait import GaitParams, Motion
 from tests.server_harness import wait_for
@@ -91,9 +92,9 @@ def test_a_reset_stands_the_ghost_beside_the_live_robot_again() -> None:
     sim.publish_poses = True
     sim.start()
     try:
-        sim.command(Command.GHOST, (GaitParams(), "paper defaults"))
+        sim.send(SetGhost(GaitParams(), "paper defaults"))
         wait_for(lambda: (g := sim.ghost_status()) and g.window_s > 2.5, "ghost metrics")
-        sim.command(Command.RESET)
+        sim.send(Reset())
         poses = wait_for(
             lambda: (p := sim.body_poses()) and sim.status().resets == 1 and p, "the reset"
         )
@@ -101,7 +102,7 @@ def test_a_reset_stands_the_ghost_beside_the_live_robot_again() -> None:
         trunk = sim.model.body("trunk").id
         assert abs(poses.ghost_xpos[trunk, 1] - poses.xpos[trunk, 1] - BESIDE_M) < 0.05
         assert abs(poses.ghost_xpos[trunk, 0] - poses.xpos[trunk, 0]) < 0.05
-        sim.command(Command.GHOST, None)
+        sim.send(RemoveGhost())
         wait_for(lambda: sim.ghost_status() is None, "no ghost")
     finally:
         sim.stop()

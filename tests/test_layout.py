@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import ast
 import re
+import subprocess
 import sys
 from pathlib import Path
 
@@ -238,3 +239,58 @@ def test_one_joint_order_in_the_gait_the_hardware_the_model_and_the_page() -> No
     assert joints is not None, "static/js/util.js must define JOINTS"
     page = [j.strip().strip('"') for j in joints.group(1).split(",")]
     assert [f"{side}_{j}" for side in "lr" for j in page] == list(JOINT_NAMES)
+
+
+#: text files whose references must resolve (history -- the changelog, decision records -- may
+#: name what no longer exists)
+TEXT_SUFFIXES = {".py", ".js", ".md", ".toml", ".c", ".h", ".sh", ".yaml", ".html", ".css"}
+PATH_REF = re.compile(
+    r"(?<![\w./-])((?:app|gait|hardware|models|static|tests|bench|docs|scripts|\.ci)/[\w./-]*\w)"
+)
+MODULE_REF = re.compile(r"`((?:app|gait|hardware)(?:\.[A-Za-z_]\w*)+)[`(]")
+PACKAGE_DATA = {"app.models", "app.static"}  # models/ and static/ as installed
+
+
+def referring_files() -> list[Path]:
+    tracked = subprocess.run(
+        ["git", "ls-files"], cwd=ROOT, capture_output=True, text=True, check=True
+    ).stdout.split()
+    return [
+        ROOT / f
+        for f in tracked
+        if Path(f).suffix in TEXT_SUFFIXES
+        and f not in ("CHANGELOG.md", "tests/test_layout.py")  # this file's examples
+        and not f.startswith("docs/decisions/")
+        and (ROOT / f).exists()
+    ]
+
+
+def module_ref_resolves(dotted: str) -> bool:
+    """`app.x.y` names a module of ours, or a name its longest module prefix defines."""
+    parts = dotted.split(".")
+    for k in range(len(parts), 0, -1):
+        base = ROOT.joinpath(*parts[:k])
+        source = (
+            base.with_suffix(".py") if base.with_suffix(".py").exists() else base / "__init__.py"
+        )
+        if source.exists():
+            return k == len(parts) or re.search(rf"\b{re.escape(parts[k])}\b", source.read_text(
+                encoding="utf-8")) is not None  # fmt: skip
+    return False
+
+
+def test_no_comment_or_document_names_a_file_or_module_that_does_not_exist() -> None:
+    missing = []
+    for path in referring_files():
+        for n, line in enumerate(path.read_text(encoding="utf-8").splitlines(), 1):
+            for m in PATH_REF.finditer(line):
+                ref = m.group(1).rstrip(".")
+                placeholder = any(c in ref for c in "<*{") or re.search(r"[A-Z]{3,}", ref)
+                if not placeholder and not (ROOT / ref).exists():
+                    missing.append(f"{path.relative_to(ROOT)}:{n}: {ref}")
+            for m in MODULE_REF.finditer(line):
+                ref = m.group(1)
+                file_name = ref.rsplit(".", 1)[-1] in {s[1:] for s in TEXT_SUFFIXES}
+                if ref not in PACKAGE_DATA and not file_name and not module_ref_resolves(ref):
+                    missing.append(f"{path.relative_to(ROOT)}:{n}: {ref}")
+    assert not missing, "names of what does not exist:\n" + "\n".join(missing)

@@ -4,9 +4,10 @@ import numpy as np
 import pytest
 
 from app.evaluation import BatchEvaluator, Job
-from app.sim.frame_loop import FRAME_S, FrameLoop
+from app.sim.frame_loop import FrameLoop
 from app.sim.headless import run
 from app.sim.metrics import MOTION_METRICS
+from app.sim.planning import FRAME_S
 from gait import GaitParams, Motion, joint_angles, ramp_steps
 
 STEP = Motion(a_p=0.07, ca=0.1)

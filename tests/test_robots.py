@@ -53,7 +53,7 @@ def test_every_servo_names_its_source_and_states_voltages():
     assert {"MG996R", "MG90S", "SG90", "DS3218", "AX-12A"} <= set(table)
     for spec in table.values():
         assert len(spec.source) > 20 and spec.ratings
-    assert table["AX-12A"].drive == "bus" and "TDM-PWM" in table["AX-12A"].assumed.bus
+    assert table["AX-12A"].signal == "bus" and "TDM-PWM" in table["AX-12A"].assumed.bus
 
 
 def test_a_datasheet_becomes_mujoco_settings_by_one_rule():

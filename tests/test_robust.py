@@ -23,7 +23,8 @@ from app.analysis.robustness import (
 from app.evaluation import BatchEvaluator
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
-from app.worlds.variations import Variation, VariationRanges, parse_variation, sample
+from app.worlds.sampling import VariationRanges, sample
+from app.worlds.variations import Variation, parse_variation
 
 ROOT = Path(__file__).resolve().parent.parent
 CASE = {c.name: c for c in ROBUST_CASES}

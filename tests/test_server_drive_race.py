@@ -9,8 +9,8 @@ import threading
 
 import httpx
 
-from app.server.firmware_driver import FirmwareDriver
-from app.server.sim_thread import Command
+from app.server.emulated_controller import EmulatedController
+from app.server.sim_commands import SwitchDrive
 from tests.server_harness import client, wait_for
 
 
@@ -19,10 +19,10 @@ def test_a_firmware_booted_for_behnke_is_refused_once_the_set_names_pfs(sim_thre
     the HTTP thread), the set becomes pfs and the simulation applies it, then the booted firmware
     is handed over."""
     sim, store = sim_thread
-    driver = FirmwareDriver.boot(store.snapshot(), sim.hardware)
+    controller = EmulatedController.boot(store.snapshot(), sim.hardware)
     changed = store.update({"gait": {"engine": "pfs"}}, "test")
     wait_for(lambda: sim.status().params_version_applied == changed.version, "pfs applied")
-    sim.command(Command.DRIVE, driver)
+    sim.send(SwitchDrive(controller))
 
     def verdict():
         s = sim.status()

@@ -47,9 +47,9 @@ class Records(logging.Handler):
 
 @pytest.fixture
 def server_log():
-    """Every record of uvicorn's error log and of the guard (debug on) while the test runs."""
+    """Every record of uvicorn's error log and of the request gate (debug on) during the test."""
     handler = Records()
-    loggers = [logging.getLogger(name) for name in ("uvicorn.error", "app.server.guard")]
+    loggers = [logging.getLogger(name) for name in ("uvicorn.error", "app.server.request_gate")]
     levels = [logger.level for logger in loggers]
     for logger in loggers:
         logger.addHandler(handler)

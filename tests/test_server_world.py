@@ -1,4 +1,4 @@
-"""The world panel's API and the robustness job on a real server (docs/DESIGN.md §12): a
+"""The world panel's API and the robustness job on a real server (docs/DESIGN.md §8, §12): a
 variation reaches the live simulation and the state says so; a bad one changes nothing; the
 robustness job reports per case; the robot is named."""
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from app.robots.model import lowest_sole_z
-from app.sim.frame_loop import FRAME_S, FrameLoop, plan_frames
+from app.sim.frame_loop import FrameLoop
+from app.sim.planning import FRAME_S, plan_frames
 from gait import GaitParams, Motion, joint_angles
 from hardware import SLOT_TICKS, TICK_US, ServoCalibration, TdmConfig, pulses_to_angles_rad
 

@@ -265,7 +265,7 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
     png = tmp_path / "frontier.png"
     drawn = subprocess.run(
         [sys.executable, "bench/robust_frontier.py", str(tmp_path / "study.log"),
-         "--png", str(png)],
+         "--png", str(png), "--json", str(tmp_path / "frontier.json")],
         cwd=ROOT, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert drawn.returncode == 0, drawn.stderr

@@ -15,17 +15,14 @@ from hypothesis import strategies as st
 
 from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop
+from app.worlds.sampling import DIRECTIONS, SAMPLE_COLUMNS, VariationRanges, parse_range, sample
 from app.worlds.servo_path import ServoPath, acting_setpoints, latency_steps
 from app.worlds.variations import (
     FIELDS,
     FRICTION_GEOMS,
     NOMINAL,
-    SAMPLE_COLUMNS,
     Variation,
-    VariationRanges,
-    parse_range,
     parse_variation,
-    sample,
     tilted,
     varied_robot,
     vary_model,
@@ -375,12 +372,12 @@ def test_the_same_seed_gives_the_same_sample_to_the_bit_and_another_seed_another
 
 
 def test_samples_fill_their_ranges_and_narrowing_one_range_keeps_the_other_draws():
-    ranges = VariationRanges()
+    ranges = VariationRanges().with_range("push_n_s", 0.2, 1.0)  # (no push by default)
     drawn = sample(ranges, 400, seed=11)
     for field in FIELDS:
         low, high = getattr(ranges, field)
         values = np.array([getattr(v, field) for v in drawn], dtype=float)
-        if field == "tilt_direction_deg":
+        if field in DIRECTIONS:
             high = 360.0 - 0.1
         assert values.min() >= low and values.max() <= high, field
         assert values.min() < low + 0.05 * (high - low) and values.max() > high - 0.05 * (
@@ -391,6 +388,22 @@ def test_samples_fill_their_ranges_and_narrowing_one_range_keeps_the_other_draws
     assert {v.latency_ms for v in narrow} <= {5.0, 6.0, 7.0, 8.0, 9.0}
     for a, b in zip(drawn, narrow, strict=True):
         assert dataclasses.replace(a, friction=0.3, latency_ms=b.latency_ms) == b
+
+
+def test_the_sensors_draws_leave_the_physics_draws_and_no_push_leaves_no_push_fields():
+    """The sensors' errors come from a stream of their own: widening or narrowing their ranges
+    leaves the physics drawn for a seed as they were; without a push its time and direction
+    stay at 0, so a variation's name does not carry them."""
+    plain = sample(VariationRanges(), 50, seed=3)
+    other = (
+        VariationRanges()
+        .with_range("gyro_noise_deg_s", 0.0, 1.0)
+        .with_range("imu_delay_ms", 0.0, 40.0)
+    )
+    assert [v.physics for v in sample(other, 50, seed=3)] == [v.physics for v in plain]
+    assert all(v.push_n_s == v.push_time_s == v.push_direction_deg == 0.0 for v in plain)
+    assert all("push" not in v.name for v in plain)
+    assert all(v.physics.is_nominal is False and v.imu_delay_ms >= 2.0 for v in plain)
 
 
 # --- text -------------------------------------------------------------------------------------

@@ -1,7 +1,7 @@
 """The effective axle b_eff of the current gait, fitted from simulated curve walks (seed 004 eq 13).
 
 A biped steers by skidding its feet, so the axle that makes eq (13) fit is usually longer than the
-feet distance b; the predicted path can use b_eff (docs/DESIGN.md §4, §4).
+feet distance b; the predicted path can use b_eff (docs/DESIGN.md §4).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """Curve walking against seed 004 eqs (9), (12)–(13): heading rate vs CA, axle fit, stability.
 
-Pure numpy on plain arrays, so it is tested on synthetic data (docs/DESIGN.md §4, §4); the fit is
+Pure numpy on plain arrays, so it is tested on synthetic data (docs/DESIGN.md §4); the fit is
 `fit_axle`, the stability limit (seed 004 Fig. 6) `largest_stable_ca`.
 """
 

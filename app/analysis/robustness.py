@@ -1,7 +1,7 @@
 """Will a gait walk on the real robot (`artro bench robust`, the dashboard's robustness job)?
 Each preset walks the paper's cases and CA = ±0.1 forward on N model variations drawn with a seed;
 per case the share that passes with its 95 % interval, the parameter failures depend on most,
-and the worst variations, each repeatable with `artro run --vary` (docs/DESIGN.md §8)."""
+and the worst variations, each repeatable with `artro run --vary` (docs/DESIGN.md §12)."""
 
 from __future__ import annotations
 
@@ -15,7 +15,8 @@ import numpy as np
 
 from app.analysis.cases import CA_PROBE, CASES
 from app.evaluation import Evaluator, Job
-from app.worlds.variations import FIELDS, Variation, VariationRanges, sample
+from app.worlds.sampling import VariationRanges, sample
+from app.worlds.variations import FIELDS, Variation
 from gait import GaitParams, Motion
 
 #: "Passes": no fall, and the case's motion in the right direction at >= this share of the

@@ -1,6 +1,6 @@
 """`artro bench paper|robust`: the papers' cases and seed 004's curve walks against what the
 papers measured (tables, PNGs, results.json), or the paper's cases on N varied robots with the
-pass share per case (docs/DESIGN.md §7). Not to be confused with `bench/`, the benchmarks."""
+pass share per case (docs/DESIGN.md §12). Not to be confused with `bench/`, the benchmarks."""
 
 from __future__ import annotations
 

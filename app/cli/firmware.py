@@ -50,7 +50,7 @@ def add_parser(sub: Any) -> None:
         f"{MIN_FRAMES} to {MAX_FRAMES})"
     )  # fmt: skip
     run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
-    run.add_argument("--vcd", metavar="FILE", help="write the nine drive lines as VCD")
+    run.add_argument("--vcd", metavar="FILE", help="write the nine output lines as VCD")
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.add_argument(
         "--pty",

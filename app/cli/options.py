@@ -15,7 +15,8 @@ from typing import Any, TextIO
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
-from app.worlds.variations import Variation, VariationRanges, parse_range, parse_variation
+from app.worlds.sampling import VariationRanges, parse_range
+from app.worlds.variations import Variation, parse_variation
 from gait import GaitParams
 from gait.params import describe_fields, group_class
 

@@ -1,6 +1,6 @@
 """`artro robot list|show|check|export-mjcf`: the built-in robots, a description with the
 figures that follow from it (eq (1) per joint), its checks, its MuJoCo model as MJCF
-(docs/DESIGN.md §12)."""
+(docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 

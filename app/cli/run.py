@@ -65,7 +65,7 @@ def add_parser(sub: Any) -> None:
         default=NOMINAL,
         metavar="KEY=VALUE,...",
         help="walk a varied model, e.g. friction=0.4,latency_ms=40,tilt_deg=2,cal.l_knee=1.2 "
-        "(docs/DESIGN.md §10; `artro bench robust` names its worst variations so)",
+        "(docs/DESIGN.md §8; `artro bench robust` names its worst variations so)",
     )
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
 

@@ -1,6 +1,6 @@
 """`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking,
 optionally scored on varied robots too; the study resumes from its store, the best set is saved
-as a preset file (docs/DESIGN.md §7)."""
+as a preset file (docs/DESIGN.md §12)."""
 
 from __future__ import annotations
 
@@ -107,7 +107,7 @@ def add_parser(sub: Any) -> None:
         metavar="FILE|URL",
         help="the study store: an Optuna journal file (default out/tune/study.log) or an RDB URL "
         "such as sqlite:///tune.db; an interrupted study resumes from it, optuna-dashboard opens "
-        "it (docs/DESIGN.md §7)",
+        "it (docs/DESIGN.md §12)",
     )
     parser.add_argument("--study-name", default=DEFAULT_STUDY, help="the study within the store")
     parser.add_argument(

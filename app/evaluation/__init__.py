@@ -1,4 +1,4 @@
-"""The one evaluation API (docs/DESIGN.md §11): runs of a robot (`Job`) in, their metrics out, in
+"""The one evaluation API (docs/DESIGN.md §9): runs of a robot (`Job`) in, their metrics out, in
 order, with progress and cancellation, identical whether they run in local threads, local
 processes or on a Dask cluster; `evaluator_for` picks the executor."""
 

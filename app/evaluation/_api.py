@@ -32,7 +32,7 @@ class ExecutorError(RuntimeError):
 @dataclass(frozen=True)
 class Job:
     """One run: gait constants and the motion vector with CA, constant for the whole run, on the
-    evaluator's robot as varied by `variation` (docs/DESIGN.md §12; default: nominal)."""
+    evaluator's robot as varied by `variation` (docs/DESIGN.md §8; default: nominal)."""
 
     params: GaitParams
     motion: Motion

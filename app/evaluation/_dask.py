@@ -1,4 +1,4 @@
-"""Evaluations on a Dask distributed cluster (docs/DESIGN.md §11, docs/CLUSTER.md):
+"""Evaluations on a Dask distributed cluster (docs/DESIGN.md §9, docs/CLUSTER.md):
 `ChunkedEvaluator` on a Dask client, the runs sent to the workers as plain data (the robot's
 description, the parameter sets, the variations' text), never as pickled models."""
 

@@ -22,18 +22,9 @@ from mujoco import rollout
 
 from app.evaluation._api import Cancelled, Job, OnResult, Progress
 from app.robots.model import RobotModel
-from app.sim.frame_loop import (
-    FRAME_S,
-    START_PHASE_RAD,
-    FramePlan,
-    frame_steps,
-    has_fallen,
-    plan_frames,
-    planar_distance_m,
-    stand,
-    trunk_yaws,
-)
+from app.sim.frame_loop import has_fallen, planar_distance_m, stand, trunk_yaws
 from app.sim.metrics import RunMetrics, Trace, compute_metrics
+from app.sim.planning import FRAME_S, START_PHASE_RAD, FramePlan, frame_steps, plan_frames
 from app.worlds.servo_path import acting_setpoints
 from app.worlds.variations import NOMINAL, Variation, varied_robot
 from gait import GaitParams, Motion
@@ -123,7 +114,7 @@ class _FrameEnds(NamedTuple):
 
 class _LaneKit:
     """What one lane needs at a time: an MjData of the robot's size, kept output arrays, and a
-    kept `Rollout` on the calling thread (one per call costs ~1.4 % of a run, DESIGN §9)."""
+    kept `Rollout` on the calling thread (one per call costs ~1.4 % of a run, decision 0027)."""
 
     def __init__(self, model: mujoco.MjModel) -> None:
         self.data = mujoco.MjData(model)
@@ -167,7 +158,7 @@ class BatchEvaluator:
         self.threads = threads or min(os.cpu_count() or 1, 8)
         self.steps_per_frame = frame_steps(self.model)  # variations keep the timestep
         #: one lane's kit at a time: its MjData and its kept rollout output arrays (a run's
-        #: states, reused run after run rather than fresh arrays to page-fault, DESIGN §9)
+        #: states, reused run after run rather than fresh arrays to page-fault, decision 0027)
         self._kits: queue.SimpleQueue[_LaneKit] = queue.SimpleQueue()
         for _ in range(self.threads):
             self._kits.put(_LaneKit(self.model))
@@ -298,6 +289,7 @@ class BatchEvaluator:
         return _FrameEnds(rows, qpos, bad, has_fallen(qpos, start.standing_height_m))
 
     def _varied(self, variation: Variation) -> RobotModel:
+        variation = variation.physics  # the sensors' errors leave the model as it is
         if variation.is_nominal:
             return self.robot
         with self._lock:
@@ -336,7 +328,7 @@ class BatchEvaluator:
         planned = [self._plan_run(job, n_frames, data) for job in chunk]
         starts = [start for _robot, start, _control in planned]
         controls = np.stack([control for _robot, _start, control in planned])
-        nominal = all(j.variation.is_nominal for j in chunk)
+        nominal = all(j.variation.physics.is_nominal for j in chunk)
         models = self.model if nominal else [robot.model for robot, _start, _c in planned]
         return starts, controls, np.stack([st.state for st in starts]), models
 

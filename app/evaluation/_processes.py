@@ -1,4 +1,4 @@
-"""Evaluations in local worker processes (docs/DESIGN.md §11): `ChunkedEvaluator` on a pool of
+"""Evaluations in local worker processes (docs/DESIGN.md §9): `ChunkedEvaluator` on a pool of
 spawned processes, each one MuJoCo thread with the robot compiled once. It answers whether
 processes remove the loss of two MuJoCo threads in one process (decision 0007: on this VM, no)."""
 

@@ -23,7 +23,8 @@ from app.firmware.emulator import (
 )
 from app.firmware.vcd import write_vcd
 from app.robots.model import RobotModel
-from app.sim.frame_loop import FRAME_S, START_PHASE_RAD, HardwareSetup, plan_frames
+from app.sim.frame_loop import HardwareSetup
+from app.sim.planning import FRAME_S, START_PHASE_RAD, plan_frames
 from gait import ARTRO_LEG, GaitParams, LegGeometry, Motion, pi_cut
 from hardware import CHANNELS, FRAME_TICKS, SLOT_TICKS, FrameEdges, frame_edges
 

@@ -28,7 +28,7 @@ _START_TIMEOUT_CYCLES = 16_000_000  # the timers must start within 1 s of reset
 
 @dataclass(frozen=True)
 class Edges:
-    """Level changes on the drive lines, oldest first."""
+    """Level changes on the output lines, oldest first."""
 
     cycle: NDArray[np.uint64]
     line: NDArray[np.uint8]  # index into LINE_NAMES

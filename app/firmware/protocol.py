@@ -1,6 +1,6 @@
-"""The host side of the ArtRo UART protocol (hardware/firmware/PROTOCOL.md; docs/DESIGN.md,
-Firmware): `0xA5 | LEN | TYPE | PAYLOAD | CRC-16/CCITT-FALSE`, little-endian, float32 values;
-`encode` builds messages, `Decoder` splits a byte stream, `parse` types the robot's replies."""
+"""The host side of the ArtRo UART protocol (hardware/firmware/PROTOCOL.md; docs/DESIGN.md §5):
+`0xA5 | LEN | TYPE | PAYLOAD | CRC-16/CCITT-FALSE`, little-endian, float32 values; `encode`
+builds messages, `Decoder` splits a byte stream, `parse` types the robot's replies."""
 
 from __future__ import annotations
 

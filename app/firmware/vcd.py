@@ -1,4 +1,4 @@
-"""Emulated drive-line traces as a Value Change Dump (IEEE 1364 VCD), for GTKWave or sigrok.
+"""Emulated output-line traces as a Value Change Dump (IEEE 1364 VCD), for GTKWave or sigrok.
 
 Signals `OC1A OC1B OC1C OC3A OC3B OC3C SEL0 SEL1 SEL2`, one bit each; time in picoseconds from
 the start of frame 0 (one CPU cycle = 62.5 ns at 16 MHz). docs/DESIGN.md §5.

@@ -1,5 +1,6 @@
 """Robots as descriptions (docs/DESIGN.md §7): the schema, the servo table, the model builder,
-the checks that run before anything simulates, and the built-in robots."""
+the checks that run before anything simulates, and the built-in robots; the compiled model with
+its joint addresses is `app.robots.model.RobotModel`."""
 
 from app.robots.builder import build_model, build_spec, joint_settings, model_xml
 from app.robots.description import Calibration, Geometry, Joint, Part, RobotDescription

@@ -240,6 +240,11 @@ def _add_leg(
     _add_foot(parent, robot, side)
 
 
+#: the force sensors under each sole: front/back, left/right, as signs of the sole's x and y
+FSR_CORNERS = {"fl": (1, 1), "fr": (1, -1), "bl": (-1, 1), "br": (-1, -1)}
+FSR_ZONE_M = 0.003  # a sensor's zone: its half height about the sole plane, its margin
+
+
 def _mirror(pos: tuple[float, float, float], side: str) -> tuple[float, float, float]:
     return pos if side == "l" else (pos[0], -pos[1], pos[2])
 
@@ -262,6 +267,17 @@ def _add_foot(foot: mujoco.MjsBody, robot: RobotDescription, side: str) -> None:
     )
     _collide(plate, robot, BODY_GROUP)
     foot.add_site(name=f"{side}_sole", pos=[0, 0, -geo.ankle_to_sole_m], size=[0.006, 0, 0])
+    # the four force sensors under the sole, one per corner quadrant (docs/DESIGN.md §15): each
+    # reads what a MuJoCo touch sensor on its site would, once per frame (`app.sim.sensors`)
+    # a zone reaches past the plate's edge, so the contacts at its corners lie inside it
+    half_x, half_y = geo.foot_length_m / 4 + FSR_ZONE_M, geo.foot_width_m / 4 + FSR_ZONE_M
+    for corner, (sx, sy) in FSR_CORNERS.items():
+        foot.add_site(
+            name=f"{side}_fsr_{corner}",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            pos=[sx * half_x, sy * half_y, -geo.ankle_to_sole_m],
+            size=[half_x, half_y, FSR_ZONE_M],
+        )
 
 
 def _add_actuator(spec: mujoco.MjSpec, robot: RobotDescription, name: str) -> None:

@@ -193,9 +193,9 @@ class RobotDescription(_Strict):
                     f"joints.{name}.servo: unknown servo {servo!r}; known: {sorted(table)}"
                 )
             spec = table[servo]
-            if spec.drive != "pwm":
+            if spec.signal != "pwm":
                 raise ValueError(
-                    f"joints.{name}.servo: {servo} is a {spec.drive} servo; the TDM-PWM drive "
+                    f"joints.{name}.servo: {servo} is a {spec.signal} servo; the TDM-PWM output "
                     f"of this robot (seed 000 §3) sends pulses, which {servo} does not take"
                 )
             try:

@@ -1,6 +1,6 @@
 """A robot's MuJoCo model, built from its description, and the indices that map the gait onto it:
 joint and site names of docs/DESIGN.md §3 are looked up in one place, and the leg geometry and the
-servo drive (calibration, TDM map) come from the same description (docs/DESIGN.md §7)."""
+servo set-up (calibration, TDM map) come from the same description (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.robots import RobotDescription, build_model, joint_settings, load_description
+from app.robots.builder import FSR_CORNERS
 from app.robots.checks import eq1_torques, robot_warnings
 from gait import JOINT_NAMES, LegGeometry
 from hardware import ChannelMap, HardwareSetup, ServoCalibration, TdmConfig
@@ -32,6 +33,9 @@ class RobotModel:
     trunk_id: int
     gyro_adr: int  # sensordata index of the 3-axis trunk gyro
     sole_adr: tuple[int, int]  # sensordata index of the left and right sole centre positions
+    accel_adr: int  # sensordata index of the 3-axis trunk accelerometer
+    fsr_sites: NDArray[np.int_]  # (2, 4) site id of each foot force sensor's zone (FSR_CORNERS)
+    foot_ids: tuple[int, int]  # body id of the left and right foot
 
     @classmethod
     def load(cls, robot: str | Path | RobotDescription | None = None) -> RobotModel:
@@ -60,11 +64,24 @@ class RobotModel:
             trunk_id=int(model.body("trunk").id),
             gyro_adr=_sensor_adr(model, "imu_gyro"),
             sole_adr=(_sensor_adr(model, "l_sole_pos"), _sensor_adr(model, "r_sole_pos")),
+            accel_adr=_sensor_adr(model, "imu_accel"),
+            fsr_sites=np.array(
+                [[int(model.site(f"{s}_fsr_{c}").id) for c in FSR_CORNERS] for s in ("l", "r")]
+            ),
+            foot_ids=(int(model.site("l_sole").bodyid[0]), int(model.site("r_sole").bodyid[0])),
         )
 
     @property
     def name(self) -> str:
         return self.description.name
+
+    @property
+    def fsr_positions_m(self) -> NDArray[np.float64]:
+        """(4, 2) x, y of each force sensor's centre on its sole (`FSR_CORNERS` order), m, in
+        the foot's axes from the sole centre (x forward, y left; the right foot as built)."""
+        geo = self.description.geometry
+        signs = np.array(list(FSR_CORNERS.values()), dtype=np.float64)
+        return signs * (geo.foot_length_m / 4, geo.foot_width_m / 4)
 
     @property
     def geometry(self) -> LegGeometry:
@@ -73,7 +90,7 @@ class RobotModel:
         return LegGeometry(upper_m=geo.thigh_m, lower_m=geo.shank_m)
 
     def hardware(self) -> HardwareSetup:
-        """The servo drive of the description: each joint's calibration and the TDM map (built
+        """The servo set-up of the description: each joint's calibration and the TDM map (built
         once per model: it is frozen, and the batch evaluator plans every run with it)."""
         return self._hardware
 

@@ -41,7 +41,7 @@ class ServoSpec(BaseModel):
 
     model_config = ConfigDict(extra="forbid", frozen=True)
     maker: str
-    drive: Literal["pwm", "bus"]
+    signal: Literal["pwm", "bus"]
     source: str = Field(min_length=1)
     ratings: tuple[Rating, ...] = Field(min_length=1)
     mass_kg: float = Field(gt=0)

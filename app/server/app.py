@@ -33,7 +33,7 @@ from app.server.api import (
     world,
 )
 from app.server.errors import install_handlers
-from app.server.guard import GUARDED_PREFIXES, Guard, served_hosts
+from app.server.request_gate import GATED_PREFIXES, RequestGate, served_hosts
 from app.server.services import ServerConfig, Services
 
 VENDOR = "/vendor"  # third-party files served with the page (static/vendor/)
@@ -82,7 +82,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
     # the page is served under every path but the API's: a wrong method or path under /api/
     # gets the API's 405/404, never the static files' answer
     app.router.routes.append(_PageMount(StaticFiles(directory=static_dir(), html=True)))
-    app.add_middleware(Guard, hosts=served_hosts(config.host, config.allowed_hosts))
+    app.add_middleware(RequestGate, hosts=served_hosts(config.host, config.allowed_hosts))
     return app
 
 
@@ -93,6 +93,6 @@ class _PageMount(Mount):
         super().__init__("/", app=app, name="static")
 
     def matches(self, scope: Scope) -> tuple[Match, Scope]:
-        if scope["path"].startswith(GUARDED_PREFIXES) or scope["path"] == "/api":
+        if scope["path"].startswith(GATED_PREFIXES) or scope["path"] == "/api":
             return Match.NONE, {}
         return super().matches(scope)

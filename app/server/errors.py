@@ -183,7 +183,7 @@ def install_handlers(app: FastAPI) -> None:
 def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     """OpenAPI `responses=` entries with the error shape for these statuses."""
     text = {
-        400: "Host not served (DNS rebinding guard) or a body that could not be read",
+        400: "Host not served (DNS rebinding protection) or a body that could not be read",
         403: "a cross-site request or WebSocket (Origin / Sec-Fetch-Site)",
         404: "no such resource",
         405: "method not allowed; `Allow` lists the allowed ones",
@@ -198,5 +198,5 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     return {s: {"model": ErrorBody, "description": text[s]} for s in statuses}
 
 
-#: What any route may answer because of the guard (app/server/guard.py).
-GUARD_RESPONSES = responses(400, 403, 413, 415)
+#: What any route may answer because of the request gate (app/server/request_gate.py).
+GATE_RESPONSES = responses(400, 403, 413, 415)

@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import mujoco
 import numpy as np
 
-from app.sim.frame_loop import FRAME_S, FrameLoop
+from app.sim.frame_loop import FrameLoop
+from app.sim.planning import FRAME_S
 from gait import GaitParams, Motion
 
 BESIDE_M = 0.35  # the ghost starts this far to the live robot's left

@@ -12,7 +12,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from app.sim.frame_loop import FRAME_S, FrameRecord
+from app.sim.frame_loop import FrameRecord
+from app.sim.planning import FRAME_S
 from hardware import CHANNELS, SLOTS_PER_FRAME
 
 RECORD_SECONDS = 60.0

@@ -20,7 +20,7 @@ from app.server.recorder import (
     RECORD_FRAMES,
     Recording,
 )
-from app.sim.frame_loop import FRAME_S
+from app.sim.planning import FRAME_S
 from gait import JOINT_NAMES, Motion
 from gait.params import replace_checked
 from hardware import CHANNELS, OCR_MAX, SLOTS_PER_FRAME

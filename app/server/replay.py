@@ -15,7 +15,8 @@ import numpy as np
 
 from app.server.recorder import Recorder, Recording
 from app.server.scope_frames import frame_to_dict
-from app.server.sim_thread import Command, SimThread
+from app.server.sim_commands import Control, Pause, Resume, Step
+from app.server.sim_thread import SimThread
 from hardware import TdmConfig
 
 
@@ -28,7 +29,7 @@ class Replaying(RuntimeError):
 
 
 #: what would run the live simulation under the replay's views
-RUNS_LIVE = (Command.RESUME, Command.STEP)
+RUNS_LIVE = Resume | Step
 
 
 @dataclass(frozen=True)
@@ -79,23 +80,23 @@ class Replay:
                 self.model, self._data = self.sim.model, mujoco.MjData(self.sim.model)
             if self.recording is None:  # from live: pause it, resume it when leaving
                 self._resume_after = not self.sim.status().paused
-                self.sim.command(Command.PAUSE)
+                self.sim.send(Pause())
             if new:
                 self.origin = "live" if recording is None else "file"
             self.recording = rec
             self._show(index)
 
-    def live_command(self, command: Command) -> None:
+    def live_command(self, command: Control) -> None:
         """Send a command to the live simulation; Replaying (nothing sent) for one that would run
         it while a replay is shown (resume, step): leave the replay first."""
         with self._lock:  # as `enter` pauses and `leave` resumes: one order
-            if self.recording is not None and command in RUNS_LIVE:
+            if self.recording is not None and isinstance(command, RUNS_LIVE):
                 raise Replaying(
-                    f"a replay is shown: {command.value} would run the live simulation under "
+                    f"a replay is shown: {command.name} would run the live simulation under "
                     "it; go back to live first (POST /api/recording/live, 'Back to live'), "
                     "which resumes it"
                 )
-            self.sim.command(command)
+            self.sim.send(command)
 
     def leave(self) -> None:
         """Back to the live simulation (resumed if it was running before the replay)."""
@@ -104,7 +105,7 @@ class Replay:
                 return
             self.recording, self._poses = None, None
             if self._resume_after:
-                self.sim.command(Command.RESUME)
+                self.sim.send(Resume())
 
     def frame_message(self, index: int, tdm: TdmConfig) -> dict[str, Any]:
         """The scope frame at `index` of the replayed recording (or, live, of the session so

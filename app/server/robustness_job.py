@@ -1,5 +1,5 @@
 """The dashboard's robustness job: the current gait walks the paper's cases and CA ±0.1 on N
-model variations in the background (docs/DESIGN.md §8), with progress and cancellation; the
+model variations in the background (docs/DESIGN.md §10, §12), with progress and cancellation; the
 report is `artro bench robust`'s, for the page to draw."""
 
 from __future__ import annotations
@@ -12,7 +12,7 @@ from app.evaluation import evaluator_for
 from app.robots.model import RobotModel
 from app.server.jobs import Job, Jobs, Progress
 from app.server.param_store import ParameterStore
-from app.worlds.variations import VariationRanges
+from app.worlds.sampling import VariationRanges
 
 KIND = "robustness"
 SAMPLES, DURATION_S, WARMUP_S = 24, 12.0, 4.0  # ~4 minutes of one core for 225 runs

@@ -10,12 +10,13 @@ from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.robots.model import RobotModel
 from app.server.axle_fitter import AxleFitter
 from app.server.ca_calibrator import CaCalibrator
-from app.server.guard import served_hosts
+from app.server.live_robot import Drive
 from app.server.param_store import ParameterStore, Snapshot
 from app.server.replay import Replay
+from app.server.request_gate import served_hosts
 from app.server.robot_shelf import RobotShelf
 from app.server.robustness_job import RobustnessRunner
-from app.server.sim_thread import Drive, SimThread
+from app.server.sim_thread import SimThread
 
 
 @dataclass(frozen=True)
@@ -26,7 +27,7 @@ class ServerConfig:
     params_file: Path | None = None
     data_dir: Path = field(default_factory=default_data_dir)
     viewer: bool = True  # start the viser 3D view
-    allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/guard.py)
+    allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/request_gate.py)
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
@@ -64,7 +65,7 @@ class Services:
         )
         self.viewer = None
         if config.viewer:
-            from app.server.viser_guard import guard_viser
+            from app.server.viser_gate import gate_viser
             from app.server.viser_view import Viewer  # viser is only loaded when the view is wanted
 
             self.viewer = Viewer(
@@ -79,7 +80,7 @@ class Services:
                 host=config.host,
                 port=config.viser_port,
             )
-            guard_viser(self.viewer.server, served_hosts(config.host, config.allowed_hosts))
+            gate_viser(self.viewer.server, served_hosts(config.host, config.allowed_hosts))
 
     @property
     def robot(self) -> RobotModel:

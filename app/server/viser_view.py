@@ -18,9 +18,10 @@ import viser
 from app.analysis.axle_fit import NOT_APPLIED
 from app.firmware.emulator import FRAME_CYCLES
 from app.params.schema import schema_description
+from app.server.live_robot import Drive
 from app.server.param_store import NothingToUndo, Snapshot
 from app.server.replay import Replaying
-from app.server.sim_thread import Command, Drive
+from app.server.sim_commands import Reanchor, RemoveGhost, Reset, SetGhost, SetSpeed, control
 from app.server.viser_ghost import GhostDrawing
 from gait.params import ENGINES
 
@@ -119,13 +120,13 @@ class Viewer:
             self._status = gui.add_markdown("starting…")
             self._fell_notice = gui.add_markdown("**The robot has fallen.**", visible=False)
             self._fell_reset = gui.add_button("Reset the robot", visible=False, color="red")
-            self._fell_reset.on_click(lambda _e: self.sim.command(Command.RESET))
+            self._fell_reset.on_click(lambda _e: self.sim.send(Reset()))
             self._fell_reset_zero = gui.add_button("Reset with motion 0", visible=False)
             self._fell_reset_zero.on_click(lambda _e: self._reset_with_motion_zero())
             pause = gui.add_button_group("Run", ("Pause", "Resume", "Step", "Reset"))
             pause.on_click(self._run_button)
             speed = gui.add_slider("Speed (x real time)", 0.25, 4.0, 0.25, 1.0)
-            speed.on_update(lambda e: e.client and self.sim.command(Command.SPEED, speed.value))
+            speed.on_update(lambda e: e.client and self.sim.send(SetSpeed(speed.value)))
             follow = gui.add_checkbox("Follow the robot", True)
             follow.on_update(
                 lambda _e: setattr(self.scene, "camera_tracking_enabled", follow.value)
@@ -173,7 +174,7 @@ class Viewer:
             self._path_text = gui.add_markdown("")
             self._show_paths = gui.add_checkbox("Show paths", True)
             anchor = gui.add_button("Re-anchor prediction here")
-            anchor.on_click(lambda _e: self.sim.command(Command.REANCHOR))
+            anchor.on_click(lambda _e: self.sim.send(Reanchor()))
             self._fit_button = gui.add_button(
                 "Fit the axle b from simulation",
                 hint="walk the current gait at CA = -0.1, 0, +0.1 (20 s each, in the background) "
@@ -192,7 +193,7 @@ class Viewer:
 
     def _run_button(self, event: viser.GuiEvent) -> None:
         try:
-            self.replay.live_command(Command(event.target.value.lower()))
+            self.replay.live_command(control(event.target.value.lower()))
         except Replaying as exc:  # told to the person who pressed it; nothing ran
             if event.client is not None:
                 event.client.add_notification("Replaying", str(exc)[:300], color="yellow")
@@ -215,15 +216,15 @@ class Viewer:
             return
         choice = event.target.value
         if choice == GHOST_OFF:
-            self.sim.command(Command.GHOST, None)
+            self.sim.send(RemoveGhost())
         elif choice == GHOST_PREVIOUS:
             versions = self.store.versions()
             if len(versions) < 2:
                 event.client.add_notification("No ghost", "no earlier version yet", color="red")
                 return
-            self.sim.command(Command.GHOST, (versions[1].gait, f"version {versions[1].version}"))
+            self.sim.send(SetGhost(versions[1].gait, f"version {versions[1].version}"))
         else:
-            self.sim.command(Command.GHOST, (self.presets.get(choice).gait, f"preset {choice}"))
+            self.sim.send(SetGhost(self.presets.get(choice).gait, f"preset {choice}"))
 
     def _replay_button(self, which: str) -> None:
         if which == "Back to live":
@@ -248,7 +249,7 @@ class Viewer:
     def _reset_with_motion_zero(self) -> None:
         zero = {"a_r": 0.0, "a_p": 0.0, "a_y": 0.0, "ca": 0.0}
         self.store.update({"motion": zero}, BUTTON_SOURCE)
-        self.sim.command(Command.RESET)
+        self.sim.send(Reset())
 
     def _start_calibration(self) -> None:
         self._calibrate_button.disabled = True

@@ -1,13 +1,13 @@
-"""The frame loop: gait -> servo pulses -> TDM-PWM frame -> demultiplexed set-points -> MuJoCo.
-
-One `FrameLoop.step_frame()` is one 20 ms TDM frame of the named gait engine and the hardware model;
-set-points act at their pulses' falling edges (docs/DESIGN.md §2), motion changes via the ramp (§4).
-"""
+"""The frame loop: one `FrameLoop.step_frame()` is one 20 ms TDM frame of the planned gait and
+hardware (`app.sim.planning`) applied to MuJoCo, set-points acting at their pulses' falling edges
+(docs/DESIGN.md §2), or a frame of pulses made elsewhere (`step_pins`); the fall test, `stand`."""
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import math
+from collections import deque
 from dataclasses import dataclass
 
 import mujoco
@@ -15,34 +15,31 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
+from app.sim.planning import (
+    FRAME_S,
+    START_PHASE_RAD,
+    FramePlan,
+    falling_edge_substeps,
+    frame_steps,
+    plan_frames,
+)
+from app.sim.sensors import SensorReading, Sensors
 from app.worlds.servo_path import ServoPath
 from app.worlds.variations import NOMINAL, Variation, varied_robot
 from gait import (
-    ARTRO_LEG,
     GaitParams,
-    LegGeometry,
     Motion,
+    feedback,
     joint_angles_with_flags,
-    pi_cut,
-    ramp_motion,
     startup_gain,
 )
 from hardware import (
-    FRAME_TICKS,
-    SLOT_TICKS,
-    TICK_US,
     FrameEdges,
     HardwareSetup,
-    angles_to_pulses_us,
     demultiplex,
-    falling_edge_ticks,
-    frame_ocr,
-    guard_violations,
     pulses_to_angles_rad,
 )
 
-FRAME_S = FRAME_TICKS * TICK_US * 1e-6  # 20 ms
-START_PHASE_RAD = -0.5 * math.pi  # lateral shift passes through zero: both feet on the ground
 FALL_HEIGHT_FRACTION = 0.6  # fallen: trunk below 60 % of its standing height ...
 FALL_TILT_RAD = math.radians(50.0)  # ... or tilted more than 50 degrees
 #: MuJoCo resets the state itself when it meets these; we report them as a blow-up.
@@ -90,31 +87,6 @@ def sole_distance_m(data: mujoco.MjData) -> float:
     return float(planar_distance_m(data.site("l_sole").xpos, data.site("r_sole").xpos))
 
 
-@dataclass
-class FramePlan:
-    """The pipeline evaluated for a block of consecutive frames (leading axis: frame)."""
-
-    phase: NDArray[np.float64]  # (n,) phi_Trunk at each frame start
-    angles: NDArray[np.float64]  # (n, 12) gait joint angles
-    ocr: NDArray[np.int32]  # (n, 6, 8) timer compare values
-    setpoint: NDArray[np.float64]  # (n, 12) angle decoded from the demultiplexed pulse
-    substep: NDArray[np.int64]  # (n, 12) physics step of the frame at which it takes effect
-    saturated: NDArray[np.bool_]  # (n, 12) servo angle or pulse limited
-    gamma_clamped: NDArray[np.bool_]  # (n, 2)
-    guard: NDArray[np.bool_]  # (n, 6, 8) select change while a line was high
-    motions: list[Motion]  # (n,) the motion the gait got in each frame (after the ramp)
-    next_index: int = 0
-
-    def __post_init__(self) -> None:
-        # per-frame summaries, reduced once per block rather than once per frame
-        self.any_saturated = self.saturated.any(axis=-1).tolist()
-        self.any_gamma_clamped = self.gamma_clamped.any(axis=-1).tolist()
-        self.any_guard = self.guard.any(axis=(-2, -1)).tolist()
-
-    def __len__(self) -> int:
-        return len(self.phase)
-
-
 @dataclass(frozen=True)
 class FrameRecord:
     """What happened in one frame: the input to metrics, plots and the scope."""
@@ -130,58 +102,8 @@ class FrameRecord:
     guard_violation: bool
     motion: Motion  # what the gait got: the requested motion, or a step of the ramp toward it
     pin_edges: FrameEdges | None = None  # the pins as recorded, when a PinFrame made the frame
-
-
-def frame_motions(
-    params: GaitParams, target: Motion, current: Motion, n_frames: int
-) -> list[Motion]:
-    """The motion the gait gets in each of `n_frames` frames: one ramp step per frame from
-    `current` (the last frame's) toward `target`, then `target` itself."""
-    out: list[Motion] = []
-    motion = current
-    while len(out) < n_frames and motion != target:
-        motion = ramp_motion(motion, target, params, FRAME_S)
-        out.append(motion)
-    return out + [target] * (n_frames - len(out))
-
-
-def _gait(
-    params: GaitParams,
-    motions: list[Motion],
-    phase: NDArray[np.float64],
-    startup: NDArray[np.float64],
-    geometry: LegGeometry,
-) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Joint angles and clamp flags of each frame; one vectorised call per run of equal motions
-    (the whole block when nothing is ramping)."""
-    angles, clamped = [], []
-    start = 0
-    while start < len(motions):
-        end = start + 1
-        while end < len(motions) and (
-            motions[end] is motions[start] or motions[end] == motions[start]
-        ):
-            end += 1
-        part = slice(start, end)
-        out = joint_angles_with_flags(
-            params, motions[start], phase[part], geometry, startup=startup[part]
-        )
-        angles.append(out.values)
-        clamped.append(out.gamma_clamped)
-        start = end
-    if len(angles) == 1:
-        return angles[0], clamped[0]
-    return np.concatenate(angles), np.concatenate(clamped)
-
-
-def falling_edge_substeps(
-    fall_ticks: NDArray[np.int64], steps_per_frame: int, timestep_s: float
-) -> NDArray[np.int64]:
-    """The physics step of the frame at which each set-point takes effect: the first starting at
-    or after its pulse's falling edge (docs/DESIGN.md §2)."""
-    edge_s = np.asarray(fall_ticks) * TICK_US * 1e-6
-    substep = np.ceil(edge_s / timestep_s - 1e-9).astype(np.int64)
-    return np.minimum(substep, steps_per_frame)
+    reading: SensorReading | None = None  # what the sensors read before it (closed loop)
+    feedback: feedback.Output | None = None  # what the laws made of it
 
 
 @dataclass(frozen=True)
@@ -195,70 +117,6 @@ class PinFrame:
     saturated_servos: NDArray[np.bool_]  # (12,)
     gamma_clamped: bool
     motion: Motion  # the motion the maker of the pulses had
-
-
-def plan_frames(
-    params: GaitParams,
-    motion: Motion,
-    hardware: HardwareSetup,
-    phase0: float,
-    n_frames: int,
-    steps_per_frame: int,
-    timestep_s: float,
-    *,
-    motion_now: Motion | None = None,
-    frame0: int = 0,
-    geometry: LegGeometry = ARTRO_LEG,
-) -> FramePlan:
-    """Run gait and hardware model for n consecutive frames starting at phase0 (vectorised).
-
-    Args:
-        params, motion, hardware: the gait, the requested motion vector with CA, the servo drive
-            set-up.
-        phase0: phi_Trunk at the first frame's start, rad.
-        n_frames: frames to plan; steps_per_frame, timestep_s: the physics steps of one frame.
-        motion_now: the motion the gait got in the frame before; from it each frame takes one
-            `ramp_motion` step toward `motion` (default: `motion`, nothing to ramp).
-        frame0: the first frame's index since the reset (or the switch to this engine), for the
-            pfs engine's start-up gain.
-        geometry: the robot's leg (`RobotModel.geometry`) for the inverse kinematics.
-
-    Returns:
-        `FramePlan` with a leading frame axis; each set-point takes effect at the first physics
-        step starting at or after its pulse's falling edge; `motions` is what the gait got.
-    """
-    step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
-    phase = pi_cut(phase0 + step_rad * np.arange(n_frames))
-    motions = frame_motions(params, motion, motion if motion_now is None else motion_now, n_frames)
-    startup = startup_gain(params, (frame0 + np.arange(n_frames)) * FRAME_S)
-    angles, gamma_clamped = _gait(params, motions, phase, startup, geometry)
-    pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
-    ocr = frame_ocr(pulse_us, hardware.tdm)
-    fall_ticks = falling_edge_ticks(ocr, hardware.tdm)
-    slot = np.asarray(hardware.tdm.channel_map.slot_index)
-    received_us = (fall_ticks - slot * SLOT_TICKS) * TICK_US  # what the servo measured
-    setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
-    substep = falling_edge_substeps(fall_ticks, steps_per_frame, timestep_s)
-    return FramePlan(
-        phase=phase,
-        angles=angles,
-        ocr=ocr,
-        setpoint=setpoint,
-        substep=substep,
-        saturated=saturated,
-        gamma_clamped=gamma_clamped,
-        guard=guard_violations(ocr, hardware.tdm),
-        motions=motions,
-    )
-
-
-def frame_steps(model: mujoco.MjModel) -> int:
-    """Physics steps per 20 ms frame; ValueError if the model's timestep does not divide it."""
-    timestep_s = float(model.opt.timestep)
-    steps = FRAME_S / timestep_s
-    if abs(steps - round(steps)) > 1e-9:
-        raise ValueError(f"model timestep {timestep_s} s must divide the 20 ms frame")
-    return round(steps)
 
 
 def stand(
@@ -280,7 +138,8 @@ def stand(
 
 
 def _varied(robot: RobotModel, variation: Variation) -> RobotModel:
-    return robot if variation.is_nominal else varied_robot(robot, variation)
+    physics = variation.physics
+    return robot if physics.is_nominal else varied_robot(robot, physics)
 
 
 class FrameLoop:
@@ -290,7 +149,7 @@ class FrameLoop:
     parameters, motion or hardware discards the rest of the block. A `FrameLoop` and its `MjData`
     belong to one thread (docs/DESIGN.md §10). ValueError if the model's timestep does not divide
     the 20 ms frame. Defaults: the built-in robot, `GaitParams()`, `Motion()`, and the robot's
-    servo drive (`RobotModel.hardware()`); the gait uses the robot's leg geometry.
+    servo set-up (`RobotModel.hardware()`); the gait uses the robot's leg geometry.
 
     `motion` is the requested motion vector and CA. The run starts in it, or in `start_motion`;
     from then on the gait gets one `ramp_motion` step toward the requested motion per frame
@@ -306,8 +165,10 @@ class FrameLoop:
         block_frames: int = 50,
         start_motion: Motion | None = None,
         variation: Variation = NOMINAL,
+        laws: feedback.Laws | None = None,
     ) -> None:
         self.nominal_robot = robot or RobotModel.load()
+        self.laws = laws or feedback.Laws()
         self.variation = variation
         self.robot = _varied(self.nominal_robot, variation)
         self.model = self.robot.model
@@ -336,12 +197,27 @@ class FrameLoop:
         self.standing_height_m = float(self.data.qpos[2])
         self._plan = None
         self._new_path(pose)
+        self.steps_done = 0  # physics steps since the reset (the push counts them)
+        self._law_state = feedback.State()
+        self._new_sensors()
+
+    def _new_sensors(self) -> None:
+        """The variation's sensors, read anew from here (their noise too), with the rows they
+        need filled with the state as it is."""
+        self.sensors = Sensors(self.robot, self.variation)
+        self._rows = deque([self.data.sensordata.copy()], maxlen=self.sensors.steps_needed)
+        self._rows.extend([self._rows[0]] * (self.sensors.steps_needed - 1))
+        force = self.variation.push_n_s / self.timestep_s
+        direction = math.radians(self.variation.push_direction_deg)
+        self._push_force = (force * math.cos(direction), force * math.sin(direction), 0.0)
+        first = math.ceil(self.variation.push_time_s / self.timestep_s - 1e-9)
+        self._push_step = first if self.variation.push_n_s > 0.0 else -1
 
     def _new_path(self, setpoint: NDArray[np.float64]) -> None:
         """The set-points sent so far end at `setpoint`; a varied robot's servos act on them
         through a new `ServoPath` from there (docs/DESIGN.md §8)."""
         self._sent = np.array(setpoint, dtype=np.float64)
-        nominal = self.variation.is_nominal
+        nominal = self.variation.physics.is_nominal
         self._path = None if nominal else ServoPath(self.variation, self.timestep_s, self._sent)
 
     def set_variation(self, variation: Variation) -> None:
@@ -351,6 +227,12 @@ class FrameLoop:
         self.robot = _varied(self.nominal_robot, variation)
         self.model = self.robot.model
         self._new_path(self._sent)
+        self._new_sensors()
+
+    def set_laws(self, laws: feedback.Laws) -> None:
+        """Other feedback laws from the next frame on; their filters and integrals carry over
+        (a law switched on starts from where its state was left)."""
+        self.laws = laws
 
     def set_gait(self, params: GaitParams | None = None, motion: Motion | None = None) -> None:
         """New parameters or motion vector: they reach the servos from the next frame on, a new
@@ -372,7 +254,11 @@ class FrameLoop:
     # --- the loop ----------------------------------------------------------------------------
 
     def step_frame(self) -> FrameRecord:
-        """Simulate the next 20 ms frame; returns its record. Sets `fell` / `blew_up` when so."""
+        """Simulate the next 20 ms frame; returns its record. Sets `fell` / `blew_up` when so.
+        With a feedback law on, the frame is planned alone, after the laws have read the
+        sensors (docs/DESIGN.md §4)."""
+        if self.laws.any_enabled:
+            return self._step_closed_loop()
         plan = self._plan
         if plan is None or plan.next_index >= len(plan):
             plan = self._plan = plan_frames(
@@ -387,6 +273,10 @@ class FrameLoop:
                 frame0=self.frame_index - self.engine_start_frame,
                 geometry=self.robot.geometry,
             )
+        return self._step_planned(plan)
+
+    def _step_planned(self, plan: FramePlan) -> FrameRecord:
+        """The plan's next frame through the servos and the physics."""
         k = plan.next_index
         plan.next_index += 1
         self._apply_frame(plan.substep[k], plan.setpoint[k])
@@ -408,6 +298,39 @@ class FrameLoop:
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # piCut, in floats
         self._check_state()
         return record
+
+    def _step_closed_loop(self) -> FrameRecord:
+        """Sensors -> laws -> a plan of this one frame with their corrections -> physics."""
+        reading = self.sensors.read(np.array(self._rows), self.data)
+        self._law_state, out = feedback.step(
+            self.laws,
+            self._law_state,
+            law_reading(reading),
+            self.motion_now,
+            self.fsr_positions_m,
+            FRAME_S,
+        )
+        self._plan = plan_frames(
+            self.params,
+            self.motion,
+            self.hardware,
+            self.phase,
+            1,
+            self.steps_per_frame,
+            self.timestep_s,
+            motion_now=self.motion_now,
+            frame0=self.frame_index - self.engine_start_frame,
+            geometry=self.robot.geometry,
+            joint_delta_rad=out.joint_delta_rad,
+            a_y_delta=float(out.a_y_delta),
+        )
+        record = self._step_planned(self._plan)
+        self._plan = None  # the next frame is planned after the next reading
+        return dataclasses.replace(record, reading=reading, feedback=out)
+
+    @property
+    def fsr_positions_m(self) -> NDArray[np.float32]:
+        return self.robot.fsr_positions_m.astype(np.float32)
 
     def step_pins(self, pins: PinFrame) -> FrameRecord:
         """Simulate the next 20 ms frame with pulses made outside the model: each servo takes
@@ -449,7 +372,7 @@ class FrameLoop:
             self._apply_varied_frame(substep, setpoint)
             return
         self._sent = np.array(setpoint, dtype=np.float64)
-        model, data = self.model, self.data
+        data = self.data
         order = np.argsort(substep, kind="stable")
         ctrl = data.ctrl
         done = 0
@@ -460,11 +383,11 @@ class FrameLoop:
             strict=True,
         ):
             if s > done:
-                mujoco.mj_step(model, data, s - done)
+                self._advance(s - done)
                 done = s
             ctrl[actuator] = value
         if done < self.steps_per_frame:
-            mujoco.mj_step(model, data, self.steps_per_frame - done)
+            self._advance(self.steps_per_frame - done)
 
     def _apply_varied_frame(
         self, substep: NDArray[np.int64], setpoint: NDArray[np.float64]
@@ -478,11 +401,29 @@ class FrameLoop:
         self._sent = np.array(setpoint, dtype=np.float64)
         acting = self._path(sent)  # (steps, 12)
         changes = np.flatnonzero(np.any(np.diff(acting, axis=0) != 0.0, axis=1)) + 1
-        model, data, act = self.model, self.data, self.robot.actuator_ids
+        data, act = self.data, self.robot.actuator_ids
         bounds = [0, *changes.tolist(), self.steps_per_frame]
         for start, end in itertools.pairwise(bounds):
             data.ctrl[act] = acting[start]
-            mujoco.mj_step(model, data, end - start)
+            self._advance(end - start)
+
+    def _advance(self, n: int) -> None:
+        """n physics steps; one at a time where each step's sensor rows are needed (a law is
+        on) or the push falls among them, in one call otherwise (the same bits either way)."""
+        first = self.steps_done
+        self.steps_done += n
+        push_here = first <= self._push_step < self.steps_done
+        if not (self.laws.any_enabled or push_here):
+            mujoco.mj_step(self.model, self.data, n)
+            return
+        data, trunk = self.data, self.robot.trunk_id
+        for step in range(first, self.steps_done):
+            if step == self._push_step:
+                data.xfrc_applied[trunk, :3] = self._push_force
+            mujoco.mj_step(self.model, data)
+            if step == self._push_step:
+                data.xfrc_applied[trunk, :3] = 0.0
+            self._rows.append(data.sensordata.copy())
 
     def _check_state(self) -> None:
         data = self.data
@@ -514,3 +455,12 @@ class FrameLoop:
     def feet_distance_m(self) -> float:
         """Distance between the sole centres in the ground plane, m (the drive's axle b)."""
         return sole_distance_m(self.data)
+
+
+def law_reading(reading: SensorReading) -> feedback.Reading:
+    """A sensor reading as the laws take it (float32, as the firmware holds it)."""
+    return feedback.Reading(
+        gyro_rad_s=reading.gyro_rad_s.astype(np.float32),
+        accel_m_s2=reading.accel_m_s2.astype(np.float32),
+        fsr_n=reading.fsr_n.astype(np.float32),
+    )

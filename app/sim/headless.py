@@ -9,8 +9,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from app.robots.model import RobotModel
-from app.sim.frame_loop import FRAME_S, FrameLoop
+from app.sim.frame_loop import FrameLoop
 from app.sim.metrics import RunMetrics, Trace, compute_metrics
+from app.sim.planning import FRAME_S
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams, Motion
 from hardware import HardwareSetup, required_torque_from_loads
@@ -42,7 +43,7 @@ def run(
 
     The first `warmup_s` seconds are left out of the motion metrics; `robot` defaults to the
     built-in one, varied by `variation` (docs/DESIGN.md §8), and `hardware` to the robot's
-    servo drive. The run starts in `motion`, or in
+    servo set-up. The run starts in `motion`, or in
     `start_motion` and ramps from there to `motion`. ValueError if duration <= 0 or warm-up < 0.
     """
     if not duration_s > 0 or not warmup_s >= 0:

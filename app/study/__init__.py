@@ -1,4 +1,2 @@
-"""Research tooling: the papers' cases, `artro bench paper`, its report and plots, `artro tune`.
-
-Never imports `app.server` (docs/DESIGN.md §2).
-"""
+"""Studies: `artro bench paper` (its runs, report and plots), the `bench robust` report, and
+`artro tune` with its loss and study store. Never imports `app.server` (docs/DESIGN.md §2)."""

@@ -17,7 +17,7 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from app.analysis.ca_analysis import FIT_CA_LIMIT
-from app.sim.frame_loop import FRAME_S
+from app.sim.planning import FRAME_S
 from app.study import speed_limits
 from app.study.runs import CIRCLE_CA, PresetRuns
 from app.study.walks import Run, cycle_mean

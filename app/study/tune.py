@@ -33,7 +33,8 @@ from app.study.tune_loss import (
     meets_all_criteria,
     total_loss,
 )
-from app.worlds.variations import Variation, VariationRanges, sample
+from app.worlds.sampling import VariationRanges, sample
+from app.worlds.variations import Variation
 from gait import GaitParams, Motion
 from gait.params import describe_fields, group_class, merge
 

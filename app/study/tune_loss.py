@@ -1,4 +1,4 @@
-"""The loss `artro tune` minimises and the criteria a tuned set must meet (docs/DESIGN.md §12,
+"""The loss `artro tune` minimises and the criteria a tuned set must meet (docs/DESIGN.md
 §12): each paper case's speed against its target, CA steering against eq (13), falls, cross-talk
 and a calm trunk; `meets_all_criteria` is the pass/fail of `--select passing`."""
 

@@ -84,7 +84,7 @@ class ServoPath:
     def _play(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The play operator over the chunk, only at the steps where a servo's command changes
         (a command that repeats leaves the output where it is). No array of the chunk's size is
-        sorted or summed (docs/DESIGN.md §9)."""
+        sorted or summed (docs/DESIGN.md §8)."""
         n = len(x)
         changed = np.empty(x.shape, dtype=bool)
         np.not_equal(x[0], self._last_command, out=changed[0])
@@ -120,7 +120,7 @@ def play_outputs(
     A clip of a clip is a clip: clip(clip(v, a1, b1), a2, b2) = clip(v, clip(a1, a2, b2),
     clip(b1, a2, b2)). So the events compose in log2(K) whole-array rounds (a prefix scan)
     rather than K Python steps, and since min and max only pick among their inputs, every
-    output has the bits of the step-by-step definition (docs/DESIGN.md §9)."""
+    output has the bits of the step-by-step definition (docs/DESIGN.md §8)."""
     low, high = low.copy(), high.copy()  # after round r: events k-2^r+1 .. k composed
     span = 1
     while span < len(low):
@@ -142,7 +142,7 @@ def acting_setpoints(
 ) -> NDArray[np.float64]:
     """What a fresh `ServoPath(variation, timestep_s, initial_rad)` returns for the set-points
     sent in n frames, (n * steps_per_frame, 12), to the bit -- built from the <= 12 n switches
-    alone, never from the step-level input (docs/DESIGN.md §9).
+    alone, never from the step-level input (docs/DESIGN.md §8).
 
     Servo j sends `initial_rad[j]` until its first switch; in frame f it switches to
     `setpoint[f, j]` at step `substep[f, j]` of the frame (0 .. steps_per_frame; the last: at

@@ -1,8 +1,7 @@
-"""Model variations: one typed departure from the nominal ArtRo model (friction, masses, servo,
-latency, play, floor tilt, calibration), its `key=value` text, default ranges and seeded samples,
-and `vary_model`, which applies it to a copy of the compiled model (docs/DESIGN.md §8). The
-set-point part (latency, calibration, dead band, backlash) is `app.worlds.servo_path.ServoPath`.
-"""
+"""Model variations: one typed departure from the nominal robot (friction, masses, servo,
+latency, play, floor tilt, calibration), its `key=value` text, and `vary_model`, which applies it
+to a copy of the compiled model (docs/DESIGN.md §8). Ranges and seeded samples are
+`app.worlds.sampling`; the set-point part (latency, calibration, play) `app.worlds.servo_path`."""
 
 from __future__ import annotations
 
@@ -10,6 +9,7 @@ import copy
 import dataclasses
 import math
 import numbers
+import zlib
 from dataclasses import dataclass
 
 import mujoco
@@ -32,6 +32,20 @@ SCALES = (
 )
 NON_NEGATIVE = ("latency_ms", "deadband_deg", "backlash_deg")
 CAL_PREFIX = "cal."
+#: the sensors' errors and a push (docs/DESIGN.md §8): they act on what the sensors read and on
+#: the trunk, not on the compiled model; (low, high, low_open, high_open) of each
+SENSOR_LIMITS = {
+    "imu_tilt_bias_deg": (0.0, 10.0, False, False),
+    "imu_tilt_direction_deg": (0.0, 360.0, False, True),
+    "gyro_bias_deg_s": (-250.0, 250.0, False, False),  # the MPU-6050's range at ±250 °/s
+    "gyro_noise_deg_s": (0.0, 25.0, False, False),
+    "imu_delay_ms": (0.0, 40.0, False, False),  # two frames of readings are kept
+    "fsr_gain": (0.0, 5.0, True, False),
+    "push_n_s": (0.0, 5.0, False, False),
+    "push_time_s": (0.0, 3600.0, False, False),
+    "push_direction_deg": (0.0, 360.0, False, True),
+}
+SENSOR_FIELDS = tuple(SENSOR_LIMITS)
 
 
 def _limits(name: str) -> tuple[str, float, float, bool, bool]:
@@ -50,10 +64,14 @@ def _limits(name: str) -> tuple[str, float, float, bool, bool]:
         return "≥ 0 and < 360", 0.0, 360.0, False, True
     if name == "calibration_deg":
         return "finite", -math.inf, math.inf, True, True
+    if name in SENSOR_LIMITS:
+        low, high, low_open, high_open = SENSOR_LIMITS[name]
+        text = f"{'>' if low_open else '≥'} {low:g} and {'<' if high_open else '≤'} {high:g}"
+        return text, low, high, low_open, high_open
     raise ValueError(f"unknown variation field {name!r}; known: {', '.join(FIELDS)}")
 
 
-def _number(name: str, value: object) -> float:
+def as_number(name: str, value: object) -> float:
     """`value` as a float, with -0.0 made 0.0 (so the text round trip keeps every bit)."""
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"variation field {name} must be a number, got {value!r}")
@@ -69,14 +87,14 @@ def _calibration(value: object) -> tuple[float, ...]:
             f"variation field calibration_deg needs {n} values ({', '.join(JOINT_NAMES)}), "
             f"got {len(value)}"
         )
-    cal = tuple(_number(CAL_PREFIX + j, v) for j, v in zip(JOINT_NAMES, value, strict=True))
+    cal = tuple(as_number(CAL_PREFIX + j, v) for j, v in zip(JOINT_NAMES, value, strict=True))
     for j, v in zip(JOINT_NAMES, cal, strict=True):
         if not math.isfinite(v):
             raise ValueError(f"variation field {CAL_PREFIX}{j} must be finite, got {v!r}")
     return cal
 
 
-def _check(name: str, value: float) -> None:
+def check_value(name: str, value: float) -> None:
     text, low, high, low_open, high_open = _limits(name)
     ok = math.isfinite(value)
     ok = ok and (value > low if low_open else value >= low)
@@ -100,6 +118,17 @@ class Variation:
         deadband_deg, backlash_deg: servo dead band and gear play, degrees ≥ 0 (full widths).
         tilt_deg: floor tilt in [0, 90); tilt_direction_deg: the downhill direction, degrees
             counter-clockwise from the world x axis, in [0, 360).
+        imu_tilt_bias_deg, imu_tilt_direction_deg: the IMU's frame tilted against the trunk's
+            (mounting, accelerometer offset after calibration) by this angle, about the
+            horizontal axis that lifts the direction's side (degrees counter-clockwise from the
+            trunk's x axis).
+        gyro_bias_deg_s: the gyro's residual bias on each axis after calibration at rest;
+            gyro_noise_deg_s: its white noise, rms per reading (seeded by the variation: the
+            same variation reads the same noise, `noise_seed`).
+        imu_delay_ms: the IMU reading the laws get is this old (filter delay, read timing).
+        fsr_gain: scale of every foot force sensor's reading.
+        push_n_s: an impulse on the trunk, horizontal, toward push_direction_deg (counter-
+            clockwise from the world x axis), in the physics step that starts at push_time_s.
         calibration_deg: 12 per-joint zero offsets in `gait.JOINT_NAMES` order (a servo drives
             to set-point + offset).
 
@@ -119,6 +148,15 @@ class Variation:
     backlash_deg: float = 0.0
     tilt_deg: float = 0.0
     tilt_direction_deg: float = 0.0
+    imu_tilt_bias_deg: float = 0.0
+    imu_tilt_direction_deg: float = 0.0
+    gyro_bias_deg_s: float = 0.0
+    gyro_noise_deg_s: float = 0.0
+    imu_delay_ms: float = 0.0
+    fsr_gain: float = 1.0
+    push_n_s: float = 0.0
+    push_time_s: float = 0.0
+    push_direction_deg: float = 0.0
     calibration_deg: tuple[float, ...] = (0.0,) * len(JOINT_NAMES)
 
     def __post_init__(self) -> None:
@@ -127,14 +165,26 @@ class Variation:
             if f.name == "calibration_deg":
                 object.__setattr__(self, f.name, _calibration(value))
             elif value is not None or f.name != "friction":
-                number = _number(f.name, value)
-                _check(f.name, number)
+                number = as_number(f.name, value)
+                check_value(f.name, number)
                 object.__setattr__(self, f.name, number)
 
     @property
     def is_nominal(self) -> bool:
         """True when nothing departs from the model."""
         return self == NOMINAL
+
+    @property
+    def physics(self) -> Variation:
+        """This variation without the sensors' errors and the push: what the compiled model
+        and the servos' set-points depart by (the same varied model serves both)."""
+        return dataclasses.replace(self, **{f: _DEFAULTS[f] for f in SENSOR_FIELDS})
+
+    @property
+    def noise_seed(self) -> int:
+        """The seed of this variation's sensor noise: its text's CRC-32, the same in every
+        process and on every machine."""
+        return zlib.crc32(self.to_text().encode("ascii"))
 
     def departures(self) -> dict[str, float]:
         """The non-nominal values as text keys (`cal.<joint>` per joint), in field order."""
@@ -160,6 +210,9 @@ class Variation:
 
 NOMINAL = Variation()
 FIELDS = tuple(f.name for f in dataclasses.fields(Variation))
+_DEFAULTS = {f.name: f.default for f in dataclasses.fields(Variation)}
+#: the fields that depart from the compiled model or the set-points, calibration last
+PHYSICS_FIELDS = tuple(f for f in FIELDS if f not in SENSOR_FIELDS)
 
 
 def _format(value: float) -> str:
@@ -200,105 +253,9 @@ def parse_variation(text: str) -> Variation:
         elif key in FIELDS and key != "calibration_deg":
             scalars[key] = value
         else:
-            known = [*FIELDS[:-1], CAL_PREFIX + "<joint>"]
+            known = [f for f in FIELDS if f != "calibration_deg"] + [CAL_PREFIX + "<joint>"]
             raise ValueError(f"unknown variation field {key!r}; known: {', '.join(known)}")
     return Variation(**scalars, calibration_deg=tuple(cal.values()))
-
-
-@dataclass(frozen=True)
-class VariationRanges:
-    """The box `sample` draws from: (low, high) per field, both allowed values of the field
-    (`calibration_deg` holds for each joint; the direction may reach 360, drawn modulo 360).
-    Defaults and their sources: docs/DESIGN.md §8. ValueError naming the field if a bound is
-    outside the field's range or low > high."""
-
-    friction: tuple[float, float] = (0.4, 1.0)
-    trunk_mass_scale: tuple[float, float] = (0.85, 1.15)
-    link_mass_scale: tuple[float, float] = (0.9, 1.1)
-    kp_scale: tuple[float, float] = (0.8, 1.2)
-    torque_scale: tuple[float, float] = (0.8, 1.0)
-    damping_scale: tuple[float, float] = (0.8, 1.2)
-    frictionloss_scale: tuple[float, float] = (0.5, 1.5)
-    latency_ms: tuple[float, float] = (0.0, 60.0)
-    deadband_deg: tuple[float, float] = (0.0, 0.5)
-    backlash_deg: tuple[float, float] = (0.0, 1.0)
-    tilt_deg: tuple[float, float] = (0.0, 3.0)
-    tilt_direction_deg: tuple[float, float] = (0.0, 360.0)
-    calibration_deg: tuple[float, float] = (-1.5, 1.5)
-
-    def __post_init__(self) -> None:
-        for f in dataclasses.fields(self):
-            bounds = getattr(self, f.name)
-            if isinstance(bounds, (str, bytes)) or len(bounds) != 2:
-                raise ValueError(f"range of {f.name} must be (low, high), got {bounds!r}")
-            low, high = (_number(f.name, b) for b in bounds)
-            for b in (low, high):
-                if f.name == "tilt_direction_deg" and b == 360.0:
-                    continue
-                try:
-                    _check(f.name, b)
-                except ValueError as e:
-                    raise ValueError(f"range of {e}") from None
-            if low > high:
-                raise ValueError(f"range of {f.name}: low {low!r} > high {high!r}")
-            object.__setattr__(self, f.name, (low, high))
-
-    def with_range(self, name: str, low: float, high: float) -> VariationRanges:
-        """A copy with `name`'s range set to [low, high] (`--range friction=0.3:0.6`)."""
-        if name not in FIELDS:
-            raise ValueError(f"unknown variation field {name!r}; known: {', '.join(FIELDS)}")
-        return dataclasses.replace(self, **{name: (low, high)})
-
-
-def parse_range(text: str) -> tuple[str, float, float]:
-    """`name=low:high` (the CLI's `--range`) as (name, low, high) for `with_range`."""
-    name, sep, bounds = text.partition("=")
-    low, colon, high = bounds.partition(":")
-    try:
-        if not (sep and colon):
-            raise ValueError
-        return name.strip(), float(low), float(high)
-    except ValueError:
-        raise ValueError(f"range {text!r} must be name=low:high, e.g. friction=0.3:0.6") from None
-
-
-#: decimals a sampled value is rounded to, so names stay short (latency: whole ms = steps)
-SAMPLE_DECIMALS = {
-    **dict.fromkeys(("friction", *SCALES), 3),
-    "latency_ms": 0,
-    **dict.fromkeys(("deadband_deg", "backlash_deg", "tilt_deg", "calibration_deg"), 2),
-    "tilt_direction_deg": 1,
-}
-SAMPLE_COLUMNS = (*FIELDS[:-1], *(CAL_PREFIX + j for j in JOINT_NAMES))
-
-
-def sample(ranges: VariationRanges, n: int, seed: int) -> list[Variation]:
-    """n variations drawn from `ranges`, the same list to the bit for a seed on any machine.
-
-    Every field (and each joint's calibration) is drawn independently and uniformly from its
-    range: one `Generator(PCG64(seed)).random((n, 24))` table, a row per variation and a column
-    per value in `SAMPLE_COLUMNS` order, scaled as low + (high - low)·u, rounded to
-    `SAMPLE_DECIMALS` and kept inside the range (the direction modulo 360). So the first m of
-    n samples are `sample(ranges, m, seed)`, and narrowing one range leaves the others' draws.
-    """
-    if n < 0 or seed < 0:
-        raise ValueError(f"sample needs n ≥ 0 and seed ≥ 0, got n={n}, seed={seed}")
-    u = np.random.Generator(np.random.PCG64(seed)).random((n, len(SAMPLE_COLUMNS)))
-    bounds = [getattr(ranges, f) for f in FIELDS[:-1]]
-    bounds += [ranges.calibration_deg] * len(JOINT_NAMES)
-    decimals = [SAMPLE_DECIMALS[f] for f in FIELDS[:-1]]
-    decimals += [SAMPLE_DECIMALS["calibration_deg"]] * len(JOINT_NAMES)
-    out = []
-    for row in u.tolist():
-        values = []
-        for x, (low, high), d in zip(row, bounds, decimals, strict=True):
-            values.append(min(max(round(low + (high - low) * x, d), low), high))
-        n_scalar = len(FIELDS) - 1
-        scalars = dict(zip(FIELDS[:-1], values[:n_scalar], strict=True))
-        scalars["tilt_direction_deg"] %= 360.0
-        cal = tuple(values[n_scalar:])
-        out.append(Variation(**scalars, calibration_deg=cal))
-    return out
 
 
 def vary_model(robot: RobotModel, variation: Variation) -> mujoco.MjModel:

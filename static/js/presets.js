@@ -6,7 +6,7 @@ import { refreshParams } from "./params.js";
 import { $, fmt, h, setMessage } from "./util.js";
 
 const NAME_RE = /^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$/;
-const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over this (sim_thread.py)
+const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over this (app/server/gait_ramp.py)
 let drive = "model";
 let engine = null;
 

@@ -12,12 +12,12 @@ from pydantic import BaseModel, ConfigDict, Field
 from app.params.presets import PresetError, PresetNotFound, diff
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.api.presets import NAME_SCHEMA_PATTERN
-from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.errors import GATE_RESPONSES, ApiError, responses
 from app.server.services import Services
-from app.server.sim_thread import Command
+from app.server.sim_commands import RemoveGhost, SetGhost
 
 router = APIRouter(
-    prefix="/api", tags=["ghost"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+    prefix="/api", tags=["ghost"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
 
 
@@ -96,12 +96,12 @@ def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[s
                 "not_found", loc=["body", "version"],
             )  # fmt: skip
         gait, source = found[body.version].gait, f"version {body.version}"
-    services.sim.command(Command.GHOST, (gait, source))
+    services.sim.send(SetGhost(gait, source))
     return {"accepted": "ghost", "source": source}
 
 
 @router.delete("/ghost")
 def delete_ghost(services: ServicesDep) -> dict[str, Any]:
     """No ghost."""
-    services.sim.command(Command.GHOST, None)
+    services.sim.send(RemoveGhost())
     return {"accepted": "ghost", "source": None}

@@ -10,12 +10,12 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.axle_fitter import KIND
 from app.server.ca_calibrator import KIND as CALIBRATE
-from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs import Job, JobBusy, StaleVersion
 from app.server.services import Services
 
 router = APIRouter(
-    prefix="/api/jobs", tags=["jobs"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+    prefix="/api/jobs", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
 
 JobId = Annotated[str, Path(max_length=64, description="as POST returned it")]

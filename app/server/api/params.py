@@ -11,12 +11,12 @@ from fastapi import APIRouter, Header, Response
 from app.params.document import ParameterSet
 from app.params.schema import ParamsBody, ParamsPatchBody, schema_description
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.errors import GATE_RESPONSES, ApiError, responses
 from app.server.param_store import Check, NothingToUndo, Snapshot
 from app.server.services import Services
 
 router = APIRouter(
-    prefix="/api", tags=["parameters"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+    prefix="/api", tags=["parameters"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
 
 IfMatch = Annotated[
@@ -139,10 +139,10 @@ def _history(
     step: Literal["undo", "redo"], services: Services, response: Response, if_match: str | None
 ) -> dict[str, Any]:
     replaced: list[Snapshot] = []
-    guard = versions_check(None, if_match)
+    check_versions = versions_check(None, if_match)
 
     def check(current: Snapshot) -> None:
-        guard(current)
+        check_versions(current)
         replaced.append(current)
 
     move = services.store.undo if step == "undo" else services.store.redo

@@ -6,11 +6,11 @@ from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GUARD_RESPONSES, responses
-from app.server.sim_thread import Command
+from app.server.errors import GATE_RESPONSES, responses
+from app.server.sim_commands import Reanchor
 
 router = APIRouter(
-    prefix="/api/path", tags=["paths"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+    prefix="/api/path", tags=["paths"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
 
 
@@ -40,7 +40,7 @@ def clear(services: ServicesDep) -> dict[str, Any]:
 @router.post("/anchor", responses=responses(422))
 def reanchor(services: ServicesDep, body: AnchorBody | None = None) -> dict[str, Any]:
     """Start the prediction again at the robot's current pose."""
-    services.sim.command(Command.REANCHOR, None if body is None else body.speed_m_s)
+    services.sim.send(Reanchor(None if body is None else body.speed_m_s))
     return {"accepted": "reanchor"}
 
 

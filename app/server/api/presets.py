@@ -18,12 +18,12 @@ from app.params.formats import (
 from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
 from app.params.schema import ImportBody, ImportBodyV1, inline_schema
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GUARD_RESPONSES, ApiError, responses
-from app.server.guard import JSON_TYPES, YAML_TYPES
+from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.request_gate import JSON_TYPES, YAML_TYPES
 from app.server.services import Services
 
 router = APIRouter(
-    prefix="/api", tags=["presets"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+    prefix="/api", tags=["presets"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
 
 CURRENT = "current"  # in a diff: the parameters in use now
@@ -154,7 +154,7 @@ IMPORT_BODY = {
 async def import_params(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Upload a JSON or YAML parameter set (at most 64 KiB) and make it the one in use."""
     raw = bytearray()
-    async for chunk in request.stream():  # the guard has refused bodies over the limit
+    async for chunk in request.stream():  # the request gate has refused bodies over the limit
         raw += chunk
     try:  # parsing (YAML especially) takes milliseconds: never on the event loop
         pset = await run_in_threadpool(

@@ -15,7 +15,7 @@ from starlette.concurrency import run_in_threadpool
 from app.firmware.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.errors import GATE_RESPONSES, ApiError, responses
 from app.server.recorder import RECORD_FRAMES, Recording
 from app.server.recording_file import (
     EVENT_KINDS,
@@ -35,7 +35,7 @@ from hardware import CHANNELS, OCR_MAX, SLOTS_PER_FRAME, frame_edges
 router = APIRouter(
     prefix="/api/recording",
     tags=["recording"],
-    responses=GUARD_RESPONSES,
+    responses=GATE_RESPONSES,
     route_class=StrictJsonRoute,
 )
 
@@ -113,8 +113,9 @@ def export(services: ServicesDep) -> Response:
     responses={200: {"content": {"text/plain": {"schema": {"type": "string"}}}}, **responses(409)},
 )
 def export_vcd(services: ServicesDep) -> Response:
-    """The recording's nine drive lines as a Value Change Dump (PulseView, GTKWave): OC1A..OC3C,
-    SEL0..SEL2, from the recorded OCR tables as the hardware model puts them on the wires."""
+    """The recording's nine pulse and select lines as a Value Change Dump (PulseView, GTKWave):
+    OC1A..OC3C, SEL0..SEL2, from the recorded OCR tables as the hardware model puts them on the
+    wires."""
     rec = _shown(services)
     if not len(rec):
         raise ApiError(409, "nothing recorded yet", "nothing_recorded", loc=["path"])

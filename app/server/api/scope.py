@@ -8,10 +8,10 @@ from fastapi import APIRouter, Query, Response, WebSocket, WebSocketDisconnect
 from starlette.concurrency import run_in_threadpool
 
 from app.server.api.deps import ServicesDep, WsServicesDep
-from app.server.errors import GUARD_RESPONSES, responses
+from app.server.errors import GATE_RESPONSES, responses
 from app.server.scope_feed import HISTORY_FRAMES
 
-router = APIRouter(tags=["scope"], responses=GUARD_RESPONSES)
+router = APIRouter(tags=["scope"], responses=GATE_RESPONSES)
 INLINE_FORMAT_FRAMES = 2  # about 0.3 ms each
 FRAMES_RESPONSE: dict[int | str, dict[str, Any]] = {
     200: {

@@ -10,12 +10,14 @@ from app.firmware.build import BuildError
 from app.firmware.emulator import EmulatorError
 from app.params.document import project_version
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GUARD_RESPONSES, ApiError, responses
-from app.server.replay import Replaying
+from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.live_robot import Drive
+from app.server.pacing import SPEED_RANGE
+from app.server.replay import RUNS_LIVE, Replaying
 from app.server.services import Services
-from app.server.sim_thread import SPEED_RANGE, Command, Drive
+from app.server.sim_commands import Control, Pause, Reset, Resume, SetSpeed, Step
 
-router = APIRouter(tags=["simulation"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute)
+router = APIRouter(tags=["simulation"], responses=GATE_RESPONSES, route_class=StrictJsonRoute)
 
 
 class SpeedBody(BaseModel):
@@ -52,13 +54,13 @@ def state(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-def _control(command: Command, doc: str) -> Callable[[Services], dict[str, str]]:
+def _control(command: Control, doc: str) -> Callable[[Services], dict[str, str]]:
     def control(services: ServicesDep) -> dict[str, str]:
         try:
             services.replay.live_command(command)
         except Replaying as exc:
             raise ApiError(409, str(exc), "replaying", loc=["path"]) from exc
-        return {"accepted": command.value}
+        return {"accepted": command.name}
 
     control.__doc__ = doc
     return control
@@ -66,24 +68,24 @@ def _control(command: Command, doc: str) -> Callable[[Services], dict[str, str]]
 
 # one route per action (not /api/sim/{action}): a wrong method gets 405 with its true Allow
 for _command, _doc in (
-    (Command.RESET, "Put the robot back at the start; the real-time factor restarts."),
-    (Command.PAUSE, "Pause the simulation."),
-    (Command.RESUME, "Resume the simulation; 409 while a replay is shown (go back to live)."),
-    (Command.STEP, "Advance one 20 ms frame (pausing first); 409 while a replay is shown."),
+    (Reset(), "Put the robot back at the start; the real-time factor restarts."),
+    (Pause(), "Pause the simulation."),
+    (Resume(), "Resume the simulation; 409 while a replay is shown (go back to live)."),
+    (Step(), "Advance one 20 ms frame (pausing first); 409 while a replay is shown."),
 ):
     router.add_api_route(
-        f"/api/sim/{_command.value}",
+        f"/api/sim/{_command.name}",
         _control(_command, _doc),
         methods=["POST"],
-        name=f"sim_{_command.value}",
-        summary=f"{_command.value.title()}",
-        responses=responses(409) if _command in (Command.RESUME, Command.STEP) else None,
+        name=f"sim_{_command.name}",
+        summary=f"{_command.name.title()}",
+        responses=responses(409) if isinstance(_command, RUNS_LIVE) else None,
     )
 
 
 @router.put("/api/sim/speed", responses=responses(422))
 def set_speed(body: SpeedBody, services: ServicesDep) -> dict:
-    services.sim.command(Command.SPEED, body.speed)
+    services.sim.send(SetSpeed(body.speed))
     return {"accepted": "speed", "speed": body.speed}
 
 

@@ -1,4 +1,4 @@
-"""The world the live robot walks in (a model variation, docs/DESIGN.md §12) and the robustness
+"""The world the live robot walks in (a model variation, docs/DESIGN.md §8) and the robustness
 job that walks the current gait on many of them."""
 
 from dataclasses import asdict
@@ -8,13 +8,14 @@ from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GUARD_RESPONSES, ApiError, responses
+from app.server.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs import JobBusy
-from app.server.sim_thread import Command
-from app.worlds.variations import FIELDS, NOMINAL, VariationRanges, parse_variation
+from app.server.sim_commands import SetWorld
+from app.worlds.sampling import VariationRanges
+from app.worlds.variations import FIELDS, NOMINAL, parse_variation
 
 router = APIRouter(
-    prefix="/api", tags=["world"], responses=GUARD_RESPONSES, route_class=StrictJsonRoute
+    prefix="/api", tags=["world"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
 
 
@@ -58,14 +59,14 @@ def put_world(body: WorldBody, services: ServicesDep) -> dict[str, Any]:
         variation = parse_variation(body.variation) if body.variation.strip() else NOMINAL
     except (ValueError, TypeError) as exc:
         raise ApiError(422, str(exc), "invalid_variation", loc=["body", "variation"]) from exc
-    services.sim.command(Command.WORLD, variation)
+    services.sim.send(SetWorld(variation))
     return {"variation": variation.name}
 
 
 @router.delete("/world")
 def reset_world(services: ServicesDep) -> dict[str, Any]:
     """Back to the nominal model."""
-    services.sim.command(Command.WORLD, NOMINAL)
+    services.sim.send(SetWorld(NOMINAL))
     return {"variation": NOMINAL.name}
 
 

@@ -1,4 +1,4 @@
-"""The guard of app/server/guard.py for the viser port (docs/DESIGN.md §6).
+"""The request gate of app/server/request_gate.py for the viser port (docs/DESIGN.md §14).
 
 viser 1.1 has no origin option: its WebsockServer runs our check as the first connect callback,
 where the handshake's Host and Origin are known and nothing has been sent or received yet; a foreign
@@ -9,12 +9,12 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from app.server.guard import host_allowed, same_origin
+from app.server.request_gate import host_allowed, same_origin
 
 log = logging.getLogger(__name__)
 
 
-def guard_viser(server: Any, hosts: frozenset[str]) -> bool:
+def gate_viser(server: Any, hosts: frozenset[str]) -> bool:
     """Refuse viser WebSockets from other sites or Host names; False if viser has no hook."""
     websock = getattr(server, "_websock_server", None)
     live = getattr(websock, "_live_connections", None)

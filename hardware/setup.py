@@ -1,4 +1,4 @@
-"""The servo drive set-up of one robot: each servo's calibration and the TDM-PWM channel map."""
+"""The servo set-up of one robot: each servo's calibration and the TDM-PWM channel map."""
 
 from __future__ import annotations
 

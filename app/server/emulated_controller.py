@@ -1,6 +1,6 @@
-"""The firmware drive of `artro serve`: the emulated ATmega128 makes the pulses, the simulation's
-servos read them off its pins, parameter changes travel over its emulated UART (docs/DESIGN.md
-§5, §10). Booted in the caller's thread, then owned by the simulation thread alone.
+"""The emulated controller of the firmware drive (docs/DESIGN.md §5, §10): one ATmega128 running
+the robot's firmware (simavr), whose pins the simulated servos read, and the parameter sets that
+travel to it over its emulated UART. Booted in the caller's thread, then the simulation thread's.
 """
 
 from __future__ import annotations
@@ -11,7 +11,8 @@ from dataclasses import dataclass
 from app.firmware import protocol as proto
 from app.firmware.pulses import FirmwarePulses
 from app.server.param_store import Snapshot
-from app.sim.frame_loop import FRAME_S, PinFrame
+from app.sim.frame_loop import PinFrame
+from app.sim.planning import FRAME_S
 from gait import ARTRO_LEG, LegGeometry, ramp_motion
 from hardware import HardwareSetup
 
@@ -33,11 +34,12 @@ class FirmwareStatus:
     naks: int = 0
 
 
-class FirmwareDriver:
-    """One emulated controller and what travels to it: sets sent, answers, the active motion."""
+class EmulatedController:
+    """One emulated ATmega128 running the firmware, and what travels to it: the sets sent, their
+    answers, the motion its gait got."""
 
-    def __init__(self, drive: FirmwarePulses, snapshot: Snapshot) -> None:
-        self.drive = drive
+    def __init__(self, pulses: FirmwarePulses, snapshot: Snapshot) -> None:
+        self.pulses = pulses  # the firmware on the emulated MCU, one 20 ms frame per call
         self.built_version = snapshot.version  # the set compiled in as the firmware's defaults
         self._target = snapshot  # the set in force on the MCU
         self._motion = snapshot.motion  # what its gait got in the last frame (ramped, as its own)
@@ -51,7 +53,7 @@ class FirmwareDriver:
     @classmethod
     def boot(
         cls, snapshot: Snapshot, hardware: HardwareSetup, geometry: LegGeometry = ARTRO_LEG
-    ) -> FirmwareDriver:
+    ) -> EmulatedController:
         """Build the firmware with the snapshot's set as its defaults and boot it (seconds on a
         cold cache, then milliseconds). ValueError if the set names an engine the firmware does
         not run; BuildError or EmulatorError if the tool chain or the emulator fail."""
@@ -61,21 +63,21 @@ class FirmwareDriver:
                 f"{snapshot.gait.engine!r}: choose engine {FIRMWARE_ENGINE} first"
             )
         doc = snapshot.parameter_set().to_dict()
-        drive = FirmwarePulses(
+        pulses = FirmwarePulses(
             doc, calibration=hardware.calibration, tdm=hardware.tdm, geometry=geometry
         )
-        return cls(drive, snapshot)
+        return cls(pulses, snapshot)
 
     def send(self, snapshot: Snapshot) -> None:
         """Queue the whole set on the UART (the protocol's SET_PARAMS); it reaches the frame
         the firmware's ACK names."""
-        self.drive.send_parameters(snapshot.parameter_set().to_dict())
-        self._in_flight.append((snapshot, self.drive.frame))
+        self.pulses.send_parameters(snapshot.parameter_set().to_dict())
+        self._in_flight.append((snapshot, self.pulses.frame))
 
     def next_pins(self) -> tuple[PinFrame, list[str], list[int]]:
         """Run the MCU through its next frame: the pins, problems to report, and per set that
         was acknowledged the frames from its sending to the first frame it reached."""
-        frame = self.drive.next_frame()
+        frame = self.pulses.next_frame()
         problems, latencies = [], []
         for reply in frame.replies:
             if not self._in_flight or not isinstance(reply, proto.Ack | proto.Nak):
@@ -105,7 +107,7 @@ class FirmwareDriver:
 
     def status(self) -> FirmwareStatus:
         return FirmwareStatus(
-            mcu_frame=self.drive.frame,
+            mcu_frame=self.pulses.frame,
             busy_cycles_last=self._busy[-1] if self._busy else 0,
             busy_cycles_max=max(self._busy, default=0),
             params_version_acked=self._target.version,
@@ -114,4 +116,4 @@ class FirmwareDriver:
         )
 
     def close(self) -> None:
-        self.drive.close()
+        self.pulses.close()

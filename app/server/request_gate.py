@@ -1,4 +1,4 @@
-"""The guard in front of the app, a pure ASGI middleware (docs/DESIGN.md §6):
+"""The request gate in front of the app, a pure ASGI middleware (docs/DESIGN.md §14):
 a Host allow-list against DNS rebinding; API and WebSocket requests from other sites refused
 (Origin, Sec-Fetch-Site); state-changing requests only as JSON (or YAML for the import);
 bodies counted, a 413 as soon as one is too large; a client gone mid-upload ends quietly.
@@ -32,7 +32,7 @@ MAX_BODY_BYTES = 16 * 1024  # a parameter set is about 4 KiB
 MAX_IMPORT_BODY_BYTES = MAX_IMPORT_BYTES
 MAX_RECORDING_BODY_BYTES = 16 * 1024 * 1024  # a 60 s recording file is about 2 MB
 BODY_LIMITS = {IMPORT_PATH: MAX_IMPORT_BODY_BYTES, RECORDING_IMPORT_PATH: MAX_RECORDING_BODY_BYTES}
-GUARDED_PREFIXES = ("/api/", "/ws/")
+GATED_PREFIXES = ("/api/", "/ws/")
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})
 
@@ -84,7 +84,7 @@ class _TooLarge(Exception):
     pass
 
 
-class Guard:
+class RequestGate:
     def __init__(self, app: ASGIApp, *, hosts: frozenset[str]) -> None:
         self.app = app
         self.hosts = hosts
@@ -115,7 +115,7 @@ class Guard:
             msg = f"this server does not answer to Host {host!r:.80}; allowed: {allowed}"
             return 400, msg, "host_not_allowed", ["header", "host"]
         path: str = scope["path"]
-        if not path.startswith(GUARDED_PREFIXES):
+        if not path.startswith(GATED_PREFIXES):
             return None  # the page itself may be opened from a link on any site
         origin = headers.get("origin")
         if origin is not None and not same_origin(origin, host or ""):
@@ -146,14 +146,14 @@ class Guard:
                     raise _TooLarge
             return message
 
-        async def guarded_send(message: Message) -> None:
+        async def gated_send(message: Message) -> None:
             if state["over"]:
                 return  # the app's answer to a body it could not read; ours goes out instead
             state["started"] = True
             await send(message)
 
         try:
-            await self.app(scope, counting_receive, guarded_send)
+            await self.app(scope, counting_receive, gated_send)
         except _TooLarge:
             pass
         except ClientDisconnect:  # left mid-upload: no one to answer, nothing to report

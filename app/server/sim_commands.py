@@ -1,0 +1,198 @@
+"""What other threads may ask of the simulation thread (docs/DESIGN.md §10): one frozen
+dataclass per command, `SimCommand` their union, and the queue where they wait for the next frame
+boundary. A bad command is refused with a ValueError where it is made, in the sender's thread."""
+
+from __future__ import annotations
+
+import math
+import queue
+import threading
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+from app.server.emulated_controller import EmulatedController
+from app.server.pacing import SPEED_RANGE
+from app.worlds.variations import Variation
+from gait import GaitParams
+
+
+@dataclass(frozen=True)
+class Pause:
+    """Stop the frame loop; the robot stays as it is."""
+
+    name: ClassVar[str] = "pause"
+
+
+@dataclass(frozen=True)
+class Resume:
+    """Run the frame loop again, paced from now."""
+
+    name: ClassVar[str] = "resume"
+
+
+@dataclass(frozen=True)
+class Reset:
+    """Stand the robot at the start; the real-time factor restarts."""
+
+    name: ClassVar[str] = "reset"
+
+
+@dataclass(frozen=True)
+class Step:
+    """One 20 ms frame, pausing first."""
+
+    name: ClassVar[str] = "step"
+
+
+@dataclass(frozen=True)
+class SetSpeed:
+    """Run at `speed` x real time, within SPEED_RANGE."""
+
+    speed: float
+    name: ClassVar[str] = "speed"
+
+    def __post_init__(self) -> None:
+        lo, hi = SPEED_RANGE
+        value = self.speed
+        if isinstance(value, bool) or not isinstance(value, int | float) or not lo <= value <= hi:
+            raise ValueError(f"speed must be {lo} to {hi} (x real time), got {value!r}")
+        object.__setattr__(self, "speed", float(value))
+
+
+@dataclass(frozen=True)
+class Reanchor:
+    """Start the path prediction again at the robot's pose, with V fixed by hand (m/s) or, None,
+    measured."""
+
+    speed_m_s: float | None = None
+    name: ClassVar[str] = "reanchor"
+
+    def __post_init__(self) -> None:
+        value = self.speed_m_s
+        if value is None:
+            return
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int | float)
+            or not math.isfinite(value)
+        ):
+            raise ValueError(f"reanchor takes a finite speed in m/s or None, got {value!r}")
+        object.__setattr__(self, "speed_m_s", float(value))
+
+
+class DriveAnswer:
+    """The simulation thread's verdict on one `SwitchDrive`: given once; `refusal` says why not."""
+
+    def __init__(self) -> None:
+        self._given = threading.Event()
+        self.refusal: str | None = None
+
+    def give(self, refusal: str | None) -> None:
+        self.refusal = refusal
+        self._given.set()
+
+    def wait(self, timeout_s: float) -> bool:
+        """True once the verdict is given; False if `timeout_s` passed first."""
+        return self._given.wait(timeout_s)
+
+
+@dataclass(frozen=True)
+class SwitchDrive:
+    """Hand the pulses to a booted emulated controller (the firmware drive), or, None, to the
+    Python hardware model. The simulation thread answers in `answer`: the firmware is refused if
+    the set has come to name another engine while it booted."""
+
+    controller: EmulatedController | None
+    answer: DriveAnswer = field(default_factory=DriveAnswer, compare=False)
+    name: ClassVar[str] = "drive"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.controller, EmulatedController | None):
+            raise ValueError(
+                "the drive command takes a booted EmulatedController or None (the model), "
+                f"got {type(self.controller).__name__}"
+            )
+
+
+@dataclass(frozen=True)
+class SetGhost:
+    """Let the gait constants `params` walk beside the live robot as the A/B ghost, labelled
+    `source` ("preset tuned", "version 12"); it replaces any ghost there was."""
+
+    params: GaitParams
+    source: str
+    name: ClassVar[str] = "ghost"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.params, GaitParams) or not isinstance(self.source, str):
+            raise ValueError("the ghost command takes GaitParams and a source label (str)")
+
+
+@dataclass(frozen=True)
+class RemoveGhost:
+    """No ghost."""
+
+    name: ClassVar[str] = "ghost"
+
+
+@dataclass(frozen=True)
+class SetWorld:
+    """Walk on in another world (a model variation, docs/DESIGN.md §8) from the next frame; the
+    robot is not reset."""
+
+    variation: Variation
+    name: ClassVar[str] = "world"
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.variation, Variation):
+            raise ValueError("the world command takes a Variation")
+
+
+SimCommand = (
+    Pause
+    | Resume
+    | Reset
+    | Step
+    | SetSpeed
+    | Reanchor
+    | SwitchDrive
+    | SetGhost
+    | RemoveGhost
+    | SetWorld
+)
+Control = Reset | Pause | Resume | Step  # the controls of the page, the API and the 3D view
+
+CONTROLS: dict[str, Control] = {c.name: c for c in (Reset(), Pause(), Resume(), Step())}
+
+
+def control(name: str) -> Control:
+    """The control named `name` (reset, pause, resume, step); ValueError naming those."""
+    try:
+        return CONTROLS[name]
+    except KeyError:
+        allowed = ", ".join(CONTROLS)
+        raise ValueError(f"unknown command {name!r}; allowed: {allowed}") from None
+
+
+class CommandQueue:
+    """Commands from any thread, taken by the simulation thread at its next frame boundary in
+    the order they were put; putting one wakes the thread."""
+
+    def __init__(self, wake: threading.Event) -> None:
+        self._queue: queue.SimpleQueue[SimCommand] = queue.SimpleQueue()
+        self._wake = wake
+
+    def put(self, command: SimCommand) -> None:
+        if not isinstance(command, SimCommand):
+            raise ValueError(f"not a command of the simulation thread: {command!r}")
+        self._queue.put(command)
+        self._wake.set()
+
+    def drain(self) -> Iterator[SimCommand]:
+        """The commands queued now, oldest first (simulation thread only)."""
+        while True:
+            try:
+                yield self._queue.get_nowait()
+            except queue.Empty:
+                return

@@ -1,0 +1,196 @@
+"""The open-loop plan of consecutive 20 ms frames, in whole arrays: gait (either engine, the
+motion ramp) -> joint angles -> pulses -> TDM-PWM frame -> the set-point each servo decodes and
+the physics step its pulse's falling edge lets it act (docs/DESIGN.md §2, §4, §5)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from gait import (
+    ARTRO_LEG,
+    GaitParams,
+    LegGeometry,
+    Motion,
+    joint_angles_with_flags,
+    pi_cut,
+    ramp_motion,
+    startup_gain,
+)
+from hardware import (
+    FRAME_TICKS,
+    SLOT_TICKS,
+    TICK_US,
+    HardwareSetup,
+    angles_to_pulses_us,
+    falling_edge_ticks,
+    frame_ocr,
+    guard_violations,
+    pulses_to_angles_rad,
+)
+
+FRAME_S = FRAME_TICKS * TICK_US * 1e-6  # 20 ms
+START_PHASE_RAD = -0.5 * math.pi  # lateral shift passes through zero: both feet on the ground
+A_Y_RANGE = next(
+    (f.metadata["min"], f.metadata["max"]) for f in dataclasses.fields(Motion) if f.name == "a_y"
+)
+
+
+@dataclass
+class FramePlan:
+    """The pipeline evaluated for a block of consecutive frames (leading axis: frame)."""
+
+    phase: NDArray[np.float64]  # (n,) phi_Trunk at each frame start
+    angles: NDArray[np.float64]  # (n, 12) gait joint angles
+    ocr: NDArray[np.int32]  # (n, 6, 8) timer compare values
+    setpoint: NDArray[np.float64]  # (n, 12) angle decoded from the demultiplexed pulse
+    substep: NDArray[np.int64]  # (n, 12) physics step of the frame at which it takes effect
+    saturated: NDArray[np.bool_]  # (n, 12) servo angle or pulse limited
+    gamma_clamped: NDArray[np.bool_]  # (n, 2)
+    guard: NDArray[np.bool_]  # (n, 6, 8) select change while a line was high
+    motions: list[Motion]  # (n,) the motion the gait got in each frame (after the ramp)
+    next_index: int = 0
+
+    def __post_init__(self) -> None:
+        # per-frame summaries, reduced once per block rather than once per frame
+        self.any_saturated = self.saturated.any(axis=-1).tolist()
+        self.any_gamma_clamped = self.gamma_clamped.any(axis=-1).tolist()
+        self.any_guard = self.guard.any(axis=(-2, -1)).tolist()
+
+    def __len__(self) -> int:
+        return len(self.phase)
+
+
+def frame_motions(
+    params: GaitParams, target: Motion, current: Motion, n_frames: int
+) -> list[Motion]:
+    """The motion the gait gets in each of `n_frames` frames: one ramp step per frame from
+    `current` (the last frame's) toward `target`, then `target` itself."""
+    out: list[Motion] = []
+    motion = current
+    while len(out) < n_frames and motion != target:
+        motion = ramp_motion(motion, target, params, FRAME_S)
+        out.append(motion)
+    return out + [target] * (n_frames - len(out))
+
+
+def _gait(
+    params: GaitParams,
+    motions: list[Motion],
+    phase: NDArray[np.float64],
+    startup: NDArray[np.float64],
+    geometry: LegGeometry,
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Joint angles and clamp flags of each frame; one vectorised call per run of equal motions
+    (the whole block when nothing is ramping)."""
+    angles, clamped = [], []
+    start = 0
+    while start < len(motions):
+        end = start + 1
+        while end < len(motions) and (
+            motions[end] is motions[start] or motions[end] == motions[start]
+        ):
+            end += 1
+        part = slice(start, end)
+        out = joint_angles_with_flags(
+            params, motions[start], phase[part], geometry, startup=startup[part]
+        )
+        angles.append(out.values)
+        clamped.append(out.gamma_clamped)
+        start = end
+    if len(angles) == 1:
+        return angles[0], clamped[0]
+    return np.concatenate(angles), np.concatenate(clamped)
+
+
+def with_a_y_delta(motion: Motion, delta: float) -> Motion:
+    """`motion` with a_y moved by `delta` (the yaw-rate loop's), kept within a_y's range."""
+    low, high = A_Y_RANGE
+    return dataclasses.replace(motion, a_y=min(max(motion.a_y + float(delta), low), high))
+
+
+def falling_edge_substeps(
+    fall_ticks: NDArray[np.int64], steps_per_frame: int, timestep_s: float
+) -> NDArray[np.int64]:
+    """The physics step of the frame at which each set-point takes effect: the first starting at
+    or after its pulse's falling edge (docs/DESIGN.md §2)."""
+    edge_s = np.asarray(fall_ticks) * TICK_US * 1e-6
+    substep = np.ceil(edge_s / timestep_s - 1e-9).astype(np.int64)
+    return np.minimum(substep, steps_per_frame)
+
+
+def plan_frames(
+    params: GaitParams,
+    motion: Motion,
+    hardware: HardwareSetup,
+    phase0: float,
+    n_frames: int,
+    steps_per_frame: int,
+    timestep_s: float,
+    *,
+    motion_now: Motion | None = None,
+    frame0: int = 0,
+    geometry: LegGeometry = ARTRO_LEG,
+    joint_delta_rad: NDArray[np.floating] | None = None,
+    a_y_delta: float = 0.0,
+) -> FramePlan:
+    """Run gait and hardware model for n consecutive frames starting at phase0 (vectorised).
+
+    Args:
+        params, motion, hardware: the gait, the requested motion vector with CA, the servo
+            set-up.
+        phase0: phi_Trunk at the first frame's start, rad.
+        n_frames: frames to plan; steps_per_frame, timestep_s: the physics steps of one frame.
+        motion_now: the motion the gait got in the frame before; from it each frame takes one
+            `ramp_motion` step toward `motion` (default: `motion`, nothing to ramp).
+        frame0: the first frame's index since the reset (or the switch to this engine), for the
+            pfs engine's start-up gain.
+        geometry: the robot's leg (`RobotModel.geometry`) for the inverse kinematics.
+        joint_delta_rad, a_y_delta: the feedback laws' corrections (`gait.feedback.Output`):
+            added to every planned frame's joint angles (12,) and to the a_y its gait gets
+            after the ramp (within a_y's range); none: the open-loop gait, to the bit.
+
+    Returns:
+        `FramePlan` with a leading frame axis; each set-point takes effect at the first physics
+        step starting at or after its pulse's falling edge; `motions` is what the gait got.
+    """
+    step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
+    phase = pi_cut(phase0 + step_rad * np.arange(n_frames))
+    motions = frame_motions(params, motion, motion if motion_now is None else motion_now, n_frames)
+    startup = startup_gain(params, (frame0 + np.arange(n_frames)) * FRAME_S)
+    walked = motions if a_y_delta == 0.0 else [with_a_y_delta(m, a_y_delta) for m in motions]
+    angles, gamma_clamped = _gait(params, walked, phase, startup, geometry)
+    if joint_delta_rad is not None:
+        angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
+    pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
+    ocr = frame_ocr(pulse_us, hardware.tdm)
+    fall_ticks = falling_edge_ticks(ocr, hardware.tdm)
+    slot = np.asarray(hardware.tdm.channel_map.slot_index)
+    received_us = (fall_ticks - slot * SLOT_TICKS) * TICK_US  # what the servo measured
+    setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
+    substep = falling_edge_substeps(fall_ticks, steps_per_frame, timestep_s)
+    return FramePlan(
+        phase=phase,
+        angles=angles,
+        ocr=ocr,
+        setpoint=setpoint,
+        substep=substep,
+        saturated=saturated,
+        gamma_clamped=gamma_clamped,
+        guard=guard_violations(ocr, hardware.tdm),
+        motions=motions,
+    )
+
+
+def frame_steps(model: mujoco.MjModel) -> int:
+    """Physics steps per 20 ms frame; ValueError if the model's timestep does not divide it."""
+    timestep_s = float(model.opt.timestep)
+    steps = FRAME_S / timestep_s
+    if abs(steps - round(steps)) > 1e-9:
+        raise ValueError(f"model timestep {timestep_s} s must divide the 20 ms frame")
+    return round(steps)

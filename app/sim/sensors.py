@@ -1,0 +1,135 @@
+"""The sensors as the robot has them (docs/DESIGN.md §8, §15): an MPU-6050 class IMU on the trunk
+(gyro ±250 °/s, accelerometer ±2 g, quantised as the part quantises) and four force sensors under
+each sole (MuJoCo's touch rule, `fsr_forces`), read once per 20 ms frame with a variation's errors:
+the IMU's tilt, the gyro's bias and seeded noise, the IMU's delay, the force sensors' gain."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import mujoco
+import numpy as np
+from numpy.typing import NDArray
+
+from app.robots.model import RobotModel
+from app.worlds.variations import NOMINAL, Variation
+
+GRAVITY_M_S2 = 9.80665
+#: MPU-6050 at its most sensitive ranges: 131 counts per °/s (±250 °/s), 16384 per g (±2 g)
+GYRO_RAD_S_PER_COUNT = math.radians(1.0 / 131.0)
+ACCEL_M_S2_PER_COUNT = GRAVITY_M_S2 / 16384.0
+COUNT_RANGE = (-32768, 32767)  # a signed 16-bit register
+
+
+@dataclass(frozen=True)
+class SensorReading:
+    """What the robot's sensors report for one frame: the IMU in its own axes (x forward, y
+    left, z up when level) and each sole's four forces, left foot first, corners as
+    `app.robots.builder.FSR_CORNERS` (front-left, front-right, back-left, back-right)."""
+
+    gyro_rad_s: NDArray[np.float64]  # (3,)
+    accel_m_s2: NDArray[np.float64]  # (3,) specific force: +g up at rest
+    fsr_n: NDArray[np.float64]  # (2, 4)
+
+    def centre_of_pressure_m(self, positions_m: NDArray[np.float64]) -> NDArray[np.float64]:
+        """(2, 2) each sole's centre of pressure (x, y) from its sole centre, m, the force-
+        weighted mean of the sensor positions `positions_m` (4, 2); NaN for a foot that carries
+        nothing."""
+        total = self.fsr_n.sum(axis=1, keepdims=True)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            return np.where(total > 0.0, (self.fsr_n @ positions_m) / total, np.nan)
+
+
+def quantised(values: NDArray[np.float64], per_count: float) -> NDArray[np.float64]:
+    """`values` as the part reports them: whole counts of `per_count`, within 16 bits."""
+    counts = np.clip(np.round(np.asarray(values) / per_count), *COUNT_RANGE)
+    return counts * per_count
+
+
+def fsr_forces(robot: RobotModel, data: mujoco.MjData) -> NDArray[np.float64]:
+    """(2, 4) each force sensor's reading from `data` after a physics step: what a MuJoCo touch
+    sensor on its zone site reads, by MuJoCo's own rule -- the normal forces of the contacts of
+    the step that touch the foot, each counted where the ray from its point along its normal
+    (away from the foot) meets the zone. Computed only when read, so a run that reads no sensor
+    pays nothing for them (a touch sensor in the model costs every step)."""
+    model = robot.model
+    out = np.zeros((2, 4))
+    force = np.zeros(6)
+    ray = np.zeros(3)
+    for j in range(data.ncon):
+        contact = data.contact[j]
+        if contact.efc_address < 0:
+            continue
+        bodies = [int(model.geom_bodyid[g]) if g >= 0 else -1 for g in contact.geom]
+        for foot, body in enumerate(robot.foot_ids):
+            if body not in bodies:
+                continue
+            mujoco.mj_contactForce(model, data, j, force)
+            if force[0] <= 0.0:
+                continue
+            ray[:] = contact.frame[:3] * force[0]
+            mujoco.mju_normalize3(ray)
+            if body == bodies[1]:
+                ray *= -1.0
+            for k, site in enumerate(robot.fsr_sites[foot]):
+                hit = mujoco.mju_rayGeom(
+                    data.site_xpos[site], data.site_xmat[site], model.site_size[site],
+                    contact.pos, ray, int(model.site_type[site]),
+                )  # fmt: skip
+                if hit >= 0:
+                    out[foot, k] += force[0]
+    return out
+
+
+def mount_rotation(tilt_deg: float, direction_deg: float) -> NDArray[np.float64]:
+    """The IMU's axes in the trunk's, tilted by tilt_deg toward direction_deg (counter-clockwise
+    from the trunk's x axis): the IMU then reads as if the trunk leant that way (3, 3)."""
+    t, d = math.radians(tilt_deg), math.radians(direction_deg)
+    axis = np.array([-math.sin(d), math.cos(d), 0.0])  # direction 0: about y, a forward lean
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    return np.eye(3) + math.sin(t) * k + (1.0 - math.cos(t)) * (k @ k)
+
+
+class Sensors:
+    """One run's sensors on `robot` with `variation`'s errors. The gyro's noise comes from a
+    generator seeded by the variation (`Variation.noise_seed`): a run read anew from its start
+    reads the same bits, in any process."""
+
+    def __init__(self, robot: RobotModel, variation: Variation = NOMINAL) -> None:
+        v = variation
+        self.timestep_s = float(robot.model.opt.timestep)
+        self.delay_steps = round(v.imu_delay_ms * 1e-3 / self.timestep_s)
+        self._to_imu = mount_rotation(v.imu_tilt_bias_deg, v.imu_tilt_direction_deg).T
+        self._gyro_bias = math.radians(v.gyro_bias_deg_s)
+        self._gyro_noise = math.radians(v.gyro_noise_deg_s)
+        self._fsr_gain = v.fsr_gain
+        self._rng = np.random.Generator(np.random.PCG64(v.noise_seed))
+        self._gyro = slice(robot.gyro_adr, robot.gyro_adr + 3)
+        self._accel = slice(robot.accel_adr, robot.accel_adr + 3)
+        self._robot = robot
+
+    @property
+    def steps_needed(self) -> int:
+        """How many of the last physics steps' sensor rows `read` needs."""
+        return self.delay_steps + 1
+
+    def read(self, rows: NDArray[np.float64], data: mujoco.MjData) -> SensorReading:
+        """The reading after the last physics step, from `rows` (k, nsensordata), MuJoCo's
+        sensordata after each of the last k steps (k ≥ `steps_needed`), and `data` as that step
+        left it: the IMU as it was `delay_steps` steps before, the force sensors now. Draws the
+        gyro's noise of one reading."""
+        if len(rows) < self.steps_needed:
+            raise ValueError(
+                f"the IMU's delay needs the last {self.steps_needed} steps' sensor rows, got "
+                f"{len(rows)}"
+            )
+        imu = rows[-1 - self.delay_steps]
+        noise = self._rng.standard_normal(3) * self._gyro_noise
+        gyro = self._to_imu @ imu[self._gyro] + self._gyro_bias + noise
+        accel = self._to_imu @ imu[self._accel]
+        return SensorReading(
+            gyro_rad_s=quantised(gyro, GYRO_RAD_S_PER_COUNT),
+            accel_m_s2=quantised(accel, ACCEL_M_S2_PER_COUNT),
+            fsr_n=self._fsr_gain * fsr_forces(self._robot, data),
+        )

@@ -1,0 +1,54 @@
+"""The trunk's attitude from its IMU, as the firmware estimates it: pitch and roll from the
+accelerometer's specific force, fused with the integrated gyro by a complementary filter (a
+time constant per step). Pure numpy: float32 in, float32 out (docs/DESIGN.md §4)."""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+
+def accel_tilt(accel: NDArray[np.floating]) -> tuple[NDArray[np.floating], NDArray[np.floating]]:
+    """(pitch, roll), rad, of a body at rest whose accelerometer reads `accel` (..., 3), m/s²
+    (the specific force: +g up). ROS axes: pitch > 0 leans forward (nose down), roll > 0 lowers
+    the right side."""
+    a = np.asarray(accel)
+    ax, ay, az = a[..., 0], a[..., 1], a[..., 2]
+    pitch = np.arctan2(-ax, np.sqrt(ay * ay + az * az))
+    roll = np.arctan2(ay, az)
+    return pitch, roll
+
+
+def euler_rates(
+    pitch: NDArray[np.floating], roll: NDArray[np.floating], gyro: NDArray[np.floating]
+) -> tuple[NDArray[np.floating], NDArray[np.floating]]:
+    """d(pitch)/dt and d(roll)/dt of Z-Y-X Euler angles from body rates `gyro` (..., 3), rad/s."""
+    w = np.asarray(gyro)
+    wx, wy, wz = w[..., 0], w[..., 1], w[..., 2]
+    sin_r, cos_r = np.sin(roll), np.cos(roll)
+    pitch_rate = cos_r * wy - sin_r * wz
+    roll_rate = wx + np.tan(pitch) * (sin_r * wy + cos_r * wz)
+    return pitch_rate, roll_rate
+
+
+def complementary_step(
+    pitch: NDArray[np.floating],
+    roll: NDArray[np.floating],
+    gyro: NDArray[np.floating],
+    accel: NDArray[np.floating],
+    dt_s: float,
+    tau_s: float,
+) -> tuple[NDArray[np.floating], NDArray[np.floating]]:
+    """One step of the complementary filter: the last estimate advanced by the gyro's Euler
+    rates over dt_s, blended with the accelerometer's tilt, weight tau / (tau + dt) on the gyro
+    path: the accelerometer corrects slowly (time constant tau_s), the gyro carries the fast
+    motion. tau_s = 0 takes the accelerometer alone."""
+    dtype = np.result_type(pitch, gyro, accel)
+    keep = dtype.type(tau_s / (tau_s + dt_s))
+    dt = dtype.type(dt_s)
+    pitch_rate, roll_rate = euler_rates(pitch, roll, gyro)
+    acc_pitch, acc_roll = accel_tilt(accel)
+    one = dtype.type(1.0)
+    new_pitch = keep * (pitch + pitch_rate * dt) + (one - keep) * acc_pitch
+    new_roll = keep * (roll + roll_rate * dt) + (one - keep) * acc_roll
+    return new_pitch.astype(dtype), new_roll.astype(dtype)

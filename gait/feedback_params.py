@@ -1,0 +1,138 @@
+"""Parameters of the balance feedback on top of the open-loop gait (docs/DESIGN.md §4): the
+attitude estimate and each law -- tilt trim, yaw-rate loop, gyro damping, centre-of-pressure loop
+-- with its switch (all off: the open-loop gait to the bit) and gains. Part of the one schema."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from gait.schema_fields import check_ranges as _check_ranges
+from gait.schema_fields import switch as _switch
+from gait.schema_fields import tunable as _param
+
+
+@dataclass(frozen=True)
+class AttitudeParams:
+    """The complementary filter that estimates trunk pitch and roll from the IMU."""
+
+    tau_s: float = _param(
+        0.5, 0.05, 5.0, step=0.05, unit="s", eq="",
+        doc="time constant: the accelerometer corrects the integrated gyro this slowly",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class TiltParams:
+    """Tilt trim: the estimated pitch and roll against the tilt the motion is expected to have,
+    filtered, past a dead band, integrated and clamped, on the balance offsets of eqs (38)–(39)
+    (foot pitch; leg roll with the foot kept level)."""
+
+    enabled: bool = _switch("trim the balance offsets from the trunk's tilt", default=False)
+    pitch_offset_rad: float = _param(
+        0.0, -0.2, 0.2, step=0.002, unit="rad", eq="",
+        doc="expected trunk pitch on the spot (forward > 0): the stance's own lean",
+    )  # fmt: skip
+    pitch_per_a_p: float = _param(
+        0.0, -2.0, 2.0, step=0.01, unit="1", eq="",
+        doc="expected trunk pitch per unit a_p (leaning into the walk)",
+    )  # fmt: skip
+    roll_per_a_r: float = _param(
+        0.0, -2.0, 2.0, step=0.01, unit="1", eq="",
+        doc="expected trunk roll per unit a_r (stepping sideways)",
+    )  # fmt: skip
+    filter_s: float = _param(
+        0.5, 0.02, 5.0, step=0.02, unit="s", eq="",
+        doc="low-pass time constant of the tilt error (a gait cycle averages the sway out)",
+    )  # fmt: skip
+    deadband_rad: float = _param(
+        0.005, 0.0, 0.1, step=0.001, unit="rad", eq="", doc="errors within this are left alone"
+    )
+    ki_per_s: float = _param(
+        0.5, 0.0, 10.0, step=0.05, unit="1/s", eq="",
+        doc="integral gain: the trim grows by this times the error per second",
+    )  # fmt: skip
+    kp: float = _param(0.0, 0.0, 2.0, step=0.01, unit="1", eq="", doc="proportional gain")
+    clamp_rad: float = _param(
+        0.1, 0.0, 0.3, step=0.005, unit="rad", eq="", doc="largest trim, each of pitch and roll"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class YawRateParams:
+    """Yaw-rate loop: a_y and CA become turn-rate commands (CA's by eq (13) of seed 004), the
+    gyro closes the loop on a_y (PI)."""
+
+    enabled: bool = _switch("close the turn rate on a_y through the gyro", default=False)
+    turn_per_a_y: float = _param(
+        -1.0, -5.0, 0.0, step=0.01, unit="rad/s", eq="",
+        doc="turn rate commanded per unit a_y (a_y > 0 turns clockwise: < 0)",
+    )  # fmt: skip
+    speed_per_a_p: float = _param(
+        0.5, 0.0, 2.0, step=0.01, unit="m/s", eq="seed 004 (13)",
+        doc="walking speed V per unit a_p, for eq (13)'s rate -2 CA V / b",
+    )  # fmt: skip
+    axle_m: float = _param(
+        0.1, 0.02, 0.5, step=0.005, unit="m", eq="seed 004 (13)", doc="axle b of eq (13)"
+    )
+    filter_s: float = _param(
+        0.5, 0.02, 5.0, step=0.02, unit="s", eq="", doc="low-pass time constant of the rate error"
+    )
+    kp: float = _param(0.1, 0.0, 2.0, step=0.01, unit="s", eq="", doc="a_y per rad/s of error")
+    ki_per_s: float = _param(
+        0.2, 0.0, 10.0, step=0.01, unit="1", eq="", doc="integral gain: a_y per rad of error"
+    )
+    clamp: float = _param(
+        0.15, 0.0, 0.5, step=0.005, unit="rad", eq="", doc="largest change of a_y"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class DampingParams:
+    """Gyro damping: each ankle and hip joint moves against the trunk's rate (ROBOTIS OP3:
+    0.015–0.045 rad per rad/s; rUNSWift: ankle pitch += rate / 25)."""
+
+    enabled: bool = _switch("damp the trunk's rates at the ankles and hips", default=False)
+    ankle_pitch: float = _param(
+        0.02, 0.0, 0.2, step=0.001, unit="s", eq="", doc="ankle pitch per rad/s of pitch rate"
+    )
+    ankle_roll: float = _param(
+        0.02, 0.0, 0.2, step=0.001, unit="s", eq="", doc="ankle roll per rad/s of roll rate"
+    )
+    hip_pitch: float = _param(
+        0.0, 0.0, 0.2, step=0.001, unit="s", eq="", doc="hip pitch per rad/s of pitch rate"
+    )
+    hip_roll: float = _param(
+        0.0, 0.0, 0.2, step=0.001, unit="s", eq="", doc="hip roll per rad/s of roll rate"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class CopParams:
+    """Centre-of-pressure loop (seed 000 §6.B): the support foot's centre of pressure from its
+    four force sensors, PID toward the plate's centre on that foot's pitch and roll."""
+
+    enabled: bool = _switch("hold the support foot's centre of pressure at its centre", False)
+    kp: float = _param(0.5, 0.0, 10.0, step=0.05, unit="rad/m", eq="", doc="proportional gain")
+    ki_per_s: float = _param(0.0, 0.0, 50.0, step=0.1, unit="rad/m/s", eq="", doc="integral gain")
+    kd_s: float = _param(0.0, 0.0, 1.0, step=0.005, unit="rad·s/m", eq="", doc="derivative gain")
+    clamp_rad: float = _param(
+        0.05, 0.0, 0.2, step=0.005, unit="rad", eq="", doc="largest correction, pitch and roll"
+    )
+    min_load_n: float = _param(
+        1.0, 0.0, 20.0, step=0.1, unit="N", eq="", doc="a foot carries less: no centre of pressure"
+    )
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)
