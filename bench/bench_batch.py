@@ -36,6 +36,7 @@ repeat's ratio to the ceilings around it, the stages) to bench/results/<bench>.j
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import multiprocessing
 import multiprocessing.pool
 import os
@@ -53,6 +54,7 @@ from app.sim.planning import FRAME_S, frame_steps
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import NOMINAL
 from gait import GaitParams, Motion
+from gait.params import LAW_GROUPS
 
 CEILING_GOAL = 0.95  # end to end, of N raw processes at once
 CPU_GOAL = 0.9  # steps per CPU second, of raw's
@@ -182,6 +184,22 @@ def planning_alone_ms(jobs: list[Job], seconds: float) -> float:
     for job in jobs:
         evaluator._plan_run(job, frames, data)
     return 1e3 * (time.perf_counter() - start) / len(jobs)
+
+
+CLOSED_GOAL = 1.10  # a closed-loop run's CPU, of the same run's open loop
+
+
+def with_every_law(job: Job) -> Job:
+    """The job with every feedback law on at its default gains (the most a run can cost)."""
+    on = {g: dataclasses.replace(getattr(job.params, g), enabled=True) for g in LAW_GROUPS}
+    return dataclasses.replace(job, params=dataclasses.replace(job.params, **on))
+
+
+def cpu_s_per_sim_s(evaluator: BatchEvaluator, jobs: list[Job], seconds: float) -> float:
+    """CPU seconds of this process (every lane) per simulated second, over one call."""
+    start = time.process_time()
+    metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
+    return (time.process_time() - start) / sum(m["sim_s"] for m in metrics)
 
 
 def processes_steps_per_s(
@@ -342,7 +360,31 @@ def main() -> None:
             "then say how many cores were free, the per-CPU-second figures how efficient the "
             "batch is"
         )
+    # the closed loop: the varied walks with every law on against the same walks open loop,
+    # CPU per simulated second (a run that falls stops: per second keeps them comparable)
+    closed_jobs = [with_every_law(j) for j in kinds["varied"]]
+    ratios = []
+    for _ in range(args.repeats):
+        open_cpu = cpu_s_per_sim_s(evaluators["varied"], kinds["varied"], args.seconds)
+        closed_cpu = cpu_s_per_sim_s(evaluators["varied"], closed_jobs, args.seconds)
+        ratios.append(closed_cpu / open_cpu)
+    figures["closed_loop"] = {
+        "laws": list(LAW_GROUPS),
+        "open_cpu_s_per_sim_s": open_cpu,
+        "closed_cpu_s_per_sim_s": closed_cpu,
+        "of_open": statistics.median(ratios),
+        "of_open_repeats": sorted(ratios),
+        "goal_of_open_max": CLOSED_GOAL,
+    }
+    print(
+        f"closed loop, varied, every law on: {closed_cpu:.4f} CPU s per simulated s against "
+        f"{open_cpu:.4f} open = {statistics.median(ratios):.2f} of the open loop (goal ≤ "
+        f"{CLOSED_GOAL})"
+    )
     headline = {}
+    headline[f"closed loop: CPU of the open loop's (goal ≤ {CLOSED_GOAL})"] = statistics.median(
+        ratios
+    )
     for kind, k in figures["kinds"].items():
         headline[f"{kind}: batch end to end, of the ceiling (goal ≥ {CEILING_GOAL})"] = k["batch"][
             "of_ceiling"

@@ -11,14 +11,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from gait.attitude import accel_tilt, complementary_step
-from gait.feedback_params import (
-    AttitudeParams,
-    CopParams,
-    DampingParams,
-    TiltParams,
-    YawRateParams,
-)
-from gait.params import Motion
+from gait.feedback_params import TiltParams, YawRateParams
+from gait.params import LAW_GROUPS, GaitParams, Motion
 
 F32 = np.float32
 #: joint indices in `gait.JOINT_NAMES` order, per leg (left, right)
@@ -26,22 +20,9 @@ HIP_ROLL, HIP_PITCH, ANKLE_PITCH, ANKLE_ROLL = (1, 7), (2, 8), (4, 10), (5, 11)
 OUTWARD = np.array([1.0, -1.0], dtype=F32)  # +y is outward for the left foot, inward for the right
 
 
-@dataclass(frozen=True)
-class Laws:
-    """The parameter groups of the laws (fields of the one schema)."""
-
-    attitude: AttitudeParams = field(default_factory=AttitudeParams)
-    tilt: TiltParams = field(default_factory=TiltParams)
-    yaw_rate: YawRateParams = field(default_factory=YawRateParams)
-    damping: DampingParams = field(default_factory=DampingParams)
-    cop: CopParams = field(default_factory=CopParams)
-
-    @property
-    def any_enabled(self) -> bool:
-        """False: the open-loop gait, to the bit."""
-        return (
-            self.tilt.enabled or self.yaw_rate.enabled or self.damping.enabled or (self.cop.enabled)
-        )
+def any_law_on(params: GaitParams) -> bool:
+    """False: the open-loop gait, to the bit."""
+    return any(getattr(params, group).enabled for group in LAW_GROUPS)
 
 
 @dataclass(frozen=True)
@@ -120,14 +101,15 @@ def support_cop(
 
 
 def step(
-    laws: Laws,
+    laws: GaitParams,
     state: State,
     reading: Reading,
     motion: Motion,
     fsr_positions_m: NDArray[np.float32],
     dt_s: float,
 ) -> tuple[State, Output]:
-    """One frame of every law that is on, from `reading` and the motion the gait gets.
+    """One frame of every law that is on (the feedback groups of `laws`), from `reading` and
+    the motion the gait gets.
 
     Attitude: the complementary filter (started from the accelerometer's tilt). Tilt trim: the
     tilt error (estimate - `expected_tilt`), low-passed, past the dead band, integrated (ki) plus

@@ -11,6 +11,13 @@ from collections.abc import Iterable, Iterator, Mapping
 from dataclasses import dataclass, field, fields
 from typing import Any
 
+from gait.feedback_params import (
+    AttitudeParams,
+    CopParams,
+    DampingParams,
+    TiltParams,
+    YawRateParams,
+)
 from gait.motion_params import RampParams, SteerParams
 from gait.pfs_params import PfsParams
 from gait.schema_fields import GROUP_KEYS
@@ -215,8 +222,9 @@ class GaitParams:
     attributes below.
 
     `engine` names the gait engine that turns these into joint angles (one of ENGINES): `behnke`
-    uses the walking-phase groups of seed 000, `pfs` the `pfs` group; `clock`, `steer` and `ramp`
-    serve both (`engine_groups`).
+    uses the walking-phase groups of seed 000, `pfs` the `pfs` group; `clock`, `steer`, `ramp` and
+    the feedback groups (`FEEDBACK_GROUPS`: the laws, all off by default) serve both
+    (`engine_groups`).
     """
 
     engine: str = field(
@@ -238,6 +246,11 @@ class GaitParams:
     steer: SteerParams = field(default_factory=SteerParams)
     ramp: RampParams = field(default_factory=RampParams)
     pfs: PfsParams = field(default_factory=PfsParams)
+    attitude: AttitudeParams = field(default_factory=AttitudeParams)
+    tilt: TiltParams = field(default_factory=TiltParams)
+    yaw_rate: YawRateParams = field(default_factory=YawRateParams)
+    damping: DampingParams = field(default_factory=DampingParams)
+    cop: CopParams = field(default_factory=CopParams)
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
@@ -274,12 +287,21 @@ _GROUP_CLASSES = {
     "steer": SteerParams,
     "ramp": RampParams,
     "pfs": PfsParams,
+    "attitude": AttitudeParams,
+    "tilt": TiltParams,
+    "yaw_rate": YawRateParams,
+    "damping": DampingParams,
+    "cop": CopParams,
 }
 GROUP_KEYS.update({cls.__name__: key for key, cls in _GROUP_CLASSES.items()})  # for errors
 #: Every parameter group, in schema order (the fields of GaitParams but `engine`).
 GROUP_NAMES: tuple[str, ...] = tuple(_GROUP_CLASSES)
 #: Groups every engine uses.
-COMMON_GROUPS = ("clock", "steer", "ramp")
+#: the balance feedback on top of either engine (docs/DESIGN.md §15): the laws, each with its
+#: switch, and the attitude estimate they share
+LAW_GROUPS = ("tilt", "yaw_rate", "damping", "cop")
+FEEDBACK_GROUPS = ("attitude", *LAW_GROUPS)
+COMMON_GROUPS = ("clock", "steer", "ramp", *FEEDBACK_GROUPS)
 _ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg"), "pfs": ("pfs",)}
 
 

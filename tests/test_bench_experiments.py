@@ -131,6 +131,10 @@ def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs(tmp_
         assert 0 < batch["lanes_busy_pct"] <= 100
         assert 0 < kind["processes"]["of_ceiling"] < 2
         assert kind["walks"] == 2 and 0 <= kind["falls"] <= 2
+    closed = doc["figures"]["closed_loop"]  # the closed loop's cost against the open loop
+    assert closed["laws"] == ["tilt", "yaw_rate", "damping", "cop"]
+    assert closed["closed_cpu_s_per_sim_s"] > 0 and closed["open_cpu_s_per_sim_s"] > 0
+    assert 0.5 < closed["of_open"] < 50 and len(closed["of_open_repeats"]) == 1
 
 
 def test_bench_rollout_threads_compares_rollout_alone_with_raw_processes(tmp_path):

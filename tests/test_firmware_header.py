@@ -157,3 +157,17 @@ def test_c_float_flushes_what_float32_cannot_hold() -> None:
     """1e-300 is a valid schema value (0..x); as float32 it is 0, and the literal says so."""
     assert c_float(1e-300) == "0.0f" and c_float(-1e-300) == "0.0f"
     assert c_float(1e-40) == "1e-40f"  # a float32 subnormal stays as written
+
+
+@pytest.mark.parametrize("law", ["tilt", "yaw_rate", "damping", "cop"])
+def test_a_set_with_a_feedback_law_on_builds_no_firmware(law):
+    """The firmware runs the open-loop gait only (docs/DESIGN.md §15): a set that switches a
+    law on is refused before any header is written, naming the law; off, the laws' gains are
+    no id of the firmware's table."""
+    from app.firmware.build import generated_headers
+    from hardware.firmware.schema import param_specs
+
+    with pytest.raises(ValueError, match=rf"feedback laws \['{law}'\]"):
+        generated_headers({"gait": {law: {"enabled": True}}})
+    assert generated_headers({"gait": {law: {"enabled": False}}})
+    assert not [s for s in param_specs() if s.group == law]

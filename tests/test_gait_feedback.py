@@ -10,15 +10,15 @@ import math
 import numpy as np
 import pytest
 
-from gait import Motion
+from gait import GaitParams, Motion
 from gait.feedback import (
     ANKLE_PITCH,
     ANKLE_ROLL,
     HIP_PITCH,
     HIP_ROLL,
-    Laws,
     Reading,
     State,
+    any_law_on,
     commanded_turn_rate,
     expected_tilt,
     step,
@@ -44,7 +44,7 @@ def leaning(pitch: float = 0.0, roll: float = 0.0, gyro=(0.0, 0.0, 0.0), fsr=Non
     return Reading(np.array(gyro, F32), np.array(accel, F32), np.array(forces, F32))
 
 
-def run(laws: Laws, reading: Reading, frames: int, motion: Motion | None = None):
+def run(laws: GaitParams, reading: Reading, frames: int, motion: Motion | None = None):
     motion = motion or Motion()
     state, out = State(), None
     for _ in range(frames):
@@ -53,14 +53,14 @@ def run(laws: Laws, reading: Reading, frames: int, motion: Motion | None = None)
 
 
 def test_every_law_off_corrects_nothing_but_the_attitude_is_still_estimated():
-    state, out = run(Laws(), leaning(pitch=0.1, gyro=(0.3, -0.2, 0.5)), 3)
-    assert not Laws().any_enabled
+    state, out = run(GaitParams(), leaning(pitch=0.1, gyro=(0.3, -0.2, 0.5)), 3)
+    assert not any_law_on(GaitParams())
     assert not out.joint_delta_rad.any() and out.a_y_delta == 0.0
     assert state.started and state.pitch_rad != 0.0
 
 
 def test_the_first_reading_starts_the_attitude_at_the_accelerometers_tilt():
-    state, _ = run(Laws(), leaning(pitch=0.1, roll=-0.05), 1)
+    state, _ = run(GaitParams(), leaning(pitch=0.1, roll=-0.05), 1)
     assert state.pitch_rad == pytest.approx(0.1, abs=1e-6)
     assert state.roll_rad == pytest.approx(-0.05, abs=1e-6)
 
@@ -70,7 +70,7 @@ def test_tilt_trim_by_hand():
     dt / (tau + dt) of it per frame, the dead band 0.005 takes its share, ki 0.5 integrates."""
     tilt = TiltParams(enabled=True, pitch_offset_rad=0.02, filter_s=0.5, deadband_rad=0.005,
                       ki_per_s=0.5, kp=0.2, clamp_rad=0.1)  # fmt: skip
-    laws = Laws(tilt=tilt)
+    laws = GaitParams(tilt=tilt)
     state, out = run(laws, leaning(pitch=0.05), 1)
     filtered = 0.03 * DT / (0.5 + DT)
     assert state.tilt_error[0] == pytest.approx(filtered, rel=1e-5)
@@ -88,7 +88,7 @@ def test_tilt_trim_by_hand():
 
 
 def test_tilt_trim_rolls_the_hips_against_a_lean_and_stops_at_its_clamp():
-    laws = Laws(tilt=TiltParams(enabled=True, ki_per_s=5.0, kp=1.0, clamp_rad=0.04))
+    laws = GaitParams(tilt=TiltParams(enabled=True, ki_per_s=5.0, kp=1.0, clamp_rad=0.04))
     state, out = run(laws, leaning(roll=0.1), 400)  # leaning right (roll > 0)
     assert out.tilt_rad[1] == pytest.approx(0.04)  # clamped
     assert state.tilt_integral[1] == pytest.approx(0.04)  # no wind-up beyond the clamp
@@ -109,7 +109,7 @@ def test_yaw_rate_loop_by_hand():
     motion = Motion(a_p=0.07, ca=0.1)
     want = -2.0 * 0.1 * (0.5 * 0.07) / 0.1  # eq (13): -0.07 rad/s, clockwise
     assert commanded_turn_rate(yaw, motion) == pytest.approx(want)
-    state, out = run(Laws(yaw_rate=yaw), leaning(gyro=(0.0, 0.0, 0.0)), 1, motion)
+    state, out = run(GaitParams(yaw_rate=yaw), leaning(gyro=(0.0, 0.0, 0.0)), 1, motion)
     error = want - 0.0
     filtered = error * DT / (0.02 + DT)
     integral = 0.2 * DT * filtered
@@ -122,7 +122,7 @@ def test_yaw_rate_loop_by_hand():
 def test_gyro_damping_by_hand():
     damping = DampingParams(enabled=True, ankle_pitch=0.02, ankle_roll=0.03, hip_pitch=0.01,
                             hip_roll=0.04)  # fmt: skip
-    _, out = run(Laws(damping=damping), leaning(gyro=(0.5, -1.0, 2.0)), 1)
+    _, out = run(GaitParams(damping=damping), leaning(gyro=(0.5, -1.0, 2.0)), 1)
     d = out.joint_delta_rad
     np.testing.assert_allclose(d[list(ANKLE_PITCH)], [0.02, 0.02], rtol=1e-6)  # pitching back
     np.testing.assert_allclose(d[list(HIP_PITCH)], [0.01, 0.01], rtol=1e-6)
@@ -142,7 +142,7 @@ def test_the_support_foots_centre_of_pressure():
 def test_cop_loop_by_hand():
     cop = CopParams(enabled=True, kp=0.5, ki_per_s=2.0, kd_s=0.01, clamp_rad=0.05)
     forces = np.array([[3.0, 3.0, 1.0, 1.0], [0.0, 0.0, 0.0, 0.0]], F32)  # left toes
-    _, out = run(Laws(cop=cop), leaning(fsr=forces), 1)
+    _, out = run(GaitParams(cop=cop), leaning(fsr=forces), 1)
     x = (3 * 0.03 + 3 * 0.03 - 0.03 - 0.03) / 8  # 0.015 m forward
     want = 0.5 * x + 2.0 * DT * x + 0.01 * x / DT
     assert out.support == 0
@@ -152,7 +152,7 @@ def test_cop_loop_by_hand():
 
 
 def test_the_laws_compute_in_float32():
-    laws = Laws(
+    laws = GaitParams(
         tilt=TiltParams(enabled=True, kp=0.5),
         yaw_rate=YawRateParams(enabled=True),
         damping=DampingParams(enabled=True),

@@ -88,3 +88,27 @@ def test_dry_run_prints_the_messages_and_switches_off(tmp_path):
     assert kinds == ["PING", "SET_PARAMS", "START", "TORQUE_OFF"]
     with pytest.raises(ValueError, match="--port is needed"):
         cmd_link(argparse.Namespace(dry_run=False, port=None, baud=57600), io.StringIO())
+
+
+def test_a_set_with_a_feedback_law_on_is_refused_before_anything_is_sent():
+    """The firmware runs the open-loop gait only: sending laws it ignores would mislead."""
+    written: list[bytes] = []
+
+    class Recording:
+        def write(self, data: bytes) -> int:
+            written.append(data)
+            return len(data)
+
+        def read(self, size: int = 1) -> bytes:
+            return b""
+
+        def close(self) -> None:
+            pass
+
+    robot = RobotLink(SerialLink(Recording(), timeout_s=0.05), dry_run=True)
+    doc = {"motion": {"a_p": 0.07}, "gait": {"tilt": {"enabled": True}}}
+    with pytest.raises(LinkError, match=r"feedback laws \['tilt'\].*open-loop gait only"):
+        robot.send_set(doc)
+    assert written == []
+    robot.send_set({"motion": {"a_p": 0.07}, "gait": {"tilt": {"enabled": False}}})
+    assert len(written) == 1

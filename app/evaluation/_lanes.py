@@ -13,7 +13,6 @@ import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import mujoco
@@ -21,40 +20,25 @@ import numpy as np
 from mujoco import rollout
 
 from app.evaluation._api import Cancelled, Job, OnResult, Progress
+from app.evaluation._frames import (
+    STATE_SPEC,
+    Push,
+    Start,
+    roll_out_closed,
+    start_at_rest,
+    step_by_hand,
+)
 from app.robots.model import RobotModel
-from app.sim.frame_loop import has_fallen, planar_distance_m, stand, trunk_yaws
+from app.sim.frame_loop import has_fallen, planar_distance_m, trunk_yaws
 from app.sim.metrics import RunMetrics, Trace, compute_metrics
-from app.sim.planning import FRAME_S, START_PHASE_RAD, FramePlan, frame_steps, plan_frames
+from app.sim.planning import FRAME_S, FramePlan, frame_steps, plan_frames
 from app.worlds.servo_path import acting_setpoints
 from app.worlds.variations import NOMINAL, Variation, varied_robot
-from gait import GaitParams, Motion
+from gait import feedback
 
-STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
 #: a run rolls out this many frames per `rollout` call and stops after the call it fell in
 SEGMENT_FRAMES = 50
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
-
-
-@dataclass(frozen=True)
-class Start:
-    """A run's initial physics state and set-points, and the standing height for the fall test."""
-
-    state: np.ndarray
-    ctrl: np.ndarray
-    phase: float
-    standing_height_m: float
-
-
-def start_at_rest(
-    robot: RobotModel, data: mujoco.MjData, params: GaitParams, motion: Motion
-) -> Start:
-    """The rollout start of a run, as `FrameLoop(robot, params, start_motion=motion)` stands
-    after its reset, made in `data` (which it overwrites)."""
-    phase = float(START_PHASE_RAD)
-    stand(robot, data, params, motion, phase)
-    state = np.empty(mujoco.mj_stateSize(robot.model, STATE_SPEC))
-    mujoco.mj_getState(robot.model, data, state, STATE_SPEC)
-    return Start(state, data.ctrl.copy(), phase, float(data.qpos[2]))
 
 
 def control_sequence(
@@ -220,16 +204,26 @@ class BatchEvaluator:
 
     def _run(self, job: Job, n_frames: int, warmup_s: float) -> tuple[RunMetrics, Trace]:
         """One run in a lane: plan (standing it in the lane's MjData), roll out into the lane's
-        kept arrays, measure."""
+        kept arrays, measure; with a feedback law on, frame by frame (`roll_out_closed`)."""
         kit = self._kits.get()
         try:
             t0 = time.perf_counter()
-            robot, start, control = self._plan_run(job, n_frames, kit.data)
-            t1 = time.perf_counter()
-            state_out, sensor_out = kit.output(control.shape[0])
-            frames = self._roll_out(
-                kit.rollout, robot, kit.data, start, control, state_out, sensor_out
-            )
+            if feedback.any_law_on(job.params):
+                robot, start = self._standing(job, kit.data)
+                t1 = time.perf_counter()
+                state_out, sensor_out = kit.output(n_frames * self.steps_per_frame)
+                frames = roll_out_closed(
+                    kit.rollout, robot, kit.data, job, start, n_frames, self.steps_per_frame,
+                    state_out, sensor_out, lambda f: self._fell_or_blew_up(state_out[0], start, f),
+                )  # fmt: skip
+            else:
+                robot, start, control = self._plan_run(job, n_frames, kit.data)
+                t1 = time.perf_counter()
+                state_out, sensor_out = kit.output(control.shape[0])
+                frames = self._roll_out(
+                    kit.rollout, robot, kit.data, start, control, state_out, sensor_out,
+                    Push(robot, job),
+                )  # fmt: skip
             t2 = time.perf_counter()
             metrics, trace = self._measure(
                 state_out[0], sensor_out[0], start, job, frames, warmup_s
@@ -255,28 +249,44 @@ class BatchEvaluator:
         control: np.ndarray,
         state_out: np.ndarray,
         sensor_out: np.ndarray,
+        push: Push,
     ) -> int:
         """Roll the run out in calls of `SEGMENT_FRAMES` frames, each from the last one's state
         and solver warm start (the same bits as one call), until a call's frames show a fall or
-        a blow-up: the frames after it are never measured. Returns the frames rolled out."""
+        a blow-up: the frames after it are never measured. The frame with a push is stepped by
+        hand (`step_by_hand`). Returns the frames rolled out."""
         model, steps = robot.model, self.steps_per_frame
         n_frames = control.shape[0] // steps
         _check_rollout_arrays(model, start, control, state_out, sensor_out)
         done, initial, warmstart = 0, start.state[None, :], None
+        push_frame = push.step // steps if push.step >= 0 else -1
         while done < n_frames:
             frames = min(SEGMENT_FRAMES, n_frames - done)
+            if done == push_frame:
+                frames = 1  # by hand
+            elif done < push_frame < done + frames:
+                frames = push_frame - done  # up to the push's frame
             part = slice(done * steps, (done + frames) * steps)
-            runner.rollout(
-                [model], [data], initial, control[None, part], initial_warmstart=warmstart,
-                state=state_out[:, part], sensordata=sensor_out[:, part], nstep=frames * steps,
-                skip_checks=True,  # checked once above, in Python: ~20 us a call less
-            )  # fmt: skip
+            if done == push_frame:
+                step_by_hand(
+                    robot, data, control[part], part.start, push, state_out[0], sensor_out[0]
+                )
+            else:
+                runner.rollout(
+                    [model], [data], initial, control[None, part], initial_warmstart=warmstart,
+                    state=state_out[:, part], sensordata=sensor_out[:, part],
+                    nstep=frames * steps, skip_checks=True,  # checked once above: ~20 us less
+                )  # fmt: skip
             ends = self._frame_ends(state_out[0], start, done, done + frames)
             done += frames
             if ends.bad.any() or ends.down.any():
                 break
             initial, warmstart = state_out[:, part.stop - 1], data.qacc_warmstart[None].copy()
         return done
+
+    def _fell_or_blew_up(self, states: np.ndarray, start: Start, frame: int) -> bool:
+        ends = self._frame_ends(states, start, frame, frame + 1)
+        return bool(ends.bad[0] or ends.down[0])
 
     def _frame_ends(self, states: np.ndarray, start: Start, first: int, end: int) -> _FrameEnds:
         """Frames first..end-1 of a run as `FrameLoop` checks them after each frame: the state
@@ -299,13 +309,18 @@ class BatchEvaluator:
                 self._varied_cache[variation] = varied_robot(self.robot, variation)
             return self._varied_cache[variation]
 
+    def _standing(self, job: Job, data: mujoco.MjData) -> tuple[RobotModel, Start]:
+        """A run's (varied) robot and its start, made in `data`."""
+        robot = self._varied(job.variation)
+        start_motion = job.motion if job.start_motion is None else job.start_motion
+        return robot, start_at_rest(robot, data, job.params, start_motion)
+
     def _plan_run(
         self, job: Job, n_frames: int, data: mujoco.MjData
     ) -> tuple[RobotModel, Start, np.ndarray]:
         """A run's (varied) robot, its start (made in `data`), and the control of every step."""
-        robot = self._varied(job.variation)
+        robot, start = self._standing(job, data)
         start_motion = job.motion if job.start_motion is None else job.start_motion
-        start = start_at_rest(robot, data, job.params, start_motion)
         plan = plan_frames(
             job.params,
             job.motion,

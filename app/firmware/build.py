@@ -17,6 +17,7 @@ from typing import Any
 import hardware.firmware as firmware_package
 from app.robots.model import RobotModel
 from gait import ARTRO_LEG, LegGeometry
+from gait.params import LAW_GROUPS
 from hardware import ChannelMap, ServoCalibration, TdmConfig
 from hardware.firmware import HEADER_NAME, c_header
 from hardware.firmware.schema import (
@@ -77,13 +78,20 @@ def generated_headers(
     geometry: LegGeometry = ARTRO_LEG,
 ) -> dict[str, str]:
     """{file name: text} of the two generated headers for a parameter-set document (fields left
-    out take the schema's defaults); ValueError if it names an engine the firmware does not run."""
+    out take the schema's defaults); ValueError if it names an engine the firmware does not run
+    or switches on a feedback law (the firmware runs none yet)."""
     tdm = tdm or TdmConfig()
     full = complete_document(doc)  # a define for every id of artro_schema.h
     if full["gait"]["engine"] != FIRMWARE_ENGINE:
         raise ValueError(
             f"the firmware runs the {FIRMWARE_ENGINE} gait engine; this parameter set names "
             f"{full['gait']['engine']!r} (docs/DESIGN.md §4)"
+        )
+    laws = [g for g in LAW_GROUPS if full["gait"][g]["enabled"]]
+    if laws:
+        raise ValueError(
+            f"the firmware runs the open-loop gait; this parameter set switches on the feedback "
+            f"laws {laws}, which it would ignore: switch them off (docs/DESIGN.md §15)"
         )
     params_h = c_header(
         full,

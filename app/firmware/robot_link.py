@@ -14,6 +14,7 @@ import httpx
 from app.firmware import protocol as proto
 from app.firmware.link import SerialLink
 from app.params.document import ParameterSet
+from gait.params import LAW_GROUPS
 from hardware.firmware.schema import FIRMWARE_ENGINE, schema_hash, values_from_document
 
 DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 %
@@ -89,6 +90,12 @@ class RobotLink:
             raise LinkError(
                 f"the set{tag} names the {engine!r} gait engine; the robot's firmware runs only "
                 f"{FIRMWARE_ENGINE!r} and would refuse it: choose engine {FIRMWARE_ENGINE}"
+            )
+        laws = [g for g in LAW_GROUPS if doc.get("gait", {}).get(g, {}).get("enabled")]
+        if laws:
+            raise LinkError(
+                f"the set switches on the feedback laws {laws}; the robot's firmware runs the "
+                f"open-loop gait only (docs/DESIGN.md §15): switch them off to send it"
             )
         ack = self.expect(proto.set_params(values_from_document(doc)), "parameter set")
         frame = ack.effective_frame if isinstance(ack, proto.Ack) else None

@@ -35,6 +35,11 @@ GROUP_TITLES = {
     "steer": "Steering (CA)",
     "ramp": "Motion ramp",
     "pfs": "PFS oscillators",
+    "attitude": "Attitude estimate",
+    "tilt": "Feedback: tilt trim",
+    "yaw_rate": "Feedback: yaw rate",
+    "damping": "Feedback: gyro damping",
+    "cop": "Feedback: centre of pressure",
 }
 
 # forbid unknown fields, NaN and inf, and take no strings for numbers

@@ -15,8 +15,8 @@ from app.sim.frame_loop import PinFrame
 from app.sim.planning import FRAME_S
 from gait import ARTRO_LEG, LegGeometry, ramp_motion
 from hardware import HardwareSetup
+from hardware.firmware.schema import FIRMWARE_ENGINE
 
-FIRMWARE_ENGINE = "behnke"
 BUSY_BUDGET_CYCLES = 80_000  # 25 % of the 320 000-cycle frame (docs/DESIGN.md §5)
 BUSY_WINDOW_FRAMES = 50
 

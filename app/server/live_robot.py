@@ -13,7 +13,7 @@ import mujoco
 
 from app.firmware.emulator import EmulatorError
 from app.robots.model import RobotModel
-from app.server.emulated_controller import FIRMWARE_ENGINE, EmulatedController, FirmwareStatus
+from app.server.emulated_controller import EmulatedController, FirmwareStatus
 from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.param_store import Snapshot
 from app.server.recorder import Recorder
@@ -21,6 +21,7 @@ from app.server.sim_commands import SwitchDrive
 from app.sim.frame_loop import FrameLoop, FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
 from hardware import HardwareSetup
+from hardware.firmware.schema import FIRMWARE_ENGINE
 
 LATENCY_KEPT = 100  # changes whose latency the status summarises
 

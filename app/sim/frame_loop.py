@@ -165,10 +165,8 @@ class FrameLoop:
         block_frames: int = 50,
         start_motion: Motion | None = None,
         variation: Variation = NOMINAL,
-        laws: feedback.Laws | None = None,
     ) -> None:
         self.nominal_robot = robot or RobotModel.load()
-        self.laws = laws or feedback.Laws()
         self.variation = variation
         self.robot = _varied(self.nominal_robot, variation)
         self.model = self.robot.model
@@ -207,11 +205,7 @@ class FrameLoop:
         self.sensors = Sensors(self.robot, self.variation)
         self._rows = deque([self.data.sensordata.copy()], maxlen=self.sensors.steps_needed)
         self._rows.extend([self._rows[0]] * (self.sensors.steps_needed - 1))
-        force = self.variation.push_n_s / self.timestep_s
-        direction = math.radians(self.variation.push_direction_deg)
-        self._push_force = (force * math.cos(direction), force * math.sin(direction), 0.0)
-        first = math.ceil(self.variation.push_time_s / self.timestep_s - 1e-9)
-        self._push_step = first if self.variation.push_n_s > 0.0 else -1
+        self._push_step, self._push_force = self.variation.push(self.timestep_s)
 
     def _new_path(self, setpoint: NDArray[np.float64]) -> None:
         """The set-points sent so far end at `setpoint`; a varied robot's servos act on them
@@ -228,11 +222,6 @@ class FrameLoop:
         self.model = self.robot.model
         self._new_path(self._sent)
         self._new_sensors()
-
-    def set_laws(self, laws: feedback.Laws) -> None:
-        """Other feedback laws from the next frame on; their filters and integrals carry over
-        (a law switched on starts from where its state was left)."""
-        self.laws = laws
 
     def set_gait(self, params: GaitParams | None = None, motion: Motion | None = None) -> None:
         """New parameters or motion vector: they reach the servos from the next frame on, a new
@@ -255,25 +244,34 @@ class FrameLoop:
 
     def step_frame(self) -> FrameRecord:
         """Simulate the next 20 ms frame; returns its record. Sets `fell` / `blew_up` when so.
-        With a feedback law on, the frame is planned alone, after the laws have read the
-        sensors (docs/DESIGN.md §4)."""
-        if self.laws.any_enabled:
+        With a feedback law on (`params`), the frame is planned alone, after the laws have
+        read the sensors (docs/DESIGN.md §15); their state carries over a change of laws."""
+        if feedback.any_law_on(self.params):
             return self._step_closed_loop()
         plan = self._plan
         if plan is None or plan.next_index >= len(plan):
-            plan = self._plan = plan_frames(
-                self.params,
-                self.motion,
-                self.hardware,
-                self.phase,
-                self.block_frames,
-                self.steps_per_frame,
-                self.timestep_s,
-                motion_now=self.motion_now,
-                frame0=self.frame_index - self.engine_start_frame,
-                geometry=self.robot.geometry,
-            )
+            plan = self._plan = self._plan_from_here(self.block_frames)
         return self._step_planned(plan)
+
+    def _plan_from_here(
+        self, n_frames: int, correction: feedback.Output | None = None
+    ) -> FramePlan:
+        """The next `n_frames` frames planned from the loop's phase and motion, with the laws'
+        corrections when given."""
+        return plan_frames(
+            self.params,
+            self.motion,
+            self.hardware,
+            self.phase,
+            n_frames,
+            self.steps_per_frame,
+            self.timestep_s,
+            motion_now=self.motion_now,
+            frame0=self.frame_index - self.engine_start_frame,
+            geometry=self.robot.geometry,
+            joint_delta_rad=None if correction is None else correction.joint_delta_rad,
+            a_y_delta=0.0 if correction is None else float(correction.a_y_delta),
+        )
 
     def _step_planned(self, plan: FramePlan) -> FrameRecord:
         """The plan's next frame through the servos and the physics."""
@@ -303,27 +301,14 @@ class FrameLoop:
         """Sensors -> laws -> a plan of this one frame with their corrections -> physics."""
         reading = self.sensors.read(np.array(self._rows), self.data)
         self._law_state, out = feedback.step(
-            self.laws,
+            self.params,
             self._law_state,
             law_reading(reading),
             self.motion_now,
             self.fsr_positions_m,
             FRAME_S,
         )
-        self._plan = plan_frames(
-            self.params,
-            self.motion,
-            self.hardware,
-            self.phase,
-            1,
-            self.steps_per_frame,
-            self.timestep_s,
-            motion_now=self.motion_now,
-            frame0=self.frame_index - self.engine_start_frame,
-            geometry=self.robot.geometry,
-            joint_delta_rad=out.joint_delta_rad,
-            a_y_delta=float(out.a_y_delta),
-        )
+        self._plan = self._plan_from_here(1, out)
         record = self._step_planned(self._plan)
         self._plan = None  # the next frame is planned after the next reading
         return dataclasses.replace(record, reading=reading, feedback=out)
@@ -413,7 +398,7 @@ class FrameLoop:
         first = self.steps_done
         self.steps_done += n
         push_here = first <= self._push_step < self.steps_done
-        if not (self.laws.any_enabled or push_here):
+        if not (feedback.any_law_on(self.params) or push_here):
             mujoco.mj_step(self.model, self.data, n)
             return
         data, trunk = self.data, self.robot.trunk_id

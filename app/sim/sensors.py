@@ -114,11 +114,14 @@ class Sensors:
         """How many of the last physics steps' sensor rows `read` needs."""
         return self.delay_steps + 1
 
-    def read(self, rows: NDArray[np.float64], data: mujoco.MjData) -> SensorReading:
+    def read(
+        self, rows: NDArray[np.float64], data: mujoco.MjData, *, forces: bool = True
+    ) -> SensorReading:
         """The reading after the last physics step, from `rows` (k, nsensordata), MuJoCo's
         sensordata after each of the last k steps (k ≥ `steps_needed`), and `data` as that step
-        left it: the IMU as it was `delay_steps` steps before, the force sensors now. Draws the
-        gyro's noise of one reading."""
+        left it: the IMU as it was `delay_steps` steps before, the force sensors now (zeros
+        unless `forces`: a reader that needs none spares their cost). Draws the gyro's noise of
+        one reading."""
         if len(rows) < self.steps_needed:
             raise ValueError(
                 f"the IMU's delay needs the last {self.steps_needed} steps' sensor rows, got "
@@ -131,5 +134,5 @@ class Sensors:
         return SensorReading(
             gyro_rad_s=quantised(gyro, GYRO_RAD_S_PER_COUNT),
             accel_m_s2=quantised(accel, ACCEL_M_S2_PER_COUNT),
-            fsr_n=self._fsr_gain * fsr_forces(self._robot, data),
+            fsr_n=self._fsr_gain * fsr_forces(self._robot, data) if forces else np.zeros((2, 4)),
         )

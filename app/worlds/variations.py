@@ -180,6 +180,16 @@ class Variation:
         and the servos' set-points depart by (the same varied model serves both)."""
         return dataclasses.replace(self, **{f: _DEFAULTS[f] for f in SENSOR_FIELDS})
 
+    def push(self, timestep_s: float) -> tuple[int, tuple[float, float, float]]:
+        """The push as a simulation applies it: the physics step it acts in (the first that
+        starts at or after push_time_s; -1 without a push) and the force on the trunk in that
+        step, N (impulse / timestep, horizontal, toward push_direction_deg)."""
+        if self.push_n_s <= 0.0:
+            return -1, (0.0, 0.0, 0.0)
+        step = math.ceil(self.push_time_s / timestep_s - 1e-9)
+        force, direction = self.push_n_s / timestep_s, math.radians(self.push_direction_deg)
+        return step, (force * math.cos(direction), force * math.sin(direction), 0.0)
+
     @property
     def noise_seed(self) -> int:
         """The seed of this variation's sensor noise: its text's CRC-32, the same in every

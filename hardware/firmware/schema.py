@@ -11,7 +11,15 @@ import zlib
 from dataclasses import dataclass
 
 from gait.leg_interface import ARTRO_LEG, LegGeometry
-from gait.params import GaitParams, Motion, describe_fields, engine_groups, group_class, merge
+from gait.params import (
+    FEEDBACK_GROUPS,
+    GaitParams,
+    Motion,
+    describe_fields,
+    engine_groups,
+    group_class,
+    merge,
+)
 from hardware.firmware.header import c_float, c_identifier
 
 SCHEMA_HEADER_NAME = "artro_schema.h"
@@ -56,9 +64,12 @@ class ParamSpec:
 
 def param_specs() -> tuple[ParamSpec, ...]:
     """Every tunable value with its id: motion (a_r, a_p, a_y, ca), then the gait groups of the
-    engine the firmware runs, behnke (`gait.params.engine_groups`; no `pfs`), in schema order."""
+    engine the firmware runs, behnke (`gait.params.engine_groups`; no `pfs`), in schema order;
+    not the feedback laws' groups, which the firmware does not run (docs/DESIGN.md §15)."""
     groups: list[tuple[str, type]] = [("motion", Motion)]
-    groups += [(g, group_class(g)) for g in engine_groups(FIRMWARE_ENGINE)]
+    groups += [
+        (g, group_class(g)) for g in engine_groups(FIRMWARE_ENGINE) if g not in FEEDBACK_GROUPS
+    ]
     specs: list[ParamSpec] = []
     for group, cls in groups:
         for name, _default, meta in describe_fields(cls):
