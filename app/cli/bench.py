@@ -12,7 +12,7 @@ from pathlib import Path
 from typing import Any
 
 from app.analysis.robustness import ROBUST_CASES, run_robust
-from app.cli.options import add_range_option, ranges_from, subcommand
+from app.cli.options import add_range_option, add_robot_option, ranges_from, subcommand
 from app.evaluation import evaluator_for
 from app.evaluation.progress import progress_printer
 from app.robots.model import RobotModel
@@ -43,7 +43,7 @@ def add_parser(sub: Any) -> None:
         "suite",
         choices=["paper", "robust"],
         help="which bench: 'paper' (the papers' figures, docs/DESIGN.md §12) or 'robust' (the "
-        "paper's cases on model variations, §8)",
+        "paper's cases on model variations, §12)",
     )
     parser.add_argument(
         "--presets",
@@ -85,9 +85,7 @@ def add_parser(sub: Any) -> None:
     parser.add_argument(
         "--quick", action="store_true", help="short runs and a coarse CA sweep (smoke test)"
     )
-    parser.add_argument(
-        "--robot", default=None, metavar="NAME|FILE", help="the robot to walk (default: artro)"
-    )
+    add_robot_option(parser)
 
 
 def command(args: argparse.Namespace) -> int:

@@ -13,6 +13,7 @@ from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steerin
 from app.cli.options import (
     MAX_DURATION_S,
     add_range_option,
+    add_robot_option,
     check_timing,
     number,
     ranges_from,
@@ -38,9 +39,7 @@ def add_parser(sub: Any) -> None:
         sub, "tune", "CMA-ES over gait parameters toward the paper's walking", command, EXAMPLES
     )
     parser.add_argument("--base", default="paper", help="parameter-set file, or 'paper'")
-    parser.add_argument(
-        "--robot", default=None, metavar="NAME|FILE", help="the robot to tune for (default: artro)"
-    )
+    add_robot_option(parser)
     parser.add_argument(
         "--cases",
         default=None,

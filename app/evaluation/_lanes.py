@@ -249,7 +249,7 @@ class BatchEvaluator:
         control: np.ndarray,
         state_out: np.ndarray,
         sensor_out: np.ndarray,
-        push: Push,
+        push: Push | None = None,
     ) -> int:
         """Roll the run out in calls of `SEGMENT_FRAMES` frames, each from the last one's state
         and solver warm start (the same bits as one call), until a call's frames show a fall or
@@ -259,7 +259,7 @@ class BatchEvaluator:
         n_frames = control.shape[0] // steps
         _check_rollout_arrays(model, start, control, state_out, sensor_out)
         done, initial, warmstart = 0, start.state[None, :], None
-        push_frame = push.step // steps if push.step >= 0 else -1
+        push_frame = push.step // steps if push is not None and push.step >= 0 else -1
         while done < n_frames:
             frames = min(SEGMENT_FRAMES, n_frames - done)
             if done == push_frame:
@@ -267,7 +267,7 @@ class BatchEvaluator:
             elif done < push_frame < done + frames:
                 frames = push_frame - done  # up to the push's frame
             part = slice(done * steps, (done + frames) * steps)
-            if done == push_frame:
+            if push is not None and done == push_frame:
                 step_by_hand(
                     robot, data, control[part], part.start, push, state_out[0], sensor_out[0]
                 )
