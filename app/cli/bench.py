@@ -11,15 +11,7 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from app.analysis.robustness import ROBUST_CASES, run_robust
 from app.cli.options import add_range_option, add_robot_option, ranges_from, subcommand
-from app.evaluation import evaluator_for
-from app.evaluation.progress import progress_printer
-from app.robots.model import RobotModel
-from app.study.paper_bench import run_paper_bench
-from app.study.robust_report import render, write_plot
-from app.study.runs import QUICK, BenchConfig
-from app.study.walks import resolve_presets
 
 PAPER_OUT = Path("out/bench-paper")
 ROBUST_OUT = Path("out/bench-robust")
@@ -91,6 +83,9 @@ def add_parser(sub: Any) -> None:
 def command(args: argparse.Namespace) -> int:
     if args.suite == "robust":
         return robust(args)
+    from app.study.paper_bench import run_paper_bench  # the studies load when run, not for --help
+    from app.study.runs import QUICK, BenchConfig
+
     config = QUICK if args.quick else BenchConfig()
     if args.duration is not None:
         config = replace(config, duration_s=args.duration)
@@ -115,6 +110,13 @@ def command(args: argparse.Namespace) -> int:
 
 
 def robust(args: argparse.Namespace) -> int:
+    from app.analysis.robustness import ROBUST_CASES, run_robust
+    from app.evaluation import evaluator_for
+    from app.evaluation.progress import progress_printer
+    from app.robots.model import RobotModel
+    from app.study.robust_report import render, write_plot
+    from app.study.walks import resolve_presets
+
     if args.samples < 1:
         raise ValueError(f"--samples must be >= 1, got {args.samples}")
     if args.seed < 0:

@@ -9,8 +9,6 @@ import sys
 import threading
 from typing import Any, TextIO
 
-import httpx
-
 from app.cli.options import subcommand
 from app.firmware.link import SerialLink, SerialPort
 from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
@@ -68,6 +66,8 @@ def _stop_on_signals() -> dict[int, Any]:
 
 
 def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    import httpx  # ~0.5 s: only to follow a dashboard
+
     out = out or sys.stdout
     if not args.dry_run and not args.port:
         raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")

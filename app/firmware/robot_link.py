@@ -9,8 +9,6 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TextIO
 
-import httpx
-
 from app.firmware import protocol as proto
 from app.firmware.link import SerialLink
 from app.params.document import ParameterSet
@@ -121,6 +119,8 @@ def follow(
 ) -> int:
     """Send the dashboard's set, then each new version until `stop` (or `max_updates` sets
     after the first). Returns how many sets were sent."""
+    import httpx  # ~0.5 s: only to follow a dashboard
+
     sent = 0
     last = None
     with httpx.Client(base_url=server, timeout=5) as http:

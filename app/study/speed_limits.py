@@ -11,8 +11,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from matplotlib.backends.backend_agg import FigureCanvasAgg
-from matplotlib.figure import Figure
 
 from app.evaluation import Job
 from app.study.walks import Preset, Run
@@ -122,6 +120,9 @@ def report_lines(rows: list[dict[str, Any]]) -> list[str]:
 
 def plot(results: dict[str, Any], out: Path, colors: Sequence[str]) -> Path:
     """ca_limit_speed.png: the largest stable |CA| against the measured walking speed."""
+    from matplotlib.backends.backend_agg import FigureCanvasAgg  # ~0.9 s: only to draw
+    from matplotlib.figure import Figure
+
     fig = Figure(figsize=(8, 4.4), layout="constrained")
     ax = fig.subplots()
     for k, p in enumerate(results["presets"]):
