@@ -25,6 +25,11 @@ def any_law_on(params: GaitParams) -> bool:
     return any(getattr(params, group).enabled for group in LAW_GROUPS)
 
 
+def laws_on(params: GaitParams) -> list[str]:
+    """The groups of the laws `params` switches on."""
+    return [group for group in LAW_GROUPS if getattr(params, group).enabled]
+
+
 @dataclass(frozen=True)
 class Reading:
     """What the laws read: the IMU in its axes (ROS: x forward, y left, z up; pitch rate > 0
@@ -60,6 +65,7 @@ class Output:
     damping_rad: NDArray[np.float32]  # (12,)
     cop_rad: NDArray[np.float32]  # (2,) the support foot's ankle pitch and roll (outward)
     support: int  # the support foot (0 left, 1 right), -1: neither carries min_load_n
+    attitude_rad: NDArray[np.float32] = field(default_factory=lambda: _zeros(2))  # estimate
 
 
 def _zeros(n: int) -> NDArray[np.float32]:
@@ -175,4 +181,5 @@ def step(
             new = dataclasses.replace(new, cop_integral=integral, cop_last=cop)
             delta[ANKLE_PITCH[support]] += cop_out[0]
             delta[ANKLE_ROLL[support]] += cop_out[1]
-    return new, Output(delta, a_y_delta, tilt, damping, cop_out, support)
+    attitude = np.array([pitch, roll], dtype=F32)
+    return new, Output(delta, a_y_delta, tilt, damping, cop_out, support, attitude)

@@ -8,11 +8,17 @@ import io
 from collections.abc import Iterator
 
 import numpy as np
+import pytest
 from PIL import Image
 from playwright.sync_api import Browser, Page
 
 SIZES = [(1600, 1000), (1280, 720)]
 SIZE_IDS = ["1600x1000", "1280x720"]
+#: A test of how the page looks (what is in view, what fits) runs at both sizes; a test of what
+#: the page does runs at one, the tests taking turns, so both sizes meet every kind of control
+BOTH_SIZES = pytest.mark.parametrize(("width", "height"), SIZES, ids=SIZE_IDS)
+LARGE = pytest.mark.parametrize(("width", "height"), SIZES[:1], ids=SIZE_IDS[:1])
+SMALL = pytest.mark.parametrize(("width", "height"), SIZES[1:], ids=SIZE_IDS[1:])
 
 
 @contextlib.contextmanager

@@ -10,6 +10,17 @@ from tests.firmware_support import emulator, preset
 from tests.server_harness import client, running_server
 
 
+@pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
+def pytest_collection_modifyitems(items):
+    """The suite runs on every core (`-n auto --dist loadgroup`, pyproject.toml): a module's
+    tests stay on one worker (its module fixtures are made once), and the modules that open
+    Chromium share one, so two Chromiums never fight over a small machine's cores."""
+    for item in items:
+        module = item.module
+        in_chromium = hasattr(module, "CHROMIUM")  # it opens tests.server_harness's Chromium
+        item.add_marker(pytest.mark.xdist_group("chromium" if in_chromium else module.__name__))
+
+
 @pytest.fixture(scope="module")
 def server(tmp_path_factory):
     """A live server without the 3D view, shared by a test module."""

@@ -13,6 +13,7 @@ import pytest
 from PIL import Image
 from playwright.sync_api import FrameLocator, Page, expect, sync_playwright
 
+from tests.browser_support import LARGE, SMALL
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 ERROR = re.compile(r"\berror\b")
@@ -482,7 +483,7 @@ def ghost_pixels(png: bytes) -> int:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("width", "height"), SIZES, ids=lambda v: str(v))
+@LARGE
 def test_the_ghost_walks_beside_the_robot_with_its_differences_listed(
     server, browser, width, height
 ):
@@ -526,7 +527,7 @@ def _ghost_walks(page: Page, http: httpx.Client) -> None:
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("width", "height"), SIZES, ids=lambda v: str(v))
+@SMALL
 def test_a_recording_replays_in_the_scope_and_the_3d_view(server, browser, width, height):
     base_url, http = server
     http.patch("/api/params", json={"motion": {"a_p": 0.07}})

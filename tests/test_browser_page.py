@@ -1,6 +1,7 @@
-"""What a newcomer hits on the page (issue 18), in a real headless Chromium at both window sizes,
-against a real server with the viser 3D view: every control of the path panel and the header in
-view, one undo per drag or key burst, and the smaller defects of item 5."""
+"""What a newcomer hits on the page (issue 18), in a real headless Chromium (how it looks at both
+window sizes, what it does at one each), against a real server with the viser 3D view: every
+control of the path panel and the header in view, one undo per drag or key burst, and the smaller
+defects of item 5."""
 
 from __future__ import annotations
 
@@ -12,11 +13,12 @@ import pytest
 from playwright.sync_api import Page, expect, sync_playwright
 
 from tests.browser_support import (
+    BOTH_SIZES,
     CUT_OFF,
     HEADER_AT_ITS_FULLEST,
+    LARGE,
     LINES,
-    SIZE_IDS,
-    SIZES,
+    SMALL,
     open_page,
 )
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
@@ -24,7 +26,6 @@ from tests.test_server_gait_ramp import largest_step
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
-SIZED = pytest.mark.parametrize(("width", "height"), SIZES, ids=SIZE_IDS)
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +74,7 @@ def _header_fits(page: Page, state: str) -> None:
         assert cut_off(page, control) == [], f"{state}: {control} cut off"
 
 
-@SIZED
+@BOTH_SIZES
 def test_calibrate_ca_its_result_and_the_header_are_all_in_view(
     server, walking, browser, width, height
 ):
@@ -112,7 +113,7 @@ def _a_p(http: httpx.Client) -> float:
     return http.get("/api/params").json()["motion"]["a_p"]
 
 
-@SIZED
+@LARGE
 def test_one_drag_or_one_key_burst_is_one_undo_step(server, walking, browser, width, height):
     base_url, http = server
     http.patch("/api/params", json={"motion": {"a_p": 0.0, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
@@ -158,7 +159,7 @@ def _walk(http: httpx.Client, seconds: float) -> None:
     )
 
 
-@SIZED
+@SMALL
 def test_a_preset_loaded_mid_walk_is_ramped_in_and_said_so(server, walking, browser, width, height):
     base_url, http = server
     http.patch("/api/params", json={"motion": {"a_p": 0.05, "ca": 0.1}})
@@ -193,7 +194,7 @@ def _type_into(page: Page, selector: str, text: str) -> None:
     page.keyboard.press("Enter")
 
 
-@SIZED
+@LARGE
 def test_typed_values_that_cannot_be_applied_say_why_and_change_nothing(
     server, walking, browser, width, height
 ):
@@ -237,7 +238,7 @@ def test_typed_values_that_cannot_be_applied_say_why_and_change_nothing(
         assert (path["axle_m"], path["axle_source"]) == (0.25, "manual")
 
 
-@SIZED
+@SMALL
 def test_the_scope_badge_says_fallen_and_paused(server, walking, browser, width, height):
     base_url, http = server
     with open_page(browser, base_url, width, height) as page:
@@ -257,7 +258,7 @@ def test_the_scope_badge_says_fallen_and_paused(server, walking, browser, width,
         expect(badge).to_have_text("RUN", timeout=10_000)
 
 
-@SIZED
+@BOTH_SIZES
 def test_a_new_page_shows_the_ghost_that_walks(server, walking, browser, width, height):
     base_url, http = server
     assert http.put("/api/ghost", json={"preset": "tuned"}).status_code == 200
@@ -272,7 +273,7 @@ def test_a_new_page_shows_the_ghost_that_walks(server, walking, browser, width, 
         expect(page.locator("#ghost-source")).to_have_value("preset:paper")
 
 
-@SIZED
+@LARGE
 def test_a_failed_recording_import_stays_said(server, walking, browser, width, height, tmp_path):
     base_url, _http = server
     bad = tmp_path / "not-a-recording.json"
@@ -295,7 +296,7 @@ def test_a_failed_recording_import_stays_said(server, walking, browser, width, h
         assert said() == text, "the refusal went away"
 
 
-@SIZED
+@BOTH_SIZES
 def test_the_hint_names_what_is_there_and_red_servos_are_explained(
     server, walking, browser, width, height
 ):

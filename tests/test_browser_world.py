@@ -9,6 +9,7 @@ import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
+from tests.browser_support import SMALL
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 SIZES = [(1600, 1000), (1280, 720)]
@@ -32,7 +33,7 @@ def opened_page(tmp_path, width: int, height: int):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize(("width", "height"), SIZES)
+@SMALL
 def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, width, height):
     with opened_page(tmp_path, width, height) as (page, http, errors):
         expect(page.locator("#robot-badge")).to_have_text("robot artro", timeout=30_000)

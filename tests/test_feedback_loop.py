@@ -122,6 +122,55 @@ def test_a_push_changes_the_trunks_momentum_by_its_impulse(direction_deg):
     assert not pushed.data.xfrc_applied.any()  # for one step only
 
 
+def test_watching_the_sensors_changes_nothing_the_robot_does():
+    """The dashboard's loop reads the sensors and estimates the attitude every frame with every
+    law off: the same bits as a loop that reads nothing, in a varied world too."""
+    world = parse_variation("latency_ms=20,backlash_deg=0.5,gyro_noise_deg_s=0.1,imu_delay_ms=10")
+    watched = FrameLoop(ROBOT, TUNED, Motion(a_p=0.07), variation=world)
+    watched.watch_sensors = True
+    plain = FrameLoop(ROBOT, TUNED, Motion(a_p=0.07), variation=world)
+    for _ in range(100):
+        record = watched.step_frame()
+        assert plain.step_frame().reading is None
+    assert record.reading is not None and record.feedback is not None
+    assert not record.feedback.joint_delta_rad.any()  # no law on: no correction
+    assert np.array_equal(watched.data.qpos, plain.data.qpos)
+    assert np.array_equal(watched.data.qvel, plain.data.qvel)
+
+
+def test_a_live_push_is_the_worlds_push_turned_with_the_robot():
+    """`push_now` (the dashboard's Push, relative to where the trunk faces) acts in the next
+    physics step as a world push of the same impulse in the world's direction does."""
+    loop = FrameLoop(ROBOT, TUNED, Motion(a_p=0.07, a_y=0.1))
+    for _ in range(50):
+        loop.step_frame()
+    yaw_deg = math.degrees(loop.trunk_pose()[2])
+    assert abs(yaw_deg) > 1.0  # the robot has turned: the two frames differ
+    world = Variation(push_n_s=0.4, push_time_s=1.0, push_direction_deg=(yaw_deg + 90.0) % 360.0)
+    pushed = FrameLoop(ROBOT, TUNED, Motion(a_p=0.07, a_y=0.1), variation=world)
+    for _ in range(50):
+        pushed.step_frame()
+    loop.push_now(0.4, 90.0)
+    for _ in range(25):
+        loop.step_frame()
+        pushed.step_frame()
+    np.testing.assert_allclose(loop.data.qpos, pushed.data.qpos, atol=1e-9)
+
+
+def test_the_sole_sensors_carry_the_robots_weight():
+    """Stepping on the spot, the force sensors of both soles read, on average over whole gait
+    cycles, the robot's weight (gain 1, the floor level)."""
+    loop = FrameLoop(ROBOT, TUNED, Motion())
+    loop.watch_sensors = True
+    loads = []
+    for k in range(200):
+        record = loop.step_frame()
+        if k >= 50:
+            loads.append(record.reading.fsr_n.sum())
+    weight = ROBOT.total_mass_kg() * 9.81
+    assert abs(np.mean(loads) - weight) < 0.1 * weight
+
+
 def closed(**groups) -> GaitParams:
     return dataclasses.replace(TUNED, **groups)
 

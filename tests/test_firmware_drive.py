@@ -145,6 +145,21 @@ def test_the_drive_route_switches_and_refuses_what_it_cannot_do(http: httpx.Clie
     assert http.put("/api/sim/drive", json={"drive": "model"}).status_code == 200
 
 
+def test_a_feedback_law_switched_on_hands_the_pulses_back_to_the_model(http: httpx.Client):
+    """The firmware runs no law yet: a set that switches one on ends its drive, said so, and
+    the model drives with the law; the firmware is refused while the law is on."""
+    assert http.put("/api/sim/drive", json={"drive": "firmware"}).status_code == 200
+    wait_for(lambda: http.get("/api/state").json()["drive"] == "firmware", "the firmware drives")
+    http.patch("/api/params", json={"gait": {"tilt": {"enabled": True}}})
+    state = wait_for(
+        lambda: (s := http.get("/api/state").json())["drive"] == "model" and s, "the model drives"
+    )
+    assert any("no feedback law" in e and "tilt" in e for e in state["errors"])
+    refused = http.put("/api/sim/drive", json={"drive": "firmware"})
+    assert refused.status_code == 409 and "feedback" in refused.json()["detail"][0]["msg"]
+    assert http.get("/api/state").json()["drive"] == "model"
+
+
 @pytest.mark.slow
 def test_serve_starts_with_the_firmware_driving(tmp_path) -> None:
     with running_server(tmp_path, drive="firmware") as (base_url, _app):

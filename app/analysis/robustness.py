@@ -15,9 +15,10 @@ import numpy as np
 
 from app.analysis.cases import CA_PROBE, CASES
 from app.evaluation import Evaluator, Job
+from app.robots.swap import smallest_servo
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import FIELDS, Variation
-from gait import GaitParams, Motion
+from gait import JOINT_NAMES, GaitParams, Motion
 
 #: "Passes": no fall, and the case's motion in the right direction at >= this share of the
 #: nominal model's figure; translating, the heading drifts by at most MAX_TURN_DEG_S.
@@ -26,6 +27,8 @@ MAX_TURN_DEG_S = 5.0
 SPOT_DRIFT_CM_S = 1.0  # on the spot: drift at most this, and the heading as above
 Z95 = 1.959964  # the normal quantile of a two-sided 95 % interval
 WORST = 5
+AT_STALL = 0.99  # a peak this close to a servo's stall torque: the servo was at its limit
+TORQUE_SAFETY_FACTOR = 0.2  # eq (1): a servo should give (1 + sf) x the peak torque
 
 
 @dataclass(frozen=True)
@@ -165,9 +168,12 @@ def summarise(
     metrics: Sequence[dict],
     *,
     repeat: str = "artro run",
+    stall_nm: Sequence[float] | None = None,
 ) -> dict[str, Any]:
     """One preset's report from its `jobs_for` metrics; `repeat` starts the command that
-    repeats a worst variation's first failed case."""
+    repeats a worst variation's first failed case. With each servo's stall torque `stall_nm`
+    (JOINT_NAMES order), each case says how many failing runs had a servo at its limit
+    (`torque_bound`)."""
     n_cases = len(ROBUST_CASES)
     nominal, varied = metrics[:n_cases], metrics[n_cases:]
     grid = [varied[i * n_cases : (i + 1) * n_cases] for i in range(len(variations))]
@@ -198,6 +204,9 @@ def summarise(
                 "interval": [lo, hi],
                 "falls": sum(row[k]["fell"] for row in grid),
                 "depends_on": dependence(variations, [not o for o in ok]),
+                "torque": torque_bound(
+                    [row[k] for row, o in zip(grid, ok, strict=True) if not o], stall_nm
+                ),
             }
         )
     order = sorted(range(len(variations)), key=lambda i: (-failures[i], -shortfall[i], i))
@@ -218,6 +227,49 @@ def summarise(
         )
     every = sum(c["passed"] for c in cases) / max(1, sum(c["runs"] for c in cases))
     return {"preset": name, "cases": cases, "worst": worst, "overall_share": every}
+
+
+def torque_bound(failed: Sequence[dict], stall_nm: Sequence[float] | None) -> dict[str, Any] | None:
+    """Whether a case's failures are a servo's torque: the failing runs with a servo at its
+    stall torque (peak >= AT_STALL of it), the joints at their limit in at least half of those
+    runs, and the largest peak; None without failures or figures."""
+    peaks = [m["peak_torque_nm"] for m in failed if "peak_torque_nm" in m]
+    if not peaks or stall_nm is None:
+        return None
+    at_limit = np.asarray(peaks) >= AT_STALL * np.asarray(stall_nm)[None, :]
+    runs = int(at_limit.any(axis=1).sum())
+    joints = [
+        j for j, share in zip(JOINT_NAMES, at_limit.mean(axis=0), strict=True) if share >= 0.5
+    ]
+    return {
+        "failing_runs": len(peaks),
+        "at_stall_runs": runs,
+        "joints": joints,
+        "peak_nm": float(np.max(peaks)),
+        "bound": runs * 2 >= len(peaks) and bool(joints),
+    }
+
+
+def servo_advice(report: dict[str, Any], stall_nm: Sequence[float], voltage_v: float):
+    """The servo swap a preset's torque-bound cases ask for: the joints at their limit, eq (1)'s
+    torque for them ((1 + sf) x the stall torque they reached: what they were asked is at least
+    that) and the weakest servo of the table that gives it at `voltage_v`; None if no case is
+    torque-bound."""
+    cases = [c for c in report["cases"] if c["torque"] and c["torque"]["bound"]]
+    if not cases:
+        return None
+    joints = sorted({j for c in cases for j in c["torque"]["joints"]}, key=JOINT_NAMES.index)
+    reached = max(stall_nm[JOINT_NAMES.index(j)] for j in joints)
+    need = (1.0 + TORQUE_SAFETY_FACTOR) * reached
+    choice = smallest_servo(need, voltage_v)
+    return {
+        "cases": [c["case"] for c in cases],
+        "joints": joints,
+        "stall_nm": reached,
+        "need_nm": need,
+        "servo": None if choice is None else choice.name,
+        "servo_stall_nm": None if choice is None else choice.stall_torque_nm,
+    }
 
 
 def run_robust(
@@ -243,17 +295,21 @@ def run_robust(
         all_jobs, duration_s=duration_s, warmup_s=warmup_s, progress=progress, cancel=cancel
     )
     per = len(all_jobs) // max(1, len(presets))
-    robot = evaluator.robot.name
+    robot = evaluator.robot
+    stall = np.abs(robot.model.actuator_forcerange[robot.actuator_ids, 1]).tolist()
     reports = [
         summarise(
             name,
             variations,
             metrics[i * per : (i + 1) * per],
-            repeat=f"artro run --robot {robot} --params {source} --duration {duration_s:g} "
+            repeat=f"artro run --robot {robot.name} --params {source} --duration {duration_s:g} "
             f"--warmup {warmup_s:g}",
+            stall_nm=stall,
         )
         for i, (name, _, source) in enumerate(presets)
     ]
+    for report in reports:
+        report["servo_advice"] = servo_advice(report, stall, robot.description.supply_voltage_v)
     return {
         "robot": evaluator.robot.name,
         "samples": samples,

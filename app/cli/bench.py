@@ -114,6 +114,7 @@ def robust(args: argparse.Namespace) -> int:
     from app.evaluation import evaluator_for
     from app.evaluation.progress import progress_printer
     from app.robots.model import RobotModel
+    from app.robots.swap import with_servo, write_description
     from app.study.robust_report import render, write_plot
     from app.study.walks import resolve_presets
 
@@ -151,6 +152,17 @@ def robust(args: argparse.Namespace) -> int:
     )
     out = args.out or ROBUST_OUT
     out.mkdir(parents=True, exist_ok=True)
+    for report in results["presets"]:  # the robot with the servos the report advises
+        advice = report["servo_advice"]
+        if advice is None or advice["servo"] is None:
+            continue
+        swapped = with_servo(robot.description, advice["joints"], advice["servo"])
+        path = write_description(swapped, out / f"{swapped.name}.yaml")
+        advice["robot_file"] = str(path)
+        advice["command"] = (
+            f"artro bench robust --robot {path} --presets {','.join(specs)} "
+            f"--samples {args.samples} --seed {args.seed}"
+        )
     text = json.dumps(results, indent=1, allow_nan=False)
     (out / "results.json").write_text(text + "\n", encoding="utf-8")
     (out / "report.md").write_text(render(results, markdown=True) + "\n", encoding="utf-8")

@@ -21,7 +21,7 @@ from app.cli.options import (
 )
 from app.evaluation import evaluator_for
 from app.params.document import ParameterSet, load_parameter_set
-from app.params.presets import stamped, write_parameter_set
+from app.params.presets import builtin_presets, stamped, write_parameter_set
 from app.robots.model import RobotModel
 from app.study.study_store import DEFAULT_STUDY, StudyStore
 from app.study.tune import DEFAULT_NAMES, Tuner
@@ -31,14 +31,17 @@ from gait.params import merge, parse_settings
 
 EXAMPLES = """examples:
   artro tune --base paper --tune swing.v,short.amp_base --generations 4 --popsize 6
-  artro tune --base models/presets/tuned.json --set leg.paper_signs=false --select passing"""
+  artro tune --base models/presets/tuned.json --set leg.paper_signs=false --select passing
+  artro tune --base tuned --robust 8 --tune tilt.ki_per_s,yaw_rate.kp,swing.v (gains, gait)"""
 
 
 def add_parser(sub: Any) -> None:
     parser = subcommand(
         sub, "tune", "CMA-ES over gait parameters toward the paper's walking", command, EXAMPLES
     )
-    parser.add_argument("--base", default="paper", help="parameter-set file, or 'paper'")
+    parser.add_argument(
+        "--base", default="paper", help="parameter-set file, or a built-in preset's name"
+    )
     add_robot_option(parser)
     parser.add_argument(
         "--cases",
@@ -134,7 +137,13 @@ def add_parser(sub: Any) -> None:
 
 
 def command(args: argparse.Namespace) -> int:
-    base = ParameterSet() if args.base == "paper" else load_parameter_set(args.base)
+    presets = builtin_presets()
+    if args.base == "paper":
+        base = ParameterSet()
+    elif args.base in presets and not Path(args.base).exists():
+        base = presets[args.base]
+    else:
+        base = load_parameter_set(args.base)
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
     check_timing(names, base.gait, args.duration, args.warmup)

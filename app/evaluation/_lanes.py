@@ -393,4 +393,6 @@ class BatchEvaluator:
         )
         metrics["sim_s"] = frames_done * FRAME_S
         metrics["blew_up"] = blew_up
+        torque = np.abs(sens[:, self.robot.torque_adr])
+        metrics["peak_torque_nm"] = (torque.max(axis=0) if samples else np.zeros(12)).tolist()
         return metrics, trace

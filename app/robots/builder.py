@@ -301,3 +301,12 @@ def _add_sensors(spec: mujoco.MjSpec) -> None:
             objtype=site,
             objname=f"{side}_sole",
         )
+    # each servo's torque (the actuator's force after its limit): the servo budget and the
+    # robustness report's servo advice read it from every run, the lanes' too (docs/DESIGN.md §7)
+    for joint in (f"{side}_{j}" for side in ("l", "r") for j in LEG_JOINTS):
+        spec.add_sensor(
+            name=f"{joint}_torque",
+            type=sensor.mjSENS_ACTUATORFRC,
+            objtype=mujoco.mjtObj.mjOBJ_ACTUATOR,
+            objname=joint,
+        )

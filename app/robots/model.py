@@ -36,6 +36,7 @@ class RobotModel:
     accel_adr: int  # sensordata index of the 3-axis trunk accelerometer
     fsr_sites: NDArray[np.int_]  # (2, 4) site id of each foot force sensor's zone (FSR_CORNERS)
     foot_ids: tuple[int, int]  # body id of the left and right foot
+    torque_adr: NDArray[np.int_]  # (12,) sensordata index of each servo's torque, JOINT_NAMES order
 
     @classmethod
     def load(cls, robot: str | Path | RobotDescription | None = None) -> RobotModel:
@@ -69,6 +70,7 @@ class RobotModel:
                 [[int(model.site(f"{s}_fsr_{c}").id) for c in FSR_CORNERS] for s in ("l", "r")]
             ),
             foot_ids=(int(model.site("l_sole").bodyid[0]), int(model.site("r_sole").bodyid[0])),
+            torque_adr=np.array([_sensor_adr(model, f"{name}_torque") for name in JOINT_NAMES]),
         )
 
     @property

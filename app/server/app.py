@@ -28,6 +28,7 @@ from app.server.api import (
     recording,
     robot,
     scope,
+    sensors,
     servos,
     sim,
     world,
@@ -75,10 +76,9 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
         )
 
     install_handlers(app)
-    routers = (sim.router, params.router, scope.router, paths.router, presets.router)
-    more = (servos.router, world.router, jobs.router, ghost.router, recording.router, robot.router)
-    for router in (*routers, *more):
-        app.include_router(router)
+    resources = (sim, params, scope, paths, presets, servos, sensors, world, jobs, ghost)
+    for resource in (*resources, recording, robot):
+        app.include_router(resource.router)
     # the page is served under every path but the API's: a wrong method or path under /api/
     # gets the API's 405/404, never the static files' answer
     app.router.routes.append(_PageMount(StaticFiles(directory=static_dir(), html=True)))

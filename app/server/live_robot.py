@@ -20,6 +20,7 @@ from app.server.recorder import Recorder
 from app.server.sim_commands import SwitchDrive
 from app.sim.frame_loop import FrameLoop, FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
+from gait.feedback import laws_on
 from hardware import HardwareSetup
 from hardware.firmware.schema import FIRMWARE_ENGINE
 
@@ -63,6 +64,7 @@ class LiveRobot:
         self.loop = FrameLoop(
             robot=robot, params=snapshot.gait, motion=snapshot.motion, hardware=hardware
         )
+        self.loop.watch_sensors = True  # the Sensors panel
         self.model = self.loop.model  # immutable once loaded
         self._recorder = recorder
         self._report = report
@@ -102,8 +104,16 @@ class LiveRobot:
         boots at its start phase, so the caller then stands the robot at the start."""
         controller = command.controller
         engines = {applied.gait.engine, coming.gait.engine}
+        laws = laws_on(applied.gait) or laws_on(coming.gait)
         refusal = None
-        if controller is not None and engines != {FIRMWARE_ENGINE}:
+        if controller is not None and laws:
+            controller.close()
+            refusal = (
+                "firmware drive not started: the firmware runs no feedback law yet and the set "
+                f"switches on {', '.join(laws)} (it changed while the firmware booted)"
+            )
+            self._report(refusal)
+        elif controller is not None and engines != {FIRMWARE_ENGINE}:
             controller.close()
             refusal = (
                 f"firmware drive not started: the firmware runs the {FIRMWARE_ENGINE} gait "
@@ -152,6 +162,11 @@ class LiveRobot:
                 f"the firmware runs the {FIRMWARE_ENGINE} engine and version {snapshot.version} "
                 f"names {snapshot.gait.engine!r}"
             )
+        elif controller is not None and (laws := laws_on(snapshot.gait)):
+            self._end_firmware_drive(
+                f"the firmware runs no feedback law yet and version {snapshot.version} switches "
+                f"on {', '.join(laws)}"
+            )
         elif controller is not None:
             controller.send(snapshot)  # over the emulated UART; it reaches the frame the ACK names
         if snapshot.gait == old.gait:
@@ -196,6 +211,7 @@ class LiveRobot:
             hardware=hardware,
             variation=self.loop.variation,
         )
+        self.loop.watch_sensors = True
         self.robot, self.model = robot, self.loop.model
 
     # --- frames ----------------------------------------------------------------------------------

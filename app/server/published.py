@@ -1,5 +1,6 @@
 """What the simulation thread publishes for every other thread: a `SimStatus`, copies of the
-body poses (`BodyPoses`), the A/B ghost's `GhostStatus` and the servo load report; each a frozen
+body poses (`BodyPoses`), the A/B ghost's `GhostStatus`, the servo load report and the sensors'
+last frames (`SensorView`); each a frozen
 snapshot replaced whole, never the live MjData (docs/DESIGN.md §10)."""
 
 from __future__ import annotations
@@ -17,10 +18,12 @@ from app.robots.model import RobotModel
 from app.server.emulated_controller import FirmwareStatus
 from app.server.ghost import GhostStatus
 from app.server.live_robot import Drive
+from app.server.sensor_trace import SensorView
 from app.sim.servo_load import ServoLoadMeter, ServoLoadReport
 
 LOAD_PUBLISH_FRAMES = 25  # the servo load budget is published twice a second
 GHOST_PUBLISH_FRAMES = 10  # the ghost's metrics five times a second
+SENSORS_PUBLISH_FRAMES = 10  # the Sensors panel's window five times a second
 
 
 @dataclass(frozen=True)
@@ -29,6 +32,18 @@ class TrunkPose:
     y_m: float
     z_m: float
     yaw_rad: float  # counter-clockwise
+
+
+@dataclass(frozen=True)
+class PushMark:
+    """The last push (the dashboard's Push): when, how hard, which way in the world, where."""
+
+    sim_time_s: float
+    impulse_n_s: float
+    direction_deg: float  # in the world, counter-clockwise from +x
+    x_m: float
+    y_m: float
+    z_m: float
 
 
 @dataclass(frozen=True)
@@ -69,6 +84,7 @@ class SimStatus:
     gait_ramp: float | None = None  # how far a change of gait constants has come (0..1), if so
     world: str = "nominal"  # the variation the robot walks in, as `artro run --vary` takes it
     robot: str = ""  # the robot simulated (the store's version in use names it)
+    push: PushMark | None = None  # the last push since the last reset
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self) | {"errors": list(self.errors)}
@@ -93,6 +109,7 @@ class Bulletin:
         self.status = status
         self.poses: BodyPoses | None = None
         self.ghost: GhostStatus | None = None  # None: no ghost
+        self.sensors: SensorView | None = None  # the Sensors panel's last frames
         self.publish_poses = False  # set by the 3D view, the only reader of body poses
         self._pose_serial = 0
         self._load_meter = ServoLoadMeter(robot)  # the servo budget of the current gait

@@ -149,6 +149,34 @@ class SetWorld:
             raise ValueError("the world command takes a Variation")
 
 
+PUSH_RANGE_N_S = (0.01, 2.0)  # a tap to a shove that fells ArtRo from any direction
+
+
+@dataclass(frozen=True)
+class Push:
+    """Push the trunk in the next physics step: `impulse_n_s` (within PUSH_RANGE_N_S), level,
+    toward `direction_deg` counter-clockwise from where the robot faces (0 forward, 90 left)."""
+
+    impulse_n_s: float
+    direction_deg: float = 0.0
+    name: ClassVar[str] = "push"
+
+    def __post_init__(self) -> None:
+        lo, hi = PUSH_RANGE_N_S
+        impulse, direction = self.impulse_n_s, self.direction_deg
+        for value in (impulse, direction):
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                raise ValueError(f"a push takes numbers, got {value!r}")
+        if not lo <= impulse <= hi:
+            raise ValueError(f"a push's impulse must be {lo} to {hi} N·s, got {impulse!r}")
+        if not math.isfinite(direction):
+            raise ValueError(
+                f"a push's direction must be a finite angle in degrees, got {direction!r}"
+            )
+        object.__setattr__(self, "impulse_n_s", float(impulse))
+        object.__setattr__(self, "direction_deg", (float(direction) + 180.0) % 360.0 - 180.0)
+
+
 SimCommand = (
     Pause
     | Resume
@@ -160,6 +188,7 @@ SimCommand = (
     | SetGhost
     | RemoveGhost
     | SetWorld
+    | Push
 )
 Control = Reset | Pause | Resume | Step  # the controls of the page, the API and the 3D view
 

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 import logging
+import math
 import threading
 import traceback
 from collections import deque
@@ -23,18 +24,22 @@ from app.server.param_store import ParameterStore, Snapshot
 from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.published import (
     GHOST_PUBLISH_FRAMES,
+    SENSORS_PUBLISH_FRAMES,
     BodyPoses,
     Bulletin,
     LatencySummary,
+    PushMark,
     SimStatus,
     TrunkPose,
 )
 from app.server.recorder import Recorder
 from app.server.robot_shelf import RobotShelf
 from app.server.scope_feed import ScopeFeed
+from app.server.sensor_trace import SensorTrace, SensorView
 from app.server.sim_commands import (
     CommandQueue,
     Pause,
+    Push,
     Reanchor,
     RemoveGhost,
     Reset,
@@ -89,6 +94,8 @@ class SimThread:
         self.recorder.keep_params(snap.version, snap.parameter_set().to_dict())
         self.scope = ScopeFeed(self.live.hardware.tdm)
         self.paths = PathTracker()
+        self.sensors = SensorTrace(robot)  # this thread writes; others read bulletin.sensors
+        self._last_push: PushMark | None = None
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         self.pacer = Pacer()
         self._ghost: Ghost | None = None  # the A/B ghost, this thread's alone
@@ -145,6 +152,10 @@ class SimThread:
     def servo_load(self) -> ServoLoadReport:
         """The servo load budget since the last reset or parameter change (published)."""
         return self.bulletin.servo_load
+
+    def sensor_view(self) -> SensorView | None:
+        """The sensors' and the laws' last frames (published), None before the first."""
+        return self.bulletin.sensors
 
     # --- lifecycle ------------------------------------------------------------------------------
 
@@ -266,7 +277,19 @@ class SimThread:
             elif isinstance(command, RemoveGhost):
                 self._ghost, self.bulletin.ghost = None, None
                 self._publish_poses()
+            elif isinstance(command, Push):
+                self._push(command)
         return restart
+
+    def _push(self, push: Push) -> None:
+        loop = self.live.loop
+        loop.push_now(push.impulse_n_s, push.direction_deg)
+        x, y, yaw = loop.trunk_pose()
+        world_deg = (math.degrees(yaw) + push.direction_deg + 180.0) % 360.0 - 180.0
+        z = float(loop.data.qpos[2])
+        self._last_push = PushMark(loop.time_s, push.impulse_n_s, world_deg, x, y, z)
+        self.recorder.event("push", impulse_n_s=push.impulse_n_s, direction_deg=world_deg)
+        self._publish_status()
 
     def _apply_params(self) -> None:
         snap = self.store.snapshot()
@@ -298,6 +321,7 @@ class SimThread:
             )
             self._ghost, self.bulletin.ghost = None, None
         self.bulletin.measure_load_of(self.live.loop.robot)
+        self.sensors.measure(self.live.loop.robot)
         self.scope.tdm = self.live.hardware.tdm
         self.recorder.restart(self.live.model_name)
         self.recorder.event("robot", robot=robot.name)
@@ -320,6 +344,9 @@ class SimThread:
             self.recorder.event("fall", motion=dataclasses.asdict(record.motion))
         self.scope.publish(record, self._applied.version)
         self.bulletin.add_load(loop.data, record.saturated_servos, record.index)
+        self.sensors.add(record, loop.data)
+        if record.index % SENSORS_PUBLISH_FRAMES == 0:
+            self.bulletin.sensors = self.sensors.view()
         if record.index % SAMPLE_EVERY_FRAMES == 0:
             self.paths.add(loop.time_s, loop.trunk_pose(), loop.feet_distance_m())
         self._publish_poses()
@@ -350,6 +377,8 @@ class SimThread:
         self.bulletin.clear_load()
         self.paths.clear()
         self.scope.clear()
+        self.sensors.clear()
+        self._last_push = None
         self._publish_poses()
 
     # --- publishing (this thread only) -----------------------------------------------------------
@@ -387,4 +416,5 @@ class SimThread:
             gait_ramp=live.gait_ramp_progress(),
             world=loop.variation.name,
             robot=live.robot.name,
+            push=self._last_push,
         )

@@ -33,6 +33,7 @@ if TYPE_CHECKING:
     from app.server.ca_calibrator import CaCalibrator
     from app.server.param_store import ParameterStore
     from app.server.path_tracker import PathTracker
+    from app.server.published import PushMark
     from app.server.replay import Replay
     from app.server.sim_thread import SimThread
 
@@ -48,6 +49,8 @@ GHOST_OFF = "off"
 GHOST_PREVIOUS = "the version before the last change"
 ACTUAL_RGB = (30, 110, 230)
 PREDICTED_RGB = (235, 120, 20)
+PUSH_RGB = (230, 40, 40)
+PUSH_SHOWN_S = 1.5  # a push stays drawn this long (simulated time)
 DIRECTION_LABELS = {
     "a_r": "a_r (+ steps right)",
     "a_p": "a_p (+ forward)",
@@ -402,6 +405,10 @@ class Viewer:
         self._predicted = self.server.scene.add_line_segments(
             f"{parent}/path_predicted", empty, PREDICTED_RGB, thickness=0.006
         )
+        self._push = self.server.scene.add_line_segments(
+            f"{parent}/push", empty, PUSH_RGB, thickness=0.012, visible=False
+        )
+        self._push_shown: object = None
 
     def _update_paths(self) -> None:
         view = self.paths.view(max_points=600)
@@ -457,9 +464,20 @@ class Viewer:
                 if now >= next_paths:
                     next_paths = now + PATH_REFRESH_S
                     self._update_paths()
+                    self._update_push()
                     self._update_status()
             except Exception:  # the view must not take the server down
                 log.exception("viewer refresh failed")
+
+    def _update_push(self) -> None:
+        """The last push as an arrow onto the trunk where it acted, for PUSH_SHOWN_S."""
+        s = self.sim.status()
+        push = s.push
+        recent = push is not None and 0.0 <= s.sim_time_s - push.sim_time_s <= PUSH_SHOWN_S
+        _assign(self._push, "visible", recent)
+        if recent and push is not self._push_shown:
+            self._push_shown = push
+            self._push.points = push_arrow(push)
 
     def _rebuild_scene(self, model: mujoco.MjModel) -> None:
         """Draw another robot: the bodies, the paths and the ghost's bodies anew."""
@@ -502,6 +520,20 @@ class Viewer:
         _assign(self._fell_notice, "visible", s.fell)
         _assign(self._fell_reset, "visible", s.fell)
         _assign(self._fell_reset_zero, "visible", s.fell)
+
+
+def push_arrow(push: PushMark) -> np.ndarray:
+    """(3, 2, 3) line segments of an arrow onto the trunk along the push: the shaft, longer for a
+    harder push, and two barbs at the tip."""
+    direction = np.radians(push.direction_deg)
+    along = np.array([np.cos(direction), np.sin(direction), 0.0])
+    tip = np.array([push.x_m, push.y_m, push.z_m])
+    tail = tip - along * (0.08 + 0.12 * push.impulse_n_s)
+    barbs = []
+    for side in (-1.0, 1.0):
+        angle = direction + side * np.radians(150.0)
+        barbs.append([tip, tip + 0.04 * np.array([np.cos(angle), np.sin(angle), 0.0])])
+    return np.array([[tail, tip], *barbs], dtype=np.float32)
 
 
 def _assign(handle: Any, prop: str, value: Any) -> None:

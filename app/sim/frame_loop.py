@@ -178,6 +178,9 @@ class FrameLoop:
         self.timestep_s = float(self.model.opt.timestep)
         self.steps_per_frame = frame_steps(self.model)
         self._plan: FramePlan | None = None
+        #: read the sensors and estimate the attitude every frame also with every law off (the
+        #: dashboard's Sensors panel); what the robot does stays the same to the bit
+        self.watch_sensors = False
         self.reset(start_motion=start_motion)
 
     # --- control -----------------------------------------------------------------------------
@@ -251,7 +254,32 @@ class FrameLoop:
         plan = self._plan
         if plan is None or plan.next_index >= len(plan):
             plan = self._plan = self._plan_from_here(self.block_frames)
-        return self._step_planned(plan)
+        return self._watched(self._step_planned(plan))
+
+    def _watched(self, record: FrameRecord) -> FrameRecord:
+        """`record` with what the sensors read after it and the attitude estimated from them
+        (every law off: no correction), when `watch_sensors`."""
+        if not self.watch_sensors:
+            return record
+        reading = self.sensors.read(np.array(self._rows), self.data)
+        self._law_state, out = feedback.step(
+            self.params,
+            self._law_state,
+            law_reading(reading),
+            self.motion_now,
+            self.fsr_positions_m,
+            FRAME_S,
+        )
+        return dataclasses.replace(record, reading=reading, feedback=out)
+
+    def push_now(self, impulse_n_s: float, direction_deg: float) -> None:
+        """Push the trunk in the next physics step (the dashboard's Push): impulse_n_s, level,
+        toward direction_deg counter-clockwise from where the trunk faces (0: forward, 90: to
+        its left). Takes the place of the world's push if that is still to come."""
+        heading = self.trunk_pose()[2] + math.radians(direction_deg)
+        force = impulse_n_s / self.timestep_s
+        self._push_step = self.steps_done
+        self._push_force = (force * math.cos(heading), force * math.sin(heading), 0.0)
 
     def _plan_from_here(
         self, n_frames: int, correction: feedback.Output | None = None
@@ -348,7 +376,7 @@ class FrameLoop:
         next_phase = pins.phase + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi
         self._check_state()
-        return record
+        return self._watched(record)
 
     def _apply_frame(self, substep: NDArray[np.int64], setpoint: NDArray[np.float64]) -> None:
         """Step physics through one frame, switching each servo's set-point at its falling edge
@@ -398,7 +426,7 @@ class FrameLoop:
         first = self.steps_done
         self.steps_done += n
         push_here = first <= self._push_step < self.steps_done
-        if not (feedback.any_law_on(self.params) or push_here):
+        if not (feedback.any_law_on(self.params) or push_here or self.watch_sensors):
             mujoco.mj_step(self.model, self.data, n)
             return
         data, trunk = self.data, self.robot.trunk_id

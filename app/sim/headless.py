@@ -83,6 +83,7 @@ def run(
         "rtf": sim.time_s / wall_s if wall_s else None,
     }
     metrics["flags"] = flags | {"blew_up": sim.blew_up}
+    metrics["peak_torque_nm"] = peak_torque.tolist()
     required = required_torque_from_loads(peak_torque[None, :], TORQUE_SAFETY_FACTOR)
     names = [sim.model.actuator(int(i)).name for i in actuators]
     return RunResult(metrics, trace, dict(zip(names, map(float, required), strict=True)))

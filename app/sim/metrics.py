@@ -60,6 +60,7 @@ class RunMetrics(MotionMetrics, total=False):
     rtf: float | None
     flags: RunFlags
     blew_up: bool
+    peak_torque_nm: list[float]  # largest |torque| of each servo at the frames' ends (JOINT_NAMES)
 
 
 @dataclass

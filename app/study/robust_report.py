@@ -45,6 +45,7 @@ def render(results: dict[str, Any], *, markdown: bool = False) -> str:
             )
         out += _table(header, rows, markdown)
         out.append(f"all cases: {report['overall_share']:.0%} pass")
+        out += _servo_lines(report)
         if report["worst"]:
             out.append("worst variations, each with the command that repeats its first failure:")
             for w in report["worst"]:
@@ -52,6 +53,35 @@ def render(results: dict[str, Any], *, markdown: bool = False) -> str:
                 out.append(f"- fails {w['failed_cases']} ({failed}):")
                 out.append(f"  `{w['command']}`" if markdown else f"  {w['command']}")
     return "\n".join(out)
+
+
+def _servo_lines(report: dict[str, Any]) -> list[str]:
+    """Which cases fail at a servo's torque, and the servo that would carry it."""
+    lines = []
+    for c in report["cases"]:
+        t = c.get("torque")
+        if t and t["bound"]:
+            lines.append(
+                f"{c['case']}: {t['at_stall_runs']} of {t['failing_runs']} failing runs had a "
+                f"servo at its stall torque ({', '.join(t['joints'])}; peak {t['peak_nm']:.2f} N·m)"
+            )
+    advice = report.get("servo_advice")
+    if advice:
+        joints = ", ".join(advice["joints"])
+        if advice["servo"] is None:
+            lines.append(
+                f"servos: eq (1) asks {advice['need_nm']:.2f} N·m of {joints}; no servo of "
+                "models/servos.yaml gives that at this supply"
+            )
+        else:
+            lines.append(
+                f"servos: eq (1) asks {advice['need_nm']:.2f} N·m of {joints} (1.2 x the "
+                f"{advice['stall_nm']:.2f} N·m they reached); {advice['servo']} gives "
+                f"{advice['servo_stall_nm']:.2f} N·m"
+            )
+            if "command" in advice:
+                lines.append(f"  with it: {advice['command']}")
+    return lines
 
 
 def _table(header: list[str], rows: list[list[str]], markdown: bool) -> list[str]:

@@ -35,7 +35,7 @@ from app.study.tune_loss import (
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import Variation
 from gait import GaitParams, Motion
-from gait.params import describe_fields, group_class, merge
+from gait.params import FEEDBACK_GROUPS, describe_fields, group_class, merge
 
 DEFAULT_NAMES = (
     "clock.freq_hz",
@@ -75,7 +75,16 @@ def dimensions(names: Sequence[str]) -> list[Dimension]:
         if meta is None or meta.get("unit") == "bool":
             tunable = [
                 f"{g}.{f}"
-                for g in ("clock", "shift", "short", "swing", "load", "balance", "leg")
+                for g in (
+                    "clock",
+                    "shift",
+                    "short",
+                    "swing",
+                    "load",
+                    "balance",
+                    "leg",
+                    *FEEDBACK_GROUPS,
+                )
                 for f, _d, m in describe_fields(group_class(g))
                 if m.get("unit") != "bool"
             ]

@@ -20,8 +20,15 @@ const FIELDS = [
   ["backlash_deg", "backlash", 2, "°"],
   ["tilt_deg", "floor tilt", 1, "°"],
   ["tilt_direction_deg", "downhill towards", 0, "° (0 ahead)"],
+  // the sensors' errors (the laws read the sensors through them)
+  ["imu_tilt_bias_deg", "IMU tilt bias", 2, "°"],
+  ["imu_tilt_direction_deg", "IMU tilted towards", 0, "° (0 ahead)"],
+  ["gyro_bias_deg_s", "gyro bias", 2, "°/s"],
+  ["gyro_noise_deg_s", "gyro noise", 3, "°/s rms"],
+  ["imu_delay_ms", "IMU delay", 0, "ms"],
+  ["fsr_gain", "force sensor gain ×", 2, ""],
 ];
-const NOMINAL = { friction: 0.7, tilt_direction_deg: 0 };
+const NOMINAL = { friction: 0.7, tilt_direction_deg: 0, fsr_gain: 1 };
 let job = null;
 
 export function initWorld() {

@@ -15,7 +15,16 @@ from app.server.live_robot import Drive
 from app.server.pacing import SPEED_RANGE
 from app.server.replay import RUNS_LIVE, Replaying
 from app.server.services import Services
-from app.server.sim_commands import Control, Pause, Reset, Resume, SetSpeed, Step
+from app.server.sim_commands import (
+    PUSH_RANGE_N_S,
+    Control,
+    Pause,
+    Push,
+    Reset,
+    Resume,
+    SetSpeed,
+    Step,
+)
 
 router = APIRouter(tags=["simulation"], responses=GATE_RESPONSES, route_class=StrictJsonRoute)
 
@@ -101,3 +110,37 @@ def set_drive(body: DriveBody, services: ServicesDep) -> dict:
     except (BuildError, EmulatorError) as exc:
         raise ApiError(503, str(exc), "firmware_unavailable", loc=["body", "drive"]) from exc
     return {"accepted": "drive", "drive": body.drive}
+
+
+class PushBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+    impulse_n_s: float = Field(
+        ge=PUSH_RANGE_N_S[0], le=PUSH_RANGE_N_S[1], description="the push's impulse, N·s"
+    )
+    direction_deg: float = Field(
+        default=0.0,
+        ge=-360.0,
+        le=360.0,
+        description="toward where, counter-clockwise from where the robot faces (0 forward, "
+        "90 to its left)",
+    )
+
+
+@router.post("/api/sim/push", responses=responses(409, 422))
+def push(body: PushBody, services: ServicesDep) -> dict:
+    """Push the robot's trunk: the impulse in one physics step, level, in the direction given
+    relative to the robot. `GET /api/state` says the last push (`push`), the 3D view draws it;
+    409 while a replay is shown."""
+    if services.replay.status()["active"]:
+        raise ApiError(
+            409,
+            "a replay is shown: go back to live first (POST /api/recording/live)",
+            "replaying",
+            loc=["path"],
+        )
+    services.sim.send(Push(body.impulse_n_s, body.direction_deg))
+    return {
+        "accepted": "push",
+        "impulse_n_s": body.impulse_n_s,
+        "direction_deg": body.direction_deg,
+    }

@@ -1,0 +1,208 @@
+// The Sensors panel: what the modelled IMU and sole force sensors read and what the feedback
+// laws made of it (GET /api/sensors, the last 5 s, five times a second), drawn by uPlot --
+// the estimated against the true trunk pitch and roll, the gyro, each law's output -- and each
+// sole's centre of pressure drawn in its outline, while the panel is on screen; and the Push control (POST /api/sim/push,
+// button or the P key), the push then drawn in the 3D view.
+
+import { api, poll } from "./api.js";
+import { THEME, UPLOT_AXIS } from "./scope.js";
+import { $, fitCanvas, fmt, setMessage } from "./util.js";
+
+const uPlot = window.uPlot;
+const LAWS = [
+  ["tilt", "tilt trim"],
+  ["yaw_rate", "yaw rate"],
+  ["damping", "gyro damping"],
+  ["cop", "CoP"],
+];
+const PLOTS = {
+  attitude: {
+    el: "sensors-attitude",
+    label: "trunk tilt (°)",
+    series: [
+      ["pitch_est_deg", "pitch, estimated", "#4dabf7", undefined],
+      ["pitch_true_deg", "pitch, true", "#4dabf7", [4, 4]],
+      ["roll_est_deg", "roll, estimated", "#ff922b", undefined],
+      ["roll_true_deg", "roll, true", "#ff922b", [4, 4]],
+    ],
+  },
+  gyro: {
+    el: "sensors-gyro",
+    label: "gyro (°/s)",
+    series: [
+      ["gyro_x_deg_s", "roll rate x", "#ff922b", undefined],
+      ["gyro_y_deg_s", "pitch rate y", "#4dabf7", undefined],
+      ["gyro_z_deg_s", "yaw rate z", "#51cf66", undefined],
+    ],
+  },
+  laws: {
+    el: "sensors-laws-plot",
+    label: "law outputs (°; a_y ×100)",
+    series: [
+      ["tilt_pitch_deg", "tilt trim pitch", "#4dabf7", undefined],
+      ["tilt_roll_deg", "tilt trim roll", "#ff922b", undefined],
+      ["a_y_delta", "yaw rate: a_y ×100", "#51cf66", undefined, 100],
+      ["damping_ankle_deg", "damping, left ankle pitch", "#e64dff", undefined],
+      ["cop_pitch_deg", "CoP pitch", "#fcc419", undefined],
+      ["cop_roll_deg", "CoP roll", "#fcc419", [4, 4]],
+    ],
+  },
+};
+const FEET = [
+  ["l", "left", "#4dabf7"],
+  ["r", "right", "#ff922b"],
+];
+const COP_TRAIL_FRAMES = 50; // the last second of each sole's centre of pressure
+
+const plots = {};
+let latest = null;
+
+export function initSensors() {
+  for (const [key, spec] of Object.entries(PLOTS)) plots[key] = new SensorPlot($(spec.el), spec);
+  $("push-button").addEventListener("click", push);
+  document.addEventListener("keydown", (e) => {
+    const typing = e.target.closest?.("input, select, textarea, [contenteditable]");
+    if ((e.key === "p" || e.key === "P") && !typing && !e.ctrlKey && !e.metaKey && !e.altKey) {
+      e.preventDefault();
+      push();
+    }
+  });
+  new ResizeObserver(() => drawCop()).observe($("sensors-cop"));
+  // fetched and drawn only while the panel is on screen: the page's other views keep the time
+  new IntersectionObserver(([entry]) => (onScreen = entry.isIntersecting)).observe($("sensors-panel"));
+  poll(refresh, 200);
+}
+
+let onScreen = false;
+
+async function refresh() {
+  if (!onScreen || document.hidden) return;
+  const [view, params] = await Promise.all([api.get("/api/sensors"), lawsOn()]);
+  latest = view;
+  for (const plot of Object.values(plots)) plot.update(view.columns);
+  drawCop();
+  const on = LAWS.filter(([key]) => params[key]).map(([, label]) => label);
+  $("sensors-laws").textContent = on.length ? `laws on: ${on.join(", ")}` : "every law off (open loop)";
+}
+
+let paramsCache = { at: 0, laws: {} };
+async function lawsOn() {
+  if (performance.now() - paramsCache.at > 1000) {
+    const p = await api.get("/api/params");
+    paramsCache = { at: performance.now(), laws: Object.fromEntries(LAWS.map(([k]) => [k, !!p.gait[k]?.enabled])) };
+  }
+  return paramsCache.laws;
+}
+
+async function push() {
+  const impulse = Number($("push-impulse").value);
+  const direction = Number($("push-direction").value);
+  try {
+    await api.post("/api/sim/push", { impulse_n_s: impulse, direction_deg: direction });
+    setMessage($("push-message"), `pushed: ${fmt(impulse, 2)} N·s toward ${fmt(direction, 0)}°`, "ok");
+  } catch (err) {
+    setMessage($("push-message"), `no push: ${err.message}`, "error");
+  }
+}
+
+class SensorPlot {
+  constructor(el, spec) {
+    this.el = el;
+    this.spec = spec;
+    this.u = null;
+    new ResizeObserver(() => this.resize()).observe(el);
+  }
+
+  build() {
+    const series = [{}, ...this.spec.series.map(([, label, stroke, dash]) => ({ label, stroke, dash, width: 1.5, points: { show: false } }))];
+    this.u = new uPlot(
+      {
+        width: Math.max(120, this.el.clientWidth),
+        height: 160,
+        legend: { show: true, live: false },
+        cursor: { drag: { x: false, y: false }, points: { show: false } },
+        scales: { x: { time: false } },
+        axes: [
+          { ...UPLOT_AXIS, label: "simulated time (s)", size: 30, labelSize: 12 },
+          { ...UPLOT_AXIS, label: this.spec.label, size: 48, labelSize: 12 },
+        ],
+        series,
+      },
+      [[]],
+      this.el,
+    );
+    this.resize();
+  }
+
+  update(columns) {
+    if (!this.u) this.build();
+    const data = [columns.t_s, ...this.spec.series.map(([key, , , , scale]) => scaled(columns[key], scale))];
+    this.u.setData(data);
+  }
+
+  /** The plot fills its box less the legend below it. */
+  resize() {
+    if (!this.u || !this.el.clientWidth) return;
+    const legend = this.u.root.querySelector(".u-legend")?.offsetHeight ?? 0;
+    const width = Math.floor(this.el.clientWidth);
+    const height = Math.max(100, Math.floor(this.el.clientHeight - legend - 4));
+    if (width !== this.u.width || height !== this.u.height) this.u.setSize({ width, height });
+  }
+}
+
+const scaled = (values, scale) => (scale ? values.map((v) => (v == null ? null : v * scale)) : values);
+
+/** Both soles from above (toes up), the force sensors as dots sized by their share, the centre
+ * of pressure's last second as a trail. */
+function drawCop() {
+  const canvas = $("sensors-cop");
+  const { ctx, w: width, h: height } = fitCanvas(canvas);
+  ctx.clearRect(0, 0, width, height);
+  if (!latest?.sole_mm) return;
+  const [halfL, halfW] = latest.sole_mm;
+  const scale = Math.min((height - 36) / (2 * halfL), (width - 30) / (4 * halfW + 40));
+  const cols = latest.columns;
+  const last = cols.t_s.length - 1;
+  FEET.forEach(([side, label, color], i) => {
+    const cx = width / 2 + (i === 0 ? -1 : 1) * (halfW * scale + 12); // left foot on the left
+    const cy = height / 2 - 6;
+    ctx.strokeStyle = THEME.text;
+    ctx.lineWidth = 1;
+    ctx.strokeRect(cx - halfW * scale, cy - halfL * scale, 2 * halfW * scale, 2 * halfL * scale);
+    for (const [x, y] of latest.fsr_mm) {
+      ctx.fillStyle = THEME.dim;
+      ctx.beginPath();
+      ctx.arc(cx - y * scale, cy - x * scale, 3, 0, 2 * Math.PI);
+      ctx.fill();
+    }
+    const xs = cols[`cop_${side}_x_mm`];
+    const ys = cols[`cop_${side}_y_mm`];
+    ctx.strokeStyle = color;
+    ctx.lineWidth = 1.5;
+    ctx.beginPath();
+    let pen = false;
+    for (let k = Math.max(0, last - COP_TRAIL_FRAMES); k <= last; k++) {
+      if (xs[k] == null) {
+        pen = false;
+        continue;
+      }
+      const px = cx - ys[k] * scale;
+      const py = cy - xs[k] * scale;
+      if (pen) ctx.lineTo(px, py);
+      else ctx.moveTo(px, py);
+      pen = true;
+    }
+    ctx.stroke();
+    if (last >= 0 && xs[last] != null) {
+      ctx.fillStyle = color;
+      ctx.beginPath();
+      ctx.arc(cx - ys[last] * scale, cy - xs[last] * scale, 5, 0, 2 * Math.PI);
+      ctx.fill();
+    }
+    const load = last >= 0 ? cols[`load_${side}_n`][last] : null;
+    ctx.fillStyle = THEME.text;
+    ctx.font = THEME.small;
+    ctx.textAlign = "center";
+    ctx.fillText(`${label} ${load == null ? "—" : `${fmt(load, 1)} N`}`, cx, cy + halfL * scale + 16);
+  });
+}
