@@ -49,7 +49,12 @@ from hardware.timer import (
     pulse_us_to_ocr,
     timer_registers,
 )
-from hardware.torque import max_sin, required_torque_from_loads, required_torque_nm
+from hardware.torque import (
+    SAFETY_FACTOR,
+    max_sin,
+    required_torque_from_loads,
+    required_torque_nm,
+)
 
 __all__ = [
     "CHANNELS",
@@ -64,6 +69,7 @@ __all__ = [
     "PULSE_CENTER_US",
     "PULSE_MAX_US",
     "PULSE_MIN_US",
+    "SAFETY_FACTOR",
     "SELECT_LINES",
     "SERVO_NAMES",
     "SLOTS_PER_FRAME",

@@ -9,6 +9,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+#: sf of eq (1): a servo should give (1 + sf) x the torque asked of it, as seed 000 sizes them
+SAFETY_FACTOR = 0.2
+
 
 def max_sin(alpha_min_rad: ArrayLike, alpha_max_rad: ArrayLike) -> NDArray[np.float64]:
     """Maximum of sin(alpha) over [alpha_min, alpha_max]. Vectorised (broadcasts).

@@ -6,8 +6,9 @@ import numpy as np
 import pytest
 
 from app.sim.frame_loop import FrameLoop
-from app.sim.servo_load import SAFETY_FACTOR, ServoLimits, ServoLoadMeter, level
+from app.sim.servo_load import ServoLimits, ServoLoadMeter, level
 from gait import JOINT_NAMES, GaitParams, Motion
+from hardware import SAFETY_FACTOR
 
 
 def test_the_limits_come_from_the_model():

@@ -19,6 +19,7 @@ from app.robots.swap import smallest_servo
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import FIELDS, Variation
 from gait import JOINT_NAMES, GaitParams, Motion
+from hardware import SAFETY_FACTOR
 
 #: "Passes": no fall, and the case's motion in the right direction at >= this share of the
 #: nominal model's figure; translating, the heading drifts by at most MAX_TURN_DEG_S.
@@ -28,7 +29,6 @@ SPOT_DRIFT_CM_S = 1.0  # on the spot: drift at most this, and the heading as abo
 Z95 = 1.959964  # the normal quantile of a two-sided 95 % interval
 WORST = 5
 AT_STALL = 0.99  # a peak this close to a servo's stall torque: the servo was at its limit
-TORQUE_SAFETY_FACTOR = 0.2  # eq (1): a servo should give (1 + sf) x the peak torque
 
 
 @dataclass(frozen=True)
@@ -260,7 +260,7 @@ def servo_advice(report: dict[str, Any], stall_nm: Sequence[float], voltage_v: f
         return None
     joints = sorted({j for c in cases for j in c["torque"]["joints"]}, key=JOINT_NAMES.index)
     reached = max(stall_nm[JOINT_NAMES.index(j)] for j in joints)
-    need = (1.0 + TORQUE_SAFETY_FACTOR) * reached
+    need = (1.0 + SAFETY_FACTOR) * reached
     choice = smallest_servo(need, voltage_v)
     return {
         "cases": [c["case"] for c in cases],

@@ -12,8 +12,8 @@ import numpy as np
 from app.robots.builder import build_model, joint_settings
 from app.robots.description import RobotDescription
 from gait import JOINT_NAMES, GaitParams, LegGeometry, Motion, joint_angles_with_flags
+from hardware import SAFETY_FACTOR
 
-SAFETY_FACTOR = 0.2  # as the dashboard's servo budget: required = 1.2 x the load
 GAIT_CASES = (Motion(), Motion(a_p=0.07), Motion(a_r=0.1), Motion(a_y=0.2))  # seed 000's table
 PHASES = 64  # poses per gait cycle
 

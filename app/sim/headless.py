@@ -14,9 +14,7 @@ from app.sim.metrics import RunMetrics, Trace, compute_metrics
 from app.sim.planning import FRAME_S
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams, Motion
-from hardware import HardwareSetup, required_torque_from_loads
-
-TORQUE_SAFETY_FACTOR = 0.2  # sf of eq (1) used for the servo sizing report
+from hardware import SAFETY_FACTOR, HardwareSetup, required_torque_from_loads
 
 
 @dataclass
@@ -84,6 +82,6 @@ def run(
     }
     metrics["flags"] = flags | {"blew_up": sim.blew_up}
     metrics["peak_torque_nm"] = peak_torque.tolist()
-    required = required_torque_from_loads(peak_torque[None, :], TORQUE_SAFETY_FACTOR)
+    required = required_torque_from_loads(peak_torque[None, :], SAFETY_FACTOR)
     names = [sim.model.actuator(int(i)).name for i in actuators]
     return RunResult(metrics, trace, dict(zip(names, map(float, required), strict=True)))

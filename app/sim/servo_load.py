@@ -13,9 +13,8 @@ from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
 from gait import JOINT_NAMES
-from hardware import required_torque_from_loads
+from hardware import SAFETY_FACTOR, required_torque_from_loads
 
-SAFETY_FACTOR = 0.2  # sf of eq (1), as seed 000 sizes its servos
 WARN_MARGIN = 0.3  # below 30 % of the limit left: a warning
 CRITICAL_MARGIN = 0.1  # below 10 %: critical
 

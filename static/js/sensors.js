@@ -53,6 +53,7 @@ const FEET = [
   ["r", "right", "#ff922b"],
 ];
 const COP_TRAIL_FRAMES = 50; // the last second of each sole's centre of pressure
+const PLOT_HEIGHT = 190; // px, the legend below
 
 const plots = {};
 let latest = null;
@@ -118,7 +119,7 @@ class SensorPlot {
     this.u = new uPlot(
       {
         width: Math.max(120, this.el.clientWidth),
-        height: 160,
+        height: PLOT_HEIGHT,
         legend: { show: true, live: false },
         cursor: { drag: { x: false, y: false }, points: { show: false } },
         scales: { x: { time: false } },
@@ -140,13 +141,11 @@ class SensorPlot {
     this.u.setData(data);
   }
 
-  /** The plot fills its box less the legend below it. */
+  /** The plot is as wide as its box; its height is fixed, the legend below it. */
   resize() {
     if (!this.u || !this.el.clientWidth) return;
-    const legend = this.u.root.querySelector(".u-legend")?.offsetHeight ?? 0;
     const width = Math.floor(this.el.clientWidth);
-    const height = Math.max(100, Math.floor(this.el.clientHeight - legend - 4));
-    if (width !== this.u.width || height !== this.u.height) this.u.setSize({ width, height });
+    if (width !== this.u.width) this.u.setSize({ width, height: PLOT_HEIGHT });
   }
 }
 
