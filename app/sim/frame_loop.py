@@ -261,6 +261,11 @@ class FrameLoop:
         (every law off: no correction), when `watch_sensors`."""
         if not self.watch_sensors:
             return record
+        reading, out = self._read_and_step_laws()
+        return dataclasses.replace(record, reading=reading, feedback=out)
+
+    def _read_and_step_laws(self) -> tuple[SensorReading, feedback.Output]:
+        """The sensors read now, and the laws' step on that reading (their state carried on)."""
         reading = self.sensors.read(np.array(self._rows), self.data)
         self._law_state, out = feedback.step(
             self.params,
@@ -270,7 +275,7 @@ class FrameLoop:
             self.fsr_positions_m,
             FRAME_S,
         )
-        return dataclasses.replace(record, reading=reading, feedback=out)
+        return reading, out
 
     def push_now(self, impulse_n_s: float, direction_deg: float) -> None:
         """Push the trunk in the next physics step (the dashboard's Push): impulse_n_s, level,
@@ -327,15 +332,7 @@ class FrameLoop:
 
     def _step_closed_loop(self) -> FrameRecord:
         """Sensors -> laws -> a plan of this one frame with their corrections -> physics."""
-        reading = self.sensors.read(np.array(self._rows), self.data)
-        self._law_state, out = feedback.step(
-            self.params,
-            self._law_state,
-            law_reading(reading),
-            self.motion_now,
-            self.fsr_positions_m,
-            FRAME_S,
-        )
+        reading, out = self._read_and_step_laws()
         self._plan = self._plan_from_here(1, out)
         record = self._step_planned(self._plan)
         self._plan = None  # the next frame is planned after the next reading
