@@ -1,7 +1,7 @@
 """What the simulation thread publishes for every other thread: a `SimStatus`, copies of the
 body poses (`BodyPoses`), the A/B ghost's `GhostStatus`, the servo load report and the sensors'
-last frames (`SensorView`); each a frozen
-snapshot replaced whole, never the live MjData (docs/DESIGN.md §10)."""
+last frames (`SensorView`); each a frozen snapshot replaced whole, never the live MjData
+(docs/DESIGN.md §10)."""
 
 from __future__ import annotations
 
