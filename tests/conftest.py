@@ -12,13 +12,15 @@ from tests.server_harness import client, running_server
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items):
-    """The suite runs on every core (`-n auto --dist loadgroup`, pyproject.toml): a module's
-    tests stay on one worker (its module fixtures are made once), and the modules that open
-    Chromium share one, so two Chromiums never fight over a small machine's cores."""
+    """`scripts/test.sh` runs the tests of the modules that open Chromium (they import
+    `CHROMIUM` from tests/server_harness.py; marked `browser` here) alone, and the rest on every
+    core (`-n auto --dist loadgroup`), a module's tests on one worker (its module fixtures are
+    made once)."""
     for item in items:
         module = item.module
-        in_chromium = hasattr(module, "CHROMIUM")  # it opens tests.server_harness's Chromium
-        item.add_marker(pytest.mark.xdist_group("chromium" if in_chromium else module.__name__))
+        if hasattr(module, "CHROMIUM"):
+            item.add_marker(pytest.mark.browser)
+        item.add_marker(pytest.mark.xdist_group(module.__name__))
 
 
 @pytest.fixture(scope="module")
