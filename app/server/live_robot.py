@@ -64,7 +64,6 @@ class LiveRobot:
         self.loop = FrameLoop(
             robot=robot, params=snapshot.gait, motion=snapshot.motion, hardware=hardware
         )
-        self.loop.watch_sensors = True  # the Sensors panel
         self.model = self.loop.model  # immutable once loaded
         self._recorder = recorder
         self._report = report
@@ -211,7 +210,6 @@ class LiveRobot:
             hardware=hardware,
             variation=self.loop.variation,
         )
-        self.loop.watch_sensors = True
         self.robot, self.model = robot, self.loop.model
 
     # --- frames ----------------------------------------------------------------------------------

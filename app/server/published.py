@@ -24,6 +24,7 @@ from app.sim.servo_load import ServoLoadMeter, ServoLoadReport
 LOAD_PUBLISH_FRAMES = 25  # the servo load budget is published twice a second
 GHOST_PUBLISH_FRAMES = 10  # the ghost's metrics five times a second
 SENSORS_PUBLISH_FRAMES = 10  # the Sensors panel's window five times a second
+SENSORS_WATCHED_S = 2.0  # the live loop reads its sensors this long after they were asked for
 
 
 @dataclass(frozen=True)
@@ -110,6 +111,7 @@ class Bulletin:
         self.poses: BodyPoses | None = None
         self.ghost: GhostStatus | None = None  # None: no ghost
         self.sensors: SensorView | None = None  # the Sensors panel's last frames
+        self.sensors_asked_at = -1e9  # monotonic time a reader last asked for them
         self.publish_poses = False  # set by the 3D view, the only reader of body poses
         self._pose_serial = 0
         self._load_meter = ServoLoadMeter(robot)  # the servo budget of the current gait

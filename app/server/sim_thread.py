@@ -10,6 +10,7 @@ import dataclasses
 import logging
 import math
 import threading
+import time
 import traceback
 from collections import deque
 from collections.abc import Callable
@@ -25,6 +26,7 @@ from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
 from app.server.published import (
     GHOST_PUBLISH_FRAMES,
     SENSORS_PUBLISH_FRAMES,
+    SENSORS_WATCHED_S,
     BodyPoses,
     Bulletin,
     LatencySummary,
@@ -154,7 +156,10 @@ class SimThread:
         return self.bulletin.servo_load
 
     def sensor_view(self) -> SensorView | None:
-        """The sensors' and the laws' last frames (published), None before the first."""
+        """The sensors' and the laws' last frames (published), None before the first. Asking
+        keeps the live loop reading its sensors for SENSORS_WATCHED_S more: nobody asking, the
+        frame loop spares their cost."""
+        self.bulletin.sensors_asked_at = time.monotonic()
         return self.bulletin.sensors
 
     # --- lifecycle ------------------------------------------------------------------------------
@@ -329,6 +334,7 @@ class SimThread:
 
     def _frame(self) -> None:
         live = self.live
+        self._watch_sensors_if_asked()
         record, gait_arrived = live.step()
         if gait_arrived:
             self.bulletin.clear_load()  # the budget of the new gait, not of the way to it
@@ -350,6 +356,15 @@ class SimThread:
         if record.index % SAMPLE_EVERY_FRAMES == 0:
             self.paths.add(loop.time_s, loop.trunk_pose(), loop.feet_distance_m())
         self._publish_poses()
+
+    def _watch_sensors_if_asked(self) -> None:
+        """The live loop reads its sensors while someone asked for them lately; watching anew,
+        the trace starts over (no gap inside it)."""
+        loop = self.live.loop
+        asked = time.monotonic() - self.bulletin.sensors_asked_at < SENSORS_WATCHED_S
+        if asked and not loop.watch_sensors:
+            self.sensors.clear()
+        loop.watch_sensors = asked
 
     def _step_ghost(self, record: FrameRecord) -> None:
         """The ghost's frame; if it fails, the ghost goes, said so, and the live robot walks on."""
