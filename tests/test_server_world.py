@@ -31,13 +31,25 @@ def test_a_variation_reaches_the_live_robot_and_the_state_says_so(server):
 
 
 @pytest.mark.parametrize(
-    "body", [{"variation": "friction=3"}, {"variation": "gravity=2"}, {"variation": 5}, {}]
+    "body",
+    [
+        {"variation": "friction=3"},
+        {"variation": "gravity=2"},
+        {"variation": 5},
+        {},
+        {"variation": "latency_ms=1e308"},  # it once killed the simulation thread
+        {"variation": "kp_scale=1e308"},
+        {"variation": "cal.l_knee=1e300"},
+    ],
 )
 def test_a_bad_world_is_refused_and_changes_nothing(server, body):
     before = server.get("/api/state").json()["world"]
     bad = server.put("/api/world", json=body)
     assert bad.status_code == 422 and bad.json()["detail"]
+    if "e30" in str(body):
+        assert "≤" in str(bad.json()["detail"])  # the allowed range is said
     assert server.get("/api/state").json()["world"] == before
+    assert server.get("/api/state").json()["running"]
 
 
 def test_the_robot_is_named_with_its_figures(server):

@@ -427,18 +427,18 @@ finite = {"allow_nan": False, "allow_infinity": False}
 variations = st.builds(
     Variation,
     friction=st.none() | st.floats(0.0, 1.0, exclude_min=True),
-    trunk_mass_scale=st.floats(0.0, exclude_min=True, **finite),
-    link_mass_scale=st.floats(0.0, 10.0, exclude_min=True) | st.just(1.0),
+    trunk_mass_scale=st.floats(0.0, 5.0, exclude_min=True),
+    link_mass_scale=st.floats(0.0, 3.0, exclude_min=True) | st.just(1.0),
     kp_scale=st.floats(0.0, 3.0, exclude_min=True),
     torque_scale=st.floats(0.0, 1.2, exclude_min=True),
-    damping_scale=st.just(1.0) | st.floats(1e-300, 1e300),
+    damping_scale=st.just(1.0) | st.floats(1e-300, 10.0),
     frictionloss_scale=st.floats(0.5, 2.0),
-    latency_ms=st.floats(0.0, **finite),
+    latency_ms=st.floats(0.0, 200.0),
     deadband_deg=st.floats(0.0, 1.0),
     backlash_deg=st.just(0.0) | st.floats(0.0, 5.0),
     tilt_deg=st.floats(0.0, 90.0, exclude_max=True),
     tilt_direction_deg=st.floats(0.0, 360.0, exclude_max=True),
-    calibration_deg=st.tuples(*[st.just(0.0) | st.floats(**finite)] * 12),
+    calibration_deg=st.tuples(*[st.just(0.0) | st.floats(-45.0, 45.0)] * 12),
 )
 
 
@@ -470,7 +470,18 @@ def test_the_text_reads_back_to_the_bit(v):
         ({"tilt_deg": 90.0}, "tilt_deg must be ≥ 0 and < 90"),
         ({"tilt_direction_deg": 360.0}, "tilt_direction_deg must be ≥ 0 and < 360"),
         ({"calibration_deg": (0.0,) * 11}, "calibration_deg needs 12 values"),
-        ({"calibration_deg": (0.0,) * 11 + (math.nan,)}, "cal.r_ankle_roll must be finite"),
+        ({"calibration_deg": (0.0,) * 11 + (math.nan,)}, "cal.r_ankle_roll must be ≥ -45"),
+        # every field has a physical upper bound (a latency of 1e308 ms killed the server)
+        ({"latency_ms": 1e308}, "latency_ms must be ≥ 0 and ≤ 200"),
+        ({"latency_ms": 201.0}, "latency_ms must be ≥ 0 and ≤ 200"),
+        ({"kp_scale": 5.01}, "kp_scale must be > 0 and ≤ 5"),
+        ({"trunk_mass_scale": 1e10}, "trunk_mass_scale must be > 0 and ≤ 5"),
+        ({"link_mass_scale": 3.5}, "link_mass_scale must be > 0 and ≤ 3"),
+        ({"damping_scale": 1e300}, "damping_scale must be > 0 and ≤ 10"),
+        ({"frictionloss_scale": 11.0}, "frictionloss_scale must be > 0 and ≤ 10"),
+        ({"deadband_deg": 10.5}, "deadband_deg must be ≥ 0 and ≤ 10"),
+        ({"backlash_deg": 90.0}, "backlash_deg must be ≥ 0 and ≤ 10"),
+        ({"calibration_deg": (0.0,) * 11 + (46.0,)}, "cal.r_ankle_roll must be ≥ -45 and ≤ 45"),
     ],
 )
 def test_bad_values_are_refused_naming_the_field_and_its_range(kwargs, message):
@@ -499,7 +510,8 @@ def test_values_that_are_no_numbers_are_refused(kwargs, field):
         ("cal.knee=1", "unknown joint in 'cal.knee'; joints: l_hip_yaw"),
         ("latency_ms=40ms", "latency_ms: '40ms' is not a number"),
         ("friction=2", "friction must be > 0 and ≤ 1"),
-        ("cal.l_knee=inf", "cal.l_knee must be finite"),
+        ("cal.l_knee=inf", "cal.l_knee must be ≥ -45 and ≤ 45"),
+        ("latency_ms=1e308", "latency_ms must be ≥ 0 and ≤ 200"),
     ],
 )
 def test_bad_text_is_refused_naming_the_item(text, message):

@@ -54,8 +54,9 @@ from app.server.sim_commands import (
     SwitchDrive,
 )
 from app.sim.frame_loop import FrameRecord
-from app.sim.planning import START_PHASE_RAD
+from app.sim.planning import FRAME_S, START_PHASE_RAD
 from app.sim.servo_load import ServoLoadReport
+from app.worlds.variations import NOMINAL, Variation
 from hardware import HardwareSetup
 
 log = logging.getLogger(__name__)
@@ -63,6 +64,10 @@ log = logging.getLogger(__name__)
 IDLE_WAIT_S = 0.1  # paused or fallen, the thread looks at its commands this often at least
 DRIVE_ANSWER_S = 10.0  # how long a drive switch waits for the simulation thread's verdict
 ERRORS_KEPT = 20
+#: a blow-up this soon after the robot was stood up again is "at once"; twice at once in a row
+#: pauses the robot (a world or set that cannot be simulated would blow up every frame)
+QUICK_BLOW_UP_FRAMES = 50
+BLOW_UPS_BEFORE_PAUSE = 2
 
 
 class SimThread:
@@ -110,6 +115,8 @@ class SimThread:
         self._pending_since_frame: int | None = None
         self.paused = False
         self.resets = 0
+        self._quick_blow_ups = 0  # blow-ups in a row, each within QUICK_BLOW_UP_FRAMES of a start
+        self._refused_version: int | None = None  # a set that could not be applied: not retried
         status = SimStatus(params_version_applied=snap.version)
         self.bulletin = Bulletin(status, self.live.loop.robot)
         self._publish_status()
@@ -243,8 +250,56 @@ class SimThread:
             except Exception:  # the server must outlive any frame: report, reset, go on
                 self.errors.append(traceback.format_exc(limit=3))
                 log.exception("simulation frame failed; resetting")
-                self._reset()
+                self._recover()
                 pacer.restart()
+
+    def _recover(self) -> None:
+        """Stand the robot again after a failed frame; if even that fails, in the nominal world;
+        if that fails too, pause, said so. The thread itself never ends here."""
+        try:
+            self._reset()
+            return
+        except Exception as error:
+            log.exception("the reset after a failure failed too")
+            failed = error
+        world = self.live.loop.variation
+        if not world.is_nominal:
+            try:
+                self._set_world(NOMINAL)
+                self._reset()
+                self.errors.append(
+                    f"the world {world.name} could not be simulated ({failed!r}); the robot "
+                    "walks on in the nominal world"
+                )
+                return
+            except Exception as error:
+                log.exception("the reset in the nominal world failed too")
+                failed = error
+        self.paused = True
+        self.errors.append(
+            f"the robot cannot be stood up again ({failed!r}); paused: change the parameters, "
+            "the world or the robot, then reset"
+        )
+
+    def _set_world(self, variation: Variation) -> None:
+        self.live.loop.set_variation(variation)  # the state carries over
+        if self._ghost is not None:  # the A/B comparison stays in one world
+            self._ghost.loop.set_variation(variation)
+
+    def _change_world(self, variation: Variation) -> None:
+        """Walk on in `variation`; one that cannot be simulated is dropped, said so, and the
+        robot walks on in the world it was in."""
+        before = self.live.loop.variation
+        try:
+            self._set_world(variation)
+        except Exception as error:
+            log.exception("world %s refused", variation.name)
+            self._set_world(before)
+            self.errors.append(
+                f"the world {variation.name} could not be simulated ({error!r}); the robot "
+                f"stays in {before.name}"
+            )
+        self._quick_blow_ups = 0
 
     def _take_commands(self) -> bool:
         """Carry out the queued commands; True if the pacing must restart from now."""
@@ -272,9 +327,7 @@ class SimThread:
                     if command.controller is not None:  # a firmware boots at its start phase
                         self._reset(START_PHASE_RAD)
             elif isinstance(command, SetWorld):
-                self.live.loop.set_variation(command.variation)  # the state carries over
-                if self._ghost is not None:  # the A/B comparison stays in one world
-                    self._ghost.loop.set_variation(command.variation)
+                self._change_world(command.variation)
             elif isinstance(command, SetGhost):
                 self._ghost = Ghost(self.live.loop, command.params, command.source)
                 self.bulletin.ghost = self._ghost.status()
@@ -298,13 +351,23 @@ class SimThread:
 
     def _apply_params(self) -> None:
         snap = self.store.snapshot()
-        if snap.version == self._applied.version:
+        if snap.version in (self._applied.version, self._refused_version):
             return
         old = self._applied
-        if snap.robot != self.live.robot.name:
-            self._switch_robot(self._robots(snap.robot), snap)  # built in this set
-        else:
-            self.live.follow(snap, old)
+        try:
+            if snap.robot != self.live.robot.name:
+                self._switch_robot(self._robots(snap.robot), snap)  # built in this set
+            else:
+                self.live.follow(snap, old)
+        except Exception as error:  # the robot walks on in the set it has, said so
+            log.exception("parameter set v%d could not be applied", snap.version)
+            self._refused_version = snap.version
+            self.errors.append(
+                f"parameter set v{snap.version} could not be applied ({error!r}); the robot "
+                f"walks on in v{old.version}"
+            )
+            return
+        self._quick_blow_ups = 0
         self.bulletin.clear_load()  # the budget belongs to one gait
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         if snap.motion != old.motion:
@@ -340,8 +403,7 @@ class SimThread:
             self.bulletin.clear_load()  # the budget of the new gait, not of the way to it
         loop = live.loop
         if loop.blew_up:
-            self.errors.append(f"physics blew up at t = {loop.time_s:.2f} s; robot reset")
-            self._reset()
+            self._blown_up(loop.time_s, loop.frame_index)
             return
         if self._ghost is not None:
             self._step_ghost(record)
@@ -356,6 +418,23 @@ class SimThread:
         if record.index % SAMPLE_EVERY_FRAMES == 0:
             self.paths.add(loop.time_s, loop.trunk_pose(), loop.feet_distance_m())
         self._publish_poses()
+
+    def _blown_up(self, time_s: float, frames: int) -> None:
+        """Reset after a blow-up; the second in a row within a second of a start pauses the
+        robot, said once, naming the world (it would blow up every frame)."""
+        quick = frames <= QUICK_BLOW_UP_FRAMES
+        self._quick_blow_ups = self._quick_blow_ups + 1 if quick else 0
+        self._reset()
+        if self._quick_blow_ups < BLOW_UPS_BEFORE_PAUSE:
+            self.errors.append(f"physics blew up at t = {time_s:.2f} s; robot reset")
+            return
+        self._quick_blow_ups = 0
+        self.paused = True
+        self.errors.append(
+            f"physics blows up within {QUICK_BLOW_UP_FRAMES * FRAME_S:g} s of every start in the "
+            f"world {self.live.loop.variation.name} with parameter set v{self._applied.version}; "
+            "paused: change the world, the parameters or the robot, then resume"
+        )
 
     def _watch_sensors_if_asked(self) -> None:
         """The live loop reads its sensors while someone asked for them lately; watching anew,

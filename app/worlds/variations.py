@@ -31,6 +31,21 @@ SCALES = (
     "frictionloss_scale",
 )
 NON_NEGATIVE = ("latency_ms", "deadband_deg", "backlash_deg")
+#: the largest value of each scale and servo error that still describes a hobby biped
+#: (docs/DESIGN.md §8): a value past it is no plausible robot, and some (a latency of 1e10 ms,
+#: a stiffness of 1e308) cannot even be simulated
+UPPER_LIMITS = {
+    "trunk_mass_scale": 5.0,  # a payload four times the trunk
+    "link_mass_scale": 3.0,  # metal brackets and heavier servos on every link
+    "kp_scale": 5.0,  # a digital servo's holding stiffness, several times an analogue one's
+    "damping_scale": 10.0,
+    "frictionloss_scale": 10.0,  # a worn gear train
+    "latency_ms": 200.0,  # ten frames: a bus servo behind a slow serial link
+    "deadband_deg": 10.0,  # 20 times the MG996R's 5 µs dead band (0.5°)
+    "backlash_deg": 10.0,  # a worn plastic gear train: a few degrees
+}
+#: a servo horn set on its spline more than this off its zero is a robot not yet assembled
+CALIBRATION_LIMIT_DEG = 45.0
 CAL_PREFIX = "cal."
 #: the sensors' errors and a push (docs/DESIGN.md §8): they act on what the sensors read and on
 #: the trunk, not on the compiled model; (low, high, low_open, high_open) of each
@@ -55,15 +70,18 @@ def _limits(name: str) -> tuple[str, float, float, bool, bool]:
     if name == "torque_scale":
         return f"> 0 and ≤ {TORQUE_SCALE_MAX}", 0.0, TORQUE_SCALE_MAX, True, False
     if name in SCALES:
-        return "> 0 and finite", 0.0, math.inf, True, True
+        high = UPPER_LIMITS[name]
+        return f"> 0 and ≤ {high:g}", 0.0, high, True, False
     if name in NON_NEGATIVE:
-        return "≥ 0 and finite", 0.0, math.inf, False, True
+        high = UPPER_LIMITS[name]
+        return f"≥ 0 and ≤ {high:g}", 0.0, high, False, False
     if name == "tilt_deg":
         return "≥ 0 and < 90", 0.0, 90.0, False, True
     if name == "tilt_direction_deg":
         return "≥ 0 and < 360", 0.0, 360.0, False, True
     if name == "calibration_deg":
-        return "finite", -math.inf, math.inf, True, True
+        limit = CALIBRATION_LIMIT_DEG
+        return f"≥ {-limit:g} and ≤ {limit:g}", -limit, limit, False, False
     if name in SENSOR_LIMITS:
         low, high, low_open, high_open = SENSOR_LIMITS[name]
         text = f"{'>' if low_open else '≥'} {low:g} and {'<' if high_open else '≤'} {high:g}"
@@ -88,9 +106,13 @@ def _calibration(value: object) -> tuple[float, ...]:
             f"got {len(value)}"
         )
     cal = tuple(as_number(CAL_PREFIX + j, v) for j, v in zip(JOINT_NAMES, value, strict=True))
+    limit = CALIBRATION_LIMIT_DEG
     for j, v in zip(JOINT_NAMES, cal, strict=True):
-        if not math.isfinite(v):
-            raise ValueError(f"variation field {CAL_PREFIX}{j} must be finite, got {v!r}")
+        if not (math.isfinite(v) and -limit <= v <= limit):
+            raise ValueError(
+                f"variation field {CAL_PREFIX}{j} must be ≥ {-limit:g} and ≤ {limit:g} degrees, "
+                f"got {v!r}"
+            )
     return cal
 
 
@@ -113,9 +135,11 @@ class Variation:
         trunk_mass_scale: trunk body mass and inertia (payload); link_mass_scale: every other
             body's; kp_scale: servo stiffness kp [4.5 N·m/rad]; torque_scale: servo force range
             [±1.08 N·m] (battery sag), ≤ 1.2; damping_scale: joint damping [0.144 N·m·s/rad];
-            frictionloss_scale: joint friction loss [0.02 N·m]. All > 0.
-        latency_ms: set-point delay, ms ≥ 0, rounded to whole physics steps.
-        deadband_deg, backlash_deg: servo dead band and gear play, degrees ≥ 0 (full widths).
+            frictionloss_scale: joint friction loss [0.02 N·m]. All > 0, each at most its
+            `UPPER_LIMITS` value.
+        latency_ms: set-point delay, ms in [0, 200], rounded to whole physics steps.
+        deadband_deg, backlash_deg: servo dead band and gear play, degrees in [0, 10] (full
+            widths).
         tilt_deg: floor tilt in [0, 90); tilt_direction_deg: the downhill direction, degrees
             counter-clockwise from the world x axis, in [0, 360).
         imu_tilt_bias_deg, imu_tilt_direction_deg: the IMU's frame tilted against the trunk's
@@ -129,8 +153,8 @@ class Variation:
         fsr_gain: scale of every foot force sensor's reading.
         push_n_s: an impulse on the trunk, horizontal, toward push_direction_deg (counter-
             clockwise from the world x axis), in the physics step that starts at push_time_s.
-        calibration_deg: 12 per-joint zero offsets in `gait.JOINT_NAMES` order (a servo drives
-            to set-point + offset).
+        calibration_deg: 12 per-joint zero offsets in `gait.JOINT_NAMES` order, each within
+            ±45° (a servo drives to set-point + offset).
 
     Raises TypeError for a non-number and ValueError naming the field and its allowed range.
     `dataclasses.replace` validates too.
