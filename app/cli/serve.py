@@ -56,6 +56,7 @@ def serve(args: argparse.Namespace) -> int:
     from app.firmware.build import missing_tools
     from app.params.presets import default_data_dir
     from app.server.app import create_app
+    from app.server.robot_shelf import RobotShelf
     from app.server.services import ServerConfig
     from app.server.viser_view import viser_url
 
@@ -71,7 +72,7 @@ def serve(args: argparse.Namespace) -> int:
         allowed_hosts=tuple(args.allowed_host),
         drive=args.drive,
     )
-    RobotModel.load(args.robot)  # fail here, clearly, naming the field, not inside the server
+    RobotShelf(RobotModel.load(args.robot))  # fail here, clearly, not inside the server
     if config.params_file:
         load_parameter_set(config.params_file)
     if config.drive == "firmware" and (missing := missing_tools()):

@@ -6,12 +6,14 @@ needs the model or the gait's poses (eq (1)) is `app.robots.checks`."""
 from __future__ import annotations
 
 import math
-from typing import Literal
+from typing import Annotated, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, field_validator, model_validator
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, model_validator
 
+from app.assets import builtin_presets_dir
 from app.robots.servos import rating_at, servo_table
-from gait import JOINT_NAMES, GaitParams, LegGeometry
+from gait import JOINT_NAMES, GaitParams, LegGeometry, Motion, joint_angles_with_flags
 from gait.leg_interface import knee_triangle
 from hardware import CHANNELS
 from hardware.servo import PULSE_CENTER_US, PULSE_MAX_US, PULSE_MIN_US, US_PER_DEG
@@ -21,30 +23,48 @@ LegJoint = Literal["hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "a
 LEG_JOINTS: tuple[str, ...] = LegJoint.__args__  # type: ignore[attr-defined]
 LINKS = ("trunk", "hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot")
 MASS_TOLERANCE_KG = 0.0005  # the parts must add up to the stated total within half a gram
+#: the motions whose poses every joint's range must hold: seed 000's table, both ways
+REACH_CASES = (
+    Motion(),
+    *(Motion(**{axis: sign * value}) for axis, value in (("a_p", 0.07), ("a_r", 0.1), ("a_y", 0.2))
+      for sign in (1.0, -1.0)),
+)  # fmt: skip
+REACH_PHASES = 64
 
-Vec3 = tuple[float, float, float]
+#: a number written as one (not "0.09", not true), finite
+Real = Annotated[float, Strict()]
+#: a length of a small servo-driven biped's part: > 0 and at most a metre
+Length = Annotated[float, Strict(), Field(gt=0, le=1.0)]
+#: a position relative to a joint, each coordinate within a metre
+Vec3 = tuple[
+    Annotated[float, Strict(), Field(ge=-1.0, le=1.0)],
+    Annotated[float, Strict(), Field(ge=-1.0, le=1.0)],
+    Annotated[float, Strict(), Field(ge=-1.0, le=1.0)],
+]
+Size3 = tuple[Length, Length, Length]
+Name = Annotated[str, Strict()]
 
 
 class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
 
 
 class Geometry(_Strict):
     """Where the joints are. The hip roll and pitch axes cross, so do the ankle's (eqs 2–9)."""
 
-    hip_spacing_m: float = Field(gt=0, description="between the two hip-yaw axes")
-    hip_yaw_offset_m: float = Field(
-        ge=0, description="trunk origin (abdomen centre) down to the hip-yaw joint"
+    hip_spacing_m: Length = Field(description="between the two hip-yaw axes")
+    hip_yaw_offset_m: Real = Field(
+        ge=0, le=1.0, description="trunk origin (abdomen centre) down to the hip-yaw joint"
     )
-    hip_roll_offset_m: float = Field(
-        gt=0, description="hip-yaw joint down to the hip roll/pitch crossing"
+    hip_roll_offset_m: Length = Field(
+        description="hip-yaw joint down to the hip roll/pitch crossing"
     )
-    thigh_m: float = Field(gt=0, description="L_UL: hip crossing to knee axis (eq 3)")
-    shank_m: float = Field(gt=0, description="L_LL: knee axis to ankle crossing (eq 3)")
-    ankle_to_sole_m: float = Field(gt=0, description="ankle crossing down to the sole")
-    foot_length_m: float = Field(gt=0)
-    foot_width_m: float = Field(gt=0)
-    foot_thickness_m: float = Field(gt=0)
+    thigh_m: Length = Field(description="L_UL: hip crossing to knee axis (eq 3)")
+    shank_m: Length = Field(description="L_LL: knee axis to ankle crossing (eq 3)")
+    ankle_to_sole_m: Length = Field(description="ankle crossing down to the sole")
+    foot_length_m: Length
+    foot_width_m: Length
+    foot_thickness_m: Length
 
     @model_validator(mode="after")
     def _fits(self) -> Geometry:
@@ -75,13 +95,15 @@ class Geometry(_Strict):
 class Part(_Strict):
     """A piece of a link: its mass and, for the inertia, a box or a capsule along the link."""
 
-    name: str = Field(min_length=1)
-    mass_kg: float = Field(ge=0)
-    box_m: Vec3 | None = Field(None, description="full box size x, y, z (default: no volume)")
-    capsule_radius_m: float | None = Field(
-        None, gt=0, description="a capsule along the link from its joint to the next one"
+    name: Name = Field(min_length=1, max_length=80)
+    mass_kg: Real = Field(ge=0, le=10.0)
+    box_m: Size3 | None = Field(None, description="full box size x, y, z (default: no volume)")
+    capsule_radius_m: Real | None = Field(
+        None, gt=0, le=0.1, description="a capsule along the link from its joint to the next one"
     )
-    capsule_inset_m: float = Field(0.01, ge=0, description="capsule ends this far from joints")
+    capsule_inset_m: Real = Field(
+        0.01, ge=0, le=0.5, description="capsule ends this far from joints"
+    )
     pos_m: Vec3 = (0.0, 0.0, 0.0)
     collides: bool = False
     material: Literal["aluminium", "dummy", "board", "plastic"] = "aluminium"
@@ -99,17 +121,17 @@ class ServoMount(_Strict):
     """Where a joint's servo case sits: in the link above the joint, relative to the joint."""
 
     pos_m: Vec3 = (0.0, 0.0, 0.0)
-    euler_rad: Vec3 = (0.0, 0.0, 0.0)
-    box_m: Vec3 | None = Field(None, description="the case as drawn, if not the datasheet's")
+    euler_rad: tuple[Real, Real, Real] = (0.0, 0.0, 0.0)
+    box_m: Size3 | None = Field(None, description="the case as drawn, if not the datasheet's")
 
 
 class Calibration(_Strict):
     """How a joint angle becomes a pulse: direction, trim and the pulse limits (seed 000 §3.B)."""
 
     direction: Literal[1, -1] = 1
-    trim_us: float = Field(0.0, ge=-200.0, le=200.0)
-    pulse_min_us: float = PULSE_MIN_US
-    pulse_max_us: float = PULSE_MAX_US
+    trim_us: Real = Field(0.0, ge=-200.0, le=200.0)
+    pulse_min_us: Real = PULSE_MIN_US
+    pulse_max_us: Real = PULSE_MAX_US
 
     @model_validator(mode="after")
     def _range(self) -> Calibration:
@@ -133,8 +155,8 @@ class Calibration(_Strict):
 class Joint(_Strict):
     """One of the 12 joints: its servo, range of motion and calibration."""
 
-    servo: str | None = Field(None, description="a name of the servo table; default: `servo`")
-    range_rad: tuple[float, float] = (-math.pi / 2, math.pi / 2)
+    servo: Name | None = Field(None, description="a name of the servo table; default: `servo`")
+    range_rad: tuple[Real, Real] = (-math.pi / 2, math.pi / 2)
     calibration: Calibration = Calibration()
 
     @field_validator("range_rad")
@@ -148,9 +170,9 @@ class Joint(_Strict):
 class Contact(_Strict):
     """Floor and sole contact. Physics stays honest: sliding friction at most 1."""
 
-    friction: float = Field(0.7, gt=0, le=1.0, description="sliding, soles and floor")
-    torsional_friction: float = Field(0.005, ge=0, le=0.1)
-    rolling_friction: float = Field(0.0001, ge=0, le=0.01)
+    friction: Real = Field(0.7, gt=0, le=1.0, description="sliding, soles and floor")
+    torsional_friction: Real = Field(0.005, ge=0, le=0.1)
+    rolling_friction: Real = Field(0.0001, ge=0, le=0.01)
     condim: Literal[3, 4, 6] = 3
 
 
@@ -158,12 +180,12 @@ class RobotDescription(_Strict):
     """A biped of ArtRo's structure (docs/DESIGN.md §3, §7)."""
 
     schema_version: Literal[1] = 1
-    name: str = Field(pattern=r"^[a-z][a-z0-9_-]{0,39}$")
-    title: str = ""
-    default_preset: str = Field("paper", description="the parameter set it starts with")
-    supply_voltage_v: float = Field(gt=0, le=24)
-    total_mass_kg: float = Field(gt=0, description="checked against the sum of all parts")
-    servo: str = Field(description="every joint's servo unless a joint names another")
+    name: Name = Field(pattern=r"^[a-z][a-z0-9_-]{0,39}$")
+    title: Name = Field("", max_length=200)
+    default_preset: Name = Field("paper", description="the parameter set it starts with")
+    supply_voltage_v: Real = Field(gt=0, le=24)
+    total_mass_kg: Real = Field(gt=0, le=20.0, description="checked against the sum of all parts")
+    servo: Name = Field(description="every joint's servo unless a joint names another")
     geometry: Geometry
     trunk: tuple[Part, ...] = Field(min_length=1)
     links: dict[Literal["hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot"], tuple[Part, ...]]
@@ -217,10 +239,56 @@ class RobotDescription(_Strict):
                     f"joints.{name}.range_rad: {lo:.4f}..{hi:.4f} rad is beyond the {servo}'s "
                     f"travel of ±{half_travel:.4f} rad"
                 )
+        presets = sorted(p.stem for p in builtin_presets_dir().glob("*.json"))
+        if self.default_preset not in presets:
+            raise ValueError(
+                f"default_preset: {self.default_preset!r} is not a built-in preset; built in: "
+                f"{', '.join(presets)}"
+            )
         self._check_tdm()
         self._check_mass()
+        self._check_capsules()
         self._check_knee_reach(GaitParams().leg.eta_min)
+        self._check_reach()
         return self
+
+    def link_length_m(self, link: str) -> float:
+        """How far a link reaches from its joint to the next (0 where two axes cross)."""
+        g = self.geometry
+        lengths = {"hip_yaw": g.hip_roll_offset_m, "thigh": g.thigh_m, "shank": g.shank_m,
+                   "foot": g.ankle_to_sole_m}  # fmt: skip
+        return lengths.get(link, 0.0)
+
+    def _check_capsules(self) -> None:
+        """A capsule runs along its link between the two insets: there must be room for it."""
+        for link, parts in (("trunk", self.trunk), *self.links.items()):
+            length = self.link_length_m(link)
+            for i, part in enumerate(parts):
+                if part.capsule_radius_m is not None and 2 * part.capsule_inset_m >= length:
+                    where = "trunk" if link == "trunk" else f"links.{link}"
+                    raise ValueError(
+                        f"{where}.{i}.capsule_inset_m: {part.capsule_inset_m:g} m from each "
+                        f"end leaves no capsule on the {length:g} m {link}; allowed: less than "
+                        f"{length / 2:g} m (or a box_m)"
+                    )
+
+    def _check_reach(self) -> None:
+        """Every joint's range holds the poses of the gait's table motions (the paper's
+        constants, this robot's legs): a narrower range stops the walk at its limit."""
+        geometry = LegGeometry(upper_m=self.geometry.thigh_m, lower_m=self.geometry.shank_m)
+        phases = np.linspace(-np.pi, np.pi, REACH_PHASES, endpoint=False)
+        poses = np.concatenate(
+            [joint_angles_with_flags(GaitParams(), m, phases, geometry).values for m in REACH_CASES]
+        )
+        for i, name in enumerate(JOINT_NAMES):
+            lo, hi = self.joints[name].range_rad
+            need_lo, need_hi = float(poses[:, i].min()), float(poses[:, i].max())
+            if need_lo < lo - 1e-6 or need_hi > hi + 1e-6:
+                raise ValueError(
+                    f"joints.{name}.range_rad: {lo:.4f}..{hi:.4f} rad does not hold the gait's "
+                    f"reach of {need_lo:.4f}..{need_hi:.4f} rad (the paper's constants walking "
+                    f"forward, backward, sideways and turning at seed 000's table speeds)"
+                )
 
     def _check_knee_reach(self, eta_min: float) -> None:
         """The knees bend to the gait's shortest leg, knee = α1 − π at η_min (eqs 3–7), and

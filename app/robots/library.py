@@ -5,6 +5,7 @@ from __future__ import annotations
 
 from functools import cache
 from pathlib import Path
+from typing import Any
 
 import yaml
 from pydantic import ValidationError
@@ -13,6 +14,11 @@ from app.assets import builtin_robots_dir
 from app.robots.description import RobotDescription
 
 BUILTIN_DEFAULT = "artro"
+#: a description is a page (the built-in artro.yaml is 4 KiB): checked before reading, so a
+#: 48 MB file is refused at once instead of parsed for minutes
+MAX_DESCRIPTION_BYTES = 256 * 1024
+#: the deepest a description nests (links > thigh > a part > box_m is 4)
+MAX_DEPTH = 8
 
 
 class RobotError(ValueError):
@@ -27,12 +33,12 @@ def builtin_robot_names() -> list[str]:
 
 
 def describe_errors(err: ValidationError, source: str) -> str:
-    """One line per problem: `field.path: message`."""
+    """One line per problem: `field.path: message` (the message alone for the whole document)."""
     lines = []
     for e in err.errors():
-        where = ".".join(str(p) for p in e["loc"]) or "(document)"
+        where = ".".join(str(p) for p in e["loc"])
         msg = e["msg"].removeprefix("Value error, ")
-        lines.append(f"  {where}: {msg}")
+        lines.append(f"  {where}: {msg}" if where else f"  {msg}")
     return f"{source} is not a valid robot description:\n" + "\n".join(lines)
 
 
@@ -45,13 +51,79 @@ def parse_description(raw: object, source: str) -> RobotDescription:
 
 
 def read_description(path: Path) -> RobotDescription:
+    """The description in the file at `path` (YAML or JSON, UTF-8, at most
+    MAX_DESCRIPTION_BYTES); RobotError naming the file and what is wrong."""
     try:
-        raw = yaml.safe_load(path.read_text(encoding="utf-8"))
+        size = path.stat().st_size
+        if size > MAX_DESCRIPTION_BYTES:
+            raise RobotError(
+                f"{path} is {size:,} bytes; a robot description is at most "
+                f"{MAX_DESCRIPTION_BYTES // 1024} KiB (the built-in artro.yaml is 4 KiB)"
+            )
+        data = path.read_bytes()
     except OSError as err:
         raise RobotError(f"cannot read the robot description {path}: {err.strerror}") from None
+    return parse_description(load_yaml(decoded(data, path), path), str(path))
+
+
+def decoded(data: bytes, path: Path | str) -> str:
+    """`data` as UTF-8 text (a UTF-8 byte-order mark dropped); RobotError otherwise."""
+    if data.startswith((b"\xff\xfe", b"\xfe\xff")):
+        raise RobotError(f"{path} is UTF-16 text; save it as UTF-8")
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as err:
+        raise RobotError(
+            f"{path} is not UTF-8 text (byte 0x{data[err.start]:02x} at offset {err.start}); "
+            "save it as UTF-8"
+        ) from None
+
+
+class _DescriptionLoader(yaml.SafeLoader):
+    """SafeLoader that refuses a key given twice (YAML would keep the last, silently)."""
+
+    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
+        seen: set[object] = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)  # type: ignore[no-untyped-call]
+            if isinstance(key, str) and key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"the key {key!r} is given twice", key_node.start_mark
+                )
+            seen.add(key if isinstance(key, str) else id(key_node))
+        return super().construct_mapping(node, deep=deep)
+
+
+def load_yaml(text: str, path: Path | str) -> object:
+    """The YAML (or JSON) document in `text`; RobotError naming `path`, line and column for
+    malformed YAML, a key given twice, anchors, or nesting deeper than MAX_DEPTH."""
+
+    def where(mark: Any) -> str:
+        return f"{path}, line {mark.line + 1}, column {mark.column + 1}" if mark else str(path)
+
+    try:
+        depth = 0  # checked while streaming, before anything recursive sees the document
+        for event in yaml.parse(text, Loader=_DescriptionLoader):
+            if isinstance(event, yaml.CollectionStartEvent):
+                depth += 1
+                if depth > MAX_DEPTH:
+                    raise RobotError(
+                        f"{where(event.start_mark)}: nested {depth} levels deep; a robot "
+                        f"description nests at most {MAX_DEPTH}"
+                    )
+            elif isinstance(event, yaml.CollectionEndEvent):
+                depth -= 1
+            if isinstance(event, yaml.AliasEvent) or getattr(event, "anchor", None):
+                raise RobotError(
+                    f"{where(event.start_mark)}: YAML anchors and aliases are not allowed in a "
+                    "robot description; write each value out"
+                )
+        return yaml.load(text, Loader=_DescriptionLoader)  # a SafeLoader: no objects
+    except yaml.MarkedYAMLError as err:
+        mark = err.problem_mark or err.context_mark
+        raise RobotError(f"{where(mark)}: malformed YAML: {err.problem}") from None
     except yaml.YAMLError as err:
         raise RobotError(f"{path} is not YAML: {err}") from None
-    return parse_description(raw, str(path))
 
 
 @cache

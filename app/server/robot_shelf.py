@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import threading
 
-from app.robots import builtin_robot_names
+from app.robots import builtin_robot_names, load_description
 from app.robots.model import RobotModel
 
 
@@ -16,6 +16,14 @@ class UnknownRobot(ValueError):
 
 class RobotShelf:
     def __init__(self, started: RobotModel) -> None:
+        """ValueError if `started` is not a built-in robot but takes a built-in's name (it
+        would hide that robot)."""
+        builtin = started.name in builtin_robot_names()
+        if builtin and started.description != load_description(started.name):
+            raise ValueError(
+                f"the robot started with is named {started.name!r} like a built-in robot it is "
+                "not; give it a name of its own (name: in its description)"
+            )
         self.started = started
         self._built: dict[str, RobotModel] = {started.name: started}
         self._lock = threading.Lock()

@@ -276,6 +276,8 @@ def parse_variation(text: str) -> Variation:
             raise ValueError(f"variation field {key} is given twice")
         seen.add(key)
         try:
+            if not raw.isascii():  # float() would read other scripts' digits ("١" is 1.0)
+                raise ValueError
             value = float(raw)
         except ValueError:
             raise ValueError(f"variation field {key}: {raw!r} is not a number") from None

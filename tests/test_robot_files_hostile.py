@@ -1,0 +1,118 @@
+"""Robot description files a hostile tester or a newcomer writes (docs/DESIGN.md §7): each refused
+at once with a sentence naming the file, the field or line, and what is allowed; nothing that
+cannot walk or cannot be simulated gets through."""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+import subprocess
+import sys
+
+import pytest
+import yaml
+
+from app.assets import builtin_robots_dir
+from app.robots import RobotError, load_description, parse_description
+from app.robots.library import MAX_DEPTH, MAX_DESCRIPTION_BYTES
+from app.robots.model import RobotModel
+from app.server.robot_shelf import RobotShelf
+
+ARTRO_TEXT = (builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8")
+
+
+def artro_doc() -> dict:
+    return yaml.safe_load(ARTRO_TEXT)
+
+
+def with_value(path: str, value: object) -> dict:
+    doc = copy.deepcopy(artro_doc())
+    *parents, last = path.split(".")
+    node = doc
+    for key in parents:
+        node = node[int(key)] if isinstance(node, list) else node[key]
+    node[last] = value
+    return doc
+
+
+def refused_file(tmp_path, data: bytes, name: str = "my.yaml") -> str:
+    path = tmp_path / name
+    path.write_bytes(data)
+    with pytest.raises(RobotError) as err:
+        load_description(path)
+    return str(err.value)
+
+
+def test_a_huge_file_is_refused_before_it_is_read(tmp_path):
+    path = tmp_path / "huge.yaml"
+    with path.open("wb") as f:  # an unknown field holding a long list: 48 MB once took >240 s
+        f.write(ARTRO_TEXT.encode() + b"junk: [" + b"1, " * (MAX_DESCRIPTION_BYTES // 3) + b"1]\n")
+    with pytest.raises(RobotError, match=r"huge.yaml is [\d,]+ bytes; .* at most 256 KiB"):
+        load_description(path)
+
+
+@pytest.mark.parametrize(
+    ("data", "said"),
+    [
+        ("name: rob\xe9\n".encode("latin-1"), "is not UTF-8 text (byte 0xe9 at offset 9)"),
+        (ARTRO_TEXT.encode("utf-16"), "is UTF-16 text; save it as UTF-8"),
+        (b"a: " + b"[" * 900 + b"]" * 900, f"nested 9 levels deep; .* at most {MAX_DEPTH}"),
+        (b"name: x\nname: y\n", "line 2, column 1: malformed YAML: the key 'name' is given twice"),
+        (b"a: &x 1\nb: *x\n", "anchors and aliases are not allowed"),
+        (b"name: [1,\n", "my.yaml, line 2, column 1: malformed YAML"),
+        (b"name: !!python/object:os.system x\n", "my.yaml, line 1, column 7: malformed YAML"),
+    ],
+)
+def test_an_unreadable_file_is_named_with_what_is_wrong(tmp_path, data, said):
+    message = refused_file(tmp_path, data)
+    assert "my.yaml" in message and "<unicode string>" not in message, message
+    assert said in message or re.search(said, message), message
+
+
+def test_a_key_given_twice_in_a_real_description_names_key_and_line(tmp_path):
+    text = ARTRO_TEXT.replace("\nservo: MG996R", "\nservo: SG90\nservo: MG996R", 1)
+    line = text.splitlines().index("servo: SG90") + 2  # the second one is named
+    message = refused_file(tmp_path, text.encode())
+    assert f"line {line}, column 1: malformed YAML: the key 'servo' is given twice" in message
+
+
+@pytest.mark.parametrize(
+    ("path", "value", "said"),
+    [
+        ("geometry.thigh_m", "0.09", "geometry.thigh_m: Input should be a valid number"),
+        ("geometry.thigh_m", True, "geometry.thigh_m: Input should be a valid number"),
+        ("geometry.shank_m", math.inf, "geometry.shank_m: Input should be a finite number"),
+        ("geometry.foot_length_m", 1e308, "geometry.foot_length_m: Input should be less than"),
+        ("trunk.0.pos_m", [0.0, math.inf, 0.0], "trunk.0.pos_m.1: Input should be a finite"),
+        ("trunk.0.mass_kg", math.nan, "trunk.0.mass_kg: Input should be a finite number"),
+        ("title", b"\x00\x01", "title: Input should be a valid string"),
+        ("links.thigh.0.capsule_inset_m", 0.3, "capsule_inset_m: 0.3 m from each end leaves no"),
+        ("joints.l_hip_pitch", {"range_rad": [-0.01, 0.01]}, "l_hip_pitch.range_rad: -0.0100"),
+        ("joints.r_ankle_roll", {"range_rad": [-0.2, 1.0]}, "does not hold the gait's reach"),
+        ("default_preset", "nosuch", "default_preset: 'nosuch' is not a built-in preset; built"),
+    ],
+)
+def test_a_description_that_cannot_walk_or_be_simulated_is_refused(path, value, said):
+    doc = with_value(path, value)
+    if path.startswith("links.thigh"):
+        doc["links"]["thigh"][0].setdefault("capsule_radius_m", 0.01)
+    with pytest.raises(RobotError) as err:
+        parse_description(doc, "my.yaml")
+    message = str(err.value)
+    assert said in message and "(document)" not in message, message
+
+
+def test_a_robot_that_takes_a_builtins_name_is_refused_by_the_server(tmp_path):
+    doc = artro_doc()
+    doc["title"] = "my own, named artro"
+    path = tmp_path / "artro-copy.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    with pytest.raises(ValueError, match="named 'artro' like a built-in robot it is not"):
+        RobotShelf(RobotModel.load(path))
+    RobotShelf(RobotModel.load("artro"))  # the built-in itself is fine
+    run = subprocess.run(
+        [sys.executable, "-m", "app.cli", "serve", "--robot", str(path), "--port", "1"],
+        capture_output=True, text=True, timeout=120,
+    )  # fmt: skip
+    assert run.returncode == 2 and "like a built-in robot" in run.stderr, run.stderr
