@@ -40,19 +40,30 @@ def wheel(tmp_path_factory) -> Path:
     return found
 
 
+def readme_locked_install() -> list[str]:
+    """The README's command for a locked install, `pip install uv==V && uv pip install ...`:
+    the uv version it names and the words of its install."""
+    readme = (ROOT / "README.md").read_text(encoding="utf-8")
+    found = re.search(r"^pip install uv==(\S+) && (uv pip install .*)$", readme, re.MULTILINE)
+    assert found, "the README offers a locked install of the package"
+    uv_version = (ROOT / "scripts" / "uv-requirement.txt").read_text().strip()
+    assert found[1] == uv_version.removeprefix("uv=="), "the README names the uv setup installs"
+    return found[2].split()
+
+
 @pytest.fixture(scope="module")
-def installed(wheel: Path, tmp_path_factory) -> Path:
-    """A fresh venv with the project's wheel and its declared runtime dependencies, constrained by
-    requirements.lock, and no checkout on its path; returns its bin dir."""
+def installed(tmp_path_factory) -> Path:
+    """A fresh venv with the project installed by the README's locked-install command, run as
+    written in the checkout (the package built from it, its declared runtime dependencies at
+    the lock's versions), and no checkout on its path; returns its bin dir."""
     env_dir = tmp_path_factory.mktemp("venv") / "venv"
     venv.create(env_dir, with_pip=False)  # no system site-packages, nothing of this venv's
     uv = shutil.which("uv", path=str(Path(sys.executable).parent)) or shutil.which("uv")
     assert uv, "uv is installed by scripts/setup.sh"
-    install = [uv, "pip", "install", "--quiet", "--python", str(env_dir / "bin" / "python")]
-    lock = ["-c", str(ROOT / "requirements.lock")]
-    installed = subprocess.run(
-        [*install, *lock, str(wheel)], capture_output=True, text=True, timeout=600
-    )
+    words = readme_locked_install()
+    assert words[:3] == ["uv", "pip", "install"]
+    command = [uv, *words[1:3], "--quiet", "--python", str(env_dir / "bin" / "python"), *words[3:]]
+    installed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert installed.returncode == 0, installed.stderr[-2000:]
     return env_dir / "bin"
 
