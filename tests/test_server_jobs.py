@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import pytest
 
+from app.server.jobs import StaleVersion, only_onto
+from app.server.param_store import ParameterStore
 from tests.server_harness import client, running_server
 
 
@@ -100,3 +102,14 @@ def test_a_job_start_takes_no_options(http, kind):
     assert r.status_code == 422, r.text
     assert r.json()["detail"][0]["loc"] == ["body", "duration_s"]
     assert "Extra inputs are not permitted" in r.json()["message"]
+
+
+def test_a_result_fitted_on_one_robot_never_applies_to_another():
+    """`POST /api/jobs/{id}/apply` once applied a CA calibration fitted on `micro` to `mybot`
+    (K 0.18 -> 0.60): a job's result applies only while its robot is the one in use."""
+    store = ParameterStore(robot="micro")
+    fitted = store.snapshot()
+    store.replace(fitted.parameter_set(), "robot", robot="artro")
+    with pytest.raises(StaleVersion, match="fitted on the robot 'micro'; the robot in use is"):
+        store.update({"gait": {"steer": {}}}, "calibration", check=only_onto(2, "micro"))
+    assert store.snapshot().robot == "artro" and store.snapshot().version == 2

@@ -109,3 +109,20 @@ def test_no_switch_while_a_job_runs_or_a_replay_is_shown(http):
     assert replaying.status_code == 409 and "replay" in replaying.json()["detail"][0]["msg"]
     assert http.get("/api/params").json()["version"] == before
     assert http.get("/api/state").json()["robot"] == "artro"
+
+
+def test_no_undo_back_to_another_robot_while_a_replay_is_shown(http):
+    """A replay of one robot once outlived an undo back to another (its frames drawn on the
+    wrong legs): every change of robots, a switch or an undo, is decided by one guard."""
+    assert http.put("/api/robot", json={"name": "micro"}).status_code == 200
+    _simulated(http, "micro")
+    assert http.post("/api/recording/replay", json={}).status_code == 200
+    version = http.get("/api/params").json()["version"]
+    undo = http.post("/api/params/undo")
+    assert undo.status_code == 409 and undo.json()["detail"][0]["type"] == "robot_busy"
+    assert "from 'micro' to 'artro'" in undo.json()["detail"][0]["msg"]
+    assert http.get("/api/params").json()["version"] == version
+    assert http.get("/api/state").json()["robot"] == "micro"
+    http.post("/api/recording/live")
+    assert http.post("/api/params/undo").json()["robot"] == "artro"
+    _simulated(http, "artro")

@@ -10,7 +10,7 @@ from typing import Any
 from app.analysis.axle_fit import AxleFitResult, fit_effective_axle
 from app.evaluation import BatchEvaluator
 from app.robots.model import RobotModel
-from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict
+from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict, on_robot
 from app.server.param_store import ParameterStore
 from app.server.path_tracker import PathTracker
 from gait import GaitParams, Motion
@@ -67,6 +67,7 @@ class AxleFitter:
         def apply(version: int | None, serial: int | None = None) -> dict[str, Any]:
             if self.store is not None and version is not None:
                 current = self.store.snapshot()
+                on_robot(robot.name)(current)
                 if current.version != version:
                     raise StaleVersion(
                         f"the parameters changed while the fit ran (version {version} is now "

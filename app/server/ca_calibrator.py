@@ -88,7 +88,7 @@ class CaCalibrator:
 
             def apply(version: int) -> dict[str, Any]:
                 changed = self.store.update(
-                    {"gait": {"steer": steer}}, SOURCE, check=only_onto(version)
+                    {"gait": {"steer": steer}}, SOURCE, check=only_onto(version, robot.name)
                 )
                 if axle and axle > 0:
                     self.paths.set_axle(axle, "fitted")

@@ -41,6 +41,7 @@ class EmulatedController:
     def __init__(self, pulses: FirmwarePulses, snapshot: Snapshot) -> None:
         self.pulses = pulses  # the firmware on the emulated MCU, one 20 ms frame per call
         self.built_version = snapshot.version  # the set compiled in as the firmware's defaults
+        self.robot = snapshot.robot  # the robot whose legs and servos it was built for
         self._target = snapshot  # the set in force on the MCU
         self._motion = snapshot.motion  # what its gait got in the last frame (ramped, as its own)
         # sets on the wire, oldest first: (snapshot, firmware frame at sending)

@@ -159,15 +159,32 @@ class Jobs:
         return True
 
 
-def only_onto(version: int) -> Callable[[Any], None]:
-    """A store check (app/server/param_store.py): the change applies only onto `version`."""
+def only_onto(version: int, robot: str | None = None) -> Callable[[Any], None]:
+    """A store check (app/server/param_store.py): the change applies only onto `version`, and
+    (given `robot`) only while that robot is the one in use: what a job fitted on one robot
+    never lands on another."""
 
     def check(current: Any) -> None:
+        if robot is not None:
+            on_robot(robot)(current)
         if current.version != version:
             raise StaleVersion(
                 f"the parameters changed while the job ran (version {version} is now "
                 f"{current.version}, changed by {current.source}): not applied; the result is "
                 f"kept: POST /api/jobs/{{id}}/apply with the version to apply it onto"
+            )
+
+    return check
+
+
+def on_robot(robot: str) -> Callable[[Any], None]:
+    """A store check: the change applies only while `robot` is the robot in use."""
+
+    def check(current: Any) -> None:
+        if current.robot != robot:
+            raise StaleVersion(
+                f"the result was fitted on the robot {robot!r}; the robot in use is "
+                f"{current.robot!r}: not applied (run the job again on {current.robot!r})"
             )
 
     return check

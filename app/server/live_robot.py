@@ -94,7 +94,13 @@ class LiveRobot:
         """Build and boot the firmware for `snapshot`'s set on this robot's legs and servo
         hardware, in the caller's thread (seconds on a cold build cache). ValueError for a set
         the firmware cannot run, BuildError or EmulatorError if the tool chain or emulator fail."""
-        return EmulatedController.boot(snapshot, self.hardware, self.loop.robot.geometry)
+        robot, hardware = self.robot, self.hardware  # replaced by the simulation thread
+        if snapshot.robot != robot.name or self.robot is not robot:
+            raise ValueError(
+                f"the robot is changing to {snapshot.robot!r} (the simulation still runs "
+                f"{robot.name!r}): switch the drive again in a moment"
+            )
+        return EmulatedController.boot(snapshot, hardware, robot.geometry)
 
     def take_drive(self, command: SwitchDrive, applied: Snapshot, coming: Snapshot) -> bool:
         """Answer a drive switch. The firmware is refused (closed, and said so also when no one
@@ -105,7 +111,15 @@ class LiveRobot:
         engines = {applied.gait.engine, coming.gait.engine}
         laws = laws_on(applied.gait) or laws_on(coming.gait)
         refusal = None
-        if controller is not None and laws:
+        robots = {applied.robot, coming.robot, self.robot.name}
+        if controller is not None and robots != {controller.robot}:
+            controller.close()
+            refusal = (
+                f"firmware drive not started: it was built for the robot {controller.robot!r}; "
+                f"the robot is now {coming.robot!r} (it changed while the firmware booted)"
+            )
+            self._report(refusal)
+        elif controller is not None and laws:
             controller.close()
             refusal = (
                 "firmware drive not started: the firmware runs no feedback law yet and the set "

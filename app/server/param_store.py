@@ -51,6 +51,13 @@ Subscriber = Callable[[Snapshot, frozenset[str], str], None]
 #: Called with the current snapshot under the store's lock before a change; raising refuses it
 #: with nothing changed (optimistic concurrency: "only if the version is still n").
 Check = Callable[[Snapshot], None]
+#: called with the snapshot in use and the robot a change would switch to, under the store's
+#: lock, before anything changes; raises RobotBusy to refuse (it must not use the store)
+RobotGuard = Callable[[Snapshot, str], None]
+
+
+class RobotBusy(RuntimeError):
+    """A change of robots refused: something runs on the robot in use."""
 
 
 class NothingToUndo(LookupError):
@@ -64,6 +71,8 @@ class ParameterStore:
         initial = initial or ParameterSet()
         self._lock = threading.Lock()
         self._snapshot = Snapshot(1, initial.name, initial.motion, initial.gait, robot=robot)
+        #: decides every change of robots, a switch, undo or redo (`Services` sets it)
+        self.robot_guard: RobotGuard | None = None
         self._undo: list[Snapshot] = []
         self._redo: list[Snapshot] = []
         self._subscribers: list[Subscriber] = []
@@ -167,6 +176,7 @@ class ParameterStore:
             current = self._snapshot
             if check is not None:
                 check(current)  # raises before anything changes
+            self._guard_robot(current, robot or current.robot)
             name, motion, gait = build(current)  # raises before anything changes
             candidate = Snapshot(
                 current.version + 1,
@@ -207,6 +217,7 @@ class ParameterStore:
                 check(current)
             if not take:
                 raise NothingToUndo("nothing to undo" if take is self._undo else "nothing to redo")
+            self._guard_robot(current, take[-1].robot)
             previous = take.pop()
             give.append(current)
             candidate = Snapshot(
@@ -222,6 +233,10 @@ class ParameterStore:
             subscribers = list(self._subscribers)
         self._announce(subscribers, candidate, changed, source)
         return candidate
+
+    def _guard_robot(self, current: Snapshot, robot: str) -> None:
+        if robot != current.robot and self.robot_guard is not None:
+            self.robot_guard(current, robot)
 
     @staticmethod
     def _announce(

@@ -11,7 +11,7 @@ from app.robots.model import RobotModel
 from app.server.axle_fitter import AxleFitter
 from app.server.ca_calibrator import CaCalibrator
 from app.server.live_robot import Drive
-from app.server.param_store import ParameterStore, Snapshot
+from app.server.param_store import ParameterStore, RobotBusy, Snapshot
 from app.server.replay import Replay
 from app.server.request_gate import served_hosts
 from app.server.robot_shelf import RobotShelf
@@ -33,10 +33,6 @@ class ServerConfig:
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
 
 
-class RobotBusy(RuntimeError):
-    """A switch of robots refused: something runs on the robot in use."""
-
-
 class Services:
     def __init__(self, config: ServerConfig) -> None:
         self.config = config
@@ -48,6 +44,7 @@ class Services:
         else:  # the robot's own preset: a new user should see a robot that walks
             initial = self.default_preset(started)
         self.store = ParameterStore(initial, robot=started.name)
+        self.store.robot_guard = self._robot_free  # every change of robots, however made
         self.presets = PresetStore(config.data_dir, builtins)
         self.sim = SimThread(self.store, robot=started, robots=self.robots.get)
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
@@ -104,23 +101,29 @@ class Services:
         robot = self.robots.get(name)  # built here, in the caller's thread
         if robot.name == self.store.robot:
             return self.store.snapshot(), False
+        return self.store.replace(self.default_preset(robot), "robot", robot=robot.name), True
+
+    def _robot_free(self, current: Snapshot, robot: str) -> None:
+        """The store's robot guard: a change from `current`'s robot to `robot` (a switch, an
+        undo or a redo, from the API or the 3D view) is refused while a job, a replay or the
+        firmware drive is on the robot in use. A firmware booting meanwhile is refused when
+        handed over (`LiveRobot.take_drive`); a job's result applies only on its own robot."""
+        change = f"changing the robot from {current.robot!r} to {robot!r}"
         if running := self.axle_fitter.jobs.running():
             kinds = ", ".join(sorted({job.kind for job in running}))
             raise RobotBusy(
-                f"a job runs on {self.store.robot!r} ({kinds}): wait for it or cancel it "
-                f"(DELETE /api/jobs/{{id}}) before switching robots"
+                f"a job runs on {current.robot!r} ({kinds}): wait for it or cancel it "
+                f"(DELETE /api/jobs/{{id}}) before {change}"
             )
         if self.replay.active:
             raise RobotBusy(
-                "a replay is shown: go back to live (POST /api/recording/live) before "
-                "switching robots"
+                f"a replay is shown: go back to live (POST /api/recording/live) before {change}"
             )
         if self.sim.status().drive != Drive.MODEL.value:
             raise RobotBusy(
-                f"the firmware drives {self.store.robot!r}: switch the drive to the model "
-                "(PUT /api/sim/drive) before switching robots"
+                f"the firmware drives {current.robot!r}: switch the drive to the model "
+                f"(PUT /api/sim/drive) before {change}"
             )
-        return self.store.replace(self.default_preset(robot), "robot", robot=robot.name), True
 
     def robot_warnings(self, pset: ParameterSet) -> list[str]:
         """What to tell a user who loads `pset` here: that it was tuned for another robot."""

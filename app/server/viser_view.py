@@ -19,7 +19,7 @@ from app.analysis.axle_fit import NOT_APPLIED
 from app.firmware.emulator import FRAME_CYCLES
 from app.params.schema import schema_description
 from app.server.live_robot import Drive
-from app.server.param_store import NothingToUndo, Snapshot
+from app.server.param_store import NothingToUndo, RobotBusy, Snapshot
 from app.server.replay import Replaying
 from app.server.sim_commands import Reanchor, RemoveGhost, Reset, SetGhost, SetSpeed, control
 from app.server.viser_ghost import GhostDrawing
@@ -135,7 +135,7 @@ class Viewer:
                 lambda _e: setattr(self.scene, "camera_tracking_enabled", follow.value)
             )
             history = gui.add_button_group("Parameters", ("Undo", "Redo"))
-            history.on_click(lambda e: self._history(e.target.value))
+            history.on_click(lambda e: self._history(e.target.value, e.client))
             self._drive = gui.add_dropdown(
                 "Pulses from",
                 tuple(d.value for d in Drive),
@@ -359,11 +359,14 @@ class Viewer:
         patch = {"motion": defaults} if key == "motion" else {"gait": {key: defaults}}
         self.store.update(patch, BUTTON_SOURCE)
 
-    def _history(self, which: str) -> None:
+    def _history(self, which: str, client: viser.ClientHandle | None) -> None:
         try:
             (self.store.undo if which == "Undo" else self.store.redo)(BUTTON_SOURCE)
         except NothingToUndo:
             pass
+        except RobotBusy as exc:  # shown to the person who asked; nothing changed
+            if client is not None:
+                client.add_notification(f"Not {which.lower()}ne", str(exc)[:300], color="red")
 
     def _engine_callback(self, event: viser.GuiEvent) -> None:
         if event.client is None:  # a programmatic set: the store already has it

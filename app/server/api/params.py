@@ -12,7 +12,7 @@ from app.params.document import ParameterSet
 from app.params.schema import ParamsBody, ParamsPatchBody, schema_description
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.param_store import Check, NothingToUndo, Snapshot
+from app.server.param_store import Check, NothingToUndo, RobotBusy, Snapshot
 from app.server.services import Services
 
 router = APIRouter(
@@ -151,6 +151,9 @@ def _history(
     except NothingToUndo as exc:
         current = services.store.snapshot()
         raise ApiError(409, str(exc), "nothing_to_" + step, version=current.version) from exc
+    except RobotBusy as exc:  # the step would change robots while something runs on this one
+        current = services.store.snapshot()
+        raise ApiError(409, str(exc), "robot_busy", version=current.version) from exc
     reverted = {"version": replaced[0].version, "source": replaced[0].source}
     return _tagged(response, snapshot) | {"reverted": reverted}
 

@@ -10,8 +10,8 @@ from starlette.concurrency import run_in_threadpool
 from app.robots import RobotDescription
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.param_store import RobotBusy
 from app.server.robot_shelf import UnknownRobot
-from app.server.services import RobotBusy
 
 router = APIRouter(
     prefix="/api", tags=["robot"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
