@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Set up ArtRo Gait Studio in ./.venv with exactly the versions of requirements.lock. With --test:
-# also the test tools and Debian's Chromium (the browser tests drive it through Playwright;
-# Playwright's own browser download is not used).
+# also the test tools, Debian's Chromium (the browser tests drive it through Playwright;
+# Playwright's own browser download is not used) and sigrok-cli (it decodes our VCD files).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -20,7 +20,7 @@ python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {
 .venv/bin/uv pip install --quiet --python .venv/bin/python -c requirements.lock -e ".${extras}"
 
 # Debian packages: the AVR tool chain and emulator for the firmware (always: `artro firmware`
-# needs them), Chromium for the browser tests (with --test).
+# needs them), Chromium for the browser tests and sigrok-cli for the VCD tests (with --test).
 debs=""
 command -v avr-gcc >/dev/null 2>&1 || debs="$debs gcc-avr avr-libc"
 [ -f /usr/include/simavr/sim_avr.h ] || debs="$debs simavr libsimavr-dev libelf-dev"
@@ -28,6 +28,7 @@ command -v cc >/dev/null 2>&1 || debs="$debs gcc"     # compiles the simavr harn
 command -v make >/dev/null 2>&1 || debs="$debs make"  # the firmware Makefile
 if [ "${1:-}" = "--test" ]; then
   command -v chromium >/dev/null 2>&1 || debs="$debs chromium"
+  command -v sigrok-cli >/dev/null 2>&1 || debs="$debs sigrok-cli"
 fi
 if [ -n "$debs" ]; then
   echo "installing Debian packages:$debs"

@@ -1,7 +1,7 @@
-"""Emulated output-line traces as a Value Change Dump (IEEE 1364 VCD), for GTKWave or sigrok.
+"""Output-line traces as a Value Change Dump (IEEE 1364 VCD), for GTKWave, PulseView or sigrok.
 
-Signals `OC1A OC1B OC1C OC3A OC3B OC3C SEL0 SEL1 SEL2`, one bit each; time in picoseconds from
-the start of frame 0 (one CPU cycle = 62.5 ns at 16 MHz). docs/DESIGN.md §5.
+Signals `OC1A OC1B OC1C OC3A OC3B OC3C SEL0 SEL1 SEL2`, one bit each; time in 100 ns units from
+frame 0's start, each edge at the start of its Timer tick (0.5 µs = 5 units). docs/DESIGN.md §5.
 """
 
 from __future__ import annotations
@@ -11,14 +11,24 @@ from pathlib import Path
 import numpy as np
 
 from app.firmware.emulator import CYCLES_PER_TICK, Edges
-from hardware import FRAME_TICKS, FrameEdges
+from hardware import FRAME_TICKS, TICK_US, FrameEdges
 
 VCD_NAMES = ("OC1A", "OC1B", "OC1C", "OC3A", "OC3B", "OC3C", "SEL0", "SEL1", "SEL2")
-PS_PER_CYCLE = 62_500  # 16 MHz
+#: The time unit. The Timer's 0.5 µs tick is what the firmware sets and `conformance` compares,
+#: but a VCD timescale is 1, 10 or 100 of a unit, so the coarsest that holds a tick is 100 ns: a
+#: viewer samples the lines at 10 MHz (200 000 samples a frame: sigrok-cli's pwm decoder reads
+#: three frames of a line in 0.04 s). The CPU's cycle (62.5 ns) would need 100 ps, 1000 times the
+#: samples (8.6 s for the same three frames; at 1 ps, minutes for two), to show lags of a few
+#: cycles that nothing depends on: Timer3 starts a cycle after Timer1 (`timer3_start_lag_cycles`
+#: reports it), the select lines are written some cycles into their tick. On the tick grid every
+#: pulse is exactly its (OCR + 1) ticks, as `conformance` counts them.
+TIMESCALE = "100ns"
+UNITS_PER_TICK = round(TICK_US * 1000 / 100)  # 5
 
 
 def write_vcd(path: Path | str, edges: Edges, t0_cycle: int, *, comment: str = "") -> None:
-    """Write the edges from frame 0 on (earlier ones set the initial values)."""
+    """Write the edges from frame 0 (CPU cycle `t0_cycle`) on; earlier ones, and those in frame 0's
+    first tick, set the initial values. Time: see TIMESCALE."""
     Path(path).write_text(vcd_text(edges, t0_cycle, comment=comment), encoding="ascii")
 
 
@@ -56,10 +66,11 @@ def vcd_text(edges: Edges, t0_cycle: int, *, comment: str = "") -> str:
     ]
     if comment:
         lines.append(f"$comment {comment} $end")
-    lines += ["$timescale 1ps $end", "$scope module artro $end"]
+    lines += [f"$timescale {TIMESCALE} $end", "$scope module artro $end"]
     lines += [f"$var wire 1 {c} {n} $end" for c, n in zip(codes, VCD_NAMES, strict=True)]
     lines += ["$upscope $end", "$enddefinitions $end"]
-    time = np.maximum(edges.cycle.astype(np.int64) - t0_cycle, 0) * PS_PER_CYCLE
+    ticks = np.maximum(edges.cycle.astype(np.int64) - t0_cycle, 0) // CYCLES_PER_TICK
+    time = ticks * UNITS_PER_TICK  # the tick an edge falls in, as `conformance` counts it
     initial = [0] * len(VCD_NAMES)
     start = int(np.searchsorted(time, 1))  # edges at or before t0 give the initial levels
     for line, level in zip(edges.line[:start].tolist(), edges.level[:start].tolist(), strict=True):
