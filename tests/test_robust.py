@@ -139,7 +139,9 @@ def test_artro_bench_robust_json_and_files(tmp_path):
     assert out.returncode == 0, out.stderr[-2000:]
     results = json.loads(out.stdout)
     assert results["ranges"]["friction"] == [0.3, 0.6] and results["seed"] == 1
-    assert "bench robust:" in out.stderr  # the progress
+    progress = [line for line in out.stderr.splitlines() if "/27 runs, " in line]
+    assert "\r" not in out.stderr and 2 <= len(progress) <= 11  # a pipe: a line per tenth
+    assert progress[-1].startswith("bench robust: 27/27 runs, ")
     for name in ("results.json", "report.md", "robust.png"):
         assert (tmp_path / name).stat().st_size > 100
     bad = subprocess.run(
