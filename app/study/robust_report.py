@@ -6,6 +6,19 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+from matplotlib.backends.backend_agg import FigureCanvasAgg
+from matplotlib.figure import Figure
+
+TARGET_PERCENT = 90.0  # the dotted line: a case most worlds walk
+
+
+def _figure(case: dict[str, Any]) -> str:
+    value = case["nominal"]
+    if value is None:
+        return "-"
+    return f"{value:.2f}" if case["metric"] == "drift_cm_s" else f"{value:+.2f}"
+
 
 def _depends(case: dict[str, Any]) -> str:
     d = case["depends_on"]
@@ -17,33 +30,61 @@ def _depends(case: dict[str, Any]) -> str:
     )
 
 
+#: where each case's nominal figure goes, by the run metric it is (`figure_metric`)
+SPEED_METRICS = ("forward_cm_s", "lateral_cm_s", "drift_cm_s")
+SIGNS = (
+    "signs (docs/DESIGN.md §3, as in `bench paper`): cm/s forward + and left +, on the spot the "
+    "trunk's drift (no sign); deg/s counter-clockwise + seen from above, so turn clockwise "
+    "(a_y > 0) reads negative"
+)
+
+
+def title(results: dict[str, Any]) -> str:
+    """What was measured on which robot: presets, variations, seed, run length."""
+    names = ", ".join(r["preset"] for r in results["presets"])
+    return (
+        f"bench robust: {names} on robot {results['robot']}, {results['samples']} model "
+        f"variations (seed {results['seed']}), {results['duration_s']:g} s runs "
+        f"({results['warmup_s']:g} s warm-up)"
+    )
+
+
 def render(results: dict[str, Any], *, markdown: bool = False) -> str:
-    """Per preset: each case's pass share, interval, falls, what failures depend on; then the
-    worst variations with the command that repeats each."""
-    out = [
-        f"bench robust: robot {results['robot']}, {results['samples']} variations (seed "
-        f"{results['seed']}), {results['duration_s']:g} s runs",
-        f"pass: {results['pass_rule']}",
-    ]
+    """A title; per preset each case's nominal figure (in its unit, signed as SIGNS says), pass
+    share, interval, falls, what failures depend on; then the worst variations with the command
+    that repeats each."""
+    gap = [""] if markdown else []  # markdown: paragraphs, and a table ends at a blank line
+    out = [f"# {title(results)}" if markdown else title(results), *gap]
+    out += [f"pass: {results['pass_rule']}", *gap, SIGNS]
     for report in results["presets"]:
         out.append("")
-        out.append(f"## {report['preset']}" if markdown else f"{report['preset']}:")
-        header = ["case", "nominal", "pass", "95 % interval", "falls", "failures depend on"]
+        out += [f"## {report['preset']}", ""] if markdown else [f"{report['preset']}:"]
+        header = [
+            "case",
+            "nominal cm/s (fwd, left +)",
+            "nominal deg/s (ccw +)",
+            "pass (runs)",
+            "95 % interval",
+            "falls (runs)",
+            "failures depend on",
+        ]
         rows = []
         for c in report["cases"]:
             lo, hi = c["interval"]
-            nominal = "fell" if c["nominal_fell"] else f"{c['nominal']:+.2f}"
+            nominal = "fell" if c["nominal_fell"] else _figure(c)
+            speed = c["metric"] in SPEED_METRICS
             rows.append(
                 [
                     c["case"],
-                    nominal,
+                    nominal if speed else "",
+                    "" if speed else nominal,
                     f"{c['share']:.0%} ({c['passed']}/{c['runs']})",
                     f"{lo:.0%}–{hi:.0%}",
                     str(c["falls"]),
                     _depends(c),
                 ]
             )
-        out += _table(header, rows, markdown)
+        out += [*_table(header, rows, markdown), *gap]
         out.append(f"all cases: {report['overall_share']:.0%} pass")
         out += _servo_lines(report)
         if report["worst"]:
@@ -93,37 +134,43 @@ def _table(header: list[str], rows: list[list[str]], markdown: bool) -> list[str
     return [fmt.format(*header)] + [fmt.format(*r) for r in rows]
 
 
-def write_plot(results: dict[str, Any], path: Path) -> Path:
-    """Bars of each case's pass share per preset, with the 95 % interval as error bars."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    import numpy as np
-
+def robust_figure(results: dict[str, Any]) -> Figure:
+    """Bars of each case's pass share per preset, with the 95 % interval as error bars, a line
+    at 90 % labelled above the frame, and the legend below the axis, off the bars."""
     reports = results["presets"]
     names = [c["case"] for c in reports[0]["cases"]]
     y = np.arange(len(names))
     height = 0.8 / len(reports)
-    fig, ax = plt.subplots(figsize=(8, 0.45 * len(names) + 1.5))
+    fig = Figure(figsize=(8, 0.45 * len(names) + 2.2), layout="constrained")
+    ax = fig.add_subplot()
     for i, report in enumerate(reports):
         share = np.array([c["share"] for c in report["cases"]]) * 100
         lo = share - np.array([c["interval"][0] for c in report["cases"]]) * 100
         hi = np.array([c["interval"][1] for c in report["cases"]]) * 100 - share
         errors = np.clip([lo, hi], 0.0, None)  # rounding may put an end a hair past the share
         ax.barh(y + i * height, share, height, xerr=errors, capsize=2, label=report["preset"])
-    ax.axvline(90, color="0.4", linestyle=":", linewidth=1)
-    ax.text(90, -0.7, "90 %", ha="center", fontsize=8, color="0.3")
+    ax.axvline(TARGET_PERCENT, color="0.4", linestyle=":", linewidth=1)
+    top = ax.secondary_xaxis("top")  # the line's label, laid out above the frame
+    top.set_xticks([TARGET_PERCENT], [f"{TARGET_PERCENT:g} %"])
+    top.tick_params(length=0, labelsize=8, labelcolor="0.3")
     ax.set_yticks(y + height * (len(reports) - 1) / 2, names)
     ax.invert_yaxis()
-    ax.set_xlim(0, 100)
-    ax.set_xlabel("runs that pass, % (95 % interval)")
+    ax.set_xlim(0, 102)  # the caps at 100 % whole
+    ax.set_xticks(range(0, 101, 20))
+    ax.set_xlabel("runs that pass, % (whiskers: 95 % interval)")
     ax.set_title(
-        f"{results['robot']}: {results['samples']} variations, seed {results['seed']}",
+        f"{', '.join(r['preset'] for r in reports)} on {results['robot']}: "
+        f"{results['samples']} model variations (seed {results['seed']}), "
+        f"{results['duration_s']:g} s runs",
         fontsize=10,
     )
-    ax.legend(loc="lower left", fontsize=8)
-    fig.tight_layout()
+    fig.legend(loc="outside lower center", ncols=len(reports), fontsize=8, frameon=False)
+    return fig
+
+
+def write_plot(results: dict[str, Any], path: Path) -> Path:
+    """`robust_figure` as a PNG at `path`."""
+    fig = robust_figure(results)
+    FigureCanvasAgg(fig)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path
