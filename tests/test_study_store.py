@@ -1,9 +1,12 @@
 """The study store (docs/DESIGN.md §12): Optuna's journal file by default, an RDB URL on
-request; settings fixed at creation; and `optuna-dashboard FILE` opens it, offline."""
+request; settings fixed at creation; and `optuna-dashboard FILE` opens it, offline. What cannot
+be a store is refused in one sentence (exit status 2), and one tune writes a study at a time."""
 
 from __future__ import annotations
 
+import os
 import re
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -11,8 +14,15 @@ from pathlib import Path
 import httpx
 import pytest
 
+from app.cli import main
+from app.study.study_files import StudyBusy
 from app.study.study_store import StudyStore
 from tests.server_harness import free_port, wait_for
+
+ROOT = Path(__file__).resolve().parent.parent
+#: a tune that opens its study before it simulates anything
+TUNE = ["tune", "--tune", "swing.v", "--cases", "forward", "--generations", "1", "--popsize", "2",
+        "--duration", "2", "--warmup", "0.5", "--threads", "1"]  # fmt: skip
 
 SETTINGS = {"names": ["clock.freq_hz"], "popsize": 2, "seed": 1}
 
@@ -26,17 +36,102 @@ def fill(store: StudyStore) -> None:
 @pytest.mark.parametrize("kind", ["journal", "sqlite"])
 def test_trials_come_back_from_the_store_alone(tmp_path, kind):
     where = tmp_path / "study.log" if kind == "journal" else f"sqlite:///{tmp_path / 'study.db'}"
-    fill(StudyStore(where, SETTINGS))
-    again = StudyStore(where, SETTINGS).recorded()  # a new process would do just this
+    with StudyStore(where, SETTINGS) as store:
+        fill(store)
+    with StudyStore(where, SETTINGS) as store:  # a new process would do just this
+        again = store.recorded()
     assert [r["loss"] for r in again[0]] == [1.5, 0.7]
     assert again[0][1]["metrics"] == {"nominal": {"forward": {"k": 1}}}
     with pytest.raises(ValueError, match="other settings"):
         StudyStore(where, {**SETTINGS, "seed": 2})
 
 
+def refused(args: list[str], capsys) -> str:
+    """The one line `artro` says when it refuses `args` with exit status 2 (no traceback: an
+    exception would leave `main` and fail the test)."""
+    with pytest.raises(SystemExit) as exit_:
+        main(args)
+    assert exit_.value.code == 2
+    said = capsys.readouterr().err.strip().splitlines()[-1]
+    assert said.startswith(f"artro {args[0]}: error: ")
+    return said
+
+
+@pytest.mark.parametrize(
+    ("study", "what"),
+    [
+        ("foo://bar", "unknown study URL scheme 'foo'"),
+        ("sqlite:///", "names no database file"),
+        ("sqlite:///:memory:", "names no database file"),
+        ("", "an empty study file name"),
+        ("postgresql://artro:secret@127.0.0.1:1/db", "postgresql://artro:***@127.0.0.1:1/db"),
+        ("mysql://artro@127.0.0.1:1/db", "mysql://artro@127.0.0.1:1/db"),
+        ("sqlite:///{tmp}/not-a-db.db", "cannot be opened (file is not a database)"),
+        ("sqlite:///{tmp}/a-file/t.db", "cannot make the study's folder"),
+        ("{tmp}/not-a-db.db", "is not an Optuna journal"),
+        ("{tmp}", "is a folder, not a study file"),
+    ],
+)
+def test_what_cannot_be_a_study_store_is_refused_in_a_sentence(tmp_path, capsys, study, what):
+    """Issue 33: tracebacks (OperationalError, ImportError, NoSuchModuleError, DatabaseError)
+    and an empty sqlite path that kept nothing without a word."""
+    (tmp_path / "not-a-db.db").write_text("hello\n")
+    (tmp_path / "a-file").write_text("")
+    study = study.format(tmp=tmp_path)
+    said = refused([*TUNE, "--study", study, "--out", str(tmp_path / "o.json")], capsys)
+    assert what in said and "allowed for --study:" in said
+    assert "secret" not in said
+
+
+def test_a_sqlite_store_makes_its_folder(tmp_path):
+    url = f"sqlite:///{tmp_path / 'new' / 'deeper' / 'study.db'}"
+    with StudyStore(url, SETTINGS) as store:
+        fill(store)
+    with StudyStore(url, SETTINGS) as store:
+        assert len(store.recorded()[0]) == 2
+
+
+@pytest.mark.parametrize("kind", ["journal", "sqlite"])
+def test_a_second_writer_is_refused_until_the_first_ends(tmp_path, kind):
+    """Issue 33: two tunes on one study file interleaved their trials (24 for 12 candidates).
+    The first writer here is another process; killed, it leaves its lock file, which is taken
+    over."""
+    file = tmp_path / ("study.log" if kind == "journal" else "study.db")
+    where = str(file) if kind == "journal" else f"sqlite:///{file}"
+    holder = subprocess.Popen(
+        [sys.executable, "-c", "import sys; from app.study.study_store import StudyStore; "
+         f"s = StudyStore({where!r}, {SETTINGS!r}); print('held', flush=True); sys.stdin.read()"],
+        cwd=ROOT, stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        assert holder.stdout.readline() == "held\n"
+        second = subprocess.run(
+            [sys.executable, "-m", "app.cli", *TUNE, "--study", where, "--out",
+             str(tmp_path / "o.json")],
+            cwd=ROOT, capture_output=True, text=True, timeout=300,
+        )  # fmt: skip
+        assert second.returncode == 2, second.stderr[-2000:]
+        assert "Traceback" not in second.stderr
+        assert (
+            f"another tune (PID {holder.pid}) is writing the study {file}"
+            in second.stderr.strip().splitlines()[-1]
+        )
+        with pytest.raises(StudyBusy):
+            StudyStore(where, SETTINGS)
+    finally:
+        holder.send_signal(signal.SIGKILL)
+        holder.wait(60)
+    assert Path(f"{file}.writer").exists()  # left behind by the killed writer
+    with StudyStore(where, SETTINGS) as store:  # the kernel dropped its lock
+        fill(store)
+        assert Path(f"{file}.writer").read_text().strip() == str(os.getpid())
+    assert not Path(f"{file}.writer").exists()  # a writer that ends removes its lock
+
+
 def test_optuna_dashboard_opens_the_journal_offline(tmp_path):
     journal = tmp_path / "study.log"
-    fill(StudyStore(journal, SETTINGS))
+    with StudyStore(journal, SETTINGS) as store:
+        fill(store)
     port = free_port()
     dashboard = Path(sys.executable).parent / "optuna-dashboard"
     server = subprocess.Popen(

@@ -86,6 +86,30 @@ def test_resuming_replays_the_store_without_simulating(tmp_path):
         store(tmp_path, other)
 
 
+def test_a_journal_cut_short_by_a_crash_resumes_from_its_whole_entries(tmp_path, capsys):
+    """Issue 33: a crash that cut the journal's last line made every finished trial unreadable
+    ("Expecting ':' delimiter") once the resumed tune appended to it."""
+    journal = tmp_path / "study.log"
+    first = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
+    with StudyStore(journal, first.settings) as kept:
+        first.run(1, kept, progress=None)
+    data = journal.read_bytes()
+    last = data.rstrip(b"\n").rfind(b"\n") + 1  # the last candidate's trial
+    cut = last + (len(data) - last) // 2
+    journal.write_bytes(data[:cut])
+    Counting.runs = 0
+    again = Tuner(POOR, NAMES, evaluator=Counting(threads=2), **SETTINGS)
+    with StudyStore(journal, again.settings) as resumed:
+        again.run(1, resumed, progress=None)
+    said = capsys.readouterr().err
+    assert f"the study journal {journal} ended in a damaged entry" in said
+    assert Counting.runs == len(JUDGED_RUNS)  # only the cut candidate ran again
+    trials = trials_in(journal)
+    assert len(trials) == 4 and again.best[0] == first.best[0]
+    (aside,) = tmp_path.glob("study.log.damaged-*")
+    assert aside.read_bytes() == data[last:cut]
+
+
 @pytest.mark.slow
 def test_a_study_killed_mid_generation_resumes_without_losing_a_finished_evaluation(tmp_path):
     study_file = tmp_path / "killed.log"

@@ -1,48 +1,165 @@
 """The tuner's study store (docs/DESIGN.md §12): every evaluated candidate is an Optuna trial,
 written the moment its runs are done, in a journal file (default: no server) or any RDB URL;
-a study resumes from the store alone, and `optuna-dashboard FILE` opens it."""
+a study resumes from the store alone, and `optuna-dashboard FILE` opens it. One tune writes a
+study at a time; a journal a crash cut short resumes from its whole entries (`study_files`)."""
 
 from __future__ import annotations
 
 import json
+import sys
 from collections.abc import Sequence
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TextIO
+
+from app.study.study_files import WriterLock, mend_journal
 
 if TYPE_CHECKING:
     import optuna
 
 DEFAULT_STUDY = "artro-tune"
 # optuna is imported where a study is opened (~0.3 s), not by every `artro` command
+RDB_DIALECTS = ("sqlite", "postgresql", "mysql")
+ALLOWED = (
+    "allowed for --study: a journal file path (default out/tune/study.log), sqlite:///FILE, "
+    "or postgresql://... or mysql://... with their driver installed"
+)
+
+
+def check_location(where: str | Path) -> str:
+    """`where` if it can name a study store, else ValueError saying what is allowed (the form
+    only: nothing is opened)."""
+    text = str(where)
+    if "://" not in text:
+        if not text.strip():
+            raise ValueError(f"an empty study file name; {ALLOWED}")
+        if Path(text).is_dir():
+            raise ValueError(f"{text} is a folder, not a study file; {ALLOWED}")
+        return text
+    scheme, _, rest = text.partition("://")
+    dialect = scheme.split("+")[0].lower()
+    if dialect not in RDB_DIALECTS:
+        raise ValueError(f"unknown study URL scheme {scheme!r} in {text!r}; {ALLOWED}")
+    if dialect == "sqlite":
+        path = sqlite_path(text)
+        if path is None:
+            raise ValueError(
+                f"{text!r} names no database file (sqlite:/// then a path; sqlite:///:memory: "
+                f"or an empty path would keep nothing); {ALLOWED}"
+            )
+    elif not rest.strip("/"):
+        raise ValueError(f"{text!r} names no database server; {ALLOWED}")
+    return text
+
+
+def sqlite_path(url: str) -> Path | None:
+    """The file of a sqlite:///FILE URL (sqlite:////abs/path for an absolute one), None if the
+    URL names none (an empty path, :memory:)."""
+    rest = url.partition("://")[2]
+    if not rest.startswith("/"):
+        return None  # sqlite://HOST/... is not a file
+    path = rest[1:].partition("?")[0]
+    if not path or path == ":memory:" or path.endswith("/"):
+        return None
+    return Path(path)
 
 
 def open_storage(where: str | Path) -> optuna.storages.BaseStorage:
-    """An RDB for a URL (sqlite:///..., postgresql://...), else a journal file at that path."""
-    from optuna.storages import JournalStorage, RDBStorage
+    """An RDB for a URL (sqlite:///..., postgresql://...), else a journal file at that path.
+    ValueError, saying what is allowed, for what cannot be opened."""
+    from optuna.storages import JournalStorage
     from optuna.storages.journal import JournalFileBackend
 
-    text = str(where)
-    if "://" in text:
-        return RDBStorage(text)
-    Path(text).parent.mkdir(parents=True, exist_ok=True)
-    return JournalStorage(JournalFileBackend(text))
+    text = check_location(where)
+    if "://" not in text:
+        _make_folder(Path(text).parent)
+        return JournalStorage(JournalFileBackend(text))
+    return _open_rdb(text)
+
+
+def _open_rdb(url: str) -> optuna.storages.BaseStorage:
+    import sqlalchemy.exc
+    from optuna.storages import RDBStorage
+
+    dialect = url.partition("://")[0].split("+")[0].lower()
+    path = sqlite_path(url) if dialect == "sqlite" else None
+    if path is not None:
+        _make_folder(path.parent)
+    try:
+        return RDBStorage(url)
+    except ImportError as exc:
+        missing = getattr(exc.__cause__, "name", None) or "its driver"
+        raise ValueError(
+            f"the study URL {_shown(url)!r} needs the database driver {missing}, which is not "
+            f"installed (pip install it, or name an installed one: {dialect}+DRIVER://...); "
+            f"{ALLOWED}"
+        ) from None
+    except sqlalchemy.exc.SQLAlchemyError as exc:
+        reason = getattr(exc, "orig", None) or exc
+        raise ValueError(
+            f"the study store {_shown(url)!r} cannot be opened ({reason}); {ALLOWED}"
+        ) from None
+
+
+def _shown(url: str) -> str:
+    """The URL as said in a message: its password hidden."""
+    from sqlalchemy.engine import make_url
+    from sqlalchemy.exc import ArgumentError
+
+    try:
+        return make_url(url).render_as_string(hide_password=True)
+    except (ArgumentError, ValueError):
+        return url.partition("://")[0] + "://..."
+
+
+def _make_folder(folder: Path) -> None:
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise ValueError(
+            f"cannot make the study's folder {folder} ({exc.strerror}); {ALLOWED}"
+        ) from None
 
 
 class StudyStore:
     """One tuning study: its settings (fixed at creation; other settings are refused) and its
     trials, each with the generation, the candidate's point in the unit box, its loss and the
-    metrics of its runs."""
+    metrics of its runs. A study in a file (journal, SQLite) has one writer: a second is refused
+    (`StudyBusy`, a ValueError) until `close` (or the writer's end). A journal whose end a crash
+    damaged is cut back to its whole entries first, said on `log` (default stderr)."""
 
     def __init__(
-        self, where: str | Path, settings: dict[str, Any], *, name: str = DEFAULT_STUDY
+        self,
+        where: str | Path,
+        settings: dict[str, Any],
+        *,
+        name: str = DEFAULT_STUDY,
+        log: TextIO | None = None,
     ) -> None:
         import optuna
 
         optuna.logging.set_verbosity(optuna.logging.WARNING)
-        self.where = str(where)
-        self.study = optuna.create_study(
-            study_name=name, storage=open_storage(where), direction="minimize", load_if_exists=True
-        )
+        self.where = check_location(where)
+        journal = "://" not in self.where
+        file = Path(self.where) if journal else sqlite_path(self.where)
+        self._lock = None if file is None else WriterLock(file)
+        if self._lock is not None:
+            _make_folder(file.parent)
+            self._lock.acquire()
+        try:
+            if journal and (said := mend_journal(self.where)):
+                print(said, file=log or sys.stderr, flush=True)
+            self.study = optuna.create_study(
+                study_name=name,
+                storage=open_storage(self.where),
+                direction="minimize",
+                load_if_exists=True,
+            )
+            self._check_settings(settings, name)
+        except BaseException:
+            self.close()
+            raise
+
+    def _check_settings(self, settings: dict[str, Any], name: str) -> None:
         wanted = json.loads(json.dumps(settings))  # as the store gives it back
         found = self.study.user_attrs.get("settings")
         if found is None:
@@ -52,6 +169,17 @@ class StudyStore:
                 f"the study {name!r} in {self.where} was run with other settings ({found}); "
                 f"use another --study file, another --study-name or the same options"
             )
+
+    def close(self) -> None:
+        """Let another process write the study."""
+        if self._lock is not None:
+            self._lock.release()
+
+    def __enter__(self) -> StudyStore:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     def recorded(self) -> dict[int, list[dict[str, Any]]]:
         """Finished evaluations by generation: {"unit", "loss", "metrics"} each."""

@@ -1,0 +1,117 @@
+"""What a crash or a second process can do to a study kept in a file (docs/DESIGN.md §12), and
+what the tuner does about it: one writer at a time (`WriterLock`, a lock file beside the study
+holding the writer's PID; the kernel drops the lock when that process ends, however it ends), and
+a journal whose last entry a crash cut short resumes from its whole entries (`mend_journal`, the
+damaged tail moved aside and said)."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+from pathlib import Path
+
+try:
+    import fcntl
+except ImportError:  # not on Windows: the study is then not locked
+    fcntl = None  # type: ignore[assignment]
+
+LOCK_SUFFIX = ".writer"  # Optuna's journal keeps its own short-lived `.lock` beside the file
+
+
+class StudyBusy(ValueError):
+    """Another process is writing the study."""
+
+
+class WriterLock:
+    """The right to write the study at `path`: `path` + ".writer", locked (flock) while held,
+    with the holder's PID in it for the message to the next one. A lock file left by a process
+    that died is not locked any more and is taken over."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.study = Path(path)
+        self.path = Path(f"{path}{LOCK_SUFFIX}")
+        self._fd: int | None = None
+
+    def acquire(self) -> None:
+        """Take the lock, or StudyBusy naming the study, the lock file and the holder's PID."""
+        if fcntl is None:
+            return
+        for _ in range(10):  # the file can be removed by its releasing holder as we open it
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+            try:
+                fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            except BlockingIOError:
+                holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
+                os.close(fd)
+                raise StudyBusy(
+                    f"another tune (PID {holder}) is writing the study {self.study} (lock "
+                    f"{self.path}); wait until it ends, or use another --study file"
+                ) from None
+            try:
+                same = os.stat(self.path).st_ino == os.fstat(fd).st_ino
+            except FileNotFoundError:
+                same = False
+            if same:
+                os.ftruncate(fd, 0)
+                os.pwrite(fd, f"{os.getpid()}\n".encode(), 0)
+                self._fd = fd
+                return
+            os.close(fd)  # we locked a file its holder had just removed: take the new one
+        raise StudyBusy(f"the lock {self.path} of the study {self.study} keeps changing hands")
+
+    def release(self) -> None:
+        if self._fd is None:
+            return
+        try:
+            self.path.unlink(missing_ok=True)  # while still locked: nobody holds a removed file
+        finally:
+            os.close(self._fd)
+            self._fd = None
+
+    def __del__(self) -> None:  # a store dropped without `close` lets the next writer in
+        self.release()
+
+
+def mend_journal(path: str | Path) -> str | None:
+    """Cut an Optuna journal back to its whole entries when its end is damaged (a crash cut the
+    last line short, or a later write was appended to such a line); the cut bytes go to a file
+    beside it. Returns the sentence that says so, else None. ValueError when the file's first
+    line is no journal entry (it is no journal: nothing is moved)."""
+    path = Path(path)
+    if not path.exists() or path.stat().st_size == 0:
+        return None
+    data = path.read_bytes()
+    good = 0  # bytes of whole, readable entries from the start
+    entries = 0
+    for line in data.splitlines(keepends=True):
+        if not line.endswith(b"\n") or not _is_entry(line):
+            break
+        good += len(line)
+        entries += 1
+    if good == len(data):
+        return None
+    if entries == 0:
+        raise ValueError(
+            f"{path} is not an Optuna journal (its first line is not a journal entry); allowed "
+            f"for --study: a journal file written by artro tune, a new file, or an RDB URL such "
+            f"as sqlite:///FILE"
+        )
+    aside = path.with_name(f"{path.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}")
+    aside.write_bytes(data[good:])
+    with path.open("r+b") as f:
+        f.truncate(good)
+        f.flush()
+        os.fsync(f.fileno())
+    return (
+        f"the study journal {path} ended in a damaged entry (a crash while writing?): kept its "
+        f"{entries} whole entries, moved the last {len(data) - good} bytes to {aside}"
+    )
+
+
+def _is_entry(line: bytes) -> bool:
+    try:
+        entry = json.loads(line)
+    except (ValueError, UnicodeDecodeError):
+        return False
+    return isinstance(entry, dict) and "op_code" in entry
