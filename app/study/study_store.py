@@ -6,6 +6,7 @@ study at a time; a journal a crash cut short resumes from its whole entries (`st
 from __future__ import annotations
 
 import json
+import re
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -77,7 +78,6 @@ def open_storage(where: str | Path) -> optuna.storages.BaseStorage:
 
 
 def _open_rdb(url: str) -> optuna.storages.BaseStorage:
-    import sqlalchemy.exc
     from optuna.storages import RDBStorage
 
     dialect = url.partition("://")[0].split("+")[0].lower()
@@ -93,7 +93,7 @@ def _open_rdb(url: str) -> optuna.storages.BaseStorage:
             f"installed (pip install it, or name an installed one: {dialect}+DRIVER://...); "
             f"{ALLOWED}"
         ) from None
-    except sqlalchemy.exc.SQLAlchemyError as exc:
+    except Exception as exc:  # SQLAlchemy's errors: no server, refused, not a database, ...
         reason = getattr(exc, "orig", None) or exc
         raise ValueError(
             f"the study store {_shown(url)!r} cannot be opened ({reason}); {ALLOWED}"
@@ -102,13 +102,7 @@ def _open_rdb(url: str) -> optuna.storages.BaseStorage:
 
 def _shown(url: str) -> str:
     """The URL as said in a message: its password hidden."""
-    from sqlalchemy.engine import make_url
-    from sqlalchemy.exc import ArgumentError
-
-    try:
-        return make_url(url).render_as_string(hide_password=True)
-    except (ArgumentError, ValueError):
-        return url.partition("://")[0] + "://..."
+    return re.sub(r"^([^:/]+://[^:/@]*:)[^@]*@", r"\1***@", url)
 
 
 def _make_folder(folder: Path) -> None:
