@@ -11,7 +11,13 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from app.cli.options import add_range_option, add_robot_option, ranges_from, subcommand
+from app.cli.options import (
+    add_cluster_options,
+    add_range_option,
+    add_robot_option,
+    ranges_from,
+    subcommand,
+)
 
 PAPER_OUT = Path("out/bench-paper")
 ROBUST_OUT = Path("out/bench-robust")
@@ -69,10 +75,8 @@ def add_parser(sub: Any) -> None:
     parser.add_argument(
         "--threads", type=int, metavar="N", help="rollout threads (default: all cores, <= 8)"
     )
-    parser.add_argument(
-        "--cluster",
-        metavar="tcp://HOST:PORT",
-        help="run on this Dask scheduler (docs/CLUSTER.md) instead of local threads",
+    add_cluster_options(
+        parser, "run on this Dask scheduler (docs/CLUSTER.md) instead of local threads"
     )
     parser.add_argument(
         "--quick", action="store_true", help="short runs and a coarse CA sweep (smoke test)"
@@ -94,7 +98,7 @@ def command(args: argparse.Namespace) -> int:
     if args.robot is not None:
         config = replace(config, robot=args.robot)
     if args.cluster is not None:
-        config = replace(config, cluster=args.cluster)
+        config = replace(config, cluster=args.cluster, wait_workers_s=args.wait_workers)
     if args.threads is not None:
         if args.threads < 1:
             raise ValueError(f"--threads must be >= 1, got {args.threads}")
@@ -111,7 +115,7 @@ def command(args: argparse.Namespace) -> int:
 
 def robust(args: argparse.Namespace) -> int:
     from app.analysis.robustness import ROBUST_CASES, run_robust
-    from app.evaluation import evaluator_for
+    from app.evaluation import close_evaluator, evaluator_for
     from app.evaluation.progress import progress_printer
     from app.robots.model import RobotModel
     from app.robots.swap import with_servo, write_description
@@ -132,7 +136,9 @@ def robust(args: argparse.Namespace) -> int:
     if not presets:
         raise ValueError(f"no presets to run (asked for {specs}): {'; '.join(notes)}")
     robot = RobotModel.load(args.robot)
-    evaluator = evaluator_for(robot, cluster=args.cluster, threads=args.threads)
+    evaluator = evaluator_for(
+        robot, cluster=args.cluster, threads=args.threads, wait_workers_s=args.wait_workers
+    )
     n_runs = len(presets) * (args.samples + 1) * len(ROBUST_CASES)
     progress = progress_printer(
         f"bench robust: {n_runs} runs of {duration:g} s ({', '.join(p.name for p in presets)} "
@@ -140,16 +146,19 @@ def robust(args: argparse.Namespace) -> int:
         sys.stderr,
         label="bench robust",
     )
-    results = run_robust(
-        [(p.name, p.params, p.name if p.name in specs else p.source) for p in presets],
-        evaluator,
-        samples=args.samples,
-        seed=args.seed,
-        ranges=ranges,
-        duration_s=duration,
-        warmup_s=warmup,
-        progress=progress,
-    )
+    try:
+        results = run_robust(
+            [(p.name, p.params, p.name if p.name in specs else p.source) for p in presets],
+            evaluator,
+            samples=args.samples,
+            seed=args.seed,
+            ranges=ranges,
+            duration_s=duration,
+            warmup_s=warmup,
+            progress=progress,
+        )
+    finally:
+        close_evaluator(evaluator)
     out = args.out or ROBUST_OUT
     out.mkdir(parents=True, exist_ok=True)
     for report in results["presets"]:  # the robot with the servos the report advises

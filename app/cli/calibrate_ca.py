@@ -12,8 +12,8 @@ from typing import Any
 
 from app.analysis.axle_fit import walking_amplitude
 from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
-from app.cli.options import add_robot_option, robot_and_set, subcommand
-from app.evaluation import evaluator_for
+from app.cli.options import add_cluster_options, add_robot_option, robot_and_set, subcommand
+from app.evaluation import close_evaluator, evaluator_for
 from app.params.formats import export_text
 from gait import ENGINES
 
@@ -47,7 +47,7 @@ def add_parser(sub: Any) -> None:
         "(steer.yaw_per_ca_backward), or both (default; a given --a-p picks its own)",
     )
     c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
-    c.add_argument("--cluster", metavar="tcp://HOST:PORT", help="evaluate on this Dask scheduler")
+    add_cluster_options(c, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     c.add_argument("-o", "--output", metavar="FILE", help="write the parameter set with K here")
     c.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
@@ -61,27 +61,33 @@ def command(args: argparse.Namespace) -> int:
     if args.a_p is not None and args.direction == "both":
         signs = (1.0 if args.a_p >= 0 else -1.0,)  # a given a_p names its direction
     log = sys.stderr if args.json else sys.stdout
+    evaluator = evaluator_for(
+        robot, cluster=args.cluster, threads=args.threads, wait_workers_s=args.wait_workers
+    )
     results, failed = {}, {}
-    for sign in signs:
-        a_p, direction = sign * size, "forward" if sign > 0 else "backward"
-        try:
-            result = calibrate_ca(
-                gait,
-                dataclasses.replace(motion, a_p=a_p),
-                evaluator_for(robot, cluster=args.cluster, threads=args.threads),
-                duration_s=args.duration,
-                warmup_s=args.warmup,
-                iterations=args.iterations,
-                say=lambda line: print(line, file=log, flush=True),
-            )
-        except CalibrationError as exc:
-            if len(signs) == 1:
-                raise
-            failed[direction] = str(exc)  # the other direction may still calibrate
-            print(f"{direction}: no calibration, K left as it was: {exc}", file=log, flush=True)
-            continue
-        gait = with_k(gait, a_p, result.yaw_per_ca)
-        results[direction] = result
+    try:
+        for sign in signs:
+            a_p, direction = sign * size, "forward" if sign > 0 else "backward"
+            try:
+                result = calibrate_ca(
+                    gait,
+                    dataclasses.replace(motion, a_p=a_p),
+                    evaluator,
+                    duration_s=args.duration,
+                    warmup_s=args.warmup,
+                    iterations=args.iterations,
+                    say=lambda line: print(line, file=log, flush=True),
+                )
+            except CalibrationError as exc:
+                if len(signs) == 1:
+                    raise
+                failed[direction] = str(exc)  # the other direction may still calibrate
+                print(f"{direction}: no calibration, K left as it was: {exc}", file=log, flush=True)
+                continue
+            gait = with_k(gait, a_p, result.yaw_per_ca)
+            results[direction] = result
+    finally:
+        close_evaluator(evaluator)
     if not results:
         raise CalibrationError("; ".join(f"{d}: {e}" for d, e in failed.items()))
     if args.output:

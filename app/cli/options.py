@@ -96,6 +96,40 @@ def variation(text: str) -> Variation:
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def cluster_address(text: str) -> str:
+    """An argparse type: a Dask scheduler's tcp://HOST:PORT (or HOST:PORT), as tcp://HOST:PORT."""
+    from app.evaluation._dask import ClusterError, check_address
+
+    try:
+        return check_address(text)
+    except ClusterError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def study_location(text: str) -> str:
+    """An argparse type: a study journal file or an RDB URL of a known scheme (the form only)."""
+    from app.study.study_store import check_location
+
+    try:
+        return check_location(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_cluster_options(parser: Any, purpose: str, *, wait: bool = True) -> None:
+    """`--cluster tcp://HOST:PORT` (checked as it is parsed) and, with `wait`, `--wait-workers`."""
+    parser.add_argument("--cluster", type=cluster_address, metavar="tcp://HOST:PORT", help=purpose)
+    if wait:
+        parser.add_argument(
+            "--wait-workers",
+            type=number(0, 86_400, what="--wait-workers"),
+            default=None,
+            metavar="S",
+            help="with --cluster: how long to wait for a worker when the scheduler has none "
+            "(default 60 s; it says so at once), then give up with exit status 2",
+        )
+
+
 def add_range_option(parser: Any, purpose: str) -> None:
     """`--range NAME=LOW:HIGH` (repeatable), read by `ranges_from`."""
     parser.add_argument(

@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from app.cli.options import add_robot_option, subcommand
+from app.cli.options import add_cluster_options, add_robot_option, subcommand
 from app.params.document import load_parameter_set
 from app.robots.model import RobotModel
 
@@ -26,10 +26,10 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
     s.add_argument("--params", metavar="FILE", help="start with this parameter set")
     add_robot_option(s)
-    s.add_argument(
-        "--cluster",
-        metavar="tcp://HOST:PORT",
-        help="run the dashboard's robustness job on this Dask scheduler (docs/CLUSTER.md)",
+    add_cluster_options(
+        s,
+        "run the dashboard's robustness job on this Dask scheduler (docs/CLUSTER.md)",
+        wait=False,
     )
     s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")

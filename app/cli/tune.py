@@ -12,14 +12,16 @@ from typing import Any
 from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
 from app.cli.options import (
     MAX_DURATION_S,
+    add_cluster_options,
     add_range_option,
     add_robot_option,
     check_timing,
     number,
     ranges_from,
+    study_location,
     subcommand,
 )
-from app.evaluation import evaluator_for
+from app.evaluation import close_evaluator, evaluator_for
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import builtin_presets, stamped, write_parameter_set
 from app.robots.model import RobotModel
@@ -105,11 +107,12 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("--threads", type=number(1, 1024, **whole, what="threads"), default=None)
     parser.add_argument(
         "--study",
+        type=study_location,
         default="out/tune/study.log",
         metavar="FILE|URL",
         help="the study store: an Optuna journal file (default out/tune/study.log) or an RDB URL "
         "such as sqlite:///tune.db; an interrupted study resumes from it, optuna-dashboard opens "
-        "it (docs/DESIGN.md §12)",
+        "it; one tune writes it at a time (docs/DESIGN.md §12)",
     )
     parser.add_argument("--study-name", default=DEFAULT_STUDY, help="the study within the store")
     parser.add_argument(
@@ -122,9 +125,7 @@ def add_parser(sub: Any) -> None:
     )
     parser.add_argument("--robust-weight", type=float, default=1.0, help="weight of that term")
     add_range_option(parser, " for --robust")
-    parser.add_argument(
-        "--cluster", metavar="tcp://HOST:PORT", help="evaluate on this Dask scheduler"
-    )
+    add_cluster_options(parser, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
     parser.add_argument("--name", default="tuned", help="name of the saved preset")
     parser.add_argument(
@@ -149,10 +150,11 @@ def command(args: argparse.Namespace) -> int:
     check_timing(names, base.gait, args.duration, args.warmup)
     robot = RobotModel.load(args.robot)
     ranges = ranges_from(args.range)
+    local = None if args.cluster is not None else evaluator_for(robot, threads=args.threads)
     tuner = Tuner(
         base,
         names,
-        evaluator=evaluator_for(robot, cluster=args.cluster, threads=args.threads),
+        evaluator=local,
         duration_s=args.duration,
         warmup_s=args.warmup,
         popsize=args.popsize,
@@ -171,7 +173,18 @@ def command(args: argparse.Namespace) -> int:
     )
     tuner.settings["set"] = args.set
     settings = {**tuner.settings, "robot": robot.name}
-    tuner.run(args.generations, StudyStore(args.study, settings, name=args.study_name))
+    # the study first: a second writer is refused before a cluster is reached
+    with StudyStore(args.study, settings, name=args.study_name) as store:
+        if local is not None:
+            tuner.run(args.generations, store)
+        else:
+            tuner.evaluator = evaluator_for(
+                robot, cluster=args.cluster, wait_workers_s=args.wait_workers
+            )
+            try:
+                tuner.run(args.generations, store)
+            finally:
+                close_evaluator(tuner.evaluator)
     chosen = tuner.best
     if args.select in ("passing", "steering"):
         chosen = tuner.best_passing(by="loss" if args.select == "passing" else "steering")

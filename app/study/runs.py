@@ -11,7 +11,7 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 
 from app.analysis.cases import CA_PROBE, CASES, PaperCase
-from app.evaluation import Evaluator, Job, evaluator_for
+from app.evaluation import Evaluator, Job, close_evaluator, evaluator_for
 from app.robots.model import RobotModel
 from app.sim.metrics import Trace
 from app.study import speed_limits
@@ -54,6 +54,7 @@ class BenchConfig:
     threads: int | None = None
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler (tcp://HOST:PORT) instead of local threads
+    wait_workers_s: float | None = None  # for a worker of that scheduler (default 60 s)
 
 
 QUICK = BenchConfig(
@@ -123,8 +124,23 @@ def run_all(
     if 0.0 not in config.ca_values:
         raise ValueError("the CA sweep must contain 0: it gives V for eq (13)")
     evaluator = evaluator_for(
-        RobotModel.load(config.robot), cluster=config.cluster, threads=config.threads
+        RobotModel.load(config.robot),
+        cluster=config.cluster,
+        threads=config.threads,
+        wait_workers_s=config.wait_workers_s,
     )
+    try:
+        return _bench(presets, config, evaluator, progress)
+    finally:
+        close_evaluator(evaluator)
+
+
+def _bench(
+    presets: Sequence[Preset],
+    config: BenchConfig,
+    evaluator: Evaluator,
+    progress: Callable[[int, int], None] | None,
+) -> list[PresetRuns]:
     by_label = _walk(evaluator, plan_jobs(presets, config), config.duration_s, config, progress)
     circle_motion = Motion(a_p=WALK_A_P["forward"], ca=CIRCLE_CA)
     circle_traces: list[Trace] = []
