@@ -78,9 +78,20 @@ def mend_journal(path: str | Path) -> str | None:
     last line short, or a later write was appended to such a line); the cut bytes go to a file
     beside it. Returns the sentence that says so, else None. ValueError when the file's first
     line is no journal entry (it is no journal: nothing is moved)."""
+    from optuna.storages.journal import JournalFileSymlinkLock
+
     path = Path(path)
     if not path.exists() or path.stat().st_size == 0:
         return None
+    lock = JournalFileSymlinkLock(str(path))  # Optuna's, held while an entry is appended
+    lock.acquire()
+    try:
+        return _mend(path)
+    finally:
+        lock.release()
+
+
+def _mend(path: Path) -> str | None:
     data = path.read_bytes()
     good = 0  # bytes of whole, readable entries from the start
     entries = 0
