@@ -2,17 +2,28 @@
 header names the robot; the sliders set the live robot's world and the header says it is varied;
 the robustness report is drawn as bars, and a worst variation's button loads it."""
 
+import os
 import re
 from contextlib import contextmanager
+from pathlib import Path
 
 import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from tests.browser_support import SMALL
+from app.worlds.variations import NOMINAL
+from gait import JOINT_NAMES
+from tests.browser_support import BOTH_SIZES, SMALL
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 SIZES = [(1600, 1000), (1280, 720)]
+
+
+def shots(tmp_path):
+    """Where screenshots go: ARTRO_SCREENSHOTS if set (to look at them), else the test's folder."""
+    folder = Path(os.environ.get("ARTRO_SCREENSHOTS") or tmp_path)
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder
 
 
 @contextmanager
@@ -46,8 +57,9 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
         page.click("#world-apply")
         expect(world_badge).to_be_visible(timeout=30_000)
         world = http.get("/api/state").json()["world"]
-        assert "friction=0.5" in world and "latency_ms=30" in world
-        expect(page.locator("#world-state")).to_have_text(world)
+        assert world == "friction=0.5,latency_ms=30"  # the sliders left at nominal add nothing
+        expect(page.locator("#world-state")).to_have_text("varied: friction, latency_ms")
+        expect(page.locator("#world-state")).to_have_attribute("title", world)
 
         page.fill("#world-text", "friction=7")  # refused, nothing changes
         page.click("#world-text-apply")
@@ -56,13 +68,31 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
 
         page.fill("#robust-samples", "4")
         page.click("#robust-start")
-        rows = page.locator("#robust-bars .robust-row")
+        rows = page.locator("#robust-bars .robust-row:not(.robust-header)")
         expect(rows).to_have_count(9, timeout=600_000)
         bars = page.locator("#robust-bars .robust-bar")
         widths = [bars.nth(i).evaluate("e => e.style.width") for i in range(9)]
         job_shares = [float(w.rstrip("%")) for w in widths]
         assert all(0 <= s <= 100 for s in job_shares)
         page.locator("#world-panel").screenshot(path=str(tmp_path / f"world-{width}.png"))
+        header = page.locator("#robust-bars .robust-header")
+        expect(header).to_contain_text("failures depend on")
+        ranges = http.get("/api/world").json()["ranges"]
+        nominal = {f: getattr(NOMINAL, f) for f in ranges if f != "calibration_deg"}
+        nominal["friction"] = 0.7
+        for term in page.locator("#robust-worst .term.extreme").all_text_contents():
+            key, value = term.strip().rstrip(",").split("=")
+            lo, hi = ranges["calibration_deg" if key.startswith("cal.") else key]
+            edge, v, home = 0.1 * (hi - lo), float(value), nominal.get(key, 0.0)
+            # marked: in the outer tenth of its default range, on its side of the nominal value
+            assert (v > home and v >= hi - edge) or (v < home and v <= lo + edge), term
+
+        page.reload()  # the report of this gait is kept by the server and drawn again
+        expect(rows).to_have_count(9, timeout=30_000)
+        expect(page.locator("#robust-title")).to_contain_text("kept from")
+        page.locator("#world-panel").screenshot(path=str(shots(tmp_path) / f"report-{width}.png"))
+        again = [bars.nth(i).evaluate("e => e.style.width") for i in range(9)]
+        assert [float(w.rstrip("%")) for w in again] == job_shares
         walk = page.locator("#robust-worst button")
         if walk.count():  # a variation that failed a case: watch it there
             walk.first.click()
@@ -100,8 +130,42 @@ def test_the_robot_is_switched_on_the_page_and_undo_takes_it_back(tmp_path, widt
         expect(preset_message).to_have_class(re.compile(r"\bwarn\b"))
 
         page.click("#params-undo")  # the preset load
-        page.click("#params-undo")  # the switch
+        expect(page.locator("#params-message")).to_contain_text("undone", timeout=30_000)
+        page.click("#params-undo")  # the switch: the page says the robot changed back
+        expect(page.locator("#params-message")).to_contain_text(
+            "the robot is artro again (was micro)", timeout=30_000
+        )
         expect(badge).to_have_text("robot artro", timeout=30_000)
         expect(select).to_have_value("artro")
         assert http.get("/api/params").json()["robot"] == "artro"
+        assert errors == [], f"JavaScript errors on the page: {errors}"
+
+
+@BOTH_SIZES
+def test_the_sliders_follow_the_live_world_and_apply_keeps_what_they_do_not_show(
+    tmp_path, width, height
+):
+    """A world set elsewhere (the API, a worst variation's button) moves the sliders; Apply then
+    changes what the sliders changed and keeps the calibration no slider shows; a long world is
+    summed up in the header, not cut at its edge (issue 33)."""
+    with opened_page(tmp_path, width, height) as (page, http, errors):
+        expect(page.locator("#world-friction-out")).to_have_text("0.70", timeout=30_000)
+        many = ",".join(f"cal.{j}=1.2" for j in JOINT_NAMES)
+        world = f"friction=0.45,latency_ms=40,tilt_deg=2.5,{many}"
+        assert http.put("/api/world", json={"variation": world}).status_code == 200
+        expect(page.locator("#world-friction-out")).to_have_text("0.45", timeout=30_000)
+        expect(page.locator("#world-latency_ms-out")).to_have_text("40")
+        state = page.locator("#world-state")
+        expect(state).to_have_text("varied: friction, latency_ms +2 more")
+        assert state.evaluate("e => e.scrollWidth <= e.clientWidth"), "the header is cut"
+        assert state.get_attribute("title") == http.get("/api/state").json()["world"]
+        page.locator("#world-panel").screenshot(path=str(shots(tmp_path) / f"world-{width}.png"))
+
+        page.locator("#world-latency_ms").fill("10")
+        page.click("#world-apply")
+        wait = page.locator("#world-message")
+        expect(wait).to_contain_text("walking in:", timeout=30_000)
+        now = http.get("/api/state").json()["world"]
+        assert "latency_ms=10" in now and "friction=0.45" in now
+        assert all(f"cal.{j}=1.2" in now for j in JOINT_NAMES), now
         assert errors == [], f"JavaScript errors on the page: {errors}"

@@ -1,6 +1,7 @@
 """`artro tune`: a short run improves its objective, resumes from its results file, and writes a
 preset that loads."""
 
+import io
 import signal
 import subprocess
 import sys
@@ -14,7 +15,7 @@ from app.analysis.robustness import ROBUST_CASES
 from app.evaluation import BatchEvaluator, Job
 from app.params.document import ParameterSet, load_parameter_set
 from app.params.presets import stamped, write_parameter_set
-from app.study.study_store import DEFAULT_STUDY, StudyStore, open_storage
+from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, StudyStore, open_storage
 from app.study.tune import Tuner, dimensions
 from app.study.tune_loss import case_loss, curve_loss, meets_all_criteria, total_loss
 from gait import GaitParams
@@ -285,6 +286,19 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
         assert trial.value == pytest.approx(nominal + robust["cvar25"])
     # a poor gait fails some varied runs: the margins are not all zero
     assert any(t.user_attrs["metrics"]["robust"]["cvar25"] > 0 for t in trials)
+    best = tuner.best
+    kept = next(t for t in trials if t.value == pytest.approx(best[0]))
+    passed = kept.user_attrs["metrics"]["robust"]["passed"]  # the summary `artro tune` prints
+    # optuna-dashboard: a named objective, each trial's time, each figure an attribute
+    storage = open_storage(tmp_path / "study.log")
+    study = optuna.load_study(study_name=DEFAULT_STUDY, storage=storage)
+    assert study.metric_names == [OBJECTIVE]
+    assert all(t.datetime_complete > t.datetime_start for t in trials)
+    runs = kept.user_attrs["metrics"]["nominal"]
+    assert kept.user_attrs["robust.pass_share"] == passed / (3 * len(ROBUST_CASES))
+    for run, m in runs.items():
+        assert m["fell"] or kept.user_attrs[f"{run}.forward_cm_s"] == m["forward_cm_s"]
+    assert tuner.varied_summary(best).startswith(f"passes {passed} of {3 * len(ROBUST_CASES)} ")
     # bench/robust_frontier.py reads the same store: a table of the frontier and its plot
     png = tmp_path / "frontier.png"
     drawn = subprocess.run(
@@ -312,3 +326,18 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
         (best.params["clock.freq_hz"], best.params["short.amp_base"]), abs=1e-6
     )
     assert pick.leg == POOR.gait.leg  # untuned fields come from the base
+
+
+def test_progress_through_a_pipe_is_a_line_per_tenth_not_one_huge_line(tmp_path):
+    """Redirected, `artro tune` once wrote every update on one `\\r`-joined line: now a line per
+    tenth of each generation's runs (a bar rewritten in place only on a terminal)."""
+    tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
+    stream = io.StringIO()  # not a terminal
+    tuner.run(2, store(tmp_path, tuner), progress=stream)
+    lines = stream.getvalue().splitlines()
+    assert "\r" not in stream.getvalue()
+    for generation in (1, 2):
+        mine = [line for line in lines if line.startswith(f"generation {generation}: ")]
+        assert 2 <= len(mine) <= 11, lines
+        total = SETTINGS["popsize"] * len(tuner.runs)
+        assert mine[-1].split(": ")[1].startswith(f"{total}/{total} runs"), mine

@@ -199,6 +199,8 @@ def command(args: argparse.Namespace) -> int:
         f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
         f"saved {args.out}"
     )
+    if varied := tuner.varied_summary(chosen):
+        print(f"  robust: {varied}")
     for case in CASES:
         if case.name not in chosen[2]:
             continue  # not judged (--cases)

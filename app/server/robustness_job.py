@@ -4,6 +4,10 @@ report is `artro bench robust`'s, for the page to draw."""
 
 from __future__ import annotations
 
+import json
+import threading
+import time
+from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any
 
@@ -11,11 +15,17 @@ from app.analysis.robustness import ROBUST_CASES, run_robust
 from app.evaluation import evaluator_for
 from app.robots.model import RobotModel
 from app.server.jobs import Job, Jobs, Progress
-from app.server.param_store import ParameterStore
+from app.server.param_store import ParameterStore, Snapshot
 from app.worlds.sampling import VariationRanges
 
 KIND = "robustness"
 SAMPLES, DURATION_S, WARMUP_S = 24, 12.0, 4.0  # ~4 minutes of one core for 225 runs
+REPORTS_KEPT = 16  # the last report of this many gaits (a reload of the page shows it again)
+
+
+def gait_key(snap: Snapshot) -> str:
+    """What a report belongs to: the robot and every gait constant (the motion is the cases')."""
+    return json.dumps([snap.robot, snap.gait.to_dict()], sort_keys=True)
 
 
 class RobustnessRunner:
@@ -30,6 +40,23 @@ class RobustnessRunner:
     ) -> None:
         """Jobs walk the robot `robot_now()` names when they start."""
         self.jobs, self.store, self.robot_now, self.cluster = jobs, store, robot_now, cluster
+        self._reports: OrderedDict[str, dict[str, Any]] = OrderedDict()  # gait key -> report
+        self._lock = threading.Lock()
+
+    def last_report(self, snap: Snapshot) -> dict[str, Any] | None:
+        """The last finished report of `snap`'s gait on its robot (None: none kept), with when
+        it finished (`finished_at`, Unix seconds) and the version it was run on."""
+        with self._lock:
+            return self._reports.get(gait_key(snap))
+
+    def _keep(self, snap: Snapshot, report: dict[str, Any]) -> None:
+        key = gait_key(snap)
+        kept = report | {"finished_at": time.time(), "params_version": snap.version}
+        with self._lock:
+            self._reports.pop(key, None)
+            self._reports[key] = kept
+            while len(self._reports) > REPORTS_KEPT:
+                self._reports.popitem(last=False)
 
     def start(self, *, samples: int = SAMPLES, seed: int = 0) -> Job:
         snap = self.store.snapshot()
@@ -39,7 +66,7 @@ class RobustnessRunner:
         def work(progress: Progress) -> dict[str, Any]:
             # one thread locally: the live simulation keeps the other core
             evaluator = evaluator_for(robot, cluster=self.cluster, threads=1)
-            return run_robust(
+            report = run_robust(
                 [(name, snap.gait, snap.name)],
                 evaluator,
                 samples=samples,
@@ -49,6 +76,8 @@ class RobustnessRunner:
                 warmup_s=WARMUP_S,
                 progress=lambda done, total: progress(done / total),
             )
+            self._keep(snap, report)
+            return report
 
         return self.jobs.start(KIND, work)
 

@@ -5,9 +5,11 @@ study at a time; a journal a crash cut short resumes from its whole entries (`st
 
 from __future__ import annotations
 
+import datetime
 import json
 import re
 import sys
+import warnings
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
@@ -18,6 +20,10 @@ if TYPE_CHECKING:
     import optuna
 
 DEFAULT_STUDY = "artro-tune"
+#: the objective's name in optuna-dashboard
+OBJECTIVE = "loss (paper criteria + robust term)"
+#: the figures of each nominal run that become user attributes of their own
+FIGURES = ("forward_cm_s", "lateral_cm_s", "turn_deg_s")
 # optuna is imported where a study is opened (~0.3 s), not by every `artro` command
 RDB_DIALECTS = ("sqlite", "postgresql", "mysql")
 ALLOWED = (
@@ -114,6 +120,20 @@ def _make_folder(folder: Path) -> None:
         ) from None
 
 
+def figures(metrics: dict[str, Any]) -> dict[str, Any]:
+    """A trial's figures as flat user attributes: `<run>.<figure>` of each nominal run
+    (`<run>.fell` when it fell), and `robust.pass_share` with --robust."""
+    out: dict[str, Any] = {}
+    for run, m in metrics.get("nominal", {}).items():
+        if m.get("fell"):
+            out[f"{run}.fell"] = True
+        out |= {f"{run}.{f}": m[f] for f in FIGURES if isinstance(m.get(f), (int, float))}
+    robust = metrics.get("robust")
+    if robust and robust.get("runs"):
+        out["robust.pass_share"] = robust["passed"] / robust["runs"]
+    return out
+
+
 class StudyStore:
     """One tuning study: its settings (fixed at creation; other settings are refused) and its
     trials, each with the generation, the candidate's point in the unit box, its loss and the
@@ -194,8 +214,14 @@ class StudyStore:
         values: dict[str, tuple[float, float, float]],
         loss: float,
         metrics: dict[str, Any],
+        *,
+        started_s: float | None = None,
     ) -> None:
-        """One finished candidate: `values` maps each tuned field to (value, low, high)."""
+        """One finished candidate: `values` maps each tuned field to (value, low, high); it
+        started at `started_s` (Unix s; default: now) and ends now. Beside `metrics` (what a
+        resume reads), each nominal figure and the varied runs' pass share are user attributes
+        of their own, for optuna-dashboard."""
+        import optuna
         from optuna.distributions import FloatDistribution
         from optuna.trial import create_trial
 
@@ -204,6 +230,12 @@ class StudyStore:
             distributions={k: FloatDistribution(lo, hi) for k, (_, lo, hi) in values.items()},
             value=loss,
             user_attrs={"generation": generation, "unit": [float(u) for u in unit],
-                        "metrics": metrics},
+                        "metrics": metrics, **figures(metrics)},
         )  # fmt: skip
+        if started_s is not None:
+            trial.datetime_start = datetime.datetime.fromtimestamp(started_s)
+        if not self.study.metric_names:
+            with warnings.catch_warnings():  # "experimental" since Optuna 3.2, kept in 5
+                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                self.study.set_metric_names([OBJECTIVE])
         self.study.add_trial(trial)

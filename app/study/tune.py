@@ -25,6 +25,7 @@ from app.analysis.cases import (
 )
 from app.analysis.robustness import ROBUST_CASES, pass_margin_loss, passes
 from app.evaluation import BatchEvaluator, Evaluator, Job
+from app.evaluation.progress import ProgressLine, bar
 from app.params.document import ParameterSet
 from app.study.study_store import StudyStore
 from app.study.tune_loss import (
@@ -168,6 +169,9 @@ class Tuner:
                                        for f in dataclasses.fields(self.ranges)}  # fmt: skip
         self.settings |= weights.settings()
         self.best: tuple[float, GaitParams, dict[str, dict[str, Any]]] | None = None
+        #: with --robust, each evaluated candidate's varied runs ("passed" of "runs"), by the
+        #: id of its runs' dict in `evaluated` (`varied_summary`)
+        self.robust_of: dict[int, dict[str, Any]] = {}
         self.evaluated: list[tuple[float, GaitParams, dict[str, dict[str, Any]]]] = []
         self.generation = 0
 
@@ -202,10 +206,18 @@ class Tuner:
         started = time.monotonic()
         finished: dict[int, dict[int, Any]] = {}
         out: list[tuple[float, dict[str, dict[str, Any]]] | None] = [None] * len(sets)
+        line = None if progress is None else ProgressLine(progress)
 
         def report(n_done: int, total: int) -> None:
-            if progress is not None:
-                _progress_bar(progress, self.generation, n_done, total, self.best, started)
+            if line is not None:
+                best = "-" if self.best is None else f"{self.best[0]:.3f}"
+                shown = bar(n_done, total) + " " if line.live else ""
+                line.update(
+                    n_done,
+                    total,
+                    f"generation {self.generation + 1}: {shown}{n_done}/{total} runs, "
+                    f"{time.monotonic() - started:.0f} s, best loss {best}",
+                )
 
         def on_result(index: int, metrics: dict[str, Any]) -> None:
             i = index // per
@@ -214,7 +226,7 @@ class Tuner:
                 runs = [finished[i][k] for k in range(per)]
                 loss, stored = self.score(runs)
                 out[i] = (loss, stored["nominal"])
-                self._record(loss, sets[i], stored["nominal"])
+                self._record(loss, sets[i], stored["nominal"], stored.get("robust"))
                 if done is not None:
                     done(i, loss, stored)
 
@@ -294,7 +306,8 @@ class Tuner:
                 if row is not None:
                     losses[i] = row["loss"]
                     params = with_values(self.base.gait, self.dims, candidates[i])
-                    self._record(row["loss"], params, row["metrics"]["nominal"])
+                    metrics = row["metrics"]
+                    self._record(row["loss"], params, metrics["nominal"], metrics.get("robust"))
             if missing:
                 points = [candidates[i] for i in missing]
                 keep = self._keeper(store, points)
@@ -303,8 +316,6 @@ class Tuner:
                     losses[i] = loss
             self.es.tell(candidates, losses)
             self.generation += 1
-        if progress is not None:
-            progress.write("\n")
         if self.best is None:
             raise RuntimeError("nothing was evaluated")
         loss, params, _ = self.best
@@ -313,15 +324,17 @@ class Tuner:
     def _keeper(
         self, store: StudyStore, points: list[np.ndarray]
     ) -> Callable[[int, float, dict[str, Any]], None]:
-        """What writes candidate j of `points` to the store as soon as it is evaluated."""
+        """What writes candidate j of `points` to the store as soon as it is evaluated (its
+        trial lasts from the generation's start to its last run's end)."""
         generation = self.generation
+        started = time.time()
 
         def keep(j: int, loss: float, stored: dict[str, Any]) -> None:
             u = points[j]
             values = {
                 d.name: (d.to_value(x), d.low, d.high) for d, x in zip(self.dims, u, strict=True)
             }
-            store.record(generation, u, values, loss, stored)
+            store.record(generation, u, values, loss, stored, started_s=started)
 
         return keep
 
@@ -341,10 +354,31 @@ class Tuner:
             )
         return out
 
-    def _record(self, loss: float, params: GaitParams, by_run: dict[str, dict[str, Any]]) -> None:
+    def _record(
+        self,
+        loss: float,
+        params: GaitParams,
+        by_run: dict[str, dict[str, Any]],
+        robust: dict[str, Any] | None = None,
+    ) -> None:
         self.evaluated.append((loss, params, by_run))
+        if robust is not None:  # with --robust: how its varied runs went
+            self.robust_of[id(by_run)] = robust
         if self.best is None or loss < self.best[0]:
             self.best = (loss, params, by_run)
+
+    def varied_summary(self, chosen: tuple[float, GaitParams, dict[str, Any]]) -> str | None:
+        """With --robust: "passes P of N varied runs (S %) in W worlds" for a candidate of
+        `evaluated` (None without --robust)."""
+        robust = self.robust_of.get(id(chosen[2]))
+        if robust is None:
+            return None
+        passed, runs = robust["passed"], robust["runs"]
+        share = passed / runs if runs else 0.0
+        return (
+            f"passes {passed} of {runs} varied runs ({share:.0%}) in {len(robust['losses'])} "
+            f"worlds of its generation (`artro bench robust` measures it on more)"
+        )
 
     def best_passing(
         self, by: str = "loss"
@@ -377,16 +411,3 @@ def judged_runs(cases: Sequence[str] | None) -> tuple[tuple[str, Motion], ...]:
         raise ValueError(f"unknown cases {unknown}; allowed: {', '.join(known)}")
     curves = {n for p in CURVES if p.straight in cases for n in curve_run_names(p)}
     return tuple((n, m) for n, m in JUDGED_RUNS if n in cases or n in curves)
-
-
-def _progress_bar(
-    stream: TextIO, generation: int, done: int, total: int, best, started: float
-) -> None:
-    width = 30
-    filled = int(width * done / max(total, 1))
-    best_text = "-" if best is None else f"{best[0]:.3f}"
-    stream.write(
-        f"\rgeneration {generation + 1}: [{'#' * filled}{'.' * (width - filled)}] "
-        f"{done}/{total} runs, {time.monotonic() - started:5.0f} s, best loss {best_text}   "
-    )
-    stream.flush()

@@ -18,9 +18,11 @@ export function initParams() {
 async function step(action) {
   const msg = $("params-message");
   try {
+    const before = robotShown;
     const p = await api.post(`/api/params/${action}`);
     announce(p);
-    setMessage(msg, `${action === "undo" ? "undone" : "redone"} → v${p.version}`, "ok");
+    const robot = p.robot !== before ? `: the robot is ${p.robot} again (was ${before})` : "";
+    setMessage(msg, `${action === "undo" ? "undone" : "redone"} → v${p.version}${robot}`, "ok");
   } catch (err) {
     // 409: nothing to undo/redo - not an error worth shouting about
     setMessage(msg, err.message, err.status === 409 ? "quiet" : "error");
@@ -36,6 +38,7 @@ export async function refreshParams() {
 }
 
 let shown = 0;
+let robotShown = null; // the robot of the set shown
 
 /** Tell every listener about a parameter set, unless an older one than already shown. */
 export function announce(p) {
@@ -46,6 +49,7 @@ export function announce(p) {
 function render(p) {
   if (p.version < shown) return;
   shown = p.version;
+  robotShown = p.robot;
   $("params-version").textContent = `v${p.version}`;
   $("params-name").textContent = p.name || "—";
   const g = p.gait || {};

@@ -1,7 +1,10 @@
 // The World panel: the model variation the live robot walks in (GET/PUT/DELETE /api/world), and
 // the robustness job (POST /api/jobs/robustness): the current gait on N variations, its pass share
 // per case drawn as bars with the 95 % interval, the worst variations each with a button that
-// loads it into the live simulation, so the gait can be watched failing and tuned there.
+// loads it into the live simulation, so the gait can be watched failing and tuned there. The
+// sliders follow the live world (however it was set); Apply keeps the terms no slider shows
+// (calibration, a push). The last report of the gait in use is kept by the server and drawn again
+// on a reload (GET /api/world/robustness).
 
 import { api, formatDetail, poll } from "./api.js";
 import { showRobot } from "./robot.js";
@@ -29,7 +32,13 @@ const FIELDS = [
   ["fsr_gain", "force sensor gain ×", 2, ""],
 ];
 const NOMINAL = { friction: 0.7, tilt_direction_deg: 0, fsr_gain: 1 };
+const SLIDER_KEYS = new Set(FIELDS.map(([key]) => key));
+const CIRCULAR = new Set(["tilt_direction_deg", "imu_tilt_direction_deg", "push_direction_deg"]);
+const EXTREME = 0.1; // a value in the outer tenth of its default range, away from nominal, is marked
 let job = null;
+let ranges = {}; // the default ranges of `artro bench robust`, per field
+let liveWorld = "nominal"; // the world the state last named
+let reportShown = false;
 
 export function initWorld() {
   $("world-apply").addEventListener("click", () => apply(textFromSliders()));
@@ -38,13 +47,18 @@ export function initWorld() {
   $("robust-start").addEventListener("click", startRobustness);
   buildSliders();
   poll(refresh, 1000);
+  showLastReport();
+  document.addEventListener("artro:params", () => showLastReport());
 }
 
 async function buildSliders() {
   const world = await api.get("/api/world");
+  ranges = world.ranges;
+  liveWorld = world.variation;
   $("world-sliders").replaceChildren(
     ...FIELDS.map(([key, label, digits, unit]) => {
-      const [lo, hi] = world.ranges[key];
+      const nominal = nominalOf(key);
+      const [lo, hi] = [Math.min(world.ranges[key][0], nominal), Math.max(world.ranges[key][1], nominal)];
       const value = world.values[key] ?? NOMINAL[key];
       const out = h("output", { id: `world-${key}-out` }, fmt(value, digits));
       const input = h("input", {
@@ -59,14 +73,45 @@ async function buildSliders() {
   );
 }
 
+/** The sliders set to the live world's values (those not being dragged). */
+async function followWorld() {
+  const world = await api.get("/api/world");
+  liveWorld = world.variation;
+  for (const [key, , digits] of FIELDS) {
+    const input = $(`world-${key}`);
+    if (!input || document.activeElement === input) continue;
+    const value = world.values[key] ?? NOMINAL[key];
+    input.value = value;
+    $(`world-${key}-out`).textContent = fmt(value, digits);
+  }
+}
+
+/** The terms of a variation's text, as [key, value text]. */
+const terms = (text) =>
+  text === "nominal" || !text ? [] : text.split(",").map((t) => t.split("=").map((s) => s.trim()));
+
+/** A field's value on the nominal model (a slider reaches it even outside the default range). */
+const nominalOf = (key) => NOMINAL[key] ?? (key.endsWith("_scale") ? 1 : 0);
+
 function textFromSliders() {
   const parts = [];
   for (const [key, , digits] of FIELDS) {
     const value = Number($(`world-${key}`).value);
-    const nominal = NOMINAL[key] ?? (key.endsWith("_scale") ? 1 : 0);
+    const nominal = nominalOf(key);
     if (Math.abs(value - nominal) > 1e-9) parts.push(`${key}=${value.toFixed(Math.max(digits, 2))}`);
   }
-  return parts.join(",");
+  // what no slider shows (each joint's calibration, a push) stays as the live world has it
+  const kept = terms(liveWorld).filter(([key]) => !SLIDER_KEYS.has(key));
+  return [...parts, ...kept.map(([key, value]) => `${key}=${value}`)].join(",");
+}
+
+/** The header's short word on the world: "nominal model" or the fields varied, first few named. */
+function worldSummary(text) {
+  const keys = terms(text).map(([key]) => (key.startsWith("cal.") ? "calibration" : key));
+  const names = [...new Set(keys)];
+  if (!names.length) return "nominal model";
+  const shown = names.slice(0, 2).join(", ");
+  return `varied: ${shown}${names.length > 2 ? ` +${names.length - 2} more` : ""}`;
 }
 
 async function apply(text) {
@@ -92,9 +137,11 @@ async function refresh() {
   badge.hidden = !varied;
   badge.textContent = "world varied";
   badge.title = state.world;
-  $("world-state").textContent = varied ? state.world : "nominal model";
+  $("world-state").textContent = worldSummary(state.world);
+  $("world-state").title = varied ? state.world : "";
   showRobot(state.robot);
   if (document.activeElement !== $("world-text")) $("world-text").value = varied ? state.world : "";
+  if (state.world !== liveWorld) await followWorld();
   if (job) await followJob();
 }
 
@@ -123,11 +170,47 @@ async function followJob() {
   drawReport(now.result);
 }
 
+async function showLastReport() {
+  if (job) return; // the running job's report comes when it ends
+  try {
+    drawReport(await api.get("/api/world/robustness"));
+  } catch (err) {
+    if (err.status !== 404) return;
+    if (reportShown) $("robust-title").textContent = `(of an earlier gait) ${$("robust-title").textContent.replace(/^\(of an earlier gait\) /, "")}`;
+  }
+}
+
+/** A worst variation's terms, those in the outer tenth of their default range on their side of
+ *  the nominal value (or past it) marked: what most likely made it fail. A low gyro noise is
+ *  near the nominal model, not an extreme. */
+function variationTerms(text) {
+  return terms(text).map(([key, value], i) => {
+    const range = ranges[key.startsWith("cal.") ? "calibration_deg" : key];
+    const v = Number(value);
+    let extreme = false;
+    if (range && !CIRCULAR.has(key) && range[1] > range[0]) {
+      const [lo, hi] = range, edge = EXTREME * (hi - lo);
+      const nominal = key.startsWith("cal.") ? 0 : nominalOf(key);
+      extreme = (v > nominal && v >= hi - edge) || (v < nominal && v <= lo + edge);
+    }
+    const title = range ? `default range ${range[0]} to ${range[1]}` : "";
+    return h("span", { class: extreme ? "term extreme" : "term", title },
+      `${key}=${value}${i < text.split(",").length - 1 ? "," : ""} `);
+  });
+}
+
 export function drawReport(result) {
   const report = result.presets[0];
+  reportShown = true;
+  const when = result.finished_at
+    ? ` — kept from ${new Date(1000 * result.finished_at).toLocaleTimeString()}, v${result.params_version}`
+    : "";
   $("robust-title").textContent =
-    `${report.preset} on ${result.samples} variations (seed ${result.seed}): ${(100 * report.overall_share).toFixed(0)} % of runs pass`;
+    `${report.preset} on ${result.samples} variations (seed ${result.seed}): ${(100 * report.overall_share).toFixed(0)} % of runs pass${when}`;
   $("robust-bars").replaceChildren(
+    h("div", { class: "robust-row robust-header dim" },
+      h("span", {}, "case"), h("span", {}, "runs passing, 95 % interval (dotted: 90 %)"),
+      h("span", { class: "robust-share" }, "pass"), h("span", {}, "failures depend on")),
     ...report.cases.map((c) => {
       const [lo, hi] = c.interval;
       const pct = (x) => `${(100 * x).toFixed(1)}%`;
@@ -146,7 +229,7 @@ export function drawReport(result) {
       h("li", {},
         h("button", { type: "button", class: "small", onclick: () => watch(w) }, "Walk in it"),
         ` fails ${w.failed_cases}: ${w.failed.join(", ")} `,
-        h("code", { class: "small dim" }, w.variation))),
+        h("code", { class: "small dim robust-variation" }, ...variationTerms(w.variation)))),
   );
 }
 

@@ -70,6 +70,17 @@ def reset_world(services: ServicesDep) -> dict[str, Any]:
     return {"variation": NOMINAL.name}
 
 
+@router.get("/world/robustness", responses=responses(404))
+def last_robustness(services: ServicesDep) -> dict[str, Any]:
+    """The last finished robustness report of the gait in use on the robot in use (kept for the
+    last 16 gaits while the server runs), with `finished_at` (Unix s) and `params_version`;
+    404 if none was run on it."""
+    report = services.robustness.last_report(services.store.snapshot())
+    if report is None:
+        raise ApiError(404, "no robustness report of this gait yet: run one", "no_report")
+    return report
+
+
 @router.post("/jobs/robustness", status_code=202, responses=responses(409, 422))
 def start_robustness(
     services: ServicesDep,
