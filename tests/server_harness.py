@@ -22,6 +22,10 @@ CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 CHROMIUM_ARGS = [
     "--no-sandbox",
     "--disable-gpu",
+    # every origin its own renderer: the 3D view (viser, another port of the same host, drawn by
+    # software WebGL here) must not share the dashboard's main thread, where on a busy machine it
+    # held the page's state poll back for seconds (issue 33)
+    "--enable-features=StrictOriginIsolation",
     "--disable-background-networking",
     "--disable-component-update",
     "--no-first-run",

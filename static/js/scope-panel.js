@@ -1,6 +1,10 @@
 // The oscilloscope panel: servo lane choice, single-frame / roll views, cursors, freeze and the
 // receive readout. Frames arrive from ScopeFeed at 50/s; the canvas is redrawn at most once per
-// animation frame, with the newest frame (or the frozen one).
+// animation frame, with the newest frame (or the frozen one), at most every DRAW_MS and never
+// more than a DRAW_SHARE of the time (a slow machine draws less often), only while the panel is
+// on screen; the frame's text readout at most every INFO_MS. Drawing all 50 frames a second and
+// laying the page out for the readout each time kept Chromium's renderer at ~70 % of a core, and
+// a busy machine then ran the page's state poll seconds late (issue 33).
 
 import { api } from "./api.js";
 import { RollBuffer } from "./roll.js";
@@ -32,6 +36,15 @@ let feed;
 let roll;
 let cycle;
 let drawPending = false;
+const DRAW_MS = 40; // 25 pictures a second at most: the eye sees no more on a scope
+const DRAW_SHARE = 0.25; // a draw that took t waits t / DRAW_SHARE before the next
+let nextDrawAt = 0;
+let onScreen = true; // the panel intersects the window (an IntersectionObserver keeps it)
+let lastHeight = ""; // the canvas's CSS height last set: set again only when it changes
+const INFO_MS = 100; // the frame's readout is rewritten at most this often
+let infoShownAt = 0;
+let infoTimer = null;
+let flagsKey = "";
 
 export function initScope() {
   state.servos = loadServos();
@@ -54,6 +67,10 @@ export function initScope() {
   cycle = new CyclePlot($("cycle-plot"), $("cycle-info"));
   $("scope-mode-cycle").addEventListener("click", () => setMode("cycle"));
   new ResizeObserver(() => requestDraw()).observe($("scope-wrap"));
+  new IntersectionObserver(([entry]) => {
+    onScreen = entry.isIntersecting;
+    if (onScreen) requestDraw();
+  }).observe($("scope-panel"));
 
   feed = new ScopeFeed({
     onFrame(frame) {
@@ -198,11 +215,24 @@ function toggleFreeze() {
 function requestDraw() {
   if (drawPending) return;
   drawPending = true;
-  requestAnimationFrame(draw);
+  const wait = nextDrawAt - performance.now();
+  if (wait > 0) setTimeout(() => requestAnimationFrame(draw), wait);
+  else requestAnimationFrame(draw);
 }
 
 function draw() {
+  const started = performance.now();
+  drawOnce();
+  const took = performance.now() - started;
+  nextDrawAt = started + Math.max(DRAW_MS, took / DRAW_SHARE);
+}
+
+function drawOnce() {
   drawPending = false;
+  if (!onScreen) {
+    showFrameInfo(state.frozen ? state.frozenFrame : state.latest);
+    return; // drawn when it comes into view
+  }
   const canvas = $("scope-canvas");
   const wrap = $("scope-wrap");
   const frame = state.frozen ? state.frozenFrame : state.latest;
@@ -213,18 +243,19 @@ function draw() {
   if (state.mode === "cycle") {
     cycle.update(state.frozen ? state.frozenSamples || [] : buffer.toArray(), opts, state.frozen);
     state.axis = null;
-    updateFrameInfo(frame);
+    showFrameInfo(frame);
     return;
   }
   if (state.mode === "roll") {
     roll.update(state.frozen ? state.frozenSamples || [] : buffer.toArray(), opts);
     state.axis = null; // the roll plot reports its clicks itself
-    updateFrameInfo(frame);
+    showFrameInfo(frame);
     return;
   }
   // the single-frame view grows taller than the panel when many servo lanes are chosen
   const need = singleFrameMinHeight(frame, state.servos.length);
-  canvas.style.height = `${Math.max(wrap.clientHeight, need)}px`;
+  const height = `${Math.max(wrap.clientHeight, need)}px`;
+  if (height !== lastHeight) canvas.style.height = lastHeight = height;
   const { ctx, w, h: hgt } = fitCanvas(canvas);
   if (!frame) {
     placeholder(ctx, w, hgt, "waiting for TDM-PWM frames…");
@@ -233,6 +264,18 @@ function draw() {
     const ax = drawSingleFrame(ctx, w, hgt, frame, opts);
     state.axis = { x0: ax.x0, x1: ax.x1, toTime: ax.toUs };
   }
+  showFrameInfo(frame);
+}
+
+/** The frame's readout, at most every INFO_MS; the last frame is always shown in the end. */
+function showFrameInfo(frame) {
+  clearTimeout(infoTimer);
+  const wait = infoShownAt + INFO_MS - performance.now();
+  if (wait > 0) {
+    infoTimer = setTimeout(() => showFrameInfo(frame), wait);
+    return;
+  }
+  infoShownAt = performance.now();
   updateFrameInfo(frame);
 }
 
@@ -308,12 +351,16 @@ function updateFrameInfo(frame) {
   if (!frame) {
     info.textContent = "";
     flags.replaceChildren();
+    flagsKey = "";
     return;
   }
   const pins = (frame.source === "firmware" ? " · firmware pins" : "") + (frame.recorded ? " · recorded" : "");
   info.textContent = `#${frame.frame} · ${frame.t_s.toFixed(2)} s · φ ${frame.phase_rad.toFixed(2)}${pins}`;
   info.title = `frame number, sim time and trunk phase φ (rad) of the frame shown; parameters v${frame.params_version ?? "?"}`;
   const f = frame.flags || {};
+  const key = JSON.stringify([f.guard_violation, f.saturated, f.glitch, f.stray]);
+  if (key === flagsKey) return; // the same flags: the page is not laid out again for them
+  flagsKey = key;
   const items = [];
   if (f.guard_violation) items.push(h("span", { class: "flag guard" }, "guard violation"));
   if (f.saturated?.length) items.push(h("span", { class: "flag sat" }, `saturated: ${f.saturated.join(", ")}`));
