@@ -4,8 +4,10 @@ real server with the viser 3D view running."""
 import contextlib
 import io
 import json
+import os
 import re
 from collections.abc import Iterator
+from pathlib import Path
 
 import httpx
 import numpy as np
@@ -13,11 +15,12 @@ import pytest
 from PIL import Image
 from playwright.sync_api import FrameLocator, Page, expect, sync_playwright
 
-from tests.browser_support import LARGE, SMALL
+from tests.browser_support import BOTH_SIZES, LARGE, SMALL
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
+SHOTS = Path(os.environ["ARTRO_SCREENSHOTS"]) if os.environ.get("ARTRO_SCREENSHOTS") else None
 
 
 SIZES = [(1600, 1000), (1280, 720)]
@@ -270,6 +273,36 @@ def test_the_page_motion_controls_drive_the_simulation(dashboard):
     expect(page.locator("#motion-ca-band")).to_contain_text("outside")
     expect(page.locator("#motion-row-ca")).to_have_class(re.compile(r"\boutside\b"))
     http.patch("/api/params", json={"motion": {"a_p": 0.07, "ca": 0.0}})
+
+
+@BOTH_SIZES
+def test_a_band_not_measured_for_the_set_is_named_and_drawn_apart(server, browser, width, height):
+    """`robust` has no measured band of its own (data/safe-bands.json): the motion rows say
+    "unmeasured" and shade the band grey, where `tuned`'s measured band reads "safe" in green
+    (issue 33: a band marked not measured looked like a measured one)."""
+    base_url, http = server
+    band = "#motion-a_p-band"
+    shade = "e => getComputedStyle(e).getPropertyValue('--band').trim()"
+    try:
+        assert http.post("/api/presets/robust/load").status_code == 200
+        with open_page(browser, base_url, width, height) as page:
+            expect(page.locator(band)).to_contain_text("unmeasured", timeout=10_000)
+            expect(page.locator("#motion-row-a_p")).to_have_class(re.compile(r"\bunmeasured\b"))
+            grey = page.locator("#motion-a_p").evaluate(shade)
+            for key in ("a_p", "a_r", "a_y", "ca"):  # the longer word fits its column
+                cell = page.locator(f"#motion-{key}-band")
+                assert cell.evaluate("e => e.scrollWidth <= e.clientWidth + 1"), key
+                box, panel = cell.bounding_box(), page.locator(".motion-rows").bounding_box()
+                assert box["x"] + box["width"] <= panel["x"] + panel["width"] + 1, key
+            if SHOTS:
+                page.locator(".motion-rows").screenshot(path=str(SHOTS / f"band-{width}.png"))
+            assert http.post("/api/presets/tuned/load").status_code == 200
+            expect(page.locator(band)).to_contain_text("safe", timeout=10_000)
+            expect(page.locator("#motion-row-a_p")).not_to_have_class(re.compile("unmeasured"))
+            assert page.locator("#motion-a_p").evaluate(shade) != grey
+    finally:
+        http.post("/api/presets/tuned/load")
+        http.patch("/api/params", json={"motion": {"a_p": 0.07}})
 
 
 def test_the_first_steps_line_goes_once_the_robot_walks(server, browser):

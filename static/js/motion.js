@@ -28,6 +28,7 @@ let inFlight = false;
 let bands = null;
 let current = null; // the last parameters the server reported
 let walked = false;
+let holdTimer = null;
 let gesture = null; // {key, id, at}: the gesture the latest change belongs to
 let gestures = 0;
 let pendingGesture = null; // the gesture of the changes waiting to be sent
@@ -130,6 +131,9 @@ function gestureOf(control) {
 
 function send(key, v, control) {
   lastLocal[key] = performance.now();
+  // when the hold ends, what the server has now is shown (an undo during the hold, say)
+  clearTimeout(holdTimer);
+  holdTimer = setTimeout(() => current && render(current), HOLD_MS + 20);
   pending[key] = v;
   pendingGesture = gestureOf(control);
   markBand(key, v);
@@ -215,6 +219,9 @@ function shadeBands(name) {
     range.style.setProperty("--hi", pct(hi));
     value.dataset.lo = lo;
     value.dataset.hi = hi;
+    value.dataset.measured = band?.verified ? "yes" : "";
+    // a band not measured for this set is drawn and named apart from a measured one
+    $(`motion-row-${f.key}`).classList.toggle("unmeasured", !band?.verified);
     value.title = band?.verified
       ? `known-good band of '${band.preset}': ${fmtSigned(lo, 2)} … ${fmtSigned(hi, 2)} (artro bench paper)`
       : `'${name}' has no measured band: the shaded ${fmtSigned(lo, 2)} … ${fmtSigned(hi, 2)} is where the built-in presets walk`;
@@ -230,7 +237,8 @@ function markBand(key, v) {
   if (!Number.isFinite(lo)) return;
   const inside = v >= lo - 1e-9 && v <= hi + 1e-9;
   const band = lo === -hi ? `±${hi}` : `${fmtSigned(lo, 2)}…${fmtSigned(hi, 2)}`;
-  value.textContent = inside ? `safe ${band}` : `⚠ outside ${band}`;
+  const word = value.dataset.measured ? "safe" : "unmeasured";
+  value.textContent = inside ? `${word} ${band}` : `⚠ outside ${band}`;
   value.classList.toggle("outside", !inside);
   $(`motion-row-${key}`).classList.toggle("outside", !inside);
 }
