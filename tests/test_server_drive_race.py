@@ -16,6 +16,18 @@ from app.server.sim_commands import SwitchDrive
 from tests.server_harness import client, wait_for
 
 
+def handed_over(sim, controller):
+    """Hand `controller` to the simulation thread; its status once it has decided (the
+    firmware drives, or a refusal is said)."""
+    sim.send(SwitchDrive(controller))
+
+    def verdict():
+        s = sim.status()
+        return (s.drive == "firmware" or any("not started" in e for e in s.errors)) and s
+
+    return wait_for(verdict, "the simulation thread's verdict")
+
+
 def test_a_firmware_booted_for_behnke_is_refused_once_the_set_names_pfs(sim_thread):
     """The race, step by step: the firmware boots for the behnke set (as `switch_drive` does in
     the HTTP thread), the set becomes pfs and the simulation applies it, then the booted firmware
@@ -24,13 +36,7 @@ def test_a_firmware_booted_for_behnke_is_refused_once_the_set_names_pfs(sim_thre
     controller = EmulatedController.boot(store.snapshot(), sim.hardware)
     changed = store.update({"gait": {"engine": "pfs"}}, "test")
     wait_for(lambda: sim.status().params_version_applied == changed.version, "pfs applied")
-    sim.send(SwitchDrive(controller))
-
-    def verdict():
-        s = sim.status()
-        return (s.drive == "firmware" or any("not started" in e for e in s.errors)) and s
-
-    status = wait_for(verdict, "the simulation thread's verdict")
+    status = handed_over(sim, controller)
     assert status.drive == "model", "the firmware drives a pfs set it refuses"
     assert any("runs the behnke gait engine" in e and "'pfs'" in e for e in status.errors)
     frame = status.frame
@@ -75,13 +81,7 @@ def test_a_firmware_booted_for_one_robot_never_drives_another(sim_thread):
     controller = sim.live.boot_firmware(store.snapshot())
     micro = store.replace(store.snapshot().parameter_set(), "test", robot="micro")
     wait_for(lambda: sim.status().robot == "micro", "the simulation took the micro robot")
-    sim.send(SwitchDrive(controller))
-
-    def verdict():
-        s = sim.status()
-        return (s.drive == "firmware" or any("built for the robot" in e for e in s.errors)) and s
-
-    status = wait_for(verdict, "the simulation thread's verdict")
+    status = handed_over(sim, controller)
     assert status.drive == "model", "ArtRo's firmware drives the micro robot"
     assert any("built for the robot 'artro'; the robot is now 'micro'" in e for e in status.errors)
     not_simulated = dataclasses.replace(micro, robot="artro")  # as if the store moved on
