@@ -60,3 +60,15 @@ def forced_push(impulse_n_s: float) -> Push:
     push = Push(1.0)
     object.__setattr__(push, "impulse_n_s", impulse_n_s)
     return push
+
+
+def test_a_change_of_robots_is_no_negative_latency(sim_thread):
+    """`param_latency_frames` once read -1312 after a switch of robots: the frames are counted
+    anew by the new robot's loop, so a change that waited across it is not measured."""
+    sim, store = sim_thread
+    wait_for(lambda: sim.status().frame > 60, "some frames walked")
+    assert sim.status().param_latency_frames.count == 0  # nothing changed yet
+    store.replace(store.snapshot().parameter_set(), "test", robot="micro")
+    wait_for(lambda: sim.status().robot == "micro", "the micro robot simulated")
+    latency = sim.status().param_latency_frames
+    assert latency.count == 0 or latency.median >= 0, latency

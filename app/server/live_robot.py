@@ -201,6 +201,8 @@ class LiveRobot:
         applied: with the model, the next frame is the first built with it; with the firmware,
         the rest of its latency comes with the ACK."""
         waited = self.loop.frame_index - entered_at_frame
+        if waited < 0:  # the frames were counted anew between (a reset, another robot's loop)
+            return
         if self._controller is None:
             self.latency_frames.append(waited + 1)
         else:
