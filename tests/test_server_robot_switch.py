@@ -115,8 +115,11 @@ def test_no_undo_back_to_another_robot_while_a_replay_is_shown(http):
     """A replay of one robot once outlived an undo back to another (its frames drawn on the
     wrong legs): every change of robots, a switch or an undo, is decided by one guard."""
     assert http.put("/api/robot", json={"name": "micro"}).status_code == 200
-    _simulated(http, "micro")
-    assert http.post("/api/recording/replay", json={}).status_code == 200
+    state = _simulated(http, "micro")
+    wait_for(lambda: http.get("/api/state").json()["frame"] > state["frame"] + 5,
+             "the micro robot's first frames recorded")  # fmt: skip
+    replay = http.post("/api/recording/replay", json={})
+    assert replay.status_code == 200, replay.text
     version = http.get("/api/params").json()["version"]
     undo = http.post("/api/params/undo")
     assert undo.status_code == 409 and undo.json()["detail"][0]["type"] == "robot_busy"

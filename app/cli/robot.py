@@ -12,13 +12,16 @@ from typing import Any, TextIO
 
 from app.cli.options import subcommand
 from app.robots import builtin_robot_names, load_description, model_xml
-from app.robots.checks import robot_warnings
+from app.robots.checks import eq1_torques, robot_warnings
+from app.robots.description import RobotDescription
 from app.robots.model import RobotModel
+from app.robots.swap import lightest_servo, suggest_servos, write_description
 
 EXAMPLES = """examples:
   artro robot list
   artro robot show minibot --json
   cp models/robots/artro.yaml my.yaml; artro robot check my.yaml   then: artro serve --robot my.yaml
+  artro robot check my.yaml --suggest -o my-servos.yaml   the lightest servos that carry it
   artro robot export-mjcf artro -o artro.xml"""
 
 
@@ -33,6 +36,15 @@ def add_parser(sub: Any) -> None:
     show.add_argument("--json", action="store_true", help="print one JSON object")
     check = sub.add_parser("check", help="validate a description; exit 2 with every error")
     check.add_argument("robot", metavar="NAME|FILE")
+    check.add_argument(
+        "--suggest",
+        action="store_true",
+        help="write the description with the lightest servo of the table that carries each "
+        "joint eq (1) finds short (masses follow the servos)",
+    )
+    check.add_argument(
+        "-o", "--output", metavar="FILE", help="with --suggest (default: NAME-suggested.yaml)"
+    )
     export = sub.add_parser("export-mjcf", help="write the generated MuJoCo model as MJCF")
     export.add_argument("robot", metavar="NAME|FILE")
     export.add_argument("-o", "--output", metavar="FILE", help="default: standard output")
@@ -56,6 +68,12 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         )
         for w in warnings:
             print(f"warning: {w}", file=out)
+        for line in servo_advice(desc):
+            print(f"  advice: {line}", file=out)
+        if args.suggest:
+            return suggest(desc, args.output, out)
+        if args.output:
+            raise ValueError("-o FILE goes with --suggest")
         return 0
     if args.robot_command == "export-mjcf":
         text = model_xml(desc)
@@ -89,4 +107,40 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         )
     for w in d["warnings"]:
         print(f"warning: {w}", file=out)
+    return 0
+
+
+def servo_advice(desc: RobotDescription) -> list[str]:
+    """Per joint that eq (1) finds short: the lightest servo of the table that carries it."""
+    lines = []
+    for t in eq1_torques(desc):
+        if t.margin >= 0:
+            continue
+        choice = lightest_servo(t.required_nm, desc.supply_voltage_v)
+        lines.append(
+            f"{t.joint}: the lightest servo that carries {t.required_nm:.3f} N·m at "
+            f"{desc.supply_voltage_v:g} V is the {choice.name} ({choice.stall_torque_nm:.3f} N·m, "
+            f"{1000 * choice.mass_kg:.0f} g)"
+            if choice
+            else f"{t.joint}: no servo of the table carries {t.required_nm:.3f} N·m at "
+            f"{desc.supply_voltage_v:g} V (models/servos.yaml)"
+        )
+    return lines
+
+
+def suggest(desc: RobotDescription, output: str | None, out: TextIO) -> int:
+    """`robot check --suggest`: the description with the servos that carry it, written."""
+    found = suggest_servos(desc, lambda r: {t.joint: t.required_nm for t in eq1_torques(r)})
+    if not found.swaps:
+        left = f"; none carries {', '.join(found.uncarried)}" if found.uncarried else ""
+        print(f"no servo to change{left}: nothing written", file=out)
+        return 0
+    path = write_description(found.robot, Path(output or f"{desc.name}-suggested.yaml"))
+    for joint, old, new, need in found.swaps:
+        print(f"  {joint}: {old} -> {new} (eq (1) asks {need:.3f} N·m)", file=out)
+    if found.uncarried:
+        print(f"  no servo of the table carries {', '.join(found.uncarried)}", file=out)
+    mass = found.robot.total_mass_kg
+    print(f"wrote {path} ({mass:.3f} kg); next: artro robot check {path}, then "
+          f"artro tune --robot {path}", file=out)  # fmt: skip
     return 0

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 from typing import Any
 
 from app.cli.options import (
@@ -91,6 +92,9 @@ def command(args: argparse.Namespace) -> int:
         variation=args.vary,
     )
     m = result.metrics
+    if result.diagnosis:  # one line, on stderr also with --json
+        where = args.robot or "artro"
+        print(f"artro run: {result.diagnosis.replace('ROBOT', str(where))}", file=sys.stderr)
     if args.json:
         named = {"robot": robot.name, "variation": args.vary.name}
         print(json.dumps({**m, **named}, allow_nan=False))

@@ -5,7 +5,7 @@ masses still add up and the model carries the new servos' mass, torque and speed
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -43,6 +43,63 @@ def smallest_servo(need_nm: float, voltage_v: float, signal: str = "pwm") -> Ser
     return next((c for c in servo_choices(voltage_v, signal) if c.stall_torque_nm >= need_nm), None)
 
 
+def lightest_servo(need_nm: float, voltage_v: float, signal: str = "pwm") -> ServoChoice | None:
+    """The lightest servo of the table whose stall torque at `voltage_v` is at least `need_nm`
+    (None: none is that strong): what a builder would fit."""
+    able = [c for c in servo_choices(voltage_v, signal) if c.stall_torque_nm >= need_nm]
+    return min(able, key=lambda c: (c.mass_kg, c.stall_torque_nm), default=None)
+
+
+@dataclass(frozen=True)
+class Suggestion:
+    """`suggest_servos`' answer: the robot with the servos swapped, each swap (joint, old servo,
+    new servo, eq (1) need N·m), and the joints no servo of the table carries."""
+
+    robot: RobotDescription
+    swaps: tuple[tuple[str, str, str, float], ...]
+    uncarried: tuple[str, ...]
+
+
+def suggest_servos(
+    desc: RobotDescription, required_nm: Callable[[RobotDescription], dict[str, float]]
+) -> Suggestion:
+    """`desc` with the lightest servo that carries its eq (1) need on each joint whose servo is
+    too weak; `required_nm(robot)` gives each joint's need (1 + sf times its load). A heavier
+    servo adds load below it, so the needs are taken again after each round (at most
+    len(JOINT_NAMES) rounds: a joint only ever gets a stronger servo)."""
+    table, swaps, uncarried = servo_table(), [], set()
+    robot = desc
+    for _ in range(len(JOINT_NAMES)):
+        need = required_nm(robot)
+        short = {
+            j: n for j, n in need.items()
+            if n > rating_at(table[robot.joint_servo(j)], robot.supply_voltage_v, j)[0]
+        }  # fmt: skip
+        changed = False
+        for joint, n in short.items():
+            choice = lightest_servo(n, robot.supply_voltage_v)
+            if choice is None:
+                uncarried.add(joint)
+                continue
+            swaps.append((joint, robot.joint_servo(joint), choice.name, n))
+            robot = with_servo(robot, [joint], choice.name)
+            uncarried.discard(joint)
+            changed = True
+        if not changed:
+            break
+    final: dict[str, tuple[str, str, str, float]] = {}
+    for joint, old, new, n in swaps:  # a joint swapped twice: from its first servo to its last
+        first = final.get(joint, (joint, old, new, n))[1]
+        final[joint] = (joint, first, new, n)
+    named = dict(robot.model_dump(mode="json"), name=f"{desc.name}-suggested"[:40])
+    named["title"] = f"{desc.title}; servos suggested by eq (1)" if final else desc.title
+    return Suggestion(
+        RobotDescription.model_validate(named) if final else desc,
+        tuple(final.values()),
+        tuple(sorted(uncarried)),
+    )
+
+
 def with_servo(desc: RobotDescription, joints: Sequence[str], servo: str) -> RobotDescription:
     """`desc` with `servo` on `joints`, named `<name>-<servo>`; ValueError for an unknown joint
     or servo, or a servo the robot's output or supply cannot drive (the description's own
@@ -60,7 +117,7 @@ def with_servo(desc: RobotDescription, joints: Sequence[str], servo: str) -> Rob
         data["joints"][joint]["servo"] = servo
     tag = servo.lower().replace("-", "")
     data["name"] = f"{desc.name}-{tag}"[:40]
-    data["title"] = f"{desc.title}; {servo} on {', '.join(joints)}"
+    data["title"] = f"{desc.title}; {servo} on {', '.join(joints)}"[:200]
     data["total_mass_kg"] = round(mass, 6)
     return RobotDescription.model_validate(data)
 

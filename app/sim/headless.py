@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import math
 import time
+from collections import deque
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -13,8 +14,11 @@ from app.sim.frame_loop import FrameLoop
 from app.sim.metrics import RunMetrics, Trace, compute_metrics
 from app.sim.planning import FRAME_S
 from app.worlds.variations import NOMINAL, Variation
-from gait import GaitParams, Motion
+from gait import JOINT_NAMES, GaitParams, Motion
 from hardware import SAFETY_FACTOR, HardwareSetup, required_torque_from_loads
+
+AT_LIMIT = 0.99  # a servo's force this close to its limit (frame ends): it sat at its torque limit
+LAST_S = 1.0  # a fall's diagnosis looks at this last stretch
 
 
 @dataclass
@@ -24,6 +28,39 @@ class RunResult:
     metrics: RunMetrics
     trace: Trace = field(repr=False)
     required_torque_nm: dict[str, float] = field(default_factory=dict)
+    #: a run that fell: when, toward which side, which servos sat at their torque limit
+    diagnosis: str | None = None
+
+
+def fall_side(quat: np.ndarray) -> tuple[str, float]:
+    """Toward which side of itself the trunk (quaternion w, x, y, z) leans, and by how many
+    degrees from upright: "front", "back", "left" or "right", by the larger part."""
+    w, x, y, z = (float(q) for q in quat)
+    up = np.array([2 * (x * z + w * y), 2 * (y * z - w * x), 1 - 2 * (x * x + y * y)])
+    heading = math.atan2(2 * (w * z + x * y), 1 - 2 * (y * y + z * z))
+    ahead = up[0] * math.cos(heading) + up[1] * math.sin(heading)
+    left = -up[0] * math.sin(heading) + up[1] * math.cos(heading)
+    side = ("front" if ahead > 0 else "back") if abs(ahead) >= abs(left) else (
+        "left" if left > 0 else "right")  # fmt: skip
+    return side, math.degrees(math.acos(max(-1.0, min(1.0, up[2]))))
+
+
+def diagnose(time_s: float, quat: np.ndarray, at_limit: np.ndarray) -> str:
+    """One line on a fall: when, toward which side, and which servos sat at their torque limit
+    in the frames of the last second (`at_limit`: frames x 12), with what to try (ROBOT stands
+    for the robot's name or file)."""
+    side, tilt = fall_side(quat)
+    counts = at_limit.sum(axis=0)
+    stuck = [f"{JOINT_NAMES[i]} {int(counts[i])}" for i in np.argsort(-counts) if counts[i]]
+    head = f"fell at {time_s:.2f} s toward its {side} ({tilt:.0f}° from upright)"
+    tuned = "a gait tuned for this robot (artro tune --robot ROBOT)"
+    if not stuck:
+        return f"{head}; no servo at its torque limit in the last {LAST_S:g} s: try {tuned}"
+    return (
+        f"{head}; servos at their torque limit in the last {LAST_S:g} s ({len(at_limit)} "
+        f"frames): {', '.join(stuck[:4])}: try stronger servos (artro robot check ROBOT "
+        f"--suggest) or {tuned}"
+    )
 
 
 def run(
@@ -57,16 +94,22 @@ def run(
     trace = Trace()
     n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
     flags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}
+    flags["torque_limit_frames"] = 0  # a servo's force at AT_LIMIT of its limit at a frame's end
     peak_torque = np.zeros(12)
     force = sim.data.actuator_force
     actuators = sim.robot.actuator_ids
+    limit = AT_LIMIT * np.abs(sim.model.actuator_forcerange[actuators, 1])
+    recent: deque[np.ndarray] = deque(maxlen=round(LAST_S / FRAME_S))
     wall_start = time.perf_counter()
     for _ in range(n_frames):
         record = sim.step_frame()
         flags["servo_saturated_frames"] += record.saturated
         flags["gamma_clamped_frames"] += record.gamma_clamped
         flags["guard_violation_frames"] += record.guard_violation
-        np.maximum(peak_torque, np.abs(force[actuators]), out=peak_torque)
+        torque = np.abs(force[actuators])
+        np.maximum(peak_torque, torque, out=peak_torque)
+        recent.append(torque >= limit)
+        flags["torque_limit_frames"] += bool(recent[-1].any())
         trace.append(sim.time_s, sim.trunk_pose(), sim.gyro(), sim.feet_distance_m())
         if sim.fell:
             break
@@ -84,4 +127,7 @@ def run(
     metrics["peak_torque_nm"] = peak_torque.tolist()
     required = required_torque_from_loads(peak_torque[None, :], SAFETY_FACTOR)
     names = [sim.model.actuator(int(i)).name for i in actuators]
-    return RunResult(metrics, trace, dict(zip(names, map(float, required), strict=True)))
+    diagnosis = None
+    if sim.fell and not sim.blew_up:
+        diagnosis = diagnose(sim.time_s, sim.data.qpos[3:7], np.array(recent))
+    return RunResult(metrics, trace, dict(zip(names, map(float, required), strict=True)), diagnosis)

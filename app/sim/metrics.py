@@ -44,6 +44,7 @@ class RunFlags(TypedDict, total=False):
     servo_saturated_frames: int
     gamma_clamped_frames: int
     guard_violation_frames: int
+    torque_limit_frames: int  # frames ending with a servo at >= 99 % of its torque limit
     blew_up: bool
 
 
