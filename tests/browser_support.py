@@ -5,13 +5,17 @@ from __future__ import annotations
 
 import contextlib
 import io
+import os
 from collections.abc import Iterator
+from pathlib import Path
 
 import numpy as np
 import pytest
 from PIL import Image
 from playwright.sync_api import Browser, Page
 
+#: ARTRO_SCREENSHOTS=DIR keeps the browser tests' screenshots there, to be looked at
+SHOTS = Path(os.environ["ARTRO_SCREENSHOTS"]) if os.environ.get("ARTRO_SCREENSHOTS") else None
 SIZES = [(1600, 1000), (1280, 720)]
 SIZE_IDS = ["1600x1000", "1280x720"]
 #: A test of how the page looks (what is in view, what fits) runs at both sizes; a test of what
@@ -119,3 +123,10 @@ HEADER_AT_ITS_FULLEST = """() => {
   }
   return { lines, fits, outside };
 }"""
+
+
+def shot_path(name: str, fallback: Path) -> Path:
+    """Where the screenshot `name` goes: SHOTS if set, else `fallback` (a test's tmp_path)."""
+    folder = SHOTS or fallback
+    folder.mkdir(parents=True, exist_ok=True)
+    return folder / name

@@ -4,10 +4,8 @@ real server with the viser 3D view running."""
 import contextlib
 import io
 import json
-import os
 import re
 from collections.abc import Iterator
-from pathlib import Path
 
 import httpx
 import numpy as np
@@ -15,12 +13,11 @@ import pytest
 from PIL import Image
 from playwright.sync_api import FrameLocator, Page, expect, sync_playwright
 
-from tests.browser_support import BOTH_SIZES, LARGE, SMALL
+from tests.browser_support import BOTH_SIZES, LARGE, SMALL, shot_path
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
-SHOTS = Path(os.environ["ARTRO_SCREENSHOTS"]) if os.environ.get("ARTRO_SCREENSHOTS") else None
 
 
 SIZES = [(1600, 1000), (1280, 720)]
@@ -276,7 +273,9 @@ def test_the_page_motion_controls_drive_the_simulation(dashboard):
 
 
 @BOTH_SIZES
-def test_a_band_not_measured_for_the_set_is_named_and_drawn_apart(server, browser, width, height):
+def test_a_band_not_measured_for_the_set_is_named_and_drawn_apart(
+    server, browser, width, height, tmp_path
+):
     """`robust` has no measured band of its own (data/safe-bands.json): the motion rows say
     "unmeasured" and shade the band grey, where `tuned`'s measured band reads "safe" in green
     (issue 33: a band marked not measured looked like a measured one)."""
@@ -294,8 +293,7 @@ def test_a_band_not_measured_for_the_set_is_named_and_drawn_apart(server, browse
                 assert cell.evaluate("e => e.scrollWidth <= e.clientWidth + 1"), key
                 box, panel = cell.bounding_box(), page.locator(".motion-rows").bounding_box()
                 assert box["x"] + box["width"] <= panel["x"] + panel["width"] + 1, key
-            if SHOTS:
-                page.locator(".motion-rows").screenshot(path=str(SHOTS / f"band-{width}.png"))
+            page.locator(".motion-rows").screenshot(path=shot_path(f"band-{width}.png", tmp_path))
             assert http.post("/api/presets/tuned/load").status_code == 200
             expect(page.locator(band)).to_contain_text("safe", timeout=10_000)
             expect(page.locator("#motion-row-a_p")).not_to_have_class(re.compile("unmeasured"))

@@ -5,18 +5,14 @@ the World panel has the sensors' error sliders. Screenshots at both window sizes
 
 from __future__ import annotations
 
-import os
-from pathlib import Path
-
 import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from tests.browser_support import SIZE_IDS, SIZES, rgb, wait_until
+from tests.browser_support import SHOTS, SIZE_IDS, SIZES, rgb, wait_until
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 #: where to keep the screenshots to look at (unset: none kept)
-SHOTS = Path(os.environ["ARTRO_SCREENSHOTS"]) if os.environ.get("ARTRO_SCREENSHOTS") else None
 
 
 @pytest.mark.slow

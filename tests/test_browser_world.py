@@ -2,10 +2,8 @@
 header names the robot; the sliders set the live robot's world and the header says it is varied;
 the robustness report is drawn as bars, and a worst variation's button loads it."""
 
-import os
 import re
 from contextlib import contextmanager
-from pathlib import Path
 
 import httpx
 import pytest
@@ -13,17 +11,10 @@ from playwright.sync_api import expect, sync_playwright
 
 from app.worlds.variations import NOMINAL
 from gait import JOINT_NAMES
-from tests.browser_support import BOTH_SIZES, SMALL
+from tests.browser_support import BOTH_SIZES, SMALL, shot_path
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 SIZES = [(1600, 1000), (1280, 720)]
-
-
-def shots(tmp_path):
-    """Where screenshots go: ARTRO_SCREENSHOTS if set (to look at them), else the test's folder."""
-    folder = Path(os.environ.get("ARTRO_SCREENSHOTS") or tmp_path)
-    folder.mkdir(parents=True, exist_ok=True)
-    return folder
 
 
 @contextmanager
@@ -90,7 +81,7 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
         page.reload()  # the report of this gait is kept by the server and drawn again
         expect(rows).to_have_count(9, timeout=30_000)
         expect(page.locator("#robust-title")).to_contain_text("kept from")
-        page.locator("#world-panel").screenshot(path=str(shots(tmp_path) / f"report-{width}.png"))
+        page.locator("#world-panel").screenshot(path=shot_path(f"report-{width}.png", tmp_path))
         again = [bars.nth(i).evaluate("e => e.style.width") for i in range(9)]
         assert [float(w.rstrip("%")) for w in again] == job_shares
         walk = page.locator("#robust-worst button")
@@ -159,7 +150,7 @@ def test_the_sliders_follow_the_live_world_and_apply_keeps_what_they_do_not_show
         expect(state).to_have_text("varied: friction, latency_ms +2 more")
         assert state.evaluate("e => e.scrollWidth <= e.clientWidth"), "the header is cut"
         assert state.get_attribute("title") == http.get("/api/state").json()["world"]
-        page.locator("#world-panel").screenshot(path=str(shots(tmp_path) / f"world-{width}.png"))
+        page.locator("#world-panel").screenshot(path=shot_path(f"world-{width}.png", tmp_path))
 
         page.locator("#world-latency_ms").fill("10")
         page.click("#world-apply")

@@ -38,7 +38,7 @@ const EXTREME = 0.1; // a value in the outer tenth of its default range, away fr
 let job = null;
 let ranges = {}; // the default ranges of `artro bench robust`, per field
 let liveWorld = "nominal"; // the world the state last named
-let reportShown = false;
+let reportTitle = ""; // the title of the report drawn ("" none)
 
 export function initWorld() {
   $("world-apply").addEventListener("click", () => apply(textFromSliders()));
@@ -176,7 +176,7 @@ async function showLastReport() {
     drawReport(await api.get("/api/world/robustness"));
   } catch (err) {
     if (err.status !== 404) return;
-    if (reportShown) $("robust-title").textContent = `(of an earlier gait) ${$("robust-title").textContent.replace(/^\(of an earlier gait\) /, "")}`;
+    if (reportTitle) $("robust-title").textContent = `(of an earlier gait) ${reportTitle}`;
   }
 }
 
@@ -201,12 +201,11 @@ function variationTerms(text) {
 
 export function drawReport(result) {
   const report = result.presets[0];
-  reportShown = true;
   const when = result.finished_at
     ? ` — kept from ${new Date(1000 * result.finished_at).toLocaleTimeString()}, v${result.params_version}`
     : "";
-  $("robust-title").textContent =
-    `${report.preset} on ${result.samples} variations (seed ${result.seed}): ${(100 * report.overall_share).toFixed(0)} % of runs pass${when}`;
+  reportTitle = `${report.preset} on ${result.samples} variations (seed ${result.seed}): ${(100 * report.overall_share).toFixed(0)} % of runs pass${when}`;
+  $("robust-title").textContent = reportTitle;
   $("robust-bars").replaceChildren(
     h("div", { class: "robust-row robust-header dim" },
       h("span", {}, "case"), h("span", {}, "runs passing, 95 % interval (dotted: 90 %)"),
