@@ -63,7 +63,12 @@ def installed(tmp_path_factory) -> Path:
     words = readme_locked_install()
     assert words[:3] == ["uv", "pip", "install"]
     command = [uv, *words[1:3], "--quiet", "--python", str(env_dir / "bin" / "python"), *words[3:]]
-    installed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=600)
+    # in a copy of the checkout: a build writes build/ into its source tree, and the `wheel`
+    # fixture's build in the checkout itself once collided with it there ("File exists")
+    checkout = tmp_path_factory.mktemp("checkout") / "artro"
+    junk = (".git", ".venv", "build", "*.egg-info", "__pycache__", ".*_cache", ".hypothesis", "out")
+    shutil.copytree(ROOT, checkout, ignore=shutil.ignore_patterns(*junk))
+    installed = subprocess.run(command, cwd=checkout, capture_output=True, text=True, timeout=600)
     assert installed.returncode == 0, installed.stderr[-2000:]
     return env_dir / "bin"
 
