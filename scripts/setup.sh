@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Set up ArtRo Gait Studio in ./.venv with exactly the versions of requirements.lock. With --test:
-# also the test tools, Debian's Chromium (the browser tests drive it through Playwright;
+# also the test tools, the cluster and gpu extras (their tests run MuJoCo Warp on its CPU
+# device), Debian's Chromium (the browser tests drive it through Playwright;
 # Playwright's own browser download is not used) and sigrok-cli (it decodes our VCD files).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
 extras=""
-[ "${1:-}" = "--test" ] && extras="[test,cluster]"
+[ "${1:-}" = "--test" ] && extras="[test,cluster,gpu]"
 
 # The lock is for CPython 3.11 and newer (MuJoCo 4 has no wheel for 3.10).
 python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {

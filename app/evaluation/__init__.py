@@ -1,8 +1,11 @@
 """The one evaluation API (docs/DESIGN.md §9): runs of a robot (`Job`) in, their metrics out, in
 order, with progress and cancellation, identical whether they run in local threads, local
-processes or on a Dask cluster; `evaluator_for` picks the executor."""
+processes or on a Dask cluster, and close to them as the worlds of a MuJoCo Warp batch
+(docs/GPU.md); `evaluator_for` picks the executor."""
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 from app.evaluation._api import (
     TIMING_KEYS,
@@ -19,7 +22,12 @@ from app.evaluation._api import (
 from app.evaluation._lanes import BatchEvaluator
 from app.robots.model import RobotModel
 
+#: `backend=`: today's executors (threads, processes, a cluster), MuJoCo Warp, or Warp when a
+#: CUDA device and the `gpu` extra are there, else the CPU's
+BACKENDS = ("cpu", "warp", "auto")
+
 __all__ = [
+    "BACKENDS",
     "TIMING_KEYS",
     "BatchEvaluator",
     "Cancelled",
@@ -43,11 +51,35 @@ def evaluator_for(
     threads: int | None = None,
     processes: int | None = None,
     wait_workers_s: float | None = None,
+    backend: str = "cpu",
+    device: str | None = None,
+    notice: Callable[[str], None] | None = None,
 ) -> Evaluator:
     """Local threads (default: every core), local worker processes of one thread each
     (`processes`; close it when done), or the Dask scheduler at `cluster` (tcp://HOST:PORT;
     the `cluster` extra; a scheduler without a worker is waited on `wait_workers_s`, default
-    60 s); ExecutorError, in a sentence, if it cannot be reached or is no address."""
+    60 s); ExecutorError, in a sentence, if it cannot be reached or is no address.
+
+    `backend="warp"`: the runs of each call as the worlds of one MuJoCo Warp batch on `device`
+    ("cuda", the default, or "cpu", Warp's slow CPU device; the `gpu` extra; `notice` hears
+    that the kernels compile); "auto": Warp on "cuda" when a CUDA device and the extra are
+    there, else the CPU's executors. ExecutorError for an unknown backend, Warp with a cluster
+    or processes, a missing extra or no CUDA device (docs/GPU.md)."""
+    if backend not in BACKENDS:
+        raise ExecutorError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
+    if backend == "auto":
+        from app.evaluation._warp import cuda_present
+
+        backend = "warp" if cluster is None and not processes and cuda_present() else "cpu"
+    if backend == "warp":
+        if cluster is not None or processes:
+            raise ExecutorError(
+                "--backend warp runs every job in this process's one batch: "
+                "leave out --cluster and --processes"
+            )
+        from app.evaluation._warp import WarpEvaluator  # the gpu extra, imported when used
+
+        return WarpEvaluator(robot, device=device or "cuda", notice=notice)
     if cluster is not None:
         from app.evaluation._dask import WAIT_WORKERS_S, ClusterEvaluator  # an optional extra
 

@@ -28,9 +28,9 @@ from app.evaluation._frames import (
     start_at_rest,
     step_by_hand,
 )
+from app.evaluation._measure import fallen, measure_frames, not_finite
 from app.robots.model import RobotModel
-from app.sim.frame_loop import has_fallen, planar_distance_m, trunk_yaws
-from app.sim.metrics import RunMetrics, Trace, compute_metrics
+from app.sim.metrics import RunMetrics, Trace
 from app.sim.planning import FRAME_S, FramePlan, frame_steps, plan_frames
 from app.worlds.servo_path import acting_setpoints
 from app.worlds.variations import NOMINAL, Variation, varied_robot
@@ -61,6 +61,27 @@ def control_sequence(
         ctrl[:] = start.ctrl
     ctrl[:, act] = acting
     return ctrl
+
+
+def plan_open_loop(
+    robot: RobotModel, job: Job, n_frames: int, data: mujoco.MjData
+) -> tuple[Start, np.ndarray]:
+    """An open-loop run on `robot` (the job's varied robot): its start, made in `data` (which
+    it overwrites), and the ctrl of every physics step of `n_frames` frames (`control_sequence`)."""
+    start_motion = job.motion if job.start_motion is None else job.start_motion
+    start = start_at_rest(robot, data, job.params, start_motion)
+    plan = plan_frames(
+        job.params,
+        job.motion,
+        robot.hardware(),
+        start.phase,
+        n_frames,
+        frame_steps(robot.model),
+        float(robot.model.opt.timestep),
+        motion_now=start_motion,
+        geometry=robot.geometry,
+    )
+    return start, control_sequence(robot, start, plan, job.variation)
 
 
 def _check_rollout_arrays(
@@ -295,8 +316,8 @@ class BatchEvaluator:
         rows = np.arange(first + 1, end + 1) * self.steps_per_frame - 1
         qpos = states[rows, 1 : 1 + self.model.nq]
         expected_time = start.state[0] + (rows + 1) * self.model.opt.timestep
-        bad = ~np.all(np.isfinite(qpos), axis=1) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
-        return _FrameEnds(rows, qpos, bad, has_fallen(qpos, start.standing_height_m))
+        bad = not_finite(qpos) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
+        return _FrameEnds(rows, qpos, bad, fallen(qpos, start))
 
     def _varied(self, variation: Variation) -> RobotModel:
         variation = variation.physics  # the sensors' errors leave the model as it is
@@ -319,20 +340,8 @@ class BatchEvaluator:
         self, job: Job, n_frames: int, data: mujoco.MjData
     ) -> tuple[RobotModel, Start, np.ndarray]:
         """A run's (varied) robot, its start (made in `data`), and the control of every step."""
-        robot, start = self._standing(job, data)
-        start_motion = job.motion if job.start_motion is None else job.start_motion
-        plan = plan_frames(
-            job.params,
-            job.motion,
-            robot.hardware(),
-            start.phase,
-            n_frames,
-            self.steps_per_frame,
-            float(robot.model.opt.timestep),
-            motion_now=start_motion,
-            geometry=robot.geometry,
-        )
-        return robot, start, control_sequence(robot, start, plan, job.variation)
+        robot = self._varied(job.variation)
+        return robot, *plan_open_loop(robot, job, n_frames, data)
 
     def _plan(
         self, chunk: Sequence[Job], n_frames: int
@@ -361,38 +370,5 @@ class BatchEvaluator:
         step -- whose sole positions MuJoCo computed from the state one step earlier, as
         `FrameLoop` reads the sites after it."""
         rows, qpos, bad, down = self._frame_ends(states, start, 0, n_frames)
-        first_bad = int(np.argmax(bad)) if bad.any() else n_frames
-        down = down[:first_bad]
-        if down.any():  # the frame it fell in is still sampled, as in `FrameLoop`
-            fell, blew_up = True, False
-            samples = frames_done = int(np.argmax(down)) + 1
-        elif first_bad < n_frames:  # the blown-up frame is not
-            fell = blew_up = True
-            samples, frames_done = first_bad, first_bad + 1
-        else:
-            fell = blew_up = False
-            samples = frames_done = n_frames
-        rows, qpos = rows[:samples], qpos[:samples]
-        sens = sensors[rows]  # a copy: the trace keeps none of the lane's arrays alive
-        gyro, (left, right) = self.robot.gyro_adr, self.robot.sole_adr
-        trace = Trace(
-            t_s=(np.arange(1, samples + 1) * FRAME_S).tolist(),
-            x_m=qpos[:, 0].tolist(),
-            y_m=qpos[:, 1].tolist(),
-            yaw_rad=trunk_yaws(qpos[:, 3:7]),
-            gyro_rad_s=list(sens[:, gyro : gyro + 3]),
-            feet_distance_m=planar_distance_m(
-                sens[:, left : left + 3], sens[:, right : right + 3]
-            ).tolist(),
-        )
-        metrics: RunMetrics = {"fell": fell}
-        if fell:
-            metrics["fall_time_s"] = round(frames_done * FRAME_S, 3)
-        metrics |= compute_metrics(
-            trace, ca=job.motion.ca, freq_hz=job.params.clock.freq_hz, warmup_s=warmup_s
-        )
-        metrics["sim_s"] = frames_done * FRAME_S
-        metrics["blew_up"] = blew_up
-        torque = np.abs(sens[:, self.robot.torque_adr])
-        metrics["peak_torque_nm"] = (torque.max(axis=0) if samples else np.zeros(12)).tolist()
-        return metrics, trace
+        # sensors[rows] is a copy: the trace keeps none of the lane's arrays alive
+        return measure_frames(self.robot, job, qpos, sensors[rows], bad, down, warmup_s)

@@ -1,0 +1,369 @@
+"""The evaluation API on MuJoCo Warp (`WarpEvaluator`, docs/DESIGN.md §9, docs/GPU.md): the runs
+of a call are the worlds of one batch on a CUDA device or Warp's CPU device, in float32.
+
+The gait is planned on the CPU per frame for all worlds, as the lanes plan it
+(`plan_open_loop`); the controls of every physics step are uploaded per segment, and each
+frame's end state and sensors come back per segment to be measured as the lanes measure them
+(`measure_frames`). Needs the `gpu` extra: `pip install "artro-gait-studio[gpu]"`.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from app.evaluation._api import Cancelled, ExecutorError, Job, OnResult, Progress
+from app.evaluation._frames import STATE_SPEC, Push, Start
+from app.evaluation._lanes import plan_open_loop
+from app.evaluation._measure import fallen, measure_frames, not_finite
+from app.evaluation._warp_model import batch_model
+from app.robots.model import RobotModel
+from app.sim.metrics import RunMetrics, Trace
+from app.sim.planning import FRAME_S, frame_steps
+from app.worlds.variations import Variation, varied_robot
+from gait import feedback
+
+GPU_EXTRA = 'pip install "artro-gait-studio[gpu]"'
+DEVICES = ("cpu", "cuda")
+#: frames per upload of controls and download of frame ends, fewer when the controls of a
+#: segment would pass CONTROL_BYTES (float32, steps x worlds x actuators)
+SEGMENT_FRAMES = 50
+CONTROL_BYTES = 256 * 2**20
+#: contacts per world on average (naconmax = worlds x this) and constraint rows per world: a
+#: walking ArtRo makes <= 8 contacts and 44 rows, one lying on the floor 11 and 56 (CPU MuJoCo)
+NCONMAX = 24
+NJMAX = 96
+#: the most a metric of a run here may differ from the lanes' on the same job, 2.5 s runs with
+#: 1 s of warm-up (float32 against float64 physics; measured and argued in decision 0042 and
+#: docs/GPU.md "Agreement"): `fell` and `blew_up` equal, `sim_s` and `fall_time_s` within
+#: these; the motion metrics of runs that walked (a fall's are measured through the fall)
+AGREEMENT = {
+    "forward_cm_s": 0.2,
+    "lateral_cm_s": 0.2,
+    "turn_deg_s": 0.6,
+    "predicted_turn_deg_s": 0.2,
+    "path_error_cm": 0.15,
+    "gyro_rms": 0.02,
+    "feet_distance_cm": 0.08,
+    "peak_torque_nm": 0.05,
+    "sim_s": 0.04,
+    "fall_time_s": 0.04,
+}
+_SOLVER_LIMITS = 1 << 9 | 1 << 10  # OverflowType ITERATIONS, LS_ITERATIONS: not buffer overflows
+_ANNOUNCED: set[str] = set()  # devices whose kernels this process said it compiles
+_LOAD_LOCK = threading.Lock()
+
+
+def import_warp() -> tuple[Any, Any]:
+    """(warp, mujoco_warp), Warp's own messages kept off stdout; ExecutorError naming the extra
+    to install when either is missing."""
+    try:
+        import warp as wp
+
+        wp.config.log_level = wp.LOG_WARNING  # no banner, no "Module ... load" lines on stdout
+        import mujoco_warp as mjw
+    except ImportError as error:
+        raise ExecutorError(
+            f"--backend warp needs MuJoCo Warp, which is not installed ({error}): {GPU_EXTRA}"
+        ) from None
+    return wp, mjw
+
+
+def cuda_present() -> bool:
+    """True when the `gpu` extra is installed and Warp sees a CUDA device (`--backend auto`)."""
+    try:
+        wp, _mjw = import_warp()
+    except ExecutorError:
+        return False
+    return wp.get_cuda_device_count() > 0
+
+
+def warp_device(wp: Any, device: str) -> Any:
+    """Warp's device for `device` ("cpu", "cuda" or "cuda:N"); ExecutorError when it is none of
+    these or there is no such CUDA device."""
+    if device == "cpu":
+        return wp.get_device("cpu")
+    if device == "cuda" or device.startswith("cuda:"):
+        count = wp.get_cuda_device_count()
+        if count == 0:
+            raise ExecutorError(
+                f"--device {device}: Warp finds no CUDA device on this machine; run with "
+                "--device cpu (Warp's CPU device: slow, for checks) or --backend cpu"
+            )
+        try:
+            return wp.get_device(device)
+        except (RuntimeError, ValueError):
+            raise ExecutorError(
+                f"--device {device}: no such CUDA device; this machine has {count} "
+                f"(cuda:0 to cuda:{count - 1})"
+            ) from None
+    raise ExecutorError(f"--device must be one of {', '.join(DEVICES)}, got {device!r}")
+
+
+def stderr_notice(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
+
+class WarpEvaluator:
+    """Evaluates runs as the worlds of one MuJoCo Warp batch per call.
+
+    Every job of a call is a world: per-world model values for the variations (`batch_model`;
+    a field MuJoCo Warp cannot hold per world refuses the call, ExecutorError), the open-loop
+    controls planned on the CPU as the lanes plan them and uploaded per segment, a push set on
+    the trunk in its step. Falls are found per world at frame ends; a fallen or blown-up world
+    stops counting (it keeps stepping with the others). Results are float32 physics: close to
+    the lanes', not bit-equal (docs/GPU.md "Agreement"). Jobs with a feedback law on are
+    refused (ExecutorError): the closed loop is not ported yet.
+
+    Args:
+        robot: the model (default: the built-in one).
+        device: "cuda", "cuda:N" or "cpu" (Warp's CPU device: slow, for tests and checks).
+        notice: told in a sentence, once per device and process, that the kernels are being
+            compiled (`stderr_notice` prints it).
+        segment_frames: frames per upload of controls and look at falls and `cancel`
+            (fewer when the controls would pass CONTROL_BYTES).
+    """
+
+    def __init__(
+        self,
+        robot: RobotModel | None = None,
+        *,
+        device: str = "cuda",
+        notice: Callable[[str], None] | None = None,
+        segment_frames: int = SEGMENT_FRAMES,
+    ) -> None:
+        if segment_frames < 1:
+            raise ValueError(f"segment_frames must be at least 1, got {segment_frames}")
+        self._wp, self._mjw = import_warp()
+        self.segment_frames = segment_frames
+        self.device = warp_device(self._wp, device)
+        self.robot = robot or RobotModel.load()
+        self.model = self.robot.model
+        self.steps_per_frame = frame_steps(self.model)
+        self._notice = notice
+        #: seconds the first batch's first step took here (kernels compiled or loaded from
+        #: Warp's cache), None before it
+        self.compile_s: float | None = None
+        #: physics steps taken (worlds x steps) and seconds spent per stage since creation
+        self.world_steps = 0
+        self.stage_s = {"plan": 0.0, "upload": 0.0, "step": 0.0, "measure": 0.0}
+
+    def evaluate(
+        self,
+        jobs: Sequence[Job],
+        *,
+        duration_s: float,
+        warmup_s: float = 5.0,
+        progress: Progress | None = None,
+        traces: list[Trace] | None = None,
+        cancel: threading.Event | None = None,
+        on_result: OnResult | None = None,
+    ) -> list[RunMetrics]:
+        """Metrics of each job, in order (the `Evaluator` protocol). `cancel` is looked at
+        between segments (Cancelled); `progress`, `on_result` and `traces` come in job order
+        as worlds finish, in the calling thread. `wall_s` is a world's share of the batch's
+        stepping time (the batch's seconds / worlds)."""
+        for i, job in enumerate(jobs):
+            if feedback.any_law_on(job.params):
+                raise ExecutorError(
+                    f"job {i} has feedback laws on ({', '.join(feedback.laws_on(job.params))}): "
+                    "the warp backend runs open-loop gaits only; run it with --backend cpu"
+                )
+        if not jobs:
+            return []
+        if cancel is not None and cancel.is_set():
+            raise Cancelled(f"cancelled after 0 of {len(jobs)} runs")
+        n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
+        batch = _Batch(self, jobs, n_frames)
+        return batch.run(warmup_s, progress, traces, cancel, on_result)
+
+    def _announce(self) -> None:
+        """Say once per device and process that the kernels compile (Warp caches them)."""
+        key = str(self.device)
+        with _LOAD_LOCK:
+            if key in _ANNOUNCED:
+                return
+            _ANNOUNCED.add(key)
+        if self._notice is not None:
+            self._notice(
+                f"warp: compiling MuJoCo Warp's kernels for device {key} (about a minute on a "
+                f"CPU the first time; cached in {self._wp.config.kernel_cache_dir} after)"
+            )
+
+
+class _Batch:
+    """One call's worlds: planned, put on the device, stepped segment by segment, measured."""
+
+    def __init__(self, owner: WarpEvaluator, jobs: Sequence[Job], n_frames: int) -> None:
+        t0 = time.perf_counter()
+        self.owner, self.jobs, self.n_frames = owner, jobs, n_frames
+        robot = owner.robot
+        varied: dict[Variation, RobotModel] = {}
+        data = mujoco.MjData(robot.model)
+        self.robots: list[RobotModel] = []
+        self.starts: list[Start] = []
+        self.controls: list[np.ndarray] = []
+        initial: dict[str, list[np.ndarray]] = {"qpos": [], "qvel": [], "act": [], "ctrl": []}
+        for job in jobs:
+            physics = job.variation.physics
+            if physics not in varied:
+                varied[physics] = robot if physics.is_nominal else varied_robot(robot, physics)
+            world = varied[physics]
+            start, control = plan_open_loop(world, job, n_frames, data)
+            mujoco.mj_setState(world.model, data, start.state, STATE_SPEC)
+            for name in ("qpos", "qvel", "act"):
+                initial[name].append(getattr(data, name).copy())
+            initial["ctrl"].append(start.ctrl)
+            self.robots.append(world)
+            self.starts.append(start)
+            self.controls.append(control.astype(np.float32))
+        self.initial = {name: np.stack(rows) for name, rows in initial.items()}
+        self.pushes = [Push(r, j) for r, j in zip(self.robots, jobs, strict=True)]
+        owner.stage_s["plan"] += time.perf_counter() - t0
+
+    def run(
+        self,
+        warmup_s: float,
+        progress: Progress | None,
+        traces: list[Trace] | None,
+        cancel: threading.Event | None,
+        on_result: OnResult | None,
+    ) -> list[RunMetrics]:
+        """Step segment by segment until every world fell or ran its frames, `cancel` looked
+        at between segments; results and callbacks in job order as worlds finish."""
+        owner, wp, mjw = self.owner, self.owner._wp, self.owner._mjw
+        worlds, steps, model = len(self.jobs), owner.steps_per_frame, owner.model
+        t0 = time.perf_counter()
+        batch = batch_model([r.model for r in self.robots], owner.device)
+        batch.opt.warn_overflow = 0  # read from `overflow` below, not printed by the device
+        with wp.ScopedDevice(owner.device):
+            data = mjw.make_data(model, nworld=worlds, nconmax=NCONMAX, njmax=NJMAX)
+            for name, values in self.initial.items():
+                if values.size:
+                    getattr(data, name).assign(values.astype(np.float32))
+        owner.stage_s["upload"] += time.perf_counter() - t0
+        owner._announce()
+        qpos = np.empty((self.n_frames, worlds, model.nq), np.float32)
+        sensors = np.empty((self.n_frames, worlds, model.nsensordata), np.float32)
+        counted = np.full(worlds, self.n_frames)  # frames each world counts (to its fall)
+        open_ = np.ones(worlds, bool)
+        measured: list[tuple[RunMetrics, Trace] | None] = [None] * worlds
+        results: list[RunMetrics] = []
+        step_s, done = 0.0, 0
+        fit = CONTROL_BYTES // (steps * worlds * model.nu * 4)
+        per_segment = max(1, min(owner.segment_frames, fit))
+        while len(results) < worlds:
+            if cancel is not None and cancel.is_set():
+                raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
+            frames = min(per_segment, self.n_frames - done)
+            part = slice(done, done + frames)
+            if frames:
+                step_s += self._segment(batch, data, done, frames, qpos[part], sensors[part], open_)
+            t1 = time.perf_counter()
+            for w in np.flatnonzero(open_):
+                q = qpos[part, w].astype(np.float64)
+                ends = np.flatnonzero(not_finite(q) | fallen(q, self.starts[w]))
+                if ends.size:
+                    counted[w], open_[w] = done + int(ends[0]) + 1, False
+            done += frames
+            if done >= self.n_frames:
+                open_[:] = False
+            for w in np.flatnonzero(~open_):
+                if measured[w] is None:
+                    measured[w] = self._measure(w, qpos, sensors, int(counted[w]), warmup_s)
+            owner.stage_s["measure"] += time.perf_counter() - t1
+            while len(results) < worlds and (ready := measured[len(results)]) is not None:
+                metrics, trace = ready
+                metrics["wall_s"] = step_s / worlds
+                metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
+                if on_result is not None:
+                    on_result(len(results), metrics)
+                results.append(metrics)
+                if traces is not None:
+                    traces.append(trace)
+                if progress is not None:
+                    progress(len(results), worlds)
+        return results
+
+    def _measure(
+        self, w: int, qpos: np.ndarray, sensors: np.ndarray, frames: int, warmup_s: float
+    ) -> tuple[RunMetrics, Trace]:
+        """World `w`'s first `frames` frames measured as the lanes measure a run, in float64."""
+        q = qpos[:frames, w].astype(np.float64)
+        bad, down = not_finite(q), fallen(q, self.starts[w])
+        sens = sensors[:frames, w].astype(np.float64)
+        return measure_frames(self.owner.robot, self.jobs[w], q, sens, bad, down, warmup_s)
+
+    def _segment(
+        self,
+        batch: Any,
+        data: Any,
+        first: int,
+        frames: int,
+        qpos_out: np.ndarray,
+        sensors_out: np.ndarray,
+        counting: np.ndarray,
+    ) -> float:
+        """Frames first.. of every world: their controls uploaded, stepped, each frame's end
+        qpos and sensordata into the outputs (frames, worlds, ...). Returns the stepping
+        seconds; ExecutorError when a world still `counting` overflowed the contact or
+        constraint buffers."""
+        owner, wp, mjw = self.owner, self.owner._wp, self.owner._mjw
+        worlds, steps, nu = len(self.jobs), owner.steps_per_frame, owner.model.nu
+        nq, ns = owner.model.nq, owner.model.nsensordata
+        t0 = time.perf_counter()
+        rows = slice(first * steps, (first + frames) * steps)
+        host = np.stack([c[rows] for c in self.controls], axis=1)  # (steps, worlds, nu)
+        pushes = self._pushes(rows)
+        with wp.ScopedDevice(owner.device):
+            control = wp.array(host, dtype=float)
+            ends_q = wp.empty((frames, worlds, nq), dtype=float)
+            ends_s = wp.empty((frames, worlds, ns), dtype=float)
+            t1 = time.perf_counter()
+            for k in range(frames * steps):
+                wp.copy(data.ctrl, control, src_offset=k * worlds * nu, count=worlds * nu)
+                push = pushes.get(rows.start + k)
+                if push is not None:
+                    data.xfrc_applied.assign(push)
+                mjw.step(batch, data)
+                if owner.compile_s is None:  # the kernels compile (or load) in the first step
+                    wp.synchronize_device(owner.device)
+                    owner.compile_s = time.perf_counter() - t1
+                if push is not None:
+                    data.xfrc_applied.zero_()
+                if (k + 1) % steps == 0:
+                    f = k // steps
+                    wp.copy(ends_q, data.qpos, dest_offset=f * worlds * nq, count=worlds * nq)
+                    wp.copy(ends_s, data.sensordata, dest_offset=f * worlds * ns, count=worlds * ns)
+            qpos_out[:] = ends_q.numpy()
+            sensors_out[:] = ends_s.numpy()
+            overflow = np.where(counting, data.overflow.numpy() & ~_SOLVER_LIMITS, 0)
+        t2 = time.perf_counter()
+        owner.stage_s["upload"] += t1 - t0
+        owner.stage_s["step"] += t2 - t1
+        owner.world_steps += frames * steps * worlds
+        if overflow.any():
+            w = int(np.argmax(overflow != 0))
+            raise ExecutorError(
+                f"world {w} (job {w}) overflowed MuJoCo Warp's contact or constraint buffers "
+                f"(OverflowType {int(overflow[w])}) in frames {first}..{first + frames - 1}; "
+                "run these jobs with --backend cpu"
+            )
+        return t2 - t1
+
+    def _pushes(self, rows: slice) -> dict[int, np.ndarray]:
+        """xfrc_applied of every world (worlds, nbody, 6) for each step in `rows` a push acts in."""
+        out: dict[int, np.ndarray] = {}
+        nbody = self.owner.model.nbody
+        for w, push in enumerate(self.pushes):
+            if rows.start <= push.step < rows.stop:
+                xfrc = out.setdefault(push.step, np.zeros((len(self.pushes), nbody, 6), np.float32))
+                xfrc[w, push.trunk, :3] = push.force
+        return out

@@ -1,0 +1,106 @@
+"""One MuJoCo Warp model for the worlds of a batch, each world with its own robot's values
+(docs/GPU.md "What it batches").
+
+A run's variation is a copy of the compiled model with values changed (`vary_model`: friction,
+masses with `mj_setConst`'s derived values, servo gains, force ranges, damping, friction loss,
+gravity). MuJoCo Warp keeps a model field per world when the field's leading dimension is `*`
+in `mujoco_warp.Model` (kernels read row `worldid % rows`). So each distinct varied model is put
+on Warp's CPU device once, every field compared with the first world's, and each field that
+differs becomes an array of one row per world on the batch's device. A field that differs but
+has no per-world form (a count, a type, a solver setting) refuses the call with an
+ExecutorError naming it: none of today's variations changes one (`tests/test_warp_executor.py`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Sequence
+from typing import Any
+
+import mujoco
+import numpy as np
+
+from app.evaluation._api import ExecutorError
+
+#: the leading dimension of a `mujoco_warp.Model` field that may hold one row per world
+_BATCHED_MARK = "*"
+
+
+def _flat(obj: Any, prefix: str = "") -> dict[str, tuple[Any, bool]]:
+    """Every field of a `mujoco_warp.Model` (nested dataclasses such as `opt` as `opt.name`):
+    its host value (arrays as numpy) and whether MuJoCo Warp can hold it per world."""
+    import warp as wp
+
+    out: dict[str, tuple[Any, bool]] = {}
+    for field in dataclasses.fields(obj):
+        value = getattr(obj, field.name)
+        name = prefix + field.name
+        if dataclasses.is_dataclass(value):
+            out |= _flat(value, name + ".")
+            continue
+        shape = getattr(field.type, "shape", ())
+        per_world = bool(shape) and shape[0] == _BATCHED_MARK
+        if isinstance(value, wp.array):
+            out[name] = (value.numpy(), per_world)
+        elif isinstance(value, (tuple, list)):
+            items = [v.numpy() if isinstance(v, wp.array) else v for v in value]
+            out[name] = (items, False)
+        else:
+            out[name] = (value, False)
+    return out
+
+
+def _same(a: Any, b: Any) -> bool:
+    if isinstance(a, np.ndarray) or isinstance(b, np.ndarray):
+        a, b = np.asarray(a), np.asarray(b)
+        return a.shape == b.shape and bool(np.array_equal(a, b, equal_nan=a.dtype.kind == "f"))
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
+    return bool(a == b)
+
+
+def per_world_fields(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
+    """The `mujoco_warp.Model` fields in which `models` (one per world, the same object for
+    worlds of one variation) differ, each as (worlds, ...) host values, one row per world.
+    ExecutorError naming the field if one that differs cannot be held per world."""
+    import mujoco_warp as mjw
+    import warp as wp
+
+    distinct: dict[int, int] = {}
+    for model in models:
+        distinct.setdefault(id(model), len(distinct))
+    firsts = {id(m): m for m in models}
+    with wp.ScopedDevice("cpu"):  # host copies to compare: nothing goes to the batch's device
+        flats = [_flat(mjw.put_model(firsts[key])) for key in distinct]
+    first = flats[0]
+    differ = [name for name in first if any(not _same(first[name][0], f[name][0]) for f in flats)]
+    refused = [name for name in differ if not first[name][1]]
+    if refused:
+        raise ExecutorError(
+            "the runs' robots differ in "
+            + ", ".join(refused)
+            + ", which MuJoCo Warp cannot hold per world: run these jobs with --backend cpu "
+            "(docs/GPU.md)"
+        )
+    rows = [distinct[id(m)] for m in models]
+    return {name: np.stack([flats[r][name][0][0] for r in rows]) for name in differ}
+
+
+def batch_model(models: Sequence[mujoco.MjModel], device: Any) -> Any:
+    """A `mujoco_warp.Model` on `device` for the worlds of `models` (one per world): the first
+    world's model, with every field in which the worlds differ held per world
+    (`per_world_fields`). ExecutorError as `per_world_fields`."""
+    import mujoco_warp as mjw
+    import warp as wp
+
+    fields = per_world_fields(models)
+    with wp.ScopedDevice(device):
+        batch = mjw.put_model(models[0])
+        for name, values in fields.items():
+            *path, leaf = name.split(".")
+            owner = batch
+            for part in path:
+                owner = getattr(owner, part)
+            dtype = getattr(owner, leaf).dtype
+            setattr(owner, leaf, wp.array(values, dtype=dtype, device=device))
+    return batch
