@@ -160,14 +160,17 @@ def test_c_float_flushes_what_float32_cannot_hold() -> None:
 
 
 @pytest.mark.parametrize("law", ["tilt", "yaw_rate", "damping", "cop"])
-def test_a_set_with_a_feedback_law_on_builds_no_firmware(law):
-    """The firmware runs the open-loop gait only (docs/DESIGN.md §15): a set that switches a
-    law on is refused before any header is written, naming the law; off, the laws' gains are
-    no id of the firmware's table."""
+def test_the_feedback_laws_are_ids_after_the_gaits(law):
+    """The firmware runs the laws (docs/DESIGN.md §15): their switches and gains are ids of the
+    table after every gait id (the open-loop firmware's ids unchanged), and a set that switches
+    one on boots with it on."""
     from app.firmware.build import generated_headers
-    from hardware.firmware.schema import param_specs
+    from hardware.firmware.schema import FEEDBACK_GROUPS, param_specs
 
-    with pytest.raises(ValueError, match=rf"feedback laws \['{law}'\]"):
-        generated_headers({"gait": {law: {"enabled": True}}})
-    assert generated_headers({"gait": {law: {"enabled": False}}})
-    assert not [s for s in param_specs() if s.group == law]
+    specs = param_specs()
+    groups = [s.group for s in specs]
+    first_law = min(i for i, g in enumerate(groups) if g in FEEDBACK_GROUPS)
+    assert all(g in FEEDBACK_GROUPS for g in groups[first_law:])
+    assert [s for s in specs if s.group == law and s.name == "enabled" and s.is_switch]
+    headers = generated_headers({"gait": {law: {"enabled": True}}})
+    assert f"#define ARTRO_{law.upper()}_ENABLED 1" in headers["artro_params.h"]

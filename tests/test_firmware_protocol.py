@@ -16,8 +16,8 @@ from app.firmware import protocol as proto
 from app.firmware.build import build_firmware
 from app.firmware.conformance import model_frames, run_comparison, split_frames
 from app.firmware.emulator import FRAME_CYCLES, Mcu, read_active_plan
-from app.firmware.link import EmulatedLink
-from app.firmware.protocol import Ack, Info, Msg, Nak, NakReason, Params, Telemetry
+from app.firmware.link import EmulatedLink, read_params
+from app.firmware.protocol import Ack, Info, Msg, Nak, NakReason, Telemetry
 from app.sim.planning import START_PHASE_RAD
 from gait import GaitParams, Motion, joint_angles
 from hardware import ServoCalibration, angles_to_pulses_us, pulse_us_to_ocr
@@ -32,10 +32,8 @@ def frame_now(mcu: Mcu) -> int:
 
 
 def assert_unchanged(mcu: Mcu, link: EmulatedLink, doc: dict, n_frames: int) -> None:
-    (params,) = link.request(proto.command(Msg.GET_PARAMS))
-    assert isinstance(params, Params)
     expected = np.float32(values_from_document(doc))
-    np.testing.assert_array_equal(np.float32(params.values), expected)
+    np.testing.assert_array_equal(np.float32(read_params(link, len(SPECS))), expected)
     result = run_comparison(mcu, model_frames(doc, n_frames))
     assert result.mismatches == [] and result.one_tick <= 1, result.mismatches[:3]
 
@@ -54,7 +52,8 @@ def test_a_parameter_set_over_the_uart_changes_the_pulses_from_the_acked_frame()
         link = EmulatedLink(mcu)
         mcu.run_to_frame(6, 1000)
         sent_in = frame_now(mcu)
-        (ack,) = link.request(proto.set_params(values_from_document(new)))
+        # the gait's ids (and the first laws'): the laws' values are the same in both sets
+        (ack,) = link.request(proto.set_params(values_from_document(new)[: proto.MAX_VALUES]))
         acked_in = frame_now(mcu)
         assert isinstance(ack, Ack) and ack.acked == Msg.SET_PARAMS
         # the next frame still to be planned: planning happens in slot 5 of the frame before
@@ -98,7 +97,18 @@ def _bad_messages() -> list[tuple[str, bytes, NakReason, int]]:
             NakReason.OUT_OF_RANGE,
             Msg.SET_MOTION,
         ),
-        ("one bad value in a set", proto.set_params(values), NakReason.OUT_OF_RANGE, 0x04),
+        (
+            "one bad value in a set",
+            proto.set_params(values[: proto.MAX_VALUES]),
+            NakReason.OUT_OF_RANGE,
+            Msg.SET_PARAMS,
+        ),
+        (
+            "too many values in a set",
+            proto.encode(Msg.SET_PARAMS, bytes([0, 49]) + bytes(4 * 49)),
+            NakReason.BAD_LENGTH,
+            Msg.SET_PARAMS,
+        ),
         ("truncated", good[:5], NakReason.TIMEOUT, Msg.SET_PARAM),
     ]
 
@@ -126,7 +136,8 @@ def test_every_bad_message_gets_its_nak_and_changes_nothing() -> None:
 def test_nak_details_name_the_offending_id() -> None:
     with emulator(preset("paper")) as mcu:
         link = EmulatedLink(mcu)
-        (nak,) = link.request(BAD[-2][1])  # the whole set with short.o out of range
+        bad_set = next(message for name, message, *_ in BAD if name == "one bad value in a set")
+        (nak,) = link.request(bad_set)  # the gait's ids with short.o out of range
         assert isinstance(nak, Nak) and nak.detail == SPECS["short.o"].pid
         (nak,) = link.request(proto.set_param(250, 0.0))
         assert isinstance(nak, Nak) and nak.detail == 250

@@ -8,6 +8,7 @@ import pytest
 from app.firmware import protocol as proto
 from app.firmware.conformance import model_frames
 from app.firmware.pulses import FirmwarePulses
+from hardware.firmware.schema import values_from_document
 from tests.firmware_support import preset
 
 
@@ -21,11 +22,12 @@ def test_a_motion_change_reaches_the_gait_as_the_model_ramps_it(ramp: bool) -> N
     try:
         frames = [drive.next_frame() for _ in range(3)]
         drive.send_parameters(new)  # on the wire while the frames run, as in the dashboard
+        parts = len(proto.set_all_params(values_from_document(new)))  # laws', then the gait's
         acks: list[proto.Ack] = []
-        while not acks:
+        while len(acks) < parts:
             frames.append(drive.next_frame())
-            acks = [r for r in frames[-1].replies if isinstance(r, proto.Ack)]
-        effective = acks[0].effective_frame
+            acks += [r for r in frames[-1].replies if isinstance(r, proto.Ack)]
+        effective = acks[-1].effective_frame
         assert effective > frames[-1].index  # it reaches a frame still to come
         while drive.frame < effective + 90:  # a_p 0 -> 0.07 at 0.05 rad/s: 70 frames
             frames.append(drive.next_frame())

@@ -3,6 +3,7 @@ the dashboard's set arrives whole, a change follows, the servos go off at the en
 
 from __future__ import annotations
 
+import struct
 import threading
 
 import numpy as np
@@ -11,7 +12,7 @@ import serial
 
 from app.cli.link import command as cmd_link
 from app.firmware import protocol as proto
-from app.firmware.link import SerialLink
+from app.firmware.link import SerialLink, read_params
 from app.firmware.robot_link import LinkError, RobotLink, _plain, follow
 from hardware.firmware.schema import values_from_document
 from tests.server_harness import client, running_server
@@ -41,9 +42,8 @@ def test_the_dashboards_set_and_its_change_reach_the_robot(robot_on_a_pty, tmp_p
         worker.join(60)
         assert done == [2], sent
         # the robot holds exactly the dashboard's new set (as float32)
-        (params,) = link.request(proto.encode(proto.Msg.GET_PARAMS))
         expected = np.float32(values_from_document(_plain(changed)))
-        np.testing.assert_array_equal(np.float32(params.values), expected)
+        np.testing.assert_array_equal(np.float32(read_params(link, len(expected))), expected)
         (info,) = link.request(proto.encode(proto.Msg.PING))
         assert info.state == proto.RunState.WALK
         robot.torque_off()
@@ -85,13 +85,13 @@ def test_dry_run_prints_the_messages_and_switches_off(tmp_path):
     assert cmd_link(args, out) == 0
     lines = out.getvalue().splitlines()
     kinds = [line.split()[1] for line in lines if line.startswith("->")]
-    assert kinds == ["PING", "SET_PARAMS", "START", "TORQUE_OFF"]
+    assert kinds == ["PING", "SET_PARAMS", "SET_PARAMS", "START", "TORQUE_OFF"]  # laws, gait
     with pytest.raises(ValueError, match="--port is needed"):
         cmd_link(argparse.Namespace(dry_run=False, port=None, baud=57600), io.StringIO())
 
 
-def test_a_set_with_a_feedback_law_on_is_refused_before_anything_is_sent():
-    """The firmware runs the open-loop gait only: sending laws it ignores would mislead."""
+def test_a_set_with_a_feedback_law_on_goes_to_the_robot_whole():
+    """The firmware runs the laws: a set with one on is sent, laws and gait, every id once."""
     written: list[bytes] = []
 
     class Recording:
@@ -106,9 +106,12 @@ def test_a_set_with_a_feedback_law_on_is_refused_before_anything_is_sent():
             pass
 
     robot = RobotLink(SerialLink(Recording(), timeout_s=0.05), dry_run=True)
-    doc = {"motion": {"a_p": 0.07}, "gait": {"tilt": {"enabled": True}}}
-    with pytest.raises(LinkError, match=r"feedback laws \['tilt'\].*open-loop gait only"):
-        robot.send_set(doc)
-    assert written == []
-    robot.send_set({"motion": {"a_p": 0.07}, "gait": {"tilt": {"enabled": False}}})
-    assert len(written) == 1
+    doc = {"motion": {"a_p": 0.07}, "gait": {"tilt": {"enabled": True, "kp": 0.5}}}
+    robot.send_set(doc)
+    values = values_from_document(doc)
+    sent = {}
+    for message in written:
+        first, count = message[3], message[4]
+        sent.update(zip(range(first, first + count), struct.unpack_from(f"<{count}f", message, 5)))
+    assert sorted(sent) == list(range(len(values)))
+    assert np.float32([sent[i] for i in range(len(values))]).tolist() == np.float32(values).tolist()

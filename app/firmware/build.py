@@ -10,6 +10,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -17,10 +18,10 @@ from typing import Any
 import hardware.firmware as firmware_package
 from app.robots.model import RobotModel
 from gait import ARTRO_LEG, LegGeometry
-from gait.params import LAW_GROUPS
 from hardware import ChannelMap, ServoCalibration, TdmConfig
 from hardware.firmware import HEADER_NAME, c_header
 from hardware.firmware.schema import (
+    ARTRO_FSR_POSITIONS_M,
     FIRMWARE_ENGINE,
     SCHEMA_HEADER_NAME,
     c_schema_header,
@@ -76,10 +77,11 @@ def generated_headers(
     calibration: ServoCalibration | None = None,
     tdm: TdmConfig | None = None,
     geometry: LegGeometry = ARTRO_LEG,
+    fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
 ) -> dict[str, str]:
     """{file name: text} of the two generated headers for a parameter-set document (fields left
-    out take the schema's defaults); ValueError if it names an engine the firmware does not run
-    or switches on a feedback law (the firmware runs none yet)."""
+    out take the schema's defaults) on a robot's legs and sole force sensors; ValueError if it
+    names an engine the firmware does not run."""
     tdm = tdm or TdmConfig()
     full = complete_document(doc)  # a define for every id of artro_schema.h
     if full["gait"]["engine"] != FIRMWARE_ENGINE:
@@ -87,19 +89,13 @@ def generated_headers(
             f"the firmware runs the {FIRMWARE_ENGINE} gait engine; this parameter set names "
             f"{full['gait']['engine']!r} (docs/DESIGN.md §4)"
         )
-    laws = [g for g in LAW_GROUPS if full["gait"][g]["enabled"]]
-    if laws:
-        raise ValueError(
-            f"the firmware runs the open-loop gait; this parameter set switches on the feedback "
-            f"laws {laws}, which it would ignore: switch them off (docs/DESIGN.md §15)"
-        )
     params_h = c_header(
         full,
         calibration=calibration or ServoCalibration.default(),
         channel_map=tdm.channel_map or ChannelMap.default(),
         select_change_ticks=tdm.select_change_ticks,
     )
-    return {HEADER_NAME: params_h, SCHEMA_HEADER_NAME: c_schema_header(geometry)}
+    return {HEADER_NAME: params_h, SCHEMA_HEADER_NAME: c_schema_header(geometry, fsr_positions_m)}
 
 
 def source_files() -> dict[str, bytes]:
@@ -132,6 +128,7 @@ def build_firmware(
     calibration: ServoCalibration | None = None,
     tdm: TdmConfig | None = None,
     geometry: LegGeometry = ARTRO_LEG,
+    fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
     out_dir: Path | None = None,
     defines: dict[str, str] | None = None,
 ) -> FirmwareBuild:
@@ -141,7 +138,8 @@ def build_firmware(
         doc: a parameter-set document (`ParameterSet.to_dict()`); its values are the defaults
             the firmware boots with.
         calibration, tdm: servo calibration and TDM set-up (default: uncalibrated, default map,
-            select change at 4900 ticks); geometry: the robot's leg (`RobotModel.geometry`).
+            select change at 4900 ticks); geometry: the robot's leg (`RobotModel.geometry`);
+            fsr_positions_m: its sole force sensors (`RobotModel.fsr_positions_m`).
         out_dir: build here (gen/, build/) instead of the cache.
         defines: extra -D options, e.g. {"ARTRO_BOOT_STATE": "1"}.
 
@@ -150,7 +148,9 @@ def build_firmware(
     """
     if missing := missing_tools():
         raise BuildError(f"missing tools: {', '.join(missing)} (install gcc-avr, avr-libc, make)")
-    headers = generated_headers(doc, calibration=calibration, tdm=tdm, geometry=geometry)
+    headers = generated_headers(
+        doc, calibration=calibration, tdm=tdm, geometry=geometry, fsr_positions_m=fsr_positions_m
+    )
     extra = " ".join(f"-D{k}={v}" for k, v in sorted((defines or {}).items()))
     if out_dir is None:
         key = _digest({**source_files(), **headers, "cflags": extra})
@@ -207,6 +207,7 @@ def export_firmware_folder(
     calibration: ServoCalibration | None = None,
     tdm: TdmConfig | None = None,
     geometry: LegGeometry = ARTRO_LEG,
+    fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
 ) -> Path:
     """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
     programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
@@ -219,7 +220,9 @@ def export_firmware_folder(
         (out / name).write_bytes(data)
     for doc_name in ("PROTOCOL.md", "README.md"):
         shutil.copyfile(FIRMWARE_DIR / doc_name, out / doc_name)
-    headers = generated_headers(doc, calibration=calibration, tdm=tdm, geometry=geometry)
+    headers = generated_headers(
+        doc, calibration=calibration, tdm=tdm, geometry=geometry, fsr_positions_m=fsr_positions_m
+    )
     for name, text in headers.items():
         (out / "gen" / name).write_text(text, encoding="ascii")
     (out / "parameters.json").write_text(json.dumps(doc, indent=2) + "\n", encoding="utf-8")
@@ -228,6 +231,11 @@ def export_firmware_folder(
 
 def wiring(robot: RobotModel) -> dict[str, Any]:
     """What the firmware takes from a robot (`build_firmware`'s keywords): calibration, TDM map
-    and leg geometry."""
+    leg geometry and sole force sensors."""
     hardware = robot.hardware()
-    return {"calibration": hardware.calibration, "tdm": hardware.tdm, "geometry": robot.geometry}
+    return {
+        "calibration": hardware.calibration,
+        "tdm": hardware.tdm,
+        "geometry": robot.geometry,
+        "fsr_positions_m": tuple(map(tuple, robot.fsr_positions_m.tolist())),
+    }

@@ -11,11 +11,13 @@ import struct
 import subprocess
 from dataclasses import dataclass
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 from numpy.typing import NDArray
 
 from app.firmware.build import harness_library
+from app.firmware.sensor_feed import SensorSample
 from hardware import CHANNELS, FRAME_TICKS, PRESCALER, SELECT_LINES
 
 LINE_NAMES = CHANNELS + SELECT_LINES  # the order of the harness's line numbers
@@ -33,6 +35,16 @@ class Edges:
     cycle: NDArray[np.uint64]
     line: NDArray[np.uint8]  # index into LINE_NAMES
     level: NDArray[np.uint8]
+
+
+class SensorCounts(NamedTuple):
+    """The emulated sensors' counters since the start."""
+
+    twi_transactions: int  # begun with the IMU's address (writes at boot included)
+    imu_reads: int  # burst reads
+    imu_bytes: int
+    faults: int  # NACKs and bus errors delivered
+    adc_conversions: int
 
 
 class EmulatorError(RuntimeError):
@@ -70,6 +82,14 @@ def _library() -> ctypes.CDLL:
         lib.artro_mcu_uart_queued.restype = sz
         lib.artro_mcu_read.argtypes = [p, ctypes.c_uint32, u8p, ctypes.c_uint32]
         lib.artro_mcu_read.restype = ctypes.c_int
+        lib.artro_mcu_attach_sensors.argtypes = [p]
+        lib.artro_mcu_attach_sensors.restype = ctypes.c_int
+        lib.artro_mcu_set_imu_data.argtypes = [p, ctypes.c_char_p]
+        lib.artro_mcu_imu_register.argtypes = [p, ctypes.c_uint8]
+        lib.artro_mcu_imu_register.restype = ctypes.c_uint8
+        lib.artro_mcu_imu_fault.argtypes = [p, ctypes.c_uint32, ctypes.c_int32]
+        lib.artro_mcu_set_adc_mv.argtypes = [p, ctypes.POINTER(ctypes.c_uint16)]
+        lib.artro_mcu_sensor_counts.argtypes = [p, ctypes.POINTER(ctypes.c_uint32)]
         _lib = lib
     return _lib
 
@@ -91,11 +111,19 @@ class Mcu:
     """One emulated ATmega128 running the ArtRo firmware."""
 
     def __init__(
-        self, elf: Path | str, *, fix_mode14: bool = True, fix_ocr_high_byte: bool = True
+        self,
+        elf: Path | str,
+        *,
+        fix_mode14: bool = True,
+        fix_ocr_high_byte: bool = True,
+        sensors: SensorSample | None = None,
     ) -> None:
         """Load `elf` and run until the firmware has started its timers (frame 0 begins).
 
         Args:
+            sensors: attach the balance sensors (an MPU-6050 on the TWI bus, the force sensors
+                on the ADC) holding this sample while the firmware boots and calibrates at
+                rest; none: no IMU answers, the ADC reads 0 V.
             fix_mode14: correct simavr's Timer1/Timer3 waveform mode 14 (fast PWM, TOP = ICRn)
                 before the firmware runs. False shows the emulator's bug: OCR writes ignored.
             fix_ocr_high_byte: make simavr take a 16-bit OCR write whose low byte is unchanged
@@ -110,6 +138,11 @@ class Mcu:
             raise EmulatorError(error.value.decode() or "simavr could not load the firmware")
         self._h = ctypes.c_void_p(handle)
         self.symbols = elf_symbols(self.elf)
+        self.has_sensors = sensors is not None
+        if sensors is not None:
+            if self._lib.artro_mcu_attach_sensors(self._h) != 0:
+                raise EmulatorError("simavr's atmega128 core has no TWI to attach the IMU to")
+            self.set_sensors(sensors)
         self.t0_cycle = self._wait_for_timers()
         self.timer3_lag_cycles = self._lib.artro_mcu_timer_start(self._h, 3) - self.t0_cycle
 
@@ -119,6 +152,25 @@ class Mcu:
                 raise EmulatorError("the firmware did not start Timer1/Timer3 within 1 s")
             self._run(self.cycle + 1000)
         return int(self._lib.artro_mcu_timer_start(self._h, 1))
+
+    def set_sensors(self, sample: SensorSample) -> None:
+        """What the IMU's data registers hold and the ADC inputs carry from now on."""
+        self._lib.artro_mcu_set_imu_data(self._h, sample.imu_registers)
+        self._lib.artro_mcu_set_adc_mv(self._h, (ctypes.c_uint16 * 8)(*sample.adc_mv))
+
+    def imu_register(self, reg: int) -> int:
+        """A register of the emulated IMU (what the firmware configured)."""
+        return int(self._lib.artro_mcu_imu_register(self._h, reg))
+
+    def imu_fault(self, *, nack: int = 0, short_after: int = -1) -> None:
+        """Refuse the IMU's next `nack` transactions (no ACK of its address); end its next
+        burst with a bus error after `short_after` bytes (-1: not)."""
+        self._lib.artro_mcu_imu_fault(self._h, nack, short_after)
+
+    def sensor_counts(self) -> SensorCounts:
+        out = (ctypes.c_uint32 * 5)()
+        self._lib.artro_mcu_sensor_counts(self._h, out)
+        return SensorCounts(*(int(v) for v in out))
 
     def close(self) -> None:
         if getattr(self, "_h", None):

@@ -8,6 +8,7 @@ from __future__ import annotations
 import time
 from typing import Protocol
 
+from app.firmware import protocol as proto
 from app.firmware.emulator import FRAME_CYCLES, Mcu
 from app.firmware.protocol import Decoder, Msg, Reply, Telemetry, parse
 
@@ -92,3 +93,14 @@ class SerialLink:
                 if _answers(message, reply):
                     got.append(reply)
         return got
+
+
+def read_params(link: Link, count: int) -> list[float]:
+    """Every value the robot holds, ids 0..count-1, in GET_PARAMS of at most MAX_VALUES each."""
+    values: list[float] = []
+    for first in range(0, count, proto.MAX_VALUES):
+        (reply,) = link.request(proto.get_params(first, min(proto.MAX_VALUES, count - first)))
+        if not isinstance(reply, proto.Params) or reply.first != first:
+            raise ValueError(f"GET_PARAMS from id {first} was answered by {reply}")
+        values += reply.values
+    return values

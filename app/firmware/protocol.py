@@ -12,7 +12,9 @@ from enum import IntEnum
 
 SYNC = 0xA5
 MAX_LEN = 200  # TYPE + PAYLOAD
-VERSION = 1
+VERSION = 2
+#: values in one SET_PARAMS or PARAMS (3 + 4 * 48 <= MAX_LEN): a whole set takes several
+MAX_VALUES = 48
 
 
 class Msg(IntEnum):
@@ -30,6 +32,7 @@ class Msg(IntEnum):
     GET_TELEMETRY = 0x0B
     GET_ANGLES = 0x0C
     RESET_PARAMS = 0x0D
+    GET_SENSORS = 0x0E
     # robot -> host
     ACK = 0x81
     NAK = 0x82
@@ -38,6 +41,7 @@ class Msg(IntEnum):
     PARAMS = 0x85
     TELEMETRY = 0x86
     ANGLES = 0x87
+    SENSORS = 0x88
 
 
 class NakReason(IntEnum):
@@ -77,7 +81,23 @@ def set_param(pid: int, value: float) -> bytes:
 
 
 def set_params(values: Sequence[float], first: int = 0) -> bytes:
+    """One SET_PARAMS of at most MAX_VALUES values from id `first`."""
+    if not 1 <= len(values) <= MAX_VALUES:
+        raise ValueError(f"a SET_PARAMS carries 1..{MAX_VALUES} values, got {len(values)}")
     return encode(Msg.SET_PARAMS, struct.pack(f"<BB{len(values)}f", first, len(values), *values))
+
+
+def set_all_params(values: Sequence[float]) -> list[bytes]:
+    """A whole set (every id from 0) as consecutive SET_PARAMS of at most MAX_VALUES values,
+    the highest ids first: the feedback laws' part, then the one with the motion and the gait,
+    whose ACK names the frame from which the whole set is in force."""
+    firsts = range(0, len(values), MAX_VALUES)
+    return [set_params(values[first : first + MAX_VALUES], first) for first in reversed(firsts)]
+
+
+def get_params(first: int, count: int) -> bytes:
+    """GET_PARAMS of ids first..first+count-1 (count 1..MAX_VALUES)."""
+    return encode(Msg.GET_PARAMS, bytes([first, count]))
 
 
 def get_param(pid: int) -> bytes:
@@ -89,7 +109,7 @@ def telemetry_on(mode: int = 1) -> bytes:
 
 
 def command(msg_type: Msg) -> bytes:
-    """A message without payload: PING, GET_PARAMS, START, STOP, TORQUE_OFF, ..."""
+    """A message without payload: PING, START, STOP, TORQUE_OFF, GET_SENSORS, ..."""
     return encode(msg_type)
 
 
@@ -143,7 +163,40 @@ class Params:
     values: tuple[float, ...]
 
 
-Reply = Ack | Nak | Info | Telemetry | Angles | Params | Message
+#: SENSORS status bits (hardware/firmware/src/sensors.h)
+IMU_PRESENT, IMU_STALE, IMU_NACK, IMU_SHORT, FSR_STALE = 0x01, 0x02, 0x04, 0x08, 0x10
+_SENSORS = struct.Struct("<IBBBb3h3h3h8H2f2ff2f")
+
+
+@dataclass(frozen=True)
+class Sensors:
+    """The balance sensors and laws of the frame the firmware planned last (PROTOCOL.md)."""
+
+    frame: int  # the frame the laws corrected
+    status: int  # IMU_PRESENT | IMU_STALE | ...
+    imu_failures: int  # failed IMU reads since boot (255: at least)
+    laws: int  # bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP
+    support: int  # 0 left, 1 right, -1 neither
+    gyro_offset: tuple[int, ...]  # the boot calibration, counts
+    accel_raw: tuple[int, ...]  # counts, the part's axes
+    gyro_raw: tuple[int, ...]  # counts, before the offset
+    adc: tuple[int, ...]  # 8 channels, left foot fl, fr, bl, br first
+    attitude_rad: tuple[float, float]  # pitch, roll estimate
+    tilt_rad: tuple[float, float]  # tilt trim
+    a_y_delta: float  # yaw-rate loop's change of a_y
+    cop_rad: tuple[float, float]  # support foot's ankle pitch and roll correction
+
+
+def _sensors(p: bytes) -> Sensors:
+    v = _SENSORS.unpack(p)
+    return Sensors(
+        frame=v[0], status=v[1], imu_failures=v[2], laws=v[3], support=v[4],
+        gyro_offset=v[5:8], accel_raw=v[8:11], gyro_raw=v[11:14], adc=v[14:22],
+        attitude_rad=v[22:24], tilt_rad=v[24:26], a_y_delta=v[26], cop_rad=v[27:29],
+    )  # fmt: skip
+
+
+Reply = Ack | Nak | Info | Telemetry | Angles | Params | Sensors | Message
 
 
 def parse(message: Message) -> Reply:
@@ -165,6 +218,8 @@ def parse(message: Message) -> Reply:
     if t == Msg.ANGLES:
         frame = struct.unpack_from("<I", p)[0]
         return Angles(frame, struct.unpack_from("<12f", p, 4))
+    if t == Msg.SENSORS:
+        return _sensors(p)
     if t in (Msg.PARAMS, Msg.PARAM):
         if t == Msg.PARAM:
             pid, value = struct.unpack("<Bf", p)

@@ -128,15 +128,19 @@ class FirmwarePulses:
         """Queue a whole parameter set on the UART and go on: the bytes go in at the line's pace
         while frames run, and the ACK (with the first frame it reaches) or NAK comes back in a
         later frame's `replies`."""
-        self.link.send(proto.set_params(values_from_document(doc)))
+        for message in proto.set_all_params(values_from_document(doc)):
+            self.link.send(message)
 
     def set_parameters(self, doc: dict[str, Any]) -> int:
         """Send a whole parameter set and run until it is answered; returns the first frame it
         reaches (from the ACK)."""
-        (reply,) = self.link.request(proto.set_params(values_from_document(doc)))
-        if not isinstance(reply, proto.Ack):
-            raise ValueError(f"the firmware rejected the parameter set: {reply}")
-        return reply.effective_frame
+        frame = 0
+        for message in proto.set_all_params(values_from_document(doc)):
+            (reply,) = self.link.request(message)
+            if not isinstance(reply, proto.Ack):
+                raise ValueError(f"the firmware rejected the parameter set: {reply}")
+            frame = reply.effective_frame
+        return frame
 
     def close(self) -> None:
         self.mcu.close()

@@ -12,7 +12,6 @@ from typing import Any, TextIO
 from app.firmware import protocol as proto
 from app.firmware.link import SerialLink
 from app.params.document import ParameterSet
-from gait.params import LAW_GROUPS
 from hardware.firmware.schema import FIRMWARE_ENGINE, schema_hash, values_from_document
 
 DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 %
@@ -80,8 +79,9 @@ class RobotLink:
         )
 
     def send_set(self, doc: dict[str, Any], version: int | None = None) -> int | None:
-        """The whole set (motion, CA and every constant) in one SET_PARAMS; the frame it reaches.
-        LinkError for a set the firmware refuses (another gait engine), also in a dry run."""
+        """The whole set (motion, CA, every constant and the feedback laws) in consecutive
+        SET_PARAMS; the frame its last part reaches. LinkError for a set the firmware refuses
+        (another gait engine), also in a dry run."""
         engine = doc.get("gait", {}).get("engine", FIRMWARE_ENGINE)
         if engine != FIRMWARE_ENGINE:
             tag = "" if version is None else f" (dashboard version {version})"
@@ -89,14 +89,10 @@ class RobotLink:
                 f"the set{tag} names the {engine!r} gait engine; the robot's firmware runs only "
                 f"{FIRMWARE_ENGINE!r} and would refuse it: choose engine {FIRMWARE_ENGINE}"
             )
-        laws = [g for g in LAW_GROUPS if doc.get("gait", {}).get(g, {}).get("enabled")]
-        if laws:
-            raise LinkError(
-                f"the set switches on the feedback laws {laws}; the robot's firmware runs the "
-                f"open-loop gait only (docs/DESIGN.md §15): switch them off to send it"
-            )
-        ack = self.expect(proto.set_params(values_from_document(doc)), "parameter set")
-        frame = ack.effective_frame if isinstance(ack, proto.Ack) else None
+        frame = None
+        for message in proto.set_all_params(values_from_document(doc)):
+            ack = self.expect(message, "parameter set")
+            frame = ack.effective_frame if isinstance(ack, proto.Ack) else None
         where = "" if frame is None else f" from frame {frame}"
         tag = "" if version is None else f" (dashboard version {version})"
         self.log(f"sent {doc.get('name') or 'the parameter set'}{tag}{where}")

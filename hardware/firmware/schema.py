@@ -8,6 +8,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import zlib
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 from gait.leg_interface import ARTRO_LEG, LegGeometry
@@ -64,12 +65,14 @@ class ParamSpec:
 
 def param_specs() -> tuple[ParamSpec, ...]:
     """Every tunable value with its id: motion (a_r, a_p, a_y, ca), then the gait groups of the
-    engine the firmware runs, behnke (`gait.params.engine_groups`; no `pfs`), in schema order;
-    not the feedback laws' groups, which the firmware does not run (docs/DESIGN.md §15)."""
+    engine the firmware runs, behnke (`gait.params.engine_groups`; no `pfs`), in schema order,
+    then the feedback groups (attitude and the laws, docs/DESIGN.md §15): appended last, so the
+    gait's ids are those of the open-loop firmware."""
     groups: list[tuple[str, type]] = [("motion", Motion)]
     groups += [
         (g, group_class(g)) for g in engine_groups(FIRMWARE_ENGINE) if g not in FEEDBACK_GROUPS
     ]
+    groups += [(g, group_class(g)) for g in FEEDBACK_GROUPS]
     specs: list[ParamSpec] = []
     for group, cls in groups:
         for name, _default, meta in describe_fields(cls):
@@ -107,8 +110,22 @@ def values_from_document(doc: dict) -> list[float]:
     return values
 
 
-def c_schema_header(geometry: LegGeometry = ARTRO_LEG) -> str:
-    """The text of artro_schema.h (independent of the parameter set) for a robot's legs."""
+#: x, y of each sole force sensor from the sole centre, m (corners fl, fr, bl, br: a quarter of
+#: the foot's length and width in), for ArtRo (`RobotModel.fsr_positions_m`)
+ARTRO_FSR_POSITIONS_M = ((0.03, 0.0175), (0.03, -0.0175), (-0.03, 0.0175), (-0.03, -0.0175))
+
+
+def _ascii(unit: str) -> str:
+    """A unit as C source may spell it (the header is ASCII): rad·s/m -> rad*s/m."""
+    return unit.replace("·", "*").replace("°", "deg").replace("²", "^2")
+
+
+def c_schema_header(
+    geometry: LegGeometry = ARTRO_LEG,
+    fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
+) -> str:
+    """The text of artro_schema.h (independent of the parameter set) for a robot's legs and
+    sole force sensors."""
     specs = param_specs()
     out = [
         f"/* {SCHEMA_HEADER_NAME} -- parameter ids, ranges and switches of the ArtRo gait,",
@@ -126,9 +143,14 @@ def c_schema_header(geometry: LegGeometry = ARTRO_LEG) -> str:
         f"#define ARTRO_GEOM_UPPER_LEG_M {c_float(geometry.upper_m)}",
         f"#define ARTRO_GEOM_LOWER_LEG_M {c_float(geometry.lower_m)}",
         "",
+        "/* sole force sensors fl, fr, bl, br: x, y from the sole centre, m (laws.c) */",
+        "#define ARTRO_FSR_POSITIONS_M { \\",
+        *[f"    {{{c_float(x)}, {c_float(y)}}}, \\" for x, y in fsr_positions_m],
+        "}",
+        "",
         "enum artro_param_id {",
     ]
-    out += [f"    {s.c_pid} = {s.pid}, /* {s.dotted} [{s.unit}] */" for s in specs]
+    out += [f"    {s.c_pid} = {s.pid}, /* {s.dotted} [{_ascii(s.unit)}] */" for s in specs]
     out += ["};", ""]
     out.append("/* defaults: the values of the exported parameter set, in id order */")
     out.append("#define ARTRO_PARAM_DEFAULTS { \\")
@@ -158,6 +180,7 @@ def describe() -> list[dict]:
 
 
 __all__ = [
+    "ARTRO_FSR_POSITIONS_M",
     "FIRMWARE_ENGINE",
     "SCHEMA_HEADER_NAME",
     "ParamSpec",

@@ -28,9 +28,27 @@
  * ARTRO_SELECT_CHANGE_TICKS, which repeats every 256 ticks). */
 #define GUARD_EARLIEST_TICKS (ARTRO_SELECT_CHANGE_TICKS - 255u)
 
-/* The next frame's plan is computed in the idle slots 5..7 of the current frame: the guard of
- * slot 4 raises the request (tick 24900), the guard of slot 7 latches the plan (tick 39900). */
-#define COMPUTE_SLOT 5u
+/* The sensors are read in slot SENSE_SLOT (the guard of slot 2 starts the IMU burst and the
+ * ADC sweep at tick 14900; both are done within 1 ms), and the next frame's plan is computed from
+ * slot COMPUTE_SLOT on: the guard of slot 3 raises the request (tick 19900), the guard of slot 7
+ * latches the plan (tick 39900): a window of 20000 ticks, 160000 cycles. */
+#define SENSE_SLOT 3u
+#define COMPUTE_SLOT 4u
+
+/* ---- balance sensors (sensors.c, docs/DESIGN.md §15) ---- */
+/* TWI at 400 kHz: SCL = F_CPU / (16 + 2 TWBR), prescaler 1 */
+#define TWI_TWBR 12u
+/* MPU-6050 digital low-pass filter: DLPF_CFG 3, 44 Hz gyro bandwidth, 4.8 ms delay */
+#define IMU_DLPF_CFG 3u
+/* at boot, held still: 64 gyro readings 2 ms apart (128 ms) average to its offsets */
+#define CALIBRATION_SAMPLES 64u
+#define CALIBRATION_SPACING_MS 2u
+/* MPU-6050 at ±250 °/s and ±2 g: rad/s and m/s² per count (the host's app/sim/sensors.py) */
+#define IMU_GYRO_RAD_S_PER_COUNT ((float)0.00013323124061025415)
+#define IMU_ACCEL_M_S2_PER_COUNT ((float)0.0005985504150390625)
+/* An FSR under each sole corner in a divider to ground: R_FSR = 10 kOhm N / F (FSR 402, within
+ * its part-to-part spread from 0.2 to 20 N) over R_M = 2 kOhm, 5 V: V / 5 V = F / (F + 5 N). */
+#define FSR_DIVIDER_N 5.0f
 
 /* State after reset: 0 = walking (as the simulation does from its first frame),
  * 1 = stopped (pose held at the start phase), 2 = torque off (no pulses). */

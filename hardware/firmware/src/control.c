@@ -8,7 +8,9 @@
 
 #include <util/atomic.h>
 
+#include "laws.h"
 #include "ramp.h"
+#include "sensors.h"
 #include "tdm.h"
 
 static uint8_t s_state;
@@ -40,6 +42,10 @@ uint8_t control_poll(void)
     if (!due)
         return 0;
     const plan_t *current = &g_plan[active];
+    sensor_reading_t reading;
+    sensors_take(&reading); /* started in slot SENSE_SLOT of this frame */
+    laws_step(&reading, g_sensor_status & SENSE_IMU_PRESENT); /* on the motion of frame F */
+    g_law_frame = frame + 1u;
     ramp_step(frame + 1u);
     plan_compute(&g_plan[active ^ 1u], frame + 1u, current->next_phase_acc, s_state);
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)

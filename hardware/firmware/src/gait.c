@@ -11,6 +11,7 @@
 #include <math.h>
 
 #include "artro_schema.h"
+#include "laws.h"
 #include "params.h"
 #include "ramp.h"
 
@@ -90,7 +91,7 @@ static void frame_terms(float phi_left, frame_terms_t *t)
     t->theta_shift_left = t->roll_cos_left = t->pitch_balance = 0.0f;
     t->a_r = g_motion[RAMP_A_R]; /* the motion as the ramp lets it through (ramp.h) */
     t->a_p = g_motion[RAMP_A_P];
-    t->a_y = g_motion[RAMP_A_Y];
+    t->a_y = laws_a_y(g_motion[RAMP_A_Y]); /* with the yaw-rate loop's change (laws.h) */
     t->ca = g_motion[RAMP_CA];
     /* the steering term of eq (29), docs/DESIGN.md §4: K * CA * clip(a_p / full_at_a_p, -1, 1)
      * with the forward or the backward K, so that CA turns the robot as eq (13) says both ways */

@@ -1,9 +1,10 @@
 /* main.c -- ArtRo servo biped firmware for the ATmega128 at 16 MHz (docs/DESIGN.md §5).
  *
  * Interrupts drive the servos (tdm.c: Timer1/Timer3 TDM-PWM, Timer2 walking-clock tick and guard)
- * and move UART bytes (uart.c). The main loop handles messages (protocol.c), plans each next
- * frame when the TDM asks (control.c: gait eqs 2-45, servo calibration, TDM table), sends
- * telemetry once per frame, and otherwise sleeps.
+ * and move UART bytes (uart.c), the TWI and ADC read the balance sensors (sensors.c). The main
+ * loop plans each next frame when the TDM asks (control.c: sensors, feedback laws, gait eqs 2-45,
+ * servo calibration, TDM table), handles messages (protocol.c), sends telemetry once per frame,
+ * and otherwise sleeps.
  */
 #include <avr/interrupt.h>
 #include <avr/sleep.h>
@@ -12,6 +13,7 @@
 #include "control.h"
 #include "params.h"
 #include "protocol.h"
+#include "sensors.h"
 #include "tdm.h"
 #include "uart.h"
 
@@ -20,15 +22,16 @@ int main(void)
     uint32_t last_frame = 0;
 
     params_reset();
-    control_init(ARTRO_BOOT_STATE);
     uart_init();
+    sei();
+    sensors_boot(); /* the IMU calibrated at rest (128 ms) before the servos get pulses */
+    control_init(ARTRO_BOOT_STATE);
     tdm_start();
     set_sleep_mode(SLEEP_MODE_IDLE);
-    sei();
 
     for (;;) {
+        control_poll(); /* the plan first: a message waits while the next frame is planned */
         protocol_poll();
-        control_poll();
         uint32_t frame = control_frame();
         if (frame != last_frame) {
             last_frame = frame;

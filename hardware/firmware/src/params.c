@@ -22,6 +22,16 @@ void params_reset(void)
         g_params[i] = DEFAULTS[i];
 }
 
+float params_min(uint8_t id)
+{
+    return MIN_VALUE[id];
+}
+
+float params_max(uint8_t id)
+{
+    return MAX_VALUE[id];
+}
+
 static uint8_t is_switch(uint8_t id)
 {
     return (SWITCH_BITS[id >> 5] >> (id & 31u)) & 1u;

@@ -26,6 +26,9 @@ enum param_status {
 };
 
 void params_reset(void);
+/* The allowed range of `id` (a switch: 0..1). */
+float params_min(uint8_t id);
+float params_max(uint8_t id);
 /* PARAM_OK if `value` is allowed for `id` (finite, in range, 0/1 for switches). */
 uint8_t params_check(uint8_t id, float value);
 /* Validate, then store; nothing changes unless PARAM_OK. */

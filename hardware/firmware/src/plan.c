@@ -6,6 +6,7 @@
  */
 #include "plan.h"
 
+#include "laws.h"
 #include "params.h"
 #include "servo.h"
 
@@ -38,6 +39,9 @@ void plan_compute(plan_t *plan, uint32_t frame, int32_t phase_acc, uint8_t state
     plan->state = state;
     plan->flags = gait.gamma_clamped ? PLAN_GAMMA_CLAMPED : 0u;
     plan->saturated = 0;
+    if (laws_any_on()) /* the feedback's corrections (laws.c); all off: the open-loop gait */
+        for (uint8_t i = 0; i < GAIT_NUM_JOINTS; i++)
+            gait.angle[i] += g_law_output.joint_delta[i];
     for (uint8_t i = 0; i < ARTRO_NUM_SERVOS; i++) {
         uint8_t clipped;
         plan->angle[i] = gait.angle[i];

@@ -9,7 +9,9 @@
 #include "artro_schema.h"
 #include "config.h"
 #include "control.h"
+#include "laws.h"
 #include "params.h"
+#include "sensors.h"
 #include "tdm.h"
 #include "uart.h"
 
@@ -106,13 +108,38 @@ static void send_angles(void)
     send(MSG_ANGLES, p, sizeof p);
 }
 
-static void send_params(void)
+static void send_params(uint8_t first, uint8_t count)
 {
-    uint8_t p[2 + 4 * ARTRO_PARAM_COUNT];
-    p[0] = 0;
-    p[1] = ARTRO_PARAM_COUNT;
-    memcpy(&p[2], g_params, sizeof g_params);
-    send(MSG_PARAMS, p, sizeof p);
+    uint8_t p[2 + 4 * PROTO_MAX_VALUES];
+    p[0] = first;
+    p[1] = count;
+    memcpy(&p[2], &g_params[first], 4u * count);
+    send(MSG_PARAMS, p, (uint8_t)(2u + 4u * count));
+}
+
+/* SENSORS: frame u32 (the frame the laws corrected), status u8, IMU failures u8, laws on u8
+ * (bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP), support i8, gyro offsets 3 x i16, accel 3 x i16,
+ * gyro 3 x i16 (raw counts), ADC 8 x u16, attitude (pitch, roll) 2 x f32, tilt trim 2 x f32,
+ * a_y change f32, CoP correction 2 x f32 */
+static void send_sensors(void)
+{
+    uint8_t p[70];
+    const law_output_t *out = &g_law_output;
+    p[4] = g_sensor_status;
+    p[5] = g_imu_failures;
+    p[6] = (uint8_t)(SWITCH(TILT_ENABLED) | SWITCH(YAW_RATE_ENABLED) << 1
+                     | SWITCH(DAMPING_ENABLED) << 2 | SWITCH(COP_ENABLED) << 3);
+    p[7] = (uint8_t)out->support;
+    memcpy(&p[0], &g_law_frame, 4);
+    memcpy(&p[8], g_gyro_offset, 6);
+    memcpy(&p[14], g_sensor_raw.accel, 6);
+    memcpy(&p[20], g_sensor_raw.gyro, 6);
+    memcpy(&p[26], g_sensor_raw.adc, 16);
+    memcpy(&p[42], out->attitude, 8);
+    memcpy(&p[50], out->tilt, 8);
+    memcpy(&p[58], &out->a_y_delta, 4);
+    memcpy(&p[62], out->cop, 8);
+    send(MSG_SENSORS, p, sizeof p);
 }
 
 /* ---- commands ----------------------------------------------------------------------------- */
@@ -122,17 +149,19 @@ static int16_t expected_length(uint8_t type)
 {
     switch (type) {
     case MSG_PING:
-    case MSG_GET_PARAMS:
     case MSG_START:
     case MSG_STOP:
     case MSG_TORQUE_OFF:
     case MSG_GET_TELEMETRY:
     case MSG_GET_ANGLES:
     case MSG_RESET_PARAMS:
+    case MSG_GET_SENSORS:
         return 0;
     case MSG_GET_PARAM:
     case MSG_TELEMETRY_ON:
         return 1;
+    case MSG_GET_PARAMS:
+        return 2;
     case MSG_SET_PARAM:
         return 5;
     case MSG_SET_MOTION:
@@ -164,7 +193,7 @@ static void dispatch(void)
         return;
     }
 
-    float values[ARTRO_PARAM_COUNT];
+    float values[PROTO_MAX_VALUES];
     uint8_t status, bad;
     switch (type) {
     case MSG_PING:
@@ -188,7 +217,7 @@ static void dispatch(void)
         break;
     case MSG_SET_PARAMS: {
         uint8_t first = n >= 2 ? body[0] : 0, count = n >= 2 ? body[1] : 0;
-        if (n < 2 || count == 0 || count > ARTRO_PARAM_COUNT || n != 2u + 4u * count) {
+        if (n < 2 || count == 0 || count > PROTO_MAX_VALUES || n != 2u + 4u * count) {
             send_nak(type, NAK_BAD_LENGTH, n);
             break;
         }
@@ -211,7 +240,13 @@ static void dispatch(void)
         }
         break;
     case MSG_GET_PARAMS:
-        send_params();
+        if (body[1] == 0 || body[1] > PROTO_MAX_VALUES) {
+            send_nak(type, NAK_OUT_OF_RANGE, body[1]);
+        } else if ((uint16_t)body[0] + body[1] > ARTRO_PARAM_COUNT) {
+            send_nak(type, NAK_UNKNOWN_ID, (uint8_t)(body[0] + body[1] - 1u));
+        } else {
+            send_params(body[0], body[1]);
+        }
         break;
     case MSG_START:
     case MSG_STOP:
@@ -220,7 +255,7 @@ static void dispatch(void)
         send_ack(type);
         break;
     case MSG_TELEMETRY_ON:
-        if (body[0] > 1) {
+        if (body[0] > 2) {
             send_nak(type, NAK_OUT_OF_RANGE, body[0]);
             break;
         }
@@ -232,6 +267,9 @@ static void dispatch(void)
         break;
     case MSG_GET_ANGLES:
         send_angles();
+        break;
+    case MSG_GET_SENSORS:
+        send_sensors();
         break;
     case MSG_RESET_PARAMS:
         params_reset();
@@ -308,6 +346,8 @@ void protocol_poll(void)
 
 void protocol_frame(void)
 {
-    if (s_telemetry_on)
+    if (s_telemetry_on == 1)
         send_telemetry();
+    else if (s_telemetry_on == 2)
+        send_sensors();
 }

@@ -21,6 +21,7 @@
 
 #include "artro_params.h"
 #include "config.h"
+#include "sensors.h"
 
 plan_t g_plan[2];
 volatile uint8_t g_active;
@@ -95,6 +96,8 @@ static inline __attribute__((always_inline)) void guard(void)
     load_slot(&g_plan[g_active], next);
     g_slot = next;
     g_slot_count++;
+    if (next == SENSE_SLOT)
+        sensors_start();
     if (next == COMPUTE_SLOT)
         g_compute_due = 1;
 }

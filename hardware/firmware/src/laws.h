@@ -1,0 +1,44 @@
+/* laws.h -- the balance feedback on top of the open-loop gait, once per frame (docs/DESIGN.md
+ * §15): the attitude estimate (a complementary filter) and the four laws -- tilt trim, yaw-rate
+ * loop, gyro damping, centre-of-pressure loop -- in float32, the same arithmetic as the host's
+ * gait/feedback.py, with their switches and gains in the parameter table (ids after the gait's).
+ */
+#ifndef ARTRO_LAWS_H
+#define ARTRO_LAWS_H
+
+#include <stdint.h>
+
+#include "gait.h"
+#include "sensors.h"
+
+typedef struct {
+    uint8_t started;
+    float pitch, roll;
+    float tilt_error[2], tilt_integral[2];
+    float yaw_error, yaw_integral;
+    float cop_integral[2], cop_last[2];
+} law_state_t;
+
+typedef struct {
+    float joint_delta[GAIT_NUM_JOINTS]; /* added to the gait's joint angles */
+    float a_y_delta;                    /* added to the ramped a_y, within its range */
+    float tilt[2];                      /* pitch and roll trim */
+    float cop[2];                       /* the support foot's ankle pitch and roll */
+    int8_t support;                     /* 0 left, 1 right, -1 neither carries min_load_n */
+    float attitude[2];                  /* pitch, roll estimate */
+} law_output_t;
+
+extern law_state_t g_law_state;
+extern law_output_t g_law_output; /* the corrections of the frame planned last */
+extern uint32_t g_law_frame;       /* that frame */
+
+/* 1 if a law is switched on (else the plan is the open-loop gait's, to the bit). */
+uint8_t laws_any_on(void);
+/* One frame of the attitude estimate and every law that is on, from `reading` and the motion
+ * the gait got in the frame before (g_motion, ramp.h); fills g_law_output. Without the IMU
+ * (`imu_present` 0) only the centre-of-pressure loop runs. */
+void laws_step(const sensor_reading_t *reading, uint8_t imu_present);
+/* a_y as the gait gets it: the ramped a_y plus the yaw-rate loop's change, within a_y's range */
+float laws_a_y(float ramped_a_y);
+
+#endif /* ARTRO_LAWS_H */
