@@ -112,6 +112,8 @@ def test_a_set_with_a_feedback_law_on_goes_to_the_robot_whole():
     sent = {}
     for message in written:
         first, count = message[3], message[4]
-        sent.update(zip(range(first, first + count), struct.unpack_from(f"<{count}f", message, 5)))
+        values_sent = struct.unpack_from(f"<{count}f", message, 5)
+        sent.update(zip(range(first, first + count), values_sent, strict=True))
     assert sorted(sent) == list(range(len(values)))
-    assert np.float32([sent[i] for i in range(len(values))]).tolist() == np.float32(values).tolist()
+    got = np.float32([sent[i] for i in range(len(values))])
+    np.testing.assert_array_equal(got, np.float32(values))
