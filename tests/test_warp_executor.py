@@ -10,6 +10,7 @@ core, decision 0042) and runs one batch of six worlds."""
 from __future__ import annotations
 
 import copy
+import json
 import subprocess
 import sys
 import threading
@@ -249,3 +250,58 @@ def test_a_missing_extra_names_the_pip_command():
     error, auto = out.strip().splitlines()
     assert "needs MuJoCo Warp" in error and 'pip install "artro-gait-studio[gpu]"' in error
     assert auto == "BatchEvaluator"  # auto falls back to the CPU's executors without the extra
+
+
+def artro(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run(
+        [sys.executable, "-m", "app.cli", *args], capture_output=True, text=True, timeout=600
+    )
+
+
+@pytest.mark.parametrize(
+    ("args", "said"),
+    [
+        (
+            ("bench", "robust", "--backend", "gpu"),
+            "invalid choice: 'gpu' (choose from {cpu}, {warp}, {auto})",
+        ),
+        (("tune", "--device", "tpu"), "invalid choice: 'tpu' (choose from {cpu}, {cuda})"),
+        (
+            ("calibrate-ca", "--device", "cpu"),
+            "--device cpu is for --backend warp or auto, not cpu",
+        ),
+        (
+            ("bench", "paper", "--backend", "warp", "--cluster", "tcp://127.0.0.1:1"),
+            "--backend warp runs in this process: leave out --cluster",
+        ),
+    ],
+)
+def test_the_cli_refuses_a_bad_backend_or_device_with_exit_status_2(args, said):
+    """argparse quotes the choices or not, by Python version."""
+    done = artro(*args)
+    names = ("cpu", "warp", "auto", "cuda")
+    quoted = said.format(**{n: f"'{n}'" for n in names})
+    plain = said.format(**{n: n for n in names})
+    assert done.returncode == 2, done.stderr
+    assert quoted in done.stderr or plain in done.stderr, done.stderr
+
+
+def test_the_cli_without_a_cuda_device_names_the_cpu_device():
+    import warp as wp
+
+    if wp.get_cuda_device_count() > 0:
+        pytest.skip("this machine has a CUDA device")
+    done = artro("bench", "robust", "--backend", "warp", "--samples", "1")
+    assert done.returncode == 2 and "--device cpu" in done.stderr, done.stderr
+
+
+@pytest.mark.slow
+def test_bench_robust_runs_on_the_warp_backend_and_says_it_compiles(tmp_path):
+    done = artro(
+        "bench", "robust", "--backend", "warp", "--device", "cpu", "--samples", "1",
+        "--duration", "1.5", "--warmup", "0.5", "--json", "--out", str(tmp_path),
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert "warp: compiling MuJoCo Warp's kernels for device cpu" in done.stderr
+    (report,) = json.loads(done.stdout)["presets"]
+    assert len(report["cases"]) == 9 and all(c["runs"] == 1 for c in report["cases"])

@@ -12,9 +12,11 @@ from pathlib import Path
 from typing import Any
 
 from app.cli.options import (
+    add_backend_options,
     add_cluster_options,
     add_range_option,
     add_robot_option,
+    backend_of,
     ranges_from,
     subcommand,
 )
@@ -78,6 +80,7 @@ def add_parser(sub: Any) -> None:
     add_cluster_options(
         parser, "run on this Dask scheduler (docs/CLUSTER.md) instead of local threads"
     )
+    add_backend_options(parser)
     parser.add_argument(
         "--quick", action="store_true", help="short runs and a coarse CA sweep (smoke test)"
     )
@@ -90,7 +93,7 @@ def command(args: argparse.Namespace) -> int:
     from app.study.paper_bench import run_paper_bench  # the studies load when run, not for --help
     from app.study.runs import QUICK, BenchConfig
 
-    config = QUICK if args.quick else BenchConfig()
+    config = replace(QUICK if args.quick else BenchConfig(), **backend_of(args))
     if args.duration is not None:
         config = replace(config, duration_s=args.duration)
     if args.warmup is not None:
@@ -137,7 +140,11 @@ def robust(args: argparse.Namespace) -> int:
         raise ValueError(f"no presets to run (asked for {specs}): {'; '.join(notes)}")
     robot = RobotModel.load(args.robot)
     evaluator = evaluator_for(
-        robot, cluster=args.cluster, threads=args.threads, wait_workers_s=args.wait_workers
+        robot,
+        cluster=args.cluster,
+        threads=args.threads,
+        wait_workers_s=args.wait_workers,
+        **backend_of(args),
     )
     n_runs = len(presets) * (args.samples + 1) * len(ROBUST_CASES)
     progress = progress_printer(

@@ -12,7 +12,14 @@ from typing import Any
 
 from app.analysis.axle_fit import walking_amplitude
 from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
-from app.cli.options import add_cluster_options, add_robot_option, robot_and_set, subcommand
+from app.cli.options import (
+    add_backend_options,
+    add_cluster_options,
+    add_robot_option,
+    backend_of,
+    robot_and_set,
+    subcommand,
+)
 from app.evaluation import close_evaluator, evaluator_for
 from app.params.formats import export_text
 from gait import ENGINES
@@ -48,6 +55,7 @@ def add_parser(sub: Any) -> None:
     )
     c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
     add_cluster_options(c, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
+    add_backend_options(c)
     c.add_argument("-o", "--output", metavar="FILE", help="write the parameter set with K here")
     c.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
@@ -62,7 +70,11 @@ def command(args: argparse.Namespace) -> int:
         signs = (1.0 if args.a_p >= 0 else -1.0,)  # a given a_p names its direction
     log = sys.stderr if args.json else sys.stdout
     evaluator = evaluator_for(
-        robot, cluster=args.cluster, threads=args.threads, wait_workers_s=args.wait_workers
+        robot,
+        cluster=args.cluster,
+        threads=args.threads,
+        wait_workers_s=args.wait_workers,
+        **backend_of(args),
     )
     results, failed = {}, {}
     try:

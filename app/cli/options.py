@@ -130,6 +130,37 @@ def add_cluster_options(parser: Any, purpose: str, *, wait: bool = True) -> None
         )
 
 
+def add_backend_options(parser: Any) -> None:
+    """`--backend cpu|warp|auto` and `--device cpu|cuda` (docs/GPU.md), read by `backend_of`;
+    argparse refuses another value, naming those allowed (exit status 2)."""
+    from app.evaluation import BACKENDS, DEVICES
+
+    parser.add_argument(
+        "--backend",
+        choices=BACKENDS,
+        default="cpu",
+        help="who steps the physics: cpu (MuJoCo's threads, processes or --cluster; default), "
+        "warp (every run of a call a world of one MuJoCo Warp batch; the gpu extra, "
+        "docs/GPU.md) or auto (warp when a CUDA device and the extra are there)",
+    )
+    parser.add_argument(
+        "--device",
+        choices=DEVICES,
+        default=None,
+        help="with --backend warp: cuda (default) or cpu (Warp's CPU device: slow, for checks)",
+    )
+
+
+def backend_of(args: argparse.Namespace) -> dict[str, Any]:
+    """`evaluator_for`'s backend and device from `add_backend_options`' options; ValueError for
+    --device without a backend that uses it."""
+    if args.device is not None and args.backend == "cpu":
+        raise ValueError(f"--device {args.device} is for --backend warp or auto, not cpu")
+    if args.backend == "warp" and getattr(args, "cluster", None) is not None:
+        raise ValueError("--backend warp runs in this process: leave out --cluster")
+    return {"backend": args.backend, "device": args.device}
+
+
 def add_range_option(parser: Any, purpose: str) -> None:
     """`--range NAME=LOW:HIGH` (repeatable), read by `ranges_from`."""
     parser.add_argument(

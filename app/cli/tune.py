@@ -12,9 +12,11 @@ from typing import Any
 from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
 from app.cli.options import (
     MAX_DURATION_S,
+    add_backend_options,
     add_cluster_options,
     add_range_option,
     add_robot_option,
+    backend_of,
     check_timing,
     number,
     ranges_from,
@@ -126,6 +128,7 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("--robust-weight", type=float, default=1.0, help="weight of that term")
     add_range_option(parser, " for --robust")
     add_cluster_options(parser, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
+    add_backend_options(parser)
     parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
     parser.add_argument("--name", default="tuned", help="name of the saved preset")
     parser.add_argument(
@@ -150,7 +153,10 @@ def command(args: argparse.Namespace) -> int:
     check_timing(names, base.gait, args.duration, args.warmup)
     robot = RobotModel.load(args.robot)
     ranges = ranges_from(args.range)
-    local = None if args.cluster is not None else evaluator_for(robot, threads=args.threads)
+    backend = backend_of(args)
+    local = (
+        None if args.cluster is not None else evaluator_for(robot, threads=args.threads, **backend)
+    )
     tuner = Tuner(
         base,
         names,

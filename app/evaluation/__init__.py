@@ -5,6 +5,7 @@ processes or on a Dask cluster, and close to them as the worlds of a MuJoCo Warp
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable
 
 from app.evaluation._api import (
@@ -20,7 +21,13 @@ from app.evaluation._api import (
     same_results,
 )
 from app.evaluation._lanes import BatchEvaluator
+from app.evaluation._warp import DEVICES  # warp itself loads when a WarpEvaluator is made
 from app.robots.model import RobotModel
+
+
+def print_to_stderr(text: str) -> None:
+    print(text, file=sys.stderr, flush=True)
+
 
 #: `backend=`: today's executors (threads, processes, a cluster), MuJoCo Warp, or Warp when a
 #: CUDA device and the `gpu` extra are there, else the CPU's
@@ -28,6 +35,7 @@ BACKENDS = ("cpu", "warp", "auto")
 
 __all__ = [
     "BACKENDS",
+    "DEVICES",
     "TIMING_KEYS",
     "BatchEvaluator",
     "Cancelled",
@@ -53,7 +61,7 @@ def evaluator_for(
     wait_workers_s: float | None = None,
     backend: str = "cpu",
     device: str | None = None,
-    notice: Callable[[str], None] | None = None,
+    notice: Callable[[str], None] | None = print_to_stderr,
 ) -> Evaluator:
     """Local threads (default: every core), local worker processes of one thread each
     (`processes`; close it when done), or the Dask scheduler at `cluster` (tcp://HOST:PORT;
@@ -61,10 +69,11 @@ def evaluator_for(
     60 s); ExecutorError, in a sentence, if it cannot be reached or is no address.
 
     `backend="warp"`: the runs of each call as the worlds of one MuJoCo Warp batch on `device`
-    ("cuda", the default, or "cpu", Warp's slow CPU device; the `gpu` extra; `notice` hears
-    that the kernels compile); "auto": Warp on "cuda" when a CUDA device and the extra are
-    there, else the CPU's executors. ExecutorError for an unknown backend, Warp with a cluster
-    or processes, a missing extra or no CUDA device (docs/GPU.md)."""
+    ("cuda", the default, or "cpu", Warp's slow CPU device; the `gpu` extra; `notice` hears,
+    once per device and process, that the kernels compile: stderr by default); "auto": Warp
+    on "cuda" when a CUDA device and the extra are there, else the CPU's executors.
+    ExecutorError for an unknown backend, Warp with a cluster or processes, a missing extra or
+    no CUDA device (docs/GPU.md)."""
     if backend not in BACKENDS:
         raise ExecutorError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
     if backend == "auto":

@@ -10,7 +10,6 @@ frame's end state and sensors come back per segment to be measured as the lanes 
 from __future__ import annotations
 
 import math
-import sys
 import threading
 import time
 from collections.abc import Callable, Sequence
@@ -30,8 +29,10 @@ from app.sim.planning import FRAME_S, frame_steps
 from app.worlds.variations import Variation, varied_robot
 from gait import feedback
 
-GPU_EXTRA = 'pip install "artro-gait-studio[gpu]"'
+#: `device=` (and "cuda:N")
 DEVICES = ("cpu", "cuda")
+
+GPU_EXTRA = 'pip install "artro-gait-studio[gpu]"'
 #: frames per upload of controls and download of frame ends, fewer when the controls of a
 #: segment would pass CONTROL_BYTES (float32, steps x worlds x actuators)
 SEGMENT_FRAMES = 50
@@ -107,10 +108,6 @@ def warp_device(wp: Any, device: str) -> Any:
     raise ExecutorError(f"--device must be one of {', '.join(DEVICES)}, got {device!r}")
 
 
-def stderr_notice(text: str) -> None:
-    print(text, file=sys.stderr, flush=True)
-
-
 class WarpEvaluator:
     """Evaluates runs as the worlds of one MuJoCo Warp batch per call.
 
@@ -126,7 +123,7 @@ class WarpEvaluator:
         robot: the model (default: the built-in one).
         device: "cuda", "cuda:N" or "cpu" (Warp's CPU device: slow, for tests and checks).
         notice: told in a sentence, once per device and process, that the kernels are being
-            compiled (`stderr_notice` prints it).
+            compiled (None: nothing is said).
         segment_frames: frames per upload of controls and look at falls and `cancel`
             (fewer when the controls would pass CONTROL_BYTES).
     """

@@ -55,6 +55,8 @@ class BenchConfig:
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler (tcp://HOST:PORT) instead of local threads
     wait_workers_s: float | None = None  # for a worker of that scheduler (default 60 s)
+    backend: str = "cpu"  # or "warp", "auto": MuJoCo Warp (docs/GPU.md)
+    device: str | None = None  # of the warp backend (default cuda)
 
 
 QUICK = BenchConfig(
@@ -128,6 +130,8 @@ def run_all(
         cluster=config.cluster,
         threads=config.threads,
         wait_workers_s=config.wait_workers_s,
+        backend=config.backend,
+        device=config.device,
     )
     try:
         return _bench(presets, config, evaluator, progress)
