@@ -286,13 +286,21 @@ def test_the_cli_refuses_a_bad_backend_or_device_with_exit_status_2(args, said):
     assert quoted in done.stderr or plain in done.stderr, done.stderr
 
 
-def test_the_cli_without_a_cuda_device_names_the_cpu_device():
+@pytest.mark.parametrize(
+    "args",
+    [
+        ("bench", "robust", "--samples", "1"),
+        ("serve", "--no-viewer", "--port", "1"),  # before it listens: its robustness job's
+    ],
+)
+def test_the_cli_without_a_cuda_device_names_the_cpu_device(args):
     import warp as wp
 
     if wp.get_cuda_device_count() > 0:
         pytest.skip("this machine has a CUDA device")
-    done = artro("bench", "robust", "--backend", "warp", "--samples", "1")
-    assert done.returncode == 2 and "--device cpu" in done.stderr, done.stderr
+    done = artro(*args, "--backend", "warp")
+    assert done.returncode == 2 and "no CUDA device" in done.stderr, done.stderr
+    assert "--device cpu" in done.stderr
 
 
 @pytest.mark.slow

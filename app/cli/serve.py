@@ -7,7 +7,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from app.cli.options import add_cluster_options, add_robot_option, subcommand
+from app.cli.options import (
+    add_backend_options,
+    add_cluster_options,
+    add_robot_option,
+    backend_of,
+    subcommand,
+)
 from app.params.document import load_parameter_set
 from app.robots.model import RobotModel
 
@@ -31,6 +37,7 @@ def add_parser(sub: Any) -> None:
         "run the dashboard's robustness job on this Dask scheduler (docs/CLUSTER.md)",
         wait=False,
     )
+    add_backend_options(s)  # the robustness job's; the live simulation is always MuJoCo's
     s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
     s.add_argument(
@@ -67,12 +74,19 @@ def serve(args: argparse.Namespace) -> int:
         params_file=Path(args.params) if args.params else None,
         robot=args.robot,
         cluster=args.cluster,
+        **backend_of(args),
         data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
         viewer=not args.no_viewer,
         allowed_hosts=tuple(args.allowed_host),
         drive=args.drive,
     )
     RobotShelf(RobotModel.load(args.robot))  # fail here, clearly, not inside the server
+    if config.backend != "cpu":  # a missing extra or CUDA device: here, not in the first job
+        from app.evaluation import close_evaluator, evaluator_for
+
+        close_evaluator(
+            evaluator_for(RobotModel.load(args.robot), backend=config.backend, device=config.device)
+        )
     if config.params_file:
         load_parameter_set(config.params_file)
     if config.drive == "firmware" and (missing := missing_tools()):

@@ -37,9 +37,12 @@ class RobustnessRunner:
         store: ParameterStore,
         robot_now: Callable[[], RobotModel],
         cluster: str | None = None,
+        backend: dict[str, Any] | None = None,
     ) -> None:
-        """Jobs walk the robot `robot_now()` names when they start."""
+        """Jobs walk the robot `robot_now()` names when they start, on `cluster` or with
+        `backend` (`evaluator_for`'s backend and device; default: the CPU's)."""
         self.jobs, self.store, self.robot_now, self.cluster = jobs, store, robot_now, cluster
+        self.backend = backend or {}
         self._reports: OrderedDict[str, dict[str, Any]] = OrderedDict()  # gait key -> report
         self._lock = threading.Lock()
 
@@ -65,7 +68,7 @@ class RobustnessRunner:
 
         def work(progress: Progress) -> dict[str, Any]:
             # one thread locally: the live simulation keeps the other core
-            evaluator = evaluator_for(robot, cluster=self.cluster, threads=1)
+            evaluator = evaluator_for(robot, cluster=self.cluster, threads=1, **self.backend)
             report = run_robust(
                 [(name, snap.gait, snap.name)],
                 evaluator,

@@ -31,6 +31,8 @@ class ServerConfig:
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
+    backend: str = "cpu"  # the robustness job's: "warp" or "auto" for MuJoCo Warp (docs/GPU.md)
+    device: str | None = None  # of the warp backend (default cuda)
 
 
 class Services:
@@ -58,7 +60,11 @@ class Services:
             self.axle_fitter.jobs, self.store, self.sim.paths, robot_now
         )
         self.robustness = RobustnessRunner(
-            self.axle_fitter.jobs, self.store, robot_now, config.cluster
+            self.axle_fitter.jobs,
+            self.store,
+            robot_now,
+            config.cluster,
+            backend={"backend": config.backend, "device": config.device},
         )
         self.viewer = None
         if config.viewer:
