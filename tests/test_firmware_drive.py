@@ -134,7 +134,7 @@ def test_the_drive_route_switches_and_refuses_what_it_cannot_do(http: httpx.Clie
     state = wait_for(
         lambda: (s := http.get("/api/state").json())["drive"] == "firmware" and s, "state"
     )
-    assert state["firmware"]["busy_budget_cycles"] == 80_000
+    assert state["firmware"]["busy_budget_cycles"] == 128_000
     frames = wait_for(
         lambda: [
             f for f in http.get("/api/scope?frames=5").json()["frames"] if f["source"] == "firmware"
@@ -145,19 +145,27 @@ def test_the_drive_route_switches_and_refuses_what_it_cannot_do(http: httpx.Clie
     assert http.put("/api/sim/drive", json={"drive": "model"}).status_code == 200
 
 
-def test_a_feedback_law_switched_on_hands_the_pulses_back_to_the_model(http: httpx.Client):
-    """The firmware runs no law yet: a set that switches one on ends its drive, said so, and
-    the model drives with the law; the firmware is refused while the law is on."""
+def test_a_feedback_law_switched_on_runs_on_the_firmware(http: httpx.Client):
+    """The firmware runs the laws (docs/DESIGN.md §15): a set that switches one on travels to
+    it like any other, the firmware keeps driving, reads the simulated IMU through its TWI and
+    trims from it."""
     assert http.put("/api/sim/drive", json={"drive": "firmware"}).status_code == 200
     wait_for(lambda: http.get("/api/state").json()["drive"] == "firmware", "the firmware drives")
-    http.patch("/api/params", json={"gait": {"tilt": {"enabled": True}}})
+    http.patch("/api/params", json={"gait": {"tilt": {"enabled": True, "ki_per_s": 2.0}}})
     state = wait_for(
-        lambda: (s := http.get("/api/state").json())["drive"] == "model" and s, "the model drives"
+        lambda: (s := http.get("/api/state").json())["firmware"]["laws_on"] == ["tilt"] and s,
+        "the firmware runs the tilt trim",
     )
-    assert any("no feedback law" in e and "tilt" in e for e in state["errors"])
-    refused = http.put("/api/sim/drive", json={"drive": "firmware"})
-    assert refused.status_code == 409 and "feedback" in refused.json()["detail"][0]["msg"]
-    assert http.get("/api/state").json()["drive"] == "model"
+    assert state["drive"] == "firmware" and state["firmware"]["imu_ok"]
+    assert state["firmware"]["imu_failures"] == 0
+    state = wait_for(
+        lambda: (
+            (s := http.get("/api/state").json())["firmware"]["tilt_trim_rad"] != [0.0, 0.0] and s
+        ),
+        "a trim from the emulated IMU",
+    )
+    assert max(abs(a) for a in state["firmware"]["attitude_rad"]) < 0.5
+    assert http.put("/api/sim/drive", json={"drive": "model"}).status_code == 200
 
 
 @pytest.mark.slow

@@ -41,6 +41,7 @@ def test_pyserial_talks_to_the_emulated_robot_through_a_pty() -> None:
 def test_firmware_drive_frames_equal_the_model_and_follow_a_new_set() -> None:
     from app.firmware.conformance import model_frames
     from app.firmware.pulses import FirmwarePulses
+    from app.server.emulated_controller import BUSY_BUDGET_CYCLES
 
     old, new = preset("paper", a_p=0.07), preset("tuned", a_r=-0.05)
     drive = FirmwarePulses(old)
@@ -58,4 +59,4 @@ def test_firmware_drive_frames_equal_the_model_and_follow_a_new_set() -> None:
     # the set arrives while the link runs the MCU through several frames, whose busy cycles the
     # drive books on the next frame it hands out: judge them over the run (a frame is 320 000)
     busy = [f.busy_cycles for f in frames[1:]]
-    assert sum(busy) / len(busy) < 100_000 and sum(busy) < 320_000 * len(busy)
+    assert sum(busy) / len(busy) < BUSY_BUDGET_CYCLES and sum(busy) < 320_000 * len(busy)

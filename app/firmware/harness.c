@@ -24,6 +24,7 @@
  *  - the force sensors on simavr's ADC0..ADC7 inputs, in millivolts. simavr scales a
  *    conversion by 1023 / Vref where the chip takes 1024 / Vref: Python feeds the millivolts
  *    that give the chip's count (app/firmware/sensor_feed.py).
+ * simavr 1.6 reports the status after SLA+W as a data byte's: corrected (on_twi_status).
  * simavr times a TWI byte at 9 us whatever TWBR says (400 kHz takes 22.5 us): when a read
  * completes differs, what it reads does not; the firmware waits for neither.
  * docs/DESIGN.md §5.
@@ -74,6 +75,7 @@ typedef struct {
     uint32_t nack_left;               /* transactions still to be refused */
     int32_t short_after;              /* end the next burst with a bus error after this many bytes */
     uint32_t transactions, reads, bytes_read, faults;
+    int sla_w_sent; /* FIX_TWI_SLA_W: the next status is SLA+W's */
 } imu_t;
 
 /* simavr's write handler of an OCRnxL register, wrapped */
@@ -278,6 +280,7 @@ static void on_twi(struct avr_irq_t *irq, uint32_t value, void *param)
     if (v.u.twi.msg & TWI_COND_START) {
         imu->selected = 0;
         imu->index = 0;
+        imu->sla_w_sent = !(v.u.twi.addr & 1u);
         if ((v.u.twi.addr & 0xFEu) != IMU_ADDRESS_BYTE)
             return;
         if (!(v.u.twi.addr & 1u)) { /* SLA+W: a new transaction */
@@ -317,6 +320,21 @@ static void on_twi(struct avr_irq_t *irq, uint32_t value, void *param)
     }
 }
 
+/* simavr 1.6 reports SLA+W as a data byte: writing SLA+W to TWDR marks its write latch, and the
+ * address phase then sets status 0x28/0x30 (data ACK/NACK) where the chip sets 0x18/0x20
+ * (fixed upstream after 1.6, "fix for wrong return value of i2c_write"). The harness rewrites
+ * the status that follows an SLA+W. */
+static void on_twi_status(struct avr_irq_t *irq, uint32_t value, void *param)
+{
+    (void)irq;
+    imu_t *imu = param;
+    if (!imu->sla_w_sent)
+        return;
+    imu->sla_w_sent = 0;
+    if (value == 0x28u || value == 0x30u)
+        avr_regbit_setto_raw(imu->twi->io.avr, imu->twi->twsr, value == 0x28u ? 0x18u : 0x20u);
+}
+
 static void on_adc_trigger(struct avr_irq_t *irq, uint32_t value, void *param)
 {
     (void)irq;
@@ -338,6 +356,8 @@ int artro_mcu_attach_sensors(harness_t *h)
     avr_irq_register_notify(imu->irq + TWI_IRQ_OUTPUT, on_twi, h);
     avr_connect_irq(imu->irq + TWI_IRQ_INPUT, avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_INPUT));
     avr_connect_irq(avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_OUTPUT), imu->irq + TWI_IRQ_OUTPUT);
+    avr_irq_register_notify(
+        avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_STATUS), on_twi_status, imu);
     imu->reg[0x75] = 0x68u; /* WHO_AM_I */
     imu->short_after = -1;
     avr_irq_register_notify(

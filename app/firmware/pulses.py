@@ -1,6 +1,7 @@
 """The emulated firmware as the simulation's pulse source, one 20 ms frame per call: OCR decoded
 from the pins, the edges, the firmware's angles and phase; parameter sets go over the emulated
-UART (docs/DESIGN.md §5)."""
+UART (docs/DESIGN.md §5); the simulated sensors reach it through its emulated IMU and ADC
+(`feed`, docs/DESIGN.md §15)."""
 
 from __future__ import annotations
 
@@ -15,6 +16,8 @@ from app.firmware.build import build_firmware
 from app.firmware.conformance import frame_edges_of
 from app.firmware.emulator import Edges, Mcu, read_active_plan
 from app.firmware.link import EmulatedLink
+from app.firmware.sensor_feed import RawSample, at_rest, raw_of, sample_of
+from app.sim.sensors import SensorReading
 from gait import ARTRO_LEG, LegGeometry
 from hardware import (
     CHANNELS,
@@ -86,12 +89,19 @@ class FirmwarePulses:
         calibration: ServoCalibration | None = None,
         tdm: TdmConfig | None = None,
         geometry: LegGeometry = ARTRO_LEG,
+        fsr_positions_m: Any = None,
+        sensors: bool = True,
     ) -> None:
-        """Build the firmware with `doc` as its defaults (cached) for a robot's wiring and legs
-        and boot it; BuildError, ValueError (an engine it does not run) or EmulatorError if that
-        fails."""
-        self.build = build_firmware(doc, calibration=calibration, tdm=tdm, geometry=geometry)
-        self.mcu = Mcu(self.build.elf)
+        """Build the firmware with `doc` as its defaults (cached) for a robot's wiring, legs and
+        sole sensors and boot it, with its IMU and force sensors attached (`sensors`; held at
+        rest while it calibrates); BuildError, ValueError (an engine it does not run) or
+        EmulatorError if that fails."""
+        extra = {} if fsr_positions_m is None else {"fsr_positions_m": fsr_positions_m}
+        self.build = build_firmware(
+            doc, calibration=calibration, tdm=tdm, geometry=geometry, **extra
+        )
+        self.raw: RawSample = at_rest()  # what the sensors show the firmware from now on
+        self.mcu = Mcu(self.build.elf, sensors=sample_of(self.raw) if sensors else None)
         self.link = EmulatedLink(self.mcu)
         self.frame = 0
         self._busy = self.mcu.busy_cycles
@@ -124,12 +134,21 @@ class FirmwarePulses:
         self.frame += 1
         return frame
 
-    def send_parameters(self, doc: dict[str, Any]) -> None:
+    def feed(self, reading: SensorReading) -> RawSample:
+        """What the simulated sensors read: the IMU's registers and the ADC's inputs hold it
+        from now on (the firmware samples them in the next frame's slot 3); the counts."""
+        self.raw = raw_of(reading)
+        self.mcu.set_sensors(sample_of(self.raw))
+        return self.raw
+
+    def send_parameters(self, doc: dict[str, Any]) -> int:
         """Queue a whole parameter set on the UART and go on: the bytes go in at the line's pace
-        while frames run, and the ACK (with the first frame it reaches) or NAK comes back in a
-        later frame's `replies`."""
-        for message in proto.set_all_params(values_from_document(doc)):
+        while frames run, and an ACK (the last names the first frame the set reaches) or NAK
+        per message comes back in later frames' `replies`. Returns how many messages."""
+        messages = proto.set_all_params(values_from_document(doc))
+        for message in messages:
             self.link.send(message)
+        return len(messages)
 
     def set_parameters(self, doc: dict[str, Any]) -> int:
         """Send a whole parameter set and run until it is answered; returns the first frame it

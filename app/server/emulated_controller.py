@@ -7,17 +7,21 @@ from __future__ import annotations
 
 from collections import deque
 from dataclasses import dataclass
+from typing import Any
 
 from app.firmware import protocol as proto
+from app.firmware.closed_loop import read_law_output
 from app.firmware.pulses import FirmwarePulses
 from app.server.param_store import Snapshot
 from app.sim.frame_loop import PinFrame
 from app.sim.planning import FRAME_S
+from app.sim.sensors import SensorReading
 from gait import ARTRO_LEG, LegGeometry, ramp_motion
+from gait.feedback import laws_on
 from hardware import HardwareSetup
 from hardware.firmware.schema import FIRMWARE_ENGINE
 
-BUSY_BUDGET_CYCLES = 80_000  # 25 % of the 320 000-cycle frame (docs/DESIGN.md §5)
+BUSY_BUDGET_CYCLES = 128_000  # 80 % of the 160 000-cycle planning window (docs/DESIGN.md §5)
 BUSY_WINDOW_FRAMES = 50
 
 
@@ -32,6 +36,11 @@ class FirmwareStatus:
     params_version_acked: int = 0  # the last parameter version the firmware acknowledged
     sets_in_flight: int = 0  # sent, not yet answered
     naks: int = 0
+    laws_on: tuple[str, ...] = ()  # the feedback laws the set in force switches on
+    attitude_rad: tuple[float, float] = (0.0, 0.0)  # the firmware's pitch, roll estimate
+    tilt_trim_rad: tuple[float, float] = (0.0, 0.0)
+    imu_ok: bool = False  # the IMU answered at boot and the last read succeeded
+    imu_failures: int = 0  # failed IMU reads since boot
 
 
 class EmulatedController:
@@ -44,8 +53,9 @@ class EmulatedController:
         self.robot = snapshot.robot  # the robot whose legs and servos it was built for
         self._target = snapshot  # the set in force on the MCU
         self._motion = snapshot.motion  # what its gait got in the last frame (ramped, as its own)
-        # sets on the wire, oldest first: (snapshot, firmware frame at sending)
-        self._in_flight: deque[tuple[Snapshot, int]] = deque()
+        # sets on the wire, oldest first: [snapshot, firmware frame at sending, answers still to
+        # come (a set is several SET_PARAMS), refused]
+        self._in_flight: deque[list] = deque()
         # acknowledged sets not yet reached: (first frame, snapshot)
         self._scheduled: deque[tuple[int, Snapshot]] = deque()
         self._busy: deque[int] = deque(maxlen=BUSY_WINDOW_FRAMES)
@@ -53,7 +63,11 @@ class EmulatedController:
 
     @classmethod
     def boot(
-        cls, snapshot: Snapshot, hardware: HardwareSetup, geometry: LegGeometry = ARTRO_LEG
+        cls,
+        snapshot: Snapshot,
+        hardware: HardwareSetup,
+        geometry: LegGeometry = ARTRO_LEG,
+        fsr_positions_m: Any = None,
     ) -> EmulatedController:
         """Build the firmware with the snapshot's set as its defaults and boot it (seconds on a
         cold cache, then milliseconds). ValueError if the set names an engine the firmware does
@@ -65,15 +79,19 @@ class EmulatedController:
             )
         doc = snapshot.parameter_set().to_dict()
         pulses = FirmwarePulses(
-            doc, calibration=hardware.calibration, tdm=hardware.tdm, geometry=geometry
+            doc,
+            calibration=hardware.calibration,
+            tdm=hardware.tdm,
+            geometry=geometry,
+            fsr_positions_m=fsr_positions_m,
         )
         return cls(pulses, snapshot)
 
     def send(self, snapshot: Snapshot) -> None:
         """Queue the whole set on the UART (the protocol's SET_PARAMS); it reaches the frame
         the firmware's ACK names."""
-        self.pulses.send_parameters(snapshot.parameter_set().to_dict())
-        self._in_flight.append((snapshot, self.pulses.frame))
+        parts = self.pulses.send_parameters(snapshot.parameter_set().to_dict())
+        self._in_flight.append([snapshot, self.pulses.frame, parts, False])
 
     def next_pins(self) -> tuple[PinFrame, list[str], list[int]]:
         """Run the MCU through its next frame: the pins, problems to report, and per set that
@@ -83,13 +101,19 @@ class EmulatedController:
         for reply in frame.replies:
             if not self._in_flight or not isinstance(reply, proto.Ack | proto.Nak):
                 continue
-            sent, sent_frame = self._in_flight.popleft()
-            if isinstance(reply, proto.Ack):
-                self._scheduled.append((reply.effective_frame, sent))
-                latencies.append(reply.effective_frame - sent_frame + 1)
-            else:
+            entry = self._in_flight[0]
+            sent, sent_frame = entry[0], entry[1]
+            entry[2] -= 1
+            if isinstance(reply, proto.Nak) and not entry[3]:
+                entry[3] = True
                 self._naks += 1
                 problems.append(f"the firmware refused parameter version {sent.version}: {reply}")
+            if entry[2] > 0:
+                continue
+            self._in_flight.popleft()
+            if isinstance(reply, proto.Ack) and not entry[3]:  # the last part: the whole set
+                self._scheduled.append((reply.effective_frame, sent))
+                latencies.append(reply.effective_frame - sent_frame + 1)
         while self._scheduled and self._scheduled[0][0] <= frame.index:
             _, self._target = self._scheduled.popleft()
         if frame.index > 0:  # the firmware's ramp takes one step per planned frame (ramp.c)
@@ -106,8 +130,21 @@ class EmulatedController:
         )
         return pins, problems, latencies
 
+    def sense(self, reading: SensorReading) -> None:
+        """What the simulated sensors read after a frame: the emulated IMU and ADC hold it for
+        the firmware's next read (docs/DESIGN.md §15)."""
+        self.pulses.feed(reading)
+
     def status(self) -> FirmwareStatus:
+        mcu = self.pulses.mcu
+        law = read_law_output(mcu)
+        sense = mcu.read_symbol("g_sensor_status")[0]
         return FirmwareStatus(
+            laws_on=tuple(laws_on(self._target.gait)),
+            attitude_rad=(float(law.attitude_rad[0]), float(law.attitude_rad[1])),
+            tilt_trim_rad=(float(law.tilt_rad[0]), float(law.tilt_rad[1])),
+            imu_ok=bool(sense & proto.IMU_PRESENT) and not sense & proto.IMU_STALE,
+            imu_failures=mcu.read_symbol("g_imu_failures")[0],
             mcu_frame=self.pulses.frame,
             busy_cycles_last=self._busy[-1] if self._busy else 0,
             busy_cycles_max=max(self._busy, default=0),

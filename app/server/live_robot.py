@@ -20,7 +20,6 @@ from app.server.recorder import Recorder
 from app.server.sim_commands import SwitchDrive
 from app.sim.frame_loop import FrameLoop, FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
-from gait.feedback import laws_on
 from hardware import HardwareSetup
 from hardware.firmware.schema import FIRMWARE_ENGINE
 
@@ -100,7 +99,8 @@ class LiveRobot:
                 f"the robot is changing to {snapshot.robot!r} (the simulation still runs "
                 f"{robot.name!r}): switch the drive again in a moment"
             )
-        return EmulatedController.boot(snapshot, hardware, robot.geometry)
+        positions = tuple(map(tuple, robot.fsr_positions_m.tolist()))
+        return EmulatedController.boot(snapshot, hardware, robot.geometry, positions)
 
     def take_drive(self, command: SwitchDrive, applied: Snapshot, coming: Snapshot) -> bool:
         """Answer a drive switch. The firmware is refused (closed, and said so also when no one
@@ -109,7 +109,6 @@ class LiveRobot:
         boots at its start phase, so the caller then stands the robot at the start."""
         controller = command.controller
         engines = {applied.gait.engine, coming.gait.engine}
-        laws = laws_on(applied.gait) or laws_on(coming.gait)
         refusal = None
         robots = {applied.robot, coming.robot, self.robot.name}
         if controller is not None and robots != {controller.robot}:
@@ -117,13 +116,6 @@ class LiveRobot:
             refusal = (
                 f"firmware drive not started: it was built for the robot {controller.robot!r}; "
                 f"the robot is now {coming.robot!r} (it changed while the firmware booted)"
-            )
-            self._report(refusal)
-        elif controller is not None and laws:
-            controller.close()
-            refusal = (
-                "firmware drive not started: the firmware runs no feedback law yet and the set "
-                f"switches on {', '.join(laws)} (it changed while the firmware booted)"
             )
             self._report(refusal)
         elif controller is not None and engines != {FIRMWARE_ENGINE}:
@@ -174,11 +166,6 @@ class LiveRobot:
             self._end_firmware_drive(
                 f"the firmware runs the {FIRMWARE_ENGINE} engine and version {snapshot.version} "
                 f"names {snapshot.gait.engine!r}"
-            )
-        elif controller is not None and (laws := laws_on(snapshot.gait)):
-            self._end_firmware_drive(
-                f"the firmware runs no feedback law yet and version {snapshot.version} switches "
-                f"on {', '.join(laws)}"
             )
         elif controller is not None:
             controller.send(snapshot)  # over the emulated UART; it reaches the frame the ACK names
@@ -251,7 +238,10 @@ class LiveRobot:
                     self._report(problem)
                 waited = self._controller_waited_frames
                 self.latency_frames.extend(n + waited for n in latencies)
-                return self.loop.step_pins(pins), arrived
+                record = self.loop.step_pins(pins)
+                if record.reading is not None:  # the firmware reads it in the next frame
+                    controller.sense(record.reading)
+                return record, arrived
         return self.loop.step_frame(), arrived
 
     def reset(self, phase_rad: float | None = None) -> None:

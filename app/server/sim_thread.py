@@ -443,7 +443,8 @@ class SimThread:
         asked = time.monotonic() - self.bulletin.sensors_asked_at < SENSORS_WATCHED_S
         if asked and not loop.watch_sensors:
             self.sensors.clear()
-        loop.watch_sensors = asked
+        # the firmware drive reads them always: its emulated IMU and ADC carry them to it
+        loop.watch_sensors = asked or self.live.drive is Drive.FIRMWARE
 
     def _step_ghost(self, record: FrameRecord) -> None:
         """The ghost's frame; if it fails, the ghost goes, said so, and the live robot walks on."""

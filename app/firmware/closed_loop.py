@@ -1,0 +1,248 @@
+"""The firmware's closed loop, emulated end to end (docs/DESIGN.md §15): the emulated firmware
+drives the simulated robot through its pins and reads the simulated sensors through its emulated
+IMU (TWI) and ADC; the host's model of the firmware (`model_closed_loop`), fed the counts the
+firmware read, plans the same pulses and computes the same law outputs.
+
+Timing: the sensors hold what the simulation read at the end of frame k-1 while frame k runs;
+the firmware samples them in slot 3 of frame k and plans frame k+1 from them. A read that fails
+leaves the last good IMU sample in use, as on the robot, and the model is fed that sample too.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import struct
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from app.firmware.build import wiring
+from app.firmware.conformance import ANGLE_TOLERANCE_RAD, Comparison, ModelFrames, compare_frame
+from app.firmware.emulator import Mcu
+from app.firmware.pulses import FirmwarePulses
+from app.firmware.sensor_feed import RawSample, decoded, sample_of
+from app.robots.model import RobotModel
+from app.sim.frame_loop import FrameLoop, PinFrame
+from app.sim.planning import FRAME_S, START_PHASE_RAD, plan_frames
+from app.worlds.variations import NOMINAL, Variation
+from gait import GaitParams, Motion, feedback, pi_cut
+from hardware import HardwareSetup, frame_edges
+
+#: law outputs, firmware (float32, avr-libc's functions) against the model (numpy float32):
+#: well below a tenth of a Timer tick's angle
+LAW_TOLERANCE = 2e-5
+_LAW_OUTPUT = struct.Struct("<12ff2f2fb2f")  # laws.h law_output_t (avr-gcc packs it)
+_SENSE_IMU_STALE = 0x02
+
+
+@dataclass(frozen=True)
+class LawFrame:
+    """What the firmware's laws made of one frame's sample (laws.h `law_output_t`)."""
+
+    joint_delta_rad: NDArray[np.float32]
+    a_y_delta: float
+    tilt_rad: NDArray[np.float32]
+    cop_rad: NDArray[np.float32]
+    support: int
+    attitude_rad: NDArray[np.float32]
+
+
+def read_law_output(mcu: Mcu) -> LawFrame:
+    v = _LAW_OUTPUT.unpack(mcu.read_symbol("g_law_output"))
+    f32 = np.float32
+    return LawFrame(
+        np.array(v[:12], f32), v[12], np.array(v[13:15], f32), np.array(v[15:17], f32), v[17],
+        np.array(v[18:20], f32),
+    )  # fmt: skip
+
+
+def gyro_offset(mcu: Mcu) -> tuple[int, int, int]:
+    """The firmware's gyro offsets from its calibration at boot, counts."""
+    return struct.unpack("<3h", mcu.read_symbol("g_gyro_offset"))
+
+
+def model_closed_loop(
+    doc: dict[str, Any],
+    samples: list[RawSample],
+    offset: tuple[int, ...],
+    hardware: HardwareSetup,
+    robot: RobotModel,
+) -> tuple[ModelFrames, list[feedback.Output | None]]:
+    """The firmware's frames 0..len(samples) as the host computes them: frame 0 open loop, frame
+    k+1 planned with the laws' step on `samples[k]` (the counts the firmware used in frame k,
+    decoded as it decodes them) and the motion the gait got in frame k."""
+    params = GaitParams.from_dict(doc["gait"])
+    motion = Motion(**doc["motion"])
+    positions = robot.fsr_positions_m.astype(np.float32)
+    step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
+    laws_on = feedback.any_law_on(params)
+    state, motion_now, out = feedback.State(), motion, None
+    phases, angles, ocrs, outs = [], [], [], []
+    for k in range(len(samples) + 1):
+        if k > 0:
+            reading = decoded(samples[k - 1], offset)
+            state, out = feedback.step(params, state, reading, motion_now, positions, FRAME_S)
+        correct = laws_on and out is not None
+        plan = plan_frames(
+            params,
+            motion,
+            hardware,
+            float(pi_cut(START_PHASE_RAD + step_rad * k)),
+            1,
+            10,
+            0.002,
+            motion_now=motion_now,
+            geometry=robot.geometry,
+            joint_delta_rad=out.joint_delta_rad if correct else None,
+            a_y_delta=float(out.a_y_delta) if correct else 0.0,
+        )
+        motion_now = plan.motions[0]
+        phases.append(plan.phase[0])
+        angles.append(plan.angles[0])
+        ocrs.append(plan.ocr[0])
+        outs.append(out)
+    return ModelFrames(np.array(phases), np.array(angles), np.array(ocrs)), outs
+
+
+@dataclass
+class ClosedLoopRun:
+    """A closed-loop run of the emulated firmware against its model."""
+
+    comparison: Comparison
+    law_error_max: float = 0.0  # largest law output difference, firmware against model
+    twi_transactions: list[int] = field(default_factory=list)  # per frame
+    adc_conversions: list[int] = field(default_factory=list)  # per frame
+    imu_stale_frames: list[int] = field(default_factory=list)  # frames whose IMU read failed
+    imu_failures: int = 0  # the firmware's count
+    gyro_offset: tuple[int, ...] = ()
+    laws: list[LawFrame] = field(default_factory=list)  # the firmware's, frame k's sample
+    model_laws: list[feedback.Output | None] = field(default_factory=list)
+    ocr: list[NDArray[np.int32]] = field(default_factory=list)  # the firmware's pins, per frame
+    fell: bool = False
+
+    @property
+    def ok(self) -> bool:
+        return self.comparison.ok and self.law_error_max <= LAW_TOLERANCE
+
+    def summary(self) -> dict[str, Any]:
+        return {
+            **self.comparison.summary(),
+            "law_error_max": self.law_error_max,
+            "twi_transactions_per_frame": _spread(self.twi_transactions),
+            "adc_conversions_per_frame": _spread(self.adc_conversions),
+            "imu_stale_frames": self.imu_stale_frames,
+            "imu_failures": self.imu_failures,
+            "gyro_offset_counts": list(self.gyro_offset),
+            "fell": self.fell,
+        }
+
+
+def _spread(values: list[int]) -> dict[str, float]:
+    return {"min": min(values, default=0), "max": max(values, default=0),
+            "mean": float(np.mean(values)) if values else 0.0}  # fmt: skip
+
+
+def _law_error(got: LawFrame, want: feedback.Output) -> float:
+    pairs = [
+        (got.joint_delta_rad, want.joint_delta_rad),
+        ([got.a_y_delta], [want.a_y_delta]),
+        (got.tilt_rad, want.tilt_rad),
+        (got.cop_rad, want.cop_rad),
+        (got.attitude_rad, want.attitude_rad),
+    ]
+    error = max(float(np.max(np.abs(np.float64(a) - np.float64(b)))) for a, b in pairs)
+    return error if got.support == want.support else math.inf
+
+
+def run_closed_loop(
+    doc: dict[str, Any],
+    frames: int,
+    robot: RobotModel | None = None,
+    variation: Variation = NOMINAL,
+    *,
+    faults: dict[int, tuple[int, int]] | None = None,
+    samples: list[RawSample] | None = None,
+) -> ClosedLoopRun:
+    """Walk the simulated `robot` (varied by `variation`, its sensor errors included) for
+    `frames` frames with the firmware built for `doc` making the pulses from the sensors it
+    reads; then compare its pins, angles and law outputs with the model fed the same counts.
+    `faults` {frame: (nack, short_after)} corrupts the IMU read of that frame (`Mcu.imu_fault`).
+    `samples`: instead of the simulation, what the sensors show in each frame (no physics).
+    """
+    robot = robot or RobotModel.load()
+    hardware = robot.hardware()
+    params, motion = GaitParams.from_dict(doc["gait"]), Motion(**doc["motion"])
+    drive = FirmwarePulses(doc, **wiring(robot))
+    loop = FrameLoop(robot, params, motion, hardware=hardware, variation=variation)
+    loop.watch_sensors = True
+    run = ClosedLoopRun(Comparison())
+    used: list[RawSample] = []
+    fw_frames = []
+    try:
+        run.gyro_offset = gyro_offset(drive.mcu)
+        last_good_imu = drive.raw
+        for k in range(frames):
+            if samples is not None:
+                drive.mcu.set_sensors(sample_of(samples[k]))
+                drive.raw = samples[k]
+            served = drive.raw
+            if faults and k in faults:
+                nack, short_after = faults[k]
+                drive.mcu.imu_fault(nack=nack, short_after=short_after)
+            before = drive.mcu.sensor_counts()
+            frame = drive.next_frame()  # frame k: its sample read in slot 3, frame k+1 planned
+            after = drive.mcu.sensor_counts()
+            run.twi_transactions.append(after.twi_transactions - before.twi_transactions)
+            run.adc_conversions.append(after.adc_conversions - before.adc_conversions)
+            status = drive.mcu.read_symbol("g_sensor_status")[0]
+            if status & _SENSE_IMU_STALE:
+                run.imu_stale_frames.append(k)
+                served = dataclasses.replace(
+                    served, accel=last_good_imu.accel, gyro=last_good_imu.gyro
+                )
+            last_good_imu = served
+            used.append(served)
+            run.laws.append(read_law_output(drive.mcu))
+            run.ocr.append(frame.ocr)
+            fw_frames.append(frame)
+            if samples is not None:
+                continue
+            pins = PinFrame(
+                frame.phase_rad, frame.ocr, frame.edges, frame.saturated, frame.gamma_clamped,
+                motion,
+            )  # fmt: skip
+            record = loop.step_pins(pins)
+            run.fell = run.fell or loop.fell
+            assert record.reading is not None  # watch_sensors
+            drive.feed(record.reading)
+        run.imu_failures = drive.mcu.read_symbol("g_imu_failures")[0]
+    finally:
+        drive.close()
+    model, run.model_laws = model_closed_loop(doc, used, run.gyro_offset, hardware, robot)
+    result = run.comparison
+    for k, frame in enumerate(fw_frames):
+        want = frame_edges(model.ocr[k], hardware.tdm)
+        compare_frame(frame.edges, want, k, result, hardware.tdm.select_change_ticks)
+        error = float(np.max(np.abs(np.float64(frame.angles_rad) - model.angles[k])))
+        result.max_angle_error_rad = max(result.max_angle_error_rad, error)
+        result.busy_cycles.append(frame.busy_cycles)
+        law = run.model_laws[k + 1]
+        if law is not None:
+            run.law_error_max = max(run.law_error_max, _law_error(run.laws[k], law))
+    result.frames = len(fw_frames)
+    return run
+
+
+__all__ = [
+    "ANGLE_TOLERANCE_RAD",
+    "LAW_TOLERANCE",
+    "ClosedLoopRun",
+    "LawFrame",
+    "gyro_offset",
+    "model_closed_loop",
+    "read_law_output",
+    "run_closed_loop",
+]

@@ -1,0 +1,146 @@
+"""The firmware closes the loop (docs/DESIGN.md §15): the real avr-gcc build on simavr's core
+walks the simulated robot from the simulated sensors it reads through its emulated IMU (TWI) and
+ADC, with the run's sensor errors, and its pins, angles and law outputs equal the host's model
+fed the counts it read."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+
+from app.firmware import protocol as proto
+from app.firmware.build import build_firmware
+from app.firmware.closed_loop import LAW_TOLERANCE, run_closed_loop
+from app.firmware.conformance import ANGLE_TOLERANCE_RAD
+from app.firmware.emulator import CYCLES_PER_TICK, FRAME_CYCLES, Mcu
+from app.firmware.link import EmulatedLink
+from app.firmware.sensor_feed import GYRO_ZERO_RATE_COUNTS, RawSample, at_rest, sample_of
+from app.worlds.variations import Variation
+from hardware.firmware.schema import complete_document
+from tests.firmware_support import preset
+
+#: every sensor error of the variation ranges at once (docs/DESIGN.md §8)
+SENSOR_ERRORS = Variation(
+    imu_tilt_bias_deg=1.0,
+    imu_tilt_direction_deg=30.0,
+    gyro_bias_deg_s=0.5,
+    gyro_noise_deg_s=0.1,
+    imu_delay_ms=10.0,
+    fsr_gain=1.15,
+)
+
+
+def closed_loop_set(laws: tuple[str, ...] = ("tilt", "yaw_rate", "damping", "cop"), **motion):
+    doc = complete_document(preset("tuned", **motion))  # every group, the laws' defaults too
+    for law in laws:
+        doc["gait"][law]["enabled"] = True
+    return doc
+
+
+def assert_conforms(run) -> None:
+    c = run.comparison
+    assert c.mismatches == [], c.mismatches[:3]
+    assert c.one_tick <= 0.01 * c.pulses and c.select_outside_guard == 0
+    assert c.max_angle_error_rad <= ANGLE_TOLERANCE_RAD
+    assert run.law_error_max <= LAW_TOLERANCE
+
+
+@pytest.mark.parametrize(
+    "motion",
+    [{"a_p": 0.05}, {"a_p": 0.03, "a_y": 0.1}, {"a_p": 0.05, "ca": 0.1}],
+    ids=["forward", "turning", "ca"],
+)
+def test_closed_loop_walks_with_sensor_errors_are_pin_exact(motion) -> None:
+    run = run_closed_loop(closed_loop_set(**motion), 100, variation=SENSOR_ERRORS)
+    assert_conforms(run)
+    assert run.comparison.pulses == 100 * 12
+    # one burst of the IMU and one sweep of the eight force sensors in every frame
+    assert run.twi_transactions == [1] * 100 and run.adc_conversions == [8] * 100
+    assert run.imu_stale_frames == [] and run.imu_failures == 0
+    assert run.gyro_offset == GYRO_ZERO_RATE_COUNTS  # calibrated at rest at boot
+    # the laws acted: trims, a turn-rate change and CoP corrections are not all zero
+    assert max(abs(law.a_y_delta) for law in run.laws) > 1e-3
+    assert max(np.abs(law.tilt_rad).max() for law in run.laws) > 1e-3
+    assert {law.support for law in run.laws} >= {0, 1}
+
+
+def test_a_tilt_bias_in_the_imu_moves_the_firmwares_trim_as_it_moves_the_models() -> None:
+    """The IMU's registers read a 2° forward lean of a robot stepping on the spot (and, in the
+    walk above, with the simulation's mounting bias): the estimate follows the accelerometer
+    through the filter, the trim integrates the error past the dead band, firmware and model
+    alike; level, nothing moves."""
+    doc = closed_loop_set(("tilt",))
+    doc["gait"]["tilt"].update(ki_per_s=2.0, kp=0.5)
+    lean = math.radians(2.0)
+    tilted = RawSample(
+        accel=(round(-math.sin(lean) * 16384), 0, round(math.cos(lean) * 16384)),
+        gyro=GYRO_ZERO_RATE_COUNTS,
+        adc=(300,) * 8,
+    )
+    level = run_closed_loop(
+        doc, 60, samples=[dataclasses.replace(tilted, accel=(0, 0, 16384))] * 60
+    )
+    biased = run_closed_loop(doc, 60, samples=[tilted] * 60)
+    for run in (level, biased):
+        assert_conforms(run)
+    assert all(law.tilt_rad[0] == 0.0 for law in level.laws)
+    trims = [float(law.tilt_rad[0]) for law in biased.laws]
+    assert trims[-1] > 0.02 and trims == sorted(trims)  # growing toward the lean, toes down
+    assert trims[-1] == pytest.approx(biased.model_laws[-1].tilt_rad[0], abs=LAW_TOLERANCE)
+    # and the pins show it: the ankles' pitch pulses differ from the level run's
+    assert np.any(biased.ocr[-1] != level.ocr[-1])
+
+
+def test_a_corrupted_imu_read_is_flagged_and_the_last_good_sample_held() -> None:
+    """A NACK in frame 20 and a burst cut short by a bus error after 5 bytes in frame 30: both
+    detected and counted; the laws of those frames use the frame before's sample, as the model
+    fed that sample computes."""
+    doc = closed_loop_set(a_p=0.05)
+    run = run_closed_loop(doc, 45, variation=SENSOR_ERRORS, faults={20: (1, -1), 30: (0, 5)})
+    assert run.imu_stale_frames == [20, 30] and run.imu_failures == 2
+    assert_conforms(run)
+    # the held sample: frame 20's laws saw frame 19's IMU sample (the same attitude input)
+    assert run.twi_transactions[20] == 1 and run.twi_transactions[30] == 1
+
+
+AFTER_PLANNING_TICK = 30_000  # the sample is read in slot 3 (tick 15 000) and used from 19 900
+READ_TICK = 14_900  # the guard of slot 2 starts the read
+
+
+def next_read_frame(mcu: Mcu) -> int:
+    """The frame whose sensor read comes next (a reply takes ~15 ms of UART)."""
+    cycles = mcu.cycle - mcu.t0_cycle
+    frame, tick = cycles // FRAME_CYCLES, cycles % FRAME_CYCLES // CYCLES_PER_TICK
+    return frame if tick < READ_TICK else frame + 1
+
+
+def test_the_sensors_message_reports_what_the_firmware_read() -> None:
+    """SENSORS (PROTOCOL.md): the raw counts read, the calibration, and a failed read's flags."""
+    build = build_firmware(closed_loop_set(("tilt",), a_p=0.05))
+    raw = RawSample(
+        accel=(-300, 120, 16300), gyro=(250, -90, 60), adc=(100, 200, 300, 400, 0, 0, 0, 1023)
+    )
+    with Mcu(build.elf, sensors=sample_of(at_rest())) as mcu:
+        link = EmulatedLink(mcu)
+        mcu.set_sensors(sample_of(raw))
+        mcu.run_to_frame(3, AFTER_PLANNING_TICK)
+        (good,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+        mcu.imu_fault(nack=1)
+        mcu.run_to_frame(next_read_frame(mcu), AFTER_PLANNING_TICK)
+        (nacked,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+        mcu.imu_fault(short_after=3)
+        mcu.run_to_frame(next_read_frame(mcu), AFTER_PLANNING_TICK)
+        (short,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+    assert isinstance(good, proto.Sensors)
+    assert good.status == proto.IMU_PRESENT and good.laws == 1 and good.imu_failures == 0
+    assert good.gyro_offset == GYRO_ZERO_RATE_COUNTS
+    assert (good.accel_raw, good.gyro_raw, good.adc) == (raw.accel, raw.gyro, raw.adc)
+    # pitch from the accelerometer: atan2(-ax, |(ay, az)|), a forward lean of ~1°
+    assert good.attitude_rad[0] == pytest.approx(np.arctan2(300, np.hypot(120, 16300)), abs=2e-3)
+    assert nacked.status & proto.IMU_STALE and nacked.status & proto.IMU_NACK
+    assert short.status & proto.IMU_STALE and short.status & proto.IMU_SHORT
+    assert short.imu_failures == 2
+    assert short.gyro_raw == raw.gyro  # the last good sample, not the cut-short burst
