@@ -190,8 +190,9 @@ class WarpEvaluator:
             _ANNOUNCED.add(key)
         if self._notice is not None:
             self._notice(
-                f"warp: compiling MuJoCo Warp's kernels for device {key} (about a minute on a "
-                f"CPU the first time; cached in {self._wp.config.kernel_cache_dir} after)"
+                f"warp: compiling MuJoCo Warp's kernels for device {key} unless cached in "
+                f"{self._wp.config.kernel_cache_dir} (about a minute from an empty cache on a "
+                "CPU; kept there for later runs)"
             )
 
 
