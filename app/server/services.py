@@ -14,6 +14,7 @@ from app.server.live_robot import Drive
 from app.server.param_store import ParameterStore, RobotBusy, Snapshot
 from app.server.replay import Replay
 from app.server.request_gate import served_hosts
+from app.server.robot_sensors import RobotSensors
 from app.server.robot_shelf import RobotShelf
 from app.server.robustness_job import RobustnessRunner
 from app.server.sim_thread import SimThread
@@ -48,6 +49,7 @@ class Services:
         self.store = ParameterStore(initial, robot=started.name)
         self.store.robot_guard = self._robot_free  # every change of robots, however made
         self.presets = PresetStore(config.data_dir, builtins)
+        self.robot_sensors = RobotSensors()  # a linked robot's, from `artro link` (§15)
         self.sim = SimThread(self.store, robot=started, robots=self.robots.get)
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
         if config.drive != "model":

@@ -1,17 +1,86 @@
-"""The Sensors panel's route: what the modelled IMU and force sensors read over the last seconds
-and what the feedback laws made of it (docs/DESIGN.md §15)."""
+"""The Sensors panel's routes: what the modelled IMU and force sensors read over the last seconds
+and what the feedback laws made of it, and beside it a linked robot's own frames as `artro link`
+forwards them (docs/DESIGN.md §15)."""
 
-from typing import Any
+import math
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter
+from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES
+from app.server.errors import GATE_RESPONSES, responses
+from app.server.robot_sensors import WINDOW_FRAMES, RobotFrame
 from app.server.sensor_trace import COLUMNS
 
 router = APIRouter(
     prefix="/api/sensors", tags=["sensors"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
+
+MAX_POSTED_FRAMES = 50  # one second of frames per request; the link posts every 150 ms
+GYRO_LIMIT_RAD_S = 4.37  # the MPU-6050's ±250 °/s range (32768 counts of 1/131 °/s)
+ACCEL_LIMIT_M_S2 = 19.62  # its ±2 g range
+FSR_LIMIT_N = 5120.0  # the divider's force at the ADC's top count (5 N · 1023 / 1)
+
+
+def _values(n: int, limit: float, what: str, low: float | None = None) -> Any:
+    low = -limit if low is None else low
+    value = Annotated[float, Field(ge=low, le=limit)]
+    return Annotated[list[value], Field(min_length=n, max_length=n, description=what)]
+
+
+Angles2 = _values(2, math.pi, "pitch, roll (rad, within ±π)")
+
+
+class RobotFrameBody(BaseModel):
+    """One SENSORS frame of the robot as `artro link` decodes it (hardware/firmware/PROTOCOL.md;
+    the counts in SI units as app/firmware/sensor_feed.py `decoded` makes them)."""
+
+    model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
+    frame: int = Field(ge=0, le=2**32 - 1, description="the robot's frame the laws corrected")
+    status: list[Literal["imu_present", "imu_stale", "imu_nack", "imu_short", "fsr_stale"]] = Field(
+        max_length=5, description="the status bits set"
+    )
+    imu_failures: int = Field(ge=0, le=255, description="failed IMU reads since boot")
+    laws: list[Literal["tilt", "yaw_rate", "damping", "cop"]] = Field(
+        max_length=4, description="the laws switched on"
+    )
+    support: int = Field(ge=-1, le=1, description="support foot: 0 left, 1 right, -1 neither")
+    attitude_rad: Angles2
+    gyro_rad_s: _values(3, GYRO_LIMIT_RAD_S, "x, y, z rate (rad/s, within ±4.37)")
+    accel_m_s2: _values(3, ACCEL_LIMIT_M_S2, "x, y, z (m/s², within ±19.62)")
+    fsr_n: Annotated[
+        list[_values(4, FSR_LIMIT_N, "fl, fr, bl, br (N, 0 to 5120)", low=0.0)],
+        Field(min_length=2, max_length=2, description="left sole, right sole"),
+    ]
+    tilt_rad: Angles2
+    a_y_delta: float = Field(ge=-1.0, le=1.0, description="the yaw-rate loop's change of a_y")
+    cop_rad: Angles2
+
+    def frame_record(self) -> RobotFrame:
+        return RobotFrame(
+            frame=self.frame,
+            status=tuple(dict.fromkeys(self.status)),
+            imu_failures=self.imu_failures,
+            laws=tuple(dict.fromkeys(self.laws)),
+            support=self.support,
+            attitude_rad=tuple(self.attitude_rad),
+            gyro_rad_s=tuple(self.gyro_rad_s),
+            accel_m_s2=tuple(self.accel_m_s2),
+            fsr_n=(tuple(self.fsr_n[0]), tuple(self.fsr_n[1])),
+            tilt_rad=tuple(self.tilt_rad),
+            a_y_delta=self.a_y_delta,
+            cop_rad=tuple(self.cop_rad),
+        )  # type: ignore[arg-type]
+
+
+class RobotFramesBody(BaseModel):
+    model_config = ConfigDict(extra="forbid", strict=True)
+    frames: list[RobotFrameBody] = Field(
+        min_length=1,
+        max_length=MAX_POSTED_FRAMES,
+        description=f"1 to {MAX_POSTED_FRAMES} frames, in the robot's order",
+    )
 
 
 @router.get("")
@@ -20,8 +89,23 @@ def sensors(services: ServicesDep) -> dict[str, Any]:
     carries nothing): the estimated attitude against the simulator's true one (for the eye
     only, no law reads it), the gyro, each law's output, each sole's centre of pressure (mm
     from its centre, x forward, y left) and load; with the sole outline and the force sensors'
-    places. Empty columns before the first frame."""
+    places. Empty columns before the first frame. `robot`: a linked robot's last 5 s in the
+    same units (`t_s` its own clock: frame × 20 ms) with its last frame's status, or null when
+    none arrived in the last 2 s."""
+    robot = services.robot_sensors.view()
     view = services.sim.sensor_view()
     if view is None:
-        return {"columns": {name: [] for name in COLUMNS}, "sole_mm": None, "fsr_mm": []}
-    return view.to_dict()
+        empty = {"columns": {name: [] for name in COLUMNS}, "sole_mm": None, "fsr_mm": []}
+        return empty | {"robot": robot}
+    return view.to_dict() | {"robot": robot}
+
+
+@router.post("/robot", responses=responses(422))
+def post_robot_frames(services: ServicesDep, body: RobotFramesBody) -> dict[str, Any]:
+    """A linked robot's SENSORS frames, decoded (what `artro link` forwards every 150 ms): kept
+    for 5 s beside the simulation's sensors, each sole's centre of pressure placed on the
+    dashboard robot's force sensors. A frame held already is skipped; 422 for a bad body, and
+    none of it is kept."""
+    frames = [frame.frame_record() for frame in body.frames]
+    taken = services.robot_sensors.add(frames, services.robot.fsr_positions_m)
+    return {"taken": taken, "window_frames": WINDOW_FRAMES}
