@@ -1,11 +1,6 @@
-"""The evaluation API on MuJoCo Warp (`WarpEvaluator`, docs/DESIGN.md §9, docs/GPU.md): the runs
-of a call are the worlds of one batch on a CUDA device or Warp's CPU device, in float32.
-
-The gait is planned on the CPU per frame for all worlds, as the lanes plan it
-(`plan_open_loop`); the controls of every physics step are uploaded per segment, and each
-frame's end state and sensors come back per segment to be measured as the lanes measure them
-(`measure_frames`). Needs the `gpu` extra: `pip install "artro-gait-studio[gpu]"`.
-"""
+"""The evaluation API on MuJoCo Warp (`WarpEvaluator`, docs/DESIGN.md §9, docs/GPU.md): a call's
+runs are the worlds of one float32 batch on a CUDA device or Warp's CPU device, planned and
+measured by the lanes' functions, controls uploaded per segment. The `gpu` extra."""
 
 from __future__ import annotations
 

@@ -1,15 +1,6 @@
 """One MuJoCo Warp model for the worlds of a batch, each world with its own robot's values
-(docs/GPU.md "What it batches").
-
-A run's variation is a copy of the compiled model with values changed (`vary_model`: friction,
-masses with `mj_setConst`'s derived values, servo gains, force ranges, damping, friction loss,
-gravity). MuJoCo Warp keeps a model field per world when the field's leading dimension is `*`
-in `mujoco_warp.Model` (kernels read row `worldid % rows`). So each distinct varied model is put
-on Warp's CPU device once, every field compared with the first world's, and each field that
-differs becomes an array of one row per world on the batch's device. A field that differs but
-has no per-world form (a count, a type, a solver setting) refuses the call with an
-ExecutorError naming it: none of today's variations changes one (`tests/test_warp_executor.py`).
-"""
+(docs/GPU.md "What it batches"): the fields in which the worlds' models differ, one row per
+world; a differing field MuJoCo Warp cannot hold per world refuses the call (ExecutorError)."""
 
 from __future__ import annotations
 
@@ -62,7 +53,14 @@ def _same(a: Any, b: Any) -> bool:
 def per_world_fields(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
     """The `mujoco_warp.Model` fields in which `models` (one per world, the same object for
     worlds of one variation) differ, each as (worlds, ...) host values, one row per world.
-    ExecutorError naming the field if one that differs cannot be held per world."""
+
+    A variation is a copy of the compiled model with values changed (`vary_model`: friction,
+    masses and what `mj_setConst` derives from them, servo gains, force ranges, damping,
+    friction loss, gravity). MuJoCo Warp holds a field per world when its leading dimension is
+    `*` (kernels read row `worldid % rows`). Each distinct model is put on Warp's CPU device
+    once and every field compared with the first world's. A field that differs but has no
+    per-world form (a count, a type, a solver setting) raises ExecutorError naming it: no
+    variation of today changes one (`tests/test_warp_executor.py`)."""
     import mujoco_warp as mjw
     import warp as wp
 
