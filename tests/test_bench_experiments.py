@@ -154,14 +154,14 @@ def test_bench_pipeline_session_and_firmware_write_their_figures(tmp_path):
     session = run_bench(tmp_path, "bench_session", "--frames", "10")["figures"]
     assert session["live_frame_ms"] > 0 and session["ghost_frame_ms"] > 0
     assert session["ring_frames"] > 0 and session["ring_mb"] > 0
-    firmware = run_bench(tmp_path, "bench_firmware", "--cycles", "0.1")["figures"]
-    cases = {(c["preset"], c["motion"]) for c in firmware["cases"]}
-    assert cases == {
-        (p, m) for p in ("paper", "tuned") for m in ("forward", "sideways", "turn", "curve", "ramp")
-    }
-    assert firmware["worst_walking_cycles"] == max(
-        c["worst_cycles"] for c in firmware["cases"] if c["motion"] != "ramp"
-    )
+    firmware = run_bench(tmp_path, "bench_firmware", "--frames", "50")["figures"]
+    cases = {(c["laws"], c["motion"]) for c in firmware["cases"]}
+    assert cases == {(laws, m) for laws in (False, True) for m in ("forward", "turn", "curve")}
+    assert firmware["spare_worst"] == min(c["spare_worst"] for c in firmware["cases"])
+    for case in firmware["cases"]:
+        parts = case["cycles_per_frame"]
+        assert parts["plan"]["median"] > 0 and parts["sensors"]["median"] > 0
+        assert case["set_reached_frames"] and case["twi_transactions_per_frame"] == 1
     assert 0 < firmware["flash_bytes"] < firmware["flash_size_bytes"]
 
 

@@ -14,6 +14,7 @@ import pytest
 from app.cli.firmware import add_parser as add_firmware_parser
 from app.cli.firmware import command as cmd_firmware
 from app.firmware.build import export_firmware_folder, memory_use
+from hardware.firmware.schema import complete_document
 from tests.firmware_support import preset
 
 
@@ -51,6 +52,27 @@ def test_firmware_run_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     # SEL0 rises in the first guard's tick 4900, at the tick's start: 2.45 ms = 24 500 x 100 ns
     assert "$timescale 100ns $end" in text
     assert int(re.search(r"#(\d+)\n1'", text).group(1)) == 24_500
+
+
+def test_firmware_run_closes_the_loop_with_a_law_on(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A set with a feedback law on: the firmware walks the simulated robot, varied, from its
+    emulated sensors, against the model fed the same counts (docs/DESIGN.md §15)."""
+    doc = complete_document(preset("tuned", a_p=0.05))
+    doc["gait"]["tilt"]["enabled"] = doc["gait"]["damping"]["enabled"] = True
+    (tmp_path / "laws.json").write_text(json.dumps(doc))
+    argv = ["firmware", "run", "--params", str(tmp_path / "laws.json"), "--frames", "30",
+            "--json", "--vary", "imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1"]  # fmt: skip
+    assert cmd_firmware(parse(argv)) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["pulses_compared"] == 360 and out["mismatches"] == 0 and not out["overrun"]
+    assert out["twi_transactions_per_frame"]["min"] == 1 and out["imu_failures"] == 0
+    assert out["adc_conversions_per_frame"] == {"min": 8, "max": 8, "mean": 8.0}
+    assert out["variation"] == "imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1"
+    # open loop, --vary has nothing to vary: said so, nothing runs
+    with pytest.raises(ValueError, match="needs a set with a feedback law on"):
+        cmd_firmware(parse(["firmware", "run", "--frames", "5", "--vary", "fsr_gain=1.1"]))
 
 
 def test_firmware_build_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

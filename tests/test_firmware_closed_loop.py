@@ -13,7 +13,12 @@ import pytest
 
 from app.firmware import protocol as proto
 from app.firmware.build import build_firmware
-from app.firmware.closed_loop import LAW_TOLERANCE, run_closed_loop
+from app.firmware.closed_loop import (
+    LAW_TOLERANCE,
+    PLAN_LATCH_TICK,
+    PLAN_REQUEST_TICK,
+    run_closed_loop,
+)
 from app.firmware.conformance import ANGLE_TOLERANCE_RAD
 from app.firmware.emulator import CYCLES_PER_TICK, FRAME_CYCLES, Mcu
 from app.firmware.link import EmulatedLink
@@ -144,3 +149,21 @@ def test_the_sensors_message_reports_what_the_firmware_read() -> None:
     assert short.status & proto.IMU_STALE and short.status & proto.IMU_SHORT
     assert short.imu_failures == 2
     assert short.gyro_raw == raw.gyro  # the last good sample, not the cut-short burst
+
+
+def test_a_whole_set_sent_mid_walk_keeps_every_plan_in_its_window() -> None:
+    """A whole set (the laws' part, then the gait's) sent over the UART while the firmware walks
+    closed loop: each part reaches the frame its ACK names, as the model has it, and every
+    frame's plan -- also in the frames that receive it -- is ready with a fifth of the planning
+    window to spare; no frame overruns (the emulator's cycle count, `Mcu.profile`)."""
+    doc = closed_loop_set(a_p=0.05)
+    new = closed_loop_set(a_p=0.03, a_y=0.1)
+    new["gait"]["tilt"]["ki_per_s"] = 1.0
+    new["gait"]["cop"]["kp"] = 1.0
+    run = run_closed_loop(doc, 60, variation=SENSOR_ERRORS, changes={20: new}, profile=True)
+    assert_conforms(run)
+    assert len(run.switch_frames) == 2 and 20 < run.switch_frames[0] <= run.switch_frames[1]
+    assert not run.overrun
+    ready = np.array(run.plan_ready_ticks[1:])
+    spare = (PLAN_LATCH_TICK - ready) / (PLAN_LATCH_TICK - PLAN_REQUEST_TICK)
+    assert spare.min() >= 0.2, (spare.min(), int(ready.argmax()) + 1)

@@ -1,6 +1,7 @@
 """`artro firmware build|run`: a firmware folder for a parameter set, and the firmware emulated
-on simavr and compared with the Python model pin for pin, or served on a pseudo-terminal
-(docs/DESIGN.md §5)."""
+on simavr and compared with the Python model pin for pin -- with a feedback law on, closed loop
+through its emulated sensors on the simulated robot (docs/DESIGN.md §15) -- or served on a
+pseudo-terminal (docs/DESIGN.md §5)."""
 
 from __future__ import annotations
 
@@ -10,12 +11,14 @@ import json
 from pathlib import Path
 from typing import Any
 
-from app.cli.options import motion_triple, subcommand
+from app.cli.options import motion_triple, subcommand, variation
 from app.firmware.build import build_firmware, export_firmware_folder, wiring
+from app.firmware.closed_loop import run_closed_loop
 from app.firmware.conformance import check_firmware
 from app.firmware.emulator import Mcu
 from app.robots.model import RobotModel
-from gait import GaitParams, Motion
+from app.worlds.variations import NOMINAL
+from gait import GaitParams, Motion, feedback
 from gait.params import replace_checked
 
 FRAMES, MIN_FRAMES, MAX_FRAMES = 250, 2, 15_000  # 5 s by default, 5 min at most
@@ -25,6 +28,8 @@ EXAMPLES = """examples:
   artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
   artro firmware run --motion 0,0.07,0 --frames 250 --json
   artro firmware run --params models/presets/tuned.json --ca 0.1 --vcd walk.vcd
+  artro firmware run --params laws.json --vary imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1
+                                           a set with a feedback law on: closed loop
   artro firmware run --pty                 the emulated robot on a serial pseudo-terminal"""
 
 
@@ -51,6 +56,14 @@ def add_parser(sub: Any) -> None:
     )  # fmt: skip
     run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
     run.add_argument("--vcd", metavar="FILE", help="write the nine output lines as VCD")
+    run.add_argument(
+        "--vary",
+        type=variation,
+        default=NOMINAL,
+        metavar="KEY=VALUE,...",
+        help="closed loop (a feedback law on): the simulated robot and its sensors varied, e.g. "
+        "imu_tilt_bias_deg=1,gyro_bias_deg_s=0.5,fsr_gain=1.1 (docs/DESIGN.md §8)",
+    )
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.add_argument(
         "--pty",
@@ -135,10 +148,24 @@ def command(args: argparse.Namespace) -> int:
         raise ValueError(
             f"--frames must be {MIN_FRAMES} to {MAX_FRAMES} (20 ms each), got {frames}"
         )
-    summary = check_firmware(doc, frames, args.vcd, robot)
+    closed = feedback.any_law_on(GaitParams.from_dict(doc["gait"]))
+    if closed and args.vcd:
+        raise ValueError("--vcd writes the open-loop comparison's lines; leave it out here")
+    if not closed and not args.vary.is_nominal:
+        raise ValueError(
+            "--vary varies the simulated robot the firmware walks closed loop: it needs a set "
+            "with a feedback law on (gait.tilt, yaw_rate, damping or cop enabled)"
+        )
+    if closed:
+        run = run_closed_loop(doc, frames, robot, args.vary)
+        summary = {**run.summary(), "robot": robot.name, "variation": args.vary.name}
+        ok = run.ok
+    else:
+        summary = check_firmware(doc, frames, args.vcd, robot)
+        ok = summary["mismatches"] == 0
     if args.json:
         print(json.dumps(summary))
     else:
         for key, value in summary.items():
             print(f"{key:24s} {value}")
-    return 0 if summary["mismatches"] == 0 else 1
+    return 0 if ok else 1

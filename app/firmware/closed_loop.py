@@ -19,9 +19,10 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from app.firmware import protocol as proto
 from app.firmware.build import wiring
 from app.firmware.conformance import ANGLE_TOLERANCE_RAD, Comparison, ModelFrames, compare_frame
-from app.firmware.emulator import Mcu
+from app.firmware.emulator import CYCLES_PER_TICK, Mcu
 from app.firmware.pulses import FirmwarePulses
 from app.firmware.sensor_feed import RawSample, decoded, sample_of
 from app.robots.model import RobotModel
@@ -30,12 +31,16 @@ from app.sim.planning import FRAME_S, START_PHASE_RAD, plan_frames
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams, Motion, feedback, pi_cut
 from hardware import HardwareSetup, frame_edges
+from hardware.firmware.schema import param_specs, values_from_document
 
 #: law outputs, firmware (float32, avr-libc's functions) against the model (numpy float32):
 #: well below a tenth of a Timer tick's angle
 LAW_TOLERANCE = 2e-5
 _LAW_OUTPUT = struct.Struct("<12ff2f2fb2f")  # laws.h law_output_t (avr-gcc packs it)
 _SENSE_IMU_STALE = 0x02
+_TDM_OVERRUN = 0x01  # tdm.h
+#: the planning window of frame k+1 in frame k: from the guard of slot 3 to that of slot 7
+PLAN_REQUEST_TICK, PLAN_LATCH_TICK = 19_900, 39_900
 
 
 @dataclass(frozen=True)
@@ -64,33 +69,43 @@ def gyro_offset(mcu: Mcu) -> tuple[int, int, int]:
     return struct.unpack("<3h", mcu.read_symbol("g_gyro_offset"))
 
 
+def document_from_values(values: list[float]) -> dict[str, Any]:
+    """The parameter-set document of the firmware's id-ordered values (`values_from_document`
+    turned around)."""
+    doc: dict[str, Any] = {"motion": {}, "gait": {}}
+    for spec, value in zip(param_specs(), values, strict=True):
+        where = doc["motion"] if spec.group == "motion" else doc["gait"].setdefault(spec.group, {})
+        where[spec.name] = bool(value) if spec.is_switch else value
+    return doc
+
+
 def model_closed_loop(
-    doc: dict[str, Any],
+    docs: list[dict[str, Any]],
     samples: list[RawSample],
     offset: tuple[int, ...],
     hardware: HardwareSetup,
     robot: RobotModel,
 ) -> tuple[ModelFrames, list[feedback.Output | None]]:
-    """The firmware's frames 0..len(samples) as the host computes them: frame 0 open loop, frame
-    k+1 planned with the laws' step on `samples[k]` (the counts the firmware used in frame k,
-    decoded as it decodes them) and the motion the gait got in frame k."""
-    params = GaitParams.from_dict(doc["gait"])
-    motion = Motion(**doc["motion"])
+    """The firmware's frames 0..len(samples) as the host computes them: frame k in the set
+    `docs[k]`; frame 0 open loop, frame k+1 planned with the laws' step on `samples[k]` (the
+    counts the firmware used in frame k, decoded as it decodes them) and the motion the gait got
+    in frame k; the walking clock advances by each frame's own frequency."""
     positions = robot.fsr_positions_m.astype(np.float32)
-    step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
-    laws_on = feedback.any_law_on(params)
-    state, motion_now, out = feedback.State(), motion, None
+    state, motion_now, out = feedback.State(), Motion(**docs[0]["motion"]), None
+    phase = START_PHASE_RAD
     phases, angles, ocrs, outs = [], [], [], []
     for k in range(len(samples) + 1):
+        params = GaitParams.from_dict(docs[k]["gait"])
+        motion = Motion(**docs[k]["motion"])
         if k > 0:
             reading = decoded(samples[k - 1], offset)
             state, out = feedback.step(params, state, reading, motion_now, positions, FRAME_S)
-        correct = laws_on and out is not None
+        correct = feedback.any_law_on(params) and out is not None
         plan = plan_frames(
             params,
             motion,
             hardware,
-            float(pi_cut(START_PHASE_RAD + step_rad * k)),
+            phase,
             1,
             10,
             0.002,
@@ -100,6 +115,7 @@ def model_closed_loop(
             a_y_delta=float(out.a_y_delta) if correct else 0.0,
         )
         motion_now = plan.motions[0]
+        phase = float(pi_cut(phase + 2.0 * math.pi * params.clock.freq_hz * FRAME_S))
         phases.append(plan.phase[0])
         angles.append(plan.angles[0])
         ocrs.append(plan.ocr[0])
@@ -122,10 +138,16 @@ class ClosedLoopRun:
     model_laws: list[feedback.Output | None] = field(default_factory=list)
     ocr: list[NDArray[np.int32]] = field(default_factory=list)  # the firmware's pins, per frame
     fell: bool = False
+    overrun: bool = False  # a plan was late and a frame repeated (the TDM's sticky flag)
+    switch_frames: list[int] = field(default_factory=list)  # where a set sent took over
+    #: with `profile`: per frame, cycles by part (`Mcu.profile_take`), and the tick of the frame
+    #: at which the next frame's plan was ready (the window ends at PLAN_LATCH_TICK)
+    part_cycles: list[NDArray[np.uint64]] = field(default_factory=list)
+    plan_ready_ticks: list[int] = field(default_factory=list)
 
     @property
     def ok(self) -> bool:
-        return self.comparison.ok and self.law_error_max <= LAW_TOLERANCE
+        return self.comparison.ok and self.law_error_max <= LAW_TOLERANCE and not self.overrun
 
     def summary(self) -> dict[str, Any]:
         return {
@@ -136,6 +158,7 @@ class ClosedLoopRun:
             "imu_stale_frames": self.imu_stale_frames,
             "imu_failures": self.imu_failures,
             "gyro_offset_counts": list(self.gyro_offset),
+            "overrun": self.overrun,
             "fell": self.fell,
         }
 
@@ -165,12 +188,21 @@ def run_closed_loop(
     *,
     faults: dict[int, tuple[int, int]] | None = None,
     samples: list[RawSample] | None = None,
+    changes: dict[int, dict[str, Any]] | None = None,
+    profile: bool = False,
 ) -> ClosedLoopRun:
     """Walk the simulated `robot` (varied by `variation`, its sensor errors included) for
     `frames` frames with the firmware built for `doc` making the pulses from the sensors it
     reads; then compare its pins, angles and law outputs with the model fed the same counts.
-    `faults` {frame: (nack, short_after)} corrupts the IMU read of that frame (`Mcu.imu_fault`).
-    `samples`: instead of the simulation, what the sensors show in each frame (no physics).
+
+    Args:
+        faults: {frame: (nack, short_after)} corrupts the IMU read of that frame
+            (`Mcu.imu_fault`).
+        samples: instead of the simulation, what the sensors show in each frame (no physics).
+        changes: {frame: document} a whole set sent over the UART at the start of that frame;
+            the model takes it from the frame its last ACK names.
+        profile: count each frame's cycles by part and when its next plan was ready
+            (`Mcu.profile`; slower).
     """
     robot = robot or RobotModel.load()
     hardware = robot.hardware()
@@ -181,23 +213,44 @@ def run_closed_loop(
     run = ClosedLoopRun(Comparison())
     used: list[RawSample] = []
     fw_frames = []
+    switches: list[tuple[int, int, list[float]]] = []  # (first frame, first id, values)
+    pending: list[tuple[list[float], int, int]] = []  # messages sent: (set, first id, count)
+    mcu = drive.mcu
     try:
-        run.gyro_offset = gyro_offset(drive.mcu)
+        run.gyro_offset = gyro_offset(mcu)
+        if profile:
+            mcu.profile()
+            mcu.profile_take()
         last_good_imu = drive.raw
         for k in range(frames):
             if samples is not None:
-                drive.mcu.set_sensors(sample_of(samples[k]))
+                mcu.set_sensors(sample_of(samples[k]))
                 drive.raw = samples[k]
             served = drive.raw
             if faults and k in faults:
                 nack, short_after = faults[k]
-                drive.mcu.imu_fault(nack=nack, short_after=short_after)
-            before = drive.mcu.sensor_counts()
+                mcu.imu_fault(nack=nack, short_after=short_after)
+            if changes and k in changes:
+                values = values_from_document(changes[k])
+                drive.send_parameters(changes[k])
+                parts = [(m[3], m[4]) for m in proto.set_all_params(values)]  # first, count
+                pending += [(values, first, count) for first, count in parts]
+            before = mcu.sensor_counts()
             frame = drive.next_frame()  # frame k: its sample read in slot 3, frame k+1 planned
-            after = drive.mcu.sensor_counts()
+            after = mcu.sensor_counts()
+            if profile:
+                bins, rose = mcu.profile_take()
+                run.part_cycles.append(bins)
+                run.plan_ready_ticks.append((rose - mcu.frame_start(k)) // CYCLES_PER_TICK)
+            for reply in frame.replies:
+                if pending and isinstance(reply, proto.Ack | proto.Nak):
+                    values, first, count = pending.pop(0)
+                    if isinstance(reply, proto.Ack):
+                        part = values[first : first + count]
+                        switches.append((reply.effective_frame, first, part))
             run.twi_transactions.append(after.twi_transactions - before.twi_transactions)
             run.adc_conversions.append(after.adc_conversions - before.adc_conversions)
-            status = drive.mcu.read_symbol("g_sensor_status")[0]
+            status = mcu.read_symbol("g_sensor_status")[0]
             if status & _SENSE_IMU_STALE:
                 run.imu_stale_frames.append(k)
                 served = dataclasses.replace(
@@ -205,7 +258,7 @@ def run_closed_loop(
                 )
             last_good_imu = served
             used.append(served)
-            run.laws.append(read_law_output(drive.mcu))
+            run.laws.append(read_law_output(mcu))
             run.ocr.append(frame.ocr)
             fw_frames.append(frame)
             if samples is not None:
@@ -218,10 +271,16 @@ def run_closed_loop(
             run.fell = run.fell or loop.fell
             assert record.reading is not None  # watch_sensors
             drive.feed(record.reading)
-        run.imu_failures = drive.mcu.read_symbol("g_imu_failures")[0]
+        run.imu_failures = mcu.read_symbol("g_imu_failures")[0]
+        run.overrun = bool(mcu.read_symbol("g_tdm_flags")[0] & _TDM_OVERRUN)
     finally:
         drive.close()
-    model, run.model_laws = model_closed_loop(doc, used, run.gyro_offset, hardware, robot)
+    values = [values_from_document(doc) for _ in range(frames + 1)]
+    for frame_from, first, part in switches:  # each message from the frame its ACK names
+        for held in values[frame_from:]:
+            held[first : first + len(part)] = part
+    docs = [document_from_values(v) for v in values]
+    model, run.model_laws = model_closed_loop(docs, used, run.gyro_offset, hardware, robot)
     result = run.comparison
     for k, frame in enumerate(fw_frames):
         want = frame_edges(model.ocr[k], hardware.tdm)
@@ -233,6 +292,7 @@ def run_closed_loop(
         if law is not None:
             run.law_error_max = max(run.law_error_max, _law_error(run.laws[k], law))
     result.frames = len(fw_frames)
+    run.switch_frames = [frame_from for frame_from, _, _ in switches]
     return run
 
 

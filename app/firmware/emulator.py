@@ -26,6 +26,8 @@ FRAME_CYCLES = FRAME_TICKS * PRESCALER  # 320 000 cycles = 20 ms at 16 MHz
 DATA_OFFSET = 0x800000  # avr-gcc puts data-space symbols at 0x800000 + address
 CPU_DONE, CPU_CRASHED = 6, 7  # simavr's cpu_Done, cpu_Crashed
 _START_TIMEOUT_CYCLES = 16_000_000  # the timers must start within 1 s of reset
+PROFILE_BINS = 10  # harness.c: the part marker's values 0..7, in interrupts, asleep
+PROFILE_ISR, PROFILE_SLEEP = 8, 9
 
 
 @dataclass(frozen=True)
@@ -90,6 +92,9 @@ def _library() -> ctypes.CDLL:
         lib.artro_mcu_imu_fault.argtypes = [p, ctypes.c_uint32, ctypes.c_int32]
         lib.artro_mcu_set_adc_mv.argtypes = [p, ctypes.POINTER(ctypes.c_uint16)]
         lib.artro_mcu_sensor_counts.argtypes = [p, ctypes.POINTER(ctypes.c_uint32)]
+        lib.artro_mcu_profile.argtypes = [p, ctypes.c_uint32, ctypes.c_uint32]
+        lib.artro_mcu_profile_take.argtypes = [p, u64p]
+        lib.artro_mcu_profile_take.restype = u64
         _lib = lib
     return _lib
 
@@ -171,6 +176,22 @@ class Mcu:
         out = (ctypes.c_uint32 * 5)()
         self._lib.artro_mcu_sensor_counts(self._h, out)
         return SensorCounts(*(int(v) for v in out))
+
+    def profile(self, part: str = "g_main_part", flag: str = "g_next_ready") -> None:
+        """Count cycles from now on by the value of the SRAM byte `part` (the firmware's
+        main-loop part marker, control.h), in interrupts and asleep, and note when the byte
+        `flag` rises (the next frame's plan is ready); slower than running plain."""
+        addr = {name: self.symbols[name][0] - DATA_OFFSET for name in (part, flag)}
+        self._lib.artro_mcu_profile(self._h, addr[part], addr[flag])
+
+    def profile_take(self) -> tuple[NDArray[np.uint64], int]:
+        """(cycles per bin since the last take: parts 0..7, in interrupts, asleep; the cycle at
+        which the flag last rose)."""
+        bins = np.zeros(PROFILE_BINS, dtype=np.uint64)
+        rose = self._lib.artro_mcu_profile_take(
+            self._h, bins.ctypes.data_as(ctypes.POINTER(ctypes.c_uint64))
+        )
+        return bins, int(rose)
 
     def close(self) -> None:
         if getattr(self, "_h", None):

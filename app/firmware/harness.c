@@ -50,6 +50,10 @@
 #define FIX_MODE14 1
 #define FIX_OCR_HIGH_BYTE 2
 #define NUM_OCR 6
+#define PROFILE_PARTS 8 /* marker values 0..7 */
+#define PROFILE_ISR 8
+#define PROFILE_SLEEP 9
+#define PROFILE_BINS 10
 #define F_CPU_HZ 16000000u
 
 typedef struct {
@@ -110,6 +114,12 @@ struct harness {
     imu_t imu;
     int imu_attached;
     uint32_t adc_conversions;
+    /* profile: cycles by the main loop's part marker (a byte of SRAM), in interrupts, asleep;
+     * and the cycle at which a flag byte last went from 0 to non-zero */
+    int profiling;
+    uint32_t part_addr, flag_addr;
+    uint64_t part_cycles[PROFILE_BINS];
+    uint64_t flag_rose_cycle;
 };
 
 static const struct {
@@ -493,12 +503,46 @@ static void note_timer_start(harness_t *h)
 
 /* Run until the cycle counter reaches `cycle`. Returns simavr's CPU state (cpu_Done and
  * cpu_Crashed end the run). */
+static int run_profiled(harness_t *h)
+{
+    avr_t *avr = h->avr;
+    const uint64_t before = avr->cycle, slept = h->slept_cycles;
+    const uint8_t part = avr->data[h->part_addr];
+    const int in_isr = !avr->sreg[S_I];
+    const uint8_t flag = avr->data[h->flag_addr];
+    int state = avr_run(avr); /* one instruction, and a sleep it starts or ends in */
+    const uint64_t asleep = h->slept_cycles - slept;
+    int bin = in_isr ? PROFILE_ISR : (part < PROFILE_PARTS ? part : 0);
+    h->part_cycles[bin] += avr->cycle - before - asleep;
+    h->part_cycles[PROFILE_SLEEP] += asleep;
+    if (!flag && avr->data[h->flag_addr])
+        h->flag_rose_cycle = avr->cycle;
+    return state;
+}
+
+/* Count cycles by the byte at `part_addr` (the firmware's main-loop part marker) from now on,
+ * and note when the byte at `flag_addr` rises; part_addr 0 stops. */
+void artro_mcu_profile(harness_t *h, uint32_t part_addr, uint32_t flag_addr)
+{
+    h->profiling = part_addr != 0;
+    h->part_addr = part_addr;
+    h->flag_addr = flag_addr;
+}
+
+/* Cycles per bin (PROFILE_BINS: parts 0..7, in interrupts, asleep) and the flag's last rise. */
+uint64_t artro_mcu_profile_take(harness_t *h, uint64_t *bins)
+{
+    memcpy(bins, h->part_cycles, sizeof h->part_cycles);
+    memset(h->part_cycles, 0, sizeof h->part_cycles);
+    return h->flag_rose_cycle;
+}
+
 int artro_mcu_run_until(harness_t *h, uint64_t cycle)
 {
     avr_t *avr = h->avr;
     int state = avr->state;
     while (avr->cycle < cycle) {
-        state = avr_run(avr);
+        state = h->profiling ? run_profiled(h) : avr_run(avr);
         if (h->timer_start[1] < 0)
             note_timer_start(h);
         if (state == cpu_Done || state == cpu_Crashed)

@@ -13,6 +13,7 @@
 #include "sensors.h"
 #include "tdm.h"
 
+volatile uint8_t g_main_part;
 static uint8_t s_state;
 static uint32_t s_planned; /* the last frame planned */
 
@@ -43,11 +44,15 @@ uint8_t control_poll(void)
         return 0;
     const plan_t *current = &g_plan[active];
     sensor_reading_t reading;
+    g_main_part = PART_SENSORS;
     sensors_take(&reading); /* started in slot SENSE_SLOT of this frame */
+    g_main_part = PART_LAWS;
     laws_step(&reading, g_sensor_status & SENSE_IMU_PRESENT); /* on the motion of frame F */
     g_law_frame = frame + 1u;
+    g_main_part = PART_PLAN;
     ramp_step(frame + 1u);
     plan_compute(&g_plan[active ^ 1u], frame + 1u, current->next_phase_acc, s_state);
+    g_main_part = PART_OTHER;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {
         /* only if frame F is still on: else the plan came too late and the guard has

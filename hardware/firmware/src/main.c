@@ -31,11 +31,15 @@ int main(void)
 
     for (;;) {
         control_poll(); /* the plan first: a message waits while the next frame is planned */
+        g_main_part = PART_MESSAGES;
         protocol_poll();
+        g_main_part = PART_OTHER;
         uint32_t frame = control_frame();
         if (frame != last_frame) {
             last_frame = frame;
+            g_main_part = PART_TELEMETRY;
             protocol_frame();
+            g_main_part = PART_OTHER;
         }
         cli();
         if (!g_compute_due && !uart_rx_pending() && g_frame == last_frame) {
