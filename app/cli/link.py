@@ -1,5 +1,6 @@
 """`artro link`: the dashboard's parameter set, live, to a robot's ATmega128 over its serial
-port; the servos are switched off on every exit (Ctrl-C, SIGTERM, SIGHUP, an error)."""
+port, and the robot's sensors back to the dashboard's Sensors panel; the servos are switched
+off on every exit (Ctrl-C, SIGTERM, SIGHUP, an error)."""
 
 from __future__ import annotations
 
@@ -16,7 +17,9 @@ from app.params.document import load_parameter_set
 
 STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
 EXAMPLES = """examples:
-  artro link --port /dev/ttyUSB0             follow the dashboard on http://127.0.0.1:8000
+  artro link --port /dev/ttyUSB0             follow the dashboard on http://127.0.0.1:8000,
+                                             the robot's sensors in its Sensors panel
+  artro link --port /dev/ttyUSB0 --no-sensors   follow it, the robot's sensors not asked for
   artro link --port /dev/pts/5 --params models/presets/tuned.json   send one set
   artro link --dry-run                       print the messages it would send"""
 
@@ -31,14 +34,23 @@ def add_parser(sub: Any) -> None:
     )
     p.description = (
         "Send the dashboard's parameter set to a robot's ATmega128 over its serial port and "
-        "follow every change; the servos are switched off on every exit (Ctrl-C, SIGTERM, "
-        "SIGHUP, an error)."
+        "follow every change. Meanwhile the robot streams its balance sensors (one SENSORS a "
+        "frame: IMU attitude, gyro, foot forces, the laws' outputs), which go to the dashboard's "
+        "Sensors panel beside the simulation's; a dashboard that stops answering for a while "
+        "is said once, the robot walks on in the last set. The servos are switched off on "
+        "every exit (Ctrl-C, SIGTERM, SIGHUP, an error)."
     )
     p.add_argument("--port", help="serial device, e.g. /dev/ttyUSB0 (not needed with --dry-run)")
     p.add_argument("--baud", type=int, default=DEFAULT_BAUD, help=f"(default {DEFAULT_BAUD})")
     p.add_argument("--server", default="http://127.0.0.1:8000", help="the dashboard to follow")
     p.add_argument("--params", metavar="FILE", help="send this file once instead of following")
     p.add_argument("--dry-run", action="store_true", help="print the messages, open no port")
+    p.add_argument(
+        "--no-sensors",
+        dest="sensors",
+        action="store_false",
+        help="do not ask for the robot's sensors (the Sensors panel shows the simulation only)",
+    )
 
 
 class LinkStopped(BaseException):
@@ -90,7 +102,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
             robot.start()
             return 0
         print(f"following {args.server} (Ctrl-C stops and switches the servos off)", file=out)
-        follow(robot, args.server, stop, max_updates=0 if args.dry_run else None)
+        sensors = getattr(args, "sensors", True)
+        follow(robot, args.server, stop, max_updates=0 if args.dry_run else None, sensors=sensors)
         return 0
     except KeyboardInterrupt:
         return 0

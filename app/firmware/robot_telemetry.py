@@ -1,0 +1,142 @@
+"""A linked robot's SENSORS stream to the dashboard (docs/DESIGN.md §15): each frame decoded from
+counts to SI units as the firmware decodes them (`sensor_feed.decoded`), and posted in batches
+(`POST /api/sensors/robot`, every FORWARD_S) from a thread of its own, so neither the robot's
+port nor the parameter sending ever waits on the dashboard. A dashboard that does not answer
+for a while costs frames (the newest WINDOW_FRAMES wait), never the link."""
+
+from __future__ import annotations
+
+import math
+import threading
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+
+from app.firmware import protocol as proto
+from app.firmware.sensor_feed import RawSample, decoded
+
+FORWARD_S = 0.15  # a batch of about 7 frames
+POST_FRAMES = 25  # at most per request (about 11 KiB; the server takes 50)
+WINDOW_FRAMES = 250  # what waits while the dashboard does not answer: the last 5 s
+POST_TIMEOUT_S = 2.0
+STATUS_BITS = {
+    "imu_present": proto.IMU_PRESENT,
+    "imu_stale": proto.IMU_STALE,
+    "imu_nack": proto.IMU_NACK,
+    "imu_short": proto.IMU_SHORT,
+    "fsr_stale": proto.FSR_STALE,
+}
+LAW_BITS = {"tilt": 1, "yaw_rate": 2, "damping": 4, "cop": 8}  # PROTOCOL.md: SENSORS laws on
+
+
+def _f32(values: Any) -> list[float]:
+    """float32 values as the shortest decimals that read back to them (short JSON)."""
+    return [float(str(np.float32(v))) for v in np.ravel(values)]
+
+
+def frame_json(sensors: proto.Sensors) -> dict[str, Any] | None:
+    """One SENSORS frame as the dashboard takes it, or None if a value is not finite."""
+    raw = RawSample(sensors.accel_raw, sensors.gyro_raw, sensors.adc)  # type: ignore[arg-type]
+    reading = decoded(raw, sensors.gyro_offset)
+    frame = {
+        "frame": sensors.frame,
+        "status": [name for name, bit in STATUS_BITS.items() if sensors.status & bit],
+        "imu_failures": sensors.imu_failures,
+        "laws": [name for name, bit in LAW_BITS.items() if sensors.laws & bit],
+        "support": sensors.support,
+        "attitude_rad": _f32(sensors.attitude_rad),
+        "gyro_rad_s": _f32(reading.gyro_rad_s),
+        "accel_m_s2": _f32(reading.accel_m_s2),
+        "fsr_n": [_f32(sole) for sole in reading.fsr_n],
+        "tilt_rad": _f32(sensors.tilt_rad),
+        "a_y_delta": _f32(sensors.a_y_delta)[0],
+        "cop_rad": _f32(sensors.cop_rad),
+    }
+    numbers = [*sensors.attitude_rad, *sensors.tilt_rad, sensors.a_y_delta, *sensors.cop_rad]
+    return frame if all(math.isfinite(v) for v in numbers) else None
+
+
+class SensorForwarder:
+    """Posts the frames `put` to it to `server` every FORWARD_S on its own thread: `start`,
+    `put` (from the port's reader, never blocking), `stop`. Says once when the dashboard stops
+    taking them and once when it takes them again."""
+
+    def __init__(self, server: str, log: Callable[[str], None] = print) -> None:
+        self.server = server
+        self.log = log
+        self._pending: deque[dict[str, Any]] = deque(maxlen=WINDOW_FRAMES)
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="robot-sensors", daemon=True)
+        self._failing: str | None = None
+        self.posted = 0  # frames the dashboard took
+        self.skipped = 0  # frames with a value that is not finite
+        self.refused = 0  # frames the dashboard refused (a 422: not worth sending again)
+
+    def put(self, sensors: proto.Sensors) -> None:
+        frame = frame_json(sensors)
+        with self._lock:
+            if frame is None:
+                self.skipped += 1
+            else:
+                self._pending.append(frame)
+
+    def start(self) -> None:
+        self._thread.start()
+
+    def stop(self) -> None:
+        self._stop.set()
+        if self._thread.is_alive():
+            self._thread.join()
+
+    def _run(self) -> None:
+        import httpx  # ~0.5 s: only to follow a dashboard
+
+        with httpx.Client(base_url=self.server, timeout=POST_TIMEOUT_S) as http:
+            while not self._stop.wait(FORWARD_S):
+                while self._post_batch(http) and not self._stop.is_set():
+                    pass
+
+    def _post_batch(self, http: Any) -> bool:
+        """One request of the oldest waiting frames; whether a full batch went (more may wait)."""
+        import httpx
+
+        with self._lock:
+            batch = [self._pending[i] for i in range(min(POST_FRAMES, len(self._pending)))]
+        if not batch:
+            return False
+        try:
+            answer = http.post("/api/sensors/robot", json={"frames": batch})
+        except httpx.HTTPError as exc:
+            self._say_failing(f"{type(exc).__name__}: {exc}")
+            return False
+        if answer.status_code not in (200, 422):
+            self._say_failing(f"HTTP {answer.status_code}")
+            return False
+        self._drop(batch)
+        if answer.status_code == 422:
+            self.refused += len(batch)
+            self._say_failing(f"refused: {answer.json().get('message', answer.text)[:200]}")
+            return False
+        self.posted += len(batch)
+        if self._failing is not None:
+            self._failing = None
+            self.log("the dashboard takes the robot's sensors again")
+        return len(batch) == POST_FRAMES
+
+    def _drop(self, batch: list[dict[str, Any]]) -> None:
+        """Forget the frames sent (those still waiting: the reader may have pushed some out)."""
+        sent = {id(frame) for frame in batch}
+        with self._lock:
+            while self._pending and id(self._pending[0]) in sent:
+                self._pending.popleft()
+
+    def _say_failing(self, why: str) -> None:
+        if self._failing is None:
+            self.log(
+                f"the dashboard at {self.server} did not take the robot's sensors ({why}); "
+                "the link goes on and tries again"
+            )
+        self._failing = why
