@@ -1,12 +1,7 @@
-"""The firmware's closed loop, emulated end to end (docs/DESIGN.md §15): the emulated firmware
-drives the simulated robot through its pins and reads the simulated sensors through its emulated
-IMU (TWI) and ADC; the host's model of the firmware (`model_closed_loop`), fed the counts the
-firmware read, plans the same pulses and computes the same law outputs.
-
-Timing: the sensors hold what the simulation read at the end of frame k-1 while frame k runs;
-the firmware samples them in slot 3 of frame k and plans frame k+1 from them. A read that fails
-leaves the last good IMU sample in use, as on the robot, and the model is fed that sample too.
-"""
+"""The firmware's closed loop emulated end to end (docs/DESIGN.md §15): the firmware drives the
+simulated robot and reads its simulated sensors through its emulated IMU and ADC; the host's
+model of the firmware (`model_closed_loop`), fed the counts it read (after a failed read, the
+last good sample, as on the robot), plans the same pulses and computes the same law outputs."""
 
 from __future__ import annotations
 

@@ -1,16 +1,6 @@
-"""The balance sensors as the firmware meets them (docs/DESIGN.md §15): what the emulated
-MPU-6050's registers and the ADC inputs hold for a sensor reading (`sample_of`), and the
-float32 reading the firmware decodes from them (`decoded`), so the host's model of the firmware
-computes what the firmware computes.
-
-The part and the board, stated:
-- the IMU's raw gyro carries a zero-rate offset (`GYRO_ZERO_RATE_COUNTS`, well inside the
-  MPU-6050's ±20 °/s tolerance) that the firmware's calibration at rest removes; what a run's
-  variation calls gyro bias is what remains after it, as in the simulation;
-- each force sensor sits in a divider to ground: V / 5 V = F / (F + 5 N) (R_FSR = 10 kΩ·N / F
-  over R_M = 2 kΩ: an FSR 402 follows 1/F within its part-to-part spread from 0.2 to 20 N); the
-  chip's 10-bit conversion is floor(1024 V / 5 V), at most 1023.
-"""
+"""The balance sensors as the firmware meets them (docs/DESIGN.md §15): the emulated MPU-6050's
+registers and the ADC's inputs for a sensor reading (`raw_of`, `sample_of`), and the float32
+reading the firmware decodes from them (`decoded`), as `sensors.c` does."""
 
 from __future__ import annotations
 
@@ -24,6 +14,12 @@ from numpy.typing import NDArray
 from app.sim.sensors import ACCEL_M_S2_PER_COUNT, COUNT_RANGE, GYRO_RAD_S_PER_COUNT, SensorReading
 from gait import feedback
 
+# The part and the board, stated: the IMU's raw gyro carries a zero-rate offset (well inside the
+# MPU-6050's ±20 °/s tolerance) that the firmware's calibration at rest removes; what a world
+# calls gyro bias is what remains after it, as in the simulation. Each force sensor sits in a
+# divider to ground: V / 5 V = F / (F + 5 N) (R_FSR = 10 kΩ·N / F over R_M = 2 kΩ: an FSR 402
+# follows 1/F within its part-to-part spread from 0.2 to 20 N); the chip converts
+# floor(1024 V / 5 V), at most 1023.
 F32 = np.float32
 VREF_MV = 5000
 ADC_FULL = 1024
