@@ -2,7 +2,10 @@
 // laws made of it (GET /api/sensors, the last 5 s, five times a second), drawn by uPlot --
 // the estimated against the true trunk pitch and roll, the gyro, each law's output -- and each
 // sole's centre of pressure drawn in its outline, while the panel is on screen; and the Push control (POST /api/sim/push,
-// button or the P key), the push then drawn in the 3D view.
+// button or the P key), the push then drawn in the 3D view. While `artro link` forwards a real
+// robot's frames (the view's `robot`), its attitude, gyro and tilt trim are drawn beside the
+// simulation's as series of their own ("robot: ...", the simulation's "sim: ..."), its last
+// frame placed where it arrived, and a line says how its IMU is; no robot, nothing extra.
 
 import { api, poll } from "./api.js";
 import { THEME, UPLOT_AXIS } from "./scope.js";
@@ -52,6 +55,22 @@ const FEET = [
   ["l", "left", "#4dabf7"],
   ["r", "right", "#ff922b"],
 ];
+// the robot's series of each plot: [column, label, colour] (drawn thicker, in a lighter tint)
+const ROBOT_SERIES = {
+  attitude: [
+    ["pitch_est_deg", "robot: pitch", "#a5d8ff"],
+    ["roll_est_deg", "robot: roll", "#ffd8a8"],
+  ],
+  gyro: [
+    ["gyro_x_deg_s", "robot: roll rate x", "#ffd8a8"],
+    ["gyro_y_deg_s", "robot: pitch rate y", "#a5d8ff"],
+    ["gyro_z_deg_s", "robot: yaw rate z", "#b2f2bb"],
+  ],
+  laws: [
+    ["tilt_pitch_deg", "robot: tilt trim pitch", "#a5d8ff"],
+    ["tilt_roll_deg", "robot: tilt trim roll", "#ffd8a8"],
+  ],
+};
 const COP_TRAIL_FRAMES = 50; // the last second of each sole's centre of pressure
 const PLOT_HEIGHT = 190; // px, the legend below
 
@@ -59,7 +78,7 @@ const plots = {};
 let latest = null;
 
 export function initSensors() {
-  for (const [key, spec] of Object.entries(PLOTS)) plots[key] = new SensorPlot($(spec.el), spec);
+  for (const [key, spec] of Object.entries(PLOTS)) plots[key] = new SensorPlot($(spec.el), spec, ROBOT_SERIES[key]);
   $("push-button").addEventListener("click", push);
   document.addEventListener("keydown", (e) => {
     const typing = e.target.closest?.("input, select, textarea, [contenteditable]");
@@ -80,7 +99,9 @@ async function refresh() {
   if (!onScreen || document.hidden) return;
   const [view, params] = await Promise.all([api.get("/api/sensors"), lawsOn()]);
   latest = view;
-  for (const plot of Object.values(plots)) plot.update(view.columns);
+  const robot = view.robot ? robotOnSimTime(view) : null;
+  for (const plot of Object.values(plots)) plot.update(view.columns, robot);
+  showRobot(view.robot);
   drawCop();
   const on = LAWS.filter(([key]) => params[key]).map(([, label]) => label);
   $("sensors-laws").textContent = on.length ? `laws on: ${on.join(", ")}` : "every law off (open loop)";
@@ -95,6 +116,42 @@ async function lawsOn() {
   return paramsCache.laws;
 }
 
+/** The robot's columns with `t_s` on the simulation's axis: its last frame where it arrived
+ * (the simulation's last row less the time since), the others its own 20 ms steps before. */
+function robotOnSimTime(view) {
+  const cols = view.robot.columns;
+  const simT = view.columns.t_s;
+  const own = cols.t_s;
+  if (!simT.length || !own.length) return cols;
+  const end = simT[simT.length - 1] - view.robot.received_s_ago;
+  const last = own[own.length - 1];
+  return { ...cols, t_s: own.map((t) => end - (last - t)) };
+}
+
+/** One line on the linked robot: its IMU, the failed reads, its last frame; hidden without. */
+function showRobot(robot) {
+  const el = $("sensors-robot");
+  el.hidden = !robot;
+  if (!robot) return;
+  const status = new Set(robot.status);
+  let imu = "IMU ok";
+  if (!status.has("imu_present")) imu = "no IMU (no answer at boot)";
+  else if (status.has("imu_stale")) {
+    const why = status.has("imu_nack") ? ": no acknowledge" : status.has("imu_short") ? ": bus error" : "";
+    imu = `IMU stale${why}`;
+  }
+  const parts = [`robot: ${imu}`];
+  if (status.has("fsr_stale")) parts.push("foot sensors stale");
+  const failures = robot.imu_failures >= 255 ? "≥ 255" : String(robot.imu_failures);
+  parts.push(`${failures} IMU failure${robot.imu_failures === 1 ? "" : "s"}`);
+  const laws = LAWS.filter(([key]) => robot.laws.includes(key)).map(([, label]) => label);
+  parts.push(laws.length ? `laws on: ${laws.join(", ")}` : "every law off");
+  parts.push(`frame ${robot.frame}`);
+  if (robot.received_s_ago > 0.5) parts.push(`${fmt(robot.received_s_ago, 1)} s ago`);
+  el.textContent = parts.join(" · ");
+  el.classList.toggle("robot-warn", imu !== "IMU ok" || status.has("fsr_stale"));
+}
+
 async function push() {
   const impulse = Number($("push-impulse").value);
   const direction = Number($("push-direction").value);
@@ -107,15 +164,30 @@ async function push() {
 }
 
 class SensorPlot {
-  constructor(el, spec) {
+  constructor(el, spec, robotSeries) {
     this.el = el;
     this.spec = spec;
+    this.robotSeries = robotSeries;
     this.u = null;
+    this.withRobot = false;
     new ResizeObserver(() => this.resize()).observe(el);
   }
 
-  build() {
-    const series = [{}, ...this.spec.series.map(([, label, stroke, dash]) => ({ label, stroke, dash, width: 1.5, points: { show: false } }))];
+  /** The plot with the simulation's series, and the robot's after them when it is linked. */
+  build(withRobot) {
+    this.u?.destroy();
+    this.withRobot = withRobot;
+    const sim = this.spec.series.map(([, label, stroke, dash]) => ({
+      label: withRobot ? `sim: ${label}` : label,
+      stroke,
+      dash,
+      width: 1.5,
+      points: { show: false },
+    }));
+    const robot = withRobot
+      ? this.robotSeries.map(([, label, stroke]) => ({ label, stroke, width: 2.5, points: { show: false } }))
+      : [];
+    const series = [{}, ...sim, ...robot];
     this.u = new uPlot(
       {
         width: Math.max(120, this.el.clientWidth),
@@ -135,10 +207,17 @@ class SensorPlot {
     this.resize();
   }
 
-  update(columns) {
-    if (!this.u) this.build();
+  update(columns, robot) {
+    if (!this.u || this.withRobot !== !!robot) this.build(!!robot);
     const data = [columns.t_s, ...this.spec.series.map(([key, , , , scale]) => scaled(columns[key], scale))];
-    this.u.setData(data);
+    if (!robot) {
+      this.u.setData(data);
+      return;
+    }
+    // two clocks on one axis: uPlot.join puts both tables on the union of their times, a
+    // series without a point at a time is drawn across it
+    const own = [robot.t_s, ...this.robotSeries.map(([key]) => robot[key])];
+    this.u.setData(uPlot.join([data, own]));
   }
 
   /** The plot is as wide as its box; its height is fixed, the legend below it. */
