@@ -7,11 +7,15 @@ nothing."""
 from __future__ import annotations
 
 import copy
+import json
 
 import numpy as np
 import pytest
 
+from app.firmware.robot_telemetry import POST_FRAMES
 from app.robots.model import RobotModel
+from app.server.api.sensors import MAX_POSTED_FRAMES
+from app.server.request_gate import MAX_BODY_BYTES
 from app.server.robot_sensors import COLUMNS, WINDOW_FRAMES
 from tests.server_harness import client, running_server
 
@@ -66,11 +70,11 @@ def test_posted_frames_show_beside_the_simulations(server):
 
 
 def test_the_window_keeps_the_last_five_seconds_and_a_restart_starts_over(server):
-    for first in range(1000, 1000 + 300, 50):
-        frames = [frame(n) for n in range(first, first + 50)]
+    for first in range(1000, 1000 + 320, MAX_POSTED_FRAMES):
+        frames = [frame(n) for n in range(first, first + MAX_POSTED_FRAMES)]
         assert server.post("/api/sensors/robot", json={"frames": frames}).status_code == 200
     held = server.get("/api/sensors").json()["robot"]["columns"]["frame"]
-    assert held == list(range(1300 - WINDOW_FRAMES, 1300))
+    assert held == list(range(1320 - WINDOW_FRAMES, 1320))
     assert server.post("/api/sensors/robot", json={"frames": [frame(3)]}).json()["taken"] == 1
     assert server.get("/api/sensors").json()["robot"]["columns"]["frame"] == [3]
 
@@ -96,7 +100,7 @@ BAD = {
     "a gyro past its range": lambda b: b["frames"][1].update(gyro_rad_s=[0.0, 5.0, 0.0]),
     "a negative force": lambda b: b["frames"][1]["fsr_n"][0].__setitem__(2, -1.0),
     "one sole": lambda b: b["frames"][1].update(fsr_n=[[1.0, 1.0, 1.0, 1.0]]),
-    "too many frames": lambda b: b.update(frames=[frame(n) for n in range(51)]),
+    "too many frames": lambda b: b.update(frames=[frame(n) for n in range(MAX_POSTED_FRAMES + 1)]),
     "a frame not an object": lambda b: b.update(frames=[1, 2]),
 }
 
@@ -126,6 +130,26 @@ def test_not_a_number_and_duplicate_keys_are_refused(server):
     )
     assert bad.status_code == 422 and "frames" in bad.json()["message"]
     assert server.get("/api/sensors").json()["robot"]["frame"] == 6000
+
+
+def test_the_links_batches_fit_the_route_and_its_largest_body_the_gate():
+    assert POST_FRAMES <= MAX_POSTED_FRAMES
+    longest = -2.2250738585072014e-308  # the longest a float's JSON gets
+    worst = frame(2**32 - 1) | {
+        "status": ["imu_present", "imu_stale", "imu_nack", "imu_short", "fsr_stale"],
+        "laws": ["tilt", "yaw_rate", "damping", "cop"],
+        "imu_failures": 255,
+        "support": -1,
+    }
+    for key, value in worst.items():  # every number as long as JSON writes one
+        if key == "fsr_n":
+            worst[key] = [[longest] * 4, [longest] * 4]
+        elif isinstance(value, list) and value and isinstance(value[0], float):
+            worst[key] = [longest] * len(value)
+        elif isinstance(value, float):
+            worst[key] = longest
+    body = json.dumps({"frames": [worst] * MAX_POSTED_FRAMES}).encode()
+    assert len(body) <= MAX_BODY_BYTES
 
 
 def test_what_is_allowed_is_said(server):

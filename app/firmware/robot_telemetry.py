@@ -18,7 +18,7 @@ from app.firmware import protocol as proto
 from app.firmware.sensor_feed import RawSample, decoded
 
 FORWARD_S = 0.15  # a batch of about 7 frames
-POST_FRAMES = 25  # at most per request (about 11 KiB; the server takes 50)
+POST_FRAMES = 16  # at most per request (about 7 KiB; the server takes 16)
 WINDOW_FRAMES = 250  # what waits while the dashboard does not answer: the last 5 s
 POST_TIMEOUT_S = 2.0
 STATUS_BITS = {
