@@ -6,9 +6,9 @@ import math
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field
 
-from app.server.api.deps import ServicesDep, StrictJsonRoute, _whole_float_to_int
+from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GATE_RESPONSES, responses
 from app.server.robot_sensors import WINDOW_FRAMES, RobotFrame
 from app.server.sensor_trace import COLUMNS
@@ -32,25 +32,20 @@ def _values(n: int, limit: float, what: str, low: float | None = None) -> Any:
 Angles2 = _values(2, math.pi, "pitch, roll (rad, within ±π)")
 
 
-def _int(low: int, high: int) -> Any:
-    """An integer low..high as JSON has it (a whole float taken, as `deps.json_int`)."""
-    return Annotated[int, Field(ge=low, le=high), BeforeValidator(_whole_float_to_int)]
-
-
 class RobotFrameBody(BaseModel):
     """One SENSORS frame of the robot as `artro link` decodes it (hardware/firmware/PROTOCOL.md;
     the counts in SI units as app/firmware/sensor_feed.py `decoded` makes them)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
-    frame: _int(0, 2**32 - 1) = Field(description="the robot's frame the laws corrected")
+    frame: json_int(0) = Field(le=2**32 - 1, description="the robot's frame the laws corrected")
     status: list[Literal["imu_present", "imu_stale", "imu_nack", "imu_short", "fsr_stale"]] = Field(
         max_length=5, description="the status bits set"
     )
-    imu_failures: _int(0, 255) = Field(description="failed IMU reads since boot")
+    imu_failures: json_int(0) = Field(le=255, description="failed IMU reads since boot")
     laws: list[Literal["tilt", "yaw_rate", "damping", "cop"]] = Field(
         max_length=4, description="the laws switched on"
     )
-    support: _int(-1, 1) = Field(description="support foot: 0 left, 1 right, -1 neither")
+    support: json_int(-1) = Field(le=1, description="support foot: 0 left, 1 right, -1 neither")
     attitude_rad: Angles2
     gyro_rad_s: _values(3, GYRO_LIMIT_RAD_S, "x, y, z rate (rad/s, within ±4.37)")
     accel_m_s2: _values(3, ACCEL_LIMIT_M_S2, "x, y, z (m/s², within ±19.62)")
