@@ -1,11 +1,7 @@
-"""A robot's ATmega128 over its serial port: a whole parameter set in one message, the
-dashboard's set followed as it changes (polling `GET /api/params`), the robot's SENSORS stream
-forwarded to the dashboard's Sensors panel meanwhile, the servos switched off at the end; the
-same code drives the emulated robot on its pty (hardware/firmware/PROTOCOL.md).
-
-Every request is paired with its answer: a streamed SENSORS (or TELEMETRY) answers only
-GET_SENSORS (GET_TELEMETRY). While the stream is on, a `PortReader` thread reads the port
-alone and hands each answer to the request waiting for it."""
+"""A robot's ATmega128 over its serial port (hardware/firmware/PROTOCOL.md; docs/DESIGN.md §15):
+a whole parameter set, the dashboard's set followed as it changes, the robot's SENSORS stream
+forwarded to the Sensors panel meanwhile, the servos off at the end. Every request is paired
+with its answer; while the stream is on, a `PortReader` thread reads the port alone."""
 
 from __future__ import annotations
 
