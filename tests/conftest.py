@@ -1,12 +1,9 @@
-import threading
-
 import pytest
 
-from app.firmware.pty_bridge import PtyBridge
 from app.params.document import ParameterSet
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import SimThread
-from tests.firmware_support import emulator, preset
+from tests.firmware_support import emulator, preset, served_on_a_pty
 from tests.server_harness import client, running_server
 
 
@@ -60,14 +57,5 @@ def sim_thread():
 @pytest.fixture
 def robot_on_a_pty():
     """The emulated robot (paper) served on a pseudo-terminal until the test ends: its path."""
-    stop = threading.Event()
-    with emulator(preset("paper")) as mcu:
-        bridge = PtyBridge(mcu, realtime=False)
-        thread = threading.Thread(target=bridge.serve, args=(stop, 600.0), daemon=True)
-        thread.start()
-        try:
-            yield bridge.port
-        finally:
-            stop.set()
-            thread.join()
-            bridge.close()
+    with emulator(preset("paper")) as mcu, served_on_a_pty(mcu) as port:
+        yield port

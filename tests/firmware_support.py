@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+import contextlib
 import copy
 import json
+import threading
+from collections.abc import Iterator
 from typing import Any
 
 from app.assets import builtin_presets_dir
 from app.firmware.build import build_firmware
 from app.firmware.emulator import Mcu
+from app.firmware.pty_bridge import PtyBridge
 
 
 def preset(name: str, **motion: float) -> dict[str, Any]:
@@ -27,3 +31,18 @@ def emulator(doc: dict[str, Any], **kwargs: Any) -> Mcu:
 def frames_for_cycles(doc: dict[str, Any], cycles: float) -> int:
     """Frames that cover `cycles` gait cycles at the document's clock frequency."""
     return int(cycles / (doc["gait"]["clock"]["freq_hz"] * 0.02)) + 1
+
+
+@contextlib.contextmanager
+def served_on_a_pty(mcu: Mcu) -> Iterator[str]:
+    """`mcu`'s UART on a pseudo-terminal (as fast as it runs) until the block ends: its path."""
+    stop = threading.Event()
+    bridge = PtyBridge(mcu, realtime=False)
+    thread = threading.Thread(target=bridge.serve, args=(stop, 600.0), daemon=True)
+    thread.start()
+    try:
+        yield bridge.port
+    finally:
+        stop.set()
+        thread.join()
+        bridge.close()

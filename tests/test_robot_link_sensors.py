@@ -16,7 +16,6 @@ import serial
 
 from app.firmware import protocol as proto
 from app.firmware.link import SerialLink, read_params
-from app.firmware.pty_bridge import PtyBridge
 from app.firmware.robot_link import RobotLink, _plain, follow
 from app.firmware.robot_telemetry import SensorForwarder, frame_json
 from app.firmware.sensor_feed import (
@@ -28,7 +27,7 @@ from app.firmware.sensor_feed import (
 )
 from gait.attitude import accel_tilt
 from hardware.firmware.schema import values_from_document
-from tests.firmware_support import emulator, preset
+from tests.firmware_support import emulator, preset, served_on_a_pty
 from tests.server_harness import client, running_server, wait_for
 
 PITCH_RAD, ROLL_RAD = 0.12, -0.07  # the trunk as the emulated IMU sees it, still
@@ -48,17 +47,11 @@ def tilted() -> RawSample:
 @pytest.fixture
 def robot_with_sensors():
     """The emulated robot (paper) with its IMU and force sensors reading `tilted()`, on a pty."""
-    stop = threading.Event()
-    with emulator(preset("paper"), sensors=sample_of(tilted())) as mcu:
-        bridge = PtyBridge(mcu, realtime=False)
-        thread = threading.Thread(target=bridge.serve, args=(stop, 600.0), daemon=True)
-        thread.start()
-        try:
-            yield bridge.port
-        finally:
-            stop.set()
-            thread.join()
-            bridge.close()
+    with (
+        emulator(preset("paper"), sensors=sample_of(tilted())) as mcu,
+        served_on_a_pty(mcu) as port,
+    ):
+        yield port
 
 
 class Log:
