@@ -8,7 +8,7 @@ import sys
 from collections.abc import Sequence
 
 from app.cli import bench, calibrate_ca, export, firmware, link, robot, run, serve, tune
-from app.cli.options import join_negative_values
+from app.cli.options import join_negative_values, use_help_formatter
 
 COMMANDS = (serve, run, export, calibrate_ca, bench, tune, firmware, link, robot)
 
@@ -23,6 +23,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:
         command.add_parser(sub)
+    use_help_formatter(parser)  # the action parsers too (firmware run, robot check, ...)
     return parser
 
 

@@ -18,6 +18,7 @@ from app.cli.options import (
     add_robot_option,
     backend_of,
     ranges_from,
+    resolve_sets,
     subcommand,
 )
 
@@ -27,7 +28,8 @@ ROBUST_DURATION_S = 20.0
 EXAMPLES = """examples:
   artro bench paper                        both presets, 60 s runs (~4 min on 2 cores)
   artro bench paper --quick --presets tuned
-  artro bench robust --presets tuned --samples 100 --seed 1"""
+  artro bench robust --presets tuned --samples 100 --seed 1
+  artro bench robust --presets tuned-artro,my_gait.json    a saved preset and a file"""
 
 
 def add_parser(sub: Any) -> None:
@@ -48,18 +50,18 @@ def add_parser(sub: Any) -> None:
     parser.add_argument(
         "--presets",
         default=None,
-        metavar="NAME_OR_FILE,...",
-        help="parameter sets: built-in names (models/presets/NAME.json) or JSON files "
+        metavar="NAME|FILE,...",
+        help="parameter sets, each a built-in or saved preset's name or a parameter-set file "
         "(default: paper,tuned,pfs; robust: tuned)",
     )
     parser.add_argument(
         "--duration",
         type=float,
         metavar="S",
-        help="simulated seconds per run (paper 60, --quick 10; robust 20)",
+        help="simulated seconds per run (default: paper 60, --quick 10; robust 20)",
     )
     parser.add_argument(
-        "--warmup", type=float, metavar="S", help="seconds not measured (5; --quick 2)"
+        "--warmup", type=float, metavar="S", help="seconds not measured (default: 5; --quick 2)"
     )
     robust = parser.add_argument_group("bench robust")
     robust.add_argument("--samples", type=int, default=200, metavar="N", help="variations")
@@ -111,9 +113,14 @@ def command(args: argparse.Namespace) -> int:
             f"need duration > warm-up >= 0 s, got --duration {config.duration_s:g} "
             f"--warmup {config.warmup_s:g}"
         )
-    specs = [s.strip() for s in (args.presets or "paper,tuned,pfs").split(",") if s.strip()]
-    run_paper_bench(specs, config, args.out or PAPER_OUT)
+    run_paper_bench(preset_specs(args.presets, "paper,tuned,pfs"), config, args.out or PAPER_OUT)
     return 0
+
+
+def preset_specs(text: str | None, default: str) -> list[str]:
+    """`--presets` as the benches take them, each checked by `resolve_sets`: a built-in name as
+    typed, a saved preset or a file as its path; ValueError names the presets there are."""
+    return [c.spec if c.builtin else str(c.path) for c in resolve_sets(text or default)]
 
 
 def robust(args: argparse.Namespace) -> int:
@@ -134,7 +141,7 @@ def robust(args: argparse.Namespace) -> int:
     if not duration > warmup >= 0:
         raise ValueError(f"need duration > warm-up >= 0 s, got {duration:g} and {warmup:g}")
     ranges = ranges_from(args.range)
-    specs = [s.strip() for s in (args.presets or "tuned").split(",") if s.strip()]
+    specs = preset_specs(args.presets, "tuned")
     presets, notes = resolve_presets(specs)
     if not presets:
         raise ValueError(f"no presets to run (asked for {specs}): {'; '.join(notes)}")

@@ -15,6 +15,7 @@ from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
 from app.cli.options import (
     add_backend_options,
     add_cluster_options,
+    add_params_option,
     add_robot_option,
     backend_of,
     robot_and_set,
@@ -26,7 +27,7 @@ from gait import ENGINES
 
 EXAMPLES = """examples:
   artro calibrate-ca                       the paper gait, forward at a_p = 0.07
-  artro calibrate-ca --params models/presets/tuned.json -o tuned_steered.json"""
+  artro calibrate-ca --params tuned -o tuned_steered.json"""
 
 
 def add_parser(sub: Any) -> None:
@@ -37,9 +38,14 @@ def add_parser(sub: Any) -> None:
         command,
         EXAMPLES,
     )
-    c.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    add_params_option(c, "the --robot's default preset, else the paper's values")
     add_robot_option(c)
-    c.add_argument("--engine", choices=ENGINES, default=None, help="gait engine to calibrate")
+    c.add_argument(
+        "--engine",
+        choices=ENGINES,
+        default=None,
+        help="gait engine to calibrate (default: the parameter set's)",
+    )
     c.add_argument(
         "--a-p", type=float, default=None, help="forward amplitude to walk at (default: the set's)"
     )
@@ -56,7 +62,12 @@ def add_parser(sub: Any) -> None:
     c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
     add_cluster_options(c, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     add_backend_options(c)
-    c.add_argument("-o", "--output", metavar="FILE", help="write the parameter set with K here")
+    c.add_argument(
+        "-o",
+        "--output",
+        metavar="FILE",
+        help="write the parameter set with K here (default: nothing written)",
+    )
     c.add_argument("--json", action="store_true", help="print the result as one JSON object")
 
 

@@ -8,13 +8,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from app.cli.options import add_robot_option, robot_and_set, subcommand
+from app.cli.options import add_params_option, add_robot_option, robot_and_set, subcommand
 from app.firmware.build import export_firmware_folder, wiring
 from app.params.formats import FORMATS, export_text
 
 EXAMPLES = """examples:
   artro export --format c -o artro_params.h              the firmware header
   artro export --format yaml --params my_gait.json
+  artro export --format c --params tuned -o tuned.h      a preset by name
   artro export --format firmware --params my_gait.json -o my_robot   then: make -C my_robot"""
 
 
@@ -33,7 +34,7 @@ def add_parser(sub: Any) -> None:
         help="output format; firmware: a folder with the C sources, this set's header and a "
         "Makefile (make, make flash) -- needs -o DIR",
     )
-    e.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper values)")
+    add_params_option(e, "the --robot's default preset, else the paper's values")
     add_robot_option(e)
     e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
 

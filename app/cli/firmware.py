@@ -11,7 +11,13 @@ import json
 from pathlib import Path
 from typing import Any
 
-from app.cli.options import motion_triple, subcommand, variation
+from app.cli.options import (
+    add_motion_option,
+    add_params_option,
+    resolve_set,
+    subcommand,
+    variation,
+)
 from app.firmware.build import build_firmware, export_firmware_folder, wiring
 from app.firmware.closed_loop import run_closed_loop
 from app.firmware.conformance import check_firmware
@@ -26,8 +32,8 @@ COMPARISON_ONLY = ("frames", "json", "vcd")  # options of the comparison run, no
 
 EXAMPLES = """examples:
   artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
-  artro firmware run --motion 0,0.07,0 --frames 250 --json
-  artro firmware run --params models/presets/tuned.json --ca 0.1 --vcd walk.vcd
+  artro firmware run --motion a_p=0.07 --frames 250 --json
+  artro firmware run --params tuned --motion a_p=0.07,ca=0.1 --vcd walk.vcd
   artro firmware run --params laws.json --vary imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1
                                            a set with a feedback law on: closed loop
   artro firmware run --pty                 the emulated robot on a serial pseudo-terminal"""
@@ -43,26 +49,31 @@ def add_parser(sub: Any) -> None:
     )
     sub = fw.add_subparsers(dest="firmware_command", required=True, metavar="ACTION")
     build = sub.add_parser("build", help="write and build a firmware folder")
-    build.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
-    build.add_argument("-o", "--output", metavar="DIR", default="artro_firmware")
+    add_params_option(build)
+    build.add_argument(
+        "-o", "--output", metavar="DIR", default="artro_firmware", help="the firmware folder"
+    )
     build.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
     run = sub.add_parser("run", help="emulate on simavr and compare with the model")
-    run.add_argument("--params", metavar="FILE", help="parameter-set JSON (default: paper)")
-    run.add_argument("--motion", type=motion_triple, metavar="AR,AP,AY", help="motion vector")
-    run.add_argument("--ca", type=float, help="curve amount")
+    add_params_option(run)
+    add_motion_option(run)
+    run.add_argument("--ca", type=float, help="curve amount (default: the motion's)")
     run.add_argument(
         "--frames", type=int, default=None, metavar="N", help=f"20 ms frames (default {FRAMES}, "
         f"{MIN_FRAMES} to {MAX_FRAMES})"
     )  # fmt: skip
     run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
-    run.add_argument("--vcd", metavar="FILE", help="write the nine output lines as VCD")
+    run.add_argument(
+        "--vcd", metavar="FILE", help="write the nine output lines as VCD (default: no VCD)"
+    )
     run.add_argument(
         "--vary",
         type=variation,
         default=NOMINAL,
         metavar="KEY=VALUE,...",
         help="closed loop (a feedback law on): the simulated robot and its sensors varied, e.g. "
-        "imu_tilt_bias_deg=1,gyro_bias_deg_s=0.5,fsr_gain=1.1 (docs/DESIGN.md §8)",
+        "imu_tilt_bias_deg=1,gyro_bias_deg_s=0.5,fsr_gain=1.1 (docs/DESIGN.md §8) "
+        "(default: none, the nominal model)",
     )
     run.add_argument("--json", action="store_true", help="print one JSON object")
     run.add_argument(
@@ -93,13 +104,15 @@ def load_document(path: str | None) -> dict[str, Any]:
 
 
 def _document(args: argparse.Namespace) -> dict[str, Any]:
-    doc = load_document(args.params)
-    motion = dict(doc["motion"])
+    chosen = resolve_set(args.params, "--params") if args.params else None
+    doc = load_document(str(chosen.path) if chosen and chosen.path else None)
+    motion = Motion(**doc["motion"])
+    ca = getattr(args, "ca", None)
     if getattr(args, "motion", None) is not None:
-        motion.update(zip(("a_r", "a_p", "a_y"), args.motion, strict=True))
-    if getattr(args, "ca", None) is not None:
-        motion["ca"] = args.ca
-    doc["motion"] = dataclasses.asdict(Motion(**motion))  # validated
+        motion = args.motion.applied(motion, ca)
+    elif ca is not None:
+        motion = dataclasses.replace(motion, ca=ca)  # validated
+    doc["motion"] = dataclasses.asdict(motion)
     return doc
 
 

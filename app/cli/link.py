@@ -10,17 +10,16 @@ import sys
 import threading
 from typing import Any, TextIO
 
-from app.cli.options import subcommand
+from app.cli.options import SETS_HELP, resolve_set, subcommand
 from app.firmware.link import SerialLink, SerialPort
 from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
-from app.params.document import load_parameter_set
 
 STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
 EXAMPLES = """examples:
   artro link --port /dev/ttyUSB0             follow the dashboard on http://127.0.0.1:8000,
                                              the robot's sensors in its Sensors panel
   artro link --port /dev/ttyUSB0 --no-sensors   follow it, the robot's sensors not asked for
-  artro link --port /dev/pts/5 --params models/presets/tuned.json   send one set
+  artro link --port /dev/pts/5 --params tuned   send one set (a preset's name or a file)
   artro link --dry-run                       print the messages it would send"""
 
 
@@ -40,10 +39,17 @@ def add_parser(sub: Any) -> None:
         "is said once, the robot walks on in the last set. The servos are switched off on "
         "every exit (Ctrl-C, SIGTERM, SIGHUP, an error)."
     )
-    p.add_argument("--port", help="serial device, e.g. /dev/ttyUSB0 (not needed with --dry-run)")
+    p.add_argument(
+        "--port", help="serial device, e.g. /dev/ttyUSB0 (no default: needed unless --dry-run)"
+    )
     p.add_argument("--baud", type=int, default=DEFAULT_BAUD, help=f"(default {DEFAULT_BAUD})")
     p.add_argument("--server", default="http://127.0.0.1:8000", help="the dashboard to follow")
-    p.add_argument("--params", metavar="FILE", help="send this file once instead of following")
+    p.add_argument(
+        "--params",
+        metavar="FILE|NAME",
+        help=f"send this parameter set once instead of following: {SETS_HELP} "
+        "(default: follow the dashboard)",
+    )
     p.add_argument("--dry-run", action="store_true", help="print the messages, open no port")
     p.add_argument(
         "--no-sensors",
@@ -85,6 +91,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")
     if args.baud <= 0:
         raise ValueError(f"--baud must be a positive rate such as {DEFAULT_BAUD}, got {args.baud}")
+    # the set first: a bad name or file is said before a port is opened
+    one_set = resolve_set(args.params, "--params").pset if args.params else None
     port: SerialPort
     if args.dry_run:
         port = DryRunPort(out)
@@ -97,8 +105,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     previous = _stop_on_signals()
     try:
         robot.hello()
-        if args.params:
-            robot.send_set(load_parameter_set(args.params).to_dict())
+        if one_set is not None:
+            robot.send_set(one_set.to_dict())
             robot.start()
             return 0
         print(f"following {args.server} (Ctrl-C stops and switches the servos off)", file=out)

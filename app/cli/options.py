@@ -1,6 +1,6 @@
 """What several `artro` commands share: argument types that say what is allowed, the `--robot`,
-`--range` and `--vary` options, the robot and parameter set a command starts with, and the
-subcommand layout (help, examples, `handler`)."""
+`--range`, `--vary` and `--motion` options, the robot and parameter set a command starts with
+(a file or a preset's name), and the subcommand layout (help with defaults, examples, `handler`)."""
 
 from __future__ import annotations
 
@@ -9,10 +9,11 @@ import math
 import re
 import sys
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any, TextIO
 
-from app.params.document import ParameterSet, load_parameter_set
+from app.cli._motion import MOTION_HELP, MOTION_METAVAR, MotionChoice, motion_arg
+from app.cli._sets import SETS_HELP, ChosenSet, preset_names, resolve_set, resolve_sets
+from app.params.document import ParameterSet
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, parse_range
@@ -25,6 +26,47 @@ ROBOT_HELP = "the robot: a built-in name (artro, ...) or a description .yaml (de
 _NUMBERS = re.compile(r"^-\d*\.?\d+(e[-+]?\d+)?(,[-+]?\d*\.?\d+(e[-+]?\d+)?)*$", re.IGNORECASE)
 
 Handler = Callable[[argparse.Namespace], int]
+__all__ = [  # from the private modules, for the commands
+    "MOTION_HELP",
+    "MOTION_METAVAR",
+    "SETS_HELP",
+    "ChosenSet",
+    "MotionChoice",
+    "motion_arg",
+    "preset_names",
+    "resolve_set",
+    "resolve_sets",
+]
+
+
+class HelpFormatter(argparse.RawDescriptionHelpFormatter):
+    """Descriptions and examples as written; each option's help ends with its default unless
+    the help already says it. A default that is not a plain value (None, an object) is for the
+    help text to explain; flags are off and required options have none."""
+
+    def _get_help_string(self, action: argparse.Action) -> str | None:
+        text = action.help or ""
+        default = action.default
+        if (
+            not action.option_strings
+            or "default" in text.lower()
+            or default is argparse.SUPPRESS
+            or action.required
+            or isinstance(default, bool)
+            or not isinstance(default, str | int | float | list)
+        ):
+            return text
+        shown = "none" if default == [] else "%(default)s"
+        return f"{text} (default: {shown})" if text else f"default: {shown}"
+
+
+def use_help_formatter(parser: argparse.ArgumentParser) -> None:
+    """`HelpFormatter` for `parser` and every subcommand and action parser below it."""
+    parser.formatter_class = HelpFormatter
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for child in action.choices.values():
+                use_help_formatter(child)
 
 
 def subcommand(
@@ -37,7 +79,7 @@ def subcommand(
         help=help_text,
         description=help_text,
         epilog=examples,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
+        formatter_class=HelpFormatter,
     )
     parser.set_defaults(handler=handler)
     return parser
@@ -52,20 +94,6 @@ def join_negative_values(argv: Sequence[str]) -> list[str]:
         else:
             out.append(token)
     return out
-
-
-def motion_triple(text: str) -> tuple[float, float, float]:
-    """An argparse type: `a_r,a_p,a_y`, three finite numbers."""
-    parts = text.split(",")
-    try:
-        values = tuple(float(p) for p in parts)
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(math.isfinite(v) for v in values):
-        raise argparse.ArgumentTypeError(
-            f"expected three numbers a_r,a_p,a_y such as 0,0.07,0; got {text!r}"
-        )
-    return values  # type: ignore[return-value]
 
 
 def number(
@@ -118,7 +146,12 @@ def study_location(text: str) -> str:
 
 def add_cluster_options(parser: Any, purpose: str, *, wait: bool = True) -> None:
     """`--cluster tcp://HOST:PORT` (checked as it is parsed) and, with `wait`, `--wait-workers`."""
-    parser.add_argument("--cluster", type=cluster_address, metavar="tcp://HOST:PORT", help=purpose)
+    parser.add_argument(
+        "--cluster",
+        type=cluster_address,
+        metavar="tcp://HOST:PORT",
+        help=f"{purpose} (default: none, this machine)",
+    )
     if wait:
         parser.add_argument(
             "--wait-workers",
@@ -179,6 +212,27 @@ def ranges_from(texts: list[str]) -> VariationRanges:
     return ranges
 
 
+def add_params_option(parser: Any, default: str = "the paper's values") -> None:
+    """`--params FILE|NAME`, read by `resolve_set` (or `robot_and_set`)."""
+    parser.add_argument(
+        "--params",
+        metavar="FILE|NAME",
+        default=None,
+        help=f"the parameter set: {SETS_HELP} (e.g. tuned) (default: {default})",
+    )
+
+
+def add_motion_option(parser: Any, default: str = "the parameter set's") -> None:
+    """`--motion KEY=VALUE,...|AR,AP,AY` as a `MotionChoice`; `MotionChoice.applied` uses it."""
+    parser.add_argument(
+        "--motion",
+        type=motion_arg,
+        default=None,
+        metavar=MOTION_METAVAR,
+        help=f"{MOTION_HELP} (default: {default})",
+    )
+
+
 def add_robot_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--robot", metavar="NAME|FILE", default=None, help=ROBOT_HELP)
 
@@ -203,15 +257,12 @@ def check_timing(
         )
 
 
-def starting_set(robot: RobotModel, params_file: str | None, *, robot_given: bool) -> ParameterSet:
-    """The parameter set a command starts with: the file (or a built-in preset's name), else the
-    robot's default preset when a robot was named, else the paper's values (ArtRo, as before
-    robots existed)."""
-    if params_file:
-        presets = builtin_presets()
-        if params_file in presets and not Path(params_file).exists():
-            return presets[params_file]  # a built-in preset by name: --params tuned
-        return load_parameter_set(params_file)
+def starting_set(robot: RobotModel, params: str | None, *, robot_given: bool) -> ParameterSet:
+    """The parameter set a command starts with: `params` (a file, or a built-in or saved
+    preset's name: `resolve_set`), else the robot's default preset when a robot was named, else
+    the paper's values (ArtRo, as before robots existed)."""
+    if params:
+        return resolve_set(params, "--params").pset
     if robot_given:
         presets = builtin_presets()
         name = robot.description.default_preset

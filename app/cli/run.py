@@ -11,9 +11,10 @@ from typing import Any
 
 from app.cli.options import (
     MAX_DURATION_S,
+    add_motion_option,
+    add_params_option,
     add_robot_option,
     check_timing,
-    motion_triple,
     number,
     robot_and_set,
     subcommand,
@@ -24,29 +25,23 @@ from app.worlds.variations import NOMINAL
 from gait import ENGINES, Motion
 
 EXAMPLES = """examples:
-  artro run --motion 0,0.07,0 --json       forward, the paper's case, metrics as JSON
-  artro run --motion -0.1,0,0 --params models/presets/tuned.json   step to the left
-  artro run --motion 0,0.07,0 --ca 0.1 --duration 60               curve walking
-  artro run --motion 0,0.07,0 --engine pfs --from-rest    seed 004's gait, from standing"""
+  artro run --motion a_p=0.07 --json       forward, the paper's case, metrics as JSON
+  artro run --motion a_r=-0.1 --params tuned       step to the left, the tuned preset
+  artro run --motion a_p=0.07,ca=0.1 --duration 60          curve walking
+  artro run --motion a_p=0.07 --engine pfs --from-rest    seed 004's gait, from standing
+  artro run --motion 0,0.07,0              the older triple AR,AP,AY: forward"""
 
 
 def add_parser(sub: Any) -> None:
     r = subcommand(sub, "run", "simulate headless and print the run metrics", command, EXAMPLES)
+    add_motion_option(r)
     r.add_argument(
-        "--motion",
-        type=motion_triple,
+        "--ca",
+        type=float,
         default=None,
-        metavar="AR,AP,AY",
-        help="motion vector; a_r > 0 steps right, a_p > 0 walks forward, a_y > 0 turns clockwise "
-        "(default: the parameter set's)",
+        help="curve amount, > 0 turns clockwise (default: the motion's)",
     )
-    r.add_argument("--ca", type=float, default=None, help="curve amount, > 0 turns clockwise")
-    r.add_argument(
-        "--params",
-        metavar="FILE",
-        help="parameter-set JSON or a built-in preset's name (default: the --robot's default "
-        "preset, else paper values)",
-    )
+    add_params_option(r, "the --robot's default preset, else the paper's values")
     add_robot_option(r)
     seconds = number(0, MAX_DURATION_S, above=True, what="duration")
     r.add_argument("--duration", type=seconds, default=30.0, metavar="S", help="simulated seconds")
@@ -66,7 +61,8 @@ def add_parser(sub: Any) -> None:
         default=NOMINAL,
         metavar="KEY=VALUE,...",
         help="walk a varied model, e.g. friction=0.4,latency_ms=40,tilt_deg=2,cal.l_knee=1.2 "
-        "(docs/DESIGN.md §8; `artro bench robust` names its worst variations so)",
+        "(docs/DESIGN.md §8; `artro bench robust` names its worst variations so) "
+        "(default: none, the nominal model)",
     )
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
 
@@ -75,9 +71,8 @@ def command(args: argparse.Namespace) -> int:
     robot, pset = robot_and_set(args)
     motion = pset.motion
     if args.motion is not None:
-        a_r, a_p, a_y = args.motion
-        motion = dataclasses.replace(motion, a_r=a_r, a_p=a_p, a_y=a_y)
-    if args.ca is not None:
+        motion = args.motion.applied(motion, args.ca)
+    elif args.ca is not None:
         motion = dataclasses.replace(motion, ca=args.ca)
     gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
     check_timing((), gait, args.duration, args.warmup)  # a whole cycle to measure

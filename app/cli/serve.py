@@ -10,16 +10,18 @@ from typing import Any
 from app.cli.options import (
     add_backend_options,
     add_cluster_options,
+    add_params_option,
     add_robot_option,
     backend_of,
+    resolve_set,
     subcommand,
 )
-from app.params.document import load_parameter_set
 from app.robots.model import RobotModel
 
 EXAMPLES = """examples:
   artro serve                              the dashboard on http://localhost:8000
   artro serve --params my_gait.json --port 9000
+  artro serve --params tuned               start with a preset, built in or saved, by name
   artro serve --drive firmware             pulses from the robot's firmware on an emulated MCU"""
 
 
@@ -30,7 +32,7 @@ def add_parser(sub: Any) -> None:
     s.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
     s.add_argument("--port", type=int, default=8000, help="HTTP port of the dashboard and API")
     s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
-    s.add_argument("--params", metavar="FILE", help="start with this parameter set")
+    add_params_option(s, "the --robot's default preset")
     add_robot_option(s)
     add_cluster_options(
         s,
@@ -38,7 +40,12 @@ def add_parser(sub: Any) -> None:
         wait=False,
     )
     add_backend_options(s)  # the robustness job's; the live simulation is always MuJoCo's
-    s.add_argument("--data-dir", metavar="DIR", help="where presets are kept")
+    s.add_argument(
+        "--data-dir",
+        metavar="DIR",
+        help="where presets are saved "
+        "(default: $ARTRO_DATA_DIR or ~/.local/share/artro-gait-studio)",
+    )
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
     s.add_argument(
         "--drive",
@@ -67,15 +74,18 @@ def serve(args: argparse.Namespace) -> int:
     from app.server.services import ServerConfig
     from app.server.viser_view import viser_url
 
+    data_dir = Path(args.data_dir) if args.data_dir else default_data_dir()
+    # a file, or a preset's name (built in or saved in --data-dir): read here, before serving
+    chosen = resolve_set(args.params, "--params", data_dir) if args.params else None
     config = ServerConfig(
         host=args.host,
         port=args.port,
         viser_port=args.viser_port,
-        params_file=Path(args.params) if args.params else None,
+        params_file=chosen.path if chosen else None,
         robot=args.robot,
         cluster=args.cluster,
         **backend_of(args),
-        data_dir=Path(args.data_dir) if args.data_dir else default_data_dir(),
+        data_dir=data_dir,
         viewer=not args.no_viewer,
         allowed_hosts=tuple(args.allowed_host),
         drive=args.drive,
@@ -87,8 +97,6 @@ def serve(args: argparse.Namespace) -> int:
         close_evaluator(
             evaluator_for(RobotModel.load(args.robot), backend=config.backend, device=config.device)
         )
-    if config.params_file:
-        load_parameter_set(config.params_file)
     if config.drive == "firmware" and (missing := missing_tools()):
         print(f"artro serve --drive firmware: missing {', '.join(missing)}", file=sys.stderr)
         print("install them with: bash scripts/setup.sh", file=sys.stderr)

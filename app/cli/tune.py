@@ -6,12 +6,16 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import re
+import textwrap
+from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
 from app.cli.options import (
     MAX_DURATION_S,
+    SETS_HELP,
     add_backend_options,
     add_cluster_options,
     add_range_option,
@@ -20,31 +24,76 @@ from app.cli.options import (
     check_timing,
     number,
     ranges_from,
+    resolve_set,
     study_location,
     subcommand,
 )
 from app.evaluation import close_evaluator, evaluator_for
-from app.params.document import ParameterSet, load_parameter_set
-from app.params.presets import builtin_presets, stamped, write_parameter_set
+from app.params.document import ParameterSet
+from app.params.presets import builtin_presets, check_name, stamped, write_parameter_set
 from app.robots.model import RobotModel
 from app.study.study_store import DEFAULT_STUDY, StudyStore
-from app.study.tune import DEFAULT_NAMES, Tuner
+from app.study.tune import DEFAULT_NAMES, Tuner, tunable_fields
 from app.study.tune_loss import LossWeights, is_judged
 from gait import ARTRO_LEG
 from gait.params import merge, parse_settings
 
 EXAMPLES = """examples:
   artro tune --base paper --tune swing.v,short.amp_base --generations 4 --popsize 6
-  artro tune --base models/presets/tuned.json --set leg.paper_signs=false --select passing
+  artro tune --base tuned --set leg.paper_signs=false --select passing --name unsigned
+  artro tune --base my_gait.json --robot my.yaml       a file; the result: tuned-ROBOT
   artro tune --base tuned --robust 8 --tune tilt.ki_per_s,yaw_rate.kp,swing.v (gains, gait)"""
+DEFAULT_OUT = "out/tune/NAME.json"
+
+
+def tunable_help() -> str:
+    """The epilog's list of what `--tune` accepts, one group a line."""
+    lines = ["what --tune accepts (GROUP.FIELD; each within its schema range):"]
+    for group, fields in tunable_fields().items():
+        lines += textwrap.wrap(
+            ", ".join(fields),
+            width=78,
+            initial_indent=f"  {group + ':':10s}",
+            subsequent_indent=" " * 12,
+        )
+    return "\n".join(lines)
+
+
+def default_name(robot: str, builtins: Iterable[str]) -> str:
+    """`tuned-ROBOT` (characters a preset name may not hold as '-'), never a built-in's name."""
+    stem = re.sub(r"[^A-Za-z0-9_.-]+", "-", f"tuned-{robot}")[:60].rstrip(".-")
+    name, n, taken = stem, 1, set(builtins)
+    while name in taken:
+        n += 1
+        name = f"{stem}-{n}"
+    return check_name(name)
+
+
+def result_name(given: str | None, robot: str) -> str:
+    """The saved preset's name: `--name` (a valid name, not a built-in's) or `default_name`."""
+    builtins = list(builtin_presets())
+    if given is None:
+        return default_name(robot, builtins)
+    check_name(given)  # PresetError (a ValueError) says what a name may be
+    if given in builtins:
+        raise ValueError(
+            f"--name {given} is a built-in preset's name, and built-ins are read-only "
+            f"({', '.join(builtins)}): give another name, or leave --name out for "
+            f"{default_name(robot, builtins)}"
+        )
+    return given
 
 
 def add_parser(sub: Any) -> None:
     parser = subcommand(
-        sub, "tune", "CMA-ES over gait parameters toward the paper's walking", command, EXAMPLES
+        sub,
+        "tune",
+        "CMA-ES over gait parameters toward the paper's walking",
+        command,
+        f"{EXAMPLES}\n\n{tunable_help()}",
     )
     parser.add_argument(
-        "--base", default="paper", help="parameter-set file, or a built-in preset's name"
+        "--base", default="paper", metavar="FILE|NAME", help=f"the set to start from: {SETS_HELP}"
     )
     add_robot_option(parser)
     parser.add_argument(
@@ -62,11 +111,17 @@ def add_parser(sub: Any) -> None:
         help="change the base before tuning, e.g. leg.paper_signs=false or engine=pfs (repeatable)",
     )
     parser.add_argument(
-        "--tune", default=",".join(DEFAULT_NAMES), help="comma-separated parameters to tune"
+        "--tune",
+        default=",".join(DEFAULT_NAMES),
+        metavar="GROUP.FIELD,...",
+        help="comma-separated parameters to tune (the list below)",
     )
     whole = {"integer": True}
     parser.add_argument(
-        "--generations", type=number(1, 100_000, **whole, what="generations"), default=30
+        "--generations",
+        type=number(1, 100_000, **whole, what="generations"),
+        default=30,
+        help="CMA-ES generations",
     )
     parser.add_argument(
         "--popsize",
@@ -86,8 +141,18 @@ def add_parser(sub: Any) -> None:
         default=20.0,
         help="simulated s per case; at least one gait cycle longer than --warmup",
     )
-    parser.add_argument("--warmup", type=number(0, MAX_DURATION_S, what="warmup"), default=4.0)
-    parser.add_argument("--seed", type=number(0, 2**32 - 1, **whole, what="seed"), default=1)
+    parser.add_argument(
+        "--warmup",
+        type=number(0, MAX_DURATION_S, what="warmup"),
+        default=4.0,
+        help="simulated s per case not measured",
+    )
+    parser.add_argument(
+        "--seed",
+        type=number(0, 2**32 - 1, **whole, what="seed"),
+        default=1,
+        help="of CMA-ES and of the --robust variations",
+    )
     parser.add_argument(
         "--band-weight",
         type=number(0, 1000, what="band weight"),
@@ -106,7 +171,12 @@ def add_parser(sub: Any) -> None:
         default=0.2,
         help="weight of unwanted rotation while translating and translation while turning",
     )
-    parser.add_argument("--threads", type=number(1, 1024, **whole, what="threads"), default=None)
+    parser.add_argument(
+        "--threads",
+        type=number(1, 1024, **whole, what="threads"),
+        default=None,
+        help="simulation threads (default: all cores)",
+    )
     parser.add_argument(
         "--study",
         type=study_location,
@@ -129,8 +199,15 @@ def add_parser(sub: Any) -> None:
     add_range_option(parser, " for --robust")
     add_cluster_options(parser, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     add_backend_options(parser)
-    parser.add_argument("--out", default="out/tune/tuned.json", help="best set, as a preset file")
-    parser.add_argument("--name", default="tuned", help="name of the saved preset")
+    parser.add_argument(
+        "--out", default=DEFAULT_OUT, metavar="FILE", help="the chosen set, as a preset file"
+    )
+    parser.add_argument(
+        "--name",
+        default=None,
+        help="the name the chosen set is given, never a built-in's (read-only) "
+        "(default: tuned-ROBOT, e.g. tuned-artro)",
+    )
     parser.add_argument(
         "--select",
         choices=("best", "passing", "steering"),
@@ -141,17 +218,12 @@ def add_parser(sub: Any) -> None:
 
 
 def command(args: argparse.Namespace) -> int:
-    presets = builtin_presets()
-    if args.base == "paper":
-        base = ParameterSet()
-    elif args.base in presets and not Path(args.base).exists():
-        base = presets[args.base]
-    else:
-        base = load_parameter_set(args.base)
+    robot = RobotModel.load(args.robot)
+    name = result_name(args.name, robot.name)  # refused before anything runs
+    base = resolve_set(args.base, "--base").pset
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
     check_timing(names, base.gait, args.duration, args.warmup)
-    robot = RobotModel.load(args.robot)
     ranges = ranges_from(args.range)
     backend = backend_of(args)
     local = (
@@ -198,12 +270,12 @@ def command(args: argparse.Namespace) -> int:
             print("no candidate met every criterion; saving the lowest loss instead")
             chosen = tuner.best
     assert chosen is not None
-    out = Path(args.out)
+    out = Path(args.out.replace("NAME", name) if args.out == DEFAULT_OUT else args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
-    write_parameter_set(out, stamped(ParameterSet(robot=robot.name, gait=chosen[1]), args.name))
+    write_parameter_set(out, stamped(ParameterSet(robot=robot.name, gait=chosen[1]), name))
     print(
         f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
-        f"saved {args.out}"
+        f"saved {out} as {name!r}"
     )
     if varied := tuner.varied_summary(chosen):
         print(f"  robust: {varied}")

@@ -63,6 +63,17 @@ class Dimension:
         return (value - self.low) / (self.high - self.low)
 
 
+TUNABLE_GROUPS = ("clock", "shift", "short", "swing", "load", "balance", "leg", *FEEDBACK_GROUPS)
+
+
+def tunable_fields() -> dict[str, list[str]]:
+    """What `--tune` accepts: each group -> its numeric fields (switches are not tuned)."""
+    return {
+        group: [f for f, _d, m in describe_fields(group_class(group)) if m.get("unit") != "bool"]
+        for group in TUNABLE_GROUPS
+    }
+
+
 def dimensions(names: Sequence[str]) -> list[Dimension]:
     """The tunable parameters with their schema ranges; ValueError names what is allowed."""
     out = []
@@ -74,21 +85,7 @@ def dimensions(names: Sequence[str]) -> list[Dimension]:
             fields = {}
         meta = fields.get(field)
         if meta is None or meta.get("unit") == "bool":
-            tunable = [
-                f"{g}.{f}"
-                for g in (
-                    "clock",
-                    "shift",
-                    "short",
-                    "swing",
-                    "load",
-                    "balance",
-                    "leg",
-                    *FEEDBACK_GROUPS,
-                )
-                for f, _d, m in describe_fields(group_class(g))
-                if m.get("unit") != "bool"
-            ]
+            tunable = [f"{g}.{f}" for g, fs in tunable_fields().items() for f in fs]
             raise ValueError(f"{name!r} is not a tunable number; choose from {tunable}")
         out.append(Dimension(name, meta["min"], meta["max"]))
     return out
