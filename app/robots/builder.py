@@ -10,7 +10,7 @@ import math
 import mujoco
 
 from app.robots.description import LEG_JOINTS, Part, RobotDescription
-from app.robots.servos import ServoSettings, servo_settings, servo_table
+from app.robots.servos import ServoSettings, servo_settings
 
 TIMESTEP_S = 0.001  # 20 physics steps per 20 ms TDM frame
 FLOOR_GROUP, BODY_GROUP = 0, 1
@@ -95,7 +95,9 @@ def model_xml(robot: RobotDescription) -> str:
 def joint_settings(robot: RobotDescription) -> dict[str, ServoSettings]:
     """Each joint's servo settings at the robot's supply voltage."""
     return {
-        name: servo_settings(robot.joint_servo(name), robot.supply_voltage_v)
+        name: servo_settings(
+            robot.joint_servo(name), robot.supply_voltage_v, robot.servo_catalogue()
+        )
         for name in robot.joints
     }
 
@@ -179,7 +181,7 @@ def _add_servo_case(
     """The case of `joint`'s servo in `body`, `at` the joint's position in that body; the mount's
     y offset mirrors on the right leg."""
     name = f"{side}_{joint}"
-    spec = servo_table()[robot.joint_servo(name)]
+    spec = robot.joint_servo_spec(name)
     mount = robot.servo_mounts[joint]
     box = mount.box_m or tuple(mm / 1000.0 for mm in spec.case_mm)
     geom = body.add_geom(
@@ -281,8 +283,8 @@ def _add_foot(foot: mujoco.MjsBody, robot: RobotDescription, side: str) -> None:
 
 
 def _add_actuator(spec: mujoco.MjSpec, robot: RobotDescription, name: str) -> None:
-    s = servo_settings(robot.joint_servo(name), robot.supply_voltage_v)
-    travel = min(math.radians(servo_table()[robot.joint_servo(name)].travel_deg) / 2, math.pi / 2)
+    s = servo_settings(robot.joint_servo(name), robot.supply_voltage_v, robot.servo_catalogue())
+    travel = min(math.radians(robot.joint_servo_spec(name).travel_deg) / 2, math.pi / 2)
     act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
     act.set_to_position(kp=s.kp_nm_rad)
     act.forcerange = [-s.stall_torque_nm, s.stall_torque_nm]

@@ -3,6 +3,7 @@ user's; each read, validated and refused with errors that name the field (docs/D
 
 from __future__ import annotations
 
+import re
 from functools import cache
 from pathlib import Path
 from typing import Any
@@ -19,6 +20,8 @@ BUILTIN_DEFAULT = "artro"
 MAX_DESCRIPTION_BYTES = 256 * 1024
 #: the deepest a description nests (links > thigh > a part > box_m is 4)
 MAX_DEPTH = 8
+#: the field a check's message starts with ("servos.MG90S: ..."), where pydantic gives no path
+_LEADING_FIELD = re.compile(r"^([A-Za-z_][\w-]*(?:\.[\w.-]+)*): ")
 
 
 class RobotError(ValueError):
@@ -32,22 +35,55 @@ def builtin_robot_names() -> list[str]:
     return sorted(names, key=lambda n: n != BUILTIN_DEFAULT)
 
 
-def describe_errors(err: ValidationError, source: str) -> str:
-    """One line per problem: `field.path: message` (the message alone for the whole document)."""
+def describe_errors(err: ValidationError, source: str, text: str | None = None) -> str:
+    """One line per problem: `field.path: message` (the message alone for the whole document),
+    with `(line N)` where the field is found in the file's `text`."""
+    root = _composed(text)
     lines = []
     for e in err.errors():
         where = ".".join(str(p) for p in e["loc"])
         msg = e["msg"].removeprefix("Value error, ")
-        lines.append(f"  {where}: {msg}" if where else f"  {msg}")
+        line = f"  {where}: {msg}" if where else f"  {msg}"
+        named = where or ((m := _LEADING_FIELD.match(msg)) and m.group(1))
+        at = _line_of(root, named) if named else None
+        lines.append(f"{line} (line {at})" if at else line)
     return f"{source} is not a valid robot description:\n" + "\n".join(lines)
 
 
-def parse_description(raw: object, source: str) -> RobotDescription:
-    """Validate a document (parsed YAML or JSON); RobotError naming each bad field."""
+def _composed(text: str | None) -> yaml.Node | None:
+    if text is None:
+        return None
+    try:
+        return yaml.compose(text, Loader=_DescriptionLoader)
+    except yaml.YAMLError:
+        return None
+
+
+def _line_of(node: yaml.Node | None, where: str) -> int | None:
+    """The line (from 1) of the deepest key or item of the dotted path `where` in the composed
+    document (None: not found)."""
+    line = None
+    for part in where.split("."):
+        if isinstance(node, yaml.MappingNode):
+            found = [(k, v) for k, v in node.value if getattr(k, "value", None) == part]
+            if not found:
+                break
+            line, node = found[0][0].start_mark.line + 1, found[0][1]
+        elif isinstance(node, yaml.SequenceNode) and part.isdigit() and int(part) < len(node.value):
+            node = node.value[int(part)]
+            line = node.start_mark.line + 1
+        else:
+            break
+    return line
+
+
+def parse_description(raw: object, source: str, text: str | None = None) -> RobotDescription:
+    """Validate a document (parsed YAML or JSON, from the file `text` if given, for the lines);
+    RobotError naming each bad field."""
     try:
         return RobotDescription.model_validate(raw)
     except ValidationError as err:
-        raise RobotError(describe_errors(err, source)) from None
+        raise RobotError(describe_errors(err, source, text)) from None
 
 
 def read_description(path: Path) -> RobotDescription:
@@ -63,7 +99,8 @@ def read_description(path: Path) -> RobotDescription:
         data = path.read_bytes()
     except OSError as err:
         raise RobotError(f"cannot read the robot description {path}: {err.strerror}") from None
-    return parse_description(load_yaml(decoded(data, path), path), str(path))
+    text = decoded(data, path)
+    return parse_description(load_yaml(text, path), str(path), text)
 
 
 def decoded(data: bytes, path: Path | str) -> str:

@@ -1,54 +1,66 @@
-"""The servo table (`models/servos.yaml`: datasheet figures at stated voltages, with sources)
-and `servo_settings`, the one rule from a datasheet to MuJoCo: force range = stall torque, damping
-= stall torque / no-load speed, kp = stall torque / saturation error, armature and friction loss
-as the table assumes; linear between stated voltages, refused outside (docs/DESIGN.md §7)."""
+"""The servo table (`models/servos.yaml`: datasheet figures at stated voltages, with sources; a
+robot file's own `servos:` are validated by the same `ServoSpec`) and `servo_settings`, the one rule
+from a datasheet to MuJoCo: force range = stall torque, damping = stall torque / no-load speed,
+kp = stall torque / saturation error, armature and friction loss as assumed; linear between stated
+voltages, refused outside (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import cache
-from typing import Literal
+from typing import Annotated, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, field_validator
+from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, model_validator
 
 from app.assets import servo_table_path
 
 KGF_CM_TO_NM = 0.0980665  # 1 kgf·cm in N·m
 
+#: a number written as one (not "9.4", not true); finite by the models' allow_inf_nan=False
+Real = Annotated[float, Strict()]
+#: a servo's name as a joint gives it: "MG996R", "AX-12A", "XL430-W250"
+ServoName = Annotated[str, Strict(), Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,39}$")]
+#: a case's size, mm: > 0 and at most 200 mm (a hobby servo is 20-60 mm)
+CaseMm = Annotated[float, Strict(), Field(gt=0, le=200.0)]
 
-class Rating(BaseModel):
+
+class _Figures(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True, allow_inf_nan=False)
+
+
+class Rating(_Figures):
     """One datasheet line: stall torque and no-load speed at a voltage."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    voltage_v: float = Field(gt=0)
-    stall_torque_kgf_cm: float = Field(gt=0)
-    speed_s_per_60deg: float = Field(gt=0)
+    voltage_v: Real = Field(gt=0, le=24.0)
+    stall_torque_kgf_cm: Real = Field(gt=0, le=1000.0)
+    speed_s_per_60deg: Real = Field(gt=0, le=10.0)
 
 
-class Assumed(BaseModel):
-    """What no datasheet gives, with the reason for each value."""
+class Assumed(_Figures):
+    """What no datasheet gives, with the reason for each value (extra keys: the reasons)."""
 
-    model_config = ConfigDict(extra="allow", frozen=True)
-    saturation_error_rad: float = Field(gt=0, le=1.0)
-    armature_kg_m2: float = Field(ge=0)
-    frictionloss_nm: float = Field(ge=0)
+    model_config = ConfigDict(extra="allow")
+    saturation_error_rad: Real = Field(gt=0, le=1.0)
+    armature_kg_m2: Real = Field(ge=0, le=1.0)
+    frictionloss_nm: Real = Field(ge=0, le=10.0)
 
 
-class ServoSpec(BaseModel):
-    """A servo of the table."""
+class ServoSpec(_Figures):
+    """A servo of the table or of a robot file: figures at stated voltages and where they are
+    from (`source`: a datasheet or maker's page named in words, or "measured" and how)."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True)
-    maker: str
+    maker: Annotated[str, Strict()] = Field(min_length=1, max_length=80)
     signal: Literal["pwm", "bus"]
-    source: str = Field(min_length=1)
-    ratings: tuple[Rating, ...] = Field(min_length=1)
-    mass_kg: float = Field(gt=0)
-    case_mm: tuple[float, float, float]
-    pulse_min_us: float | None = None
-    pulse_max_us: float | None = None
-    travel_deg: float = Field(gt=0, le=360)
+    source: Annotated[str, Strict()] = Field(min_length=1, max_length=1000)
+    ratings: tuple[Rating, ...] = Field(min_length=1, max_length=8)
+    mass_kg: Real = Field(gt=0, le=1.0)
+    case_mm: tuple[CaseMm, CaseMm, CaseMm]
+    pulse_min_us: Real | None = Field(None, ge=0, le=3000.0)
+    pulse_max_us: Real | None = Field(None, ge=0, le=3000.0)
+    travel_deg: Real = Field(gt=0, le=360)
     assumed: Assumed
 
     @field_validator("ratings")
@@ -59,6 +71,18 @@ class ServoSpec(BaseModel):
             raise ValueError(f"ratings must be in ascending, distinct voltages, got {volts}")
         return ratings
 
+    @model_validator(mode="after")
+    def _pulses(self) -> ServoSpec:
+        pulses = (self.pulse_min_us, self.pulse_max_us)
+        if self.signal == "pwm" and None in pulses:
+            raise ValueError(
+                "a pwm servo states its pulse range: pulse_min_us and pulse_max_us (µs); a "
+                "guess goes with its reason under `assumed`"
+            )
+        if None not in pulses and not pulses[0] < pulses[1]:  # type: ignore[operator]
+            raise ValueError(f"pulse_min_us must be less than pulse_max_us, got {pulses}")
+        return self
+
     @property
     def voltages_v(self) -> tuple[float, ...]:
         return tuple(r.voltage_v for r in self.ratings)
@@ -67,7 +91,7 @@ class ServoSpec(BaseModel):
 class ServoTable(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
     schema_version: Literal[1]
-    servos: dict[str, ServoSpec]
+    servos: dict[ServoName, ServoSpec]
 
 
 @cache
@@ -117,12 +141,15 @@ def rating_at(spec: ServoSpec, voltage_v: float, name: str = "servo") -> tuple[f
     return only.stall_torque_kgf_cm * KGF_CM_TO_NM, (math.pi / 3) / only.speed_s_per_60deg, False
 
 
-def servo_settings(name: str, voltage_v: float) -> ServoSettings:
-    """The MuJoCo settings of servo `name` at `voltage_v` (see the module docstring);
-    ValueError for an unknown servo or a voltage the datasheet does not cover."""
-    table = servo_table()
+def servo_settings(
+    name: str, voltage_v: float, servos: Mapping[str, ServoSpec] | None = None
+) -> ServoSettings:
+    """The MuJoCo settings of servo `name` at `voltage_v` (see the module docstring), looked up
+    in `servos` (default: the table; a robot's `servo_catalogue()` adds its own); ValueError for
+    an unknown servo or a voltage the datasheet does not cover."""
+    table = servo_table() if servos is None else servos
     if name not in table:
-        raise ValueError(f"unknown servo {name!r}; the servo table has {', '.join(sorted(table))}")
+        raise ValueError(f"unknown servo {name!r}; known: {', '.join(sorted(table))}")
     spec = table[name]
     stall_nm, speed_rad_s, interpolated = rating_at(spec, voltage_v, name)
     return ServoSettings(

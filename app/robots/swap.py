@@ -1,18 +1,18 @@
-"""Other servos on some joints (docs/DESIGN.md §7): the servo of the table that carries a torque
-with eq (1)'s safety factor, and the robot with it swapped in -- its description with those
-joints' servo changed and the stated total mass moved by the servos' mass difference, so the
-masses still add up and the model carries the new servos' mass, torque and speed."""
+"""Other servos on some joints (docs/DESIGN.md §7): the servo of the table (and of the robot's
+file) that carries a torque with eq (1)'s safety factor, and the robot with it swapped in -- its
+description with those joints' servo changed and a stated total mass moved by the servos' mass
+difference, so the masses still add up and the model carries the new servos' mass, torque, speed."""
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
 import yaml
 
 from app.robots.description import RobotDescription
-from app.robots.servos import rating_at, servo_table
+from app.robots.servos import ServoSpec, rating_at, servo_table
 from gait import JOINT_NAMES
 
 
@@ -23,10 +23,16 @@ class ServoChoice:
     mass_kg: float
 
 
-def servo_choices(voltage_v: float, signal: str = "pwm") -> list[ServoChoice]:
-    """The table's servos of `signal` rated at `voltage_v`, weakest first."""
+Servos = Mapping[str, ServoSpec] | None  # None: the table; a robot's servo_catalogue() adds its own
+
+
+def servo_choices(
+    voltage_v: float, signal: str = "pwm", *, servos: Servos = None
+) -> list[ServoChoice]:
+    """The servos of `signal` rated at `voltage_v` (of `servos`, default the table), weakest
+    first."""
     out = []
-    for name, spec in servo_table().items():
+    for name, spec in (servo_table() if servos is None else servos).items():
         if spec.signal != signal:
             continue
         try:
@@ -37,16 +43,23 @@ def servo_choices(voltage_v: float, signal: str = "pwm") -> list[ServoChoice]:
     return sorted(out, key=lambda c: (c.stall_torque_nm, c.mass_kg))
 
 
-def smallest_servo(need_nm: float, voltage_v: float, signal: str = "pwm") -> ServoChoice | None:
-    """The weakest servo of the table whose stall torque at `voltage_v` is at least `need_nm`
-    (None: none is that strong)."""
-    return next((c for c in servo_choices(voltage_v, signal) if c.stall_torque_nm >= need_nm), None)
+def smallest_servo(
+    need_nm: float, voltage_v: float, signal: str = "pwm", *, servos: Servos = None
+) -> ServoChoice | None:
+    """The weakest servo (of `servos`, default the table) whose stall torque at `voltage_v` is
+    at least `need_nm` (None: none is that strong)."""
+    choices = servo_choices(voltage_v, signal, servos=servos)
+    return next((c for c in choices if c.stall_torque_nm >= need_nm), None)
 
 
-def lightest_servo(need_nm: float, voltage_v: float, signal: str = "pwm") -> ServoChoice | None:
-    """The lightest servo of the table whose stall torque at `voltage_v` is at least `need_nm`
-    (None: none is that strong): what a builder would fit."""
-    able = [c for c in servo_choices(voltage_v, signal) if c.stall_torque_nm >= need_nm]
+def lightest_servo(
+    need_nm: float, voltage_v: float, signal: str = "pwm", *, servos: Servos = None
+) -> ServoChoice | None:
+    """The lightest servo (of `servos`, default the table; pass a robot's `servo_catalogue()`
+    for its own too) whose stall torque at `voltage_v` is at least `need_nm` (None: none is that
+    strong): what a builder would fit."""
+    choices = servo_choices(voltage_v, signal, servos=servos)
+    able = [c for c in choices if c.stall_torque_nm >= need_nm]
     return min(able, key=lambda c: (c.mass_kg, c.stall_torque_nm), default=None)
 
 
@@ -67,7 +80,7 @@ def suggest_servos(
     too weak; `required_nm(robot)` gives each joint's need (1 + sf times its load). A heavier
     servo adds load below it, so the needs are taken again after each round (at most
     len(JOINT_NAMES) rounds: a joint only ever gets a stronger servo)."""
-    table, swaps, uncarried = servo_table(), [], set()
+    table, swaps, uncarried = desc.servo_catalogue(), [], set()
     robot = desc
     for _ in range(len(JOINT_NAMES)):
         need = required_nm(robot)
@@ -77,7 +90,7 @@ def suggest_servos(
         }  # fmt: skip
         changed = False
         for joint, n in short.items():
-            choice = lightest_servo(n, robot.supply_voltage_v)
+            choice = lightest_servo(n, robot.supply_voltage_v, servos=table)
             if choice is None:
                 uncarried.add(joint)
                 continue
@@ -101,24 +114,26 @@ def suggest_servos(
 
 
 def with_servo(desc: RobotDescription, joints: Sequence[str], servo: str) -> RobotDescription:
-    """`desc` with `servo` on `joints`, named `<name>-<servo>`; ValueError for an unknown joint
-    or servo, or a servo the robot's output or supply cannot drive (the description's own
-    checks)."""
-    table = servo_table()
+    """`desc` with `servo` (of the table or its own) on `joints`, named `<name>-<servo>`; a
+    stated total mass moves by the servos' difference; ValueError for an unknown joint or servo,
+    or a servo the robot's output or supply cannot drive (the description's own checks)."""
+    table = desc.servo_catalogue()
     if servo not in table:
-        raise ValueError(f"unknown servo {servo!r}; the servo table has {', '.join(sorted(table))}")
+        raise ValueError(f"unknown servo {servo!r}; known: {', '.join(sorted(table))}")
     unknown = [j for j in joints if j not in JOINT_NAMES]
     if unknown or not joints:
         raise ValueError(f"joints must be some of {', '.join(JOINT_NAMES)}; got {list(joints)}")
     data = desc.model_dump(mode="json")
     mass = desc.total_mass_kg
     for joint in joints:
-        mass += table[servo].mass_kg - table[desc.joint_servo(joint)].mass_kg
+        if mass is not None:
+            mass += table[servo].mass_kg - table[desc.joint_servo(joint)].mass_kg
         data["joints"][joint]["servo"] = servo
     tag = servo.lower().replace("-", "")
     data["name"] = f"{desc.name}-{tag}"[:40]
     data["title"] = f"{desc.title}; {servo} on {', '.join(joints)}"[:200]
-    data["total_mass_kg"] = round(mass, 6)
+    if mass is not None:
+        data["total_mass_kg"] = round(mass, 6)
     return RobotDescription.model_validate(data)
 
 
