@@ -10,7 +10,7 @@ import mujoco
 import numpy as np
 
 from app.robots.builder import build_model, joint_settings
-from app.robots.description import RobotDescription
+from app.robots.description import RobotDescription, mass_tolerance_kg
 from gait import JOINT_NAMES, GaitParams, LegGeometry, Motion, joint_angles_with_flags
 from hardware import SAFETY_FACTOR
 
@@ -115,9 +115,18 @@ def eq1_torques(robot: RobotDescription, params: GaitParams | None = None) -> li
 
 def robot_warnings(robot: RobotDescription, params: GaitParams | None = None) -> list[str]:
     """What a builder should know before walking `robot` (it walks all the same): servos too
-    weak by eq (1), figures interpolated between datasheet voltages."""
+    weak by eq (1), figures interpolated between datasheet voltages, a stated total mass that
+    differs from the parts' (within the tolerance, or it would be refused)."""
     params = params or GaitParams()
     warnings = [w for t in eq1_torques(robot, params) if (w := t.warning())]
+    parts = robot.parts_mass_kg()
+    if robot.total_mass_kg is not None and abs(robot.total_mass_kg - parts) >= 0.0005:
+        warnings.append(
+            f"total_mass_kg: the stated {robot.total_mass_kg:.3f} kg is "
+            f"{1000 * (robot.total_mass_kg - parts):+.0f} g from the parts' {parts:.3f} kg "
+            f"(allowed ±{1000 * mass_tolerance_kg(parts):.0f} g); the model carries the parts: "
+            f"add what is missing (wires, screws) to a link's parts to carry it where it is"
+        )
     for name, s in joint_settings(robot).items():
         if s.interpolated:
             warnings.append(
