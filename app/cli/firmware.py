@@ -139,8 +139,9 @@ def command(args: argparse.Namespace) -> int:
     if args.firmware_command == "build":
         folder = export_firmware_folder(doc, Path(args.output), **wiring(robot))
         build = build_firmware(doc, out_dir=folder, **wiring(robot))
+        hex_file = build.hex.resolve().relative_to(folder.resolve())  # -o may be relative
         print(
-            f"{folder}: {build.hex.relative_to(folder)} built; flash {build.flash_bytes} B, "
+            f"{folder}: {hex_file} built; flash {build.flash_bytes} B, "
             f"SRAM {build.sram_bytes} B (without the stack); `make -C {folder} flash` programs it"
         )
         return 0
