@@ -98,7 +98,7 @@ def test_tune_starts_from_a_preset_by_name_and_names_its_result_after_the_robot(
 def test_bench_robust_takes_a_saved_preset_by_name(data_dir, capsys):
     args = ["--samples", "1", "--threads", "1", "--out", "robust-out", "--json", *SHORT]
     assert main(["bench", "robust", "--presets", SAVED, *args]) == 0
-    results = json.loads(Path("robust-out") / "results.json".read_text(encoding="utf-8"))
+    results = json.loads((Path("robust-out") / "results.json").read_text(encoding="utf-8"))
     assert [p["preset"] for p in results["presets"]] == [SAVED]
 
 
