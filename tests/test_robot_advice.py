@@ -122,3 +122,25 @@ def test_the_side_of_a_fall_is_the_trunks_own(axis, angle, side):
         found, degrees = fall_side(quat)
         assert found == side and math.isclose(degrees, math.degrees(abs(angle)), abs_tol=1e-6)
     assert "no servo at its torque limit" in diagnose(1.0, quat, np.zeros((50, 12), bool))
+
+
+def test_check_and_suggest_offer_the_files_own_servo_without_a_total_mass(tmp_path):
+    """A builder's own servo in the file (lighter and stronger than the table's that carry the
+    weak joints) is the one named and swapped in; with no total_mass_kg, the parts' sum."""
+    from tests.test_robot_servos_own import MEASURED
+
+    doc = yaml.safe_load((builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8"))
+    doc["name"], doc["servo"], doc["supply_voltage_v"] = "weak-own", "SG90", 4.8
+    del doc["total_mass_kg"]
+    doc["servos"] = {"BUILDER-40G": MEASURED}
+    path = tmp_path / "weak-own.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    out = artro("robot", "check", str(path))
+    assert out.returncode == 0, out.stderr
+    advice = [x for x in out.stdout.splitlines() if x.strip().startswith("advice:")]
+    assert len(advice) == 8 and all("is the BUILDER-40G (" in x for x in advice), advice
+    out = artro("robot", "check", str(path), "--suggest", "-o", str(tmp_path / "strong.yaml"))
+    assert out.returncode == 0, out.stderr
+    assert "SG90 -> BUILDER-40G" in out.stdout and "wrote" in out.stdout
+    strong = load_description(tmp_path / "strong.yaml")
+    assert all(t.margin >= 0 for t in eq1_torques(strong))

@@ -111,18 +111,19 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
 
 
 def servo_advice(desc: RobotDescription) -> list[str]:
-    """Per joint that eq (1) finds short: the lightest servo of the table that carries it."""
+    """Per joint that eq (1) finds short: the lightest servo of the table or the file that
+    carries it."""
     lines = []
     for t in eq1_torques(desc):
         if t.margin >= 0:
             continue
-        choice = lightest_servo(t.required_nm, desc.supply_voltage_v)
+        choice = lightest_servo(t.required_nm, desc.supply_voltage_v, servos=desc.servo_catalogue())
         lines.append(
             f"{t.joint}: the lightest servo that carries {t.required_nm:.3f} N·m at "
             f"{desc.supply_voltage_v:g} V is the {choice.name} ({choice.stall_torque_nm:.3f} N·m, "
             f"{1000 * choice.mass_kg:.0f} g)"
             if choice
-            else f"{t.joint}: no servo of the table carries {t.required_nm:.3f} N·m at "
+            else f"{t.joint}: no servo of the table or the file carries {t.required_nm:.3f} N·m at "
             f"{desc.supply_voltage_v:g} V (models/servos.yaml)"
         )
     return lines
@@ -139,8 +140,8 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO) -> int:
     for joint, old, new, need in found.swaps:
         print(f"  {joint}: {old} -> {new} (eq (1) asks {need:.3f} N·m)", file=out)
     if found.uncarried:
-        print(f"  no servo of the table carries {', '.join(found.uncarried)}", file=out)
-    mass = found.robot.total_mass_kg
+        print(f"  no servo of the table or the file carries {', '.join(found.uncarried)}", file=out)
+    mass = found.robot.parts_mass_kg()
     print(f"wrote {path} ({mass:.3f} kg); next: artro robot check {path}, then "
           f"artro tune --robot {path}", file=out)  # fmt: skip
     return 0
