@@ -129,3 +129,18 @@ def test_no_undo_back_to_another_robot_while_a_replay_is_shown(http):
     http.post("/api/recording/live")
     assert http.post("/api/params/undo").json()["robot"] == "artro"
     _simulated(http, "artro")
+
+
+def test_the_errors_start_over_with_each_robot(http):
+    """What the state's errors said was of the robot in use: a switch ends the ghost (ArtRo's),
+    said so; undone, the state does not keep that line on ArtRo (issue 33, low: "firmware drive
+    ended: the robot is now ..." once stayed after an undo and a redo)."""
+    earlier = http.get("/api/params").json()["version"]
+    http.patch("/api/params", json={"motion": {"a_p": 0.03}})
+    assert http.put("/api/ghost", json={"version": earlier}).status_code == 200
+    assert http.put("/api/robot", json={"name": "micro"}).status_code == 200
+    state = _simulated(http, "micro")
+    assert any("it walked 'artro'" in e for e in state["errors"]), state["errors"]
+    assert http.post("/api/params/undo").json()["robot"] == "artro"
+    state = _simulated(http, "artro")
+    assert not any("it walked" in e for e in state["errors"]), state["errors"]

@@ -380,8 +380,10 @@ class SimThread:
     def _switch_robot(self, robot: RobotModel, snap: Snapshot) -> None:
         """Simulate `robot` from now, standing at the start in `snap`'s set, in the same world.
         The firmware drive (built for the other robot's legs) and the ghost (the other robot's)
-        end, said so; the recording, paths and scope start over."""
+        end, said so; the recording, paths, scope and the errors start over (what they said was
+        of the other robot: an undo back must not keep "the robot is now ...")."""
         before = self.live.robot.name
+        self.errors.clear()
         self.live.switch_robot(robot, snap)
         if self._ghost is not None:
             self.errors.append(
