@@ -102,6 +102,30 @@ def test_the_scope_redraws_with_changing_pulse_widths(dashboard):
     expect(page.locator("#scope-fps")).not_to_be_empty()
 
 
+@BOTH_SIZES
+def test_the_scope_labels_its_pulses_in_one_style(server, browser, width, height, tmp_path):
+    """Every slot note of a frame begins in one wording, full servo names where they all fit,
+    the short form where one does not (issue 33: at 1280x720 "l hip_yaw" stood beside
+    "L HipR")."""
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        page.wait_for_function("window.artro && window.artro.framesReceived > 5", timeout=30_000)
+        canvas = page.locator("#scope-canvas")
+        labels = wait_until(
+            page,
+            lambda: (
+                canvas.evaluate("c => c.dataset.slotLabels && JSON.parse(c.dataset.slotLabels)")
+                or None
+            ),
+            "the scope's slot notes",
+        )
+        canvas.screenshot(path=shot_path(f"scope-labels-{width}.png", tmp_path))
+    assert len(labels) == 12, labels
+    full = [re.fullmatch(r"[lr]_[a-z_]+", x) is not None for x in labels]
+    short = [re.fullmatch(r"[LR] [A-Z][a-z]+[A-Z]?", x) is not None for x in labels]
+    assert all(full) or all(short), labels
+
+
 def test_a_parameter_changed_through_the_api_moves_the_viser_slider(dashboard):
     page, http = dashboard
     viser = page.frame_locator("#viser-frame")

@@ -203,33 +203,45 @@ function laneLabel(ctx, lane, title, sub, color) {
 const fmtUs = (us) => (us == null ? "—" : `${Number(us).toFixed(1)}µs`);
 const fmtDeg = (d) => (d == null ? "" : `${d >= 0 ? "+" : ""}${Number(d).toFixed(1)}°`);
 
-/** Annotate one slot of a TDM line with servo, pulse width and angle, choosing the longest
- *  wording that fits the slot width and the lines available below the trace. */
-function slotNote(ctx, s, xLeft, width, yTop, height) {
-  const lineH = 11;
-  const rows = Math.max(1, Math.floor(height / lineH));
-  const name = s.servo ?? "stray";
-  const us = fmtUs(s.pulse_us);
-  const deg = fmtDeg(s.deg);
-  const short = shortServo(s.servo);
-  const options = [
-    [name, `${us} ${deg}`],
-    [short, `${us} ${deg}`],
-    [name, us, deg],
-    [short, us, deg],
-    [`${short} ${deg}`, us],
-    [short, us],
-    [us],
-  ].filter((o) => o.length <= rows);
+/** The wordings of a slot's note, longest first: servo (name or short), pulse width, angle. */
+const NOTE_FORMS = [
+  (n) => [n.name, `${n.us} ${n.deg}`],
+  (n) => [n.short, `${n.us} ${n.deg}`],
+  (n) => [n.name, n.us, n.deg],
+  (n) => [n.short, n.us, n.deg],
+  (n) => [`${n.short} ${n.deg}`, n.us],
+  (n) => [n.short, n.us],
+  (n) => [n.us],
+];
+const NOTE_LINE_H = 11;
+
+const noteWords = (s) => ({
+  name: s.servo ?? "stray", short: shortServo(s.servo), us: fmtUs(s.pulse_us), deg: fmtDeg(s.deg),
+});
+
+/** One wording for every slot note of the frame: the longest form that fits each slot's width
+ *  and the lines below its trace, so the labels never mix two styles. notes: [{s, width, height}]. */
+function noteForm(ctx, notes) {
   ctx.font = THEME.small;
-  const fits = (o) => o.every((t) => ctx.measureText(t).width <= width - 6);
-  const chosen = options.find(fits) ?? options[options.length - 1] ?? [us];
+  const fits = (form, { s, width, height }) => {
+    const words = NOTE_FORMS[form](noteWords(s));
+    const rows = Math.max(1, Math.floor(height / NOTE_LINE_H));
+    return words.length <= rows && words.every((t) => ctx.measureText(t).width <= width - 6);
+  };
+  const form = NOTE_FORMS.findIndex((_, f) => notes.every((n) => fits(f, n)));
+  return form < 0 ? NOTE_FORMS.length - 1 : form;
+}
+
+/** Annotate one slot of a TDM line with servo, pulse width and angle in the frame's form. */
+function slotNote(ctx, s, xLeft, yTop, form) {
+  const chosen = NOTE_FORMS[form](noteWords(s));
+  ctx.font = THEME.small;
   const color = s.guard_violation ? THEME.guard : s.saturated ? THEME.sat : THEME.text;
   ctx.textAlign = "left";
   ctx.textBaseline = "top";
   chosen.forEach((t, i) => {
     ctx.fillStyle = i === 0 ? (s.servo ? servoColor(s.servo) : THEME.glitch) : color;
-    ctx.fillText(t, xLeft + 4, yTop + i * lineH);
+    ctx.fillText(t, xLeft + 4, yTop + i * NOTE_LINE_H);
   });
 }
 
@@ -266,6 +278,14 @@ export function drawSingleFrame(ctx, w, h, frame, opts) {
   const where = servoMap(frame);
   const lineByName = new Map(frame.lines.map((l) => [l.name, l]));
   const chByName = new Map(frame.channels.map((c) => [c.name, c]));
+  const noteTop = (lane) => lane.y + 4 + Math.min(20, lane.h * 0.3) + 2;
+  const slotW = ax.toX(slotUs) - ax.x0;
+  const notes = ls.filter((l) => l.kind === "tdm").flatMap((lane) =>
+    (chByName.get(lane.name)?.slots ?? []).map((s) =>
+      ({ s, width: slotW, height: lane.y + lane.h - noteTop(lane) })));
+  const form = noteForm(ctx, notes);
+  // what each slot's note begins with, for a reader that cannot see the canvas (the tests)
+  ctx.canvas.dataset.slotLabels = JSON.stringify(notes.map(({ s }) => NOTE_FORMS[form](noteWords(s))[0]));
 
   for (const lane of ls) {
     if (lane.kind === "idle") {
@@ -295,7 +315,7 @@ export function drawSingleFrame(ctx, w, h, frame, opts) {
           const fall = (s.slot * frame.slot_ticks + s.ocr_ticks + 1) * tickUs;
           pulse(ctx, x, ax.toX(fall), hi, lo, THEME.sat, "rgba(255, 154, 31, 0.25)");
         }
-        slotNote(ctx, s, x, ax.toX(slotUs) - ax.x0, lo + 2, lane.y + lane.h - lo - 2);
+        slotNote(ctx, s, x, noteTop(lane), form);
       }
     } else if (lane.kind === "sel") {
       const line = lineByName.get(lane.name);
