@@ -9,6 +9,7 @@ import socket
 import threading
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import httpx
 import uvicorn
@@ -53,12 +54,13 @@ class _Server(uvicorn.Server):
 
 @contextlib.contextmanager
 def running_server(
-    data_dir: Path, *, viewer: bool = False, drive: str = "model"
+    data_dir: Path, *, viewer: bool = False, drive: str = "model", **config: Any
 ) -> Iterator[tuple[str, object]]:
-    """Yield (base_url, app) of a live server; stop it (and its threads) afterwards."""
+    """Yield (base_url, app) of a live server (`config`: more of `ServerConfig`); stop it (and
+    its threads) afterwards."""
     port = free_port()
     config = ServerConfig(
-        port=port, viser_port=free_port(), data_dir=data_dir, viewer=viewer, drive=drive
+        port=port, viser_port=free_port(), data_dir=data_dir, viewer=viewer, drive=drive, **config
     )
     app = create_app(config)
     server = _Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))

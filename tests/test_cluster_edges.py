@@ -172,3 +172,27 @@ def test_a_worker_that_comes_while_waited_on_is_taken():
         f"waiting up to 300 s (--wait-workers)",
         f"a worker connected to {address}; going on",
     ]
+
+
+@pytest.mark.slow
+def test_the_dashboards_robustness_job_waits_for_a_worker_as_long_as_serve_was_told(tmp_path):
+    """`artro serve --cluster ... --wait-workers S`: the robustness job on a scheduler with no
+    worker fails after S seconds saying so, the server well (issue 33: serve had no option)."""
+    from tests.server_harness import client, running_server, wait_for
+
+    with LoopbackCluster(workers=0) as cluster:
+        address = cluster.address
+        with running_server(tmp_path, cluster=address, wait_workers_s=1.0) as (url, _):
+            with client(url) as http:
+                job = http.post("/api/jobs/robustness", json={"samples": 4}).json()
+                done = wait_for(
+                    lambda: (
+                        (j := http.get(f"/api/jobs/{job['id']}").json())["status"]
+                        in ("failed", "done")
+                        and j
+                    ),
+                    "the job ends",
+                )
+                assert http.get("/api/health").json()["status"] == "ok"
+    assert done["status"] == "failed"
+    assert f"no worker connected to the Dask scheduler at {address} within 1 s" in (done["error"])

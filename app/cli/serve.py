@@ -37,7 +37,6 @@ def add_parser(sub: Any) -> None:
     add_cluster_options(
         s,
         "run the dashboard's robustness job on this Dask scheduler (docs/CLUSTER.md)",
-        wait=False,
     )
     add_backend_options(s)  # the robustness job's; the live simulation is always MuJoCo's
     s.add_argument(
@@ -84,6 +83,7 @@ def serve(args: argparse.Namespace) -> int:
         params_file=chosen.path if chosen else None,
         robot=args.robot,
         cluster=args.cluster,
+        wait_workers_s=args.wait_workers,
         **backend_of(args),
         data_dir=data_dir,
         viewer=not args.no_viewer,

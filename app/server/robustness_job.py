@@ -38,10 +38,13 @@ class RobustnessRunner:
         robot_now: Callable[[], RobotModel],
         cluster: str | None = None,
         backend: dict[str, Any] | None = None,
+        wait_workers_s: float | None = None,
     ) -> None:
-        """Jobs walk the robot `robot_now()` names when they start, on `cluster` or with
-        `backend` (`evaluator_for`'s backend and device; default: the CPU's)."""
+        """Jobs walk the robot `robot_now()` names when they start, on `cluster` (waiting
+        `wait_workers_s` for a worker, default 60 s) or with `backend` (`evaluator_for`'s
+        backend and device; default: the CPU's)."""
         self.jobs, self.store, self.robot_now, self.cluster = jobs, store, robot_now, cluster
+        self.wait_workers_s = wait_workers_s
         self.backend = backend or {}
         self._reports: OrderedDict[str, dict[str, Any]] = OrderedDict()  # gait key -> report
         self._lock = threading.Lock()
@@ -68,7 +71,13 @@ class RobustnessRunner:
 
         def work(progress: Progress) -> dict[str, Any]:
             # one thread locally: the live simulation keeps the other core
-            evaluator = evaluator_for(robot, cluster=self.cluster, threads=1, **self.backend)
+            evaluator = evaluator_for(
+                robot,
+                cluster=self.cluster,
+                threads=1,
+                wait_workers_s=self.wait_workers_s,
+                **self.backend,
+            )
             report = run_robust(
                 [(name, snap.gait, snap.name)],
                 evaluator,

@@ -32,6 +32,7 @@ class ServerConfig:
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
+    wait_workers_s: float | None = None  # how long the job waits for a worker (default 60 s)
     backend: str = "cpu"  # the robustness job's: "warp" or "auto" for MuJoCo Warp (docs/GPU.md)
     device: str | None = None  # of the warp backend (default cuda)
 
@@ -67,6 +68,7 @@ class Services:
             robot_now,
             config.cluster,
             backend={"backend": config.backend, "device": config.device},
+            wait_workers_s=config.wait_workers_s,
         )
         self.viewer = None
         if config.viewer:
