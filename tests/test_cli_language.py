@@ -223,8 +223,12 @@ def test_every_option_that_takes_a_value_shows_its_default_in_help():
     objects = [(c, o) for c, o, text in found if "Variation(" in text or " object at " in text]
     assert objects == []  # a default that is no plain value is said in words
     shown = {(c, o): text for c, o, text in found}
-    assert "(default: 30)" in shown[("artro tune", "--generations")]
-    assert "(default: paper)" in shown[("artro tune", "--base")]
+    # without --base the start's recipe (tests/test_tune_robot.py), with it the earlier defaults
+    assert (
+        "(default: 10 without --base, the start's recipe; 30 with it)"
+        in shown[("artro tune", "--generations")]
+    )
+    assert "(default: the built-in preset nearest the robot's" in shown[("artro tune", "--base")]
     assert "(default: tuned-ROBOT, e.g. tuned-artro)" in shown[("artro tune", "--name")]
 
 

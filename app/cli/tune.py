@@ -1,6 +1,13 @@
 """`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking,
 optionally scored on varied robots too; the study resumes from its store, the best set is saved
-as a preset file (docs/DESIGN.md §12)."""
+as a preset file (docs/DESIGN.md §12).
+
+Without `--base` it is the start for the robot (`app.analysis.robot_start`): the built-in preset
+nearest the robot's leg length, its clock scaled by √(L_ref/L), tuned by `START_RECIPE` (every
+search option left out takes the recipe's value: 8 fields, 10 generations of 8, 20 s runs, the
+lowest loss that never fell), the result saved among the presets (`$ARTRO_DATA_DIR/presets`) as
+`tuned-ROBOT` and to `--out` when given. With `--base`, the options left out take `CLASSIC`'s
+values and the result goes to `--out` (default out/tune/NAME.json)."""
 
 from __future__ import annotations
 
@@ -13,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
+from app.analysis.robot_start import START_RECIPE, start_for
 from app.cli.options import (
     MAX_DURATION_S,
     SETS_HELP,
@@ -30,7 +38,14 @@ from app.cli.options import (
 )
 from app.evaluation import close_evaluator, evaluator_for
 from app.params.document import ParameterSet
-from app.params.presets import builtin_presets, check_name, stamped, write_parameter_set
+from app.params.presets import (
+    PresetStore,
+    builtin_presets,
+    check_name,
+    default_data_dir,
+    stamped,
+    write_parameter_set,
+)
 from app.robots.model import RobotModel
 from app.study.study_store import DEFAULT_STUDY, StudyStore
 from app.study.tune import DEFAULT_NAMES, Tuner, tunable_fields
@@ -39,11 +54,49 @@ from gait import ARTRO_LEG
 from gait.params import merge, parse_settings
 
 EXAMPLES = """examples:
+  artro tune --robot my.yaml       the start for my.yaml, tuned to walk; saved as tuned-my
   artro tune --base paper --tune swing.v,short.amp_base --generations 4 --popsize 6
   artro tune --base tuned --set leg.paper_signs=false --select passing --name unsigned
   artro tune --base my_gait.json --robot my.yaml       a file; the result: tuned-ROBOT
   artro tune --base tuned --robust 8 --tune tilt.ki_per_s,yaw_rate.kp,swing.v (gains, gait)"""
 DEFAULT_OUT = "out/tune/NAME.json"
+#: the values of the search options left out when `--base` is given (before issue 32 item 4,
+#: always); without `--base` they are START_RECIPE's
+CLASSIC = {
+    "tune": ",".join(DEFAULT_NAMES),
+    "generations": 30,
+    "popsize": 10,
+    "sigma": 0.12,
+    "duration": 20.0,
+    "warmup": 4.0,
+    "band_weight": 0.0,
+    "select": "best",
+}
+RECIPE = {
+    "tune": ",".join(START_RECIPE.names),
+    "generations": START_RECIPE.generations,
+    "popsize": START_RECIPE.popsize,
+    "sigma": START_RECIPE.sigma,
+    "duration": START_RECIPE.duration_s,
+    "warmup": START_RECIPE.warmup_s,
+    "band_weight": START_RECIPE.band_weight,
+    "select": START_RECIPE.select,
+}
+
+
+def defaults_help(key: str) -> str:
+    """How an option's default reads in --help: the recipe's without --base, else the classic."""
+    return f"(default: {RECIPE[key]} without --base, the start's recipe; {CLASSIC[key]} with it)"
+
+
+def fill_defaults(args: argparse.Namespace) -> bool:
+    """Set every search option left out (None) to the recipe's value (no `--base`: True
+    returned) or the classic one."""
+    start = args.base is None
+    for key, value in (RECIPE if start else CLASSIC).items():
+        if getattr(args, key) is None:
+            setattr(args, key, value)
+    return start
 
 
 def tunable_help() -> str:
@@ -93,7 +146,12 @@ def add_parser(sub: Any) -> None:
         f"{EXAMPLES}\n\n{tunable_help()}",
     )
     parser.add_argument(
-        "--base", default="paper", metavar="FILE|NAME", help=f"the set to start from: {SETS_HELP}"
+        "--base",
+        default=None,
+        metavar="FILE|NAME",
+        help=f"the set to start from: {SETS_HELP} (default: the built-in preset nearest the "
+        "robot's leg length, its clock scaled by sqrt(L_ref/L), tuned by the start's recipe, "
+        "saved among the presets; docs/DESIGN.md §12)",
     )
     add_robot_option(parser)
     parser.add_argument(
@@ -112,40 +170,41 @@ def add_parser(sub: Any) -> None:
     )
     parser.add_argument(
         "--tune",
-        default=",".join(DEFAULT_NAMES),
+        default=None,
         metavar="GROUP.FIELD,...",
-        help="comma-separated parameters to tune (the list below)",
+        help=f"comma-separated parameters to tune (the list below) {defaults_help('tune')}",
     )
     whole = {"integer": True}
     parser.add_argument(
         "--generations",
         type=number(1, 100_000, **whole, what="generations"),
-        default=30,
-        help="CMA-ES generations",
+        default=None,
+        help=f"CMA-ES generations {defaults_help('generations')}",
     )
     parser.add_argument(
         "--popsize",
         type=number(2, 1000, **whole, what="popsize"),
-        default=10,
-        help="candidates per generation (CMA-ES needs 2 or more)",
+        default=None,
+        help=f"candidates per generation (CMA-ES needs 2 or more) {defaults_help('popsize')}",
     )
     parser.add_argument(
         "--sigma",
         type=number(0, 1, above=True, what="sigma"),
-        default=0.12,
-        help="initial step, share of range",
+        default=None,
+        help=f"initial step, share of range {defaults_help('sigma')}",
     )
     parser.add_argument(
         "--duration",
         type=number(0, MAX_DURATION_S, above=True, what="duration"),
-        default=20.0,
-        help="simulated s per case; at least one gait cycle longer than --warmup",
+        default=None,
+        help="simulated s per case; at least one gait cycle longer than --warmup "
+        f"{defaults_help('duration')}",
     )
     parser.add_argument(
         "--warmup",
         type=number(0, MAX_DURATION_S, what="warmup"),
-        default=4.0,
-        help="simulated s per case not measured",
+        default=None,
+        help=f"simulated s per case not measured {defaults_help('warmup')}",
     )
     parser.add_argument(
         "--seed",
@@ -156,8 +215,9 @@ def add_parser(sub: Any) -> None:
     parser.add_argument(
         "--band-weight",
         type=number(0, 1000, what="band weight"),
-        default=0.0,
-        help="extra penalty per case for errors beyond 20 %% (the tolerance is 25 %%)",
+        default=None,
+        help="extra penalty per case for errors beyond 20 %% (the tolerance is 25 %%) "
+        f"{defaults_help('band_weight')}",
     )
     parser.add_argument(
         "--steering-weight",
@@ -200,7 +260,12 @@ def add_parser(sub: Any) -> None:
     add_cluster_options(parser, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     add_backend_options(parser)
     parser.add_argument(
-        "--out", default=DEFAULT_OUT, metavar="FILE", help="the chosen set, as a preset file"
+        "-o",
+        "--out",
+        default=None,
+        metavar="FILE",
+        help=f"the chosen set, as a preset file (default: {DEFAULT_OUT} with --base; without "
+        "it, saved among the presets only)",
     )
     parser.add_argument(
         "--name",
@@ -210,17 +275,24 @@ def add_parser(sub: Any) -> None:
     )
     parser.add_argument(
         "--select",
-        choices=("best", "passing", "steering"),
-        default="best",
+        choices=("best", "passing", "steering", "walking"),
+        default=None,
         help="save the lowest loss; the lowest loss that meets every paper criterion; or of "
-        "those, the one CA steers most (forward)",
+        "those, the one CA steers most (forward); or the lowest loss that never fell "
+        f"{defaults_help('select')}",
     )
 
 
 def command(args: argparse.Namespace) -> int:
+    start_mode = fill_defaults(args)
     robot = RobotModel.load(args.robot)
     name = result_name(args.name, robot.name)  # refused before anything runs
-    base = resolve_set(args.base, "--base").pset
+    if start_mode:
+        start = start_for(robot.description, builtin_presets())
+        print(start.describe())
+        base = ParameterSet(name=start.preset, robot=robot.name, gait=start.gait)
+    else:
+        base = resolve_set(args.base, "--base").pset
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
     check_timing(names, base.gait, args.duration, args.warmup)
@@ -264,18 +336,32 @@ def command(args: argparse.Namespace) -> int:
             finally:
                 close_evaluator(tuner.evaluator)
     chosen = tuner.best
-    if args.select in ("passing", "steering"):
+    if args.select == "walking":
+        chosen = tuner.best_walking()
+        if chosen is None:
+            print("no candidate walked every run without a fall; saving the lowest loss instead")
+            chosen = tuner.best
+    elif args.select in ("passing", "steering"):
         chosen = tuner.best_passing(by="loss" if args.select == "passing" else "steering")
         if chosen is None:
             print("no candidate met every criterion; saving the lowest loss instead")
             chosen = tuner.best
     assert chosen is not None
-    out = Path(args.out.replace("NAME", name) if args.out == DEFAULT_OUT else args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    write_parameter_set(out, stamped(ParameterSet(robot=robot.name, gait=chosen[1]), name))
+    result = stamped(ParameterSet(robot=robot.name, gait=chosen[1]), name)
+    saved = []
+    if start_mode:
+        store = PresetStore(default_data_dir(), builtin_presets())
+        store.save(name, result)
+        saved.append(f"preset {name!r} in {store.directory}")
+    out_spec = args.out if args.out is not None else (None if start_mode else DEFAULT_OUT)
+    if out_spec is not None:
+        out = Path(out_spec.replace("NAME", name) if out_spec == DEFAULT_OUT else out_spec)
+        out.parent.mkdir(parents=True, exist_ok=True)
+        write_parameter_set(out, result)
+        saved.append(f"{out} as {name!r}")
     print(
         f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
-        f"saved {out} as {name!r}"
+        f"saved {' and '.join(saved)}"
     )
     if varied := tuner.varied_summary(chosen):
         print(f"  robust: {varied}")

@@ -23,6 +23,7 @@ from app.analysis.cases import (
     curve_run_names,
     steering,
 )
+from app.analysis.robot_start import walks
 from app.analysis.robustness import ROBUST_CASES, pass_margin_loss, passes
 from app.evaluation import BatchEvaluator, Evaluator, Job
 from app.evaluation.progress import ProgressLine, bar
@@ -376,6 +377,12 @@ class Tuner:
             f"passes {passed} of {runs} varied runs ({share:.0%}) in {len(robust['losses'])} "
             f"worlds of its generation (`artro bench robust` measures it on more)"
         )
+
+    def best_walking(self) -> tuple[float, GaitParams, dict[str, dict[str, Any]]] | None:
+        """The lowest loss of the candidates that walked every judged run without a fall
+        (`app.analysis.robot_start.walks`), or None if none did."""
+        walking = [e for e in self.evaluated if walks(e[2])]
+        return min(walking, key=lambda e: e[0]) if walking else None
 
     def best_passing(
         self, by: str = "loss"

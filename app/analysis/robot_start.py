@@ -1,0 +1,142 @@
+"""A starting gait for any robot of ArtRo's structure, and the default recipe that tunes it to
+walk (docs/DESIGN.md §12; issue 32 item 4). Shared by `artro tune` and, later, the dashboard's
+"Tune for this robot" job: `app.server` may import `app.analysis` but not `app.study`.
+
+**The nearest preset.** Each built-in robot names its tuned preset (`default_preset`); the robot's
+leg length L = L_UL + L_LL (L_max, eq (3)) picks the one whose robot's leg is nearest in ratio,
+the smallest |ln(L / L_ref)|: ArtRo (0.18 m, `tuned`) or micro (0.09 m, `micro-tuned`); the
+crossover is their geometric mean, 0.127 m.
+
+**The scaling rule.** The gait's fields are angles (rad), shares of the leg length (eq (3)'s η,
+the shortening amplitudes) or plain ratios, none a length (`gait.params`: no field has a unit of
+m); a gait of the same angles on a leg s times as long is geometrically similar, so every field
+but the clock is kept. The clock is a pendulum's: f = f_ref × √(L_ref / L) (Froude similarity,
+f ∝ √(g/L)), held within the schema's range. Speeds then scale with L (the targets, §7), turn
+rates do not.
+
+**The recipe** (`START_RECIPE`): CMA-ES over the eight fields that set the timing, the lateral
+weight shift, the step height and the sideways lean (the fields the `micro-tuned` tune chose,
+decision 0015), 10 generations of 8 candidates, each walking the paper's seven cases and the CA
+= ±0.1 pairs (11 runs of 20 s, 4 s warm-up: 17,600 simulated s), starting at a step of 6 % of
+each range, with the band penalty of 20; kept: the lowest loss of the candidates that walk every
+run without a fall (`walks`), else the lowest loss.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from dataclasses import dataclass
+from typing import Any
+
+from app.robots.description import RobotDescription
+from app.robots.library import builtin_robot_names, load_description
+from gait import GaitParams
+from gait.params import describe_fields, group_class, merge
+
+
+@dataclass(frozen=True)
+class StartRecipe:
+    """What `artro tune` runs when it is given no base: the options' values (docs/DESIGN.md §12)."""
+
+    names: tuple[str, ...]  # the tuned fields, GROUP.FIELD
+    generations: int
+    popsize: int
+    sigma: float  # initial step, share of each field's range
+    duration_s: float  # simulated s per run
+    warmup_s: float  # not measured
+    band_weight: float
+    select: str  # "walking": the lowest loss of the candidates that never fell
+
+    def simulated_s(self, runs: int) -> float:
+        """Simulated seconds the whole search costs for `runs` runs per candidate."""
+        return self.generations * self.popsize * runs * self.duration_s
+
+
+START_RECIPE = StartRecipe(
+    names=(
+        "clock.freq_hz",
+        "shift.amp_base",
+        "shift.amp_lateral",
+        "short.amp_base",
+        "short.amp_speed",
+        "short.foot_lift",
+        "swing.o",
+        "balance.leg_roll_offset",
+    ),
+    generations=10,
+    popsize=8,
+    sigma=0.06,
+    duration_s=20.0,
+    warmup_s=4.0,
+    band_weight=20.0,
+    select="walking",
+)
+
+
+def leg_length_m(robot: RobotDescription) -> float:
+    """L = L_UL + L_LL, the leg at η = 1 (eq (3))."""
+    return robot.geometry.thigh_m + robot.geometry.shank_m
+
+
+def reference_legs() -> dict[str, float]:
+    """Each built-in robot's preset -> that robot's leg length in m, the default robot first."""
+    out: dict[str, float] = {}
+    for name in builtin_robot_names():
+        robot = load_description(name)
+        out.setdefault(robot.default_preset, leg_length_m(robot))
+    return out
+
+
+def nearest_preset(leg_m: float, references: Mapping[str, float]) -> str:
+    """The preset whose robot's leg is nearest `leg_m` in ratio (smallest |ln(L / L_ref)|;
+    the first of equals)."""
+    if not references or not math.isfinite(leg_m) or leg_m <= 0:
+        raise ValueError(f"a leg length > 0 and references are needed, got {leg_m}")
+    return min(references, key=lambda name: abs(math.log(leg_m / references[name])))
+
+
+def scaled_freq_hz(freq_ref_hz: float, leg_ref_m: float, leg_m: float) -> float:
+    """The clock for a leg of `leg_m`: f_ref × √(L_ref / L) (a pendulum), within the schema."""
+    meta = next(m for f, _d, m in describe_fields(group_class("clock")) if f == "freq_hz")
+    freq = freq_ref_hz * math.sqrt(leg_ref_m / leg_m)
+    return round(min(max(freq, meta["min"]), meta["max"]), 6)
+
+
+def scaled_gait(gait: GaitParams, leg_ref_m: float, leg_m: float) -> GaitParams:
+    """`gait` (tuned for a leg of `leg_ref_m`) for a leg of `leg_m`: the clock scaled, every
+    other field (angles, shares of the leg) kept (module docstring)."""
+    freq = scaled_freq_hz(gait.clock.freq_hz, leg_ref_m, leg_m)
+    return merge(gait, {"clock": {"freq_hz": freq}})
+
+
+@dataclass(frozen=True)
+class Start:
+    """Where a robot's tune starts: the preset it comes from and that preset's gait scaled."""
+
+    preset: str
+    leg_ref_m: float
+    leg_m: float
+    gait: GaitParams
+
+    def describe(self) -> str:
+        ratio = self.leg_m / self.leg_ref_m
+        return (
+            f"starting from {self.preset!r} (legs {self.leg_ref_m:.3f} m) scaled to legs "
+            f"{self.leg_m:.3f} m ({ratio:.2f}x): clock {self.gait.clock.freq_hz:.3f} Hz "
+            f"(x sqrt(L_ref/L) = {math.sqrt(1 / ratio):.3f}), angles and leg shares kept"
+        )
+
+
+def start_for(robot: RobotDescription, presets: Mapping[str, Any]) -> Start:
+    """The start for `robot`: `presets` maps a built-in preset's name to its parameter set (an
+    object with `.gait`, e.g. `app.params.presets.builtin_presets()`)."""
+    legs = {name: leg for name, leg in reference_legs().items() if name in presets}
+    leg = leg_length_m(robot)
+    name = nearest_preset(leg, legs)
+    return Start(name, legs[name], leg, scaled_gait(presets[name].gait, legs[name], leg))
+
+
+def walks(by_run: Mapping[str, Mapping[str, Any]]) -> bool:
+    """Every judged run walked its whole duration without a fall."""
+    return bool(by_run) and not any(m.get("fell", True) for m in by_run.values())
