@@ -1,26 +1,7 @@
-"""A starting gait for any robot of ArtRo's structure, and the default recipe that tunes it to
-walk (docs/DESIGN.md §12; issue 32 item 4). Shared by `artro tune` and, later, the dashboard's
-"Tune for this robot" job: `app.server` may import `app.analysis` but not `app.study`.
-
-**The nearest preset.** Each built-in robot names its tuned preset (`default_preset`); the robot's
-leg length L = L_UL + L_LL (L_max, eq (3)) picks the one whose robot's leg is nearest in ratio,
-the smallest |ln(L / L_ref)|: ArtRo (0.18 m, `tuned`) or micro (0.09 m, `micro-tuned`); the
-crossover is their geometric mean, 0.127 m.
-
-**The scaling rule.** The gait's fields are angles (rad), shares of the leg length (eq (3)'s η,
-the shortening amplitudes) or plain ratios, none a length (`gait.params`: no field has a unit of
-m); a gait of the same angles on a leg s times as long is geometrically similar, so every field
-but the clock is kept. The clock is a pendulum's: f = f_ref × √(L_ref / L) (Froude similarity,
-f ∝ √(g/L)), held within the schema's range. Speeds then scale with L (the targets, §7), turn
-rates do not.
-
-**The recipe** (`START_RECIPE`): CMA-ES over the eight fields that set the timing, the lateral
-weight shift, the step height and the sideways lean (the fields the `micro-tuned` tune chose,
-decision 0015), 10 generations of 8 candidates, each walking the paper's seven cases and the CA
-= ±0.1 pairs (11 runs of 20 s, 4 s warm-up: 17,600 simulated s), starting at a step of 6 % of
-each range, with the band penalty of 20; kept: the lowest loss of the candidates that walk every
-run without a fall (`walks`), else the lowest loss.
-"""
+"""A starting gait for any robot of ArtRo's structure and the recipe that tunes it to walk
+(docs/DESIGN.md §12; issue 32 item 4): the nearest preset (`nearest_preset`), the scaling rule
+(`scaled_gait`), the recipe (`START_RECIPE`). Shared by `artro tune` and, later, the dashboard's
+"Tune for this robot" job: `app.server` may import `app.analysis`, not `app.study`."""
 
 from __future__ import annotations
 
@@ -37,7 +18,15 @@ from gait.params import describe_fields, group_class, merge
 
 @dataclass(frozen=True)
 class StartRecipe:
-    """What `artro tune` runs when it is given no base: the options' values (docs/DESIGN.md §12)."""
+    """What `artro tune` runs when it is given no base: the options' values (docs/DESIGN.md §12).
+
+    `START_RECIPE`: CMA-ES over the eight fields that set the timing, the lateral weight shift,
+    the step height and the sideways lean (the fields the `micro-tuned` tune chose, decision
+    0015), 10 generations of 8 candidates, each walking the paper's seven cases and the CA =
+    ±0.1 pairs (11 runs of 20 s, 4 s warm-up: 17,600 simulated s), from a step of 6 % of each
+    range, with the band penalty of 20; kept: the lowest loss of the candidates that walk every
+    run without a fall (`walks`), else the lowest loss.
+    """
 
     names: tuple[str, ...]  # the tuned fields, GROUP.FIELD
     generations: int
@@ -90,7 +79,9 @@ def reference_legs() -> dict[str, float]:
 
 def nearest_preset(leg_m: float, references: Mapping[str, float]) -> str:
     """The preset whose robot's leg is nearest `leg_m` in ratio (smallest |ln(L / L_ref)|;
-    the first of equals)."""
+    the first of equals). With the built-in robots' legs L = L_UL + L_LL (eq (3)): ArtRo's
+    0.18 m (`tuned`) or micro's 0.09 m (`micro-tuned`), the crossover at their geometric mean,
+    0.127 m."""
     if not references or not math.isfinite(leg_m) or leg_m <= 0:
         raise ValueError(f"a leg length > 0 and references are needed, got {leg_m}")
     return min(references, key=lambda name: abs(math.log(leg_m / references[name])))
@@ -104,8 +95,15 @@ def scaled_freq_hz(freq_ref_hz: float, leg_ref_m: float, leg_m: float) -> float:
 
 
 def scaled_gait(gait: GaitParams, leg_ref_m: float, leg_m: float) -> GaitParams:
-    """`gait` (tuned for a leg of `leg_ref_m`) for a leg of `leg_m`: the clock scaled, every
-    other field (angles, shares of the leg) kept (module docstring)."""
+    """`gait` (tuned for a leg of `leg_ref_m`) for a leg of `leg_m`.
+
+    The gait's fields are angles (rad), shares of the leg length (eq (3)'s η, the shortening
+    amplitudes) or plain ratios, none a length (no field of `gait.params` has a unit of m): a
+    gait of the same values on a leg s times as long is geometrically similar, so every field
+    but the clock is kept. The clock is a pendulum's, f = f_ref × √(L_ref / L) (Froude
+    similarity, f ∝ √(g/L)), within the schema's range. Speeds then scale with L (the
+    targets, DESIGN §7), turn rates do not.
+    """
     freq = scaled_freq_hz(gait.clock.freq_hz, leg_ref_m, leg_m)
     return merge(gait, {"clock": {"freq_hz": freq}})
 

@@ -1,13 +1,7 @@
 """`artro tune`: CMA-ES over chosen gait parameters toward the paper's measured walking,
 optionally scored on varied robots too; the study resumes from its store, the best set is saved
-as a preset file (docs/DESIGN.md §12).
-
-Without `--base` it is the start for the robot (`app.analysis.robot_start`): the built-in preset
-nearest the robot's leg length, its clock scaled by √(L_ref/L), tuned by `START_RECIPE` (every
-search option left out takes the recipe's value: 8 fields, 10 generations of 8, 20 s runs, the
-lowest loss that never fell), the result saved among the presets (`$ARTRO_DATA_DIR/presets`) as
-`tuned-ROBOT` and to `--out` when given. With `--base`, the options left out take `CLASSIC`'s
-values and the result goes to `--out` (default out/tune/NAME.json)."""
+as a preset file; without `--base`, the start for the robot and its recipe (`command`;
+docs/DESIGN.md §12)."""
 
 from __future__ import annotations
 
@@ -284,6 +278,13 @@ def add_parser(sub: Any) -> None:
 
 
 def command(args: argparse.Namespace) -> int:
+    """Without `--base`: the start for the robot (`app.analysis.robot_start`), the built-in
+    preset nearest its leg length with its clock scaled by √(L_ref/L), tuned by `START_RECIPE`
+    (every search option left out takes the recipe's value: 8 fields, 10 generations of 8, 20 s
+    runs, the lowest loss that never fell); the result saved among the presets
+    (`$ARTRO_DATA_DIR/presets`) as `tuned-ROBOT` and to `--out` when given. With `--base`, the
+    options left out take `CLASSIC`'s values and the result goes to `--out` (default
+    out/tune/NAME.json)."""
     start_mode = fill_defaults(args)
     robot = RobotModel.load(args.robot)
     name = result_name(args.name, robot.name)  # refused before anything runs
