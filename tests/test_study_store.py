@@ -161,3 +161,34 @@ def test_optuna_dashboard_opens_the_journal_offline(tmp_path):
     finally:
         server.terminate()
         server.wait(30)
+
+
+def test_a_study_on_a_database_server_has_one_writer_by_its_lease(tmp_path):
+    """A study on PostgreSQL or MySQL has no file to lock (issue 33: two tunes interleaved):
+    `WriterLease` keeps the writer in the study itself. Held here on a real Optuna RDB storage
+    (SQLAlchemy on SQLite, the code PostgreSQL's goes through): a second writer is refused naming
+    the first, one that ends lets the next in, and a lease a crashed writer left is taken over
+    once LEASE_S has passed."""
+    import time
+
+    import optuna
+
+    from app.study.study_files import LEASE_S, WriterLease
+
+    url = f"sqlite:///{tmp_path / 'server.db'}"
+    study = optuna.create_study(study_name="s", storage=url)
+    first, second = WriterLease(study, url), WriterLease(study, url)
+    first.acquire()
+    with pytest.raises(StudyBusy, match=rf"another tune \(PID {os.getpid()} on .+\) is writing"):
+        second.acquire()
+    first.renew()
+    first.release()
+    second.acquire()  # the first ended: the second writes
+    assert study.user_attrs["writer"]["token"] == second.token
+    crashed = dict(study.user_attrs["writer"], token="crashed", renewed=time.time() - LEASE_S - 1)
+    study.set_user_attr("writer", crashed)  # a writer that died a lease ago
+    third = WriterLease(study, url)
+    third.acquire()
+    assert study.user_attrs["writer"]["token"] == third.token
+    with pytest.raises(StudyBusy):
+        WriterLease(optuna.load_study(study_name="s", storage=url), url).acquire()

@@ -1,15 +1,17 @@
-"""What a crash or a second process can do to a study kept in a file (docs/DESIGN.md §12), and
-what the tuner does about it: one writer at a time (`WriterLock`, a lock file beside the study
-holding the writer's PID; the kernel drops the lock when that process ends, however it ends), and
-a journal whose last entry a crash cut short resumes from its whole entries (`mend_journal`, the
-damaged tail moved aside and said)."""
+"""What a crash or a second process can do to a study (docs/DESIGN.md §12), and what the tuner
+does about it: one writer at a time -- a lock file beside a study in a file (`WriterLock`), a
+lease in a study on a database server (`WriterLease`) -- and a journal whose last entry a crash
+cut short resumes from its whole entries (`mend_journal`)."""
 
 from __future__ import annotations
 
 import json
 import os
+import socket
 import time
+import uuid
 from pathlib import Path
+from typing import Any
 
 try:
     import fcntl
@@ -71,6 +73,56 @@ class WriterLock:
 
     def __del__(self) -> None:  # a store dropped without `close` lets the next writer in
         self.release()
+
+
+#: a lease not renewed for this long is a dead writer's: a candidate's runs take minutes at most
+LEASE_S = 600.0
+
+
+class WriterLease:
+    """The right to write a study kept on a database server (PostgreSQL, MySQL: no file to
+    lock): the study's user attribute `writer` names the holder (host, PID, a token) and when it
+    last renewed the lease; the writer renews it with each trial (`renew`). A lease older than
+    LEASE_S is a crashed writer's and is taken over. The attribute is written, then read back:
+    of two that wrote at once, the one whose token stayed holds the study."""
+
+    def __init__(self, study: Any, where: str) -> None:
+        self.study, self.where = study, where
+        self.token = uuid.uuid4().hex
+        self.held = False
+
+    def _mine(self, now: float) -> dict[str, Any]:
+        return {"token": self.token, "host": socket.gethostname(), "pid": os.getpid(),
+                "renewed": now}  # fmt: skip
+
+    def _busy(self, other: dict[str, Any], now: float) -> StudyBusy:
+        age = max(0.0, now - float(other.get("renewed", 0.0)))
+        return StudyBusy(
+            f"another tune (PID {other.get('pid')} on {other.get('host')}) is writing the study "
+            f"in {self.where} (its lease renewed {age:.0f} s ago); wait until it ends (or "
+            f"{LEASE_S:.0f} s after it stopped), or use another --study or --study-name"
+        )
+
+    def acquire(self) -> None:
+        """Take the lease, or StudyBusy naming the holder."""
+        now = time.time()
+        held = self.study.user_attrs.get("writer")
+        if held and held.get("token") != self.token and now - held.get("renewed", 0) < LEASE_S:
+            raise self._busy(held, now)
+        self.study.set_user_attr("writer", self._mine(now))
+        after = self.study.user_attrs.get("writer") or {}
+        if after.get("token") != self.token:
+            raise self._busy(after, now)
+        self.held = True
+
+    def renew(self) -> None:
+        if self.held:
+            self.study.set_user_attr("writer", self._mine(time.time()))
+
+    def release(self) -> None:
+        if self.held:
+            self.held = False
+            self.study.set_user_attr("writer", None)
 
 
 def mend_journal(path: str | Path) -> str | None:

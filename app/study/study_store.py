@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from app.study.study_files import WriterLock, mend_journal
+from app.study.study_files import WriterLease, WriterLock, mend_journal
 
 if TYPE_CHECKING:
     import optuna
@@ -137,9 +137,10 @@ def figures(metrics: dict[str, Any]) -> dict[str, Any]:
 class StudyStore:
     """One tuning study: its settings (fixed at creation; other settings are refused) and its
     trials, each with the generation, the candidate's point in the unit box, its loss and the
-    metrics of its runs. A study in a file (journal, SQLite) has one writer: a second is refused
-    (`StudyBusy`, a ValueError) until `close` (or the writer's end). A journal whose end a crash
-    damaged is cut back to its whole entries first, said on `log` (default stderr)."""
+    metrics of its runs. A study has one writer: a second is refused (`StudyBusy`, a ValueError)
+    until `close` or the writer's end (a file's lock; a database server's lease, LEASE_S). A
+    journal whose end a crash damaged is cut back to its whole entries first, said on `log`
+    (default stderr)."""
 
     def __init__(
         self,
@@ -156,6 +157,7 @@ class StudyStore:
         journal = "://" not in self.where
         file = Path(self.where) if journal else sqlite_path(self.where)
         self._lock = None if file is None else WriterLock(file)
+        self._lease: WriterLease | None = None
         if self._lock is not None:
             _make_folder(file.parent)
             self._lock.acquire()
@@ -169,6 +171,9 @@ class StudyStore:
                 load_if_exists=True,
             )
             self._check_settings(settings, name)
+            if self._lock is None:  # a database server: a lease in the study itself
+                self._lease = WriterLease(self.study, self.where)
+                self._lease.acquire()
         except BaseException:
             self.close()
             raise
@@ -188,6 +193,8 @@ class StudyStore:
         """Let another process write the study."""
         if self._lock is not None:
             self._lock.release()
+        if self._lease is not None:
+            self._lease.release()
 
     def __enter__(self) -> StudyStore:
         return self
@@ -239,3 +246,5 @@ class StudyStore:
                 warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
                 self.study.set_metric_names([OBJECTIVE])
         self.study.add_trial(trial)
+        if self._lease is not None:
+            self._lease.renew()
