@@ -32,7 +32,6 @@ from hardware.firmware.schema import param_specs, values_from_document
 #: well below a tenth of a Timer tick's angle
 LAW_TOLERANCE = 2e-5
 _LAW_OUTPUT = struct.Struct("<12ff2f2fb2f")  # laws.h law_output_t (avr-gcc packs it)
-_SENSE_IMU_STALE = 0x02
 _TDM_OVERRUN = 0x01  # tdm.h
 #: the planning window of frame k+1 in frame k: from the guard of slot 3 to that of slot 7
 PLAN_REQUEST_TICK, PLAN_LATCH_TICK = 19_900, 39_900
@@ -246,7 +245,7 @@ def run_closed_loop(
             run.twi_transactions.append(after.twi_transactions - before.twi_transactions)
             run.adc_conversions.append(after.adc_conversions - before.adc_conversions)
             status = mcu.read_symbol("g_sensor_status")[0]
-            if status & _SENSE_IMU_STALE:
+            if status & proto.IMU_STALE:
                 run.imu_stale_frames.append(k)
                 served = dataclasses.replace(
                     served, accel=last_good_imu.accel, gyro=last_good_imu.gyro
