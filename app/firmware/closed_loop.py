@@ -19,7 +19,7 @@ from app.firmware.build import wiring
 from app.firmware.conformance import ANGLE_TOLERANCE_RAD, Comparison, ModelFrames, compare_frame
 from app.firmware.emulator import CYCLES_PER_TICK, Mcu
 from app.firmware.pulses import FirmwarePulses
-from app.firmware.sensor_feed import RawSample, decoded, sample_of
+from app.firmware.sensor_feed import RawSample, decoded
 from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop, PinFrame
 from app.sim.planning import FRAME_S, START_PHASE_RAD, plan_frames
@@ -217,18 +217,14 @@ def run_closed_loop(
             mcu.profile_take()
         last_good_imu = drive.raw
         for k in range(frames):
-            if samples is not None:
-                mcu.set_sensors(sample_of(samples[k]))
-                drive.raw = samples[k]
-            served = drive.raw
+            served = drive.raw if samples is None else drive.show(samples[k])
             if faults and k in faults:
                 nack, short_after = faults[k]
                 mcu.imu_fault(nack=nack, short_after=short_after)
             if changes and k in changes:
                 values = values_from_document(changes[k])
                 drive.send_parameters(changes[k])
-                parts = [(m[3], m[4]) for m in proto.set_all_params(values)]  # first, count
-                pending += [(values, first, count) for first, count in parts]
+                pending += [(values, first, n) for first, n in proto.param_parts(len(values))]
             before = mcu.sensor_counts()
             frame = drive.next_frame()  # frame k: its sample read in slot 3, frame k+1 planned
             after = mcu.sensor_counts()

@@ -10,6 +10,8 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from enum import IntEnum
 
+from gait.params import LAW_GROUPS
+
 SYNC = 0xA5
 MAX_LEN = 200  # TYPE + PAYLOAD
 VERSION = 2
@@ -87,12 +89,17 @@ def set_params(values: Sequence[float], first: int = 0) -> bytes:
     return encode(Msg.SET_PARAMS, struct.pack(f"<BB{len(values)}f", first, len(values), *values))
 
 
-def set_all_params(values: Sequence[float]) -> list[bytes]:
-    """A whole set (every id from 0) as consecutive SET_PARAMS of at most MAX_VALUES values,
-    the highest ids first: the feedback laws' part, then the one with the motion and the gait,
+def param_parts(count: int) -> list[tuple[int, int]]:
+    """(first id, count) of each SET_PARAMS of a whole set of `count` values, in sending order:
+    the highest ids first (the feedback laws' part), then the one with the motion and the gait,
     whose ACK names the frame from which the whole set is in force."""
-    firsts = range(0, len(values), MAX_VALUES)
-    return [set_params(values[first : first + MAX_VALUES], first) for first in reversed(firsts)]
+    firsts = range(0, count, MAX_VALUES)
+    return [(first, min(MAX_VALUES, count - first)) for first in reversed(firsts)]
+
+
+def set_all_params(values: Sequence[float]) -> list[bytes]:
+    """A whole set (every id from 0) as the SET_PARAMS of `param_parts`."""
+    return [set_params(values[first : first + n], first) for first, n in param_parts(len(values))]
 
 
 def get_params(first: int, count: int) -> bytes:
@@ -165,6 +172,10 @@ class Params:
 
 #: SENSORS status bits (hardware/firmware/src/sensors.h)
 IMU_PRESENT, IMU_STALE, IMU_NACK, IMU_SHORT, FSR_STALE = 0x01, 0x02, 0x04, 0x08, 0x10
+#: their names, and the laws' bits by name (the feedback groups in schema order)
+STATUS_BITS = {"imu_present": IMU_PRESENT, "imu_stale": IMU_STALE, "imu_nack": IMU_NACK,
+               "imu_short": IMU_SHORT, "fsr_stale": FSR_STALE}  # fmt: skip
+LAW_BITS = {law: 1 << i for i, law in enumerate(LAW_GROUPS)}
 _SENSORS = struct.Struct("<IBBBb3h3h3h8H2f2ff2f")
 
 

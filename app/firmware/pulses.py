@@ -137,9 +137,13 @@ class FirmwarePulses:
     def feed(self, reading: SensorReading) -> RawSample:
         """What the simulated sensors read: the IMU's registers and the ADC's inputs hold it
         from now on (the firmware samples them in the next frame's slot 3); the counts."""
-        self.raw = raw_of(reading)
-        self.mcu.set_sensors(sample_of(self.raw))
-        return self.raw
+        return self.show(raw_of(reading))
+
+    def show(self, raw: RawSample) -> RawSample:
+        """The counts the sensors show the firmware from now on."""
+        self.raw = raw
+        self.mcu.set_sensors(sample_of(raw))
+        return raw
 
     def send_parameters(self, doc: dict[str, Any]) -> int:
         """Queue a whole parameter set on the UART and go on: the bytes go in at the line's pace

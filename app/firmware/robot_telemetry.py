@@ -21,14 +21,6 @@ FORWARD_S = 0.15  # a batch of about 7 frames
 POST_FRAMES = 16  # at most per request (about 7 KiB; the server takes 16)
 WINDOW_FRAMES = 250  # what waits while the dashboard does not answer: the last 5 s
 POST_TIMEOUT_S = 2.0
-STATUS_BITS = {
-    "imu_present": proto.IMU_PRESENT,
-    "imu_stale": proto.IMU_STALE,
-    "imu_nack": proto.IMU_NACK,
-    "imu_short": proto.IMU_SHORT,
-    "fsr_stale": proto.FSR_STALE,
-}
-LAW_BITS = {"tilt": 1, "yaw_rate": 2, "damping": 4, "cop": 8}  # PROTOCOL.md: SENSORS laws on
 
 
 def _f32(values: Any) -> list[float]:
@@ -42,9 +34,9 @@ def frame_json(sensors: proto.Sensors) -> dict[str, Any] | None:
     reading = decoded(raw, sensors.gyro_offset)
     frame = {
         "frame": sensors.frame,
-        "status": [name for name, bit in STATUS_BITS.items() if sensors.status & bit],
+        "status": [name for name, bit in proto.STATUS_BITS.items() if sensors.status & bit],
         "imu_failures": sensors.imu_failures,
-        "laws": [name for name, bit in LAW_BITS.items() if sensors.laws & bit],
+        "laws": [name for name, bit in proto.LAW_BITS.items() if sensors.laws & bit],
         "support": sensors.support,
         "attitude_rad": _f32(sensors.attitude_rad),
         "gyro_rad_s": _f32(reading.gyro_rad_s),

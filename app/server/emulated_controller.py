@@ -43,6 +43,17 @@ class FirmwareStatus:
     imu_failures: int = 0  # failed IMU reads since boot
 
 
+@dataclass
+class _InFlight:
+    """A set on the wire: its snapshot, the firmware's frame when it was sent, the answers
+    still to come (a set is several SET_PARAMS), whether one was a NAK."""
+
+    snapshot: Snapshot
+    sent_frame: int
+    answers_due: int
+    refused: bool = False
+
+
 class EmulatedController:
     """One emulated ATmega128 running the firmware, and what travels to it: the sets sent, their
     answers, the motion its gait got."""
@@ -53,9 +64,7 @@ class EmulatedController:
         self.robot = snapshot.robot  # the robot whose legs and servos it was built for
         self._target = snapshot  # the set in force on the MCU
         self._motion = snapshot.motion  # what its gait got in the last frame (ramped, as its own)
-        # sets on the wire, oldest first: [snapshot, firmware frame at sending, answers still to
-        # come (a set is several SET_PARAMS), refused]
-        self._in_flight: deque[list] = deque()
+        self._in_flight: deque[_InFlight] = deque()  # sets on the wire, oldest first
         # acknowledged sets not yet reached: (first frame, snapshot)
         self._scheduled: deque[tuple[int, Snapshot]] = deque()
         self._busy: deque[int] = deque(maxlen=BUSY_WINDOW_FRAMES)
@@ -91,7 +100,7 @@ class EmulatedController:
         """Queue the whole set on the UART (the protocol's SET_PARAMS); it reaches the frame
         the firmware's ACK names."""
         parts = self.pulses.send_parameters(snapshot.parameter_set().to_dict())
-        self._in_flight.append([snapshot, self.pulses.frame, parts, False])
+        self._in_flight.append(_InFlight(snapshot, self.pulses.frame, parts))
 
     def next_pins(self) -> tuple[PinFrame, list[str], list[int]]:
         """Run the MCU through its next frame: the pins, problems to report, and per set that
@@ -102,18 +111,19 @@ class EmulatedController:
             if not self._in_flight or not isinstance(reply, proto.Ack | proto.Nak):
                 continue
             entry = self._in_flight[0]
-            sent, sent_frame = entry[0], entry[1]
-            entry[2] -= 1
-            if isinstance(reply, proto.Nak) and not entry[3]:
-                entry[3] = True
+            entry.answers_due -= 1
+            if isinstance(reply, proto.Nak) and not entry.refused:
+                entry.refused = True
                 self._naks += 1
-                problems.append(f"the firmware refused parameter version {sent.version}: {reply}")
-            if entry[2] > 0:
+                problems.append(
+                    f"the firmware refused parameter version {entry.snapshot.version}: {reply}"
+                )
+            if entry.answers_due > 0:
                 continue
             self._in_flight.popleft()
-            if isinstance(reply, proto.Ack) and not entry[3]:  # the last part: the whole set
-                self._scheduled.append((reply.effective_frame, sent))
-                latencies.append(reply.effective_frame - sent_frame + 1)
+            if isinstance(reply, proto.Ack) and not entry.refused:  # the last part: whole set
+                self._scheduled.append((reply.effective_frame, entry.snapshot))
+                latencies.append(reply.effective_frame - entry.sent_frame + 1)
         while self._scheduled and self._scheduled[0][0] <= frame.index:
             _, self._target = self._scheduled.popleft()
         if frame.index > 0:  # the firmware's ramp takes one step per planned frame (ramp.c)

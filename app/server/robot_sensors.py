@@ -14,13 +14,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-WINDOW_FRAMES = 250  # 5 s of the robot's 20 ms frames
+from app.server.sensor_trace import WINDOW_FRAMES
+from app.sim.planning import FRAME_S
+from app.sim.sensors import SensorReading
+
 FRESH_S = 2.0  # frames older than this: no robot linked
-FRAME_S = 0.02
-#: SENSORS status bits, lowest first (hardware/firmware/PROTOCOL.md)
-STATUS_NAMES = ("imu_present", "imu_stale", "imu_nack", "imu_short", "fsr_stale")
-#: SENSORS law bits, lowest first
-LAW_NAMES = ("tilt", "yaw_rate", "damping", "cop")
 #: the columns of the robot's view, named as the simulation's (app/server/sensor_trace.py)
 COLUMNS = (
     "t_s", "frame",
@@ -36,9 +34,9 @@ class RobotFrame:
     """One SENSORS frame as the link decoded it (app/firmware/sensor_feed.py `decoded`)."""
 
     frame: int  # the robot's frame (20 ms each since its reset) the laws corrected
-    status: tuple[str, ...]  # STATUS_NAMES set
+    status: tuple[str, ...]  # the names of protocol.STATUS_BITS set
     imu_failures: int  # failed IMU reads since boot (255: at least)
-    laws: tuple[str, ...]  # LAW_NAMES on
+    laws: tuple[str, ...]  # the names of protocol.LAW_BITS set
     support: int  # 0 left, 1 right, -1 neither
     attitude_rad: tuple[float, float]  # pitch, roll estimate
     gyro_rad_s: tuple[float, float, float]  # after the boot calibration
@@ -52,10 +50,11 @@ class RobotFrame:
 def frame_row(frame: RobotFrame, positions_m: NDArray[np.float64]) -> tuple[float | None, ...]:
     """`frame` as a row of COLUMNS; each sole's centre of pressure from the force sensors'
     places `positions_m` (4, 2: the dashboard's robot), None for a sole that carries nothing."""
-    fsr = np.asarray(frame.fsr_n, dtype=np.float64)
-    load = fsr.sum(axis=1)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        cop_mm = np.where(load[:, None] > 0.0, (fsr @ positions_m) / load[:, None], np.nan) * 1e3
+    reading = SensorReading(
+        np.asarray(frame.gyro_rad_s), np.asarray(frame.accel_m_s2), np.asarray(frame.fsr_n)
+    )
+    load = reading.fsr_n.sum(axis=1)
+    cop_mm = reading.centre_of_pressure_m(positions_m) * 1e3
     deg = np.degrees
     return (
         frame.frame * FRAME_S, float(frame.frame),

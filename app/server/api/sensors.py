@@ -8,6 +8,7 @@ from typing import Annotated, Any, Literal
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.firmware import protocol as proto
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GATE_RESPONSES, responses
 from app.server.robot_sensors import WINDOW_FRAMES, RobotFrame
@@ -38,11 +39,11 @@ class RobotFrameBody(BaseModel):
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
     frame: json_int(0) = Field(le=2**32 - 1, description="the robot's frame the laws corrected")
-    status: list[Literal["imu_present", "imu_stale", "imu_nack", "imu_short", "fsr_stale"]] = Field(
+    status: list[Literal[tuple(proto.STATUS_BITS)]] = Field(  # type: ignore[valid-type]
         max_length=5, description="the status bits set"
     )
     imu_failures: json_int(0) = Field(le=255, description="failed IMU reads since boot")
-    laws: list[Literal["tilt", "yaw_rate", "damping", "cop"]] = Field(
+    laws: list[Literal[tuple(proto.LAW_BITS)]] = Field(  # type: ignore[valid-type]
         max_length=4, description="the laws switched on"
     )
     support: json_int(-1) = Field(le=1, description="support foot: 0 left, 1 right, -1 neither")
