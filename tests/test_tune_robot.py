@@ -23,6 +23,7 @@ from app.analysis.robot_start import (
     start_for,
     walks,
 )
+from app.analysis.robot_tune import RESULT, RUNS, START, TRIAL, read_event
 from app.assets import builtin_robots_dir
 from app.cli import main
 from app.cli._sets import resolve_set
@@ -163,6 +164,27 @@ def test_tune_robot_without_base_saves_tuned_robot_among_the_presets(work, capsy
     run = ["run", "--robot", str(robot), "--params", "tuned-big", "--duration", "3"]
     run += ["--warmup", "1"]
     assert main(run) == 0
+
+
+def test_tune_events_say_what_the_dashboard_follows(work, capsys):
+    """--events FILE: the start, each candidate scored with the best loss so far, and the result
+    with the figures the command prints (what the dashboard's "Tune for this robot" reads)."""
+    events = work / "events.jsonl"
+    tune = ["tune", "--robot", "micro", *TINY_TUNE, "--study", "s.log", "--events", str(events)]
+    assert main(tune) == 0
+    said = capsys.readouterr().out
+    read = [read_event(line) for line in events.read_text(encoding="utf-8").splitlines()]
+    assert None not in read
+    kinds = [e["event"] for e in read]
+    assert kinds[0] == START and kinds[-1] == RESULT and RUNS in kinds
+    trials = [e for e in read if e["event"] == TRIAL]
+    assert [t["done"] for t in trials] == [1, 2] and {t["budget"] for t in trials} == {2}
+    assert trials[-1]["best"] == min(t["loss"] for t in trials)
+    result = read[-1]
+    assert result["name"] == "tuned-micro" and result["trials"] == 2
+    forward = next(row for row in result["figures"] if row["run"] == "forward")
+    shown = "fell" if forward["fell"] else f"{forward['value']:+.2f}"
+    assert f"target {forward['target']:+6.2f}  tuned {shown}" in said
 
 
 def quick_start() -> list[str]:

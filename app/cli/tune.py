@@ -6,15 +6,17 @@ docs/DESIGN.md §12)."""
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
-import re
+import sys
 import textwrap
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
 from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
-from app.analysis.robot_start import START_RECIPE, start_for
+from app.analysis.robot_start import START_RECIPE, start_for, walks
+from app.analysis.robot_tune import RESULT, START, EventWriter, result_figures, tuned_name
 from app.cli.options import (
     MAX_DURATION_S,
     SETS_HELP,
@@ -107,13 +109,8 @@ def tunable_help() -> str:
 
 
 def default_name(robot: str, builtins: Iterable[str]) -> str:
-    """`tuned-ROBOT` (characters a preset name may not hold as '-'), never a built-in's name."""
-    stem = re.sub(r"[^A-Za-z0-9_.-]+", "-", f"tuned-{robot}")[:60].rstrip(".-")
-    name, n, taken = stem, 1, set(builtins)
-    while name in taken:
-        n += 1
-        name = f"{stem}-{n}"
-    return check_name(name)
+    """`tuned-ROBOT` (`app.analysis.robot_tune.tuned_name`), checked as a preset name."""
+    return check_name(tuned_name(robot, builtins))
 
 
 def result_name(given: str | None, robot: str) -> str:
@@ -275,6 +272,14 @@ def add_parser(sub: Any) -> None:
         "those, the one CA steers most (forward); or the lowest loss that never fell "
         f"{defaults_help('select')}",
     )
+    parser.add_argument(
+        "--events",
+        default=None,
+        metavar="FILE|-",
+        help="also write what happens as JSON lines to FILE ('-': standard output): start, "
+        "runs, each trial with the best loss so far, the result with its figures (the "
+        'dashboard\'s "Tune for this robot" reads them)',
+    )
 
 
 def command(args: argparse.Namespace) -> int:
@@ -324,16 +329,47 @@ def command(args: argparse.Namespace) -> int:
     )
     tuner.settings["set"] = args.set
     settings = {**tuner.settings, "robot": robot.name}
-    # the study first: a second writer is refused before a cluster is reached
+    with contextlib.ExitStack() as stack:
+        events = EventWriter(events_out(args.events, stack))
+        chosen = search(args, robot, tuner, local, settings, events)
+        report(args, robot.name, name, start_mode, tuner, chosen, events)
+    return 0
+
+
+def events_out(spec: str | None, stack: contextlib.ExitStack) -> Any:
+    """Where `--events` goes: None, standard output, or a file (made, line-buffered)."""
+    if spec is None:
+        return None
+    if spec == "-":
+        return sys.stdout
+    path = Path(spec)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    return stack.enter_context(path.open("w", encoding="utf-8", buffering=1))
+
+
+def search(
+    args: argparse.Namespace,
+    robot: RobotModel,
+    tuner: Tuner,
+    local: Any,
+    settings: dict[str, Any],
+    events: EventWriter,
+) -> tuple[float, Any, dict[str, Any]]:
+    """Run the study (its store opened first: a second writer is refused before a cluster is
+    reached) and pick the candidate `--select` names."""
     with StudyStore(args.study, settings, name=args.study_name) as store:
+        events(START, robot=robot.name, base=tuner.base.name, study=str(args.study),
+               study_name=args.study_name, generations=args.generations,
+               popsize=args.popsize, budget=args.generations * args.popsize,
+               runs=len(tuner.runs), duration_s=args.duration)  # fmt: skip
         if local is not None:
-            tuner.run(args.generations, store)
+            tuner.run(args.generations, store, events=events)
         else:
             tuner.evaluator = evaluator_for(
                 robot, cluster=args.cluster, wait_workers_s=args.wait_workers
             )
             try:
-                tuner.run(args.generations, store)
+                tuner.run(args.generations, store, events=events)
             finally:
                 close_evaluator(tuner.evaluator)
     chosen = tuner.best
@@ -348,7 +384,21 @@ def command(args: argparse.Namespace) -> int:
             print("no candidate met every criterion; saving the lowest loss instead")
             chosen = tuner.best
     assert chosen is not None
-    result = stamped(ParameterSet(robot=robot.name, gait=chosen[1]), name)
+    return chosen
+
+
+def report(
+    args: argparse.Namespace,
+    robot: str,
+    name: str,
+    start_mode: bool,
+    tuner: Tuner,
+    chosen: tuple[float, Any, dict[str, Any]],
+    events: EventWriter,
+) -> None:
+    """Save the chosen set (among the presets without `--base`, to `--out`) and say what it
+    did: printed, and as the RESULT event."""
+    result = stamped(ParameterSet(robot=robot, gait=chosen[1]), name)
     saved = []
     if start_mode:
         store = PresetStore(default_data_dir(), builtin_presets())
@@ -364,6 +414,9 @@ def command(args: argparse.Namespace) -> int:
         f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
         f"saved {' and '.join(saved)}"
     )
+    events(RESULT, name=name, preset=start_mode, loss=chosen[0], select=args.select,
+           walked=walks(chosen[2]), generations=tuner.generation, trials=len(tuner.evaluated),
+           saved=saved, figures=result_figures(chosen[2], tuner.weights.speed_scale))  # fmt: skip
     if varied := tuner.varied_summary(chosen):
         print(f"  robust: {varied}")
     for case in CASES:
@@ -381,4 +434,3 @@ def command(args: argparse.Namespace) -> int:
         s = steering(plus, minus, chosen[2][pair.straight])
         shown = "fell" if s is None else f"gain {s.gain:.2f}, bend {s.bend:+.2f}"
         print(f"  {pair.name:24s} eq (13): gain 1, bend 0;  tuned {shown}")
-    return 0

@@ -31,6 +31,7 @@ from app.server.api import (
     sensors,
     servos,
     sim,
+    tune,
     world,
 )
 from app.server.errors import install_handlers
@@ -76,7 +77,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
         )
 
     install_handlers(app)
-    resources = (sim, params, scope, paths, presets, servos, sensors, world, jobs, ghost)
+    resources = (sim, params, scope, paths, presets, servos, sensors, world, tune, jobs, ghost)
     for resource in (*resources, recording, robot):
         app.include_router(resource.router)
     # the page is served under every path but the API's: a wrong method or path under /api/

@@ -53,6 +53,7 @@ class Job:
     started_s: float = field(default_factory=time.time)
     finished_s: float | None = None
     from_version: int | None = None  # the parameter version the job works on
+    detail: dict[str, Any] | None = None  # what a running job says besides its progress
     value: Any = field(default=None, repr=False)  # what the work returned
     finished: threading.Event = field(default_factory=threading.Event, repr=False)
     cancel: threading.Event = field(default_factory=threading.Event, repr=False)

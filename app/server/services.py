@@ -18,6 +18,7 @@ from app.server.robot_sensors import RobotSensors
 from app.server.robot_shelf import RobotShelf
 from app.server.robustness_job import RobustnessRunner
 from app.server.sim_thread import SimThread
+from app.server.tune_job import TuneRunner
 
 
 @dataclass(frozen=True)
@@ -70,6 +71,7 @@ class Services:
             backend={"backend": config.backend, "device": config.device},
             wait_workers_s=config.wait_workers_s,
         )
+        self.tuner = TuneRunner(self.axle_fitter.jobs, self.store, self.presets, robot_now)
         self.viewer = None
         if config.viewer:
             from app.server.viser_gate import gate_viser
@@ -151,7 +153,7 @@ class Services:
 
     def stop(self) -> None:
         self.replay.leave()
-        self.axle_fitter.jobs.stop()  # the fit and the calibration: no simulation outlives us
+        self.axle_fitter.jobs.stop()  # every job (a tune's child too): no simulation outlives us
         if self.viewer is not None:
             self.viewer.stop()
         self.sim.stop()

@@ -24,6 +24,7 @@ from app.analysis.cases import (
     steering,
 )
 from app.analysis.robot_start import walks
+from app.analysis.robot_tune import RUNS, TRIAL, EventWriter
 from app.analysis.robustness import ROBUST_CASES, pass_margin_loss, passes
 from app.evaluation import BatchEvaluator, Evaluator, Job
 from app.evaluation.progress import ProgressLine, bar
@@ -172,6 +173,9 @@ class Tuner:
         self.robust_of: dict[int, dict[str, Any]] = {}
         self.evaluated: list[tuple[float, GaitParams, dict[str, dict[str, Any]]]] = []
         self.generation = 0
+        #: a TRIAL event per candidate scored (replayed too), RUNS as a generation's runs end
+        self.events = EventWriter(None)
+        self.budget = 0  # candidates `run` may score: generations x popsize
 
     def variations(self, generation: int) -> list[Variation]:
         """The generation's worlds: every candidate walks the same ones (common random numbers),
@@ -207,6 +211,7 @@ class Tuner:
         line = None if progress is None else ProgressLine(progress)
 
         def report(n_done: int, total: int) -> None:
+            self.events(RUNS, generation=self.generation, done=n_done, total=total)
             if line is not None:
                 best = "-" if self.best is None else f"{self.best[0]:.3f}"
                 shown = bar(n_done, total) + " " if line.live else ""
@@ -288,12 +293,17 @@ class Tuner:
         generations: int,
         store: StudyStore,
         progress: TextIO | None = sys.stderr,
+        *,
+        events: EventWriter | None = None,
     ) -> ParameterSet:
-        """Run until `generations` in total (counting resumed ones); return the best set.
+        """Run until `generations` in total (counting resumed ones); return the best set;
+        `events` (`app.analysis.robot_tune`) hears of each candidate scored and run walked.
 
         Resuming replays the store through the same seeded CMA-ES: it proposes the same
         candidates again; each recorded one takes its recorded loss, the others (a generation
         interrupted part way) are simulated, and the search carries on."""
+        self.events = events or EventWriter(None)
+        self.budget = generations * self.es.popsize
         recorded = store.recorded()
         while self.generation < generations and not self.es.stop():
             candidates = self.es.ask()
@@ -364,6 +374,9 @@ class Tuner:
             self.robust_of[id(by_run)] = robust
         if self.best is None or loss < self.best[0]:
             self.best = (loss, params, by_run)
+        self.events(
+            TRIAL, done=len(self.evaluated), budget=self.budget, loss=loss, best=self.best[0]
+        )
 
     def varied_summary(self, chosen: tuple[float, GaitParams, dict[str, Any]]) -> str | None:
         """With --robust: "passes P of N varied runs (S %) in W worlds" for a candidate of

@@ -13,6 +13,7 @@ from app.server.ca_calibrator import KIND as CALIBRATE
 from app.server.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs import Job, JobBusy, StaleVersion
 from app.server.services import Services
+from app.server.tune_job import KIND as TUNE
 
 router = APIRouter(
     prefix="/api/jobs", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -72,7 +73,7 @@ def start_ca_calibration(
 
 
 def _job(job_id: str, services: Services) -> Job:
-    if job_id in (KIND, CALIBRATE):  # these start jobs (POST), they are not one
+    if job_id in (KIND, CALIBRATE, TUNE):  # these start jobs (POST), they are not one
         raise StarletteHTTPException(405)
     job = services.axle_fitter.jobs.get(job_id)
     if job is None:

@@ -1,0 +1,86 @@
+""" "Tune for this robot": start `artro tune --robot`'s recipe on the robot in use as a job (202;
+read and cancel it at /api/jobs/{id}), and the latest such job (docs/DESIGN.md §12, §14)."""
+
+from typing import Annotated, Any
+
+from fastapi import APIRouter, Body, Response
+from pydantic import BaseModel, ConfigDict, Field
+
+from app.analysis.cases import CASES
+from app.analysis.robot_start import START_RECIPE
+from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
+from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.jobs import JobBusy
+from app.server.robot_shelf import UnknownRobot
+from app.server.tune_job import TuneBudget, WrongRobot, cases_of
+
+router = APIRouter(
+    prefix="/api", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
+)
+CASE_NAMES = ", ".join(c.name for c in CASES)
+
+
+class TuneBody(BaseModel):
+    """The tune's size; every field left out is the start's recipe's (`artro tune --robot`)."""
+
+    model_config = ConfigDict(extra="forbid", strict=True)
+    robot: str | None = Field(
+        None, max_length=64, description="the robot in use (GET /api/robots, `loaded`); default it"
+    )
+    generations: json_int(1) = Field(START_RECIPE.generations, le=100, description="1 to 100")
+    popsize: json_int(2) = Field(START_RECIPE.popsize, le=64, description="candidates, 2 to 64")
+    duration_s: float = Field(START_RECIPE.duration_s, gt=0, le=120, description="s per run")
+    warmup_s: float = Field(START_RECIPE.warmup_s, ge=0, le=60, description="s not measured")
+    cases: list[Annotated[str, Field(max_length=64)]] = Field(
+        default_factory=list, max_length=len(CASES), description=f"only these: {CASE_NAMES}"
+    )
+
+
+@router.post("/jobs/tune", status_code=202, responses=responses(404, 409, 422))
+def start_tune(
+    services: ServicesDep,
+    response: Response,
+    body: Annotated[TuneBody | None, Body()] = None,
+) -> dict[str, Any]:
+    """Tune the robot in use as `artro tune --robot` does (the nearest built-in preset, its
+    clock scaled, the start's recipe; its Optuna study in DATA/studies/tune-ROBOT.log, resumed
+    by a tune of the same size) in the background. `GET /api/jobs/{id}`: progress, `detail`
+    (trials, budget, best loss); done, the preset tuned-ROBOT is saved and loaded (the motion in
+    use kept) as one undoable change and `result` has its figures. `DELETE /api/jobs/{id}`
+    stops it; nothing is loaded. 409 while a tune runs or for another robot than the one in use,
+    404 for a robot not on offer, 422 for a size not allowed; nothing changes then."""
+    body = body or TuneBody()
+    budget = TuneBudget(
+        generations=body.generations,
+        popsize=body.popsize,
+        duration_s=body.duration_s,
+        warmup_s=body.warmup_s,
+        cases=cases_of(body.cases),
+    )
+    try:
+        if body.robot is not None:
+            services.robots.get(body.robot)  # UnknownRobot names those on offer
+        job = services.tuner.start(budget, robot=body.robot)
+    except UnknownRobot as exc:
+        raise ApiError(404, str(exc), "unknown_robot", loc=["body", "robot"]) from exc
+    except WrongRobot as exc:
+        raise ApiError(409, str(exc), "robot_not_in_use", loc=["body", "robot"]) from exc
+    except JobBusy as exc:
+        raise ApiError(
+            409, f"{exc}, or cancel it (DELETE /api/jobs/{exc.job.id}); one tune runs at a time",
+            "job_running", loc=["job", exc.job.id],
+        ) from exc  # fmt: skip
+    except ValueError as exc:
+        raise ApiError(422, str(exc), "invalid_tune", loc=["body"]) from exc
+    response.headers["Location"] = f"/api/jobs/{job.id}"
+    return job.to_dict()
+
+
+@router.get("/tune", responses=responses(404))
+def latest_tune(services: ServicesDep) -> dict[str, Any]:
+    """The latest tune job started since the server started (running or not), for a page that
+    was reloaded meanwhile; 404 if none was."""
+    job = services.tuner.latest
+    if job is None:
+        raise ApiError(404, "no tune has run yet: POST /api/jobs/tune starts one", "no_tune")
+    return job.to_dict()

@@ -1,0 +1,242 @@
+"""The dashboard's "Tune for this robot" job (docs/DESIGN.md §10, §12): `artro tune --robot` on
+the robot in use, run as a child process, its study in DATA/studies, followed through its events
+(`app.analysis.robot_tune`); the result, saved as the preset tuned-ROBOT, loaded as one undoable
+change (source "tune"). Cancelled, the child is stopped and nothing is loaded."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+import queue
+import subprocess
+import sys
+import threading
+from collections import deque
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from app.analysis.cases import CASES
+from app.analysis.robot_start import START_RECIPE
+from app.analysis.robot_tune import (
+    RESULT,
+    RUNS,
+    START,
+    TRIAL,
+    read_event,
+    shortest_duration_s,
+    study_file,
+    study_name,
+    tuned_name,
+)
+from app.params.presets import PresetStore, builtin_presets, check_name
+from app.robots import builtin_robot_names
+from app.robots.model import RobotModel
+from app.server.jobs import Job, Jobs, Progress, on_robot
+from app.server.param_store import ParameterStore
+from gait.params import describe_fields, group_class
+
+KIND = "tune"
+STOP_WAIT_S = 5.0  # a child asked to stop (SIGTERM) is killed after this long
+LOG_LINES = 12  # of the child's other output, kept for the message of a failure
+
+
+class WrongRobot(ValueError):
+    """The tune was asked for another robot than the one the dashboard shows."""
+
+
+@dataclass(frozen=True)
+class TuneBudget:
+    """How big a tune is: the start's recipe (`START_RECIPE`) unless made smaller or larger."""
+
+    generations: int = START_RECIPE.generations
+    popsize: int = START_RECIPE.popsize
+    duration_s: float = START_RECIPE.duration_s
+    warmup_s: float = START_RECIPE.warmup_s
+    cases: tuple[str, ...] = ()  # only these paper cases (and the CA pairs at their a_p); (): all
+
+    def check(self) -> None:
+        """ValueError, saying what is allowed, for cases not in the paper or runs too short for
+        a whole gait cycle of the slowest clock the recipe may try after the warm-up."""
+        known = [c.name for c in CASES]
+        if unknown := [c for c in self.cases if c not in known]:
+            raise ValueError(f"unknown cases {unknown}; allowed: {', '.join(known)}")
+        slowest = next(
+            m["min"] for f, _d, m in describe_fields(group_class("clock")) if f == "freq_hz"
+        )
+        need = shortest_duration_s(slowest, self.warmup_s)
+        if self.duration_s < need:
+            raise ValueError(
+                f"duration_s {self.duration_s:g} leaves no whole gait cycle at {slowest:g} Hz "
+                f"after warmup_s {self.warmup_s:g}: allowed: duration_s of at least {need:g}"
+            )
+
+
+def child_threads() -> int:
+    """The tune's simulation threads: every core but one, which the live simulation keeps."""
+    return max(1, (os.cpu_count() or 2) - 1)
+
+
+class TuneRunner:
+    """Starts tune jobs on the robot in use, one at a time (a job of kind "tune")."""
+
+    def __init__(
+        self,
+        jobs: Jobs,
+        store: ParameterStore,
+        presets: PresetStore,
+        robot_now: Callable[[], RobotModel],
+        threads: int | None = None,
+    ) -> None:
+        self.jobs, self.store, self.presets, self.robot_now = jobs, store, presets, robot_now
+        self.threads = threads or child_threads()
+        self.latest: Job | None = None
+
+    def start(self, budget: TuneBudget, robot: str | None = None) -> Job:
+        """Tune the robot in use (`robot`, if given, must be it: WrongRobot otherwise); ValueError
+        for a budget `TuneBudget.check` refuses; JobBusy while a tune runs. Nothing changes
+        before the job starts."""
+        model = self.robot_now()
+        if robot is not None and robot != model.name:
+            raise WrongRobot(
+                f"the tune runs on the robot the dashboard shows, {model.name!r}, not {robot!r}: "
+                f"switch to {robot!r} first (PUT /api/robot), or leave robot out"
+            )
+        budget.check()
+        name = check_name(tuned_name(model.name, builtin_presets()))
+        study = study_file(self.presets.data_dir, model.name)
+        job = self.jobs.start(
+            KIND, lambda progress: self._work(progress, model, name, study, budget)
+        )
+        self.latest = job
+        return job
+
+    def _command(self, model: RobotModel, study: Path, budget: TuneBudget) -> list[str]:
+        if model.name in builtin_robot_names():
+            robot = model.name
+        else:  # the robot the server was started with from a file: its description, as read
+            path = study.with_suffix(".robot.yaml")
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(model.description.model_dump(mode="json")), "utf-8")
+            robot = str(path)
+        cmd = [sys.executable, "-m", "app.cli", "tune", "--robot", robot,
+               "--generations", str(budget.generations), "--popsize", str(budget.popsize),
+               "--duration", f"{budget.duration_s:g}", "--warmup", f"{budget.warmup_s:g}",
+               "--threads", str(self.threads), "--study", str(study),
+               "--study-name", study_name(budget.generations, budget.popsize,
+                                          budget.duration_s, budget.cases),
+               "--events", "-"]  # fmt: skip
+        return [*cmd, "--cases", ",".join(budget.cases)] if budget.cases else cmd
+
+    def _work(
+        self, progress: Progress, model: RobotModel, name: str, study: Path, budget: TuneBudget
+    ) -> dict[str, Any]:
+        job: Job = progress.job  # type: ignore[attr-defined]
+        detail: dict[str, Any] = {"robot": model.name, "name": name, "study": str(study),
+                                  "trials": 0, "budget": budget.generations * budget.popsize,
+                                  "best_loss": None, "generations": budget.generations}  # fmt: skip
+        job.detail = dict(detail)  # a copy each time: a reader never sees it change
+        study.parent.mkdir(parents=True, exist_ok=True)
+        env = os.environ | {"ARTRO_DATA_DIR": str(self.presets.data_dir), "PYTHONUNBUFFERED": "1"}
+        child = subprocess.Popen(
+            self._command(model, study, budget), stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
+            cwd=study.parent, start_new_session=True,
+        )  # fmt: skip
+        detail["pid"] = child.pid
+        job.detail = dict(detail)
+        lines: queue.Queue[str | None] = queue.Queue()
+        threading.Thread(
+            target=_pump, args=(child, lines), name=f"artro-{job.id}-out", daemon=True
+        ).start()
+        log: deque[str] = deque(maxlen=LOG_LINES)
+        result: dict[str, Any] | None = None
+        try:
+            while (line := _next(lines, progress)) is not None:
+                event = read_event(line)
+                if event is None:
+                    if line.strip():
+                        log.append(line.rstrip())
+                    continue
+                if event["event"] == RESULT:
+                    result = event
+                done = _follow(detail, event, budget.generations)
+                job.detail = dict(detail)
+                progress(None if done is None else max(done, job.progress))
+            code = child.wait()
+        finally:
+            _stop(child)
+        if code != 0 or result is None:
+            said = " | ".join(log) or "no output"
+            raise RuntimeError(f"artro tune stopped (exit status {code}) before a result: {said}")
+        return self._load(model.name, name, result, detail)
+
+    def _load(
+        self, robot: str, name: str, result: dict[str, Any], detail: dict[str, Any]
+    ) -> dict[str, Any]:
+        """The saved preset `name` made the parameters in use (its gait, the motion in use
+        kept): one undoable change, only on the robot tuned."""
+        pset = self.presets.get(name)
+        pset = dataclasses.replace(pset, motion=self.store.snapshot().motion)
+        snap = self.store.replace(pset, "tune", check=on_robot(robot))
+        keep = ("loss", "select", "walked", "generations", "trials", "figures")
+        return {**{k: result.get(k) for k in keep}, "preset": name, "robot": robot,
+                "study": detail["study"], "study_name": detail.get("study_name"),
+                "budget": detail["budget"], "params_version": snap.version,
+                "applied": True}  # fmt: skip
+
+
+def _pump(child: subprocess.Popen[str], lines: queue.Queue[str | None]) -> None:
+    """The child's output, line by line, then None."""
+    assert child.stdout is not None
+    try:
+        for line in child.stdout:
+            lines.put(line)
+    finally:
+        lines.put(None)
+
+
+def _next(lines: queue.Queue[str | None], progress: Progress) -> str | None:
+    """The next line of the child's output (None at its end); meanwhile, at least every 0.2 s,
+    `progress()`, which raises JobCancelled once the job is cancelled."""
+    while True:
+        progress(None)
+        try:
+            return lines.get(timeout=0.2)
+        except queue.Empty:
+            continue
+
+
+def _follow(detail: dict[str, Any], event: dict[str, Any], generations: int) -> float | None:
+    """`detail` brought up to date with `event`; the job's progress 0..1 (None: unchanged)."""
+    kind = event["event"]
+    if kind == START:
+        detail |= {"start": event.get("base"), "study_name": event.get("study_name")}
+        detail["budget"] = event.get("budget", detail["budget"])
+    elif kind == TRIAL:
+        detail |= {"trials": event.get("done", 0), "best_loss": event.get("best"),
+                   "last_loss": event.get("loss")}  # fmt: skip
+        return min(1.0, detail["trials"] / max(1, detail["budget"]))
+    elif kind == RUNS and event.get("total"):
+        detail |= {"generation": event.get("generation", 0) + 1}
+        done = event.get("generation", 0) + event.get("done", 0) / event["total"]
+        return min(1.0, done / max(1, generations))
+    return None
+
+
+def _stop(child: subprocess.Popen[str]) -> None:
+    """The child ended: asked (SIGTERM), then killed after STOP_WAIT_S."""
+    if child.poll() is None:
+        child.terminate()
+        try:
+            child.wait(STOP_WAIT_S)
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
+
+
+def cases_of(names: Sequence[str]) -> tuple[str, ...]:
+    """The body's cases, trimmed, in their given order, each once."""
+    return tuple(dict.fromkeys(n.strip() for n in names if n.strip()))

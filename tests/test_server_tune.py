@@ -1,0 +1,134 @@
+""" "Tune for this robot" on a real server (issue 32 item 4): `artro tune --robot`'s recipe as a
+job, a child process writing a real Optuna journal under the data folder; progress, cancel,
+one tune at a time, bad input refused with nothing changed, and a tiny tune's result loaded as
+one undoable change. The waiting is on the job's state, with a deadline, never on the clock."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import optuna
+import pytest
+from optuna.storages import JournalStorage
+from optuna.storages.journal import JournalFileBackend
+
+from app.study.study_files import WriterLock
+from tests.server_harness import client, running_server, wait_for
+
+pytestmark = pytest.mark.slow
+
+#: the recipe's fields, the sizes cut: forward and its CA pair, one whole cycle of the slowest
+#: clock after a 0.5 s warm-up (as tests/test_tune_robot.py)
+TINY = {"generations": 1, "popsize": 2, "duration_s": 5.6, "warmup_s": 0.5, "cases": ["forward"]}
+#: long enough to be cancelled while it runs
+LONG = TINY | {"generations": 20, "popsize": 4}
+TUNE_DEADLINE = 2400  # polls of 50 ms: 2 min
+
+
+def trials_in(study: Path, name: str) -> int:
+    storage = JournalStorage(JournalFileBackend(str(study)))
+    return len(optuna.load_study(study_name=name, storage=storage).trials)
+
+
+def test_a_tiny_tune_loads_tuned_robot_as_one_undoable_change(tmp_path):
+    with running_server(tmp_path) as (base_url, app), client(base_url) as http:
+        before = http.get("/api/params").json()
+        assert http.get("/api/tune").status_code == 404  # none yet
+        started = http.post("/api/jobs/tune", json=TINY)
+        assert started.status_code == 202, started.text
+        job_id = started.json()["id"]
+        assert started.headers["Location"] == f"/api/jobs/{job_id}"
+        job = app.state.services.axle_fitter.jobs.get(job_id)
+        assert job.finished.wait(TUNE_DEADLINE * 0.05), "the tune did not finish"
+        done = http.get(f"/api/jobs/{job_id}").json()
+        assert done["status"] == "done" and done["progress"] == 1.0, done
+        assert done["detail"]["trials"] == done["detail"]["budget"] == 2
+        assert done["detail"]["best_loss"] == pytest.approx(done["result"]["loss"])
+        result = done["result"]
+        assert result["preset"] == "tuned-artro" and result["applied"] is True
+        # the figures the command prints: forward against its target, the CA pair's steering
+        runs = {row["run"]: row for row in result["figures"]}
+        assert set(runs) == {"forward", "curve forward"}
+        assert runs["forward"]["target"] == pytest.approx(3.8) and runs["forward"]["unit"] == "cm/s"
+        # saved among the presets, loaded (the motion in use kept) as one change
+        assert "tuned-artro" in [p["name"] for p in http.get("/api/presets").json()["presets"]]
+        after = http.get("/api/params").json()
+        assert after["version"] == result["params_version"] == before["version"] + 1
+        assert after["name"] == "tuned-artro" and after["motion"] == before["motion"]
+        assert after["gait"] == http.get("/api/presets/tuned-artro").json()["gait"]
+        assert after["gait"] != before["gait"]
+        # the study: a real Optuna journal in the data folder, one trial per candidate
+        study = tmp_path / "studies" / "tune-artro.log"
+        assert Path(result["study"]) == study and trials_in(study, result["study_name"]) == 2
+        # one undo goes back to the set before
+        undone = http.post("/api/params/undo").json()
+        assert (undone["name"], undone["gait"]) == (before["name"], before["gait"])
+        assert http.get("/api/tune").json()["id"] == job_id
+        assert http.get("/api/jobs/tune").status_code == 405
+
+
+def test_a_tune_reports_progress_refuses_a_second_and_cancels_with_nothing_loaded(tmp_path):
+    with running_server(tmp_path) as (base_url, _app), client(base_url) as http:
+        before = http.get("/api/params").json()
+        job_id = http.post("/api/jobs/tune", json=LONG).json()["id"]
+        # one tune at a time: 409, saying what is allowed, and the running one untouched
+        second = http.post("/api/jobs/tune", json=TINY)
+        assert second.status_code == 409, second.text
+        said = second.json()["message"]
+        assert "already running" in said and f"DELETE /api/jobs/{job_id}" in said
+        # nor may the robot change under it
+        assert http.put("/api/robot", json={"name": "micro"}).status_code == 409
+
+        def scored():
+            now = http.get(f"/api/jobs/{job_id}").json()
+            return now if now["detail"]["trials"] >= 1 else None
+
+        running = wait_for(scored, "a candidate scored", attempts=TUNE_DEADLINE)
+        assert running["status"] == "running" and 0 < running["progress"] < 1
+        assert running["detail"]["budget"] == 80 and running["detail"]["best_loss"] > 0
+        pid = running["detail"]["pid"]
+        cancelled = http.delete(f"/api/jobs/{job_id}")
+        assert cancelled.status_code == 200, cancelled.text
+        final = wait_for(
+            lambda: (j := http.get(f"/api/jobs/{job_id}").json())["status"] != "running" and j,
+            "the tune ended",
+        )
+        assert final["status"] == "cancelled" and final["result"] is None, final
+        with pytest.raises(ProcessLookupError):  # the child is gone, not left running
+            os.kill(pid, 0)
+        after = http.get("/api/params").json()
+        assert after["version"] == before["version"]  # nothing loaded
+        names = [p["name"] for p in http.get("/api/presets").json()["presets"]]
+        assert "tuned-artro" not in names
+        # what it scored is kept in the study, which a tune of the same size resumes
+        study = tmp_path / "studies" / "tune-artro.log"
+        assert trials_in(study, running["detail"]["study_name"]) >= 1
+        lock = WriterLock(study)  # the study's writer lock went with the child: free
+        lock.acquire()
+        lock.release()
+
+
+@pytest.mark.parametrize(
+    ("body", "status", "said"),
+    [
+        ({"robot": "nope"}, 404, "this server offers artro, micro"),
+        ({"robot": "micro"}, 409, "switch to 'micro' first (PUT /api/robot)"),
+        ({"duration_s": 3.0}, 422, "allowed: duration_s of at least 9"),
+        ({"cases": ["upside down"]}, 422, "allowed: on the spot, forward"),
+        ({"popsize": 1}, 422, "popsize"),
+        ({"budget": 3}, 422, "budget"),
+    ],
+)
+def test_bad_input_is_refused_saying_what_is_allowed_and_changes_nothing(
+    tmp_path, body, status, said
+):
+    with running_server(tmp_path) as (base_url, app), client(base_url) as http:
+        before = http.get("/api/params").json()["version"]
+        answer = http.post("/api/jobs/tune", json=body)
+        assert answer.status_code == status, answer.text
+        assert said in answer.text
+        assert http.get("/api/tune").status_code == 404  # no job started
+        assert app.state.services.axle_fitter.jobs.running() == []
+        assert http.get("/api/params").json()["version"] == before
+        assert not (tmp_path / "studies").exists()
