@@ -143,7 +143,7 @@ class TuneRunner:
         child = subprocess.Popen(
             self._command(model, study, budget), stdout=subprocess.PIPE,
             stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL, text=True, env=env,
-            cwd=study.parent, start_new_session=True,
+            cwd=study.parent,
         )  # fmt: skip
         detail["pid"] = child.pid
         job.detail = dict(detail)
@@ -220,7 +220,8 @@ def _follow(detail: dict[str, Any], event: dict[str, Any], generations: int) -> 
                    "last_loss": event.get("loss")}  # fmt: skip
         return min(1.0, detail["trials"] / max(1, detail["budget"]))
     elif kind == RUNS and event.get("total"):
-        detail |= {"generation": event.get("generation", 0) + 1}
+        detail |= {"generation": event.get("generation", 0) + 1, "runs": event.get("done", 0),
+                   "runs_total": event["total"]}  # fmt: skip
         done = event.get("generation", 0) + event.get("done", 0) / event["total"]
         return min(1.0, done / max(1, generations))
     return None

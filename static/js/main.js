@@ -14,6 +14,7 @@ import { initSensors } from "./sensors.js";
 import { initServoLoad } from "./servo-load.js";
 import { initStatus } from "./status.js";
 import { initTransfer } from "./transfer.js";
+import { initTune } from "./tune.js";
 import { initViser } from "./viser.js";
 import { initWorld } from "./world.js";
 
@@ -33,4 +34,5 @@ initGhost();
 initReplay();
 initWorld();
 initRobot();
+initTune();
 refreshParams();

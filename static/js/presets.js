@@ -9,10 +9,15 @@ const NAME_RE = /^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$/;
 const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over this (app/server/gait_ramp.py)
 let drive = "model";
 let engine = null;
+let inUse = null; // the name of the set in use: its row is marked
 
 export function initPresets() {
   document.addEventListener("artro:state", (e) => (drive = e.detail.drive));
-  document.addEventListener("artro:params", (e) => (engine = e.detail.gait?.engine ?? engine));
+  document.addEventListener("artro:params", (e) => {
+    engine = e.detail.gait?.engine ?? engine;
+    inUse = e.detail.name ?? inUse;
+    markInUse();
+  });
   $("preset-save").addEventListener("click", save);
   $("preset-name").addEventListener("keydown", (e) => e.key === "Enter" && save());
   $("diff-a").addEventListener("change", runDiff);
@@ -41,6 +46,14 @@ export async function refreshPresets() {
   problems.hidden = !(data.problems || []).length;
   fillDiffSelects(data.presets.map((p) => p.name));
   runDiff();
+  markInUse();
+}
+
+/** The row of the preset whose name the set in use has (loaded, or tuned here) marked. */
+function markInUse() {
+  for (const tr of $("preset-list").querySelectorAll("tr[data-preset]")) {
+    tr.classList.toggle("in-use", tr.dataset.preset === inUse);
+  }
 }
 
 function row(p) {

@@ -1,7 +1,7 @@
 """ "Tune for this robot": start `artro tune --robot`'s recipe on the robot in use as a job (202;
 read and cancel it at /api/jobs/{id}), and the latest such job (docs/DESIGN.md §12, §14)."""
 
-from typing import Annotated, Any
+from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
@@ -17,7 +17,7 @@ from app.server.tune_job import TuneBudget, WrongRobot, cases_of
 router = APIRouter(
     prefix="/api", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
-CASE_NAMES = ", ".join(c.name for c in CASES)
+CaseName = Literal[tuple(c.name for c in CASES)]  # type: ignore[valid-type]
 
 
 class TuneBody(BaseModel):
@@ -31,8 +31,10 @@ class TuneBody(BaseModel):
     popsize: json_int(2) = Field(START_RECIPE.popsize, le=64, description="candidates, 2 to 64")
     duration_s: float = Field(START_RECIPE.duration_s, gt=0, le=120, description="s per run")
     warmup_s: float = Field(START_RECIPE.warmup_s, ge=0, le=60, description="s not measured")
-    cases: list[Annotated[str, Field(max_length=64)]] = Field(
-        default_factory=list, max_length=len(CASES), description=f"only these: {CASE_NAMES}"
+    cases: list[CaseName] = Field(
+        default_factory=list,
+        max_length=len(CASES),
+        description="judge only these paper cases (and the CA pairs at their a_p); none: all",
     )
 
 

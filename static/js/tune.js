@@ -1,0 +1,117 @@
+// "Tune for this robot" (POST /api/jobs/tune): `artro tune --robot`'s recipe on the robot shown,
+// in the background, its size set here (generations x candidates, s per run); a progress bar with
+// the trials scored and the best loss so far; Cancel (DELETE /api/jobs/{id}: nothing loaded).
+// Done, the preset tuned-ROBOT is loaded as one undoable change and its figures are shown.
+
+import { api, formatDetail } from "./api.js";
+import { refreshParams } from "./params.js";
+import { refreshPresets } from "./presets.js";
+import { $, fmt, h, setMessage } from "./util.js";
+
+let job = null; // the tune followed, while it runs
+let asking = false; // a read of it in flight
+
+export async function initTune() {
+  $("tune-start").addEventListener("click", start);
+  $("tune-cancel").addEventListener("click", cancel);
+  document.addEventListener("artro:state", () => job && follow());
+  try {
+    const latest = await api.get("/api/tune"); // a tune started before this page was loaded
+    if (latest.status === "running") running(latest);
+  } catch {
+    // 404: none has run
+  }
+}
+
+async function start() {
+  const body = {
+    generations: Number($("tune-generations").value),
+    popsize: Number($("tune-popsize").value),
+    duration_s: Number($("tune-duration").value),
+  };
+  try {
+    running(await api.post("/api/jobs/tune", body));
+    $("tune-figures").hidden = true;
+    setMessage($("tune-message"), "");
+  } catch (err) {
+    setMessage($("tune-message"), formatDetail(err.raw) || err.message, "error");
+  }
+}
+
+function running(now) {
+  job = now;
+  $("tune-start").disabled = true;
+  $("tune-cancel").hidden = false;
+  $("tune-progress-row").hidden = false;
+  show(now);
+}
+
+function show(now) {
+  const d = now.detail || {};
+  $("tune-progress").value = now.progress;
+  const best = d.best_loss == null ? "—" : fmt(d.best_loss, 3);
+  // a candidate is scored once all its runs are walked: the generation's runs show it moving
+  const runs = d.runs_total ? ` · generation ${d.generation}/${d.generations} · run ${d.runs}/${d.runs_total}` : "";
+  $("tune-status").textContent = `trials ${d.trials ?? 0}/${d.budget ?? "?"} · best loss ${best}${runs}`;
+  $("tune-status").title = d.start ? `from '${d.start}' (its clock scaled to ${d.robot}'s legs); study ${d.study}` : "";
+}
+
+async function follow() {
+  if (asking) return;
+  asking = true;
+  try {
+    const now = await api.get(`/api/jobs/${job.id}`);
+    show(now);
+    if (now.status !== "running") finish(now);
+  } catch (err) {
+    setMessage($("tune-message"), err.message, "error");
+  } finally {
+    asking = false;
+  }
+}
+
+async function cancel() {
+  if (!job) return;
+  try {
+    finish(await api.del(`/api/jobs/${job.id}`));
+  } catch (err) {
+    setMessage($("tune-message"), formatDetail(err.raw) || err.message, "error");
+  }
+}
+
+function finish(now) {
+  if (!job || now.status === "running") return;
+  job = null;
+  $("tune-start").disabled = false;
+  $("tune-cancel").hidden = true;
+  const msg = $("tune-message");
+  if (now.status === "cancelled") {
+    $("tune-progress-row").hidden = true;
+    setMessage(msg, "tune cancelled: nothing loaded (its study is kept; a tune of the same size resumes it)", "warn");
+  } else if (now.status === "failed") {
+    $("tune-progress-row").hidden = true;
+    setMessage(msg, `tune failed: ${now.error}`, "error");
+  } else {
+    const r = now.result;
+    const walked = r.walked ? "every run walked without a fall" : "some run fell (the lowest loss kept)";
+    setMessage(msg, `'${r.preset}' saved and loaded (v${r.params_version}; Undo goes back): loss ${fmt(r.loss, 3)}, ${walked}`);
+    figures(r.figures || []);
+    refreshPresets();
+    refreshParams();
+  }
+}
+
+/** The paper motions' figures as the tune reports them: speed or turn rate against the target
+ *  (scaled to the robot's legs), a CA pair's steering gain and bend against eq (13)'s 1 and 0. */
+function figures(rows) {
+  $("tune-figures-body").replaceChildren(
+    ...rows.map((r) => {
+      const fell = r.fell ? "fell" : null;
+      const target = r.unit ? `${fmt(r.target, 2)} ${r.unit}` : "gain 1, bend 0";
+      const tuned = fell ?? (r.unit ? `${fmt(r.value, 2)} ${r.unit}` : `gain ${fmt(r.gain, 2)}, bend ${fmt(r.bend, 2)}`);
+      return h("tr", { "data-run": r.run },
+        h("td", {}, r.run), h("td", { class: "num" }, target), h("td", { class: fell ? "num fell" : "num" }, tuned));
+    }),
+  );
+  $("tune-figures").hidden = !rows.length;
+}
