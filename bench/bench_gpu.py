@@ -11,12 +11,15 @@ walked on both; falls that differ; `bench robust`'s pass verdicts that differ); 
 (GPU model and memory, or "cpu device") and the CPU cores.
 
     python bench/bench_gpu.py --device cpu --samples 1 --duration 2 --warmup 0.5 --cold
-        # Warp's CPU device, ~75 s on 2 cores: the figures in bench/results/
-    python bench/bench_gpu.py --device cuda --samples 400 --duration 20 --warmup 5 --cold
-        # one GPU: 3 609 worlds, under 5 min with 16 cores for the lanes
+        # Warp's CPU device, ~75 s on 2 cores: a check
+    python bench/bench_gpu.py --device cuda --samples 200 --duration 20 --warmup 5 --cache DIR
+        # one GPU: 1 809 worlds, ~4 min on an H200 with 16 cores (docs/GPU.md "Speed")
 
 `--cold` compiles the kernels into an empty cache (a temporary folder) so the compile time is
-measured, not a cached load. Writes bench/results/<bench>.json, or --json PATH (bench/results.py).
+measured, not a cached load; `--cache DIR` names the cache (cold when it is empty), for a second
+run that loads what the first compiled. `--skip-lanes` runs Warp alone (a scaling figure, no
+agreement). "compiled" figures leave out the first step (the compile), which a cache saves.
+Writes bench/results/<bench>.json, or --json PATH (bench/results.py).
 """
 
 from __future__ import annotations
@@ -99,21 +102,41 @@ def main() -> None:
     parser.add_argument("--preset", default="tuned", help="a built-in preset's name")
     parser.add_argument("--threads", type=int, default=None, help="lanes (default: the cores)")
     parser.add_argument("--cold", action="store_true", help="an empty kernel cache first")
+    parser.add_argument(
+        "--cache", metavar="DIR", help="Warp's kernel cache folder (cold when empty or new)"
+    )
+    parser.add_argument(
+        "--skip-lanes", action="store_true", help="Warp alone (no lanes, no agreement): scaling"
+    )
     args = results.parse_args(parser)
-    if args.cold:  # read when Warp initialises, which no import above has done
+    # read when Warp initialises, which no import above has done
+    if args.cold:
         os.environ["WARP_CACHE_PATH"] = tempfile.mkdtemp(prefix="artro-warp-cache-")
+    elif args.cache:
+        os.environ["WARP_CACHE_PATH"] = args.cache
+    cache = os.environ.get("WARP_CACHE_PATH")
+    cold = args.cold or bool(cache and not (os.path.isdir(cache) and os.listdir(cache)))
     robot = RobotModel.load()
     gait = builtin_presets()[args.preset].gait
     jobs = jobs_for(gait, sample(VariationRanges(), args.samples, args.seed))
     timestep_s = float(robot.model.opt.timestep)
     print(f"{len(jobs)} runs of {args.duration:g} s ({args.preset}, {args.samples} variations)")
 
-    lanes_evaluator = BatchEvaluator(robot, threads=args.threads)
-    t0 = time.perf_counter()
-    lanes = lanes_evaluator.evaluate(jobs, duration_s=args.duration, warmup_s=args.warmup)
-    lanes_s = time.perf_counter() - t0
-    lanes_steps = lanes_evaluator.frames_rolled * lanes_evaluator.steps_per_frame
-    print(f"lanes ({lanes_evaluator.threads} threads): {lanes_s:.1f} s")
+    lanes_figures, lanes = None, None
+    if not args.skip_lanes:
+        lanes_evaluator = BatchEvaluator(robot, threads=args.threads)
+        t0 = time.perf_counter()
+        lanes = lanes_evaluator.evaluate(jobs, duration_s=args.duration, warmup_s=args.warmup)
+        lanes_s = time.perf_counter() - t0
+        lanes_steps = lanes_evaluator.frames_rolled * lanes_evaluator.steps_per_frame
+        print(f"lanes ({lanes_evaluator.threads} threads): {lanes_s:.1f} s")
+        lanes_figures = {
+            "threads": lanes_evaluator.threads,
+            "wall_s": lanes_s,
+            "steps": lanes_steps,
+            "steps_per_s": lanes_steps / lanes_s,
+            "runs_per_s": len(jobs) / lanes_s,
+        }
 
     warp_evaluator = WarpEvaluator(robot, device=args.device)
     t0 = time.perf_counter()
@@ -123,42 +146,47 @@ def main() -> None:
     warp_steps = warp_evaluator.world_steps
     steady_s = warp_evaluator.stage_s["step"] - compile_s
     print(f"warp ({args.device}): {warp_s:.1f} s, of which the first step {compile_s:.1f} s")
+    if warp_evaluator.graph_error:
+        print(f"warp: frames stepped by hand, not replayed: {warp_evaluator.graph_error}")
 
-    agree = agreement(warp, lanes)
+    agree = agreement(warp, lanes) if lanes is not None else None
     figures = {
         "runs": len(jobs),
         "sim_s_per_run": args.duration,
         "timestep_s": timestep_s,
         "cpu_cores": os.cpu_count(),
         **device_info(warp_evaluator),
-        "lanes": {
-            "threads": lanes_evaluator.threads,
-            "wall_s": lanes_s,
-            "steps": lanes_steps,
-            "steps_per_s": lanes_steps / lanes_s,
-            "runs_per_s": len(jobs) / lanes_s,
-        },
+        "lanes": lanes_figures,
         "warp": {
             "wall_s": warp_s,
             "first_step_s": compile_s,
-            "cold_cache": args.cold,
+            "cold_cache": cold,
+            "frame_graph": warp_evaluator.graph_error is None and warp_evaluator.device.is_cuda,
+            "graph_error": warp_evaluator.graph_error,
             "steps": warp_steps,
             "steps_per_s": warp_steps / warp_s,
+            "end_to_end_s_compiled": warp_s - compile_s,
+            "end_to_end_steps_per_s_compiled": warp_steps / (warp_s - compile_s),
             "steady_steps_per_s": warp_steps / steady_s if steady_s > 0 else None,
             "runs_per_s": len(jobs) / warp_s,
             "stage_s": warp_evaluator.stage_s,
         },
         "agreement": agree,
     }
-    for key, row in agree["metrics"].items():
-        print(f"  {key}: median {row['median']}, max {row['max']} (tolerance {row['tolerance']})")
-    print(f"falls differ: {agree['falls_differ']}; verdicts differ: {agree['verdicts_differ']}")
+    if agree is not None:
+        for key, row in agree["metrics"].items():
+            tolerance = row["tolerance"]
+            print(f"  {key}: median {row['median']}, max {row['max']} (tolerance {tolerance})")
+        print(f"falls differ: {agree['falls_differ']}; verdicts differ: {agree['verdicts_differ']}")
     headline = {
         "worlds": len(jobs),
+        "warp wall s": warp_s,
+        "warp s (end to end, compiled)": warp_s - compile_s,
+        "warp steps/s (end to end, compiled)": figures["warp"]["end_to_end_steps_per_s_compiled"],
         "warp steps/s (steady)": figures["warp"]["steady_steps_per_s"],
-        "lanes steps/s": figures["lanes"]["steps_per_s"],
+        "lanes steps/s": lanes_figures["steps_per_s"] if lanes_figures else None,
         "warp first step s": compile_s,
-        "pass verdicts differing": len(agree["verdicts_differ"]),
+        "pass verdicts differing": len(agree["verdicts_differ"]) if agree else None,
     }
     results.write("bench_gpu", args, figures, headline)
 

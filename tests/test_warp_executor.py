@@ -21,8 +21,9 @@ import pytest
 from app.analysis.robustness import RobustCase, passes
 from app.evaluation import BatchEvaluator, Cancelled, ExecutorError, Job, evaluator_for
 from app.evaluation._warp import AGREEMENT, WarpEvaluator
-from app.evaluation._warp_model import per_world_fields
+from app.evaluation._warp_model import _per_world_fields_put, per_world_fields
 from app.robots.model import RobotModel
+from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import parse_variation, varied_robot
 from gait import GaitParams, Motion
 
@@ -190,6 +191,27 @@ def test_every_variation_of_today_is_held_per_world(robot):
             assert np.array_equal(fields[name][world].reshape(want.shape), want), (name, world)
     assert np.allclose(fields["opt.gravity"][1], models[1].opt.gravity)
     assert per_world_fields([robot.model, robot.model]) == {}
+
+
+def test_the_shortcut_gives_what_putting_every_model_gives(robot):
+    """`per_world_fields` reads sampled variations' values from their MjModels (two models put
+    on the device, not one per variation): the same fields, the same values, as putting and
+    comparing every model; a model that moves a field the probe did not sends it the slow way."""
+    models = [robot.model] + [
+        varied_robot(robot, v.physics).model for v in sample(VariationRanges(), 6, 3)
+    ]
+    models.append(robot.model)
+    fast, slow = per_world_fields(models), _per_world_fields_put(models)
+    assert sorted(fast) == sorted(slow) and "body_mass" in fast
+    for name, values in slow.items():
+        assert np.array_equal(fast[name].reshape(values.shape), values), name
+    only_friction = varied_robot(robot, parse_variation("friction=0.5")).model
+    only_damping = varied_robot(robot, parse_variation("damping_scale=2")).model
+    mixed = [robot.model, only_friction, only_damping]
+    fast, slow = per_world_fields(mixed), _per_world_fields_put(mixed)
+    assert sorted(fast) == sorted(slow) and {"geom_friction", "dof_damping"} <= set(fast)
+    for name, values in slow.items():
+        assert np.array_equal(fast[name].reshape(values.shape), values), name
 
 
 def test_a_field_that_cannot_be_batched_is_refused_naming_it(robot):

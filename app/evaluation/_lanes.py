@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import math
 import os
+import pickle
 import queue
 import threading
 import time
@@ -56,6 +57,8 @@ def control_sequence(
         plan.substep,
         frame_steps(robot.model),
     )
+    if len(act) == robot.model.nu and np.array_equal(act, np.arange(len(act))):
+        return np.ascontiguousarray(acting)  # every actuator a servo, in order (ArtRo)
     ctrl = np.empty((len(acting), robot.model.nu))
     if len(act) < robot.model.nu:
         ctrl[:] = start.ctrl
@@ -64,23 +67,38 @@ def control_sequence(
 
 
 def plan_open_loop(
-    robot: RobotModel, job: Job, n_frames: int, data: mujoco.MjData
+    robot: RobotModel,
+    job: Job,
+    n_frames: int,
+    data: mujoco.MjData,
+    plans: dict[tuple, FramePlan] | None = None,
 ) -> tuple[Start, np.ndarray]:
     """An open-loop run on `robot` (the job's varied robot): its start, made in `data` (which
-    it overwrites), and the ctrl of every physics step of `n_frames` frames (`control_sequence`)."""
+    it overwrites), and the ctrl of every physics step of `n_frames` frames (`control_sequence`).
+    `plans` keeps the gait's frame plans by everything they depend on, for a caller planning
+    many runs of few gaits (a robust study: one plan per case, not per variation)."""
     start_motion = job.motion if job.start_motion is None else job.start_motion
     start = start_at_rest(robot, data, job.params, start_motion)
-    plan = plan_frames(
-        job.params,
-        job.motion,
-        robot.hardware(),
-        start.phase,
-        n_frames,
-        frame_steps(robot.model),
-        float(robot.model.opt.timestep),
-        motion_now=start_motion,
-        geometry=robot.geometry,
-    )
+    hardware, steps = robot.hardware(), frame_steps(robot.model)
+    timestep_s = float(robot.model.opt.timestep)
+    # by value: a varied robot's hardware is a new object holding arrays (no value hash)
+    key = (job.params, job.motion, start_motion, start.phase, pickle.dumps(hardware))
+    key += (robot.geometry, n_frames, steps, timestep_s)
+    plan = None if plans is None else plans.get(key)
+    if plan is None:
+        plan = plan_frames(
+            job.params,
+            job.motion,
+            hardware,
+            start.phase,
+            n_frames,
+            steps,
+            timestep_s,
+            motion_now=start_motion,
+            geometry=robot.geometry,
+        )
+        if plans is not None:
+            plans[key] = plan
     return start, control_sequence(robot, start, plan, job.variation)
 
 

@@ -17,6 +17,7 @@ from app.evaluation._api import Cancelled, ExecutorError, Job, OnResult, Progres
 from app.evaluation._frames import STATE_SPEC, Push, Start
 from app.evaluation._lanes import plan_open_loop
 from app.evaluation._measure import fallen, measure_frames, not_finite
+from app.evaluation._warp_kernels import control_kernels
 from app.evaluation._warp_model import batch_model
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace
@@ -143,6 +144,9 @@ class WarpEvaluator:
         #: seconds the first batch's first step took here (kernels compiled or loaded from
         #: Warp's cache), None before it
         self.compile_s: float | None = None
+        #: why a CUDA device steps frame by frame in Python instead of replaying one captured
+        #: frame (a CUDA graph), None when it replays or the device is the CPU
+        self.graph_error: str | None = None
         #: physics steps taken (worlds x steps) and seconds spent per stage since creation
         self.world_steps = 0
         self.stage_s = {"plan": 0.0, "upload": 0.0, "step": 0.0, "measure": 0.0}
@@ -199,25 +203,32 @@ class _Batch:
         self.owner, self.jobs, self.n_frames = owner, jobs, n_frames
         robot = owner.robot
         varied: dict[Variation, RobotModel] = {}
-        data = mujoco.MjData(robot.model)
-        self.robots: list[RobotModel] = []
-        self.starts: list[Start] = []
-        self.controls: list[np.ndarray] = []
-        initial: dict[str, list[np.ndarray]] = {"qpos": [], "qvel": [], "act": [], "ctrl": []}
         for job in jobs:
             physics = job.variation.physics
             if physics not in varied:
                 varied[physics] = robot if physics.is_nominal else varied_robot(robot, physics)
-            world = varied[physics]
-            start, control = plan_open_loop(world, job, n_frames, data)
+        self.robots = [varied[job.variation.physics] for job in jobs]
+        self.starts: list[Start] = []
+        #: every world's ctrl of every step, float32 (worlds, steps, nu): a world's rows in one
+        #: block, so a segment's controls go up as one contiguous slice per world
+        shape = (len(jobs), n_frames * owner.steps_per_frame, robot.model.nu)
+        self.control = np.empty(shape, np.float32)
+        m = robot.model
+        self.initial = {
+            "qpos": np.empty((len(jobs), m.nq)),
+            "qvel": np.empty((len(jobs), m.nv)),
+            "act": np.empty((len(jobs), m.na)),
+            "ctrl": np.empty((len(jobs), m.nu)),
+        }
+        plans: dict[tuple, Any] = {}  # one gait plan per case, not per variation
+        data = mujoco.MjData(robot.model)
+        for w, (world, job) in enumerate(zip(self.robots, jobs, strict=True)):
+            start, self.control[w] = plan_open_loop(world, job, n_frames, data, plans)
             mujoco.mj_setState(world.model, data, start.state, STATE_SPEC)
             for name in ("qpos", "qvel", "act"):
-                initial[name].append(getattr(data, name).copy())
-            initial["ctrl"].append(start.ctrl)
-            self.robots.append(world)
+                self.initial[name][w] = getattr(data, name)
+            self.initial["ctrl"][w] = start.ctrl
             self.starts.append(start)
-            self.controls.append(control.astype(np.float32))
-        self.initial = {name: np.stack(rows) for name, rows in initial.items()}
         self.pushes = [Push(r, j) for r, j in zip(self.robots, jobs, strict=True)]
         owner.stage_s["plan"] += time.perf_counter() - t0
 
@@ -243,6 +254,15 @@ class _Batch:
                     getattr(data, name).assign(values.astype(np.float32))
         owner.stage_s["upload"] += time.perf_counter() - t0
         owner._announce()
+        fit = CONTROL_BYTES // (steps * worlds * model.nu * 4)
+        per_segment = max(1, min(owner.segment_frames, fit))
+        #: the segment's controls on the device (worlds, steps, nu), padded to a whole segment
+        #: (one buffer for the whole call: a captured frame reads it), and the row cursor
+        self.host_segment = np.zeros((worlds, per_segment * steps, model.nu), np.float32)
+        with wp.ScopedDevice(owner.device):
+            self.segment = wp.zeros(self.host_segment.shape, dtype=float)
+            self.cursor = wp.zeros(1, dtype=int)
+        self.graph = self._capture(batch, data) if owner.device.is_cuda else None
         qpos = np.empty((self.n_frames, worlds, model.nq), np.float32)
         sensors = np.empty((self.n_frames, worlds, model.nsensordata), np.float32)
         counted = np.full(worlds, self.n_frames)  # frames each world counts (to its fall)
@@ -250,8 +270,6 @@ class _Batch:
         measured: list[tuple[RunMetrics, Trace] | None] = [None] * worlds
         results: list[RunMetrics] = []
         step_s, done = 0.0, 0
-        fit = CONTROL_BYTES // (steps * worlds * model.nu * 4)
-        per_segment = max(1, min(owner.segment_frames, fit))
         while len(results) < worlds:
             if cancel is not None and cancel.is_set():
                 raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
@@ -308,33 +326,28 @@ class _Batch:
         qpos and sensordata into the outputs (frames, worlds, ...). Returns the stepping
         seconds; ExecutorError when a world still `counting` overflowed the contact or
         constraint buffers."""
-        owner, wp, mjw = self.owner, self.owner._wp, self.owner._mjw
-        worlds, steps, nu = len(self.jobs), owner.steps_per_frame, owner.model.nu
+        owner, wp = self.owner, self.owner._wp
+        worlds, steps = len(self.jobs), owner.steps_per_frame
         nq, ns = owner.model.nq, owner.model.nsensordata
         t0 = time.perf_counter()
         rows = slice(first * steps, (first + frames) * steps)
-        host = np.stack([c[rows] for c in self.controls], axis=1)  # (steps, worlds, nu)
+        self.host_segment[:, : frames * steps] = self.control[:, rows]
         pushes = self._pushes(rows)
         with wp.ScopedDevice(owner.device):
-            control = wp.array(host, dtype=float)
+            self.segment.assign(self.host_segment)
+            self.cursor.zero_()
             ends_q = wp.empty((frames, worlds, nq), dtype=float)
             ends_s = wp.empty((frames, worlds, ns), dtype=float)
             t1 = time.perf_counter()
-            for k in range(frames * steps):
-                wp.copy(data.ctrl, control, src_offset=k * worlds * nu, count=worlds * nu)
-                push = pushes.get(rows.start + k)
-                if push is not None:
-                    data.xfrc_applied.assign(push)
-                mjw.step(batch, data)
-                if owner.compile_s is None:  # the kernels compile (or load) in the first step
-                    wp.synchronize_device(owner.device)
-                    owner.compile_s = time.perf_counter() - t1
-                if push is not None:
-                    data.xfrc_applied.zero_()
-                if (k + 1) % steps == 0:
-                    f = k // steps
-                    wp.copy(ends_q, data.qpos, dest_offset=f * worlds * nq, count=worlds * nq)
-                    wp.copy(ends_s, data.sensordata, dest_offset=f * worlds * ns, count=worlds * ns)
+            for f in range(frames):
+                first_step = rows.start + f * steps
+                pushed = any(first_step + k in pushes for k in range(steps))
+                if self.graph is not None and not pushed:
+                    wp.capture_launch(self.graph)
+                else:
+                    self._steps_by_hand(batch, data, pushes, first_step, t1)
+                wp.copy(ends_q, data.qpos, dest_offset=f * worlds * nq, count=worlds * nq)
+                wp.copy(ends_s, data.sensordata, dest_offset=f * worlds * ns, count=worlds * ns)
             qpos_out[:] = ends_q.numpy()
             sensors_out[:] = ends_s.numpy()
             overflow = np.where(counting, data.overflow.numpy() & ~_SOLVER_LIMITS, 0)
@@ -350,6 +363,55 @@ class _Batch:
                 "run these jobs with --backend cpu"
             )
         return t2 - t1
+
+    def _steps_by_hand(
+        self, batch: Any, data: Any, pushes: dict[int, np.ndarray], first_step: int, t1: float
+    ) -> None:
+        """One frame stepped from Python, a push set in its step: on the CPU device, and on a
+        CUDA device where no captured frame replays or a push acts."""
+        owner, wp, mjw = self.owner, self.owner._wp, self.owner._mjw
+        for k in range(owner.steps_per_frame):
+            self._feed(data)
+            push = pushes.get(first_step + k)
+            if push is not None:
+                data.xfrc_applied.assign(push)
+            mjw.step(batch, data)
+            if owner.compile_s is None:  # the kernels compile (or load) in the first step
+                wp.synchronize_device(owner.device)
+                owner.compile_s = time.perf_counter() - t1
+            if push is not None:
+                data.xfrc_applied.zero_()
+
+    def _feed(self, data: Any) -> None:
+        """The cursor's row of the segment's controls into `d.ctrl`, the cursor moved on."""
+        wp, kernels = self.owner._wp, control_kernels()
+        worlds, nu = len(self.jobs), self.owner.model.nu
+        wp.launch(kernels.set_ctrl, (worlds, nu), inputs=[self.segment, self.cursor, data.ctrl])
+        wp.launch(kernels.advance, 1, inputs=[self.cursor])
+
+    def _capture(self, batch: Any, data: Any) -> Any:
+        """One frame's steps (`_feed`, then `step`) captured as a CUDA graph, which a frame then
+        replays with one launch instead of some hundred kernel launches per step from Python;
+        its capture loads (or compiles) every kernel module (`compile_s`). None, the reason in
+        `graph_error`, where capture fails: the frames are then stepped by hand, slower, with
+        the same results."""
+        owner, wp, mjw = self.owner, self.owner._wp, self.owner._mjw
+        t0 = time.perf_counter()
+        with wp.ScopedDevice(owner.device):
+            try:
+                with wp.ScopedCapture() as capture:
+                    for _ in range(owner.steps_per_frame):
+                        self._feed(data)
+                        mjw.step(batch, data)
+            except Exception as error:  # any failure to capture: stepped by hand
+                owner.graph_error = f"{type(error).__name__}: {error}"
+                return None
+            finally:
+                owner.stage_s["step"] += time.perf_counter() - t0
+        if owner.compile_s is None:
+            owner.compile_s = time.perf_counter() - t0
+        owner.graph_error = None
+        return capture.graph
 
     def _pushes(self, rows: slice) -> dict[int, np.ndarray]:
         """xfrc_applied of every world (worlds, nbody, 6) for each step in `rows` a push acts in."""

@@ -50,28 +50,24 @@ def _same(a: Any, b: Any) -> bool:
     return bool(a == b)
 
 
-def per_world_fields(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
-    """The `mujoco_warp.Model` fields in which `models` (one per world, the same object for
-    worlds of one variation) differ, each as (worlds, ...) host values, one row per world.
+def _mj_value(model: mujoco.MjModel, name: str) -> Any:
+    """The MjModel field of a `mujoco_warp.Model` field's name (`opt.gravity` as
+    `model.opt.gravity`), or None where MjModel has none of that name (a derived field)."""
+    owner: Any = model
+    *path, leaf = name.split(".")
+    for part in path:
+        owner = getattr(owner, part, None)
+    value = getattr(owner, leaf, None)
+    return value if isinstance(value, (np.ndarray, int, float)) else None
 
-    A variation is a copy of the compiled model with values changed (`vary_model`: friction,
-    masses and what `mj_setConst` derives from them, servo gains, force ranges, damping,
-    friction loss, gravity). MuJoCo Warp holds a field per world when its leading dimension is
-    `*` (kernels read row `worldid % rows`). Each distinct model is put on Warp's CPU device
-    once and every field compared with the first world's. A field that differs but has no
-    per-world form (a count, a type, a solver setting) raises ExecutorError naming it: no
-    variation of today changes one (`tests/test_warp_executor.py`)."""
-    import mujoco_warp as mjw
-    import warp as wp
 
-    distinct: dict[int, int] = {}
-    for model in models:
-        distinct.setdefault(id(model), len(distinct))
-    firsts = {id(m): m for m in models}
-    with wp.ScopedDevice("cpu"):  # host copies to compare: nothing goes to the batch's device
-        flats = [_flat(mjw.put_model(firsts[key])) for key in distinct]
+def _differing(flats: Sequence[dict[str, tuple[Any, bool]]]) -> list[str]:
+    """The fields whose host values are not the same in all of `flats` (put models)."""
     first = flats[0]
-    differ = [name for name in first if any(not _same(first[name][0], f[name][0]) for f in flats)]
+    return [name for name in first if any(not _same(first[name][0], f[name][0]) for f in flats)]
+
+
+def _refuse(first: dict[str, tuple[Any, bool]], differ: list[str]) -> None:
     refused = [name for name in differ if not first[name][1]]
     if refused:
         raise ExecutorError(
@@ -80,6 +76,61 @@ def per_world_fields(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
             + ", which MuJoCo Warp cannot hold per world: run these jobs with --backend cpu "
             "(docs/GPU.md)"
         )
+
+
+def per_world_fields(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
+    """The `mujoco_warp.Model` fields in which `models` (one per world, the same object for
+    worlds of one variation) differ, each as (worlds, ...) host values, one row per world.
+
+    A variation is a copy of the compiled model with values changed (`vary_model`: friction,
+    masses and what `mj_setConst` derives from them, servo gains, force ranges, damping,
+    friction loss, gravity). MuJoCo Warp holds a field per world when its leading dimension is
+    `*` (kernels read row `worldid % rows`). A field that differs but has no per-world form (a
+    count, a type, a solver setting) raises ExecutorError naming it: no variation of today
+    changes one (`tests/test_warp_executor.py`).
+
+    Putting every distinct model on the device to compare takes ~50 ms a model (a 900-variation
+    study: 45 s), so two are put: the first world's and the one differing from it in the most
+    MjModel fields. Where every field in which those two differ as put models is an MjModel
+    field of the same name, differing in the same way, and no model differs from the first in
+    another MjModel field, the values are the MjModels' own; otherwise every distinct model is
+    put and compared (`_per_world_fields_put`)."""
+    import mujoco_warp as mjw
+    import warp as wp
+
+    firsts = list({id(m): m for m in models}.values())
+    if len(firsts) == 1:
+        return {}
+    with wp.ScopedDevice("cpu"):  # host copies to compare: nothing goes to the batch's device
+        first = _flat(mjw.put_model(firsts[0]))
+        named = {name: v for name in first if (v := _mj_value(firsts[0], name)) is not None}
+        moved = [{n for n, v in named.items() if not _same(v, _mj_value(m, n))} for m in firsts[1:]]
+        probe = max(range(len(moved)), key=lambda i: len(moved[i]))
+        pair = [first, _flat(mjw.put_model(firsts[probe + 1]))]
+    differ = _differing(pair)
+    if set(differ) != moved[probe] or any(not m <= moved[probe] for m in moved):
+        return _per_world_fields_put(models)
+    _refuse(first, differ)
+    return {
+        name: np.stack([np.asarray(_mj_value(m, name), first[name][0].dtype) for m in models])
+        for name in differ
+    }
+
+
+def _per_world_fields_put(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
+    """`per_world_fields` by putting every distinct model on Warp's CPU device and comparing
+    all their fields (slow; the case its shortcut does not cover)."""
+    import mujoco_warp as mjw
+    import warp as wp
+
+    distinct: dict[int, int] = {}
+    for model in models:
+        distinct.setdefault(id(model), len(distinct))
+    firsts = {id(m): m for m in models}
+    with wp.ScopedDevice("cpu"):
+        flats = [_flat(mjw.put_model(firsts[key])) for key in distinct]
+    differ = _differing(flats)
+    _refuse(flats[0], differ)
     rows = [distinct[id(m)] for m in models]
     return {name: np.stack([flats[r][name][0][0] for r in rows]) for name in differ}
 
