@@ -15,6 +15,7 @@ from optuna.storages.journal import JournalFileBackend
 
 from app.study.study_files import WriterLock
 from tests.server_harness import client, running_server, wait_for
+from tests.test_tune_robot import robot_file
 
 pytestmark = pytest.mark.slow
 
@@ -132,3 +133,44 @@ def test_bad_input_is_refused_saying_what_is_allowed_and_changes_nothing(
         assert app.state.services.axle_fitter.jobs.running() == []
         assert http.get("/api/params").json()["version"] == before
         assert not (tmp_path / "studies").exists()
+
+
+def test_a_tune_that_cannot_run_fails_saying_why_and_the_server_goes_on(tmp_path):
+    """Another writer holds the study (a tune of `artro tune` on the same file): the child is
+    refused, the job fails with the command's own words, nothing is loaded."""
+    study = tmp_path / "studies" / "tune-artro.log"
+    study.parent.mkdir(parents=True)
+    lock = WriterLock(study)
+    lock.acquire()
+    try:
+        with running_server(tmp_path) as (base_url, app), client(base_url) as http:
+            before = http.get("/api/params").json()["version"]
+            job_id = http.post("/api/jobs/tune", json=TINY).json()["id"]
+            job = app.state.services.axle_fitter.jobs.get(job_id)
+            assert job.finished.wait(TUNE_DEADLINE * 0.05), "the tune did not end"
+            failed = http.get(f"/api/jobs/{job_id}").json()
+            assert failed["status"] == "failed", failed
+            assert "exit status 2" in failed["error"] and "is writing the study" in failed["error"]
+            assert http.get("/api/params").json()["version"] == before
+            assert http.get("/api/health").json()["status"] == "ok"
+    finally:
+        lock.release()
+
+
+def test_the_robot_started_from_a_file_is_tuned_from_its_description(tmp_path):
+    robot = robot_file(tmp_path / "big.yaml", "big", 0.117, "DS3218")
+    with (
+        running_server(tmp_path / "data", robot=str(robot)) as (base_url, app),
+        client(base_url) as http,
+    ):
+        job_id = http.post("/api/jobs/tune", json=TINY | {"robot": "big"}).json()["id"]
+        job = app.state.services.axle_fitter.jobs.get(job_id)
+        assert job.finished.wait(TUNE_DEADLINE * 0.05), "the tune did not finish"
+        done = http.get(f"/api/jobs/{job_id}").json()
+        assert done["status"] == "done", done
+        assert done["detail"]["start"] == "tuned"  # legs 0.234 m: ArtRo's preset, scaled
+        # speeds scale with the legs: forward's target is ArtRo's 3.8 cm/s x 1.3
+        forward = next(r for r in done["result"]["figures"] if r["run"] == "forward")
+        assert forward["target"] == pytest.approx(3.8 * 0.234 / 0.18)
+        params = http.get("/api/params").json()
+        assert (params["name"], params["robot"]) == ("tuned-big", "big")
