@@ -22,10 +22,11 @@ from app.analysis.robustness import RobustCase, passes
 from app.evaluation import BatchEvaluator, Cancelled, ExecutorError, Job, evaluator_for
 from app.evaluation._warp import AGREEMENT, WarpEvaluator
 from app.evaluation._warp_model import _per_world_fields_put, per_world_fields
+from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import parse_variation, varied_robot
-from gait import GaitParams, Motion
+from gait import GaitParams, Motion, feedback
 
 DURATION_S, WARMUP_S = 2.5, 1.0
 FORWARD, TURN, CURVE = Motion(a_p=0.07), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1)
@@ -164,12 +165,44 @@ def test_a_cancel_set_before_the_call_runs_nothing(robot):
     assert evaluator.world_steps == 0
 
 
-def test_feedback_laws_are_refused_naming_the_cpu_backend(robot):
-    closed = Job(GaitParams.from_dict({"tilt": {"enabled": True}}), FORWARD)
+def test_the_cop_law_is_refused_naming_the_cpu_backend(robot):
+    """The CoP law reads the soles' force sensors, computed from MjData's contacts, which a
+    Warp batch does not model: refused before anything is stepped."""
+    closed = Job(GaitParams.from_dict({"cop": {"enabled": True}}), FORWARD)
     evaluator = WarpEvaluator(robot, device="cpu")
-    with pytest.raises(ExecutorError, match=r"job 1 has feedback laws on \(tilt\).*--backend cpu"):
+    with pytest.raises(ExecutorError, match=r"job 1 has the CoP law on.*--backend cpu"):
         evaluator.evaluate([JOBS[0], closed], duration_s=1.0)
     assert evaluator.world_steps == 0
+
+
+@pytest.mark.slow
+def test_the_closed_loop_agrees_with_the_lanes(robot):
+    """The laws of the `robust` preset (tilt, yaw rate, ankle damping) run per frame for every
+    world from its sensors, noisy and delayed, beside an open-loop world in the same batch:
+    metrics within AGREEMENT of the lanes' closed loop, the same falls."""
+    laws = builtin_presets()["robust"].gait
+    assert feedback.any_law_on(laws) and not laws.cop.enabled
+    noisy = parse_variation(
+        "friction=0.7,kp_scale=0.9,latency_ms=10,imu_tilt_bias_deg=1,gyro_bias_deg_s=0.3,"
+        "gyro_noise_deg_s=0.1,imu_delay_ms=12"
+    )
+    jobs = [
+        Job(laws, Motion(a_p=0.07, ca=0.1)),
+        Job(laws, TURN, variation=noisy),
+        Job(GaitParams(), FORWARD),
+    ]
+    warp = WarpEvaluator(robot, device="cpu")
+    got = warp.evaluate(jobs, duration_s=DURATION_S, warmup_s=WARMUP_S)
+    want = BatchEvaluator(robot, threads=2).evaluate(jobs, duration_s=DURATION_S, warmup_s=WARMUP_S)
+    assert warp.stage_s["laws"] > 0
+    off = []
+    for i, (a, b) in enumerate(zip(got, want, strict=True)):
+        assert a["fell"] == b["fell"], i
+        for key, tolerance in AGREEMENT.items():
+            x, y = a.get(key), b.get(key)
+            if x is not None and y is not None and np.max(np.abs(np.subtract(x, y))) > tolerance:
+                off.append((i, key, x, y))
+    assert not off, off
 
 
 def test_every_variation_of_today_is_held_per_world(robot):

@@ -82,6 +82,73 @@ def step_by_hand(
         sensor_out[step] = data.sensordata
 
 
+class ClosedLoop:
+    """A run's loop between frames, as `FrameLoop._step_closed_loop` runs it: from the sensor
+    rows of the steps so far (`record`), the laws and one frame planned into the ctrl of its
+    steps (`plan`). Any stepper uses it: the lanes' `rollout` calls, a Warp batch's worlds.
+
+    Args:
+        robot, job, start: the run's (varied) robot, job and `Start`.
+        steps: physics steps per frame.
+        first_row: MuJoCo's sensordata standing at the start (the IMU's delay reads back into it).
+    """
+
+    def __init__(
+        self, robot: RobotModel, job: Job, start: Start, steps: int, first_row: np.ndarray
+    ) -> None:
+        self.robot, self.job, self.steps = robot, job, steps
+        self.sensors = Sensors(robot, job.variation)
+        needed = self.sensors.steps_needed
+        self.rows = deque([first_row.copy()] * needed, maxlen=needed)
+        physics, model = job.variation.physics, robot.model
+        self.timestep_s = float(model.opt.timestep)
+        self.sent = start.ctrl[robot.actuator_ids].copy()
+        self.path = (
+            None if physics.is_nominal else ServoPath(job.variation, self.timestep_s, self.sent)
+        )
+        self.positions = robot.fsr_positions_m.astype(np.float32)
+        self.law_state = feedback.State()
+        self.motion_now = job.motion if job.start_motion is None else job.start_motion
+        self.phase = start.phase
+        self.step_rad = 2.0 * math.pi * job.params.clock.freq_hz * FRAME_S
+        self.within = np.arange(steps)[:, None]
+        self.control = np.empty((steps, model.nu))
+        self.control[:] = start.ctrl
+
+    def plan(self, frame: int, data: mujoco.MjData | None) -> np.ndarray:
+        """The ctrl of frame `frame`'s steps (steps, nu; the loop's own array, overwritten by
+        the next call): sensors read from the rows recorded so far (the force sensors from
+        `data` as the last step left it, when the CoP law is on), the laws stepped, the frame
+        planned with their corrections, through the servo path."""
+        params, act = self.job.params, self.robot.actuator_ids
+        forces = params.cop.enabled
+        if forces and data is None:
+            raise ValueError("the CoP law reads the force sensors: plan needs the step's MjData")
+        reading = self.sensors.read(np.array(self.rows), data, forces=forces)
+        self.law_state, out = feedback.step(
+            params, self.law_state, law_reading(reading), self.motion_now, self.positions, FRAME_S
+        )
+        plan = plan_frames(
+            params, self.job.motion, self.robot.hardware(), self.phase, 1, self.steps,
+            self.timestep_s, motion_now=self.motion_now, frame0=frame,
+            geometry=self.robot.geometry, joint_delta_rad=out.joint_delta_rad,
+            a_y_delta=float(out.a_y_delta),
+        )  # fmt: skip
+        held = np.where(
+            self.within >= plan.substep[0][None, :], plan.setpoint[0][None, :], self.sent
+        )
+        self.sent = plan.setpoint[0].copy()
+        self.control[:, act] = held if self.path is None else self.path(held)
+        self.motion_now = plan.motions[0]
+        next_phase = float(plan.phase[0]) + self.step_rad
+        self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # as FrameLoop, in floats
+        return self.control
+
+    def record(self, rows: np.ndarray) -> None:
+        """The sensordata after each step of the frame just stepped (steps, nsensordata)."""
+        self.rows.extend(rows)
+
+
 def roll_out_closed(
     runner: rollout.Rollout,
     robot: RobotModel,
@@ -98,37 +165,12 @@ def roll_out_closed(
     `Start`, standing in `data`), one `rollout` call of `steps` steps per frame (the frame with
     the push stepped by hand), until `stopped(frame)` says the frame fell or blew up. Returns
     the frames rolled out."""
-    params, model, act = job.params, robot.model, robot.actuator_ids
-    sensors = Sensors(robot, job.variation)
-    rows = deque([data.sensordata.copy()], maxlen=sensors.steps_needed)
-    rows.extend([rows[0]] * (sensors.steps_needed - 1))
-    physics = job.variation.physics
-    timestep_s = float(model.opt.timestep)
-    sent = start.ctrl[act].copy()
-    path = None if physics.is_nominal else ServoPath(job.variation, timestep_s, sent)
+    model = robot.model
+    loop = ClosedLoop(robot, job, start, steps, data.sensordata)
     push = Push(robot, job)
-    positions = robot.fsr_positions_m.astype(np.float32)
-    law_state = feedback.State()
-    motion_now = job.motion if job.start_motion is None else job.start_motion
-    phase = start.phase
-    step_rad = 2.0 * math.pi * params.clock.freq_hz * FRAME_S
-    within = np.arange(steps)[:, None]
-    control = np.empty((steps, model.nu))
-    control[:] = start.ctrl
     initial, warmstart = start.state[None, :], None
     for frame in range(n_frames):
-        reading = sensors.read(np.array(rows), data, forces=params.cop.enabled)
-        law_state, out = feedback.step(
-            params, law_state, law_reading(reading), motion_now, positions, FRAME_S
-        )
-        plan = plan_frames(
-            params, job.motion, robot.hardware(), phase, 1, steps, timestep_s,
-            motion_now=motion_now, frame0=frame, geometry=robot.geometry,
-            joint_delta_rad=out.joint_delta_rad, a_y_delta=float(out.a_y_delta),
-        )  # fmt: skip
-        held = np.where(within >= plan.substep[0][None, :], plan.setpoint[0][None, :], sent)
-        sent = plan.setpoint[0].copy()
-        control[:, act] = held if path is None else path(held)
+        control = loop.plan(frame, data)
         part = slice(frame * steps, (frame + 1) * steps)
         if push.within(part.start, part.stop):
             mujoco.mj_setState(model, data, initial[0], STATE_SPEC)
@@ -141,10 +183,7 @@ def roll_out_closed(
                 state=state_out[:, part], sensordata=sensor_out[:, part], nstep=steps,
                 skip_checks=True,
             )  # fmt: skip
-        rows.extend(sensor_out[0, part])
-        motion_now = plan.motions[0]
-        next_phase = float(plan.phase[0]) + step_rad
-        phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # as FrameLoop, in floats
+        loop.record(sensor_out[0, part])
         if stopped(frame):
             return frame + 1
         initial, warmstart = state_out[:, part.stop - 1], data.qacc_warmstart[None].copy()

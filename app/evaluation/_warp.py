@@ -14,7 +14,7 @@ import mujoco
 import numpy as np
 
 from app.evaluation._api import Cancelled, ExecutorError, Job, OnResult, Progress
-from app.evaluation._frames import STATE_SPEC, Push, Start
+from app.evaluation._frames import STATE_SPEC, ClosedLoop, Push, Start
 from app.evaluation._lanes import plan_open_loop
 from app.evaluation._measure import fallen, measure_frames, not_finite
 from app.evaluation._warp_kernels import control_kernels
@@ -112,8 +112,10 @@ class WarpEvaluator:
     controls planned on the CPU as the lanes plan them and uploaded per segment, a push set on
     the trunk in its step. Falls are found per world at frame ends; a fallen or blown-up world
     stops counting (it keeps stepping with the others). Results are float32 physics: close to
-    the lanes', not bit-equal (docs/GPU.md "Agreement"). Jobs with a feedback law on are
-    refused (ExecutorError): the closed loop is not ported yet.
+    the lanes', not bit-equal (docs/GPU.md "Agreement"). With a feedback law on, a world's
+    `ClosedLoop` (the lanes' own) plans each frame from the sensor rows of the steps before, a
+    frame a segment; the CoP law, which reads the soles' force sensors, is refused
+    (ExecutorError).
 
     Args:
         robot: the model (default: the built-in one).
@@ -149,7 +151,7 @@ class WarpEvaluator:
         self.graph_error: str | None = None
         #: physics steps taken (worlds x steps) and seconds spent per stage since creation
         self.world_steps = 0
-        self.stage_s = {"plan": 0.0, "upload": 0.0, "step": 0.0, "measure": 0.0}
+        self.stage_s = {"plan": 0.0, "laws": 0.0, "upload": 0.0, "step": 0.0, "measure": 0.0}
 
     def evaluate(
         self,
@@ -167,10 +169,10 @@ class WarpEvaluator:
         as worlds finish, in the calling thread. `wall_s` is a world's share of the batch's
         stepping time (the batch's seconds / worlds)."""
         for i, job in enumerate(jobs):
-            if feedback.any_law_on(job.params):
+            if job.params.cop.enabled:
                 raise ExecutorError(
-                    f"job {i} has feedback laws on ({', '.join(feedback.laws_on(job.params))}): "
-                    "the warp backend runs open-loop gaits only; run it with --backend cpu"
+                    f"job {i} has the CoP law on, which reads the soles' force sensors: the warp "
+                    "backend does not model them; run it with --backend cpu"
                 )
         if not jobs:
             return []
@@ -209,6 +211,8 @@ class _Batch:
                 varied[physics] = robot if physics.is_nominal else varied_robot(robot, physics)
         self.robots = [varied[job.variation.physics] for job in jobs]
         self.starts: list[Start] = []
+        #: each world's loop between frames where a law is on (`ClosedLoop`, as the lanes')
+        self.loops: list[ClosedLoop | None] = [None] * len(jobs)
         #: every world's ctrl of every step, float32 (worlds, steps, nu): a world's rows in one
         #: block, so a segment's controls go up as one contiguous slice per world
         shape = (len(jobs), n_frames * owner.steps_per_frame, robot.model.nu)
@@ -229,7 +233,11 @@ class _Batch:
                 self.initial[name][w] = getattr(data, name)
             self.initial["ctrl"][w] = start.ctrl
             self.starts.append(start)
+            if feedback.any_law_on(job.params):
+                steps = owner.steps_per_frame
+                self.loops[w] = ClosedLoop(world, job, start, steps, data.sensordata)
         self.pushes = [Push(r, j) for r, j in zip(self.robots, jobs, strict=True)]
+        self.closed = [w for w, loop in enumerate(self.loops) if loop is not None]
         owner.stage_s["plan"] += time.perf_counter() - t0
 
     def run(
@@ -255,13 +263,17 @@ class _Batch:
         owner.stage_s["upload"] += time.perf_counter() - t0
         owner._announce()
         fit = CONTROL_BYTES // (steps * worlds * model.nu * 4)
-        per_segment = max(1, min(owner.segment_frames, fit))
+        # the closed loop plans each frame from the sensors of the frame before: one a segment
+        per_segment = 1 if self.closed else max(1, min(owner.segment_frames, fit))
         #: the segment's controls on the device (worlds, steps, nu), padded to a whole segment
         #: (one buffer for the whole call: a captured frame reads it), and the row cursor
         self.host_segment = np.zeros((worlds, per_segment * steps, model.nu), np.float32)
         with wp.ScopedDevice(owner.device):
             self.segment = wp.zeros(self.host_segment.shape, dtype=float)
             self.cursor = wp.zeros(1, dtype=int)
+            rows_shape = (worlds, per_segment * steps, model.nsensordata)
+            #: each step's sensordata, for the closed loop's sensors (None when open)
+            self.step_rows = wp.zeros(rows_shape, dtype=float) if self.closed else None
         self.graph = self._capture(batch, data) if owner.device.is_cuda else None
         qpos = np.empty((self.n_frames, worlds, model.nq), np.float32)
         sensors = np.empty((self.n_frames, worlds, model.nsensordata), np.float32)
@@ -332,6 +344,12 @@ class _Batch:
         t0 = time.perf_counter()
         rows = slice(first * steps, (first + frames) * steps)
         self.host_segment[:, : frames * steps] = self.control[:, rows]
+        t_laws = time.perf_counter()
+        for w in self.closed:  # one frame a segment
+            if counting[w]:
+                self.host_segment[w, :steps] = self.loops[w].plan(first, None)  # type: ignore[union-attr]
+        owner.stage_s["laws"] += time.perf_counter() - t_laws
+        t0 += time.perf_counter() - t_laws
         pushes = self._pushes(rows)
         with wp.ScopedDevice(owner.device):
             self.segment.assign(self.host_segment)
@@ -350,8 +368,14 @@ class _Batch:
                 wp.copy(ends_s, data.sensordata, dest_offset=f * worlds * ns, count=worlds * ns)
             qpos_out[:] = ends_q.numpy()
             sensors_out[:] = ends_s.numpy()
+            step_rows = self.step_rows.numpy() if self.step_rows is not None else None
             overflow = np.where(counting, data.overflow.numpy() & ~_SOLVER_LIMITS, 0)
         t2 = time.perf_counter()
+        if step_rows is not None:
+            for w in self.closed:
+                if counting[w]:
+                    self.loops[w].record(step_rows[w, :steps].astype(np.float64))  # type: ignore[union-attr]
+            owner.stage_s["laws"] += time.perf_counter() - t2
         owner.stage_s["upload"] += t1 - t0
         owner.stage_s["step"] += t2 - t1
         owner.world_steps += frames * steps * worlds
@@ -376,6 +400,7 @@ class _Batch:
             if push is not None:
                 data.xfrc_applied.assign(push)
             mjw.step(batch, data)
+            self._keep(data)
             if owner.compile_s is None:  # the kernels compile (or load) in the first step
                 wp.synchronize_device(owner.device)
                 owner.compile_s = time.perf_counter() - t1
@@ -388,6 +413,14 @@ class _Batch:
         worlds, nu = len(self.jobs), self.owner.model.nu
         wp.launch(kernels.set_ctrl, (worlds, nu), inputs=[self.segment, self.cursor, data.ctrl])
         wp.launch(kernels.advance, 1, inputs=[self.cursor])
+
+    def _keep(self, data: Any) -> None:
+        """The step's sensordata into the segment's rows, where a closed loop reads them."""
+        if self.step_rows is not None:
+            wp, worlds = self.owner._wp, len(self.jobs)
+            shape = (worlds, self.owner.model.nsensordata)
+            keep = control_kernels().keep_row
+            wp.launch(keep, shape, inputs=[data.sensordata, self.cursor, self.step_rows])
 
     def _capture(self, batch: Any, data: Any) -> Any:
         """One frame's steps (`_feed`, then `step`) captured as a CUDA graph, which a frame then
@@ -403,6 +436,7 @@ class _Batch:
                     for _ in range(owner.steps_per_frame):
                         self._feed(data)
                         mjw.step(batch, data)
+                        self._keep(data)
             except Exception as error:  # any failure to capture: stepped by hand
                 owner.graph_error = f"{type(error).__name__}: {error}"
                 return None

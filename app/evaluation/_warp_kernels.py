@@ -10,7 +10,9 @@ from types import SimpleNamespace
 def control_kernels() -> SimpleNamespace:
     """`set_ctrl` copies row `cursor[0]` of the segment's controls (worlds, steps, nu) into
     ctrl (worlds, nu); `advance`, launched after it in stream order, moves the cursor on. A
-    captured frame replays both per step, so it needs no offset of its own."""
+    captured frame replays both per step, so it needs no offset of its own. `keep_row`, after
+    the step, keeps its sensordata in row `cursor[0] - 1` of the segment's rows (worlds, steps,
+    nsensordata), for the closed loop's sensors."""
     import warp as wp
 
     @wp.kernel
@@ -26,4 +28,13 @@ def control_kernels() -> SimpleNamespace:
     def advance(cursor: wp.array(dtype=int)):
         cursor[0] = cursor[0] + 1
 
-    return SimpleNamespace(set_ctrl=set_ctrl, advance=advance)
+    @wp.kernel
+    def keep_row(
+        sensordata: wp.array2d(dtype=float),
+        cursor: wp.array(dtype=int),
+        rows: wp.array3d(dtype=float),
+    ):
+        world, i = wp.tid()
+        rows[world, cursor[0] - 1, i] = sensordata[world, i]
+
+    return SimpleNamespace(set_ctrl=set_ctrl, advance=advance, keep_row=keep_row)
