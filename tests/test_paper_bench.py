@@ -2,6 +2,7 @@
 
 import json
 import math
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -15,13 +16,15 @@ from app.analysis.ca_analysis import (
     fit_axle,
     largest_stable_ca,
 )
-from app.analysis.cases import CASES
+from app.analysis.cases import CASES, speed_scale_of
 from app.cli import main
 from app.study import runs as paper_runs
 from app.study import walks
+from app.study.paper_bench import case_rows
 from app.study.report import table
 from app.study.runs import ca_sweep
 from app.study.walks import cycle_mean, resolve_presets
+from gait import ARTRO_LEG, LegGeometry
 
 PNG_MAGIC = b"\x89PNG\r\n\x1a\n"
 
@@ -205,3 +208,23 @@ def test_table_columns_line_up():
     joints = [i for i, ch in enumerate(separator) if ch == "+"]
     for line in lines[:2] + lines[3:]:  # every group separator in the same column on every line
         assert [i for i, ch in enumerate(line) if ch == "|"] == joints
+
+
+def test_another_robots_targets_are_scaled_by_its_legs():
+    """A robot with legs 1.5 times ArtRo's is held to 1.5 times the paper's speeds (turn rates
+    unscaled): 5.7 cm/s forward passes it, 3.8 cm/s (ArtRo's figure) no longer does."""
+    longer = LegGeometry(upper_m=ARTRO_LEG.upper_m * 1.5, lower_m=ARTRO_LEG.lower_m * 1.5)
+    scale = speed_scale_of(longer)
+    assert scale == pytest.approx(1.5)
+    walked = {"fell": False, "gyro_rms": 0.1}
+
+    def runs(forward_cm_s: float) -> SimpleNamespace:
+        metrics = walked | {"forward_cm_s": forward_cm_s, "lateral_cm_s": 0.0, "turn_deg_s": -12.1}
+        return SimpleNamespace(cases={c.name: SimpleNamespace(metrics=metrics) for c in CASES})
+
+    rows = {r["case"]: r for r in case_rows(runs(3.8 * 1.5), 5.0, scale)}
+    assert rows["forward"]["target"] == pytest.approx(3.8 * 1.5) and rows["forward"]["pass"]
+    assert rows["forward"]["paper"] == 3.8 and rows["forward"]["ratio"] == pytest.approx(1.0)
+    assert rows["turn clockwise"]["target"] == -12.1 and rows["turn clockwise"]["pass"]
+    assert not {r["case"]: r for r in case_rows(runs(3.8), 5.0, scale)}["forward"]["pass"]
+    assert {r["case"]: r for r in case_rows(runs(3.8), 5.0)}["forward"]["pass"]

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from gait import Motion
+from gait import ARTRO_LEG, LegGeometry, Motion
 
 SPOT_DRIFT_LIMIT_CM_S = 0.5
 SPEED_TOLERANCE = 0.25  # +-25 % of the paper's figure
@@ -60,6 +60,12 @@ def measured(case: PaperCase, metrics: dict) -> float | None:
         fwd, lat = metrics.get("forward_cm_s"), metrics.get("lateral_cm_s")
         return None if fwd is None or lat is None else (fwd**2 + lat**2) ** 0.5
     return metrics.get(case.metric)
+
+
+def speed_scale_of(geometry: LegGeometry) -> float:
+    """A robot's walking speeds against ArtRo's for the same gait: its leg length over ArtRo's
+    (the stride is a fraction of the leg; docs/DESIGN.md §7)."""
+    return geometry.max_length_m / ARTRO_LEG.max_length_m
 
 
 def target(case: PaperCase, speed_scale: float = 1.0) -> float:

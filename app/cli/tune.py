@@ -14,7 +14,15 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
+from app.analysis.cases import (
+    CASES,
+    CURVES,
+    curve_run_names,
+    measured,
+    speed_scale_of,
+    steering,
+    target,
+)
 from app.analysis.robot_start import START_RECIPE, start_for, walks
 from app.analysis.robot_tune import RESULT, START, EventWriter, result_figures, tuned_name
 from app.cli.options import (
@@ -46,7 +54,6 @@ from app.robots.model import RobotModel
 from app.study.study_store import DEFAULT_STUDY, StudyStore
 from app.study.tune import DEFAULT_NAMES, Tuner, tunable_fields
 from app.study.tune_loss import LossWeights, is_judged
-from gait import ARTRO_LEG
 from gait.params import merge, parse_settings
 
 EXAMPLES = """examples:
@@ -320,7 +327,7 @@ def command(args: argparse.Namespace) -> int:
             band=args.band_weight,
             steering=args.steering_weight,
             cross_talk=args.cross_talk_weight,
-            speed_scale=robot.geometry.max_length_m / ARTRO_LEG.max_length_m,
+            speed_scale=speed_scale_of(robot.geometry),
         ),
         cases=[c.strip() for c in args.cases.split(",") if c.strip()] if args.cases else None,
         robust=args.robust,

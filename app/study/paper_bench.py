@@ -23,11 +23,14 @@ from app.analysis.cases import (
     SPOT_DRIFT_LIMIT_CM_S,
     measured,
     passes,
+    speed_scale_of,
     steering,
     steers_right,
+    target,
     within_eq13,
 )
 from app.evaluation.progress import progress_printer
+from app.robots.model import RobotModel
 from app.study import speed_limits
 from app.study.runs import (
     CIRCLE_CA,
@@ -43,22 +46,25 @@ from app.study.walks import Run, resolve_presets
 PAPER_CA_LIMIT = {"forward": 0.15, "backward": 0.17}  # seed 004 §V, the simulated Nao
 
 
-def case_rows(runs: PresetRuns, warmup_s: float) -> list[dict[str, Any]]:
-    """Per paper case: the paper's figure, the simulated one (the run metric, as `artro run`
-    gives it), their ratio, pass, fell, gyro."""
+def case_rows(runs: PresetRuns, warmup_s: float, speed_scale: float = 1.0) -> list[dict[str, Any]]:
+    """Per paper case: the paper's figure, the target for this robot (`target`: speeds scaled by
+    its leg length against ArtRo's), the simulated figure (the run metric, as `artro run` gives
+    it), its ratio to the target, pass, fell, gyro."""
     rows = []
     for case in CASES:
         run = runs.cases[case.name]
         m = run.metrics
         value = finite_or_none(measured(case, m))
+        goal = target(case, speed_scale)
         rows.append(
             {
                 "case": case.name,
                 "metric": case.metric,
                 "paper": case.paper,
+                "target": goal,
                 "sim": value,
-                "ratio": value / case.paper if value is not None and case.paper else None,
-                "pass": passes(case, value, m["fell"]),
+                "ratio": value / goal if value is not None and goal else None,
+                "pass": passes(case, value, m["fell"], speed_scale),
                 "fell": m["fell"],
                 "fall_time_s": m.get("fall_time_s"),
                 "gyro_rms": m["gyro_rms"],
@@ -268,6 +274,7 @@ def circle_summary(run: Run, forward: dict[str, Any]) -> dict[str, Any] | None:
 
 def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str]) -> dict:
     """Every number of the bench, as one JSON-ready document."""
+    scale = speed_scale_of(RobotModel.load(config.robot).geometry)
     presets = []
     for runs in all_runs:
         freq = runs.preset.params.clock.freq_hz
@@ -280,7 +287,7 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
                 "name": runs.preset.name,
                 "source": runs.preset.source,
                 "gait_freq_hz": freq,
-                "cases": case_rows(runs, config.warmup_s),
+                "cases": case_rows(runs, config.warmup_s, scale),
                 "mirror": mirror_rows(runs),
                 "ca": ca,
                 "circle": circle_summary(runs.circle, ca["forward"]),
@@ -309,6 +316,7 @@ def summarise(all_runs: list[PresetRuns], config: BenchConfig, notes: list[str])
             "limit_ca": list(config.limit_ca),
             "limit_duration_s": config.limit_duration_s,
             "limit_gyro_factor": speed_limits.GYRO_FACTOR,
+            "speed_scale": scale,
         },
         "notes": notes,
         "presets": presets,

@@ -102,7 +102,10 @@ def plot_paths(runs: PresetRuns, summary: dict[str, Any], warmup_s: float, out: 
         unit = "deg/s" if row["metric"] == "turn_deg_s" else "cm/s"
         sim = "-" if row["sim"] is None else f"{row['sim']:+.2f}"
         panels.append(
-            (runs.cases[row["case"]], f"{row['case']}: {sim} {unit} (paper {row['paper']:+.1f})")
+            (
+                runs.cases[row["case"]],
+                f"{row['case']}: {sim} {unit} (target {row.get('target', row['paper']):+.1f})",
+            )
         )
     circle, turn = runs.circle, runs.circle.metrics.get("turn_deg_s")
     turned = math.degrees(float(circle.trace.yaw_rad[-1] - circle.trace.yaw_rad[0]))
