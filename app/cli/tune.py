@@ -285,7 +285,7 @@ def add_parser(sub: Any) -> None:
         metavar="FILE|-",
         help="also write what happens as JSON lines to FILE ('-': standard output): start, "
         "runs, each trial with the best loss so far, the result with its figures (the "
-        'dashboard\'s "Tune for this robot" reads them)',
+        'dashboard\'s "Tune for this robot" reads them; default: none)',
     )
 
 
