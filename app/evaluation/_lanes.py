@@ -81,10 +81,11 @@ def plan_open_loop(
     start = start_at_rest(robot, data, job.params, start_motion)
     hardware, steps = robot.hardware(), frame_steps(robot.model)
     timestep_s = float(robot.model.opt.timestep)
-    # by value: a varied robot's hardware is a new object holding arrays (no value hash)
-    key = (job.params, job.motion, start_motion, start.phase, pickle.dumps(hardware))
-    key += (robot.geometry, n_frames, steps, timestep_s)
-    plan = None if plans is None else plans.get(key)
+    key, plan = None, None
+    if plans is not None:  # by value: a varied robot's hardware is a new object holding arrays
+        key = (job.params, job.motion, start_motion, start.phase, pickle.dumps(hardware))
+        key += (robot.geometry, n_frames, steps, timestep_s)
+        plan = plans.get(key)
     if plan is None:
         plan = plan_frames(
             job.params,
