@@ -15,13 +15,7 @@ from pathlib import Path
 from typing import Any
 
 from app.analysis.cases import (
-    CASES,
-    CURVES,
-    curve_run_names,
-    measured,
     speed_scale_of,
-    steering,
-    target,
 )
 from app.analysis.robot_start import START_RECIPE, start_for, walks
 from app.analysis.robot_tune import RESULT, START, EventWriter, result_figures, tuned_name
@@ -53,7 +47,7 @@ from app.params.presets import (
 from app.robots.model import RobotModel
 from app.study.study_store import DEFAULT_STUDY, StudyStore
 from app.study.tune import DEFAULT_NAMES, Tuner, tunable_fields
-from app.study.tune_loss import LossWeights, is_judged
+from app.study.tune_loss import LossWeights
 from gait.params import merge, parse_settings
 
 EXAMPLES = """examples:
@@ -421,23 +415,16 @@ def report(
         f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
         f"saved {' and '.join(saved)}"
     )
+    figures = result_figures(chosen[2], tuner.weights.speed_scale)
     events(RESULT, name=name, preset=start_mode, loss=chosen[0], select=args.select,
            walked=walks(chosen[2]), generations=tuner.generation, trials=len(tuner.evaluated),
-           saved=saved, figures=result_figures(chosen[2], tuner.weights.speed_scale))  # fmt: skip
+           saved=saved, figures=figures)  # fmt: skip
     if varied := tuner.varied_summary(chosen):
         print(f"  robust: {varied}")
-    for case in CASES:
-        if case.name not in chosen[2]:
-            continue  # not judged (--cases)
-        metrics = chosen[2][case.name]
-        value = measured(case, metrics)
-        shown = "fell" if metrics["fell"] else f"{value:+.2f}"
-        goal = target(case, tuner.weights.speed_scale)
-        print(f"  {case.name:24s} target {goal:+6.2f}  tuned {shown}")
-    for pair in CURVES:
-        if not is_judged(pair, chosen[2]):
-            continue
-        plus, minus = (chosen[2][name] for name in curve_run_names(pair))
-        s = steering(plus, minus, chosen[2][pair.straight])
-        shown = "fell" if s is None else f"gain {s.gain:.2f}, bend {s.bend:+.2f}"
-        print(f"  {pair.name:24s} eq (13): gain 1, bend 0;  tuned {shown}")
+    for row in figures:  # the judged runs: each case against its target, each CA pair
+        if "target" in row:
+            shown = "fell" if row["fell"] else f"{row['value']:+.2f}"
+            print(f"  {row['run']:24s} target {row['target']:+6.2f}  tuned {shown}")
+        else:
+            shown = "fell" if row["fell"] else f"gain {row['gain']:.2f}, bend {row['bend']:+.2f}"
+            print(f"  {row['run']:24s} eq (13): gain 1, bend 0;  tuned {shown}")
