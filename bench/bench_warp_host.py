@@ -10,11 +10,15 @@ of --duration s) it times, per stage and per world:
     (`_per_world_fields_put`, the way before);
   - segment copies: the controls of every segment into the upload buffer, as one contiguous
     block per world, against stacking them step-major per segment (the way before);
-  - measure: one world's metrics from its frame ends (`measure_frames`), from a real rollout.
+  - measure: one world's metrics from its frame ends (`measure_frames`), from a real rollout;
+  - host processes: the planning of every world, and the measuring of as many worlds (world
+    0's frame ends, as `bench robust` measures: no traces), in this process and over a pool of
+    --processes spawned workers (`HostPool`: the controls written into shared memory), the
+    pool's start timed apart and the pool's controls checked equal to this process's.
 On the H200 (bench/results/bench_gpu.json, 1809 worlds) planning took 5.2 ms a world and the
 upload stage 9.1 s before these changes.
 
-    python bench/bench_warp_host.py [--samples 200] [--duration 20]   # ~1 min on 2 cores
+    python bench/bench_warp_host.py [--samples 200] [--duration 20] [--processes N]  # ~1.5 min
 
 Writes bench/results/<bench>.json, or --json PATH (bench/results.py).
 """
@@ -23,6 +27,7 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 import time
 
 import mujoco
@@ -32,11 +37,12 @@ from mujoco import rollout
 
 from app.analysis.robustness import jobs_for
 from app.evaluation._measure import fallen, measure_frames, not_finite
-from app.evaluation._warp import SEGMENT_FRAMES, WarpEvaluator, _Batch
+from app.evaluation._warp import SEGMENT_FRAMES
+from app.evaluation._warp_host import HostPool, Planned, measure_world, plan_batch
 from app.evaluation._warp_model import _per_world_fields_put, per_world_fields
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
-from app.sim.planning import FRAME_S
+from app.sim.planning import FRAME_S, frame_steps
 from app.worlds.sampling import VariationRanges, sample
 
 
@@ -46,33 +52,36 @@ def timed(work) -> float:
     return time.perf_counter() - t0
 
 
-def segment_copies(batch: _Batch, steps: int, contiguous: bool) -> None:
+def segment_copies(control: np.ndarray, steps: int, contiguous: bool) -> None:
     """Every segment's controls into an upload buffer: world-major (now) or step-major."""
-    worlds, total, nu = batch.control.shape
+    worlds, total, nu = control.shape
     per = SEGMENT_FRAMES * steps
     if contiguous:
         buffer = np.zeros((worlds, per, nu), np.float32)
         for first in range(0, total, per):
             rows = slice(first, min(first + per, total))
-            buffer[:, : rows.stop - rows.start] = batch.control[:, rows]
+            buffer[:, : rows.stop - rows.start] = control[:, rows]
     else:
-        rows_of = [batch.control[w] for w in range(worlds)]
+        rows_of = [control[w] for w in range(worlds)]
         for first in range(0, total, per):
             rows = slice(first, min(first + per, total))
             np.stack([c[rows] for c in rows_of], axis=1)
 
 
-def measure_one(robot: RobotModel, batch: _Batch, repeats: int) -> float:
-    """Seconds to measure world 0 from its frame ends (a real rollout of its controls)."""
-    job, start = batch.jobs[0], batch.starts[0]
+def frame_ends(robot: RobotModel, batch: Planned, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
+    """World 0's frame-end qpos and sensordata (frames, ...) float64, from a real rollout of its
+    controls."""
     data = mujoco.MjData(robot.model)
-    control = batch.control[0].astype(np.float64)
-    states, sensors = rollout.rollout(robot.model, data, start.state, control)
-    steps = len(control) // batch.n_frames
+    control = batch.controls.array[0].astype(np.float64)
+    states, sensors = rollout.rollout(robot.model, data, batch.starts[0].state, control)
+    steps = len(control) // n_frames
     ends = np.arange(steps - 1, len(control), steps)
     size = mujoco.mj_stateSize(robot.model, mujoco.mjtState.mjSTATE_TIME)
-    qpos = states[0, ends, size : size + robot.model.nq]
-    sens = sensors[0, ends]
+    return states[0, ends, size : size + robot.model.nq], sensors[0, ends]
+
+
+def measure_one(robot: RobotModel, job, start, qpos, sens, repeats: int) -> float:
+    """Seconds to measure world 0 from its frame ends (`measure_frames`)."""
     bad, down = not_finite(qpos), fallen(qpos, start)
     t0 = time.perf_counter()
     for _ in range(repeats):
@@ -80,42 +89,100 @@ def measure_one(robot: RobotModel, batch: _Batch, repeats: int) -> float:
     return (time.perf_counter() - t0) / repeats
 
 
+def host_processes(
+    robot: RobotModel, jobs, n_frames: int, alone: Planned, items: list, processes: int
+) -> dict:
+    """Planning every world and measuring `items` over a pool of `processes` workers, against
+    this process (`alone`'s planning; the items measured here first): seconds and ms a world."""
+    worlds, steps = len(jobs), frame_steps(robot.model)
+    here_measure_s = timed(lambda: [measure_world(robot, *item, 5.0) for item in items])
+    pool = HostPool(robot, processes)
+    try:
+        start_s = timed(  # the workers spawned and the project imported, one small task each
+            lambda: plan_batch(robot, jobs[:processes], 1, steps, pool, None).controls.release()
+        )
+        holder: dict[str, Planned] = {}
+        plan_s = timed(
+            lambda: holder.setdefault("batch", plan_batch(robot, jobs, n_frames, steps, pool, None))
+        )
+        pooled = holder["batch"]
+        try:
+            same = bool(np.array_equal(pooled.controls.array, alone.controls.array))
+            same = same and all(
+                np.array_equal(pooled.initial[k], v) for k, v in alone.initial.items()
+            )
+        finally:
+            pooled.controls.release()
+        measure_s = timed(lambda: pool.measure(items, 5.0, with_traces=False))
+    finally:
+        pool.close()
+    return {
+        "processes": processes,
+        "pool_start_s": start_s,
+        "same_controls_and_initial_rows": same,
+        "plan": {"s": plan_s, "ms_per_world": plan_s / worlds * 1e3},
+        "measure": {"s": measure_s, "ms_per_world": measure_s / len(items) * 1e3},
+        "measure_here": {"s": here_measure_s, "ms_per_world": here_measure_s / len(items) * 1e3},
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=200, help="variations (worlds: 9 x (N+1))")
     parser.add_argument("--duration", type=float, default=20.0, metavar="S")
+    parser.add_argument(
+        "--processes",
+        type=int,
+        default=os.cpu_count() or 1,
+        metavar="N",
+        help="host processes to plan and measure over (default: every core)",
+    )
     args = results.parse_args(parser)
     robot = RobotModel.load()
     gait = builtin_presets()["tuned"].gait
     jobs = jobs_for(gait, sample(VariationRanges(), args.samples, 0))
-    evaluator = WarpEvaluator(robot, device="cpu")
     n_frames = math.ceil(args.duration / FRAME_S - 1e-9)
-    steps = evaluator.steps_per_frame
-    holder: dict[str, _Batch] = {}
-    plan_s = timed(lambda: holder.setdefault("batch", _Batch(evaluator, jobs, n_frames)))
+    steps = frame_steps(robot.model)
+    holder: dict[str, Planned] = {}
+    plan_s = timed(
+        lambda: holder.setdefault("batch", plan_batch(robot, jobs, n_frames, steps, None, None))
+    )
     batch = holder["batch"]
+    control = batch.controls.array
     models = [r.model for r in batch.robots]
     fields_s = timed(lambda: per_world_fields(models))
     fields_put_s = timed(lambda: _per_world_fields_put(models))
-    copies_s = timed(lambda: segment_copies(batch, steps, contiguous=True))
-    stack_s = timed(lambda: segment_copies(batch, steps, contiguous=False))
-    measure_s = measure_one(robot, batch, repeats=20)
+    copies_s = timed(lambda: segment_copies(control, steps, contiguous=True))
+    stack_s = timed(lambda: segment_copies(control, steps, contiguous=False))
+    qpos, sens = frame_ends(robot, batch, n_frames)
+    measure_s = measure_one(robot, jobs[0], batch.starts[0], qpos, sens, repeats=20)
     worlds = len(jobs)
+    item = (jobs[0], batch.starts[0], qpos.astype(np.float32), sens.astype(np.float32))
+    pool = host_processes(robot, jobs, n_frames, batch, [item] * worlds, args.processes)
     figures = {
         "worlds": worlds,
         "variations": args.samples,
         "frames": n_frames,
-        "control_bytes": batch.control.nbytes,
+        "control_bytes": control.nbytes,
         "plan": {"s": plan_s, "ms_per_world": plan_s / worlds * 1e3},
         "per_world_fields": {"s": fields_s, "put_every_model_s": fields_put_s},
         "segment_copies": {"world_major_s": copies_s, "step_major_stack_s": stack_s},
         "measure": {"ms_per_world": measure_s * 1e3, "s_all_worlds": measure_s * worlds},
+        "host_processes": pool,
     }
+    n = args.processes
     print(f"{worlds} worlds, {n_frames} frames each")
     print(f"plan: {plan_s:.1f} s ({plan_s / worlds * 1e3:.2f} ms a world)")
     print(f"per-world fields: {fields_s:.2f} s (putting every model: {fields_put_s:.1f} s)")
     print(f"segment copies: {copies_s:.2f} s (stacked step-major: {stack_s:.2f} s)")
     print(f"measure: {measure_s * 1e3:.2f} ms a world ({measure_s * worlds:.1f} s for all)")
+    print(
+        f"{n} host processes (started in {pool['pool_start_s']:.1f} s): plan "
+        f"{pool['plan']['ms_per_world']:.2f} ms a world (1: {plan_s / worlds * 1e3:.2f}), "
+        f"measure {pool['measure']['ms_per_world']:.2f} ms a world "
+        f"(1: {pool['measure_here']['ms_per_world']:.2f}); the same controls: "
+        f"{pool['same_controls_and_initial_rows']}"
+    )
     headline = {
         "worlds": worlds,
         "plan ms/world": plan_s / worlds * 1e3,
@@ -124,7 +191,13 @@ def main() -> None:
         "segment copies s": copies_s,
         "segment stacks (before) s": stack_s,
         "measure ms/world": measure_s * 1e3,
+        "host processes": n,
+        f"plan ms/world, {n} processes": pool["plan"]["ms_per_world"],
+        "measure_world ms/world, 1 process": pool["measure_here"]["ms_per_world"],
+        f"measure_world ms/world, {n} processes": pool["measure"]["ms_per_world"],
+        "host pool start s": pool["pool_start_s"],
     }
+    batch.controls.release()
     results.write("bench_warp_host", args, figures, headline)
 
 

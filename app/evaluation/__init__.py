@@ -102,8 +102,8 @@ def evaluator_for(
 
 
 def close_evaluator(evaluator: Evaluator) -> None:
-    """Let go of what an executor holds (a cluster's client, worker processes; threads hold
-    nothing): call it when done, on every path."""
+    """Let go of what an executor holds (a cluster's client, worker processes, a Warp
+    evaluator's host processes; threads hold nothing): call it when done, on every path."""
     close = getattr(evaluator, "close", None)
     if close is not None:
         close()

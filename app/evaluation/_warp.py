@@ -1,29 +1,27 @@
 """The evaluation API on MuJoCo Warp (`WarpEvaluator`, docs/DESIGN.md §9, docs/GPU.md): a call's
 runs are the worlds of one float32 batch on a CUDA device or Warp's CPU device, planned and
-measured by the lanes' functions, controls uploaded per segment. The `gpu` extra."""
+measured by the lanes' functions (over host processes: `_warp_host.py`), controls uploaded per
+segment. The `gpu` extra."""
 
 from __future__ import annotations
 
 import math
+import os
 import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from app.evaluation._api import Cancelled, ExecutorError, Job, OnResult, Progress
-from app.evaluation._frames import STATE_SPEC, ClosedLoop, Push, Start
-from app.evaluation._lanes import plan_open_loop
-from app.evaluation._measure import fallen, measure_frames, not_finite
+from app.evaluation._frames import ClosedLoop, Push
+from app.evaluation._warp_host import POOL_MIN_WORLDS, HostPool, Planned, WorldEnds, plan_batch
 from app.evaluation._warp_kernels import control_kernels
 from app.evaluation._warp_model import batch_model
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace
 from app.sim.planning import FRAME_S, frame_steps
-from app.worlds.variations import Variation, varied_robot
-from gait import feedback
 
 #: `device=` (and "cuda:N")
 DEVICES = ("cpu", "cuda")
@@ -124,6 +122,11 @@ class WarpEvaluator:
             compiled (None: nothing is said).
         segment_frames: frames per upload of controls and look at falls and `cancel`
             (fewer when the controls would pass CONTROL_BYTES).
+        host_processes: processes that plan and measure the worlds (`HostPool`: spawned, the
+            controls in shared memory, the same bits as one); default every core; 1 does it
+            all in the calling process. Close the evaluator when done (`close`, or `with`).
+        host_min_worlds: the fewest worlds a call has for the pool to plan and measure them
+            (it starts with the first such call and is kept); fewer are done here.
     """
 
     def __init__(
@@ -133,9 +136,14 @@ class WarpEvaluator:
         device: str = "cuda",
         notice: Callable[[str], None] | None = None,
         segment_frames: int = SEGMENT_FRAMES,
+        host_processes: int | None = None,
+        host_min_worlds: int = POOL_MIN_WORLDS,
     ) -> None:
         if segment_frames < 1:
             raise ValueError(f"segment_frames must be at least 1, got {segment_frames}")
+        processes = (os.cpu_count() or 1) if host_processes is None else host_processes
+        if processes < 1:
+            raise ValueError(f"host_processes must be at least 1, got {host_processes}")
         self._wp, self._mjw = import_warp()
         self.segment_frames = segment_frames
         self.device = warp_device(self._wp, device)
@@ -152,6 +160,20 @@ class WarpEvaluator:
         #: physics steps taken (worlds x steps) and seconds spent per stage since creation
         self.world_steps = 0
         self.stage_s = {"plan": 0.0, "laws": 0.0, "upload": 0.0, "step": 0.0, "measure": 0.0}
+        self.host_processes, self.host_min_worlds = processes, host_min_worlds
+        #: the worker processes of the host's work (None with one process)
+        self.host_pool = HostPool(self.robot, processes) if processes > 1 else None
+
+    def close(self) -> None:
+        """The host's worker processes stopped (a later call starts new ones)."""
+        if self.host_pool is not None:
+            self.host_pool.close()
+
+    def __enter__(self) -> WarpEvaluator:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
 
     def evaluate(
         self,
@@ -179,8 +201,18 @@ class WarpEvaluator:
         if cancel is not None and cancel.is_set():
             raise Cancelled(f"cancelled after 0 of {len(jobs)} runs")
         n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
-        batch = _Batch(self, jobs, n_frames)
-        return batch.run(warmup_s, progress, traces, cancel, on_result)
+        t0, pool = time.perf_counter(), self._pool_for(len(jobs))
+        planned = plan_batch(self.robot, jobs, n_frames, self.steps_per_frame, pool, self._notice)
+        try:  # the controls may be shared memory: released on every path
+            batch = _Batch(self, jobs, n_frames, planned, pool)
+            self.stage_s["plan"] += time.perf_counter() - t0
+            return batch.run(warmup_s, progress, traces, cancel, on_result)
+        finally:
+            planned.controls.release()
+
+    def _pool_for(self, worlds: int) -> HostPool | None:
+        """The pool that plans and measures a call of `worlds` worlds, None to do it here."""
+        return self.host_pool if worlds >= self.host_min_worlds else None
 
     def _announce(self) -> None:
         """Say once per device and process that the kernels compile (Warp caches them)."""
@@ -198,47 +230,24 @@ class WarpEvaluator:
 
 
 class _Batch:
-    """One call's worlds: planned, put on the device, stepped segment by segment, measured."""
+    """One call's worlds as planned (`plan_batch`): put on the device, stepped segment by
+    segment, measured (`WorldEnds`: on `pool` when the call has one)."""
 
-    def __init__(self, owner: WarpEvaluator, jobs: Sequence[Job], n_frames: int) -> None:
-        t0 = time.perf_counter()
-        self.owner, self.jobs, self.n_frames = owner, jobs, n_frames
-        robot = owner.robot
-        varied: dict[Variation, RobotModel] = {}
-        for job in jobs:
-            physics = job.variation.physics
-            if physics not in varied:
-                varied[physics] = robot if physics.is_nominal else varied_robot(robot, physics)
-        self.robots = [varied[job.variation.physics] for job in jobs]
-        self.starts: list[Start] = []
-        #: each world's loop between frames where a law is on (`ClosedLoop`, as the lanes')
-        self.loops: list[ClosedLoop | None] = [None] * len(jobs)
+    def __init__(
+        self,
+        owner: WarpEvaluator,
+        jobs: Sequence[Job],
+        n_frames: int,
+        planned: Planned,
+        pool: HostPool | None,
+    ) -> None:
+        self.owner, self.jobs, self.n_frames, self.pool = owner, jobs, n_frames, pool
+        self.robots, self.starts, self.loops = planned.robots, planned.starts, planned.loops
         #: every world's ctrl of every step, float32 (worlds, steps, nu): a world's rows in one
         #: block, so a segment's controls go up as one contiguous slice per world
-        shape = (len(jobs), n_frames * owner.steps_per_frame, robot.model.nu)
-        self.control = np.empty(shape, np.float32)
-        m = robot.model
-        self.initial = {
-            "qpos": np.empty((len(jobs), m.nq)),
-            "qvel": np.empty((len(jobs), m.nv)),
-            "act": np.empty((len(jobs), m.na)),
-            "ctrl": np.empty((len(jobs), m.nu)),
-        }
-        plans: dict[tuple, Any] = {}  # one gait plan per case, not per variation
-        data = mujoco.MjData(robot.model)
-        for w, (world, job) in enumerate(zip(self.robots, jobs, strict=True)):
-            start, self.control[w] = plan_open_loop(world, job, n_frames, data, plans)
-            mujoco.mj_setState(world.model, data, start.state, STATE_SPEC)
-            for name in ("qpos", "qvel", "act"):
-                self.initial[name][w] = getattr(data, name)
-            self.initial["ctrl"][w] = start.ctrl
-            self.starts.append(start)
-            if feedback.any_law_on(job.params):
-                steps = owner.steps_per_frame
-                self.loops[w] = ClosedLoop(world, job, start, steps, data.sensordata)
+        self.controls, self.initial = planned.controls, planned.initial
         self.pushes = [Push(r, j) for r, j in zip(self.robots, jobs, strict=True)]
         self.closed = any(loop is not None for loop in self.loops)  # a law on in some world
-        owner.stage_s["plan"] += time.perf_counter() - t0
 
     def run(
         self,
@@ -277,9 +286,7 @@ class _Batch:
         self.graph = self._capture(batch, data) if owner.device.is_cuda else None
         qpos = np.empty((self.n_frames, worlds, model.nq), np.float32)
         sensors = np.empty((self.n_frames, worlds, model.nsensordata), np.float32)
-        counted = np.full(worlds, self.n_frames)  # frames each world counts (to its fall)
-        open_ = np.ones(worlds, bool)
-        measured: list[tuple[RunMetrics, Trace] | None] = [None] * worlds
+        ends = WorldEnds(owner.robot, self.jobs, self.starts, self.n_frames, self.pool)
         results: list[RunMetrics] = []
         step_s, done = 0.0, 0
         while len(results) < worlds:
@@ -288,41 +295,24 @@ class _Batch:
             frames = min(per_segment, self.n_frames - done)
             part = slice(done, done + frames)
             if frames:
-                step_s += self._segment(batch, data, done, frames, qpos[part], sensors[part], open_)
+                step_s += self._segment(
+                    batch, data, done, frames, qpos[part], sensors[part], ends.counting
+                )
             t1 = time.perf_counter()
-            for w in np.flatnonzero(open_):
-                q = qpos[part, w].astype(np.float64)
-                ends = np.flatnonzero(not_finite(q) | fallen(q, self.starts[w]))
-                if ends.size:
-                    counted[w], open_[w] = done + int(ends[0]) + 1, False
+            ends.segment(qpos, sensors, done, frames, warmup_s, traces is not None)
             done += frames
-            if done >= self.n_frames:
-                open_[:] = False
-            for w in np.flatnonzero(~open_):
-                if measured[w] is None:
-                    measured[w] = self._measure(w, qpos, sensors, int(counted[w]), warmup_s)
             owner.stage_s["measure"] += time.perf_counter() - t1
-            while len(results) < worlds and (ready := measured[len(results)]) is not None:
-                metrics, trace = ready
+            for index, metrics, trace in ends.ready():
                 metrics["wall_s"] = step_s / worlds
                 metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
                 if on_result is not None:
-                    on_result(len(results), metrics)
+                    on_result(index, metrics)
                 results.append(metrics)
-                if traces is not None:
+                if traces is not None and trace is not None:  # a trace comes when asked
                     traces.append(trace)
                 if progress is not None:
                     progress(len(results), worlds)
         return results
-
-    def _measure(
-        self, w: int, qpos: np.ndarray, sensors: np.ndarray, frames: int, warmup_s: float
-    ) -> tuple[RunMetrics, Trace]:
-        """World `w`'s first `frames` frames measured as the lanes measure a run, in float64."""
-        q = qpos[:frames, w].astype(np.float64)
-        bad, down = not_finite(q), fallen(q, self.starts[w])
-        sens = sensors[:frames, w].astype(np.float64)
-        return measure_frames(self.owner.robot, self.jobs[w], q, sens, bad, down, warmup_s)
 
     def _segment(
         self,
@@ -347,7 +337,7 @@ class _Batch:
         t1 = time.perf_counter()
         owner.stage_s["laws"] += t1 - t0
         rows = slice(first * steps, (first + frames) * steps)
-        self.host_segment[:, : frames * steps] = self.control[:, rows]
+        self.host_segment[:, : frames * steps] = self.controls.array[:, rows]
         for w, control in planned.items():
             self.host_segment[w, :steps] = control
         pushes = self._pushes(rows)
