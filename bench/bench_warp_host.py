@@ -37,7 +37,7 @@ from mujoco import rollout
 
 from app.analysis.robustness import jobs_for
 from app.evaluation._measure import fallen, measure_frames, not_finite
-from app.evaluation._warp import SEGMENT_FRAMES
+from app.evaluation._warp import SEGMENT_FRAMES, import_warp, warp_device
 from app.evaluation._warp_host import HostPool, Planned, measure_world, plan_batch
 from app.evaluation._warp_model import _per_world_fields_put, per_world_fields
 from app.params.presets import builtin_presets
@@ -138,6 +138,8 @@ def main() -> None:
         help="host processes to plan and measure over (default: every core)",
     )
     args = results.parse_args(parser)
+    wp, _mjw = import_warp()
+    warp_device(wp, "cpu")  # Warp loaded and started before any timing, as WarpEvaluator does
     robot = RobotModel.load()
     gait = builtin_presets()["tuned"].gait
     jobs = jobs_for(gait, sample(VariationRanges(), args.samples, 0))
