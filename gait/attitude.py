@@ -19,6 +19,24 @@ def accel_tilt(accel: NDArray[np.floating]) -> tuple[NDArray[np.floating], NDArr
     return pitch, roll
 
 
+#: standard gravity, m/s²
+G_M_S2 = 9.80665
+#: the attitude starts only from an accelerometer reading within this share of g: at rest, not
+#: falling (a robot dropped onto the floor reads ~0 and would start at a roll of 180°) nor
+#: landing (docs/DESIGN.md §4)
+START_G_BAND = (0.9, 1.1)
+
+
+def starts_attitude(accel: NDArray[np.floating]) -> bool:
+    """True when `accel` (3,), m/s², may start the attitude: its squared magnitude, in float32
+    as the firmware computes it, within `START_G_BAND` of g squared."""
+    a = np.asarray(accel, dtype=np.float32)
+    squared = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
+    g = np.float32(G_M_S2)
+    low, high = (np.float32(b) * g for b in START_G_BAND)
+    return bool(low * low <= squared <= high * high)
+
+
 def euler_rates(
     pitch: NDArray[np.floating], roll: NDArray[np.floating], gyro: NDArray[np.floating]
 ) -> tuple[NDArray[np.floating], NDArray[np.floating]]:

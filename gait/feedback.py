@@ -10,7 +10,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.typing import NDArray
 
-from gait.attitude import accel_tilt, complementary_step
+from gait.attitude import accel_tilt, complementary_step, starts_attitude
 from gait.feedback_params import TiltParams, YawRateParams
 from gait.params import LAW_GROUPS, GaitParams, Motion
 
@@ -117,7 +117,9 @@ def step(
     """One frame of every law that is on (the feedback groups of `laws`), from `reading` and
     the motion the gait gets.
 
-    Attitude: the complementary filter (started from the accelerometer's tilt). Tilt trim: the
+    Attitude: the complementary filter, started from the accelerometer's tilt at the first
+    reading of about 1 g (`starts_attitude`); until then there is no estimate and the tilt trim
+    waits (its state unchanged, no trim), the other laws act. Tilt trim: the
     tilt error (estimate - `expected_tilt`), low-passed, past the dead band, integrated (ki) plus
     kp times it, each clamped; pitch trim on both ankles' pitch (toes down for a forward lean),
     roll trim on the hips' roll (left out, right in for a lean to the right). Yaw rate: the
@@ -125,17 +127,20 @@ def step(
     (a_y > 0 turns clockwise). Damping: ankles and hips against the trunk's pitch and roll
     rates. CoP: the support foot's ankle pitch and roll against its centre of pressure (PID)."""
     gyro, accel = reading.gyro_rad_s.astype(F32), reading.accel_m_s2.astype(F32)
+    started = state.started or starts_attitude(accel)
     if state.started:
         pitch, roll = complementary_step(
             state.pitch_rad, state.roll_rad, gyro, accel, dt_s, laws.attitude.tau_s
         )
-    else:
+    elif started:
         pitch, roll = (F32(a) for a in accel_tilt(accel))
+    else:  # falling or jolted: no estimate yet
+        pitch, roll = F32(0.0), F32(0.0)
     delta = _zeros(12)
-    new = dataclasses.replace(state, started=True, pitch_rad=F32(pitch), roll_rad=F32(roll))
+    new = dataclasses.replace(state, started=started, pitch_rad=F32(pitch), roll_rad=F32(roll))
 
     tilt = _zeros(2)
-    if laws.tilt.enabled:
+    if laws.tilt.enabled and started:
         t = laws.tilt
         error = np.array([pitch, roll], dtype=F32) - expected_tilt(t, motion)
         filtered = _low_pass(state.tilt_error, error, dt_s, t.filter_s)

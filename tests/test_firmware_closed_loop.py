@@ -99,6 +99,26 @@ def test_a_tilt_bias_in_the_imu_moves_the_firmwares_trim_as_it_moves_the_models(
     assert np.any(biased.ocr[-1] != level.ocr[-1])
 
 
+def test_a_first_reading_in_free_fall_starts_no_attitude_in_the_firmware_nor_the_model() -> None:
+    """A robot dropped onto the floor reads ~0 g: neither the firmware nor its model starts
+    the attitude from it (it would start at a roll of 180°) nor trims; the readings at 1 g
+    after it start both alike."""
+    doc = closed_loop_set(("tilt",))
+    doc["gait"]["tilt"].update(ki_per_s=2.0, kp=0.5)
+    lean = math.radians(2.0)
+    tilted = RawSample(
+        accel=(round(-math.sin(lean) * 16384), 0, round(math.cos(lean) * 16384)),
+        gyro=GYRO_ZERO_RATE_COUNTS,
+        adc=(300,) * 8,
+    )
+    falling = dataclasses.replace(tilted, accel=(0, 0, 0))
+    run = run_closed_loop(doc, 30, samples=[falling] * 3 + [tilted] * 27)
+    assert_conforms(run)
+    assert all(not law.attitude_rad.any() and not law.tilt_rad.any() for law in run.laws[:3])
+    assert run.laws[3].attitude_rad[0] == pytest.approx(lean, abs=1e-3)  # started at its tilt
+    assert run.laws[-1].tilt_rad[0] > 0.0
+
+
 def test_a_corrupted_imu_read_is_flagged_and_the_last_good_sample_held() -> None:
     """A NACK in frame 20 and a burst cut short by a bus error after 5 bytes in frame 30: both
     detected and counted; the laws of those frames use the frame before's sample, as the model

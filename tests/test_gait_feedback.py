@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 
 from gait import GaitParams, Motion
+from gait.attitude import starts_attitude
 from gait.feedback import (
     ANKLE_PITCH,
     ANKLE_ROLL,
@@ -63,6 +64,35 @@ def test_the_first_reading_starts_the_attitude_at_the_accelerometers_tilt():
     state, _ = run(GaitParams(), leaning(pitch=0.1, roll=-0.05), 1)
     assert state.pitch_rad == pytest.approx(0.1, abs=1e-6)
     assert state.roll_rad == pytest.approx(-0.05, abs=1e-6)
+
+
+def test_a_reading_far_from_1_g_starts_no_attitude_and_the_tilt_trim_waits():
+    """A robot dropped onto the floor reads ~0 g (it would start at a roll of 180°), one landing
+    reads more than 1.1 g: no estimate, no trim; the damping still acts; the first reading
+    within 10 % of g starts the attitude at its tilt."""
+    laws = GaitParams(
+        tilt=TiltParams(enabled=True, ki_per_s=5.0, kp=1.0, deadband_rad=0.0),
+        damping=DampingParams(enabled=True, ankle_pitch=0.02, ankle_roll=0.0),
+    )
+    falling = Reading(np.array([0.0, -1.0, 0.0], F32), np.zeros(3, F32), np.zeros((2, 4), F32))
+    state, out = step(laws, State(), falling, Motion(), CORNERS, DT)
+    assert not state.started and (state.pitch_rad, state.roll_rad) == (0.0, 0.0)
+    assert not out.tilt_rad.any() and not state.tilt_error.any() and not state.tilt_integral.any()
+    assert out.joint_delta_rad[ANKLE_PITCH[0]] == pytest.approx(0.02)  # damping: -0.02 * -1.0
+    landing = leaning(pitch=0.1)
+    landing = dataclasses.replace(landing, accel_m_s2=landing.accel_m_s2 * F32(1.15))
+    state, out = step(laws, state, landing, Motion(), CORNERS, DT)
+    assert not state.started and not out.tilt_rad.any()
+    state, out = step(laws, state, leaning(pitch=0.1, roll=-0.05), Motion(), CORNERS, DT)
+    assert state.started and state.pitch_rad == pytest.approx(0.1, abs=1e-6)
+    assert state.roll_rad == pytest.approx(-0.05, abs=1e-6)
+    assert out.tilt_rad[0] > 0.0  # and the trim acts from this frame
+
+
+def test_the_start_band_by_hand():
+    for share, starts in ((0.89, False), (0.91, True), (1.0, True), (1.09, True), (1.11, False)):
+        accel = np.array([0.6, -0.8, 0.0]) * G * share  # |a| = share * g, tilted 90°
+        assert starts_attitude(accel) is starts, share
 
 
 def test_tilt_trim_by_hand():

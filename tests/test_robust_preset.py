@@ -1,15 +1,27 @@
 """The shipped `robust` preset (docs/DESIGN.md §15): `tuned` with the tilt trim, the yaw-rate loop
-and ankle-pitch gyro damping on, read-only like every built-in. On the nominal model it meets
-every criterion `tuned` meets (the paper's table within 25 %, mirror pairs alike, CA steering the
-right way), and its yaw-rate loop makes CA turn as eq (13) says within 30 %, forward and
-backward: what no open-loop gait on this model reached (models/README.md)."""
+and ankle-pitch gyro damping on, and its stance leaned 0.03 rad forward (feet level: the balance
+offset of eq (38) and the trim's expected pitch moved together), read-only like every built-in.
+On the nominal model it walks the paper's table within 25 % without a fall, CA steering the
+right way, and its yaw-rate loop makes CA turn as eq (13) says within 30 %, forward and
+backward: what no open-loop gait on this model reached (models/README.md). Leaning forward
+costs the tuner's mirror rule: backward walks ~25 % faster than forward (decision 0040)."""
+
+import dataclasses
 
 import pytest
 
-from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measured, steering
+from app.analysis.cases import (
+    CASES,
+    CURVES,
+    JUDGED_RUNS,
+    curve_run_names,
+    measured,
+    passes,
+    steering,
+    steers_right,
+)
 from app.evaluation import BatchEvaluator, Job
 from app.params.presets import PresetError, PresetStore, builtin_presets
-from app.study.tune_loss import meets_all_criteria
 
 ROBUST = builtin_presets()["robust"]
 TUNED = builtin_presets()["tuned"]
@@ -19,8 +31,13 @@ def test_the_robust_preset_is_tuned_with_the_laws_on_and_read_only(tmp_path):
     gait = ROBUST.gait
     assert gait.tilt.enabled and gait.yaw_rate.enabled and gait.damping.enabled
     assert not gait.cop.enabled  # measured: it lost robustness (models/README.md)
-    for group in ("clock", "shift", "short", "swing", "load", "balance", "leg", "steer"):
+    for group in ("clock", "shift", "short", "swing", "load", "leg", "steer"):
         assert getattr(gait, group) == getattr(TUNED.gait, group), group
+    lean = gait.balance.foot_pitch_offset - TUNED.gait.balance.foot_pitch_offset
+    assert lean == pytest.approx(0.03, abs=1e-6)  # leaned forward, the rest of eq (38) as tuned
+    assert dataclasses.replace(gait.balance, foot_pitch_offset=0.0) == dataclasses.replace(
+        TUNED.gait.balance, foot_pitch_offset=0.0
+    )
     with pytest.raises(PresetError, match="read-only"):
         PresetStore(tmp_path, builtin_presets()).save("robust", TUNED)
 
@@ -32,7 +49,12 @@ def test_the_robust_preset_walks_the_paper_and_steers_as_eq_13_says():
     by_run = {name: m for (name, _motion), m in zip(JUDGED_RUNS, metrics, strict=True)}
     report = {c.name: measured(c, by_run[c.name]) for c in CASES}
     assert not any(m["fell"] for m in metrics), report
-    assert meets_all_criteria(by_run), report
+    for case in CASES:  # the paper's table within 25 % (the mirror rule is the tuner's)
+        assert passes(case, report[case.name], False), (case.name, report)
+    for pair in CURVES:
+        assert steers_right(
+            steering(*(by_run[n] for n in curve_run_names(pair)), by_run[pair.straight])
+        )
     for pair in CURVES:
         gain = steering(*(by_run[n] for n in curve_run_names(pair)), by_run[pair.straight]).gain
         assert abs(gain - 1.0) <= 0.3, (pair.name, gain)  # eq (13) within 30 %

@@ -23,7 +23,7 @@ from app.sim.planning import (
     frame_steps,
     plan_frames,
 )
-from app.sim.sensors import SensorReading, Sensors
+from app.sim.sensors import SensorReading, Sensors, rest_accelerometers
 from app.worlds.servo_path import ServoPath
 from app.worlds.variations import NOMINAL, Variation, varied_robot
 from gait import (
@@ -123,8 +123,9 @@ def stand(
     robot: RobotModel, data: mujoco.MjData, params: GaitParams, motion: Motion, phase: float
 ) -> NDArray[np.float64]:
     """Reset `data` and stand the robot on the floor in the gait's pose of `motion` at `phase`
-    (start-up gain at time 0), feet flat, at rest, each servo's set-point on its angle; returns
-    the pose. `data` is the scratch for the standing height first: no MjData is made."""
+    (start-up gain at time 0), feet flat, at rest, each servo's set-point on its angle, the IMU
+    reading as at rest there (`rest_accelerometers`); returns the pose. `data` is the scratch
+    for the standing height first: no MjData is made."""
     pose = joint_angles_with_flags(
         params, motion, phase, robot.geometry, startup=startup_gain(params, 0.0)
     ).values
@@ -134,6 +135,7 @@ def stand(
     data.qpos[2] = height + 1e-4
     data.ctrl[robot.actuator_ids] = pose
     mujoco.mj_forward(robot.model, data)
+    rest_accelerometers(robot.model, data)
     return pose
 
 

@@ -14,12 +14,24 @@ from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
 from app.worlds.variations import NOMINAL, Variation
+from gait.attitude import G_M_S2 as GRAVITY_M_S2
 
-GRAVITY_M_S2 = 9.80665
 #: MPU-6050 at its most sensitive ranges: 131 counts per °/s (±250 °/s), 16384 per g (±2 g)
 GYRO_RAD_S_PER_COUNT = math.radians(1.0 / 131.0)
 ACCEL_M_S2_PER_COUNT = GRAVITY_M_S2 / 16384.0
 COUNT_RANGE = (-32768, 32767)  # a signed 16-bit register
+
+
+def rest_accelerometers(model: mujoco.MjModel, data: mujoco.MjData) -> None:
+    """Every accelerometer's row of `data.sensordata` as it reads at rest in the pose `data`
+    holds (forward kinematics done): the specific force -gravity in its site's frame, the
+    floor's tilt with it. A run's robot is placed a hair above the floor (`stand`), where MuJoCo
+    reads free fall (~0 g); the rows before its first step are the IMU of a robot that stood
+    there at rest, as a robot does before it walks (docs/DESIGN.md §8)."""
+    up = -np.asarray(model.opt.gravity, dtype=float)
+    for s in np.flatnonzero(model.sensor_type == mujoco.mjtSensor.mjSENS_ACCELEROMETER):
+        adr, site = model.sensor_adr[s], model.sensor_objid[s]
+        data.sensordata[adr : adr + 3] = data.site_xmat[site].reshape(3, 3).T @ up
 
 
 @dataclass(frozen=True)

@@ -53,12 +53,23 @@ static void accel_tilt(const float *a, float *pitch, float *roll)
     *roll = atan2f(a[1], a[2]);
 }
 
-/* gait/attitude.py complementary_step */
+/* gait/attitude.py starts_attitude: a reading within START_G_BAND of g (not falling, not landing) */
+#define G_M_S2 9.80665f
+static uint8_t starts_attitude(const float *a)
+{
+    const float squared = a[0] * a[0] + a[1] * a[1] + a[2] * a[2];
+    const float low = 0.9f * G_M_S2, high = 1.1f * G_M_S2;
+    return low * low <= squared && squared <= high * high;
+}
+
+/* gait/attitude.py complementary_step; no estimate (pitch, roll 0) until a reading starts it */
 static void attitude_step(law_state_t *s, const float *gyro, const float *accel)
 {
     float acc_pitch, acc_roll;
     accel_tilt(accel, &acc_pitch, &acc_roll);
     if (!s->started) {
+        if (!starts_attitude(accel))
+            return;
         s->pitch = acc_pitch;
         s->roll = acc_roll;
         s->started = 1;
@@ -162,7 +173,7 @@ void laws_step(const sensor_reading_t *reading, uint8_t imu_present)
         attitude_step(s, reading->gyro_rad_s, reading->accel_m_s2);
         out->attitude[0] = s->pitch;
         out->attitude[1] = s->roll;
-        if (SWITCH(TILT_ENABLED))
+        if (SWITCH(TILT_ENABLED) && s->started)
             tilt_trim(s, out);
         if (SWITCH(YAW_RATE_ENABLED))
             yaw_rate(s, out, reading->gyro_rad_s[2]);
