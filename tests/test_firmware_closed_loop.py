@@ -72,19 +72,31 @@ def test_closed_loop_walks_with_sensor_errors_are_pin_exact(motion) -> None:
     assert {law.support for law in run.laws} >= {0, 1}
 
 
+LEAN = math.radians(2.0)
+
+
+def tilt_trim_set() -> dict:
+    """The tilt trim alone, quick (ki 2/s, kp 0.5)."""
+    doc = closed_loop_set(("tilt",))
+    doc["gait"]["tilt"].update(ki_per_s=2.0, kp=0.5)
+    return doc
+
+
+def leaning_forward(lean: float) -> RawSample:
+    """The IMU's counts of a trunk at rest leaning `lean` rad forward, the soles loaded."""
+    return RawSample(
+        accel=(round(-math.sin(lean) * 16384), 0, round(math.cos(lean) * 16384)),
+        gyro=GYRO_ZERO_RATE_COUNTS,
+        adc=(300,) * 8,
+    )
+
+
 def test_a_tilt_bias_in_the_imu_moves_the_firmwares_trim_as_it_moves_the_models() -> None:
     """The IMU's registers read a 2° forward lean of a robot stepping on the spot (and, in the
     walk above, with the simulation's mounting bias): the estimate follows the accelerometer
     through the filter, the trim integrates the error past the dead band, firmware and model
     alike; level, nothing moves."""
-    doc = closed_loop_set(("tilt",))
-    doc["gait"]["tilt"].update(ki_per_s=2.0, kp=0.5)
-    lean = math.radians(2.0)
-    tilted = RawSample(
-        accel=(round(-math.sin(lean) * 16384), 0, round(math.cos(lean) * 16384)),
-        gyro=GYRO_ZERO_RATE_COUNTS,
-        adc=(300,) * 8,
-    )
+    doc, tilted = tilt_trim_set(), leaning_forward(LEAN)
     level = run_closed_loop(
         doc, 60, samples=[dataclasses.replace(tilted, accel=(0, 0, 16384))] * 60
     )
@@ -103,19 +115,12 @@ def test_a_first_reading_in_free_fall_starts_no_attitude_in_the_firmware_nor_the
     """A robot dropped onto the floor reads ~0 g: neither the firmware nor its model starts
     the attitude from it (it would start at a roll of 180°) nor trims; the readings at 1 g
     after it start both alike."""
-    doc = closed_loop_set(("tilt",))
-    doc["gait"]["tilt"].update(ki_per_s=2.0, kp=0.5)
-    lean = math.radians(2.0)
-    tilted = RawSample(
-        accel=(round(-math.sin(lean) * 16384), 0, round(math.cos(lean) * 16384)),
-        gyro=GYRO_ZERO_RATE_COUNTS,
-        adc=(300,) * 8,
-    )
+    doc, tilted = tilt_trim_set(), leaning_forward(LEAN)
     falling = dataclasses.replace(tilted, accel=(0, 0, 0))
     run = run_closed_loop(doc, 30, samples=[falling] * 3 + [tilted] * 27)
     assert_conforms(run)
     assert all(not law.attitude_rad.any() and not law.tilt_rad.any() for law in run.laws[:3])
-    assert run.laws[3].attitude_rad[0] == pytest.approx(lean, abs=1e-3)  # started at its tilt
+    assert run.laws[3].attitude_rad[0] == pytest.approx(LEAN, abs=1e-3)  # started at its tilt
     assert run.laws[-1].tilt_rad[0] > 0.0
 
 
