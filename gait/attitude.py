@@ -23,7 +23,7 @@ def accel_tilt(accel: NDArray[np.floating]) -> tuple[NDArray[np.floating], NDArr
 G_M_S2 = 9.80665
 #: the attitude starts only from an accelerometer reading within this share of g: at rest, not
 #: falling (a robot dropped onto the floor reads ~0 and would start at a roll of 180°) nor
-#: landing (docs/DESIGN.md §4)
+#: landing (docs/DESIGN.md §15)
 START_G_BAND = (0.9, 1.1)
 
 

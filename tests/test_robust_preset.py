@@ -52,9 +52,6 @@ def test_the_robust_preset_walks_the_paper_and_steers_as_eq_13_says():
     for case in CASES:  # the paper's table within 25 % (the mirror rule is the tuner's)
         assert passes(case, report[case.name], False), (case.name, report)
     for pair in CURVES:
-        assert steers_right(
-            steering(*(by_run[n] for n in curve_run_names(pair)), by_run[pair.straight])
-        )
-    for pair in CURVES:
-        gain = steering(*(by_run[n] for n in curve_run_names(pair)), by_run[pair.straight]).gain
-        assert abs(gain - 1.0) <= 0.3, (pair.name, gain)  # eq (13) within 30 %
+        s = steering(*(by_run[n] for n in curve_run_names(pair)), by_run[pair.straight])
+        assert steers_right(s), pair.name
+        assert abs(s.gain - 1.0) <= 0.3, (pair.name, s.gain)  # eq (13) within 30 %

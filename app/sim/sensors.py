@@ -27,7 +27,7 @@ def rest_accelerometers(model: mujoco.MjModel, data: mujoco.MjData) -> None:
     holds (forward kinematics done): the specific force -gravity in its site's frame, the
     floor's tilt with it. A run's robot is placed a hair above the floor (`stand`), where MuJoCo
     reads free fall (~0 g); the rows before its first step are the IMU of a robot that stood
-    there at rest, as a robot does before it walks (docs/DESIGN.md §8)."""
+    there at rest, as a robot does before it walks (docs/DESIGN.md §15)."""
     up = -np.asarray(model.opt.gravity, dtype=float)
     for s in np.flatnonzero(model.sensor_type == mujoco.mjtSensor.mjSENS_ACCELEROMETER):
         adr, site = model.sensor_adr[s], model.sensor_objid[s]

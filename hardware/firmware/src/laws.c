@@ -53,7 +53,7 @@ static void accel_tilt(const float *a, float *pitch, float *roll)
     *roll = atan2f(a[1], a[2]);
 }
 
-/* gait/attitude.py starts_attitude: a reading within START_G_BAND of g (not falling, not landing) */
+/* gait/attitude.py starts_attitude: within START_G_BAND of g (not falling, not landing) */
 #define G_M_S2 9.80665f
 static uint8_t starts_attitude(const float *a)
 {
