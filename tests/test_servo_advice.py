@@ -1,12 +1,13 @@
-"""The robustness report's servo advice (docs/DESIGN.md §7, §12): a case whose failing runs had
-a servo at its stall torque is torque-bound; eq (1) then asks 1.2 x that torque, the weakest
-servo of the table that gives it is named, and the robot with it swapped in still adds up."""
+"""The robustness report's servo advice (docs/DESIGN.md §7, §12): a case whose failing runs sat
+at a servo's torque limit for longer than its passing runs is torque-bound; eq (1) then asks
+1.2 x its stall torque, the weakest servo of the table that gives it is named, and the robot
+with it swapped in still adds up."""
 
 from __future__ import annotations
 
 import pytest
 
-from app.analysis.robustness import AT_STALL, servo_advice, torque_bound
+from app.analysis.robustness import AT_STALL, MIN_LIMIT_SHARE, servo_advice, torque_bound
 from app.robots.library import load_description
 from app.robots.model import RobotModel
 from app.robots.servos import servo_table
@@ -19,11 +20,15 @@ STALL = [MG996R_NM] * 12
 KNEES = [JOINT_NAMES.index("l_knee"), JOINT_NAMES.index("r_knee")]
 
 
-def run_with_peaks(at_stall: list[int], fell: bool = False) -> dict:
+def run_with_peaks(at_stall: list[int], fell: bool = False, share: float = 0.1) -> dict:
+    """A run whose `at_stall` servos reached their stall torque and ended `share` of its frames
+    there (the others 1 %)."""
     peaks = [0.4 * MG996R_NM] * 12
+    shares = [0.01] * 12
     for j in at_stall:
         peaks[j] = MG996R_NM  # the actuator's force limit: the most it gives
-    return {"fell": fell, "peak_torque_nm": peaks}
+        shares[j] = share
+    return {"fell": fell, "peak_torque_nm": peaks, "at_limit_share": shares}
 
 
 def test_the_weakest_servo_that_gives_the_torque_is_chosen():
@@ -33,23 +38,59 @@ def test_the_weakest_servo_that_gives_the_torque_is_chosen():
     assert smallest_servo(5.0, 6.0) is None  # none of the table is that strong
 
 
-def test_failures_with_the_knees_at_their_limit_are_torque_bound():
-    failed = [run_with_peaks(KNEES), run_with_peaks(KNEES), run_with_peaks([])]
-    t = torque_bound(failed, STALL)
+def test_failing_runs_that_sit_longer_at_the_knees_limit_are_torque_bound():
+    """Every run touches the knees' limit at each step; failing runs that sit there for more of
+    their frames than the passing runs (by LIMIT_Z standard errors) are held back by them."""
+    failed = [run_with_peaks(KNEES, share=s) for s in (0.28, 0.30, 0.32)] + [run_with_peaks([])]
+    passed = [run_with_peaks(KNEES, share=s) for s in (0.10, 0.12, 0.14)]
+    nominal = run_with_peaks(KNEES, share=0.12)
+    t = torque_bound(failed[:3], passed, nominal, STALL)
     assert t["bound"] and t["joints"] == ["l_knee", "r_knee"]
-    assert (t["failing_runs"], t["at_stall_runs"]) == (3, 2)
+    assert t["at_limit_share"]["l_knee"] == pytest.approx([0.30, 0.12])
+    assert (t["failing_runs"], t["at_stall_runs"], t["reference"]) == (3, 3, "passing runs")
+    # one failing run elsewhere spreads them: 0.23 against 0.12 is within two standard errors
+    assert not torque_bound(failed, passed, nominal, STALL)["bound"]
+    assert torque_bound(failed, passed, nominal, STALL)["at_stall_runs"] == 3
     assert t["peak_nm"] == pytest.approx(MG996R_NM)
-    below = [run_with_peaks([]) for _ in range(3)]  # failing, but no servo near its limit
-    assert not torque_bound(below, STALL)["bound"]
-    just_under = run_with_peaks([])
-    just_under["peak_torque_nm"][KNEES[0]] = 0.98 * MG996R_NM
-    assert AT_STALL > 0.98 and not torque_bound([just_under], STALL)["bound"]
-    assert torque_bound([], STALL) is None
+    # as long at the limit as the passing runs: at their stall torque, but not what fails them
+    alike = [run_with_peaks(KNEES, share=s) for s in (0.10, 0.12, 0.14)]
+    assert not torque_bound(alike, passed, nominal, STALL)["bound"]
+    assert torque_bound(alike, passed, nominal, STALL)["at_stall_runs"] == 3
+    # longer, but seldom at all (under MIN_LIMIT_SHARE): not bound
+    seldom = [run_with_peaks(KNEES, share=s) for s in (0.03, 0.04, 0.04)]
+    quiet = [run_with_peaks(KNEES, share=0.0), run_with_peaks(KNEES, share=0.001)]
+    assert MIN_LIMIT_SHARE > 0.04 and not torque_bound(seldom, quiet, nominal, STALL)["bound"]
+    assert torque_bound([], passed, nominal, STALL) is None
+
+
+def test_with_fewer_than_two_passing_runs_the_nominal_run_is_the_reference():
+    failed = [run_with_peaks(KNEES, share=s) for s in (0.28, 0.30, 0.32)]
+    t = torque_bound(failed, [run_with_peaks(KNEES)], run_with_peaks(KNEES, share=0.12), STALL)
+    assert t["bound"] and t["reference"] == "the nominal run"
+    assert t["at_limit_share"]["r_knee"] == pytest.approx([0.30, 0.12])
+    high = run_with_peaks(KNEES, share=0.30)  # the nominal robot is there as long
+    assert not torque_bound(failed, [], high, STALL)["bound"]
+
+
+def test_a_weaker_servo_reaches_its_stall_torque_at_its_own_limit():
+    """A variation's torque_scale lowers the servos' force range (docs/DESIGN.md §12): a run at
+    0.85 is at its stall torque at 0.85 x the described one, which the described figure never
+    reaches."""
+    weak = run_with_peaks([])
+    for j in KNEES:
+        weak["peak_torque_nm"][j] = 0.85 * MG996R_NM
+    nominal = run_with_peaks([])
+    assert torque_bound([weak], [], nominal, STALL)["at_stall_runs"] == 0
+    assert torque_bound([weak], [], nominal, STALL, [0.85])["at_stall_runs"] == 1
+    assert torque_bound([weak], [], nominal, STALL, [0.9])["at_stall_runs"] == 0
+    assert AT_STALL > 0.98
 
 
 def test_the_advice_names_the_servo_for_the_joints_at_their_limit():
-    bound = torque_bound([run_with_peaks(KNEES)], STALL)
-    free = torque_bound([run_with_peaks([])], STALL)
+    passed, nominal = [run_with_peaks(KNEES), run_with_peaks(KNEES)], run_with_peaks(KNEES)
+    failed = [run_with_peaks(KNEES, share=0.3), run_with_peaks(KNEES, share=0.32)]
+    bound = torque_bound(failed, passed, nominal, STALL)
+    free = torque_bound([run_with_peaks(KNEES), run_with_peaks(KNEES)], passed, nominal, STALL)
     report = {
         "cases": [
             {"case": "sideways right", "torque": bound},

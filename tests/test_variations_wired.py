@@ -37,6 +37,21 @@ def test_a_varied_run_is_the_same_in_the_batch_and_frame_by_frame():
         assert batch[key] == live.metrics[key], key
 
 
+def test_a_weaker_servo_is_at_its_own_limit_the_same_in_the_batch_and_frame_by_frame():
+    """`at_limit_share` counts a frame when a servo ends it at 99 % of the run's own force
+    limit (torque_scale 0.85 of the described one), alike in `artro run` and the lanes."""
+    weak = parse_variation("torque_scale=0.85")
+    live = run(TUNED, FORWARD, duration_s=4.0, warmup_s=1.0, robot=ROBOT, variation=weak)
+    batch, strong = BatchEvaluator(ROBOT, threads=1).evaluate(
+        [Job(TUNED, FORWARD, variation=weak), Job(TUNED, FORWARD)], duration_s=4.0, warmup_s=1.0
+    )
+    assert batch["at_limit_share"] == live.metrics["at_limit_share"]
+    assert batch["peak_torque_nm"] == live.metrics["peak_torque_nm"]
+    stall = ROBOT.model.actuator_forcerange[ROBOT.actuator_ids, 1]
+    assert max(batch["peak_torque_nm"]) <= 0.85 * stall.max() + 1e-9  # never past its own limit
+    assert sum(batch["at_limit_share"]) > sum(strong["at_limit_share"]) > 0.0
+
+
 def test_runs_of_other_variations_in_one_chunk_keep_their_own_results():
     jobs = [
         Job(TUNED, FORWARD),

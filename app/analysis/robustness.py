@@ -29,6 +29,10 @@ SPOT_DRIFT_CM_S = 1.0  # on the spot: drift at most this, and the heading as abo
 Z95 = 1.959964  # the normal quantile of a two-sided 95 % interval
 WORST = 5
 AT_STALL = 0.99  # a peak this close to a servo's stall torque: the servo was at its limit
+#: a joint holds a case back when its failing runs sit at its limit for a larger share of their
+#: frames than the passing runs, by this many standard errors, and for at least this share
+LIMIT_Z = 2.0
+MIN_LIMIT_SHARE = 0.05
 
 
 @dataclass(frozen=True)
@@ -179,7 +183,7 @@ def summarise(
 ) -> dict[str, Any]:
     """One preset's report from its `jobs_for` metrics; `repeat` starts the command that
     repeats a worst variation's first failed case. With each servo's stall torque `stall_nm`
-    (JOINT_NAMES order), each case says how many failing runs had a servo at its limit
+    (JOINT_NAMES order), each case says which servos' torque holds its failures back
     (`torque_bound`)."""
     n_cases = len(ROBUST_CASES)
     nominal, varied = metrics[:n_cases], metrics[n_cases:]
@@ -213,7 +217,11 @@ def summarise(
                 "falls": sum(row[k]["fell"] for row in grid),
                 "depends_on": dependence(variations, [not o for o in ok]),
                 "torque": torque_bound(
-                    [row[k] for row, o in zip(grid, ok, strict=True) if not o], stall_nm
+                    [row[k] for row, o in zip(grid, ok, strict=True) if not o],
+                    [row[k] for row, o in zip(grid, ok, strict=True) if o],
+                    nominal[k],
+                    stall_nm,
+                    [v.torque_scale for v, o in zip(variations, ok, strict=True) if not o],
                 ),
             }
         )
@@ -237,25 +245,54 @@ def summarise(
     return {"preset": name, "cases": cases, "worst": worst, "overall_share": every}
 
 
-def torque_bound(failed: Sequence[dict], stall_nm: Sequence[float] | None) -> dict[str, Any] | None:
-    """Whether a case's failures are a servo's torque: the failing runs with a servo at its
-    stall torque (peak >= AT_STALL of it), the joints at their limit in at least half of those
-    runs, and the largest peak; None without failures or figures."""
-    peaks = [m["peak_torque_nm"] for m in failed if "peak_torque_nm" in m]
-    if not peaks or stall_nm is None:
+def torque_bound(
+    failed: Sequence[dict],
+    passed: Sequence[dict],
+    nominal: dict,
+    stall_nm: Sequence[float] | None,
+    torque_scales: Sequence[float] | None = None,
+) -> dict[str, Any] | None:
+    """Whether a case's failures are a servo's torque. Every run has its servos at their limit
+    now and then (the knees at each step), so a peak at the stall torque says little; what
+    tells is time: a joint is at its limit when the failing runs spend a larger share of their
+    frames there (`at_limit_share`) than the passing runs do, by at least LIMIT_Z standard
+    errors and at least MIN_LIMIT_SHARE (the nominal run is the reference when fewer than two
+    pass). Also the failing runs with a peak at AT_STALL of their own stall torque (`stall_nm`,
+    the robot as described, times each run's `torque_scale`) and the largest peak; None
+    without failures or figures."""
+    scales = [1.0] * len(failed) if torque_scales is None else torque_scales
+    measured = [(m, s) for m, s in zip(failed, scales, strict=True) if "peak_torque_nm" in m]
+    if not measured or stall_nm is None:
         return None
-    at_limit = np.asarray(peaks) >= AT_STALL * np.asarray(stall_nm)[None, :]
-    runs = int(at_limit.any(axis=1).sum())
-    joints = [
-        j for j, share in zip(JOINT_NAMES, at_limit.mean(axis=0), strict=True) if share >= 0.5
-    ]
-    return {
-        "failing_runs": len(peaks),
-        "at_stall_runs": runs,
-        "joints": joints,
-        "peak_nm": float(np.max(peaks)),
-        "bound": runs * 2 >= len(peaks) and bool(joints),
+    rows = [m for m, _ in measured]
+    own_stall = np.asarray([s for _, s in measured])[:, None] * np.asarray(stall_nm)[None, :]
+    peaks = np.asarray([m["peak_torque_nm"] for m in rows])
+    out: dict[str, Any] = {
+        "failing_runs": len(rows),
+        "at_stall_runs": int((peaks >= AT_STALL * own_stall).any(axis=1).sum()),
+        "joints": [],
+        "at_limit_share": {},
+        "peak_nm": float(peaks.max()),
     }
+    share = np.asarray([m["at_limit_share"] for m in rows if "at_limit_share" in m])
+    reference = [m["at_limit_share"] for m in passed if "at_limit_share" in m]
+    out["reference"] = "passing runs"
+    if len(reference) < 2:
+        reference = [nominal["at_limit_share"]] if "at_limit_share" in nominal else []
+        out["reference"] = "the nominal run"
+    if len(share) >= 2 and reference:
+        ref = np.asarray(reference)
+        var = share.var(axis=0, ddof=1) / len(share)
+        if len(ref) >= 2:
+            var = var + ref.var(axis=0, ddof=1) / len(ref)
+        more = share.mean(axis=0) - ref.mean(axis=0)
+        for j, name in enumerate(JOINT_NAMES):
+            fail_share = float(share[:, j].mean())
+            if fail_share >= MIN_LIMIT_SHARE and more[j] > LIMIT_Z * math.sqrt(var[j]):
+                out["joints"].append(name)
+                out["at_limit_share"][name] = [fail_share, float(ref[:, j].mean())]
+    out["bound"] = bool(out["joints"])
+    return out
 
 
 def servo_advice(report: dict[str, Any], stall_nm: Sequence[float], voltage_v: float):

@@ -10,6 +10,7 @@ from app.evaluation._api import Job
 from app.evaluation._frames import Start
 from app.robots.model import RobotModel
 from app.sim.frame_loop import has_fallen, planar_distance_m, trunk_yaws
+from app.sim.headless import AT_LIMIT
 from app.sim.metrics import RunMetrics, Trace, compute_metrics
 from app.sim.planning import FRAME_S
 
@@ -71,4 +72,8 @@ def measure_frames(
     metrics["blew_up"] = blew_up
     torque = np.abs(sens[:, robot.torque_adr])
     metrics["peak_torque_nm"] = (torque.max(axis=0) if samples else np.zeros(12)).tolist()
+    # the run's own servos: the described force limit times its torque_scale, as varied_robot
+    stall = np.abs(robot.model.actuator_forcerange[robot.actuator_ids, 1])
+    at_limit = torque >= AT_LIMIT * (stall * job.variation.torque_scale)
+    metrics["at_limit_share"] = (at_limit.mean(axis=0) if samples else np.zeros(12)).tolist()
     return metrics, trace

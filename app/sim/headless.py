@@ -96,6 +96,7 @@ def run(
     flags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}
     flags["torque_limit_frames"] = 0  # a servo's force at AT_LIMIT of its limit at a frame's end
     peak_torque = np.zeros(12)
+    at_limit_frames = np.zeros(12)
     force = sim.data.actuator_force
     actuators = sim.robot.actuator_ids
     limit = AT_LIMIT * np.abs(sim.model.actuator_forcerange[actuators, 1])
@@ -109,6 +110,7 @@ def run(
         torque = np.abs(force[actuators])
         np.maximum(peak_torque, torque, out=peak_torque)
         recent.append(torque >= limit)
+        at_limit_frames += recent[-1]
         flags["torque_limit_frames"] += bool(recent[-1].any())
         trace.append(sim.time_s, sim.trunk_pose(), sim.gyro(), sim.feet_distance_m())
         if sim.fell:
@@ -125,6 +127,7 @@ def run(
     }
     metrics["flags"] = flags | {"blew_up": sim.blew_up}
     metrics["peak_torque_nm"] = peak_torque.tolist()
+    metrics["at_limit_share"] = (at_limit_frames / max(1, len(trace.t_s))).tolist()
     required = required_torque_from_loads(peak_torque[None, :], SAFETY_FACTOR)
     names = [sim.model.actuator(int(i)).name for i in actuators]
     diagnosis = None

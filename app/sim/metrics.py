@@ -62,6 +62,7 @@ class RunMetrics(MotionMetrics, total=False):
     flags: RunFlags
     blew_up: bool
     peak_torque_nm: list[float]  # largest |torque| of each servo at the frames' ends (JOINT_NAMES)
+    at_limit_share: list[float]  # share of the frames ending with each servo at its torque limit
 
 
 @dataclass

@@ -102,9 +102,13 @@ def _servo_lines(report: dict[str, Any]) -> list[str]:
     for c in report["cases"]:
         t = c.get("torque")
         if t and t["bound"]:
+            held = ", ".join(
+                f"{joint} {100 * fail:.0f} % ({t['reference']} {100 * ref:.0f} %)"
+                for joint, (fail, ref) in t["at_limit_share"].items()
+            )
             lines.append(
-                f"{c['case']}: {t['at_stall_runs']} of {t['failing_runs']} failing runs had a "
-                f"servo at its stall torque ({', '.join(t['joints'])}; peak {t['peak_nm']:.2f} N·m)"
+                f"{c['case']}: the failing runs sat at the torque limit of {held} of their "
+                f"frames; {t['at_stall_runs']} of {t['failing_runs']} reached their stall torque"
             )
     advice = report.get("servo_advice")
     if advice:
