@@ -100,7 +100,7 @@ def support_cop(
     pressure (x forward, y outward) from the sole centre, m."""
     load = fsr_n.sum(axis=1)
     foot = int(np.argmax(load))
-    if load[foot] < F32(min_load_n):
+    if not load[foot] > 0 or load[foot] < F32(min_load_n):  # with min_load_n 0, no 0 / 0
         return -1, _zeros(2)
     cop = (fsr_n[foot] @ positions_m) / load[foot]
     return foot, np.array([cop[0], cop[1] * OUTWARD[foot]], dtype=F32)

@@ -167,6 +167,9 @@ def test_the_support_foots_centre_of_pressure():
     assert foot == 1
     np.testing.assert_allclose(cop, [0.0, -0.02], atol=1e-7)  # y inward for the right foot
     assert support_cop(forces * 0.1, CORNERS, 1.0)[0] == -1  # neither carries 1 N
+    # feet in the air with a minimum load of 0: no foot carries, no 0 / 0 (the firmware alike)
+    foot, cop = support_cop(forces * 0.0, CORNERS, 0.0)
+    assert foot == -1 and np.all(cop == 0.0)
 
 
 def test_cop_loop_by_hand():

@@ -140,8 +140,8 @@ static void cop_loop(law_state_t *s, law_output_t *out, const float fsr[2][4])
     for (uint8_t foot = 0; foot < 2; foot++)
         load[foot] = fsr[foot][0] + fsr[foot][1] + fsr[foot][2] + fsr[foot][3];
     const uint8_t foot = load[1] > load[0] ? 1u : 0u;
-    if (load[foot] < P(COP_MIN_LOAD_N))
-        return;
+    if (!(load[foot] > 0.0f) || load[foot] < P(COP_MIN_LOAD_N))
+        return; /* no foot carries: no centre of pressure (min_load 0 must not divide by 0) */
     float cop[2];
     for (uint8_t k = 0; k < 2; k++) {
         float moment = 0.0f;
