@@ -16,6 +16,7 @@ import numpy as np
 from app.analysis.cases import CA_PROBE, CASES
 from app.evaluation import Evaluator, Job
 from app.robots.swap import smallest_servo
+from app.sim.headless import AT_LIMIT
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import FIELDS, Variation
 from gait import JOINT_NAMES, GaitParams, Motion
@@ -28,7 +29,6 @@ MAX_TURN_DEG_S = 5.0
 SPOT_DRIFT_CM_S = 1.0  # on the spot: drift at most this, and the heading as above
 Z95 = 1.959964  # the normal quantile of a two-sided 95 % interval
 WORST = 5
-AT_STALL = 0.99  # a peak this close to a servo's stall torque: the servo was at its limit
 #: a joint holds a case back when its failing runs sit at its limit for a larger share of their
 #: frames than the passing runs, by this many standard errors, and for at least this share
 LIMIT_Z = 2.0
@@ -257,31 +257,27 @@ def torque_bound(
     tells is time: a joint is at its limit when the failing runs spend a larger share of their
     frames there (`at_limit_share`) than the passing runs do, by at least LIMIT_Z standard
     errors and at least MIN_LIMIT_SHARE (the nominal run is the reference when fewer than two
-    pass). Also the failing runs with a peak at AT_STALL of their own stall torque (`stall_nm`,
+    pass). Also the failing runs with a peak at AT_LIMIT of their own stall torque (`stall_nm`,
     the robot as described, times each run's `torque_scale`) and the largest peak; None
     without failures or figures."""
-    scales = [1.0] * len(failed) if torque_scales is None else torque_scales
-    measured = [(m, s) for m, s in zip(failed, scales, strict=True) if "peak_torque_nm" in m]
-    if not measured or stall_nm is None:
+    if not failed or stall_nm is None:
         return None
-    rows = [m for m, _ in measured]
-    own_stall = np.asarray([s for _, s in measured])[:, None] * np.asarray(stall_nm)[None, :]
-    peaks = np.asarray([m["peak_torque_nm"] for m in rows])
+    scales = np.ones(len(failed)) if torque_scales is None else np.asarray(torque_scales)
+    own_stall = scales[:, None] * np.asarray(stall_nm)[None, :]
+    peaks = np.asarray([m["peak_torque_nm"] for m in failed])
+    share = np.asarray([m["at_limit_share"] for m in failed])
     out: dict[str, Any] = {
-        "failing_runs": len(rows),
-        "at_stall_runs": int((peaks >= AT_STALL * own_stall).any(axis=1).sum()),
+        "failing_runs": len(failed),
+        "at_stall_runs": int((peaks >= AT_LIMIT * own_stall).any(axis=1).sum()),
         "joints": [],
         "at_limit_share": {},
         "peak_nm": float(peaks.max()),
+        "reference": "passing runs" if len(passed) >= 2 else "the nominal run",
     }
-    share = np.asarray([m["at_limit_share"] for m in rows if "at_limit_share" in m])
-    reference = [m["at_limit_share"] for m in passed if "at_limit_share" in m]
-    out["reference"] = "passing runs"
-    if len(reference) < 2:
-        reference = [nominal["at_limit_share"]] if "at_limit_share" in nominal else []
-        out["reference"] = "the nominal run"
-    if len(share) >= 2 and reference:
-        ref = np.asarray(reference)
+    ref = np.asarray(
+        [m["at_limit_share"] for m in passed] if len(passed) >= 2 else [nominal["at_limit_share"]]
+    )
+    if len(failed) >= 2:
         var = share.var(axis=0, ddof=1) / len(share)
         if len(ref) >= 2:
             var = var + ref.var(axis=0, ddof=1) / len(ref)
