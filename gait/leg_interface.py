@@ -65,8 +65,8 @@ def knee_triangle(
     lu, ll = geometry.upper_m, geometry.lower_m
     length = np.asarray(eta, dtype=float) * geometry.max_length_m  # eq (3)
     cos_a1 = (lu * lu + ll * ll - length * length) / (2.0 * lu * ll)
-    alpha1 = np.arccos(np.clip(cos_a1, -1.0, 1.0))  # eq (4)
-    alpha2 = np.arcsin(np.clip(ll / length * np.sin(alpha1), -1.0, 1.0))  # eq (5)
+    alpha1 = np.arccos(np.minimum(np.maximum(cos_a1, -1.0), 1.0))  # eq (4)
+    alpha2 = np.arcsin(np.minimum(np.maximum(ll / length * np.sin(alpha1), -1.0), 1.0))  # eq (5)
     alpha3 = np.pi - (alpha1 + alpha2)  # eq (6)
     return alpha1, alpha2, alpha3
 

@@ -30,7 +30,7 @@ def startup_gain(params: GaitParams, time_s: ArrayLike) -> NDArray[np.float64]:
     duration = params.pfs.startup_s
     if duration <= 0.0:
         return np.ones_like(t)
-    return np.clip(t / duration, 0.0, 1.0)
+    return np.minimum(np.maximum(t / duration, 0.0), 1.0)
 
 
 def pfs_joint_angles_with_flags(

@@ -135,7 +135,7 @@ def leg_parameters_with_flags(
         leg_roll += bl.leg_roll_offset + i_s * a_r + abs(a_r) + bl.leg_roll_yaw * yaw_term  # (39)
 
     gamma_clamped = gamma < -1.0
-    gamma = np.clip(gamma, -1.0, 0.0)  # eq (45), leg extension range of the leg interface
+    gamma = np.minimum(np.maximum(gamma, -1.0), 0.0)  # eq (45), the leg interface's range
     values = np.stack([leg_roll, leg_pitch, leg_yaw, foot_roll, foot_pitch, gamma], axis=-1)
     return LegParameters(values, gamma_clamped)
 

@@ -33,6 +33,9 @@ from hardware.tdm import (
     frame_ocr,
     guard_violations,
     select_value,
+    servo_falling_edge_ticks,
+    servo_frame_ocr,
+    servo_guard_violations,
 )
 from hardware.timer import (
     F_CPU_HZ,
@@ -98,5 +101,8 @@ __all__ = [
     "required_torque_from_loads",
     "required_torque_nm",
     "select_value",
+    "servo_falling_edge_ticks",
+    "servo_frame_ocr",
+    "servo_guard_violations",
     "timer_registers",
 ]

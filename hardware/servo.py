@@ -137,10 +137,10 @@ def angles_to_pulses_us(
     if not np.all(np.isfinite(angles)):
         raise ValueError("angles_rad must be finite; got NaN or inf (no pulse can encode it)")
 
-    limited = np.clip(angles, cal.min_rad, cal.max_rad)
+    limited = np.minimum(np.maximum(angles, cal.min_rad), cal.max_rad)
     saturated = limited != angles
     pulse = PULSE_CENTER_US + cal.direction * np.degrees(limited) * US_PER_DEG + cal.trim_us
-    clipped = np.clip(pulse, PULSE_MIN_US, PULSE_MAX_US)
+    clipped = np.minimum(np.maximum(pulse, PULSE_MIN_US), PULSE_MAX_US)
     saturated |= clipped != pulse
     return clipped, saturated
 

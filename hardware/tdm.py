@@ -7,6 +7,7 @@ SERVO_NAMES order (= the gait's joint order). Select-line timing and the guard: 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -75,15 +76,15 @@ class ChannelMap:
         right = [(1, slot) for slot in range(5)] + [(3, 0)]
         return cls(assignments=tuple(left + right))
 
-    @property
+    @cached_property
     def channel_index(self) -> NDArray[np.intp]:
-        """Channel of each servo, shape (12,)."""
-        return np.array([channel for channel, _ in self.assignments], dtype=np.intp)
+        """Channel of each servo, shape (12,), read-only."""
+        return _read_only([channel for channel, _ in self.assignments])
 
-    @property
+    @cached_property
     def slot_index(self) -> NDArray[np.intp]:
-        """Slot of each servo, shape (12,)."""
-        return np.array([slot for _, slot in self.assignments], dtype=np.intp)
+        """Slot of each servo, shape (12,), read-only."""
+        return _read_only([slot for _, slot in self.assignments])
 
     def servo_at(self, channel: int, slot: int) -> int | None:
         """Index (into SERVO_NAMES) of the servo on (channel, slot), or None if nothing is there."""
@@ -128,6 +129,12 @@ class TdmConfig:
         object.__setattr__(self, "select_change_ticks", int(ticks))
 
 
+def _read_only(values: list[int]) -> NDArray[np.intp]:
+    array = np.array(values, dtype=np.intp)
+    array.setflags(write=False)
+    return array
+
+
 def check_ocr(ocr: ArrayLike) -> NDArray[np.int64]:
     """Validate OCR frames: integers of shape (..., 6, 8), each -1 (idle) or 0..OCR_MAX.
 
@@ -162,8 +169,13 @@ def frame_ocr(pulse_us: ArrayLike, config: TdmConfig) -> NDArray[np.int32]:
             f"pulse_us must have shape (..., {len(SERVO_NAMES)}) in SERVO_NAMES order, "
             f"got {pulse.shape}"
         )
-    servo_ocr = pulse_us_to_ocr(pulse)
-    ocr = np.full((*pulse.shape[:-1], len(CHANNELS), SLOTS_PER_FRAME), OCR_IDLE, dtype=np.int32)
+    return servo_frame_ocr(pulse_us_to_ocr(pulse), config)
+
+
+def servo_frame_ocr(servo_ocr: NDArray[np.integer], config: TdmConfig) -> NDArray[np.int32]:
+    """Each servo's OCR (..., 12), as `pulse_us_to_ocr` gives it, placed in its (channel, slot)
+    of a frame (..., 6, 8); idle slots -1."""
+    ocr = np.full((*servo_ocr.shape[:-1], len(CHANNELS), SLOTS_PER_FRAME), OCR_IDLE, np.int32)
     cmap = config.channel_map
     ocr[..., cmap.channel_index, cmap.slot_index] = servo_ocr
     return ocr
@@ -185,8 +197,19 @@ def falling_edge_ticks(ocr: ArrayLike, config: TdmConfig) -> NDArray[np.int64]:
     frames = check_ocr(ocr)
     cmap = config.channel_map
     servo_ocr = frames[..., cmap.channel_index, cmap.slot_index]
-    fall = cmap.slot_index * SLOT_TICKS + np.minimum(servo_ocr + 1, config.select_change_ticks)
+    fall = servo_falling_edge_ticks(servo_ocr, config)
     return np.where(servo_ocr == OCR_IDLE, -1, fall)
+
+
+def servo_falling_edge_ticks(
+    servo_ocr: NDArray[np.integer], config: TdmConfig
+) -> NDArray[np.int64]:
+    """`falling_edge_ticks` from each servo's OCR (..., 12) of 0..OCR_MAX (`pulse_us_to_ocr`
+    gives no idle value), without building or checking the frame."""
+    cmap = config.channel_map
+    return cmap.slot_index * SLOT_TICKS + np.minimum(
+        servo_ocr.astype(np.int64) + 1, config.select_change_ticks
+    )
 
 
 def guard_violations(ocr: ArrayLike, config: TdmConfig) -> NDArray[np.bool_]:
@@ -200,6 +223,15 @@ def guard_violations(ocr: ArrayLike, config: TdmConfig) -> NDArray[np.bool_]:
         bool array (..., 6, 8) per channel and slot.
     """
     return check_ocr(ocr) + 1 > config.select_change_ticks
+
+
+def servo_guard_violations(servo_ocr: NDArray[np.integer], config: TdmConfig) -> NDArray[np.bool_]:
+    """`guard_violations` of the frame `servo_frame_ocr` makes of `servo_ocr` (..., 12), from
+    the servos' values alone (an idle slot never violates the guard)."""
+    guard = np.zeros((*servo_ocr.shape[:-1], len(CHANNELS), SLOTS_PER_FRAME), dtype=bool)
+    cmap = config.channel_map
+    guard[..., cmap.channel_index, cmap.slot_index] = servo_ocr + 1 > config.select_change_ticks
+    return guard
 
 
 def select_value(tick: ArrayLike, config: TdmConfig) -> NDArray[np.int64]:

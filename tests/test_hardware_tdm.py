@@ -21,6 +21,9 @@ from hardware import (
     guard_violations,
     ocr_to_pulse_us,
     select_value,
+    servo_falling_edge_ticks,
+    servo_frame_ocr,
+    servo_guard_violations,
 )
 
 CONFIG = TdmConfig()
@@ -264,3 +267,29 @@ def test_demultiplex_agrees_with_vectorised_model(
     assert np.array_equal(result.glitch, prev_cut)
     ok = ~result.glitch
     assert np.array_equal(result.fall_ticks[ok], falling_edge_ticks(ocr, config)[ok])
+
+
+@given(
+    cmap=channel_maps,
+    select_change=st.integers(1, 4999),
+    servo_ocr=hnp.arrays(np.int32, (3, 12), elements=st.integers(0, 4998)),
+)
+def test_the_servo_forms_give_what_the_frame_forms_give(
+    cmap: ChannelMap, select_change: int, servo_ocr: np.ndarray
+) -> None:
+    # planning works from the servos' OCR without building and checking the frame each time
+    config = TdmConfig(channel_map=cmap, select_change_ticks=select_change)
+    ocr = servo_frame_ocr(servo_ocr, config)
+    assert ocr.dtype == np.int32 and np.count_nonzero(ocr >= 0) == servo_ocr.size
+    assert np.array_equal(ocr[:, cmap.channel_index, cmap.slot_index], servo_ocr)
+    falls = servo_falling_edge_ticks(servo_ocr, config)
+    assert falls.dtype == np.int64
+    assert np.array_equal(falls, falling_edge_ticks(ocr, config))
+    assert np.array_equal(servo_guard_violations(servo_ocr, config), guard_violations(ocr, config))
+
+
+def test_the_channel_maps_indexes_are_kept_and_read_only() -> None:
+    cmap = ChannelMap.default()
+    assert cmap.slot_index is cmap.slot_index
+    with pytest.raises(ValueError, match="read-only"):
+        cmap.channel_index[0] = 3

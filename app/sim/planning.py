@@ -28,10 +28,11 @@ from hardware import (
     TICK_US,
     HardwareSetup,
     angles_to_pulses_us,
-    falling_edge_ticks,
-    frame_ocr,
-    guard_violations,
+    pulse_us_to_ocr,
     pulses_to_angles_rad,
+    servo_falling_edge_ticks,
+    servo_frame_ocr,
+    servo_guard_violations,
 )
 
 FRAME_S = FRAME_TICKS * TICK_US * 1e-6  # 20 ms
@@ -168,21 +169,21 @@ def plan_frames(
     if joint_delta_rad is not None:
         angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
     pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
-    ocr = frame_ocr(pulse_us, hardware.tdm)
-    fall_ticks = falling_edge_ticks(ocr, hardware.tdm)
-    slot = np.asarray(hardware.tdm.channel_map.slot_index)
+    servo_ocr = pulse_us_to_ocr(pulse_us)  # what frame_ocr places; no slot idle
+    fall_ticks = servo_falling_edge_ticks(servo_ocr, hardware.tdm)
+    slot = hardware.tdm.channel_map.slot_index
     received_us = (fall_ticks - slot * SLOT_TICKS) * TICK_US  # what the servo measured
     setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
     substep = falling_edge_substeps(fall_ticks, steps_per_frame, timestep_s)
     return FramePlan(
         phase=phase,
         angles=angles,
-        ocr=ocr,
+        ocr=servo_frame_ocr(servo_ocr, hardware.tdm),
         setpoint=setpoint,
         substep=substep,
         saturated=saturated,
         gamma_clamped=gamma_clamped,
-        guard=guard_violations(ocr, hardware.tdm),
+        guard=servo_guard_violations(servo_ocr, hardware.tdm),
         motions=motions,
     )
 

@@ -55,7 +55,8 @@ class SensorReading:
 
 def quantised(values: NDArray[np.float64], per_count: float) -> NDArray[np.float64]:
     """`values` as the part reports them: whole counts of `per_count`, within 16 bits."""
-    counts = np.clip(np.round(np.asarray(values) / per_count), *COUNT_RANGE)
+    low, high = COUNT_RANGE
+    counts = np.minimum(np.maximum(np.round(np.asarray(values) / per_count), low), high)
     return counts * per_count
 
 

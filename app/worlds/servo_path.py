@@ -15,6 +15,7 @@ from app.worlds.variations import Variation
 from gait import JOINT_NAMES
 
 N_SERVOS = len(JOINT_NAMES)
+_SERVOS = np.arange(N_SERVOS)
 
 
 def latency_steps(latency_ms: float, timestep_s: float) -> int:
@@ -83,31 +84,26 @@ class ServoPath:
 
     def _play(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
         """The play operator over the chunk, only at the steps where a servo's command changes
-        (a command that repeats leaves the output where it is). No array of the chunk's size is
-        sorted or summed (docs/DESIGN.md §8)."""
-        n = len(x)
+        (a command that repeats leaves the output where it is): each step takes the output after
+        as many changes as its servo has had so far. No array of the chunk's size is sorted
+        (docs/DESIGN.md §8)."""
         changed = np.empty(x.shape, dtype=bool)
         np.not_equal(x[0], self._last_command, out=changed[0])
         np.not_equal(x[1:], x[:-1], out=changed[1:])
-        servo, row = np.nonzero(changed.T)  # each servo's changes, in step order
-        per_servo = np.bincount(servo, minlength=N_SERVOS)
-        first = np.cumsum(per_servo) - per_servo  # where each servo's changes start in `row`
-        n_events = int(per_servo.max())
+        so_far = np.cumsum(changed, axis=0)  # (n, 12): each servo's changes up to each step
+        n_events = int(so_far[-1].max())
         held = np.empty((n_events + 1, N_SERVOS))  # output after k changes, per servo
         held[0] = self._output
         if n_events:
             # each servo's k-th new command; after its last one, its last command repeats
             events = np.tile(x[-1], (n_events, 1))
-            events[np.arange(len(servo)) - first[servo], servo] = x[row, servo]
+            step, servo = np.nonzero(changed)
+            events[so_far[step, servo] - 1, servo] = x[step, servo]
             low, high = events - self.half_width_rad, events + self.half_width_rad
             held[1:] = play_outputs(self._output, low, high)
-        result = np.empty_like(x)
-        for j in range(N_SERVOS):
-            changes = row[first[j] : first[j] + per_servo[j]]
-            result[:, j] = _spread(held[: per_servo[j] + 1, j], changes, n)
         self._last_command = x[-1].copy()
         self._output = held[n_events].copy()
-        return result
+        return held[so_far, _SERVOS]
 
 
 def play_outputs(
@@ -177,9 +173,3 @@ def acting_setpoints(
     # every servo has n_frames switches: one repeat of all 12 rows (servo-major), no loop
     counts = np.diff(switches.T, prepend=0, append=n_steps)
     return np.repeat(held.T, counts.ravel()).reshape(N_SERVOS, n_steps).T
-
-
-def _spread(held: NDArray[np.float64], switches: NDArray[np.int64], n: int) -> NDArray[np.float64]:
-    """One servo's n steps: held[0] until its first switch, held[k] from the k-th switch up to
-    the next (switch steps never decreasing, len(held) = len(switches) + 1)."""
-    return np.repeat(held, np.diff(switches, prepend=0, append=n))
