@@ -48,6 +48,7 @@ AGREEMENT = {
     "gyro_rms": 0.02,
     "feet_distance_cm": 0.08,
     "peak_torque_nm": 0.05,
+    "at_limit_share": 0.02,
     "sim_s": 0.04,
     "fall_time_s": 0.04,
 }

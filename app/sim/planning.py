@@ -7,6 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import mujoco
 import numpy as np
@@ -57,11 +58,19 @@ class FramePlan:
     motions: list[Motion]  # (n,) the motion the gait got in each frame (after the ramp)
     next_index: int = 0
 
-    def __post_init__(self) -> None:
-        # per-frame summaries, reduced once per block rather than once per frame
-        self.any_saturated = self.saturated.any(axis=-1).tolist()
-        self.any_gamma_clamped = self.gamma_clamped.any(axis=-1).tolist()
-        self.any_guard = self.guard.any(axis=(-2, -1)).tolist()
+    # per-frame summaries, reduced once per block rather than once per frame, and only by a
+    # reader that wants them (the frame loop's flags; not a closed loop's one-frame plans)
+    @cached_property
+    def any_saturated(self) -> list[bool]:
+        return self.saturated.any(axis=-1).tolist()
+
+    @cached_property
+    def any_gamma_clamped(self) -> list[bool]:
+        return self.gamma_clamped.any(axis=-1).tolist()
+
+    @cached_property
+    def any_guard(self) -> list[bool]:
+        return self.guard.any(axis=(-2, -1)).tolist()
 
     def __len__(self) -> int:
         return len(self.phase)
