@@ -10,6 +10,7 @@ core, decision 0042) and runs one batch of six worlds."""
 from __future__ import annotations
 
 import copy
+import dataclasses
 import json
 import subprocess
 import sys
@@ -177,11 +178,12 @@ def test_the_cop_law_is_refused_naming_the_cpu_backend(robot):
 
 @pytest.mark.slow
 def test_the_closed_loop_agrees_with_the_lanes(robot):
-    """The laws of the `robust` preset (tilt, yaw rate, ankle damping) run per frame for every
-    world from its sensors, noisy and delayed, beside an open-loop world in the same batch:
-    metrics within AGREEMENT of the lanes' closed loop, the same falls."""
-    laws = builtin_presets()["robust"].gait
-    assert feedback.any_law_on(laws) and not laws.cop.enabled
+    """The laws of the `robust` preset (yaw rate, ankle damping) and the tilt trim run per frame
+    for every world from its sensors, noisy and delayed, beside an open-loop world in the same
+    batch: metrics within AGREEMENT of the lanes' closed loop, the same falls."""
+    robust = builtin_presets()["robust"].gait
+    laws = dataclasses.replace(robust, tilt=dataclasses.replace(robust.tilt, enabled=True))
+    assert feedback.laws_on(laws) == ["tilt", "yaw_rate", "damping"]
     noisy = parse_variation(
         "friction=0.7,kp_scale=0.9,latency_ms=10,imu_tilt_bias_deg=1,gyro_bias_deg_s=0.3,"
         "gyro_noise_deg_s=0.1,imu_delay_ms=12"

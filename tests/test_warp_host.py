@@ -9,6 +9,7 @@ batches and a cancelled one."""
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import threading
 from pathlib import Path
@@ -40,7 +41,8 @@ from gait import GaitParams, Motion
 from tests.evaluation_support import assert_same_traces
 
 FRAMES, STEPS = 60, 20  # 1.2 s runs where no Warp steps them
-ROBUST = builtin_presets()["robust"].gait
+_ROBUST = builtin_presets()["robust"].gait
+ROBUST = dataclasses.replace(_ROBUST, tilt=dataclasses.replace(_ROBUST.tilt, enabled=True))
 #: open loop and closed, nominal and varied, a start motion, a push that fells its world
 JOBS = [
     Job(GaitParams(), Motion(a_p=0.07)),
