@@ -38,7 +38,7 @@ from mujoco import rollout
 from app.analysis.robustness import jobs_for
 from app.evaluation._measure import fallen, measure_frames, not_finite
 from app.evaluation._warp import SEGMENT_FRAMES, import_warp, warp_device
-from app.evaluation._warp_host import HostPool, Planned, measure_world, plan_batch
+from app.evaluation._warp_host import HostArray, HostPool, Planned, measure_world, plan_batch
 from app.evaluation._warp_model import _per_world_fields_put, per_world_fields
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
@@ -90,13 +90,17 @@ def measure_one(robot: RobotModel, job, start, qpos, sens, repeats: int) -> floa
 
 
 def host_processes(
-    robot: RobotModel, jobs, n_frames: int, alone: Planned, items: list, processes: int
+    robot: RobotModel, jobs, n_frames: int, alone: Planned, item: tuple, processes: int
 ) -> dict:
-    """Planning every world and measuring `items` over a pool of `processes` workers, against
-    this process (`alone`'s planning; the items measured here first): seconds and ms a world."""
+    """Planning every world and measuring as many copies of `item` (job, start, qpos, sensors)
+    over a pool of `processes` workers, the frame ends in shared memory as `WorldEnds` holds
+    them, against this process (`alone`'s planning; the items measured here first): seconds
+    and ms a world."""
     worlds, steps = len(jobs), frame_steps(robot.model)
-    here_measure_s = timed(lambda: [measure_world(robot, *item, 5.0) for item in items])
+    job, start, qpos, sens = item
+    here_measure_s = timed(lambda: [measure_world(robot, *item, 5.0) for _ in range(worlds)])
     pool = HostPool(robot, processes)
+    ends = [HostArray((len(a), worlds, a.shape[1]), shared=True) for a in (qpos, sens)]
     try:
         start_s = timed(  # the workers spawned and the project imported, one small task each
             lambda: plan_batch(robot, jobs[:processes], 1, steps, pool, None).controls.release()
@@ -113,16 +117,21 @@ def host_processes(
             )
         finally:
             pooled.controls.release()
-        measure_s = timed(lambda: pool.measure(items, 5.0, with_traces=False))
+        for shared, a in zip(ends, (qpos, sens), strict=True):
+            shared.array[:] = a[:, None, :]
+        items = [(job, start, w, len(qpos)) for w in range(worlds)]
+        measure_s = timed(lambda: pool.measure(ends, items, 5.0, with_traces=False))
     finally:
         pool.close()
+        for shared in ends:
+            shared.release()
     return {
         "processes": processes,
         "pool_start_s": start_s,
         "same_controls_and_initial_rows": same,
         "plan": {"s": plan_s, "ms_per_world": plan_s / worlds * 1e3},
-        "measure": {"s": measure_s, "ms_per_world": measure_s / len(items) * 1e3},
-        "measure_here": {"s": here_measure_s, "ms_per_world": here_measure_s / len(items) * 1e3},
+        "measure": {"s": measure_s, "ms_per_world": measure_s / worlds * 1e3},
+        "measure_here": {"s": here_measure_s, "ms_per_world": here_measure_s / worlds * 1e3},
     }
 
 
@@ -160,7 +169,7 @@ def main() -> None:
     measure_s = measure_one(robot, jobs[0], batch.starts[0], qpos, sens, repeats=20)
     worlds = len(jobs)
     item = (jobs[0], batch.starts[0], qpos.astype(np.float32), sens.astype(np.float32))
-    pool = host_processes(robot, jobs, n_frames, batch, [item] * worlds, args.processes)
+    pool = host_processes(robot, jobs, n_frames, batch, item, args.processes)
     figures = {
         "worlds": worlds,
         "variations": args.samples,

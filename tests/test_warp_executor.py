@@ -20,7 +20,14 @@ import numpy as np
 import pytest
 
 from app.analysis.robustness import RobustCase, passes
-from app.evaluation import BatchEvaluator, Cancelled, ExecutorError, Job, evaluator_for
+from app.evaluation import (
+    BatchEvaluator,
+    Cancelled,
+    ExecutorError,
+    Job,
+    evaluator_for,
+    same_results,
+)
 from app.evaluation._warp import AGREEMENT, WarpEvaluator
 from app.evaluation._warp_model import _per_world_fields_put, per_world_fields
 from app.params.presets import builtin_presets
@@ -28,6 +35,7 @@ from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import parse_variation, varied_robot
 from gait import GaitParams, Motion, feedback
+from tests.evaluation_support import assert_same_traces
 
 DURATION_S, WARMUP_S = 2.5, 1.0
 FORWARD, TURN, CURVE = Motion(a_p=0.07), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1)
@@ -134,9 +142,26 @@ def test_a_fallen_world_stops_counting_at_its_fall(warp, lanes):
 
 
 @pytest.mark.slow
+def test_the_segments_change_no_bit(robot):
+    """The controls go up and the frame ends come back per segment, the next segment launched
+    before the last is measured: one segment of the whole run and segments of 7 frames (the
+    last one short) give the same metrics and traces to the bit."""
+    jobs, runs = [JOBS[0], JOBS[4]], []
+    for frames in (60, 7):
+        traces: list = []
+        evaluator = WarpEvaluator(robot, device="cpu", segment_frames=frames, host_processes=1)
+        results = evaluator.evaluate(jobs, duration_s=1.2, warmup_s=0.3, traces=traces)
+        runs.append((results, traces))
+    (whole, whole_traces), (cut, cut_traces) = runs
+    assert same_results(cut, whole) and not any(m["fell"] for m in whole)
+    assert_same_traces(cut_traces, whole_traces)
+
+
+@pytest.mark.slow
 def test_cancel_stops_the_batch_between_segments(robot):
     """The pushed world falls in the first segment of 5 frames; its result sets `cancel`; the
-    next segment never steps."""
+    segment already in flight (launched before the first one's worlds were measured) is the
+    last one stepped."""
     falls = Job(GaitParams(), Motion(), variation=parse_variation("push_n_s=3,push_time_s=0.02"))
     evaluator = WarpEvaluator(robot, device="cpu", segment_frames=5)
     cancel, seen = threading.Event(), []
@@ -154,7 +179,7 @@ def test_cancel_stops_the_batch_between_segments(robot):
             on_result=on_result,
         )
     assert seen == [(0, True)]
-    assert evaluator.world_steps == 5 * 20 * 2
+    assert evaluator.world_steps == 2 * 5 * 20 * 2
 
 
 def test_a_cancel_set_before_the_call_runs_nothing(robot):

@@ -25,7 +25,7 @@ from app.evaluation._processes import WorkerDied
 from app.evaluation._warp import WarpEvaluator
 from app.evaluation._warp_host import (
     SHM_PREFIX,
-    Controls,
+    HostArray,
     HostPool,
     WorldEnds,
     initial_arrays,
@@ -112,7 +112,7 @@ def test_two_workers_plan_to_the_bit_of_this_process(robot, pool):
     once released."""
     jobs = JOBS * 3  # 12 worlds: 6 chunks over 2 workers, each planning its cases anew
     control, initial, starts, rows = planned_here(robot, jobs)
-    shared = Controls(control.shape, shared=True)
+    shared = HostArray(control.shape, shared=True)
     try:
         assert our_shared_memory() == [shared.name]
         got_initial = initial_arrays(robot.model, len(jobs))
@@ -152,11 +152,18 @@ def frame_ends(robot, jobs, control, starts):
 def ended_and_measured(robot, jobs, starts, qpos, sensors, pool):
     """`WorldEnds` over segments of 25 frames: what `ready` handed on after each segment."""
     ends = WorldEnds(robot, jobs, starts, FRAMES, pool)
-    handed = []
-    for first in range(0, FRAMES, 25):
-        ends.segment(qpos, sensors, first, min(25, FRAMES - first), 0.3, with_traces=True)
-        handed.append(list(ends.ready()))
-    return handed, ends.counted.tolist()
+    try:
+        assert (ends.pool is not None) == (pool is not None)  # the frame ends in shared memory
+        handed = []
+        for first in range(0, FRAMES, 25):
+            part = slice(first, min(first + 25, FRAMES))
+            ends.qpos[part], ends.sensors[part] = qpos[part], sensors[part]
+            ends.segment(first, part.stop - first, 0.3, with_traces=True)
+            handed.append(list(ends.ready()))
+        return handed, ends.counted.tolist()
+    finally:
+        ends.release()
+        assert our_shared_memory() == []
 
 
 def test_two_workers_measure_to_the_bit_of_this_process(robot, pool):
@@ -241,15 +248,16 @@ def warp_call(robot, processes: int, jobs, cancel=None, **options):
 def test_a_warp_batch_over_two_processes_gives_the_bits_of_one(robot):
     """Varied, closed-loop (`robust`'s laws) and pushed worlds: the same metrics and traces to
     the bit with the planning and measuring on two workers as in the calling process; the
-    controls were in shared memory during the call and are gone after it; closing the
-    evaluator stops its workers."""
+    controls and the frame ends were in shared memory during the call and are gone after it;
+    closing the evaluator stops its workers."""
     alone, alone_traces, no_pool, _seen = warp_call(robot, 1, JOBS)
     assert no_pool is None
     pooled, pooled_traces, pool, seen = warp_call(robot, 2, JOBS)
     assert same_results(pooled, alone)
     assert_same_traces(pooled_traces, alone_traces)
     assert [m["fell"] for m in pooled] == [False, False, False, True]  # the pushed world fell
-    assert seen and all(len(names) == 1 for names in seen)  # its controls, while they were used
+    # its controls, qpos and sensors frame ends, while they were used
+    assert seen and all(len(names) == 3 for names in seen)
     assert our_shared_memory() == []
     assert pool is not None and not pool.started  # close_evaluator stopped the workers
 

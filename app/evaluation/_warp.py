@@ -10,6 +10,7 @@ import os
 import threading
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -18,7 +19,7 @@ from app.evaluation._api import Cancelled, ExecutorError, Job, OnResult, Progres
 from app.evaluation._frames import ClosedLoop, Push
 from app.evaluation._warp_host import POOL_MIN_WORLDS, HostPool, Planned, WorldEnds, plan_batch
 from app.evaluation._warp_kernels import control_kernels
-from app.evaluation._warp_model import batch_model
+from app.evaluation._warp_model import batch_model, per_world_fields
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace
 from app.sim.planning import FRAME_S, frame_steps
@@ -203,9 +204,16 @@ class WarpEvaluator:
             raise Cancelled(f"cancelled after 0 of {len(jobs)} runs")
         n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
         t0, pool = time.perf_counter(), self._pool_for(len(jobs))
-        planned = plan_batch(self.robot, jobs, n_frames, self.steps_per_frame, pool, self._notice)
+        fields: dict[str, np.ndarray] = {}
+
+        def read_fields(robots: list[RobotModel]) -> None:  # while the workers plan
+            fields.update(per_world_fields([r.model for r in robots]))
+
+        planned = plan_batch(
+            self.robot, jobs, n_frames, self.steps_per_frame, pool, self._notice, read_fields
+        )
         try:  # the controls may be shared memory: released on every path
-            batch = _Batch(self, jobs, n_frames, planned, pool)
+            batch = _Batch(self, jobs, n_frames, planned, fields, pool)
             self.stage_s["plan"] += time.perf_counter() - t0
             return batch.run(warmup_s, progress, traces, cancel, on_result)
         finally:
@@ -230,9 +238,29 @@ class WarpEvaluator:
             )
 
 
+@dataclass
+class _Flight:
+    """A segment sent to the device (`_Batch._launch`) and not yet collected."""
+
+    first: int
+    frames: int
+    #: each frame's end qpos and sensordata on the device (frames, worlds, ...)
+    ends_q: Any
+    ends_s: Any
+    #: the host's seconds launching it; the device's events around its steps (CUDA only)
+    host_s: float = 0.0
+    began: Any = None
+    ended: Any = None
+
+
 class _Batch:
     """One call's worlds as planned (`plan_batch`): put on the device, stepped segment by
-    segment, measured (`WorldEnds`: on `pool` when the call has one)."""
+    segment, measured (`WorldEnds`: on `pool` when the call has one).
+
+    The host's work overlaps the device's: once a segment's frame ends are read back and
+    tested, the next segment goes up and is launched, and only then are the worlds that ended
+    measured and the following segment's controls copied out, while the device steps. On a
+    CUDA device the controls go up from page-locked memory."""
 
     def __init__(
         self,
@@ -240,15 +268,18 @@ class _Batch:
         jobs: Sequence[Job],
         n_frames: int,
         planned: Planned,
+        fields: dict[str, np.ndarray],
         pool: HostPool | None,
     ) -> None:
         self.owner, self.jobs, self.n_frames, self.pool = owner, jobs, n_frames, pool
         self.robots, self.starts, self.loops = planned.robots, planned.starts, planned.loops
         #: every world's ctrl of every step, float32 (worlds, steps, nu): a world's rows in one
         #: block, so a segment's controls go up as one contiguous slice per world
-        self.controls, self.initial = planned.controls, planned.initial
+        self.controls, self.initial, self.fields = planned.controls, planned.initial, fields
         self.pushes = [Push(r, j) for r, j in zip(self.robots, jobs, strict=True)]
         self.closed = any(loop is not None for loop in self.loops)  # a law on in some world
+        #: the last upload's end on a CUDA device (the host's buffer is reused after it)
+        self.uploaded: Any = None
 
     def run(
         self,
@@ -263,7 +294,7 @@ class _Batch:
         owner, wp, mjw = self.owner, self.owner._wp, self.owner._mjw
         worlds, steps, model = len(self.jobs), owner.steps_per_frame, owner.model
         t0 = time.perf_counter()
-        batch = batch_model([r.model for r in self.robots], owner.device)
+        batch = batch_model([r.model for r in self.robots], owner.device, self.fields)
         batch.opt.warn_overflow = 0  # read from `overflow` below, not printed by the device
         with wp.ScopedDevice(owner.device):
             data = mjw.make_data(model, nworld=worlds, nconmax=NCONMAX, njmax=NJMAX)
@@ -274,35 +305,66 @@ class _Batch:
         owner._announce()
         fit = CONTROL_BYTES // (steps * worlds * model.nu * 4)
         # the closed loop plans each frame from the sensors of the frame before: one a segment
-        per_segment = 1 if self.closed else max(1, min(owner.segment_frames, fit))
-        #: the segment's controls on the device (worlds, steps, nu), padded to a whole segment
-        #: (one buffer for the whole call: a captured frame reads it), and the row cursor
-        self.host_segment = np.zeros((worlds, per_segment * steps, model.nu), np.float32)
+        self.per_segment = 1 if self.closed else max(1, min(owner.segment_frames, fit))
+        shape = (worlds, self.per_segment * steps, model.nu)
         with wp.ScopedDevice(owner.device):
-            self.segment = wp.zeros(self.host_segment.shape, dtype=float)
+            #: the segment's controls on the device (worlds, steps, nu), padded to a whole
+            #: segment (one buffer for the whole call: a captured frame reads it), the row
+            #: cursor, and the host's buffer they go up from (page-locked on a CUDA device)
+            self.segment = wp.zeros(shape, dtype=float)
             self.cursor = wp.zeros(1, dtype=int)
-            rows_shape = (worlds, per_segment * steps, model.nsensordata)
+            pinned = owner.device.is_cuda
+            self.host_buffer = wp.zeros(shape, dtype=float, device="cpu", pinned=pinned)
+            self.host_segment = self.host_buffer.numpy()
+            rows_shape = (worlds, self.per_segment * steps, model.nsensordata)
             #: each step's sensordata, for the closed loop's sensors (None when open)
             self.step_rows = wp.zeros(rows_shape, dtype=float) if self.closed else None
         self.graph = self._capture(batch, data) if owner.device.is_cuda else None
-        qpos = np.empty((self.n_frames, worlds, model.nq), np.float32)
-        sensors = np.empty((self.n_frames, worlds, model.nsensordata), np.float32)
-        ends = WorldEnds(owner.robot, self.jobs, self.starts, self.n_frames, self.pool)
+        ends = WorldEnds(
+            owner.robot, self.jobs, self.starts, self.n_frames, self.pool, owner._notice
+        )
+        try:
+            return self._segments(batch, data, ends, warmup_s, progress, traces, cancel, on_result)
+        finally:
+            ends.release()
+
+    def _segments(
+        self,
+        batch: Any,
+        data: Any,
+        ends: WorldEnds,
+        warmup_s: float,
+        progress: Progress | None,
+        traces: list[Trace] | None,
+        cancel: threading.Event | None,
+        on_result: OnResult | None,
+    ) -> list[RunMetrics]:
+        """The segments, each launched before the one before it is measured (`run`)."""
+        worlds = len(self.jobs)
         results: list[RunMetrics] = []
-        step_s, done = 0.0, 0
-        while len(results) < worlds:
-            if cancel is not None and cancel.is_set():
-                raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
-            frames = min(per_segment, self.n_frames - done)
-            part = slice(done, done + frames)
-            if frames:
-                step_s += self._segment(
-                    batch, data, done, frames, qpos[part], sensors[part], ends.counting
-                )
-            t1 = time.perf_counter()
-            ends.segment(qpos, sensors, done, frames, warmup_s, traces is not None)
-            done += frames
-            owner.stage_s["measure"] += time.perf_counter() - t1
+        step_s = 0.0
+        if cancel is not None and cancel.is_set():
+            raise Cancelled(f"cancelled after 0 of {worlds} runs")
+        self._stage(0)
+        flight = self._launch(batch, data, 0, ends.counting)
+        self._stage(flight.frames)  # the next segment's rows, while the device steps
+        while flight is not None:
+            first, frames = flight.first, flight.frames
+            part = slice(first, first + frames)
+            step_s += self._collect(
+                data, flight, ends.qpos[part], ends.sensors[part], ends.counting
+            )
+            t0 = time.perf_counter()
+            ends.test(first, frames)
+            self.owner.stage_s["measure"] += time.perf_counter() - t0
+            done, flight = first + frames, None
+            if done < self.n_frames and ends.counting.any():
+                if cancel is not None and cancel.is_set():
+                    raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
+                flight = self._launch(batch, data, done, ends.counting)
+            t0 = time.perf_counter()
+            ends.measure(warmup_s, traces is not None)  # while the device steps `flight`
+            self.owner.stage_s["measure"] += time.perf_counter() - t0
             for index, metrics, trace in ends.ready():
                 metrics["wall_s"] = step_s / worlds
                 metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
@@ -313,41 +375,56 @@ class _Batch:
                     traces.append(trace)
                 if progress is not None:
                     progress(len(results), worlds)
+            if flight is None:
+                break
+            if cancel is not None and cancel.is_set():  # the segment in flight is dropped
+                raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
+            self._stage(flight.first + flight.frames)
         return results
 
-    def _segment(
-        self,
-        batch: Any,
-        data: Any,
-        first: int,
-        frames: int,
-        qpos_out: np.ndarray,
-        sensors_out: np.ndarray,
-        counting: np.ndarray,
-    ) -> float:
-        """Frames first.. of every world: their controls uploaded, stepped, each frame's end
-        qpos and sensordata into the outputs (frames, worlds, ...). Returns the stepping
-        seconds; ExecutorError when a world still `counting` overflowed the contact or
-        constraint buffers."""
+    def _stage(self, first: int) -> None:
+        """The open-loop controls of the segment from frame `first` into the host's buffer,
+        once the last upload from it has ended."""
+        owner = self.owner
+        t0 = time.perf_counter()
+        frames = min(self.per_segment, self.n_frames - first)
+        if frames > 0:
+            if self.uploaded is not None:
+                owner._wp.synchronize_event(self.uploaded)
+            rows = slice(first * owner.steps_per_frame, (first + frames) * owner.steps_per_frame)
+            self.host_segment[:, : rows.stop - rows.start] = self.controls.array[:, rows]
+        owner.stage_s["upload"] += time.perf_counter() - t0
+
+    def _launch(self, batch: Any, data: Any, first: int, counting: np.ndarray) -> _Flight:
+        """The segment from frame `first` (its open-loop controls `_stage`d) sent: a
+        closed-loop world's frame planned from its sensors so far, the controls uploaded, the
+        frames launched and their ends copied on the device. Returns at once on a CUDA device
+        (the device steps on); `_collect` waits for it."""
         owner, wp = self.owner, self.owner._wp
         worlds, steps = len(self.jobs), owner.steps_per_frame
         nq, ns = owner.model.nq, owner.model.nsensordata
+        frames = min(self.per_segment, self.n_frames - first)
         t0 = time.perf_counter()
-        # a closed-loop world's frame (one a segment) from its sensors so far
-        planned = {w: loop.plan(first, None) for w, loop in self._counting_loops(counting)}
+        for w, loop in self._counting_loops(counting):
+            self.host_segment[w, :steps] = loop.plan(first, None)
         t1 = time.perf_counter()
         owner.stage_s["laws"] += t1 - t0
         rows = slice(first * steps, (first + frames) * steps)
-        self.host_segment[:, : frames * steps] = self.controls.array[:, rows]
-        for w, control in planned.items():
-            self.host_segment[w, :steps] = control
         pushes = self._pushes(rows)
         with wp.ScopedDevice(owner.device):
-            self.segment.assign(self.host_segment)
+            wp.copy(self.segment, self.host_buffer)
+            if owner.device.is_cuda:
+                self.uploaded = wp.record_event()
             self.cursor.zero_()
-            ends_q = wp.empty((frames, worlds, nq), dtype=float)
-            ends_s = wp.empty((frames, worlds, ns), dtype=float)
+            flight = _Flight(
+                first,
+                frames,
+                wp.empty((frames, worlds, nq), dtype=float),
+                wp.empty((frames, worlds, ns), dtype=float),
+            )
             t_up = time.perf_counter()
+            if owner.device.is_cuda:
+                flight.began = wp.record_event(wp.Event(enable_timing=True))
             for f in range(frames):
                 first_step = rows.start + f * steps
                 pushed = any(first_step + k in pushes for k in range(steps))
@@ -355,28 +432,57 @@ class _Batch:
                     wp.capture_launch(self.graph)
                 else:
                     self._steps_by_hand(batch, data, pushes, first_step, t_up)
-                wp.copy(ends_q, data.qpos, dest_offset=f * worlds * nq, count=worlds * nq)
-                wp.copy(ends_s, data.sensordata, dest_offset=f * worlds * ns, count=worlds * ns)
-            qpos_out[:] = ends_q.numpy()
-            sensors_out[:] = ends_s.numpy()
+                wp.copy(flight.ends_q, data.qpos, dest_offset=f * worlds * nq, count=worlds * nq)
+                wp.copy(
+                    flight.ends_s, data.sensordata, dest_offset=f * worlds * ns, count=worlds * ns
+                )
+            if owner.device.is_cuda:
+                flight.ended = wp.record_event(wp.Event(enable_timing=True))
+        t2 = time.perf_counter()
+        owner.stage_s["upload"] += t_up - t1
+        flight.host_s = t2 - t_up
+        owner.world_steps += frames * steps * worlds
+        return flight
+
+    def _collect(
+        self,
+        data: Any,
+        flight: _Flight,
+        qpos_out: np.ndarray,
+        sensors_out: np.ndarray,
+        counting: np.ndarray,
+    ) -> float:
+        """The segment in `flight` waited for: each frame's end qpos and sensordata into the
+        outputs (frames, worlds, ...), a closed-loop world's step rows recorded. Returns its
+        stepping seconds (the device's, timed by events on a CUDA device); ExecutorError when
+        a world still `counting` overflowed the contact or constraint buffers."""
+        owner, wp = self.owner, self.owner._wp
+        t0 = time.perf_counter()
+        with wp.ScopedDevice(owner.device):
+            qpos_out[:] = flight.ends_q.numpy()
+            sensors_out[:] = flight.ends_s.numpy()
             step_rows = self.step_rows.numpy() if self.step_rows is not None else None
             overflow = np.where(counting, data.overflow.numpy() & ~_SOLVER_LIMITS, 0)
-        t2 = time.perf_counter()
+        t1 = time.perf_counter()
+        if flight.began is not None:
+            step_s = wp.get_event_elapsed_time(flight.began, flight.ended) / 1000.0
+        else:
+            step_s = flight.host_s + t1 - t0
+        owner.stage_s["step"] += step_s
         if step_rows is not None:
+            steps = owner.steps_per_frame
             for w, loop in self._counting_loops(counting):
                 loop.record(step_rows[w, :steps].astype(np.float64))
-            owner.stage_s["laws"] += time.perf_counter() - t2
-        owner.stage_s["upload"] += t_up - t1
-        owner.stage_s["step"] += t2 - t_up
-        owner.world_steps += frames * steps * worlds
+            owner.stage_s["laws"] += time.perf_counter() - t1
         if overflow.any():
             w = int(np.argmax(overflow != 0))
+            first, last = flight.first, flight.first + flight.frames - 1
             raise ExecutorError(
                 f"world {w} (job {w}) overflowed MuJoCo Warp's contact or constraint buffers "
-                f"(OverflowType {int(overflow[w])}) in frames {first}..{first + frames - 1}; "
+                f"(OverflowType {int(overflow[w])}) in frames {first}..{last}; "
                 "run these jobs with --backend cpu"
             )
-        return t2 - t_up
+        return step_s
 
     def _counting_loops(self, counting: np.ndarray) -> list[tuple[int, ClosedLoop]]:
         """The closed-loop worlds still counting, with their loops."""

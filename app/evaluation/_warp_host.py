@@ -30,6 +30,7 @@ from app.evaluation._measure import fallen, measure_frames, not_finite
 from app.evaluation._processes import WorkerDied
 from app.robots import parse_description
 from app.robots.model import RobotModel
+from app.sim.frame_loop import has_fallen
 from app.sim.metrics import RunMetrics, Trace
 from app.worlds.variations import Variation, varied_robot
 from gait import feedback
@@ -114,22 +115,24 @@ def measure_world(
     return measure_frames(robot, job, q, sensors.astype(np.float64), bad, down, warmup_s)
 
 
-class Controls:
-    """A batch's controls, `array` (worlds, steps, nu) float32 (GBs for a large study): in this
-    process's memory, or with `shared` in POSIX shared memory (named SHM_PREFIX...), which the
-    pool's workers open by `name` and write into, so that the array is never pickled.
-    `release` unlinks and unmaps the shared memory: call it on every path, and keep no view of
-    `array` past it (its pages are gone)."""
+class HostArray:
+    """A batch's large host array, `array` of `shape` and `dtype` (the controls of every step,
+    worlds x steps x nu float32, GBs for a large study; the frame ends): in this process's
+    memory, or with `shared` in POSIX shared memory (named SHM_PREFIX...), which the pool's
+    workers open by `name` to write or read it, so that the array is never pickled. `release`
+    unlinks and unmaps the shared memory: call it on every path, and keep no view of `array`
+    past it (its pages are gone)."""
 
-    def __init__(self, shape: tuple[int, int, int], *, shared: bool) -> None:
+    def __init__(self, shape: tuple[int, ...], dtype: Any = np.float32, *, shared: bool) -> None:
         self._shm: SharedMemory | None = None
+        self.dtype = np.dtype(dtype)
         if not shared:
-            self.array = np.empty(shape, np.float32)
+            self.array = np.empty(shape, self.dtype)
             return
         name = f"{SHM_PREFIX}{os.getpid()}-{secrets.token_hex(4)}"
-        size = max(1, math.prod(shape) * 4)  # shared memory of 0 bytes cannot be made
+        size = max(1, math.prod(shape) * self.dtype.itemsize)  # 0 bytes cannot be made
         self._shm = SharedMemory(name=name, create=True, size=size)
-        self.array = np.ndarray(shape, np.float32, buffer=self._shm.buf)
+        self.array = np.ndarray(shape, self.dtype, buffer=self._shm.buf)
 
     @property
     def name(self) -> str | None:
@@ -139,17 +142,21 @@ class Controls:
     def release(self) -> None:
         """The array let go of (an empty one in its place); shared memory unlinked (its name
         gone at once, its pages when the last process maps it no more). Safe to call twice."""
-        self.array = np.empty((0, 0, 0), np.float32)
+        self.array = np.empty((0,) * self.array.ndim, self.dtype)
         shm, self._shm = self._shm, None
         if shm is not None:
             shm.unlink()
             _close(shm)
 
 
-def shared_memory_short(nbytes: int) -> str | None:
-    """Why `nbytes` of controls cannot go into shared memory here, or None when they fit: a
-    /dev/shm smaller than them (a container's default is 64 MiB) would kill the writing worker
-    with SIGBUS instead of refusing."""
+def shared_memory_short(
+    nbytes: int,
+    what: str = "the batch's controls",
+    instead: str = "they are planned in this process, not over the host processes",
+) -> str | None:
+    """Why `nbytes` of `what` cannot go into shared memory here (and so `instead`), or None
+    when they fit: a /dev/shm smaller than them (a container's default is 64 MiB) would kill
+    the writing process with SIGBUS instead of refusing."""
     try:
         free = shutil.disk_usage("/dev/shm").free
     except OSError:
@@ -157,9 +164,8 @@ def shared_memory_short(nbytes: int) -> str | None:
     if free >= nbytes:
         return None
     return (
-        f"warp: the batch's controls ({nbytes / 2**30:.1f} GiB) do not fit in /dev/shm "
-        f"({free / 2**30:.1f} GiB free), so they are planned in this process, not over the "
-        "host processes"
+        f"warp: {what} ({nbytes / 2**30:.1f} GiB) do not fit in /dev/shm "
+        f"({free / 2**30:.1f} GiB free), so {instead}"
     )
 
 
@@ -235,17 +241,28 @@ def plan_chunk(
 
 def measure_chunk(
     robot_json: str,
-    items: list[tuple[Job, Start, np.ndarray, np.ndarray]],
+    ends: tuple[str, tuple[int, ...], str, tuple[int, ...]],
+    items: list[tuple[Job, Start, int, int]],
     warmup_s: float,
     with_traces: bool,
 ) -> list[Measured]:
-    """A worker's task: each (job, start, qpos, sensors) measured (`measure_world`), with its
-    trace when asked."""
+    """A worker's task: each (job, start, world, frames) measured (`measure_world`) from its
+    first `frames` frame ends in the batch's shared memory `ends` (the qpos array's name and
+    shape, then the sensors'), with its trace when asked."""
     robot = _worker_robot(robot_json)
+    q_name, q_shape, s_name, s_shape = ends
+    q_shm, s_shm = SharedMemory(name=q_name), SharedMemory(name=s_name)
     out: list[Measured] = []
-    for item in items:
-        metrics, trace = measure_world(robot, *item, warmup_s)
-        out.append((metrics, trace if with_traces else None))
+    try:
+        qpos = np.ndarray(q_shape, np.float32, buffer=q_shm.buf)
+        sensors = np.ndarray(s_shape, np.float32, buffer=s_shm.buf)
+        for job, start, w, n in items:
+            metrics, trace = measure_world(robot, job, start, qpos[:n, w], sensors[:n, w], warmup_s)
+            out.append((metrics, trace if with_traces else None))
+        del qpos, sensors
+    finally:
+        _close(q_shm)
+        _close(s_shm)
     return out
 
 
@@ -268,7 +285,7 @@ class HostPool:
         self,
         jobs: Sequence[Job],
         n_frames: int,
-        controls: Controls,
+        controls: HostArray,
         initial: dict[str, np.ndarray],
         meanwhile: Callable[[], None] | None = None,
     ) -> tuple[list[Start], dict[int, np.ndarray]]:
@@ -276,7 +293,9 @@ class HostPool:
         `initial`'s rows filled; `meanwhile` runs here while the workers plan. Returns the
         starts and the closed-loop worlds' sensor rows, by world."""
         if controls.name is None:
-            raise ValueError("the pool's workers write into shared controls: Controls(shared=True)")
+            raise ValueError(
+                "the pool's workers write into shared controls: HostArray(shared=True)"
+            )
         call, parts = secrets.token_hex(8), chunks(len(jobs), self.processes)
         shape = controls.array.shape
         tasks = [
@@ -296,13 +315,19 @@ class HostPool:
 
     def measure(
         self,
-        items: Sequence[tuple[Job, Start, np.ndarray, np.ndarray]],
+        ends: tuple[HostArray, HostArray],
+        items: Sequence[tuple[Job, Start, int, int]],
         warmup_s: float,
         with_traces: bool,
     ) -> list[Measured]:
-        """`measure_world` of each (job, start, qpos, sensors) over the workers, in order."""
+        """`measure_world` of each (job, start, world, frames) over the workers, in order, from
+        the frame ends `ends` (qpos and sensors, (frames, worlds, ...) float32, shared)."""
+        qpos, sensors = ends
+        if qpos.name is None or sensors.name is None:
+            raise ValueError("the pool's workers read shared frame ends: HostArray(shared=True)")
+        names = (qpos.name, qpos.array.shape, sensors.name, sensors.array.shape)
         tasks = [
-            (self._robot_json, list(items[part]), warmup_s, with_traces)
+            (self._robot_json, names, list(items[part]), warmup_s, with_traces)
             for part in chunks(len(items), self.processes)
         ]
         return [m for chunk in self._run(measure_chunk, tasks, "measuring") for m in chunk]
@@ -355,7 +380,7 @@ class Planned:
     starts: list[Start]
     #: every world's ctrl of every step (`controls.array`: worlds x steps x nu, float32);
     #: `controls.release()` on every path
-    controls: Controls
+    controls: HostArray
     #: each world's `INITIAL` rows
     initial: dict[str, np.ndarray]
     #: each world's loop between frames where a law is on (`ClosedLoop`, as the lanes')
@@ -369,16 +394,18 @@ def plan_batch(
     steps: int,
     pool: HostPool | None,
     notice: Callable[[str], None] | None,
+    with_robots: Callable[[list[RobotModel]], None] | None = None,
 ) -> Planned:
     """Every world planned (`plan_worlds`): on `pool` where one is given and the controls fit
     in shared memory (else here, `notice` told why), the varied robots made here meanwhile
-    (the device's model is made from them); a world with a law on gets its `ClosedLoop` here,
-    from its start. The controls are released when planning fails."""
+    and handed to `with_robots` (the device's per-world values are read from them while the
+    workers plan); a world with a law on gets its `ClosedLoop` here, from its start. The
+    controls are released when planning fails."""
     shape = (len(jobs), n_frames * steps, robot.model.nu)
     short = None if pool is None else shared_memory_short(math.prod(shape) * 4)
     if short is not None and notice is not None:
         notice(short)
-    controls = Controls(shape, shared=pool is not None and short is None)
+    controls = HostArray(shape, shared=pool is not None and short is None)
     try:
         control, initial = controls.array, initial_arrays(robot.model, len(jobs))
         varied: dict[Variation, RobotModel] = {}
@@ -386,6 +413,8 @@ def plan_batch(
 
         def make_robots() -> None:
             robots.extend(varied_robots(robot, jobs, varied))
+            if with_robots is not None:
+                with_robots(robots)
 
         if pool is not None and controls.name is not None:
             starts, first_rows = pool.plan(jobs, n_frames, controls, initial, make_robots)
@@ -404,10 +433,12 @@ def plan_batch(
 
 
 class WorldEnds:
-    """A batch's worlds as they end, in the calling process: each segment's frame ends tested
-    as the lanes test them (a world that fell or blew up stops counting), the worlds that
-    ended measured (`measure_world`, on `pool` when there is one, each world's own frames
-    sent), their results handed on in job order (`ready`)."""
+    """A batch's worlds as they end, in the calling process: every frame's end (`qpos` and
+    `sensors`, (n_frames, worlds, ...) float32, written by the caller; in shared memory when
+    the call has a pool) tested as the lanes test them (`test`: a world that fell or blew up
+    stops counting), the worlds that ended measured (`measure`: `measure_world`, on `pool`
+    when there is one, which reads their frames from the shared memory), their results handed
+    on in job order (`ready`). `release` on every path."""
 
     def __init__(
         self,
@@ -416,47 +447,74 @@ class WorldEnds:
         starts: Sequence[Start],
         n_frames: int,
         pool: HostPool | None,
+        notice: Callable[[str], None] | None = None,
     ) -> None:
-        self.robot, self.jobs, self.starts, self.n_frames, self.pool = (
-            robot, jobs, starts, n_frames, pool,
-        )  # fmt: skip
+        self.robot, self.jobs, self.starts, self.n_frames = robot, jobs, starts, n_frames
+        model, worlds = robot.model, len(jobs)
+        shapes = ((n_frames, worlds, model.nq), (n_frames, worlds, model.nsensordata))
+        nbytes = sum(math.prod(shape) * 4 for shape in shapes)
+        what, instead = "the batch's frame ends", "the worlds are measured in this process"
+        short = None if pool is None else shared_memory_short(nbytes, what, instead)
+        if short is not None and notice is not None:
+            notice(short)
+        self.pool = pool if short is None else None
+        self._ends = tuple(HostArray(shape, shared=self.pool is not None) for shape in shapes)
+        self.qpos, self.sensors = (ends.array for ends in self._ends)
+        self._heights = np.array([start.standing_height_m for start in starts])
         #: the worlds still counting, and the frames each counts (to its fall)
-        self.counting = np.ones(len(jobs), bool)
-        self.counted = np.full(len(jobs), n_frames)
-        self._measured: list[Measured | None] = [None] * len(jobs)
+        self.counting = np.ones(worlds, bool)
+        self.counted = np.full(worlds, n_frames)
+        self._measured: list[Measured | None] = [None] * worlds
         self._handed = 0
 
-    def segment(
-        self,
-        qpos: np.ndarray,
-        sensors: np.ndarray,
-        first: int,
-        frames: int,
-        warmup_s: float,
-        with_traces: bool,
-    ) -> None:
-        """Frames first.. (`frames` of them; the last segment ends every world) of `qpos` and
-        `sensors`, every frame's ends (n_frames, worlds, ...) float32, tested; the worlds that
-        ended measured from their first `counted` frames."""
-        part = slice(first, first + frames)
-        for w in np.flatnonzero(self.counting):
-            q = qpos[part, w].astype(np.float64)
-            ends = np.flatnonzero(not_finite(q) | fallen(q, self.starts[w]))
-            if ends.size:
-                self.counted[w], self.counting[w] = first + int(ends[0]) + 1, False
+    def release(self) -> None:
+        """The frame ends let go of (shared memory unlinked). Safe to call twice."""
+        self.qpos = self.sensors = np.empty((0, 0, 0), np.float32)
+        for ends in self._ends:
+            ends.release()
+
+    def test(self, first: int, frames: int) -> None:
+        """Frames first.. (`frames` of them; the last segment ends every world) of the worlds
+        still counting tested, all worlds at once with the lanes' arithmetic: a world whose
+        frame end blew up or fell counts to that frame and stops counting."""
+        part, counting = slice(first, first + frames), np.flatnonzero(self.counting)
+        if counting.size and frames:
+            q = self.qpos[part][:, counting].astype(np.float64)  # (frames, counting, nq)
+            ended = ~np.all(np.isfinite(q), axis=2) | has_fallen(q, self._heights[counting])
+            fell = ended.any(axis=0)
+            self.counted[counting[fell]] = first + np.argmax(ended[:, fell], axis=0) + 1
+            self.counting[counting[fell]] = False
         if first + frames >= self.n_frames:
             self.counting[:] = False
-        ended = [w for w in np.flatnonzero(~self.counting) if self._measured[w] is None]
-        items = []
-        for w in ended:
-            n = self.counted[w]
-            items.append((self.jobs[w], self.starts[w], qpos[:n, w], sensors[:n, w]))
-        if self.pool is None or not items:
-            now = [measure_world(self.robot, *item, warmup_s) for item in items]
+
+    def measure(self, warmup_s: float, with_traces: bool) -> None:
+        """The worlds that ended and are not measured yet measured from their first `counted`
+        frames."""
+        ended = [int(w) for w in np.flatnonzero(~self.counting) if self._measured[w] is None]
+        if not ended:
+            return
+        if self.pool is None:
+            now = [
+                measure_world(
+                    self.robot,
+                    self.jobs[w],
+                    self.starts[w],
+                    self.qpos[: self.counted[w], w],
+                    self.sensors[: self.counted[w], w],
+                    warmup_s,
+                )
+                for w in ended
+            ]
         else:
-            now = self.pool.measure(items, warmup_s, with_traces)
+            items = [(self.jobs[w], self.starts[w], w, int(self.counted[w])) for w in ended]
+            now = self.pool.measure(self._ends, items, warmup_s, with_traces)
         for w, result in zip(ended, now, strict=True):
             self._measured[w] = result
+
+    def segment(self, first: int, frames: int, warmup_s: float, with_traces: bool) -> None:
+        """`test` frames first.., then `measure` the worlds that ended."""
+        self.test(first, frames)
+        self.measure(warmup_s, with_traces)
 
     def ready(self) -> Iterator[tuple[int, RunMetrics, Trace | None]]:
         """(job index, metrics, trace) of each world measured and not yet handed on whose

@@ -135,14 +135,18 @@ def _per_world_fields_put(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndar
     return {name: np.stack([flats[r][name][0][0] for r in rows]) for name in differ}
 
 
-def batch_model(models: Sequence[mujoco.MjModel], device: Any) -> Any:
+def batch_model(
+    models: Sequence[mujoco.MjModel], device: Any, fields: dict[str, np.ndarray] | None = None
+) -> Any:
     """A `mujoco_warp.Model` on `device` for the worlds of `models` (one per world): the first
-    world's model, with every field in which the worlds differ held per world
-    (`per_world_fields`). ExecutorError as `per_world_fields`."""
+    world's model, with every field in which the worlds differ held per world: `fields` where
+    the caller read them already, else `per_world_fields(models)`. ExecutorError as
+    `per_world_fields`."""
     import mujoco_warp as mjw
     import warp as wp
 
-    fields = per_world_fields(models)
+    if fields is None:
+        fields = per_world_fields(models)
     with wp.ScopedDevice(device):
         batch = mjw.put_model(models[0])
         for name, values in fields.items():
