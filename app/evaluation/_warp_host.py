@@ -57,12 +57,20 @@ def varied_robots(
     robot: RobotModel, jobs: Sequence[Job], varied: dict[Variation, RobotModel]
 ) -> list[RobotModel]:
     """Each job's robot as its variation's physics varies it, one per distinct variation, kept
-    in `varied` (a varied model is ~2.6 ms to make, shared by the variation's every case)."""
+    in `varied` (a varied model is ~2.6 ms to make, shared by the variation's every case). A
+    variation's physics (a new, checked Variation each time it is asked for) is asked once
+    per Variation object: a study's cases share theirs."""
+    physics_of: dict[int, Variation] = {}
+    out: list[RobotModel] = []
     for job in jobs:
-        physics = job.variation.physics
-        if physics not in varied:
-            varied[physics] = robot if physics.is_nominal else varied_robot(robot, physics)
-    return [varied[job.variation.physics] for job in jobs]
+        physics = physics_of.get(id(job.variation))
+        if physics is None:
+            physics = physics_of[id(job.variation)] = job.variation.physics
+        world = varied.get(physics)
+        if world is None:
+            world = varied[physics] = robot if physics.is_nominal else varied_robot(robot, physics)
+        out.append(world)
+    return out
 
 
 def initial_arrays(model: mujoco.MjModel, worlds: int) -> dict[str, np.ndarray]:

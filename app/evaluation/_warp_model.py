@@ -61,6 +61,27 @@ def _mj_value(model: mujoco.MjModel, name: str) -> Any:
     return value if isinstance(value, (np.ndarray, int, float)) else None
 
 
+def _moved(named: dict[str, Any], models: Sequence[mujoco.MjModel]) -> list[set[str]]:
+    """For each of `models`, the names of `named` (MjModel fields and the first model's
+    values) in which it differs from those values (`_same`'s rule: NaN equals NaN), each field
+    compared for all the models at once."""
+    moved: list[set[str]] = [set() for _ in models]
+    for name, value in named.items():
+        first = np.asarray(value)
+        rows = [np.asarray(_mj_value(m, name)) for m in models]
+        if any(row.shape != first.shape for row in rows):  # not one array: one by one
+            differ = [not _same(value, row) for row in rows]
+        else:
+            stacked = np.stack(rows) if rows else np.empty((0, *first.shape), first.dtype)
+            equal = stacked == first
+            if first.dtype.kind == "f":
+                equal |= np.isnan(stacked) & np.isnan(first)
+            differ = list(~equal.reshape(len(rows), -1).all(axis=1))
+        for i in np.flatnonzero(differ):
+            moved[i].add(name)
+    return moved
+
+
 def _differing(flats: Sequence[dict[str, tuple[Any, bool]]]) -> list[str]:
     """The fields whose host values are not the same in all of `flats` (put models)."""
     first = flats[0]
@@ -104,17 +125,24 @@ def per_world_fields(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
     with wp.ScopedDevice("cpu"):  # host copies to compare: nothing goes to the batch's device
         first = _flat(mjw.put_model(firsts[0]))
         named = {name: v for name in first if (v := _mj_value(firsts[0], name)) is not None}
-        moved = [{n for n, v in named.items() if not _same(v, _mj_value(m, n))} for m in firsts[1:]]
+        moved = _moved(named, firsts[1:])
         probe = max(range(len(moved)), key=lambda i: len(moved[i]))
         pair = [first, _flat(mjw.put_model(firsts[probe + 1]))]
     differ = _differing(pair)
     if set(differ) != moved[probe] or any(not m <= moved[probe] for m in moved):
         return _per_world_fields_put(models)
     _refuse(first, differ)
+    rows = _rows(models)  # read once per distinct model, then one row per world
     return {
-        name: np.stack([np.asarray(_mj_value(m, name), first[name][0].dtype) for m in models])
+        name: np.stack([np.asarray(_mj_value(m, name), first[name][0].dtype) for m in firsts])[rows]
         for name in differ
     }
+
+
+def _rows(models: Sequence[mujoco.MjModel]) -> np.ndarray:
+    """Each world's index among the distinct models, in the order they first appear."""
+    distinct: dict[int, int] = {}
+    return np.array([distinct.setdefault(id(m), len(distinct)) for m in models])
 
 
 def _per_world_fields_put(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
@@ -123,16 +151,13 @@ def _per_world_fields_put(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndar
     import mujoco_warp as mjw
     import warp as wp
 
-    distinct: dict[int, int] = {}
-    for model in models:
-        distinct.setdefault(id(model), len(distinct))
-    firsts = {id(m): m for m in models}
+    firsts = list({id(m): m for m in models}.values())
     with wp.ScopedDevice("cpu"):
-        flats = [_flat(mjw.put_model(firsts[key])) for key in distinct]
+        flats = [_flat(mjw.put_model(model)) for model in firsts]
     differ = _differing(flats)
     _refuse(flats[0], differ)
-    rows = [distinct[id(m)] for m in models]
-    return {name: np.stack([flats[r][name][0][0] for r in rows]) for name in differ}
+    rows = _rows(models)
+    return {name: np.stack([flat[name][0][0] for flat in flats])[rows] for name in differ}
 
 
 def batch_model(
