@@ -325,7 +325,8 @@ class _Batch:
         )
         try:
             return self._segments(batch, data, ends, warmup_s, progress, traces, cancel, on_result)
-        finally:
+        finally:  # a segment may still be in flight (Cancelled, an error): its upload reads
+            wp.synchronize_device(owner.device)  # the host's buffer, freed with this batch
             ends.release()
 
     def _segments(
