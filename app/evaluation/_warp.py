@@ -291,6 +291,59 @@ class _Batch:
     ) -> list[RunMetrics]:
         """Step segment by segment until every world fell or ran its frames, `cancel` looked
         at between segments; results and callbacks in job order as worlds finish."""
+        batch, data = self._put()
+        ends = WorldEnds(
+            self.owner.robot, self.jobs, self.starts, self.n_frames, self.pool, self.owner._notice
+        )
+        try:  # each segment launched before the one before it is measured
+            worlds = len(self.jobs)
+            results: list[RunMetrics] = []
+            step_s = 0.0
+            if cancel is not None and cancel.is_set():
+                raise Cancelled(f"cancelled after 0 of {worlds} runs")
+            self._stage(0)
+            flight = self._launch(batch, data, 0, ends.counting)
+            self._stage(flight.frames)  # the next segment's rows, while the device steps
+            while flight is not None:
+                first, frames = flight.first, flight.frames
+                part = slice(first, first + frames)
+                step_s += self._collect(
+                    data, flight, ends.qpos[part], ends.sensors[part], ends.counting
+                )
+                t0 = time.perf_counter()
+                ends.test(first, frames)
+                self.owner.stage_s["measure"] += time.perf_counter() - t0
+                done, flight = first + frames, None
+                if done < self.n_frames and ends.counting.any():
+                    if cancel is not None and cancel.is_set():
+                        raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
+                    flight = self._launch(batch, data, done, ends.counting)
+                t0 = time.perf_counter()
+                ends.measure(warmup_s, traces is not None)  # while the device steps `flight`
+                self.owner.stage_s["measure"] += time.perf_counter() - t0
+                for index, metrics, trace in ends.ready():
+                    metrics["wall_s"] = step_s / worlds
+                    metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
+                    if on_result is not None:
+                        on_result(index, metrics)
+                    results.append(metrics)
+                    if traces is not None and trace is not None:  # a trace comes when asked
+                        traces.append(trace)
+                    if progress is not None:
+                        progress(len(results), worlds)
+                if flight is None:
+                    break
+                if cancel is not None and cancel.is_set():  # the segment in flight is dropped
+                    raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
+                self._stage(flight.first + flight.frames)
+            return results
+        finally:  # a segment may still be in flight (Cancelled, an error): its upload reads
+            self.owner._wp.synchronize_device(self.owner.device)  # the host's buffer, freed
+            ends.release()  # with this batch
+
+    def _put(self) -> tuple[Any, Any]:
+        """The batch's model and data on the device, the segment's buffers made, a frame
+        captured as a CUDA graph where it can be."""
         owner, wp, mjw = self.owner, self.owner._wp, self.owner._mjw
         worlds, steps, model = len(self.jobs), owner.steps_per_frame, owner.model
         t0 = time.perf_counter()
@@ -320,68 +373,7 @@ class _Batch:
             #: each step's sensordata, for the closed loop's sensors (None when open)
             self.step_rows = wp.zeros(rows_shape, dtype=float) if self.closed else None
         self.graph = self._capture(batch, data) if owner.device.is_cuda else None
-        ends = WorldEnds(
-            owner.robot, self.jobs, self.starts, self.n_frames, self.pool, owner._notice
-        )
-        try:
-            return self._segments(batch, data, ends, warmup_s, progress, traces, cancel, on_result)
-        finally:  # a segment may still be in flight (Cancelled, an error): its upload reads
-            wp.synchronize_device(owner.device)  # the host's buffer, freed with this batch
-            ends.release()
-
-    def _segments(
-        self,
-        batch: Any,
-        data: Any,
-        ends: WorldEnds,
-        warmup_s: float,
-        progress: Progress | None,
-        traces: list[Trace] | None,
-        cancel: threading.Event | None,
-        on_result: OnResult | None,
-    ) -> list[RunMetrics]:
-        """The segments, each launched before the one before it is measured (`run`)."""
-        worlds = len(self.jobs)
-        results: list[RunMetrics] = []
-        step_s = 0.0
-        if cancel is not None and cancel.is_set():
-            raise Cancelled(f"cancelled after 0 of {worlds} runs")
-        self._stage(0)
-        flight = self._launch(batch, data, 0, ends.counting)
-        self._stage(flight.frames)  # the next segment's rows, while the device steps
-        while flight is not None:
-            first, frames = flight.first, flight.frames
-            part = slice(first, first + frames)
-            step_s += self._collect(
-                data, flight, ends.qpos[part], ends.sensors[part], ends.counting
-            )
-            t0 = time.perf_counter()
-            ends.test(first, frames)
-            self.owner.stage_s["measure"] += time.perf_counter() - t0
-            done, flight = first + frames, None
-            if done < self.n_frames and ends.counting.any():
-                if cancel is not None and cancel.is_set():
-                    raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
-                flight = self._launch(batch, data, done, ends.counting)
-            t0 = time.perf_counter()
-            ends.measure(warmup_s, traces is not None)  # while the device steps `flight`
-            self.owner.stage_s["measure"] += time.perf_counter() - t0
-            for index, metrics, trace in ends.ready():
-                metrics["wall_s"] = step_s / worlds
-                metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
-                if on_result is not None:
-                    on_result(index, metrics)
-                results.append(metrics)
-                if traces is not None and trace is not None:  # a trace comes when asked
-                    traces.append(trace)
-                if progress is not None:
-                    progress(len(results), worlds)
-            if flight is None:
-                break
-            if cancel is not None and cancel.is_set():  # the segment in flight is dropped
-                raise Cancelled(f"cancelled after {len(results)} of {worlds} runs")
-            self._stage(flight.first + flight.frames)
-        return results
+        return batch, data
 
     def _stage(self, first: int) -> None:
         """The open-loop controls of the segment from frame `first` into the host's buffer,
