@@ -4,8 +4,8 @@ trim swung the trunk's pitch into falls on soft servos, decision 0040), its stan
 0.03 rad forward (the balance offset of eq (38)) and its clock 2.5 % faster, read-only like
 every built-in. On the nominal model it walks the paper's table within 25 % without a fall, CA
 steering the right way, and its yaw-rate loop makes CA turn as eq (13) says within 30 %, forward
-and backward: what no open-loop gait on this model reached (models/README.md). Leaning forward costs the tuner's mirror rule: backward
-walks ~20 % faster than forward (decision 0040)."""
+and backward: what no open-loop gait on this model reached (models/README.md). Leaning forward
+costs the tuner's mirror rule: backward walks ~20 % faster than forward (decision 0040)."""
 
 import dataclasses
 
