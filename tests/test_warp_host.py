@@ -158,7 +158,8 @@ def ended_and_measured(robot, jobs, starts, qpos, sensors, pool):
         for first in range(0, FRAMES, 25):
             part = slice(first, min(first + 25, FRAMES))
             ends.qpos[part], ends.sensors[part] = qpos[part], sensors[part]
-            ends.segment(first, part.stop - first, 0.3, with_traces=True)
+            ends.test(first, part.stop - first)
+            ends.measure(0.3, with_traces=True)
             handed.append(list(ends.ready()))
         return handed, ends.counted.tolist()
     finally:

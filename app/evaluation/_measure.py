@@ -21,8 +21,8 @@ def fallen(qpos: np.ndarray, start: Start) -> np.ndarray:
 
 
 def not_finite(qpos: np.ndarray) -> np.ndarray:
-    """(frames,) bool: the frame-end states `qpos` (frames, nq) that blew up to inf or NaN."""
-    return ~np.all(np.isfinite(qpos), axis=1)
+    """(...) bool: the frame-end states `qpos` (..., nq) that blew up to inf or NaN."""
+    return ~np.all(np.isfinite(qpos), axis=-1)
 
 
 def measure_frames(

@@ -488,7 +488,7 @@ class WorldEnds:
         part, counting = slice(first, first + frames), np.flatnonzero(self.counting)
         if counting.size and frames:
             q = self.qpos[part][:, counting].astype(np.float64)  # (frames, counting, nq)
-            ended = ~np.all(np.isfinite(q), axis=2) | has_fallen(q, self._heights[counting])
+            ended = not_finite(q) | has_fallen(q, self._heights[counting])
             fell = ended.any(axis=0)
             self.counted[counting[fell]] = first + np.argmax(ended[:, fell], axis=0) + 1
             self.counting[counting[fell]] = False
@@ -518,11 +518,6 @@ class WorldEnds:
             now = self.pool.measure(self._ends, items, warmup_s, with_traces)
         for w, result in zip(ended, now, strict=True):
             self._measured[w] = result
-
-    def segment(self, first: int, frames: int, warmup_s: float, with_traces: bool) -> None:
-        """`test` frames first.., then `measure` the worlds that ended."""
-        self.test(first, frames)
-        self.measure(warmup_s, with_traces)
 
     def ready(self) -> Iterator[tuple[int, RunMetrics, Trace | None]]:
         """(job index, metrics, trace) of each world measured and not yet handed on whose
