@@ -48,12 +48,13 @@ import numpy as np
 import results
 
 from app.evaluation import BatchEvaluator, Job
-from app.evaluation._lanes import STATE_SPEC
+from app.evaluation._lanes import SEGMENT_FRAMES, STATE_SPEC, _LaneKit
 from app.evaluation._processes import ProcessEvaluator
+from app.params.presets import builtin_presets
 from app.sim.planning import FRAME_S, frame_steps
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import NOMINAL
-from gait import GaitParams, Motion
+from gait import GaitParams, Motion, feedback
 from gait.params import LAW_GROUPS
 
 CEILING_GOAL = 0.95  # end to end, of N raw processes at once
@@ -189,10 +190,34 @@ def planning_alone_ms(jobs: list[Job], seconds: float) -> float:
 CLOSED_GOAL = 1.10  # a closed-loop run's CPU, of the same run's open loop
 
 
-def with_every_law(job: Job) -> Job:
-    """The job with every feedback law on at its default gains (the most a run can cost)."""
-    on = {g: dataclasses.replace(getattr(job.params, g), enabled=True) for g in LAW_GROUPS}
+def with_laws(job: Job, groups: tuple[str, ...] = LAW_GROUPS) -> Job:
+    """The job with the feedback laws of `groups` on at their default gains (all of them: the
+    most a run can cost; those `robust` switches on: what the shipped loop costs)."""
+    on = {g: dataclasses.replace(getattr(job.params, g), enabled=True) for g in groups}
     return dataclasses.replace(job, params=dataclasses.replace(job.params, **on))
+
+
+def rollout_cpu_s(jobs: list[Job], frames: int, frames_per_call: int) -> float:
+    """CPU seconds to roll the runs' open-loop control out, planned before, in `rollout` calls
+    of `frames_per_call` frames each from the last call's state and warm start, as a lane does
+    (one frame a call: what a closed loop pays for its calls alone, before any Python of its
+    own). Runs that fall are rolled out to the end: both call sizes step the same."""
+    evaluator = BatchEvaluator(threads=1)
+    kit, steps = _LaneKit(evaluator.model), evaluator.steps_per_frame
+    planned = [evaluator._plan_run(job, frames, kit.data) for job in jobs]
+    start = time.process_time()
+    for robot, begin, control in planned:
+        state, sensors = kit.output(control.shape[0])
+        initial, warmstart = begin.state[None, :], None
+        for first in range(0, frames, frames_per_call):
+            part = slice(first * steps, min(first + frames_per_call, frames) * steps)
+            kit.rollout.rollout(
+                [robot.model], [kit.data], initial, control[None, part],
+                initial_warmstart=warmstart, state=state[:, part], sensordata=sensors[:, part],
+                nstep=part.stop - part.start, skip_checks=True,
+            )  # fmt: skip
+            initial, warmstart = state[:, part.stop - 1], kit.data.qacc_warmstart[None].copy()
+    return time.process_time() - start
 
 
 def cpu_s_per_sim_s(evaluator: BatchEvaluator, jobs: list[Job], seconds: float) -> float:
@@ -360,31 +385,51 @@ def main() -> None:
             "then say how many cores were free, the per-CPU-second figures how efficient the "
             "batch is"
         )
-    # the closed loop: the varied walks with every law on against the same walks open loop,
-    # CPU per simulated second (a run that falls stops: per second keeps them comparable)
-    closed_jobs = [with_every_law(j) for j in kinds["varied"]]
-    ratios = []
+    # the closed loop: the varied walks with every law on, and with `robust`'s laws, against
+    # the same walks open loop, CPU per simulated second (a run that falls stops: per second
+    # keeps them comparable); and its floor, the open loop's control rolled out a frame a call
+    robust_laws = tuple(feedback.laws_on(builtin_presets()["robust"].gait))
+    loops = {"every law": LAW_GROUPS, "robust's laws": robust_laws}
+    closed_jobs = {
+        name: [with_laws(j, groups) for j in kinds["varied"]] for name, groups in loops.items()
+    }
+    ratios: dict[str, list[float]] = {name: [] for name in loops}
+    floors = []
     for _ in range(args.repeats):
         open_cpu = cpu_s_per_sim_s(evaluators["varied"], kinds["varied"], args.seconds)
-        closed_cpu = cpu_s_per_sim_s(evaluators["varied"], closed_jobs, args.seconds)
-        ratios.append(closed_cpu / open_cpu)
+        for name, jobs in closed_jobs.items():
+            closed_cpu = cpu_s_per_sim_s(evaluators["varied"], jobs, args.seconds)
+            ratios[name].append(closed_cpu / open_cpu)
+        floor_jobs = kinds["varied"][: max(2, len(kinds["varied"]) // 8)]
+        floors.append(
+            rollout_cpu_s(floor_jobs, frames, 1) / rollout_cpu_s(floor_jobs, frames, SEGMENT_FRAMES)
+        )
     figures["closed_loop"] = {
-        "laws": list(LAW_GROUPS),
-        "open_cpu_s_per_sim_s": open_cpu,
-        "closed_cpu_s_per_sim_s": closed_cpu,
-        "of_open": statistics.median(ratios),
-        "of_open_repeats": sorted(ratios),
+        "laws": {name: list(groups) for name, groups in loops.items()},
+        "of_open": {name: statistics.median(r) for name, r in ratios.items()},
+        "of_open_repeats": {name: sorted(r) for name, r in ratios.items()},
+        "floor_one_frame_per_call_of_open": statistics.median(floors),
+        "floor_repeats": sorted(floors),
         "goal_of_open_max": CLOSED_GOAL,
     }
+    for name, r in ratios.items():
+        print(
+            f"closed loop, varied, {name} on: CPU per simulated s {statistics.median(r):.2f} "
+            f"of the open loop's (repeats {min(r):.2f}…{max(r):.2f}; goal ≤ {CLOSED_GOAL})"
+        )
     print(
-        f"closed loop, varied, every law on: {closed_cpu:.4f} CPU s per simulated s against "
-        f"{open_cpu:.4f} open = {statistics.median(ratios):.2f} of the open loop (goal ≤ "
-        f"{CLOSED_GOAL})"
+        f"closed loop's floor, the open loop's control a frame a rollout call: "
+        f"{statistics.median(floors):.3f} of {SEGMENT_FRAMES} frames a call (repeats "
+        f"{min(floors):.3f}…{max(floors):.3f}): what is left of the goal for the Python per frame"
     )
     headline = {}
-    headline[f"closed loop: CPU of the open loop's (goal ≤ {CLOSED_GOAL})"] = statistics.median(
-        ratios
-    )
+    for name in loops:
+        headline[f"closed loop, {name}: CPU of the open loop's (goal ≤ {CLOSED_GOAL})"] = figures[
+            "closed_loop"
+        ]["of_open"][name]
+    headline["closed loop's floor: a frame a rollout call, CPU of the open loop's"] = figures[
+        "closed_loop"
+    ]["floor_one_frame_per_call_of_open"]
     for kind, k in figures["kinds"].items():
         headline[f"{kind}: batch end to end, of the ceiling (goal ≥ {CEILING_GOAL})"] = k["batch"][
             "of_ceiling"

@@ -127,7 +127,8 @@ def step(
     waits (its state unchanged, no trim), the other laws act. Tilt trim: the
     tilt error (estimate - `expected_tilt`), low-passed, past the dead band, integrated (ki) plus
     kp times it, each clamped; pitch trim on both ankles' pitch (toes down for a forward lean),
-    roll trim on the hips' roll (left out, right in for a lean to the right). Yaw rate: the
+    roll trim, times `roll_share`, on the hips' roll (left out, right in for a lean to the
+    right). Yaw rate: the
     error of the gyro's rate against `commanded_turn_rate`, low-passed, PI, clamped, on a_y
     (a_y > 0 turns clockwise). Damping: ankles and hips against the trunk's pitch and roll
     rates. CoP: the support foot's ankle pitch and roll against its centre of pressure (PID)."""
@@ -153,6 +154,7 @@ def step(
         limit = F32(t.clamp_rad)
         integral = _clip(state.tilt_integral + F32(t.ki_per_s * dt_s) * past, limit)
         tilt = _clip(integral + F32(t.kp) * past, limit).astype(F32)
+        tilt[1] *= F32(t.roll_share)  # 1: the same bits as without the share
         new.update(tilt_error=filtered, tilt_integral=integral)
         delta[list(ANKLE_PITCH)] -= tilt[0]  # toes down against a forward lean
         delta[list(HIP_ROLL)] += tilt[1] * OUTWARD

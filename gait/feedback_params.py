@@ -28,7 +28,7 @@ class AttitudeParams:
 class TiltParams:
     """Tilt trim: the estimated pitch and roll against the tilt the motion is expected to have,
     filtered, past a dead band, integrated and clamped, on the balance offsets of eqs (38)–(39)
-    (foot pitch; leg roll with the foot kept level)."""
+    (foot pitch; leg roll with the foot kept level), the roll's scaled by `roll_share`."""
 
     enabled: bool = _switch("trim the balance offsets from the trunk's tilt", default=False)
     pitch_offset_rad: float = _param(
@@ -58,6 +58,10 @@ class TiltParams:
     clamp_rad: float = _param(
         0.1, 0.0, 0.3, step=0.005, unit="rad", eq="", doc="largest trim, each of pitch and roll"
     )
+    roll_share: float = _param(
+        1.0, 0.0, 1.0, step=0.05, unit="1", eq="",
+        doc="the roll trim the hips get, a share of the law's (1: as pitch; 0: pitch only)",
+    )  # fmt: skip
 
     def __post_init__(self) -> None:
         _check_ranges(self)

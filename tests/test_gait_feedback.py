@@ -126,6 +126,20 @@ def test_tilt_trim_rolls_the_hips_against_a_lean_and_stops_at_its_clamp():
     assert left == pytest.approx(0.04) and right == pytest.approx(-0.04)  # left out, right in
 
 
+@pytest.mark.parametrize("share", [0.0, 0.5])
+def test_the_roll_share_scales_the_hips_roll_trim_and_leaves_the_pitch_trim(share):
+    lean = leaning(pitch=0.08, roll=0.1)
+    whole = TiltParams(enabled=True, ki_per_s=0.5, kp=0.2, clamp_rad=0.1)
+    _, full = run(GaitParams(tilt=whole), lean, 30)
+    state, out = run(GaitParams(tilt=dataclasses.replace(whole, roll_share=share)), lean, 30)
+    assert 0.0 < full.tilt_rad[1] < 0.1  # the law's roll trim, not clamped
+    assert out.tilt_rad[0] == full.tilt_rad[0]  # pitch as before, to the bit
+    assert out.tilt_rad[1] == pytest.approx(share * full.tilt_rad[1], rel=1e-6)
+    left, right = out.joint_delta_rad[list(HIP_ROLL)]
+    assert left == pytest.approx(share * full.tilt_rad[1]) and right == -left
+    assert state.tilt_integral[1] > 0.0  # the law runs on: the share scales what the hips get
+
+
 def test_the_expected_tilt_follows_the_motion():
     tilt = TiltParams(pitch_offset_rad=0.03, pitch_per_a_p=0.5, roll_per_a_r=-0.2)
     np.testing.assert_allclose(

@@ -72,7 +72,7 @@ def _moved(named: dict[str, Any], models: Sequence[mujoco.MjModel]) -> list[set[
         if any(row.shape != first.shape for row in rows):  # not one array: one by one
             differ = [not _same(value, row) for row in rows]
         else:
-            stacked = np.stack(rows) if rows else np.empty((0, *first.shape), first.dtype)
+            stacked = np.stack(rows)  # the caller passes at least one model
             equal = stacked == first
             if first.dtype.kind == "f":
                 equal |= np.isnan(stacked) & np.isnan(first)

@@ -103,6 +103,7 @@ static void tilt_trim(law_state_t *s, law_output_t *out)
         s->tilt_error[k] = filtered;
         s->tilt_integral[k] = integral;
     }
+    out->tilt[1] *= P(TILT_ROLL_SHARE); /* 1: the roll trim as the law gives it */
     for (uint8_t leg = 0; leg < 2; leg++) {
         out->joint_delta[ANKLE_PITCH[leg]] -= out->tilt[0]; /* toes down against a forward lean */
         out->joint_delta[HIP_ROLL[leg]] += out->tilt[1] * OUTWARD[leg];
