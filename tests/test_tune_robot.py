@@ -6,7 +6,6 @@ start runs as written on a robot this test writes. Commands run in this process 
 
 from __future__ import annotations
 
-import dataclasses
 import re
 import shlex
 from pathlib import Path
@@ -92,12 +91,22 @@ def test_the_clock_scales_by_the_square_root_of_the_leg_ratio():
     assert scaled_freq_hz(0.3, 0.09, 0.9) == 0.2  # 0.095 Hz held at its bottom
 
 
-def test_scaling_changes_the_clock_alone():
-    tuned = builtin_presets()["tuned"].gait
-    scaled = scaled_gait(tuned, 0.18, 0.234)
-    assert scaled.clock.freq_hz == pytest.approx(0.599125, abs=2e-6)
-    changed = {k for k, v in scaled.flat().items() if v != tuned.flat()[k]}
-    assert changed == {"clock.freq_hz"}
+@pytest.mark.parametrize("name", ["tuned", "robust"])
+def test_scaling_changes_the_clock_and_the_yaw_loops_lengths_alone(name):
+    gait = builtin_presets()[name].gait
+    scaled = scaled_gait(gait, 0.18, 0.234)
+    assert scaled.clock.freq_hz == pytest.approx(
+        scaled_freq_hz(gait.clock.freq_hz, 0.18, 0.234), abs=2e-6
+    )
+    # lengths and speeds with the leg (x 1.3): eq (13)'s rate for a CA stays the same
+    assert scaled.yaw_rate.axle_m == pytest.approx(gait.yaw_rate.axle_m * 1.3, abs=1e-6)
+    assert scaled.yaw_rate.speed_per_a_p == pytest.approx(
+        gait.yaw_rate.speed_per_a_p * 1.3, abs=1e-6
+    )
+    changed = {k for k, v in scaled.flat().items() if v != gait.flat()[k]}
+    assert changed == {"clock.freq_hz", "yaw_rate.axle_m", "yaw_rate.speed_per_a_p"}
+    tiny = scaled_gait(gait, 0.18, 0.01)  # held within the schema's ranges
+    assert tiny.yaw_rate.axle_m == 0.02
 
 
 def test_the_start_of_a_file_robot_is_its_nearest_preset_scaled(tmp_path):
@@ -105,9 +114,8 @@ def test_the_start_of_a_file_robot_is_its_nearest_preset_scaled(tmp_path):
     start = start_for(small, builtin_presets())
     assert (start.preset, start.leg_ref_m, start.leg_m) == ("micro-tuned", 0.09, 0.12)
     micro = builtin_presets()["micro-tuned"].gait
-    assert start.gait == dataclasses.replace(
-        micro, clock=dataclasses.replace(micro.clock, freq_hz=scaled_freq_hz(0.910486, 0.09, 0.12))
-    )
+    assert start.gait == scaled_gait(micro, 0.09, 0.12)
+    assert start.gait.clock.freq_hz == scaled_freq_hz(0.910486, 0.09, 0.12)
     assert "'micro-tuned'" in start.describe() and "0.789 Hz" in start.describe()
 
 
@@ -153,10 +161,11 @@ def test_tune_robot_without_base_saves_tuned_robot_among_the_presets(work, capsy
     chosen = resolve_set("tuned-big", "--params")  # what every --params and the dashboard do
     assert chosen.path == saved and not chosen.builtin
     assert chosen.pset.name == "tuned-big" and chosen.pset.robot == "big"
-    # the recipe's fields were searched around the scaled start: the others are tuned's
+    # the recipe's fields were searched around the scaled start: the others are tuned's (the
+    # yaw-rate loop's lengths scaled with the legs)
     tuned = builtin_presets()["tuned"].gait.flat()
     moved = {k for k, v in chosen.pset.gait.flat().items() if v != tuned[k]}
-    assert moved and moved <= set(START_RECIPE.names)
+    assert moved and moved <= {*START_RECIPE.names, "yaw_rate.axle_m", "yaw_rate.speed_per_a_p"}
     # -o also writes the file where asked; the same study replays
     again = ["tune", "--robot", str(robot), *TINY_TUNE, "--study", "s.log", "-o", "t.json"]
     assert main(again) == 0

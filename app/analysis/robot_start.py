@@ -95,18 +95,37 @@ def scaled_freq_hz(freq_ref_hz: float, leg_ref_m: float, leg_m: float) -> float:
     return round(min(max(freq, meta["min"]), meta["max"]), 6)
 
 
+def _scaled_field(group: str, field: str, value: float, ratio: float) -> float:
+    """`value` × `ratio`, within the field's range, to 6 digits."""
+    meta = next(m for f, _d, m in describe_fields(group_class(group)) if f == field)
+    return round(min(max(value * ratio, meta["min"]), meta["max"]), 6)
+
+
 def scaled_gait(gait: GaitParams, leg_ref_m: float, leg_m: float) -> GaitParams:
     """`gait` (tuned for a leg of `leg_ref_m`) for a leg of `leg_m`.
 
-    The gait's fields are angles (rad), shares of the leg length (eq (3)'s η, the shortening
-    amplitudes) or plain ratios, none a length (no field of `gait.params` has a unit of m): a
-    gait of the same values on a leg s times as long is geometrically similar, so every field
-    but the clock is kept. The clock is a pendulum's, f = f_ref × √(L_ref / L) (Froude
-    similarity, f ∝ √(g/L)), within the schema's range. Speeds then scale with L (the
-    targets, DESIGN §7), turn rates do not.
+    The gait's own fields are angles (rad), shares of the leg length (eq (3)'s η, the
+    shortening amplitudes) or plain ratios, none a length: a gait of the same values on a leg s
+    times as long is geometrically similar, so they are kept. The clock is a pendulum's, f =
+    f_ref × √(L_ref / L) (Froude similarity, f ∝ √(g/L)), within the schema's range. Speeds
+    then scale with L (the targets, DESIGN §7), turn rates do not; so the yaw-rate loop's two
+    lengths do too, each within its range: its axle b (m) and its speed per unit a_p (m/s),
+    with which it turns CA into eq (13)'s rate -2 CA V / b (the same rate, as the targets').
     """
-    freq = scaled_freq_hz(gait.clock.freq_hz, leg_ref_m, leg_m)
-    return merge(gait, {"clock": {"freq_hz": freq}})
+    ratio = leg_m / leg_ref_m
+    yaw = gait.yaw_rate
+    return merge(
+        gait,
+        {
+            "clock": {"freq_hz": scaled_freq_hz(gait.clock.freq_hz, leg_ref_m, leg_m)},
+            "yaw_rate": {
+                "axle_m": _scaled_field("yaw_rate", "axle_m", yaw.axle_m, ratio),
+                "speed_per_a_p": _scaled_field(
+                    "yaw_rate", "speed_per_a_p", yaw.speed_per_a_p, ratio
+                ),
+            },
+        },
+    )
 
 
 @dataclass(frozen=True)
@@ -123,7 +142,8 @@ class Start:
         return (
             f"starting from {self.preset!r} (legs {self.leg_ref_m:.3f} m) scaled to legs "
             f"{self.leg_m:.3f} m ({ratio:.2f}x): clock {self.gait.clock.freq_hz:.3f} Hz "
-            f"(x sqrt(L_ref/L) = {math.sqrt(1 / ratio):.3f}), angles and leg shares kept"
+            f"(x sqrt(L_ref/L) = {math.sqrt(1 / ratio):.3f}), the yaw-rate loop's axle and "
+            f"speed x {ratio:.2f}, angles and leg shares kept"
         )
 
 
