@@ -300,14 +300,14 @@ def test_the_page_motion_controls_drive_the_simulation(dashboard):
 def test_a_band_not_measured_for_the_set_is_named_and_drawn_apart(
     server, browser, width, height, tmp_path
 ):
-    """`robust` has no measured band of its own (data/safe-bands.json): the motion rows say
+    """`pfs` has no measured band of its own (data/safe-bands.json): the motion rows say
     "unmeasured" and shade the band grey, where `tuned`'s measured band reads "safe" in green
     (issue 33: a band marked not measured looked like a measured one)."""
     base_url, http = server
     band = "#motion-a_p-band"
     shade = "e => getComputedStyle(e).getPropertyValue('--band').trim()"
     try:
-        assert http.post("/api/presets/robust/load").status_code == 200
+        assert http.post("/api/presets/pfs/load").status_code == 200
         with open_page(browser, base_url, width, height) as page:
             expect(page.locator(band)).to_contain_text("unmeasured", timeout=10_000)
             expect(page.locator("#motion-row-a_p")).to_have_class(re.compile(r"\bunmeasured\b"))
@@ -382,8 +382,11 @@ def test_clear_empties_the_path_plot(dashboard):
     page.locator("#path-clear").click()
     expect(page.locator("#path-message")).to_have_class(OK, timeout=10_000)
     page.wait_for_function("window.artro.path.actual < 10", timeout=10_000)
-    path = http.get("/api/path").json()
-    assert path["actual"] and path["actual"][0][0] >= before
+    # the path starts again from the next sample (one every 5 frames) after the clear
+    path = wait_until(
+        page, lambda: (p := http.get("/api/path").json())["actual"] and p, "a sample after it"
+    )
+    assert path["actual"][0][0] >= before
     # the plot fills again as the robot walks on, and the page shows the per-cycle means
     page.wait_for_function("window.artro.path.actual > 20", timeout=30_000)
 

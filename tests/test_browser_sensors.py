@@ -30,8 +30,11 @@ def test_the_sensors_panel_draws_the_sensors_and_pushes_the_robot(tmp_path):
         page.goto(base_url + "/")
         panel = page.locator("#sensors-panel")
         panel.scroll_into_view_if_needed()
-        laws = page.locator("#sensors-laws")
-        expect(laws).to_have_text("every law off (open loop)", timeout=20_000)
+        laws = page.locator("#sensors-laws")  # the server starts with `robust`: its laws on
+        expect(laws).to_have_text("laws on: tilt trim, yaw rate, gyro damping", timeout=20_000)
+        off = {g: {"enabled": False} for g in ("tilt", "yaw_rate", "damping", "cop")}
+        http.patch("/api/params", json={"gait": off})
+        expect(laws).to_have_text("every law off (open loop)", timeout=10_000)
         for plot in ("attitude", "gyro", "laws-plot"):  # uPlot drew each, with its legend
             expect(page.locator(f"#sensors-{plot} canvas")).to_have_count(1)
         expect(page.locator("#sensors-attitude .u-legend")).to_contain_text("pitch, estimated")

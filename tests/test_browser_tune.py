@@ -25,7 +25,7 @@ def size(page, generations: int, popsize: int, duration_s: int) -> None:
 @SMALL
 def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_path, width, height):
     with opened_page(tmp_path, width, height) as (page, http, errors):
-        expect(page.locator("#params-name")).to_have_text("tuned", timeout=30_000)
+        expect(page.locator("#params-name")).to_have_text("robust", timeout=30_000)
         status, message = page.locator("#tune-status"), page.locator("#tune-message")
 
         # a long tune: its progress shows, Cancel stops it and nothing is loaded
@@ -35,7 +35,7 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         expect(page.locator("#tune-start")).to_be_disabled()
         expect(status).to_contain_text("/80 · best loss", timeout=TUNE_MS)
         expect(status).to_contain_text("generation 1/20 · run ", timeout=TUNE_MS)  # runs walked
-        expect(status).to_have_attribute("title", re.compile("from 'tuned'"))
+        expect(status).to_have_attribute("title", re.compile("from 'robust'"))
         assert page.locator("#tune-progress").evaluate("el => el.value") > 0
         page.locator("#world-panel").screenshot(
             path=shot_path(f"tune-running-{width}.png", tmp_path)
@@ -43,7 +43,7 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         page.click("#tune-cancel")
         expect(message).to_contain_text("tune cancelled: nothing loaded", timeout=30_000)
         expect(page.locator("#tune-cancel")).to_be_hidden()
-        assert http.get("/api/params").json()["name"] == "tuned"
+        assert http.get("/api/params").json()["name"] == "robust"
 
         # a tiny one: done, tuned-artro is the set in use, its row marked, its figures shown
         size(page, 1, 2, 9)
@@ -64,5 +64,5 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         )
         page.locator("#world-panel").screenshot(path=shot_path(f"tune-done-{width}.png", tmp_path))
         page.click("#params-undo")
-        expect(page.locator("#params-name")).to_have_text("tuned", timeout=30_000)
+        expect(page.locator("#params-name")).to_have_text("robust", timeout=30_000)
         assert errors == [], f"JavaScript errors on the page: {errors}"

@@ -111,6 +111,24 @@ def test_a_tilt_bias_in_the_imu_moves_the_firmwares_trim_as_it_moves_the_models(
     assert np.any(biased.ocr[-1] != level.ocr[-1])
 
 
+def test_the_roll_share_scales_the_hips_roll_trim_in_the_firmware_as_in_the_model() -> None:
+    """A 2° lean to the right: the roll trim the hips get is the law's times `roll_share`,
+    firmware and model alike (`robust` sets it to 0: a pitch trim)."""
+    leaning = dataclasses.replace(
+        leaning_forward(0.0),
+        accel=(0, round(math.sin(LEAN) * 16384), round(math.cos(LEAN) * 16384)),
+    )
+    rolls = {}
+    for share in (1.0, 0.5):
+        doc = tilt_trim_set()
+        doc["gait"]["tilt"]["roll_share"] = share
+        run = run_closed_loop(doc, 40, samples=[leaning] * 40)
+        assert_conforms(run)
+        rolls[share] = float(run.laws[-1].tilt_rad[1])
+    assert rolls[1.0] > 0.01
+    assert rolls[0.5] == pytest.approx(0.5 * rolls[1.0], abs=LAW_TOLERANCE)
+
+
 def test_a_first_reading_in_free_fall_starts_no_attitude_in_the_firmware_nor_the_model() -> None:
     """A robot dropped onto the floor reads ~0 g: neither the firmware nor its model starts
     the attitude from it (it would start at a roll of 180°) nor trims; the readings at 1 g

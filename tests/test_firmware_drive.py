@@ -151,6 +151,13 @@ def test_a_feedback_law_switched_on_runs_on_the_firmware(http: httpx.Client):
     trims from it."""
     assert http.put("/api/sim/drive", json={"drive": "firmware"}).status_code == 200
     wait_for(lambda: http.get("/api/state").json()["drive"] == "firmware", "the firmware drives")
+    wait_for(  # the server starts with `robust`: its laws run on the firmware
+        lambda: (
+            http.get("/api/state").json()["firmware"]["laws_on"] == ["tilt", "yaw_rate", "damping"]
+        ),
+        "the firmware runs robust's laws",
+    )
+    assert http.post("/api/presets/tuned/load").status_code == 200  # every law off
     http.patch("/api/params", json={"gait": {"tilt": {"enabled": True, "ki_per_s": 2.0}}})
     state = wait_for(
         lambda: (s := http.get("/api/state").json())["firmware"]["laws_on"] == ["tilt"] and s,

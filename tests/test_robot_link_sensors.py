@@ -75,7 +75,6 @@ def test_the_robots_sensors_reach_the_dashboard_while_its_sets_go_on(robot_with_
     link = SerialLink(serial.Serial(robot_with_sensors, 57600, timeout=0.02), timeout_s=30.0)
     robot = RobotLink(link, log=log)
     with running_server(tmp_path) as (base_url, _app), client(base_url) as http:
-        http.patch("/api/params", json={"gait": {"tilt": {"enabled": True}}})
         robot.hello()
         stop = threading.Event()
         done: list[int] = []
@@ -92,7 +91,8 @@ def test_the_robots_sensors_reach_the_dashboard_while_its_sets_go_on(robot_with_
 
         # the robot's own frames, in its order, as its IMU's registers give them
         assert frames["status"] == ["imu_present"] and frames["imu_failures"] == 0
-        assert frames["laws"] == ["tilt"]  # the dashboard's set switched the tilt trim on
+        # the dashboard's set, `robust` as the server starts, with its laws on
+        assert frames["laws"] == ["tilt", "yaw_rate", "damping"]
         columns = frames["columns"]
         assert np.all(np.diff(columns["frame"]) >= 1)
         raw = tilted()

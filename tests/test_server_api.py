@@ -10,6 +10,7 @@ from websockets.sync.client import connect
 from app.params.document import ParameterSet
 from gait import Motion, joint_angles
 from hardware import ChannelMap, ServoCalibration, angles_to_pulses_us, pulse_us_to_ocr
+from tests.server_harness import wait_for
 
 PATCH_HEADERS = {"content-type": "application/json"}
 
@@ -125,6 +126,14 @@ def test_scope_frames_over_http_and_websocket(http, server):
 
 
 def test_pulses_follow_a_parameter_change_within_two_frames(http, server):
+    # the feedback laws off (the server starts with `robust`: they correct the plan), one at a
+    # time, each applied before the next (two constants at once would ramp over 2 s)
+    for law in ("tilt", "yaw_rate", "damping"):
+        off = http.patch("/api/params", json={"gait": {law: {"enabled": False}}}).json()
+        wait_for(
+            lambda v=off["version"]: http.get("/api/state").json()["params_version_applied"] >= v,
+            f"{law} off",
+        )
     with connect(ws_url(server[0]), open_timeout=10) as ws:
         json.loads(ws.recv(timeout=10))
         # with the motion ramp off (it would send the first of its steps, docs/DESIGN.md §4)

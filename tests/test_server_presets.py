@@ -8,8 +8,10 @@ import yaml
 PRESET_NAMES_BAD = ["..", "a b", "x" * 65, ".hidden", "a..b", "con:x"]
 
 
-def test_the_server_starts_with_the_tuned_preset_and_lists_the_builtins(http):
-    assert http.get("/api/params").json()["name"] == "tuned"  # a new user sees a robot that walks
+def test_the_server_starts_with_the_robust_preset_and_lists_the_builtins(http):
+    # a new user sees a robot that walks, and keeps walking on a robot that is not the model
+    started = http.get("/api/params").json()
+    assert started["name"] == "robust" and started["gait"]["tilt"]["enabled"]
     presets = {p["name"]: p for p in http.get("/api/presets").json()["presets"]}
     assert presets["paper"]["builtin"] and presets["tuned"]["builtin"]
     assert http.put("/api/presets/tuned").status_code == 422  # read-only

@@ -168,7 +168,7 @@ def test_the_robot_started_from_a_file_is_tuned_from_its_description(tmp_path):
         assert job.finished.wait(TUNE_DEADLINE * 0.05), "the tune did not finish"
         done = http.get(f"/api/jobs/{job_id}").json()
         assert done["status"] == "done", done
-        assert done["detail"]["start"] == "tuned"  # legs 0.234 m: ArtRo's preset, scaled
+        assert done["detail"]["start"] == "robust"  # legs 0.234 m: ArtRo's preset, scaled
         # speeds scale with the legs: forward's target is ArtRo's 3.8 cm/s x 1.3
         forward = next(r for r in done["result"]["figures"] if r["run"] == "forward")
         assert forward["target"] == pytest.approx(3.8 * 0.234 / 0.18)

@@ -64,7 +64,8 @@ def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def test_the_references_are_the_built_in_robots_and_their_presets():
-    assert reference_legs() == {"tuned": pytest.approx(0.18), "micro-tuned": pytest.approx(0.09)}
+    # each built-in robot's default preset: ArtRo's is `robust` (the laws on), micro's its own
+    assert reference_legs() == {"robust": pytest.approx(0.18), "micro-tuned": pytest.approx(0.09)}
 
 
 @pytest.mark.parametrize(
@@ -153,18 +154,18 @@ def test_tune_robot_without_base_saves_tuned_robot_among_the_presets(work, capsy
     robot = robot_file(work / "big.yaml", "big", 0.117, "DS3218")
     assert main(["tune", "--robot", str(robot), *TINY_TUNE, "--study", "s.log"]) == 0
     said = capsys.readouterr().out
-    assert "starting from 'tuned' (legs 0.180 m) scaled to legs 0.234 m" in said
-    assert "clock 0.599 Hz" in said
+    assert "starting from 'robust' (legs 0.180 m) scaled to legs 0.234 m" in said
+    assert "clock 0.614 Hz" in said  # robust's 0.70 Hz x sqrt(0.18 / 0.234)
     saved = work / "data" / "presets" / "tuned-big.json"
     assert f"saved preset 'tuned-big' in {saved.parent}" in said
     assert not Path("out").exists()  # no -o: among the presets only
     chosen = resolve_set("tuned-big", "--params")  # what every --params and the dashboard do
     assert chosen.path == saved and not chosen.builtin
     assert chosen.pset.name == "tuned-big" and chosen.pset.robot == "big"
-    # the recipe's fields were searched around the scaled start: the others are tuned's (the
+    # the recipe's fields were searched around the scaled start: the others are robust's (the
     # yaw-rate loop's lengths scaled with the legs)
-    tuned = builtin_presets()["tuned"].gait.flat()
-    moved = {k for k, v in chosen.pset.gait.flat().items() if v != tuned[k]}
+    start = builtin_presets()["robust"].gait.flat()
+    moved = {k for k, v in chosen.pset.gait.flat().items() if v != start[k]}
     assert moved and moved <= {*START_RECIPE.names, "yaw_rate.axle_m", "yaw_rate.speed_per_a_p"}
     # -o also writes the file where asked; the same study replays
     again = ["tune", "--robot", str(robot), *TINY_TUNE, "--study", "s.log", "-o", "t.json"]
