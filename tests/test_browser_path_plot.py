@@ -78,8 +78,9 @@ def test_a_long_curved_walk_is_drawn_where_the_data_says(tmp_path):
                 f"{need} path samples",
                 attempts=6000,
             )
-            http.post("/api/sim/pause")
-            path = http.get("/api/path").json()
+            http.post("/api/sim/pause")  # taken by the simulation thread between frames:
+            wait_for(lambda: http.get("/api/state").json()["paused"], "the walk paused")
+            path = http.get("/api/path").json()  # no sample after this one
             assert len(path["actual"]) >= need
             for size, page in pages.items():
                 page.wait_for_function(
