@@ -88,17 +88,15 @@ def nearest_preset(leg_m: float, references: Mapping[str, float]) -> str:
     return min(references, key=lambda name: abs(math.log(leg_m / references[name])))
 
 
-def scaled_freq_hz(freq_ref_hz: float, leg_ref_m: float, leg_m: float) -> float:
-    """The clock for a leg of `leg_m`: f_ref × √(L_ref / L) (a pendulum), within the schema."""
-    meta = next(m for f, _d, m in describe_fields(group_class("clock")) if f == "freq_hz")
-    freq = freq_ref_hz * math.sqrt(leg_ref_m / leg_m)
-    return round(min(max(freq, meta["min"]), meta["max"]), 6)
-
-
 def _scaled_field(group: str, field: str, value: float, ratio: float) -> float:
     """`value` × `ratio`, within the field's range, to 6 digits."""
     meta = next(m for f, _d, m in describe_fields(group_class(group)) if f == field)
     return round(min(max(value * ratio, meta["min"]), meta["max"]), 6)
+
+
+def scaled_freq_hz(freq_ref_hz: float, leg_ref_m: float, leg_m: float) -> float:
+    """The clock for a leg of `leg_m`: f_ref × √(L_ref / L) (a pendulum), within the schema."""
+    return _scaled_field("clock", "freq_hz", freq_ref_hz, math.sqrt(leg_ref_m / leg_m))
 
 
 def scaled_gait(gait: GaitParams, leg_ref_m: float, leg_m: float) -> GaitParams:
