@@ -27,14 +27,14 @@ G_M_S2 = 9.80665
 START_G_BAND = (0.9, 1.1)
 
 
-def starts_attitude(accel: NDArray[np.floating]) -> bool:
-    """True when `accel` (3,), m/s², may start the attitude: its squared magnitude, in float32
-    as the firmware computes it, within `START_G_BAND` of g squared."""
+def starts_attitude(accel: NDArray[np.floating]) -> NDArray[np.bool_]:
+    """Whether `accel` (..., 3), m/s², may start the attitude: its squared magnitude, in
+    float32 as the firmware computes it, within `START_G_BAND` of g squared (..., bool)."""
     a = np.asarray(accel, dtype=np.float32)
-    squared = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
+    squared = a[..., 0] * a[..., 0] + a[..., 1] * a[..., 1] + a[..., 2] * a[..., 2]
     g = np.float32(G_M_S2)
     low, high = (np.float32(b) * g for b in START_G_BAND)
-    return bool(low * low <= squared <= high * high)
+    return (low * low <= squared) & (squared <= high * high)
 
 
 def euler_rates(

@@ -5,6 +5,7 @@ and of a_y out. Pure numpy in float32, as the firmware computes them (docs/DESIG
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -86,14 +87,16 @@ def _dead_band(error: NDArray[np.float32], width: float) -> NDArray[np.float32]:
 
 
 def expected_tilt(tilt: TiltParams, motion: Motion) -> NDArray[np.float32]:
-    """(pitch, roll) the trunk is expected to have walking `motion`, rad."""
+    """(pitch, roll) the trunk is expected to have walking `motion`, rad: (2,), or (K, 2) for a
+    motion whose fields hold one value per run (K,)."""
     pitch = tilt.pitch_offset_rad + tilt.pitch_per_a_p * motion.a_p
-    return np.array([pitch, tilt.roll_per_a_r * motion.a_r], dtype=F32)
+    roll = tilt.roll_per_a_r * motion.a_r
+    return np.stack(np.broadcast_arrays(pitch, roll), axis=-1).astype(F32)
 
 
 def commanded_turn_rate(yaw: YawRateParams, motion: Motion) -> np.float32:
     """The turn rate a_y and CA command, rad/s counter-clockwise: turn_per_a_y * a_y plus eq
-    (13)'s -2 CA V / b with V = speed_per_a_p * a_p."""
+    (13)'s -2 CA V / b with V = speed_per_a_p * a_p (one per run for a motion of runs)."""
     speed = yaw.speed_per_a_p * motion.a_p
     return F32(yaw.turn_per_a_y * motion.a_y - 2.0 * motion.ca * speed / yaw.axle_m)
 
@@ -103,12 +106,87 @@ def support_cop(
 ) -> tuple[int, NDArray[np.float32]]:
     """The foot that carries more (-1 if neither carries `min_load_n`) and its centre of
     pressure (x forward, y outward) from the sole centre, m."""
-    load = fsr_n.sum(axis=1)
-    foot = int(np.argmax(load))
-    if not load[foot] > 0 or load[foot] < F32(min_load_n):  # with min_load_n 0, no 0 / 0
-        return -1, _zeros(2)
-    cop = (fsr_n[foot] @ positions_m) / load[foot]
-    return foot, np.array([cop[0], cop[1] * OUTWARD[foot]], dtype=F32)
+    support, cop = support_cops(fsr_n[None], positions_m, min_load_n)
+    return int(support[0]), cop[0]
+
+
+def support_cops(
+    fsr_n: NDArray[np.float32], positions_m: NDArray[np.float32], min_load_n: float
+) -> tuple[NDArray[np.int64], NDArray[np.float32]]:
+    """`support_cop` of K runs at once: fsr_n (K, 2, 4), positions_m (4, 2) or each run's
+    (K, 4, 2); the support foots (K,) and their centres of pressure (K, 2)."""
+    load = fsr_n.sum(axis=-1)  # (K, 2)
+    runs = np.arange(len(fsr_n))
+    foot = np.argmax(load, axis=-1)
+    carried = load[runs, foot]
+    carries = (carried > 0) & ~(carried < F32(min_load_n))  # with min_load_n 0, no 0 / 0
+    on = fsr_n[runs, foot][:, None, :]  # (K, 1, 4)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        cop = (on @ positions_m)[:, 0, :] / np.where(carries, carried, F32(1.0))[:, None]
+    cop = np.stack([cop[:, 0], cop[:, 1] * OUTWARD[foot]], axis=-1).astype(F32)
+    return np.where(carries, foot, -1), np.where(carries[:, None], cop, F32(0.0))
+
+
+@dataclass(frozen=True)
+class States:
+    """K runs' law states at once (`State`'s fields, each with a leading run axis)."""
+
+    started: NDArray[np.bool_]  # (K,)
+    pitch_rad: NDArray[np.float32]  # (K,)
+    roll_rad: NDArray[np.float32]  # (K,)
+    tilt_error: NDArray[np.float32]  # (K, 2)
+    tilt_integral: NDArray[np.float32]  # (K, 2)
+    yaw_error: NDArray[np.float32]  # (K,)
+    yaw_integral: NDArray[np.float32]  # (K,)
+    cop_integral: NDArray[np.float32]  # (K, 2)
+    cop_last: NDArray[np.float32]  # (K, 2)
+
+    @classmethod
+    def of(cls, states: Sequence[State]) -> States:
+        return cls(
+            **{
+                f.name: np.array([getattr(s, f.name) for s in states], dtype=_STATE_DTYPES[f.name])
+                for f in dataclasses.fields(cls)
+            }
+        )
+
+    @classmethod
+    def fresh(cls, runs: int) -> States:
+        return cls.of([State()] * runs)
+
+    def take(self, runs: NDArray[np.bool_] | NDArray[np.int64]) -> States:
+        """The states of the runs `runs` selects (a mask or indices)."""
+        return States(**{f.name: getattr(self, f.name)[runs] for f in dataclasses.fields(self)})
+
+    def run(self, k: int) -> State:
+        fields = {f.name: getattr(self, f.name)[k] for f in dataclasses.fields(self)}
+        started = bool(fields.pop("started"))
+        copied = {n: (v.copy() if np.ndim(v) else v) for n, v in fields.items()}
+        return State(started=started, **copied)
+
+
+_STATE_DTYPES = {
+    f.name: (np.bool_ if f.name == "started" else F32) for f in dataclasses.fields(State)
+}
+
+
+@dataclass(frozen=True)
+class Outputs:
+    """K runs' corrections of one frame (`Output`'s fields, each with a leading run axis)."""
+
+    joint_delta_rad: NDArray[np.float32]  # (K, 12)
+    a_y_delta: NDArray[np.float32]  # (K,)
+    tilt_rad: NDArray[np.float32]  # (K, 2)
+    damping_rad: NDArray[np.float32]  # (K, 12)
+    cop_rad: NDArray[np.float32]  # (K, 2)
+    support: NDArray[np.int64]  # (K,)
+    attitude_rad: NDArray[np.float32]  # (K, 2)
+
+    def run(self, k: int) -> Output:
+        return Output(
+            self.joint_delta_rad[k], self.a_y_delta[k], self.tilt_rad[k], self.damping_rad[k],
+            self.cop_rad[k], int(self.support[k]), self.attitude_rad[k],
+        )  # fmt: skip
 
 
 def step(
@@ -119,8 +197,36 @@ def step(
     fsr_positions_m: NDArray[np.float32],
     dt_s: float,
 ) -> tuple[State, Output]:
-    """One frame of every law that is on (the feedback groups of `laws`), from `reading` and
-    the motion the gait gets.
+    """One frame of every law that is on, for one run: `step_many` of a single run (the one
+    implementation; its docstring says what each law does)."""
+    states, outs = step_many(
+        laws,
+        States.of([state]),
+        reading.gyro_rad_s[None],
+        reading.accel_m_s2[None],
+        reading.fsr_n[None],
+        motion,
+        fsr_positions_m,
+        dt_s,
+    )
+    return states.run(0), outs.run(0)
+
+
+def step_many(
+    laws: GaitParams,
+    state: States,
+    gyro_rad_s: NDArray[np.floating],
+    accel_m_s2: NDArray[np.floating],
+    fsr_n: NDArray[np.floating],
+    motion: Motion,
+    fsr_positions_m: NDArray[np.float32],
+    dt_s: float,
+) -> tuple[States, Outputs]:
+    """One frame of every law that is on (the feedback groups of `laws`) for K runs at once,
+    each from its own reading -- the gyro (K, 3), the accelerometer (K, 3), the soles' forces
+    (K, 2, 4), as `Reading` holds them -- all walking the same `motion` (the one the gait
+    gets). Each run's numbers are those of that run alone, to the bit: every operation is
+    elementwise along the run axis.
 
     Attitude: the complementary filter, started from the accelerometer's tilt at the first
     reading of about 1 g (`starts_attitude`); until then there is no estimate and the tilt trim
@@ -132,66 +238,76 @@ def step(
     error of the gyro's rate against `commanded_turn_rate`, low-passed, PI, clamped, on a_y
     (a_y > 0 turns clockwise). Damping: ankles and hips against the trunk's pitch and roll
     rates. CoP: the support foot's ankle pitch and roll against its centre of pressure (PID)."""
-    gyro, accel = reading.gyro_rad_s.astype(F32), reading.accel_m_s2.astype(F32)
-    started = state.started or starts_attitude(accel)
-    if state.started:
-        pitch, roll = complementary_step(
-            state.pitch_rad, state.roll_rad, gyro, accel, dt_s, laws.attitude.tau_s
-        )
-    elif started:
-        pitch, roll = (F32(a) for a in accel_tilt(accel))
-    else:  # falling or jolted: no estimate yet
-        pitch, roll = F32(0.0), F32(0.0)
-    delta = _zeros(12)
-    new = {"started": started, "pitch_rad": F32(pitch), "roll_rad": F32(roll)}  # the new State
+    gyro, accel = np.asarray(gyro_rad_s, dtype=F32), np.asarray(accel_m_s2, dtype=F32)
+    runs = len(gyro)
+    was = state.started
+    started = was | starts_attitude(accel)
+    new_pitch, new_roll = complementary_step(
+        state.pitch_rad, state.roll_rad, gyro, accel, dt_s, laws.attitude.tau_s
+    )
+    first_pitch, first_roll = accel_tilt(accel)
+    pitch = np.where(was, new_pitch, np.where(started, first_pitch, F32(0.0))).astype(F32)
+    roll = np.where(was, new_roll, np.where(started, first_roll, F32(0.0))).astype(F32)
+    delta = np.zeros((runs, 12), dtype=F32)
+    new = {"started": started, "pitch_rad": pitch, "roll_rad": roll}  # the new States
 
-    tilt = _zeros(2)
-    if laws.tilt.enabled and started:
+    tilt = np.zeros((runs, 2), dtype=F32)
+    if laws.tilt.enabled:
         t = laws.tilt
-        error = np.array([pitch, roll], dtype=F32) - expected_tilt(t, motion)
+        error = np.stack([pitch, roll], axis=-1) - expected_tilt(t, motion)
         filtered = _low_pass(state.tilt_error, error, dt_s, t.filter_s)
         past = _dead_band(filtered, t.deadband_rad)
         limit = F32(t.clamp_rad)
         integral = _clip(state.tilt_integral + F32(t.ki_per_s * dt_s) * past, limit)
-        tilt = _clip(integral + F32(t.kp) * past, limit).astype(F32)
-        tilt[1] *= F32(t.roll_share)  # 1: the same bits as without the share
-        new.update(tilt_error=filtered, tilt_integral=integral)
-        delta[list(ANKLE_PITCH)] -= tilt[0]  # toes down against a forward lean
-        delta[list(HIP_ROLL)] += tilt[1] * OUTWARD
+        trim = _clip(integral + F32(t.kp) * past, limit).astype(F32)
+        trim[:, 1] *= F32(t.roll_share)  # 1: the same bits as without the share
+        on = started[:, None]  # no estimate, no trim: the state waits
+        tilt = np.where(on, trim, F32(0.0))
+        new.update(
+            tilt_error=np.where(on, filtered, state.tilt_error).astype(F32),
+            tilt_integral=np.where(on, integral, state.tilt_integral).astype(F32),
+        )
+        delta[:, list(ANKLE_PITCH)] -= tilt[:, :1]  # toes down against a forward lean
+        delta[:, list(HIP_ROLL)] += tilt[:, 1:] * OUTWARD
 
-    a_y_delta = F32(0.0)
+    a_y_delta = np.zeros(runs, dtype=F32)
     if laws.yaw_rate.enabled:
         y = laws.yaw_rate
-        error = commanded_turn_rate(y, motion) - gyro[2]
+        error = commanded_turn_rate(y, motion) - gyro[:, 2]
         filtered = _low_pass(state.yaw_error, error, dt_s, y.filter_s)
         limit = F32(y.clamp)
         integral = _clip(state.yaw_integral + F32(y.ki_per_s * dt_s) * filtered, limit)
-        a_y_delta = F32(_clip(-(integral + F32(y.kp) * filtered), limit))
-        new.update(yaw_error=F32(filtered), yaw_integral=F32(integral))
+        a_y_delta = _clip(-(integral + F32(y.kp) * filtered), limit).astype(F32)
+        new.update(yaw_error=filtered.astype(F32), yaw_integral=integral.astype(F32))
 
-    damping = _zeros(12)
+    damping = np.zeros((runs, 12), dtype=F32)
     if laws.damping.enabled:
         d = laws.damping
         # measured on ArtRo: against a forward pitch rate, toes down and legs back both calm
         # the trunk; against a rate lowering the right side, left out and right in
-        damping[list(ANKLE_PITCH)] = -F32(d.ankle_pitch) * gyro[1]
-        damping[list(HIP_PITCH)] = -F32(d.hip_pitch) * gyro[1]
-        damping[list(ANKLE_ROLL)] = F32(d.ankle_roll) * gyro[0] * OUTWARD
-        damping[list(HIP_ROLL)] = F32(d.hip_roll) * gyro[0] * OUTWARD
+        damping[:, list(ANKLE_PITCH)] = -F32(d.ankle_pitch) * gyro[:, 1:2]
+        damping[:, list(HIP_PITCH)] = -F32(d.hip_pitch) * gyro[:, 1:2]
+        damping[:, list(ANKLE_ROLL)] = F32(d.ankle_roll) * gyro[:, :1] * OUTWARD
+        damping[:, list(HIP_ROLL)] = F32(d.hip_roll) * gyro[:, :1] * OUTWARD
         delta += damping
 
-    cop_out, support = _zeros(2), -1
+    cop_out, support = np.zeros((runs, 2), dtype=F32), np.full(runs, -1)
     if laws.cop.enabled:
         c = laws.cop
-        support, cop = support_cop(reading.fsr_n.astype(F32), fsr_positions_m, c.min_load_n)
-        if support >= 0:
-            limit = F32(c.clamp_rad)
-            integral = _clip(state.cop_integral + F32(c.ki_per_s * dt_s) * cop, limit)
-            rate = (cop - state.cop_last) / F32(dt_s)
-            cop_out = _clip(F32(c.kp) * cop + integral + F32(c.kd_s) * rate, limit).astype(F32)
-            new.update(cop_integral=integral, cop_last=cop)
-            delta[ANKLE_PITCH[support]] += cop_out[0]
-            delta[ANKLE_ROLL[support]] += cop_out[1]
-    attitude = np.array([pitch, roll], dtype=F32)
-    out = Output(delta, a_y_delta, tilt, damping, cop_out, support, attitude)
-    return dataclasses.replace(state, **new), out
+        support, cop = support_cops(np.asarray(fsr_n, dtype=F32), fsr_positions_m, c.min_load_n)
+        on = (support >= 0)[:, None]
+        limit = F32(c.clamp_rad)
+        integral = _clip(state.cop_integral + F32(c.ki_per_s * dt_s) * cop, limit)
+        rate = (cop - state.cop_last) / F32(dt_s)
+        pid = _clip(F32(c.kp) * cop + integral + F32(c.kd_s) * rate, limit).astype(F32)
+        cop_out = np.where(on, pid, F32(0.0))
+        new.update(
+            cop_integral=np.where(on, integral, state.cop_integral).astype(F32),
+            cop_last=np.where(on, cop, state.cop_last).astype(F32),
+        )
+        rows, foot = np.flatnonzero(support >= 0), support[support >= 0]
+        delta[rows, np.array(ANKLE_PITCH)[foot]] += cop_out[rows, 0]
+        delta[rows, np.array(ANKLE_ROLL)[foot]] += cop_out[rows, 1]
+    attitude = np.stack([pitch, roll], axis=-1)
+    outs = Outputs(delta, a_y_delta, tilt, damping, cop_out, support, attitude)
+    return dataclasses.replace(state, **new), outs

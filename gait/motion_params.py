@@ -6,6 +6,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from gait.schema_fields import check_ranges as _check_ranges
 from gait.schema_fields import switch as _switch
 from gait.schema_fields import tunable as _param
@@ -39,9 +41,9 @@ class SteerParams:
         _check_ranges(self)
 
     def yaw_amplitude(self, a_p: float, ca: float) -> float:
-        """K*CA*s(a_p): what the term adds to a_y in eq (29), rad."""
-        k = self.yaw_per_ca if a_p >= 0 else self.yaw_per_ca_backward
-        return k * ca * min(max(a_p / self.full_at_a_p, -1.0), 1.0)
+        """K*CA*s(a_p): what the term adds to a_y in eq (29), rad (elementwise for arrays)."""
+        k = np.where(np.asarray(a_p) >= 0, self.yaw_per_ca, self.yaw_per_ca_backward)
+        return k * ca * np.minimum(np.maximum(a_p / self.full_at_a_p, -1.0), 1.0)
 
 
 @dataclass(frozen=True)

@@ -8,6 +8,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from gait.params import GaitParams, Motion
+from gait.phases import CA_SIGN
 
 LEG_SIGN = np.array([-1.0, 1.0])  # I_s of seed 000 eq (32): left, right
 #: The right leg runs pi later, eq (11) (left leg first).
@@ -82,8 +83,8 @@ def pfs_joint_angles_with_flags(
     joints[..., HIP_ROLL] += LEG_SIGN * motion.a_r * stride  # cf. eq (27)
     joints[..., ANKLE_ROLL] -= LEG_SIGN * motion.a_r * stride
     joints[..., HIP_YAW] += LEG_SIGN * a_y_eff * stride  # cf. eq (29)
-    ca_scale = np.array([1.0 + motion.ca, 1.0 - motion.ca])  # eqs (10)–(11)
-    joints *= ca_scale[:, None]
+    ca_scale = 1.0 + motion.ca * CA_SIGN  # eqs (10)–(11)
+    joints *= ca_scale[..., None]
     knee_clamped = joints[..., KNEE] > 0.0
     joints[..., KNEE] = np.minimum(joints[..., KNEE], 0.0)
     return joints.reshape(*joints.shape[:-2], 12), knee_clamped

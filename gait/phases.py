@@ -18,6 +18,9 @@ HALF_PI = 0.5 * np.pi
 
 #: I_s of eq (32): -1 for the left leg, +1 for the right leg.
 LEG_SIGN = np.array([-1.0, 1.0])
+#: seed 004 eqs (10)–(11): the left leg's stride scales by 1 + CA, the right's by 1 - CA
+#: (1 + CA * -1 is 1 - CA to the bit); a motion's fields may be numbers or arrays (..., 1)
+CA_SIGN = np.array([1.0, -1.0])
 #: Leg phase offsets of eqs (10)–(11): phi_L = phi_Trunk + pi/2, phi_R = phi_Trunk - pi/2.
 LEG_PHASE_OFFSET = np.array([HALF_PI, -HALF_PI])
 
@@ -76,10 +79,10 @@ def leg_parameters_with_flags(
 ) -> LegParameters:
     """Eqs (10)–(45) for both legs at every given trunk phase (rad, any shape): `LegParameters`."""
     a_r, a_p, a_y, ca = motion.a_r, motion.a_p, motion.a_y, motion.ca
-    speed = float(np.hypot(a_r, a_p))  # ||(a_r, a_p)||
+    speed = np.hypot(a_r, a_p)  # ||(a_r, a_p)||
     phi_leg = leg_phases(phi_trunk)  # (..., 2)
     i_s = LEG_SIGN  # eq (32), broadcasts against the leg axis
-    ca_scale = np.array([1.0 + ca, 1.0 - ca])  # seed 004, eqs (10)–(11)
+    ca_scale = 1.0 + ca * CA_SIGN  # seed 004, eqs (10)–(11)
     paper_signs = params.leg.paper_signs
     zero = np.zeros_like(phi_leg)
 

@@ -5,20 +5,18 @@ the trunk (docs/DESIGN.md §9, §15)."""
 from __future__ import annotations
 
 import math
-from collections import deque
-from collections.abc import Callable
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
 import numpy as np
-from mujoco import rollout
 
 from app.evaluation._api import Job
 from app.robots.model import RobotModel
-from app.sim.frame_loop import law_reading, stand
-from app.sim.planning import FRAME_S, START_PHASE_RAD, plan_frames
-from app.sim.sensors import Sensors
-from app.worlds.servo_path import ServoPath
+from app.sim.frame_loop import stand
+from app.sim.planning import FRAME_S, START_PHASE_RAD, MotionOfRuns, plan_frame_of_runs
+from app.sim.sensors import SensorBank
+from app.worlds.servo_path import ServoPaths
 from gait import GaitParams, Motion, feedback
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -67,8 +65,8 @@ def step_by_hand(
     sensor_out: np.ndarray,
 ) -> None:
     """Steps first_step.. of `control` (rows: steps) with `mj_step` from `data` as it is, the
-    push in its step, each step's state and sensors into the rows of the outputs (`rollout`
-    gives the same bits)."""
+    push in its step, each step's state and sensors into the outputs' rows (one per row of
+    `control`; `rollout` gives the same bits)."""
     act = robot.actuator_ids
     for k, row in enumerate(control):
         step = first_step + k
@@ -78,113 +76,121 @@ def step_by_hand(
         mujoco.mj_step(robot.model, data)
         if step == push.step:
             data.xfrc_applied[push.trunk, :3] = 0.0
-        mujoco.mj_getState(robot.model, data, state_out[step], STATE_SPEC)
-        sensor_out[step] = data.sensordata
+        mujoco.mj_getState(robot.model, data, state_out[k], STATE_SPEC)
+        sensor_out[k] = data.sensordata
 
 
-class ClosedLoop:
-    """A run's loop between frames, as `FrameLoop._step_closed_loop` runs it: from the sensor
-    rows of the steps so far (`record`), the laws and one frame planned into the ctrl of its
-    steps (`plan`). Any stepper uses it: the lanes' `rollout` calls, a Warp batch's worlds.
+class ClosedLoops:
+    """K runs' loops between frames in lockstep, each as `FrameLoop._step_closed_loop` runs it
+    alone, to the bit: from the sensor rows of each run's steps so far (`record`), the laws
+    and one frame planned into the ctrl of its steps (`plan`), every stage over the K runs at
+    once (docs/DESIGN.md §9). The runs share their gait, motion and start motion (so their
+    phase and motion ramp) and their robot's description (geometry, servos, force sensors);
+    their physics, sensor errors and servo paths are each their own. Any stepper uses it: a
+    lane's group of `rollout` calls, a Warp batch's worlds (`WorldLoops`).
 
     Args:
-        robot, job, start: the run's (varied) robot, job and `Start`.
+        robots, jobs, starts: each run's (varied) robot, job and `Start`.
         steps: physics steps per frame.
-        first_row: MuJoCo's sensordata standing at the start (the IMU's delay reads back into it).
+        first_rows: (K, nsensordata) MuJoCo's sensordata standing at each run's start (the
+            IMU's delay reads back into it).
     """
 
     def __init__(
-        self, robot: RobotModel, job: Job, start: Start, steps: int, first_row: np.ndarray
+        self,
+        robots: Sequence[RobotModel],
+        jobs: Sequence[Job],
+        starts: Sequence[Start],
+        steps: int,
+        first_rows: np.ndarray,
     ) -> None:
+        job, robot = jobs[0], robots[0]
+        _check_one_walk(robots, jobs)
         self.robot, self.job, self.steps = robot, job, steps
-        self.sensors = Sensors(robot, job.variation)
+        self.sensors = SensorBank(robots, [j.variation for j in jobs])
         needed = self.sensors.steps_needed
-        self.rows = deque([first_row.copy()] * needed, maxlen=needed)
-        physics, model = job.variation.physics, robot.model
-        self.timestep_s = float(model.opt.timestep)
-        self.sent = start.ctrl[robot.actuator_ids].copy()
-        self.path = (
-            None if physics.is_nominal else ServoPath(job.variation, self.timestep_s, self.sent)
-        )
+        self.rows = np.repeat(np.asarray(first_rows, dtype=np.float64)[:, None, :], needed, axis=1)
+        self.timestep_s = float(robot.model.opt.timestep)
+        act = robot.actuator_ids
+        self.sent = np.stack([start.ctrl[act] for start in starts])
+        self.path = ServoPaths([j.variation for j in jobs], self.timestep_s, self.sent)
         self.positions = robot.fsr_positions_m.astype(np.float32)
-        self.law_state = feedback.State()
-        self.motion_now = job.motion if job.start_motion is None else job.start_motion
-        self.phase = start.phase
+        self.law_state = feedback.States.fresh(len(jobs))
+        self.motion: Motion | MotionOfRuns = job.motion
+        if any(j.motion != job.motion for j in jobs):  # each its own, never ramped
+            self.motion = MotionOfRuns.of([j.motion for j in jobs])
+        self.motion_now = self.motion if job.start_motion is None else job.start_motion
+        self.phase = starts[0].phase
         self.step_rad = 2.0 * math.pi * job.params.clock.freq_hz * FRAME_S
-        self.within = np.arange(steps)[:, None]
-        self.control = np.empty((steps, model.nu))
-        self.control[:] = start.ctrl
+        self.within = np.arange(steps)[None, :, None]
+        self.control = np.stack([np.broadcast_to(s.ctrl, (steps, len(s.ctrl))) for s in starts])
+        #: the laws' output of the last frame planned
+        self.outputs: feedback.Outputs | None = None
 
-    def plan(self, frame: int, data: mujoco.MjData | None) -> np.ndarray:
-        """The ctrl of frame `frame`'s steps (steps, nu; the loop's own array, overwritten by
-        the next call): sensors read from the rows recorded so far (the force sensors from
-        `data` as the last step left it, when the CoP law is on), the laws stepped, the frame
-        planned with their corrections, through the servo path."""
+    def plan(self, frame: int, datas: Sequence[mujoco.MjData] | None) -> np.ndarray:
+        """The ctrl of frame `frame`'s steps of every run (K, steps, nu; the loops' own array,
+        overwritten by the next call): each run's sensors read from its rows recorded so far
+        (the force sensors from its `datas` entry as its last step left it, when the CoP law is
+        on), the laws stepped, the frame planned with their corrections, through each run's
+        servo path."""
         params, act = self.job.params, self.robot.actuator_ids
-        forces = params.cop.enabled
-        if forces and data is None:
-            raise ValueError("the CoP law reads the force sensors: plan needs the step's MjData")
-        reading = self.sensors.read(np.array(self.rows), data, forces=forces)
-        self.law_state, out = feedback.step(
-            params, self.law_state, law_reading(reading), self.motion_now, self.positions, FRAME_S
+        gyro, accel = self.sensors.read_imu(self.rows)
+        if params.cop.enabled:
+            if datas is None:
+                raise ValueError("the CoP law reads the force sensors: plan needs the MjData")
+            fsr = np.stack([self.sensors.fsr(k, data) for k, data in enumerate(datas)])
+        else:
+            fsr = np.zeros((len(gyro), 2, 4))
+        self.law_state, out = feedback.step_many(
+            params, self.law_state, gyro, accel, fsr, self.motion_now, self.positions, FRAME_S
         )
-        plan = plan_frames(
-            params, self.job.motion, self.robot.hardware(), self.phase, 1, self.steps,
+        self.outputs = out
+        plan = plan_frame_of_runs(
+            params, self.motion, self.robot.hardware(), self.phase, self.steps,
             self.timestep_s, motion_now=self.motion_now, frame0=frame,
             geometry=self.robot.geometry, joint_delta_rad=out.joint_delta_rad,
-            a_y_delta=float(out.a_y_delta),
+            a_y_delta=out.a_y_delta,
         )  # fmt: skip
         held = np.where(
-            self.within >= plan.substep[0][None, :], plan.setpoint[0][None, :], self.sent
+            self.within >= plan.substep[:, None, :], plan.setpoint[:, None, :], self.sent[:, None]
         )
-        self.sent = plan.setpoint[0].copy()
-        self.control[:, act] = held if self.path is None else self.path(held)
+        self.sent = plan.setpoint
+        self.control[:, :, act] = self.path(held)
         self.motion_now = plan.motions[0]
         next_phase = float(plan.phase[0]) + self.step_rad
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # as FrameLoop, in floats
         return self.control
 
+    def keep(self, runs: np.ndarray) -> None:
+        """Go on with the runs where `runs` (K,) is True (the others fell or blew up)."""
+        self.sensors.keep(runs)
+        self.path.keep(runs)
+        self.law_state = self.law_state.take(runs)
+        if isinstance(self.motion, MotionOfRuns):
+            self.motion = self.motion_now = self.motion.take(runs)
+        self.rows, self.sent, self.control = self.rows[runs], self.sent[runs], self.control[runs]
+
     def record(self, rows: np.ndarray) -> None:
-        """The sensordata after each step of the frame just stepped (steps, nsensordata)."""
-        self.rows.extend(rows)
+        """The sensordata after each step of the frame just stepped (K, steps, nsensordata)."""
+        kept = self.rows.shape[1]
+        self.rows = np.concatenate([self.rows, rows], axis=1)[:, -kept:]
 
 
-def roll_out_closed(
-    runner: rollout.Rollout,
-    robot: RobotModel,
-    data: mujoco.MjData,
-    job: Job,
-    start: Start,
-    n_frames: int,
-    steps: int,
-    state_out: np.ndarray,
-    sensor_out: np.ndarray,
-    stopped: Callable[[int], bool],
-) -> int:
-    """The closed loop of `FrameLoop._step_closed_loop`, frame by frame from `start` (a lane's
-    `Start`, standing in `data`), one `rollout` call of `steps` steps per frame (the frame with
-    the push stepped by hand), until `stopped(frame)` says the frame fell or blew up. Returns
-    the frames rolled out."""
-    model = robot.model
-    loop = ClosedLoop(robot, job, start, steps, data.sensordata)
-    push = Push(robot, job)
-    initial, warmstart = start.state[None, :], None
-    for frame in range(n_frames):
-        control = loop.plan(frame, data)
-        part = slice(frame * steps, (frame + 1) * steps)
-        if push.within(part.start, part.stop):
-            mujoco.mj_setState(model, data, initial[0], STATE_SPEC)
-            if warmstart is not None:
-                data.qacc_warmstart[:] = warmstart[0]
-            step_by_hand(robot, data, control, part.start, push, state_out[0], sensor_out[0])
-        else:
-            runner.rollout(
-                [model], [data], initial, control[None], initial_warmstart=warmstart,
-                state=state_out[:, part], sensordata=sensor_out[:, part], nstep=steps,
-                skip_checks=True,
-            )  # fmt: skip
-        loop.record(sensor_out[0, part])
-        if stopped(frame):
-            return frame + 1
-        initial, warmstart = state_out[:, part.stop - 1], data.qacc_warmstart[None].copy()
-    return n_frames
+def _check_one_walk(robots: Sequence[RobotModel], jobs: Sequence[Job]) -> None:
+    """ValueError unless the runs walk one gait from one start motion on one robot description,
+    and one motion too when they ramp from that start (`walk_of`)."""
+    if len({walk_of(job) for job in jobs}) > 1:
+        raise ValueError(
+            "the runs of one ClosedLoops must share params and start motion, and the motion "
+            "when they start from another"
+        )
+    robot = robots[0]
+    if any(other.description != robot.description for other in robots[1:]):
+        raise ValueError("the runs of one ClosedLoops must share the robot's description")
+
+
+def walk_of(job: Job) -> tuple:
+    """What runs must share to step in one `ClosedLoops`: the gait, the start motion, and the
+    motion when the run ramps from that start to it."""
+    ramps = job.start_motion is not None and job.start_motion != job.motion
+    return (job.params, job.start_motion, job.motion if ramps else None)

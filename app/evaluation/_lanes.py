@@ -23,14 +23,16 @@ from mujoco import rollout
 from app.evaluation._api import Cancelled, Job, OnResult, Progress
 from app.evaluation._frames import (
     STATE_SPEC,
+    ClosedLoops,
     Push,
     Start,
-    roll_out_closed,
     start_at_rest,
     step_by_hand,
+    walk_of,
 )
-from app.evaluation._measure import fallen, measure_frames, not_finite
+from app.evaluation._measure import measure_frames, not_finite
 from app.robots.model import RobotModel
+from app.sim.frame_loop import has_fallen
 from app.sim.metrics import RunMetrics, Trace
 from app.sim.planning import FRAME_S, FramePlan, frame_steps, plan_frames
 from app.worlds.servo_path import acting_setpoints
@@ -39,6 +41,8 @@ from gait import feedback
 
 #: a run rolls out this many frames per `rollout` call and stops after the call it fell in
 SEGMENT_FRAMES = 50
+#: closed-loop runs of one walk step in lockstep in groups of up to this many (decision 0038)
+GROUP_RUNS = 64
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
 
 
@@ -136,15 +140,32 @@ class _FrameEnds(NamedTuple):
     down: np.ndarray
 
 
+class _GroupEnds:
+    """A group's frame ends: each run's state (K, frames, state size) and sensordata (K,
+    frames, nsensordata) after each frame's last physics step."""
+
+    def __init__(self, runs: int, n_frames: int, state_size: int, nsensordata: int) -> None:
+        self.states = np.empty((runs, n_frames, state_size))
+        self.sensors = np.empty((runs, n_frames, nsensordata))
+
+
 class _LaneKit:
     """What one lane needs at a time: an MjData of the robot's size, kept output arrays, and a
     kept `Rollout` on the calling thread (one per call costs ~1.4 % of a run, decision 0027)."""
 
     def __init__(self, model: mujoco.MjModel) -> None:
+        self._model = model
         self.data = mujoco.MjData(model)
+        self._datas: list[mujoco.MjData] = []
         self.rollout = rollout.Rollout(nthread=0)
         self._state = np.empty((1, 0, mujoco.mj_stateSize(model, STATE_SPEC)))
         self._sensors = np.empty((1, 0, model.nsensordata))
+
+    def datas(self, runs: int) -> list[mujoco.MjData]:
+        """`runs` MjData of the robot's size (a group's: each run keeps its warm start)."""
+        while len(self._datas) < runs:
+            self._datas.append(mujoco.MjData(self._model))
+        return self._datas[:runs]
 
     def output(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
         """(1, steps, state size) and (1, steps, sensors) arrays, grown when a run is longer."""
@@ -224,13 +245,19 @@ class BatchEvaluator:
         results: list[RunMetrics] = []
         if not jobs:
             return results
-        pool = ThreadPoolExecutor(max_workers=min(self.threads, len(jobs)))
+        tasks = self._tasks(jobs)
+        pool = ThreadPoolExecutor(max_workers=min(self.threads, len(tasks)))
         try:
-            runs = [pool.submit(self._run, job, n_frames, warmup_s) for job in jobs]
-            for run in runs:
+            futures = [
+                pool.submit(self._run_task, [jobs[i] for i in task], n_frames, warmup_s, cancel)
+                for task in tasks
+            ]
+            where = {i: (t, k) for t, task in enumerate(tasks) for k, i in enumerate(task)}
+            for i in range(len(jobs)):
                 if cancel is not None and cancel.is_set():
                     raise Cancelled(f"cancelled after {len(results)} of {len(jobs)} runs")
-                metrics, trace = run.result()
+                t, k = where[i]
+                metrics, trace = futures[t].result()[k]
                 if on_result is not None:
                     on_result(len(results), metrics)
                 results.append(metrics)
@@ -242,28 +269,44 @@ class BatchEvaluator:
             pool.shutdown(wait=True, cancel_futures=True)
         return results
 
+    def _tasks(self, jobs: Sequence[Job]) -> list[list[int]]:
+        """The jobs' indices as the lanes take them, in order of their first job: an open-loop
+        run alone; closed-loop runs of one walk (`walk_of`: one gait, one start) in groups of
+        up to `GROUP_RUNS`, stepped in lockstep (`_run_group`), as many groups as lanes at
+        least."""
+        tasks: list[list[int]] = []
+        walks: dict[tuple, list[int]] = {}
+        for i, job in enumerate(jobs):
+            if feedback.any_law_on(job.params):
+                walks.setdefault(walk_of(job), []).append(i)
+            else:
+                tasks.append([i])
+        for runs in walks.values():
+            groups = max(min(self.threads, len(runs)), math.ceil(len(runs) / GROUP_RUNS))
+            size = math.ceil(len(runs) / groups)
+            tasks += [runs[first : first + size] for first in range(0, len(runs), size)]
+        return sorted(tasks)
+
+    def _run_task(
+        self, jobs: list[Job], n_frames: int, warmup_s: float, cancel: threading.Event | None
+    ) -> list[tuple[RunMetrics, Trace]]:
+        if feedback.any_law_on(jobs[0].params):
+            return self._run_group(jobs, n_frames, warmup_s, cancel)
+        return [self._run(job, n_frames, warmup_s) for job in jobs]
+
     def _run(self, job: Job, n_frames: int, warmup_s: float) -> tuple[RunMetrics, Trace]:
-        """One run in a lane: plan (standing it in the lane's MjData), roll out into the lane's
-        kept arrays, measure; with a feedback law on, frame by frame (`roll_out_closed`)."""
+        """One open-loop run in a lane: plan (standing it in the lane's MjData), roll out into
+        the lane's kept arrays, measure."""
         kit = self._kits.get()
         try:
             t0 = time.perf_counter()
-            if feedback.any_law_on(job.params):
-                robot, start = self._standing(job, kit.data)
-                t1 = time.perf_counter()
-                state_out, sensor_out = kit.output(n_frames * self.steps_per_frame)
-                frames = roll_out_closed(
-                    kit.rollout, robot, kit.data, job, start, n_frames, self.steps_per_frame,
-                    state_out, sensor_out, lambda f: self._fell_or_blew_up(state_out[0], start, f),
-                )  # fmt: skip
-            else:
-                robot, start, control = self._plan_run(job, n_frames, kit.data)
-                t1 = time.perf_counter()
-                state_out, sensor_out = kit.output(control.shape[0])
-                frames = self._roll_out(
-                    kit.rollout, robot, kit.data, start, control, state_out, sensor_out,
-                    Push(robot, job),
-                )  # fmt: skip
+            robot, start, control = self._plan_run(job, n_frames, kit.data)
+            t1 = time.perf_counter()
+            state_out, sensor_out = kit.output(control.shape[0])
+            frames = self._roll_out(
+                kit.rollout, robot, kit.data, start, control, state_out, sensor_out,
+                Push(robot, job),
+            )  # fmt: skip
             t2 = time.perf_counter()
             metrics, trace = self._measure(
                 state_out[0], sensor_out[0], start, job, frames, warmup_s
@@ -279,6 +322,117 @@ class BatchEvaluator:
             self.stage_s["measure"] += t3 - t2
             self.frames_rolled += frames
         return metrics, trace
+
+    def _run_group(
+        self, jobs: list[Job], n_frames: int, warmup_s: float, cancel: threading.Event | None
+    ) -> list[tuple[RunMetrics, Trace]]:
+        """Closed-loop runs of one walk in a lane, in lockstep (`ClosedLoops`): per frame the
+        sensors, laws and plans of all at once, then each run's frame by its own `rollout` call
+        from its own state and warm start (its push's frame stepped by hand); a run that falls
+        or blows up leaves the group. Only each frame's last state and sensor row are kept."""
+        kit = self._kits.get()
+        try:
+            t0 = time.perf_counter()
+            datas = kit.datas(len(jobs))
+            standing = [self._standing(job, data) for job, data in zip(jobs, datas, strict=True)]
+            robots = [robot for robot, _start in standing]
+            starts = [start for _robot, start in standing]
+            t1 = time.perf_counter()
+            ends = _GroupEnds(len(jobs), n_frames, starts[0].state.size, self.model.nsensordata)
+            frames = self._roll_out_group(
+                robots, datas, jobs, starts, n_frames, ends, kit.rollout, cancel
+            )
+            t2 = time.perf_counter()
+            done = []
+            for k, job in enumerate(jobs):
+                rows = np.arange(1, frames[k] + 1) * self.steps_per_frame - 1
+                start = starts[k]
+                checks = self._end_checks(
+                    ends.states[k, : frames[k]], rows, start.state[0], start.standing_height_m
+                )
+                done.append(
+                    measure_frames(
+                        self.robot, job, checks.qpos, ends.sensors[k, : frames[k]].copy(),
+                        checks.bad, checks.down, warmup_s,
+                    )
+                )  # fmt: skip
+        finally:
+            self._kits.put(kit)
+        t3 = time.perf_counter()
+        for metrics, _trace in done:
+            metrics["wall_s"] = (t2 - t1) / len(jobs)  # the run's share of the group's
+            metrics["rtf"] = metrics["sim_s"] / metrics["wall_s"]
+        with self._lock:
+            self.stage_s["plan"] += t1 - t0
+            self.stage_s["rollout"] += t2 - t1
+            self.stage_s["measure"] += t3 - t2
+            self.frames_rolled += int(frames.sum())
+        return done
+
+    def _roll_out_group(
+        self,
+        robots: list[RobotModel],
+        datas: list[mujoco.MjData],
+        jobs: list[Job],
+        starts: list[Start],
+        n_frames: int,
+        ends: _GroupEnds,
+        runner: rollout.Rollout,
+        cancel: threading.Event | None,
+    ) -> np.ndarray:
+        """The group's frames, each run to the frame it fell or blew up in: its frame ends into
+        `ends`. Returns each run's frames rolled out (K,); Cancelled when `cancel` is set."""
+        steps = self.steps_per_frame
+        start_s = np.array([start.state[0] for start in starts])
+        heights = np.array([start.standing_height_m for start in starts])
+        first_rows = np.stack([data.sensordata for data in datas])
+        loops = ClosedLoops(robots, jobs, starts, steps, first_rows)
+        pushes = [Push(robot, job) for robot, job in zip(robots, jobs, strict=True)]
+        state_out = np.empty((len(jobs), steps, ends.states.shape[2]))
+        sensor_out = np.empty((len(jobs), steps, self.model.nsensordata))
+        initial = np.stack([start.state for start in starts])[:, None, :]  # (K, 1, state)
+        warm = np.zeros((len(jobs), 1, self.model.nv))  # zeros: `rollout`'s cold start
+        push_frame = [push.step // steps if push.step >= 0 else -1 for push in pushes]
+        models = [[robot.model] for robot in robots]
+        frames = np.full(len(jobs), n_frames)
+        live = np.arange(len(jobs))  # the runs still in the group, in the loops' order
+        for frame in range(n_frames):
+            if cancel is not None and cancel.is_set():
+                raise Cancelled("cancelled")
+            control = loops.plan(frame, [datas[k] for k in live])
+            for j, k in enumerate(live.tolist()):
+                data = datas[k]
+                if push_frame[k] == frame:
+                    mujoco.mj_setState(robots[k].model, data, initial[k, 0], STATE_SPEC)
+                    if frame:
+                        data.qacc_warmstart[:] = warm[k, 0]
+                    step_by_hand(
+                        robots[k], data, control[j], frame * steps, pushes[k], state_out[j],
+                        sensor_out[j],
+                    )  # fmt: skip
+                else:
+                    runner.rollout(
+                        models[k], [data], initial[k], control[j : j + 1],
+                        initial_warmstart=warm[k], state=state_out[j : j + 1],
+                        sensordata=sensor_out[j : j + 1], nstep=steps, skip_checks=True,
+                    )  # fmt: skip
+                warm[k, 0] = data.qacc_warmstart
+            n = len(live)
+            loops.record(sensor_out[:n])
+            ends.states[live, frame] = state_out[:n, -1]
+            ends.sensors[live, frame] = sensor_out[:n, -1]
+            initial[live, 0] = state_out[:n, -1]
+            checks = self._end_checks(
+                ends.states[live, frame], (frame + 1) * steps - 1, start_s[live], heights[live]
+            )
+            stopped = checks.bad | checks.down
+            if stopped.any():
+                frames[live[stopped]] = frame + 1
+                live = live[~stopped]
+                if not len(live):
+                    break
+                loops.keep(~stopped)
+        return frames
 
     def _roll_out(
         self,
@@ -309,8 +463,9 @@ class BatchEvaluator:
             part = slice(done * steps, (done + frames) * steps)
             if push is not None and done == push_frame:
                 step_by_hand(
-                    robot, data, control[part], part.start, push, state_out[0], sensor_out[0]
-                )
+                    robot, data, control[part], part.start, push, state_out[0, part],
+                    sensor_out[0, part],
+                )  # fmt: skip
             else:
                 runner.rollout(
                     [model], [data], initial, control[None, part], initial_warmstart=warmstart,
@@ -324,19 +479,27 @@ class BatchEvaluator:
             initial, warmstart = state_out[:, part.stop - 1], data.qacc_warmstart[None].copy()
         return done
 
-    def _fell_or_blew_up(self, states: np.ndarray, start: Start, frame: int) -> bool:
-        ends = self._frame_ends(states, start, frame, frame + 1)
-        return bool(ends.bad[0] or ends.down[0])
-
     def _frame_ends(self, states: np.ndarray, start: Start, first: int, end: int) -> _FrameEnds:
         """Frames first..end-1 of a run as `FrameLoop` checks them after each frame: the state
-        after the frame's last step, blown up (not finite, or MuJoCo reset it: time restarts
-        at 0) or fallen."""
+        after the frame's last step (`_end_checks`)."""
         rows = np.arange(first + 1, end + 1) * self.steps_per_frame - 1
-        qpos = states[rows, 1 : 1 + self.model.nq]
-        expected_time = start.state[0] + (rows + 1) * self.model.opt.timestep
-        bad = not_finite(qpos) | (np.abs(states[rows, 0] - expected_time) > 1e-6)
-        return _FrameEnds(rows, qpos, bad, fallen(qpos, start))
+        return self._end_checks(states[rows], rows, start.state[0], start.standing_height_m)
+
+    def _end_checks(
+        self,
+        ends: np.ndarray,
+        rows: np.ndarray | int,
+        start_s: float | np.ndarray,
+        standing_height_m: float | np.ndarray,
+    ) -> _FrameEnds:
+        """Frame-end states `ends` (n, state size) -- each the state after physics step `rows`
+        of its run, which started at `start_s` standing `standing_height_m` high (each a number
+        or one per state) -- as `FrameLoop` checks them: blown up (not finite, or MuJoCo reset
+        it: time restarts at 0) or fallen."""
+        qpos = ends[:, 1 : 1 + self.model.nq]
+        expected_time = start_s + (np.asarray(rows) + 1) * self.model.opt.timestep
+        bad = not_finite(qpos) | (np.abs(ends[:, 0] - expected_time) > 1e-6)
+        return _FrameEnds(np.asarray(rows), qpos, bad, has_fallen(qpos, standing_height_m))
 
     def _varied(self, variation: Variation) -> RobotModel:
         variation = variation.physics  # the sensors' errors leave the model as it is

@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from app.evaluation._api import Cancelled, ExecutorError, Job, OnResult, Progress
-from app.evaluation._frames import ClosedLoop, Push
+from app.evaluation._frames import Push
 from app.evaluation._warp_host import POOL_MIN_WORLDS, HostPool, Planned, WorldEnds, plan_batch
 from app.evaluation._warp_kernels import control_kernels
 from app.evaluation._warp_model import batch_model, per_world_fields
@@ -112,10 +112,10 @@ class WarpEvaluator:
     controls planned on the CPU as the lanes plan them and uploaded per segment, a push set on
     the trunk in its step. Falls are found per world at frame ends; a fallen or blown-up world
     stops counting (it keeps stepping with the others). Results are float32 physics: close to
-    the lanes', not bit-equal (docs/GPU.md "Agreement"). With a feedback law on, a world's
-    `ClosedLoop` (the lanes' own) plans each frame from the sensor rows of the steps before, a
-    frame a segment; the CoP law, which reads the soles' force sensors, is refused
-    (ExecutorError).
+    the lanes', not bit-equal (docs/GPU.md "Agreement"). With a feedback law on, the worlds'
+    loops (`ClosedLoops`, the lanes' own, one per walk) plan each frame from the sensor rows
+    of the steps before, a frame a segment; the CoP law, which reads the soles' force sensors,
+    is refused (ExecutorError).
 
     Args:
         robot: the model (default: the built-in one).
@@ -277,7 +277,7 @@ class _Batch:
         #: block, so a segment's controls go up as one contiguous slice per world
         self.controls, self.initial, self.fields = planned.controls, planned.initial, fields
         self.pushes = [Push(r, j) for r, j in zip(self.robots, jobs, strict=True)]
-        self.closed = any(loop is not None for loop in self.loops)  # a law on in some world
+        self.closed = bool(self.loops)  # a law on in some world
         #: the last upload's end on a CUDA device (the host's buffer is reused after it)
         self.uploaded: Any = None
 
@@ -398,8 +398,7 @@ class _Batch:
         nq, ns = owner.model.nq, owner.model.nsensordata
         frames = min(self.per_segment, self.n_frames - first)
         t0 = time.perf_counter()
-        for w, loop in self._counting_loops(counting):
-            self.host_segment[w, :steps] = loop.plan(first, None)
+        self.loops.plan(first, counting, self.host_segment[:, :steps])
         t1 = time.perf_counter()
         owner.stage_s["laws"] += t1 - t0
         rows = slice(first * steps, (first + frames) * steps)
@@ -464,8 +463,7 @@ class _Batch:
         owner.stage_s["step"] += step_s
         if step_rows is not None:
             steps = owner.steps_per_frame
-            for w, loop in self._counting_loops(counting):
-                loop.record(step_rows[w, :steps].astype(np.float64))
+            self.loops.record(step_rows[:, :steps].astype(np.float64), counting)
             owner.stage_s["laws"] += time.perf_counter() - t1
         if overflow.any():
             w = int(np.argmax(overflow != 0))
@@ -476,10 +474,6 @@ class _Batch:
                 "run these jobs with --backend cpu"
             )
         return step_s
-
-    def _counting_loops(self, counting: np.ndarray) -> list[tuple[int, ClosedLoop]]:
-        """The closed-loop worlds still counting, with their loops."""
-        return [(w, loop) for w, loop in enumerate(self.loops) if loop is not None and counting[w]]
 
     def _steps_by_hand(
         self, batch: Any, data: Any, pushes: dict[int, np.ndarray], first_step: int, t1: float

@@ -24,7 +24,7 @@ import mujoco
 import numpy as np
 
 from app.evaluation._api import Job
-from app.evaluation._frames import STATE_SPEC, ClosedLoop, Start
+from app.evaluation._frames import STATE_SPEC, ClosedLoops, Start, walk_of
 from app.evaluation._lanes import plan_open_loop
 from app.evaluation._measure import fallen, measure_frames, not_finite
 from app.evaluation._processes import WorkerDied
@@ -91,7 +91,7 @@ def plan_worlds(
     """Each world's start and the ctrl of its every step (`plan_open_loop`, cast to `control`'s
     float32 by assignment), written into row w of `control` (worlds, steps, nu) and `initial`;
     `data` is the scratch, `plans` the gait plans kept by case. Returns the starts and, for
-    the worlds with a law on, the sensordata standing at the start (what `ClosedLoop` reads
+    the worlds with a law on, the sensordata standing at the start (what `ClosedLoops` reads
     first), by world."""
     starts: list[Start] = []
     first_rows: dict[int, np.ndarray] = {}
@@ -391,8 +391,8 @@ class Planned:
     controls: HostArray
     #: each world's `INITIAL` rows
     initial: dict[str, np.ndarray]
-    #: each world's loop between frames where a law is on (`ClosedLoop`, as the lanes')
-    loops: list[ClosedLoop | None]
+    #: the loops between frames of the worlds where a law is on (`ClosedLoops`, the lanes')
+    loops: WorldLoops
 
 
 def plan_batch(
@@ -407,8 +407,8 @@ def plan_batch(
     """Every world planned (`plan_worlds`): on `pool` where one is given and the controls fit
     in shared memory (else here, `notice` told why), the varied robots made here meanwhile
     and handed to `with_robots` (the device's per-world values are read from them while the
-    workers plan); a world with a law on gets its `ClosedLoop` here, from its start. The
-    controls are released when planning fails."""
+    workers plan); the worlds with a law on get their loops here (`WorldLoops`), from their
+    starts. The controls are released when planning fails."""
     shape = (len(jobs), n_frames * steps, robot.model.nu)
     short = None if pool is None else shared_memory_short(math.prod(shape) * 4)
     if short is not None and notice is not None:
@@ -430,14 +430,77 @@ def plan_batch(
             make_robots()
             data = mujoco.MjData(robot.model)
             starts, first_rows = plan_worlds(robots, jobs, n_frames, control, initial, {}, data)
-        loops = [
-            ClosedLoop(robots[w], job, starts[w], steps, first_rows[w]) if w in first_rows else None
-            for w, job in enumerate(jobs)
-        ]
+        loops = WorldLoops(robots, jobs, starts, steps, first_rows)
     except BaseException:
         controls.release()
         raise
     return Planned(robots, starts, controls, initial, loops)
+
+
+class WorldLoops:
+    """A batch's closed-loop worlds' loops between frames: the worlds of one walk (`walk_of`)
+    in one `ClosedLoops`, their sensors, laws and frames planned at once as the lanes' groups
+    plan them. A world that stops counting leaves its group.
+
+    Args:
+        robots, jobs, starts: every world's.
+        steps: physics steps per frame.
+        first_rows: the closed-loop worlds' sensordata standing at the start, by world.
+    """
+
+    def __init__(
+        self,
+        robots: Sequence[RobotModel],
+        jobs: Sequence[Job],
+        starts: Sequence[Start],
+        steps: int,
+        first_rows: dict[int, np.ndarray],
+    ) -> None:
+        walks: dict[tuple, list[int]] = {}
+        for w in sorted(first_rows):
+            walks.setdefault(walk_of(jobs[w]), []).append(w)
+        self.groups = [
+            (np.array(worlds), self._loops(worlds, robots, jobs, starts, steps, first_rows))
+            for worlds in walks.values()
+        ]
+
+    @staticmethod
+    def _loops(
+        worlds: list[int],
+        robots: Sequence[RobotModel],
+        jobs: Sequence[Job],
+        starts: Sequence[Start],
+        steps: int,
+        first_rows: dict[int, np.ndarray],
+    ) -> ClosedLoops:
+        rows = np.stack([first_rows[w] for w in worlds])
+        return ClosedLoops(
+            [robots[w] for w in worlds], [jobs[w] for w in worlds], [starts[w] for w in worlds],
+            steps, rows,
+        )  # fmt: skip
+
+    def __bool__(self) -> bool:
+        return bool(self.groups)
+
+    def plan(self, first: int, counting: np.ndarray, out: np.ndarray) -> None:
+        """Frame `first`'s ctrl of every counting closed-loop world into its rows of `out`
+        (worlds, steps, nu)."""
+        for worlds, loops in self._counting(counting):
+            out[worlds] = loops.plan(first, None)
+
+    def record(self, rows: np.ndarray, counting: np.ndarray) -> None:
+        """The sensordata after each step of the frame just stepped, (worlds, steps, ns)."""
+        for worlds, loops in self._counting(counting):
+            loops.record(rows[worlds])
+
+    def _counting(self, counting: np.ndarray) -> list[tuple[np.ndarray, ClosedLoops]]:
+        """The groups' counting worlds, each group left by the worlds that stopped counting."""
+        for g, (worlds, loops) in enumerate(self.groups):
+            still = counting[worlds]
+            if not still.all() and still.any():
+                loops.keep(still)
+            self.groups[g] = (worlds[still], loops)
+        return [(worlds, loops) for worlds, loops in self.groups if len(worlds)]
 
 
 class WorldEnds:

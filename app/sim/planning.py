@@ -6,8 +6,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import mujoco
 import numpy as np
@@ -177,6 +179,99 @@ def plan_frames(
     angles, gamma_clamped = _gait(params, walked, phase, startup, geometry)
     if joint_delta_rad is not None:
         angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
+    return _through_servos(
+        phase, angles, gamma_clamped, motions, hardware, steps_per_frame, timestep_s
+    )
+
+
+class MotionOfRuns(NamedTuple):
+    """The motions of K runs that walk each its own motion vector and CA, a field (K,) each,
+    as the gait and the laws take them (the gait along the legs' axis: `along_legs`)."""
+
+    a_r: NDArray[np.float64]
+    a_p: NDArray[np.float64]
+    a_y: NDArray[np.float64]
+    ca: NDArray[np.float64]
+
+    @classmethod
+    def of(cls, motions: Sequence[Motion]) -> MotionOfRuns:
+        return cls(*(np.array([getattr(m, f) for m in motions]) for f in cls._fields))
+
+    def take(self, runs: NDArray[np.bool_]) -> MotionOfRuns:
+        """The motions of the runs `runs` selects."""
+        return MotionOfRuns(*(field[runs] for field in self))
+
+    def along_legs(self) -> MotionOfRuns:
+        """The fields as (K, 1), against the gait's (K, 2) leg axis."""
+        return MotionOfRuns(*(field[:, None] for field in self))
+
+
+def plan_frame_of_runs(
+    params: GaitParams,
+    motion: Motion | MotionOfRuns,
+    hardware: HardwareSetup,
+    phase0: float,
+    steps_per_frame: int,
+    timestep_s: float,
+    *,
+    motion_now: Motion | MotionOfRuns,
+    frame0: int,
+    geometry: LegGeometry,
+    joint_delta_rad: NDArray[np.floating],
+    a_y_delta: NDArray[np.floating],
+) -> FramePlan:
+    """One frame of K runs that walk the same gait from the same phase, each with its own laws'
+    corrections (joint_delta_rad (K, 12), a_y_delta (K,)): a `FramePlan` whose leading axis is
+    the run (`motions` holds the motion the runs got, before a_y_delta). They walk one
+    `Motion` (its ramp from `motion_now`) or each its own (`MotionOfRuns`, which does not ramp:
+    `motion_now` is `motion`). Each run's row has the bits of `plan_frames(..., n_frames=1)`
+    with its corrections (a test holds them equal): the gait is elementwise along the runs."""
+    phase = pi_cut(phase0 + 2.0 * math.pi * params.clock.freq_hz * FRAME_S * np.arange(1))
+    if isinstance(motion, MotionOfRuns):
+        if motion_now is not motion:
+            raise ValueError("the runs' own motions do not ramp: motion_now must be motion")
+        walking: Motion | MotionOfRuns = motion
+    else:
+        (walking,) = frame_motions(params, motion, motion_now, 1)  # type: ignore[arg-type]
+    startup = startup_gain(params, (frame0 + np.arange(1)) * FRAME_S)
+    delta = np.asarray(a_y_delta, dtype=np.float64)
+    low, high = A_Y_RANGE
+    moved = np.minimum(np.maximum(walking.a_y + delta, low), high)
+    a_y = np.where(delta == 0.0, walking.a_y, moved)
+    runs = len(delta)
+    if isinstance(walking, Motion) and np.all(a_y == a_y[0]):  # one gait for all
+        walked = walking if a_y[0] == walking.a_y else with_a_y_delta(walking, delta[0])
+        one = joint_angles_with_flags(params, walked, phase, geometry, startup=startup)
+        angles = np.repeat(one.values, runs, axis=0)
+        gamma_clamped = np.repeat(one.gamma_clamped, runs, axis=0)
+    else:
+        shared = (np.full(runs, f) for f in (walking.a_r, walking.a_p))
+        own = MotionOfRuns(*shared, a_y, np.full(runs, walking.ca)).along_legs()
+        out = joint_angles_with_flags(
+            params,
+            own,
+            np.repeat(phase, runs),
+            geometry,
+            startup=startup,  # type: ignore[arg-type]
+        )
+        angles, gamma_clamped = out.values, out.gamma_clamped
+    angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
+    return _through_servos(
+        np.repeat(phase, runs), angles, gamma_clamped, [walking], hardware, steps_per_frame,
+        timestep_s,
+    )  # fmt: skip
+
+
+def _through_servos(
+    phase: NDArray[np.float64],
+    angles: NDArray[np.float64],
+    gamma_clamped: NDArray[np.bool_],
+    motions: list[Motion],
+    hardware: HardwareSetup,
+    steps_per_frame: int,
+    timestep_s: float,
+) -> FramePlan:
+    """Joint angles (n, 12) -> pulses -> TDM-PWM frame -> set-points and their physics steps."""
     pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
     servo_ocr = pulse_us_to_ocr(pulse_us)  # what frame_ocr places; no slot idle
     fall_ticks = servo_falling_edge_ticks(servo_ocr, hardware.tdm)

@@ -6,6 +6,7 @@ the IMU's tilt, the gyro's bias and seeded noise, the IMU's delay, the force sen
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import mujoco
@@ -140,12 +141,86 @@ class Sensors:
                 f"the IMU's delay needs the last {self.steps_needed} steps' sensor rows, got "
                 f"{len(rows)}"
             )
-        imu = rows[-1 - self.delay_steps]
         noise = self._rng.standard_normal(3) * self._gyro_noise
-        gyro = self._to_imu @ imu[self._gyro] + self._gyro_bias + noise
-        accel = self._to_imu @ imu[self._accel]
+        gyro, accel = imu_readings(
+            rows[-1 - self.delay_steps][None], self._to_imu[None], self._gyro_bias, noise[None],
+            self._gyro, self._accel,
+        )  # fmt: skip
         return SensorReading(
-            gyro_rad_s=quantised(gyro, GYRO_RAD_S_PER_COUNT),
-            accel_m_s2=quantised(accel, ACCEL_M_S2_PER_COUNT),
+            gyro_rad_s=gyro[0],
+            accel_m_s2=accel[0],
             fsr_n=self._fsr_gain * fsr_forces(self._robot, data) if forces else np.zeros((2, 4)),
         )
+
+
+def imu_readings(
+    imu_rows: NDArray[np.float64],
+    to_imu: NDArray[np.float64],
+    gyro_bias_rad_s: float | NDArray[np.float64],
+    gyro_noise_rad_s: NDArray[np.float64],
+    gyro: slice,
+    accel: slice,
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """K runs' IMU as the part reports it: from each run's sensordata row (K, nsensordata) at
+    its delay, the gyro's and accelerometer's rows (`gyro`, `accel`) turned into the IMU's axes
+    (`to_imu`, (K, 3, 3)), the gyro's bias (K,) and drawn noise (K, 3) added, quantised
+    (`quantised`): the gyro (K, 3) and accelerometer (K, 3). Each run's numbers are those of
+    that run alone (`Sensors.read` is the run of one)."""
+    bias = np.asarray(gyro_bias_rad_s, dtype=np.float64).reshape(-1, 1)
+    turned_gyro = (to_imu @ imu_rows[:, gyro, None])[:, :, 0]
+    turned_accel = (to_imu @ imu_rows[:, accel, None])[:, :, 0]
+    return (
+        quantised(turned_gyro + bias + gyro_noise_rad_s, GYRO_RAD_S_PER_COUNT),
+        quantised(turned_accel, ACCEL_M_S2_PER_COUNT),
+    )
+
+
+class SensorBank:
+    """K runs' sensors at once (a lane's group of closed-loop runs): `Sensors` of each run
+    (robot, variation), read together from the sensor rows of their last physics steps. Each
+    run reads the bits it reads alone, its noise from its own generator."""
+
+    def __init__(self, robots: Sequence[RobotModel], variations: Sequence[Variation]) -> None:
+        runs = [Sensors(robot, v) for robot, v in zip(robots, variations, strict=True)]
+        self._runs = runs
+        self.delay_steps = np.array([r.delay_steps for r in runs])
+        self._to_imu = np.stack([r._to_imu for r in runs])
+        self._gyro_bias = np.array([r._gyro_bias for r in runs])
+        self._gyro_noise = np.array([r._gyro_noise for r in runs])
+        self._gyro, self._accel = runs[0]._gyro, runs[0]._accel
+        if any((r._gyro, r._accel) != (self._gyro, self._accel) for r in runs):
+            raise ValueError("the runs' models must hold the IMU at the same sensordata rows")
+
+    def keep(self, runs: NDArray[np.bool_]) -> None:
+        """Go on with the runs where `runs` (K,) is True."""
+        self._runs = [r for r, kept in zip(self._runs, runs, strict=True) if kept]
+        self.delay_steps, self._to_imu = self.delay_steps[runs], self._to_imu[runs]
+        self._gyro_bias, self._gyro_noise = self._gyro_bias[runs], self._gyro_noise[runs]
+
+    @property
+    def steps_needed(self) -> int:
+        """How many of the last physics steps' sensor rows `read_imu` needs."""
+        return int(self.delay_steps.max()) + 1
+
+    def read_imu(
+        self, rows: NDArray[np.float64]
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Each run's gyro and accelerometer (K, 3) from `rows` (K, k, nsensordata), the sensor
+        rows after each run's last k steps (k ≥ `steps_needed`), each at its own delay; draws
+        each run's gyro noise of one reading."""
+        if rows.shape[1] < self.steps_needed:
+            raise ValueError(
+                f"the IMUs' delays need the last {self.steps_needed} steps' sensor rows, got "
+                f"{rows.shape[1]}"
+            )
+        noise = np.stack([r._rng.standard_normal(3) for r in self._runs])
+        at = rows[np.arange(len(rows)), rows.shape[1] - 1 - self.delay_steps]
+        return imu_readings(
+            at, self._to_imu, self._gyro_bias, noise * self._gyro_noise[:, None], self._gyro,
+            self._accel,
+        )  # fmt: skip
+
+    def fsr(self, k: int, data: mujoco.MjData) -> NDArray[np.float64]:
+        """Run k's force sensors (2, 4) from `data` as its last step left it."""
+        run = self._runs[k]
+        return run._fsr_gain * fsr_forces(run._robot, data)

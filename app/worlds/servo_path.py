@@ -7,6 +7,7 @@ were sent -- latency, calibration offset, and dead band plus backlash as a play 
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -104,6 +105,71 @@ class ServoPath:
         self._last_command = x[-1].copy()
         self._output = held[n_events].copy()
         return held[so_far, _SERVOS]
+
+
+class ServoPaths:
+    """K runs' `ServoPath`s at once, a chunk of the same steps for all (a lane's group of
+    closed-loop runs): each run's output has the bits of its own `ServoPath` (a test holds
+    them equal). The play acts at every step -- a repeated command clips the output to where
+    it is -- so no run waits on another's changes.
+
+    Args:
+        variations: each run's `Variation`.
+        timestep_s: the physics step, s.
+        initial_rad: (K, 12) each run's set-points in force before the first step.
+    """
+
+    def __init__(
+        self, variations: Sequence[Variation], timestep_s: float, initial_rad: ArrayLike
+    ) -> None:
+        initial = np.array(initial_rad, dtype=np.float64)
+        if initial.shape != (len(variations), N_SERVOS):
+            raise ValueError(
+                f"initial_rad must have shape ({len(variations)}, {N_SERVOS}), got {initial.shape}"
+            )
+        self.delay_steps = np.array([latency_steps(v.latency_ms, timestep_s) for v in variations])
+        offset = [np.radians(np.array(v.calibration_deg, dtype=np.float64)) for v in variations]
+        self.offset_rad = np.stack(offset)
+        self.has_offset = np.any(self.offset_rad != 0.0, axis=1)
+        widths = [0.5 * math.radians(v.deadband_deg + v.backlash_deg) for v in variations]
+        self.half_width_rad = np.array(widths)
+        self._played = self.half_width_rad != 0.0
+        longest = int(self.delay_steps.max(initial=0))
+        self._queue = np.repeat(initial[:, None, :], longest, axis=1)  # the last inputs
+        self._output = np.where(self.has_offset[:, None], initial + self.offset_rad, initial)
+
+    def keep(self, runs: NDArray[np.bool_]) -> None:
+        """Go on with the runs where `runs` (K,) is True."""
+        self.delay_steps, self.offset_rad = self.delay_steps[runs], self.offset_rad[runs]
+        self.has_offset, self.half_width_rad = self.has_offset[runs], self.half_width_rad[runs]
+        self._played, self._queue, self._output = (
+            self._played[runs],
+            self._queue[runs],
+            self._output[runs],
+        )
+
+    def __call__(self, ctrl_rad: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The next chunk of every run, (K, n, 12) in rad, to (K, n, 12)."""
+        x = np.asarray(ctrl_rad, dtype=np.float64)
+        if x.ndim != 3 or x.shape[0] != len(self.delay_steps) or x.shape[2] != N_SERVOS:
+            raise ValueError(
+                f"ctrl_rad must have shape ({len(self.delay_steps)}, n, {N_SERVOS}), got {x.shape}"
+            )
+        n, longest = x.shape[1], self._queue.shape[1]
+        if longest:
+            joined = np.concatenate([self._queue, x], axis=1)
+            first = longest - self.delay_steps
+            x = joined[np.arange(len(x))[:, None], first[:, None] + np.arange(n)]
+            self._queue = joined[:, n:].copy()
+        if self.has_offset.any():
+            x = np.where(self.has_offset[:, None, None], x + self.offset_rad[:, None, :], x)
+        if self._played.any() and n:
+            width = self.half_width_rad[None, :, None]
+            steps = x.transpose(1, 0, 2)  # (n, K, 12): the play runs along the steps
+            played = play_outputs(self._output, steps - width, steps + width)
+            self._output = np.where(self._played[:, None], played[-1], self._output)
+            x = np.where(self._played[:, None, None], played.transpose(1, 0, 2), x)
+        return x
 
 
 def play_outputs(

@@ -1,0 +1,166 @@
+"""Closed-loop runs stepped in lockstep groups (docs/DESIGN.md §9, decision 0038): sensors, laws,
+the frame's plan and the servo paths of many runs at once give each run the bits it gets alone;
+the lanes cut the jobs into groups of one walk; a cancel stops a group between frames."""
+
+from __future__ import annotations
+
+import dataclasses
+import threading
+
+import numpy as np
+import pytest
+
+from app.evaluation import BatchEvaluator, Cancelled, Job, _frames
+from app.evaluation._lanes import GROUP_RUNS
+from app.params.presets import builtin_presets
+from app.robots.model import RobotModel
+from app.sim.planning import MotionOfRuns, frame_steps, plan_frame_of_runs, plan_frames
+from app.worlds.sampling import VariationRanges, sample
+from app.worlds.servo_path import ServoPath, ServoPaths
+from app.worlds.variations import NOMINAL, parse_variation
+from gait import Motion, feedback
+from gait.params import LAW_GROUPS
+
+ROBOT = RobotModel.load()
+ROBUST = builtin_presets()["robust"].gait
+EVERY_LAW = dataclasses.replace(
+    ROBUST, **{g: dataclasses.replace(getattr(ROBUST, g), enabled=True) for g in LAW_GROUPS}
+)
+STRIP = ("wall_s", "rtf")  # a group's wall time is shared out among its runs
+
+
+def bits(a) -> bytes:
+    return np.ascontiguousarray(a).tobytes()
+
+
+@pytest.mark.parametrize("params", [ROBUST, EVERY_LAW], ids=["robust", "every law"])
+def test_runs_stepped_in_one_group_equal_each_run_alone_to_the_bit(params):
+    worlds = [
+        NOMINAL,
+        parse_variation("push_n_s=0.3,push_time_s=1.01,push_direction_deg=200,kp_scale=0.9"),
+        parse_variation("push_n_s=2.5,push_time_s=0.5,push_direction_deg=0"),  # falls
+        *sample(VariationRanges(), 2, seed=7),
+    ]
+    motions = [Motion(a_p=0.07, a_y=0.1), Motion(a_r=-0.05, ca=0.1)]
+    jobs = [Job(params, m, variation=v) for v in worlds for m in motions]
+    jobs.append(Job(params, Motion(a_p=0.07), start_motion=Motion(), variation=worlds[3]))
+    evaluator = BatchEvaluator(ROBOT, threads=1)
+    assert len(evaluator._tasks(jobs)) == 2  # the walks in one group, the ramp in its own
+    traces: list = []
+    together = evaluator.evaluate(jobs, duration_s=2.0, warmup_s=0.5, traces=traces)
+    assert [m["fell"] for m in together].count(True) >= 2  # the shove throws both walks
+    for job, got, trace in zip(jobs, together, traces, strict=True):
+        alone: list = []
+        (want,) = evaluator.evaluate([job], duration_s=2.0, warmup_s=0.5, traces=alone)
+        assert {k: v for k, v in got.items() if k not in STRIP} == {
+            k: v for k, v in want.items() if k not in STRIP
+        }
+        assert trace.x_m == alone[0].x_m and bits(trace.gyro_rad_s) == bits(alone[0].gyro_rad_s)
+
+
+def test_the_lanes_cut_the_jobs_into_groups_of_one_walk():
+    ramp = Job(ROBUST, Motion(a_p=0.07), start_motion=Motion())
+    other_ramp = Job(ROBUST, Motion(a_p=-0.05), start_motion=Motion())
+    jobs = [Job(ROBUST, Motion(a_p=0.07, ca=c), variation=NOMINAL) for c in (-0.1, 0.0, 0.1)]
+    jobs += [ramp, other_ramp, Job(builtin_presets()["tuned"].gait, Motion(a_p=0.07))]
+    jobs += [Job(EVERY_LAW, Motion())] * (2 * GROUP_RUNS + 1)
+    tasks = BatchEvaluator(ROBOT, threads=2)._tasks(jobs)
+    assert sorted(i for task in tasks for i in task) == list(range(len(jobs)))
+    assert [0, 1, 2] not in tasks and [[0, 1], [2]] == [t for t in tasks if t[0] < 3]  # 2 lanes
+    assert [3] in tasks and [4] in tasks and [5] in tasks  # ramps apart, open loop alone
+    big = [t for t in tasks if t[0] >= 6]
+    assert len(big) == 3 and all(len(t) <= GROUP_RUNS for t in big)  # 129 runs: 43 a group
+
+
+def test_a_cancel_stops_a_group_between_frames(monkeypatch):
+    cancel = threading.Event()
+    planned = []
+    real_plan = _frames.ClosedLoops.plan
+
+    def plan(self, frame, datas):
+        planned.append(frame)
+        if frame == 5:
+            cancel.set()
+        return real_plan(self, frame, datas)
+
+    monkeypatch.setattr(_frames.ClosedLoops, "plan", plan)
+    jobs = [Job(ROBUST, Motion(a_p=0.07), variation=v) for v in sample(VariationRanges(), 3, 1)]
+    with pytest.raises(Cancelled):
+        BatchEvaluator(ROBOT, threads=1).evaluate(jobs, duration_s=2.0, cancel=cancel)
+    assert planned == list(range(6))  # of 100 frames
+
+
+def test_the_laws_of_many_runs_equal_each_run_stepped_alone():
+    rng = np.random.default_rng(1)
+    positions = ROBOT.fsr_positions_m.astype(np.float32)
+    motions = MotionOfRuns.of([Motion(a_p=0.07), Motion(a_r=0.05, ca=0.1), Motion(a_y=-0.2)])
+    states, alone = feedback.States.fresh(3), [feedback.State()] * 3
+    for frame in range(30):
+        gyro = (rng.normal(size=(3, 3)) * 0.5).astype(np.float32)
+        accel = (rng.normal(size=(3, 3)) + np.array([0.0, 0.0, 9.8])).astype(np.float32)
+        if frame < 2:
+            accel[0] *= 0.1  # no estimate yet for run 0
+        fsr = (np.abs(rng.normal(size=(3, 2, 4))) * [[[3.0]], [[0.0]], [[0.2]]]).astype(np.float32)
+        states, outs = feedback.step_many(
+            EVERY_LAW, states, gyro, accel, fsr, motions, positions, 0.02
+        )
+        for k in range(3):
+            motion = Motion(*(float(field[k]) for field in motions))
+            reading = feedback.Reading(gyro[k], accel[k], fsr[k])
+            alone[k], want = feedback.step(EVERY_LAW, alone[k], reading, motion, positions, 0.02)
+            got = outs.run(k)
+            assert all(
+                bits(getattr(got, f.name)) == bits(getattr(want, f.name))
+                for f in dataclasses.fields(want)
+            ), frame
+            assert all(
+                bits(getattr(states.run(k), f.name)) == bits(getattr(alone[k], f.name))
+                for f in dataclasses.fields(alone[k])
+            ), frame
+    assert outs.run(1).support == -1  # the unloaded run has no support foot
+
+
+def test_servo_paths_equal_each_runs_servo_path_chunk_by_chunk():
+    rng = np.random.default_rng(3)
+    worlds = [NOMINAL, *sample(VariationRanges(), 6, seed=5)]
+    start = rng.normal(size=(len(worlds), 12)) * 0.3
+    alone = [ServoPath(v, 0.001, start[k]) for k, v in enumerate(worlds)]
+    together = ServoPaths(worlds, 0.001, start)
+    assert together.delay_steps.max() > 20  # a latency longer than a frame
+    sent = start.copy()
+    for n in (20, 20, 7, 1, 33, 20):
+        switch = rng.integers(0, n + 1, size=sent.shape)
+        new = sent + rng.normal(size=sent.shape) * rng.choice([0.001, 0.02], size=(len(sent), 1))
+        later = np.arange(n)[None, :, None] >= switch[:, None]
+        chunk = np.where(later, new[:, None], sent[:, None])
+        sent = np.where(switch < n, new, sent)
+        got = together(chunk)
+        for k, path in enumerate(alone):
+            assert bits(got[k]) == bits(path(chunk[k]))
+
+
+def test_a_frame_of_runs_is_each_runs_one_frame_plan():
+    hardware, steps = ROBOT.hardware(), frame_steps(ROBOT.model)
+    timestep_s = float(ROBOT.model.opt.timestep)
+    rng = np.random.default_rng(4)
+    delta = (rng.normal(size=(4, 12)) * 0.02).astype(np.float32)
+    a_y_delta = np.array([0.0, 0.05, -0.3, 0.0], dtype=np.float32)  # -0.3 beyond a_y's range
+    each = [Motion(a_p=0.07), Motion(a_r=0.05), Motion(a_p=-0.05, ca=0.1), Motion(a_y=-0.25)]
+    for motion in (Motion(a_p=0.07, ca=-0.1), MotionOfRuns.of(each)):
+        runs = plan_frame_of_runs(
+            ROBUST, motion, hardware, 1.3, steps, timestep_s, motion_now=motion, frame0=7,
+            geometry=ROBOT.geometry, joint_delta_rad=delta, a_y_delta=a_y_delta,
+        )  # fmt: skip
+        for k in range(4):
+            own = motion if isinstance(motion, Motion) else each[k]
+            one = plan_frames(
+                ROBUST, own, hardware, 1.3, 1, steps, timestep_s, frame0=7,
+                geometry=ROBOT.geometry, joint_delta_rad=delta[k], a_y_delta=float(a_y_delta[k]),
+            )  # fmt: skip
+            for name in ("angles", "setpoint", "substep", "saturated", "ocr"):
+                assert bits(getattr(runs, name)[k]) == bits(getattr(one, name)[0]), (k, name)
+    with pytest.raises(ValueError, match="do not ramp"):
+        plan_frame_of_runs(
+            ROBUST, MotionOfRuns.of(each), hardware, 1.3, steps, timestep_s, motion_now=Motion(),
+            frame0=0, geometry=ROBOT.geometry, joint_delta_rad=delta, a_y_delta=a_y_delta,
+        )  # fmt: skip
