@@ -90,6 +90,26 @@ def test_a_cancel_stops_a_group_between_frames(monkeypatch):
     assert planned == list(range(6))  # of 100 frames
 
 
+def test_a_group_shows_its_progress_while_it_steps(monkeypatch):
+    """Its runs end together; meanwhile the frames it has stepped show, in whole runs."""
+    halfway, seen = threading.Event(), []
+    real_plan = _frames.ClosedLoops.plan
+
+    def plan(self, frame, datas):
+        if frame == 60 and not halfway.wait(timeout=60):  # of 100: 4 x 60 frames, 2 runs' worth
+            raise AssertionError("no progress was shown while the group stepped")
+        return real_plan(self, frame, datas)
+
+    def progress(done, total):
+        seen.append(done)
+        halfway.set()
+
+    monkeypatch.setattr(_frames.ClosedLoops, "plan", plan)
+    jobs = [Job(ROBUST, Motion(a_p=0.07), variation=v) for v in sample(VariationRanges(), 4, 2)]
+    BatchEvaluator(ROBOT, threads=1).evaluate(jobs, duration_s=2.0, progress=progress)
+    assert seen[0] <= 2 and seen[-1] == 4 and seen == sorted(set(seen))
+
+
 def test_the_laws_of_many_runs_equal_each_run_stepped_alone():
     rng = np.random.default_rng(1)
     positions = ROBOT.fsr_positions_m.astype(np.float32)

@@ -13,7 +13,7 @@ import queue
 import threading
 import time
 from collections.abc import Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from typing import NamedTuple
 
 import mujoco
@@ -43,6 +43,7 @@ from gait import feedback
 SEGMENT_FRAMES = 50
 #: closed-loop runs of one walk step in lockstep in groups of up to this many (decision 0038)
 GROUP_RUNS = 64
+POLL_S = 0.2  # how often a waiting `evaluate` shows a group's progress and looks at its cancel
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
 
 
@@ -140,6 +141,25 @@ class _FrameEnds(NamedTuple):
     down: np.ndarray
 
 
+class _Tally:
+    """One `evaluate` call's work as its lanes do it: each task's frames stepped (a run's once
+    it ended, a group's as it steps; each written by its task's lane alone), for the call's
+    progress; and the call's stop, which a group looks at between frames."""
+
+    def __init__(self, tasks: int, n_frames: int, cancel: threading.Event | None) -> None:
+        self.frames = [0] * tasks
+        self.n_frames = n_frames
+        self.stop = threading.Event()
+        self.cancel = cancel
+
+    def stopped(self) -> bool:
+        return self.stop.is_set() or (self.cancel is not None and self.cancel.is_set())
+
+    def runs_worth(self) -> int:
+        """The frames stepped so far, in whole runs."""
+        return sum(self.frames) // self.n_frames
+
+
 class _GroupEnds:
     """A group's frame ends: each run's state (K, frames, state size) and sensordata (K,
     frames, nsensordata) after each frame's last physics step."""
@@ -233,9 +253,12 @@ class BatchEvaluator:
             jobs: the runs; each starts standing at the frame loop's start phase.
             duration_s: simulated time per run in s (a fall ends a run early, `fell` says so).
             warmup_s: the first seconds, left out of the motion metrics.
-            progress: called with (runs done, runs in all) after each run, in job order.
+            progress: called with (runs done, runs in all) after each run, in job order, and
+                while a group of closed-loop runs steps, with the frames it has stepped in
+                whole runs' worth (its runs end together); never twice with one count.
             traces: if given, each run's `Trace` is appended to it, in job order.
-            cancel: when set, no further run starts (those under way finish): Cancelled.
+            cancel: when set, no further run starts (open-loop runs under way finish, a group
+                of closed-loop runs stops at its next frame): Cancelled.
             on_result: called with (job index, metrics) as each run's result is known, in job
                 order, so a caller can keep what finished before a crash or a cancel.
 
@@ -246,26 +269,42 @@ class BatchEvaluator:
         if not jobs:
             return results
         tasks = self._tasks(jobs)
+        tally = _Tally(len(tasks), n_frames, cancel)
+        shown = 0
+
+        def show(done: int) -> None:
+            nonlocal shown
+            if progress is not None and done > shown:
+                shown = done
+                progress(done, len(jobs))
+
+        def worth() -> int:  # the frames stepped, in runs, short of the last until it is in
+            return min(tally.runs_worth(), len(jobs) - 1)
+
         pool = ThreadPoolExecutor(max_workers=min(self.threads, len(tasks)))
         try:
             futures = [
-                pool.submit(self._run_task, [jobs[i] for i in task], n_frames, warmup_s, cancel)
-                for task in tasks
+                pool.submit(self._run_task, [jobs[i] for i in task], n_frames, warmup_s, tally, t)
+                for t, task in enumerate(tasks)
             ]
             where = {i: (t, k) for t, task in enumerate(tasks) for k, i in enumerate(task)}
             for i in range(len(jobs)):
-                if cancel is not None and cancel.is_set():
-                    raise Cancelled(f"cancelled after {len(results)} of {len(jobs)} runs")
                 t, k = where[i]
+                while True:  # a group's runs end together: its frames so far show it going
+                    if cancel is not None and cancel.is_set():
+                        raise Cancelled(f"cancelled after {len(results)} of {len(jobs)} runs")
+                    if wait([futures[t]], timeout=POLL_S).done:
+                        break
+                    show(worth())
                 metrics, trace = futures[t].result()[k]
                 if on_result is not None:
                     on_result(len(results), metrics)
                 results.append(metrics)
                 if traces is not None:
                     traces.append(trace)
-                if progress is not None:
-                    progress(len(results), len(jobs))
+                show(len(jobs) if len(results) == len(jobs) else max(len(results), worth()))
         finally:
+            tally.stop.set()  # a group under way ends at its next frame
             pool.shutdown(wait=True, cancel_futures=True)
         return results
 
@@ -288,11 +327,13 @@ class BatchEvaluator:
         return sorted(tasks)
 
     def _run_task(
-        self, jobs: list[Job], n_frames: int, warmup_s: float, cancel: threading.Event | None
+        self, jobs: list[Job], n_frames: int, warmup_s: float, tally: _Tally, task: int
     ) -> list[tuple[RunMetrics, Trace]]:
         if feedback.any_law_on(jobs[0].params):
-            return self._run_group(jobs, n_frames, warmup_s, cancel)
-        return [self._run(job, n_frames, warmup_s) for job in jobs]
+            return self._run_group(jobs, n_frames, warmup_s, tally, task)
+        done = [self._run(job, n_frames, warmup_s) for job in jobs]
+        tally.frames[task] = len(jobs) * n_frames
+        return done
 
     def _run(self, job: Job, n_frames: int, warmup_s: float) -> tuple[RunMetrics, Trace]:
         """One open-loop run in a lane: plan (standing it in the lane's MjData), roll out into
@@ -324,7 +365,7 @@ class BatchEvaluator:
         return metrics, trace
 
     def _run_group(
-        self, jobs: list[Job], n_frames: int, warmup_s: float, cancel: threading.Event | None
+        self, jobs: list[Job], n_frames: int, warmup_s: float, tally: _Tally, task: int
     ) -> list[tuple[RunMetrics, Trace]]:
         """Closed-loop runs of one walk in a lane, in lockstep (`ClosedLoops`): per frame the
         sensors, laws and plans of all at once, then each run's frame by its own `rollout` call
@@ -340,7 +381,7 @@ class BatchEvaluator:
             t1 = time.perf_counter()
             ends = _GroupEnds(len(jobs), n_frames, starts[0].state.size, self.model.nsensordata)
             frames = self._roll_out_group(
-                robots, datas, jobs, starts, n_frames, ends, kit.rollout, cancel
+                robots, datas, jobs, starts, n_frames, ends, kit.rollout, tally, task
             )
             t2 = time.perf_counter()
             done = []
@@ -378,10 +419,12 @@ class BatchEvaluator:
         n_frames: int,
         ends: _GroupEnds,
         runner: rollout.Rollout,
-        cancel: threading.Event | None,
+        tally: _Tally,
+        task: int,
     ) -> np.ndarray:
         """The group's frames, each run to the frame it fell or blew up in: its frame ends into
-        `ends`. Returns each run's frames rolled out (K,); Cancelled when `cancel` is set."""
+        `ends`, the frames stepped into `tally` as they go (a run that ended counts all).
+        Returns each run's frames rolled out (K,); Cancelled when the call stops."""
         steps = self.steps_per_frame
         start_s = np.array([start.state[0] for start in starts])
         heights = np.array([start.standing_height_m for start in starts])
@@ -397,7 +440,7 @@ class BatchEvaluator:
         frames = np.full(len(jobs), n_frames)
         live = np.arange(len(jobs))  # the runs still in the group, in the loops' order
         for frame in range(n_frames):
-            if cancel is not None and cancel.is_set():
+            if tally.stopped():
                 raise Cancelled("cancelled")
             control = loops.plan(frame, [datas[k] for k in live])
             for j, k in enumerate(live.tolist()):
@@ -426,6 +469,7 @@ class BatchEvaluator:
                 ends.states[live, frame], (frame + 1) * steps - 1, start_s[live], heights[live]
             )
             stopped = checks.bad | checks.down
+            tally.frames[task] += len(live) + int(stopped.sum()) * (n_frames - frame - 1)
             if stopped.any():
                 frames[live[stopped]] = frame + 1
                 live = live[~stopped]
