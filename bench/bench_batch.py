@@ -10,6 +10,10 @@ model and once with every walk on its own sampled variation:
   - BatchEvaluator.evaluate with N lanes, end to end (planning the gait + hardware for every
     step, the rollout, measuring), the rollout alone, and its steps per CPU second;
   - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end;
+  - the closed loop: --closed-runs varied walks (a study's call; a lane steps up to 64
+    closed-loop runs of one gait in lockstep) with every law on and with `robust`'s laws, CPU
+    per simulated second against the same walks open loop (goal <= 1.1), and its floor: the open
+    loop's control rolled out a frame a `rollout` call against 50 frames a call;
   - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw's steps per CPU second,
     each measurement against the mean of the ceilings measured just before and just after it
     (ceiling, batch, ceiling, processes, ceiling: a machine whose speed drifts biases neither);
@@ -25,8 +29,8 @@ says how many were free).
 A call of 64 walks (the default) leaves a lane idle at its end for under 1 % of the call;
 `bench robust` and `tune` evaluate whole generations (hundreds of runs) in one call.
 
-    python bench/bench_batch.py [--seconds 10] [--runs 64] [--repeats 6]   # ~5 min on 2 cores
-        [--json PATH]
+    python bench/bench_batch.py [--seconds 10] [--runs 64] [--repeats 6]   # ~10 min on 2 cores
+        [--closed-runs 128] [--json PATH]
 
 Writes every figure (per kind, nominal and varied: the ceiling, batch and processes, each
 repeat's ratio to the ceilings around it, the stages) to bench/results/<bench>.json, or to
@@ -242,6 +246,11 @@ def main() -> None:
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated seconds per walk")
     parser.add_argument("--runs", type=int, default=64, help="walks per evaluate call")
     parser.add_argument("--repeats", type=int, default=6)
+    parser.add_argument(
+        "--closed-runs", type=int, default=128,
+        help="varied walks per evaluate call for the closed loop against the open (a study's "
+        "call: a lane steps up to 64 closed-loop runs of one gait at once)",
+    )  # fmt: skip
     args = results.parse_args(parser)
     n_threads = os.cpu_count() or 1
     kinds = {"nominal": walks(args.runs), "varied": walks(args.runs, varied=True)}
@@ -385,18 +394,20 @@ def main() -> None:
             "then say how many cores were free, the per-CPU-second figures how efficient the "
             "batch is"
         )
-    # the closed loop: the varied walks with every law on, and with `robust`'s laws, against
-    # the same walks open loop, CPU per simulated second (a run that falls stops: per second
-    # keeps them comparable); and its floor, the open loop's control rolled out a frame a call
+    # the closed loop: --closed-runs varied walks with every law on, and with `robust`'s laws,
+    # against the same walks open loop, CPU per simulated second (a run that falls stops: per
+    # second keeps them comparable); and its floor, the open loop's control rolled out a frame
+    # a call
     robust_laws = tuple(feedback.laws_on(builtin_presets()["robust"].gait))
     loops = {"every law": LAW_GROUPS, "robust's laws": robust_laws}
+    open_jobs = walks(args.closed_runs, varied=True)
     closed_jobs = {
-        name: [with_laws(j, groups) for j in kinds["varied"]] for name, groups in loops.items()
+        name: [with_laws(j, groups) for j in open_jobs] for name, groups in loops.items()
     }
     ratios: dict[str, list[float]] = {name: [] for name in loops}
     floors = []
     for _ in range(args.repeats):
-        open_cpu = cpu_s_per_sim_s(evaluators["varied"], kinds["varied"], args.seconds)
+        open_cpu = cpu_s_per_sim_s(evaluators["varied"], open_jobs, args.seconds)
         for name, jobs in closed_jobs.items():
             closed_cpu = cpu_s_per_sim_s(evaluators["varied"], jobs, args.seconds)
             ratios[name].append(closed_cpu / open_cpu)
@@ -405,6 +416,7 @@ def main() -> None:
             rollout_cpu_s(floor_jobs, frames, 1) / rollout_cpu_s(floor_jobs, frames, SEGMENT_FRAMES)
         )
     figures["closed_loop"] = {
+        "walks": len(open_jobs),
         "laws": {name: list(groups) for name, groups in loops.items()},
         "of_open": {name: statistics.median(r) for name, r in ratios.items()},
         "of_open_repeats": {name: sorted(r) for name, r in ratios.items()},

@@ -138,7 +138,7 @@ class ClosedLoops:
         if params.cop.enabled:
             if datas is None:
                 raise ValueError("the CoP law reads the force sensors: plan needs the MjData")
-            fsr = np.stack([self.sensors.fsr(k, data) for k, data in enumerate(datas)])
+            fsr = self.sensors.fsr_all(datas)
         else:
             fsr = np.zeros((len(gyro), 2, 4))
         self.law_state, out = feedback.step_many(
