@@ -12,7 +12,8 @@ model and once with every walk on its own sampled variation:
   - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end;
   - the closed loop: --closed-runs varied walks (a study's call; a lane steps up to 64
     closed-loop runs of one gait in lockstep) with every law on and with `robust`'s laws, CPU
-    per simulated second against the same walks open loop (goal <= 1.1), and its floor: the open
+    per simulated second against the same walks open loop measured before and after (goal <=
+    1.1), and its floor: the open
     loop's control rolled out a frame a `rollout` call against 50 frames a call;
   - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw's steps per CPU second,
     each measurement against the mean of the ceilings measured just before and just after it
@@ -406,11 +407,19 @@ def main() -> None:
     }
     ratios: dict[str, list[float]] = {name: [] for name in loops}
     floors = []
+    # each closed-loop measurement against the mean of the open loop's measured just before and
+    # just after it (open, closed..., open, closed..., open): a machine whose speed drifts
+    # biases neither
+    open_cpu = cpu_s_per_sim_s(evaluators["varied"], open_jobs, args.seconds)
     for _ in range(args.repeats):
-        open_cpu = cpu_s_per_sim_s(evaluators["varied"], open_jobs, args.seconds)
-        for name, jobs in closed_jobs.items():
-            closed_cpu = cpu_s_per_sim_s(evaluators["varied"], jobs, args.seconds)
-            ratios[name].append(closed_cpu / open_cpu)
+        closed_cpu = {
+            name: cpu_s_per_sim_s(evaluators["varied"], jobs, args.seconds)
+            for name, jobs in closed_jobs.items()
+        }
+        open_after = cpu_s_per_sim_s(evaluators["varied"], open_jobs, args.seconds)
+        for name, cpu in closed_cpu.items():
+            ratios[name].append(cpu / (0.5 * (open_cpu + open_after)))
+        open_cpu = open_after
         floor_jobs = kinds["varied"][: max(2, len(kinds["varied"]) // 8)]
         floors.append(
             rollout_cpu_s(floor_jobs, frames, 1) / rollout_cpu_s(floor_jobs, frames, SEGMENT_FRAMES)

@@ -114,7 +114,7 @@ def support_cops(
     fsr_n: NDArray[np.float32], positions_m: NDArray[np.float32], min_load_n: float
 ) -> tuple[NDArray[np.int64], NDArray[np.float32]]:
     """`support_cop` of K runs at once: fsr_n (K, 2, 4), positions_m (4, 2) or each run's
-    (K, 4, 2); the support foots (K,) and their centres of pressure (K, 2)."""
+    (K, 4, 2); the support feet (K,) and their centres of pressure (K, 2)."""
     load = fsr_n.sum(axis=-1)  # (K, 2)
     runs = np.arange(len(fsr_n))
     foot = np.argmax(load, axis=-1)

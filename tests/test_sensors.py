@@ -16,6 +16,7 @@ from hypothesis import strategies as st
 from app.robots import build_spec
 from app.robots.builder import FSR_CORNERS
 from app.robots.model import RobotModel
+from app.sim.force_sensors import fsr_forces
 from app.sim.frame_loop import FrameLoop, stand
 from app.sim.planning import START_PHASE_RAD
 from app.sim.sensors import (
@@ -23,7 +24,6 @@ from app.sim.sensors import (
     GRAVITY_M_S2,
     GYRO_RAD_S_PER_COUNT,
     Sensors,
-    fsr_forces,
     mount_rotation,
     quantised,
 )

@@ -124,8 +124,6 @@ class ClosedLoops:
         self.step_rad = 2.0 * math.pi * job.params.clock.freq_hz * FRAME_S
         self.within = np.arange(steps)[None, :, None]
         self.control = np.stack([np.broadcast_to(s.ctrl, (steps, len(s.ctrl))) for s in starts])
-        #: the laws' output of the last frame planned
-        self.outputs: feedback.Outputs | None = None
 
     def plan(self, frame: int, datas: Sequence[mujoco.MjData] | None) -> np.ndarray:
         """The ctrl of frame `frame`'s steps of every run (K, steps, nu; the loops' own array,
@@ -144,7 +142,6 @@ class ClosedLoops:
         self.law_state, out = feedback.step_many(
             params, self.law_state, gyro, accel, fsr, self.motion_now, self.positions, FRAME_S
         )
-        self.outputs = out
         plan = plan_frame_of_runs(
             params, self.motion, self.robot.hardware(), self.phase, self.steps,
             self.timestep_s, motion_now=self.motion_now, frame0=frame,
