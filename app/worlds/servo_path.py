@@ -1,7 +1,8 @@
 """The set-point path of a varied robot: what 12 servos act on, step by step, given what they
 were sent -- latency, calibration offset, and dead band plus backlash as a play operator
-(docs/DESIGN.md §8). One `ServoPath` per run; chunks of any size give the same output.
-`acting_setpoints` gives a fresh path's output for whole frames from their switches alone.
+(docs/DESIGN.md §8). One `ServoPath` per run, `ServoPaths` for many at once (the one
+implementation); chunks of any size give the same output. `acting_setpoints` gives a fresh
+path's output for whole frames from their switches alone.
 """
 
 from __future__ import annotations
@@ -58,60 +59,31 @@ class ServoPath:
         initial = np.array(initial_rad, dtype=np.float64)
         if initial.shape != (N_SERVOS,):
             raise ValueError(f"initial_rad must have shape ({N_SERVOS},), got {initial.shape}")
-        self.delay_steps = latency_steps(variation.latency_ms, timestep_s)
-        self.offset_rad = np.radians(np.array(variation.calibration_deg, dtype=np.float64))
-        self.has_offset = bool(np.any(self.offset_rad))
-        self.half_width_rad = 0.5 * math.radians(variation.deadband_deg + variation.backlash_deg)
+        self._paths = ServoPaths([variation], timestep_s, initial[None])  # the one of many
+        self.delay_steps = int(self._paths.delay_steps[0])
+        self.offset_rad = self._paths.offset_rad[0]
+        self.has_offset = bool(self._paths.has_offset[0])
+        self.half_width_rad = float(self._paths.half_width_rad[0])
         self.passthrough = self.delay_steps == 0 and not self.has_offset and not self.half_width_rad
-        self._queue = np.tile(initial, (self.delay_steps, 1))  # the last delay_steps inputs
-        start = initial + self.offset_rad if self.has_offset else initial
-        self._last_command = start.copy()  # the play's input at the last step
-        self._output = start.copy()  # the play's output at the last step
+
+    @property
+    def _output(self) -> NDArray[np.float64]:
+        """The play's output at the last step (at first the initial set-point + offset)."""
+        return self._paths._output[0]
 
     def __call__(self, ctrl_rad: ArrayLike) -> NDArray[np.float64]:
         x = np.array(ctrl_rad, dtype=np.float64)  # a copy: the caller's array is left alone
         if x.ndim != 2 or x.shape[1] != N_SERVOS:
             raise ValueError(f"ctrl_rad must have shape (n, {N_SERVOS}), got {x.shape}")
-        if self.passthrough or len(x) == 0:
-            return x
-        if self.delay_steps:
-            joined = np.concatenate([self._queue, x])
-            x, self._queue = joined[: len(x)], joined[len(x) :].copy()
-        if self.has_offset:
-            x = x + self.offset_rad
-        if self.half_width_rad:
-            x = self._play(x)
-        return x
-
-    def _play(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The play operator over the chunk, only at the steps where a servo's command changes
-        (a command that repeats leaves the output where it is): each step takes the output after
-        as many changes as its servo has had so far. No array of the chunk's size is sorted
-        (docs/DESIGN.md §8)."""
-        changed = np.empty(x.shape, dtype=bool)
-        np.not_equal(x[0], self._last_command, out=changed[0])
-        np.not_equal(x[1:], x[:-1], out=changed[1:])
-        so_far = np.cumsum(changed, axis=0)  # (n, 12): each servo's changes up to each step
-        n_events = int(so_far[-1].max())
-        held = np.empty((n_events + 1, N_SERVOS))  # output after k changes, per servo
-        held[0] = self._output
-        if n_events:
-            # each servo's k-th new command; after its last one, its last command repeats
-            events = np.tile(x[-1], (n_events, 1))
-            step, servo = np.nonzero(changed)
-            events[so_far[step, servo] - 1, servo] = x[step, servo]
-            low, high = events - self.half_width_rad, events + self.half_width_rad
-            held[1:] = play_outputs(self._output, low, high)
-        self._last_command = x[-1].copy()
-        self._output = held[n_events].copy()
-        return held[so_far, _SERVOS]
+        return x if self.passthrough else self._paths(x[None])[0]
 
 
 class ServoPaths:
-    """K runs' `ServoPath`s at once, a chunk of the same steps for all (a lane's group of
-    closed-loop runs): each run's output has the bits of its own `ServoPath` (a test holds
-    them equal). The play acts at every step -- a repeated command clips the output to where
-    it is -- so no run waits on another's changes.
+    """K runs' servo paths at once (`ServoPath` is one run's), a chunk of the same steps for
+    all (a lane's group of closed-loop runs): each run's output has the bits it has alone (a
+    test holds them equal). Latency by a gather from the last inputs at each run's delay; the
+    play at every step -- a repeated command clips the output to where it is -- composed
+    along the steps in log2(n) whole-array rounds (`play_outputs`).
 
     Args:
         variations: each run's `Variation`.
