@@ -1,8 +1,7 @@
 """The set-point path of a varied robot: what 12 servos act on, step by step, given what they
 were sent -- latency, calibration offset, and dead band plus backlash as a play operator
-(docs/DESIGN.md §8). One `ServoPath` per run, `ServoPaths` for many at once (the one
-implementation); chunks of any size give the same output. `acting_setpoints` gives a fresh
-path's output for whole frames from their switches alone.
+(docs/DESIGN.md §8). `ServoPaths` for many runs at once, `ServoPath` for one; chunks of any size
+give the same output. `acting_setpoints`: a fresh path's output from the frames' switches alone.
 """
 
 from __future__ import annotations
