@@ -459,25 +459,13 @@ class WorldLoops:
         walks: dict[tuple, list[int]] = {}
         for w in sorted(first_rows):
             walks.setdefault(walk_of(jobs[w]), []).append(w)
-        self.groups = [
-            (np.array(worlds), self._loops(worlds, robots, jobs, starts, steps, first_rows))
-            for worlds in walks.values()
-        ]
-
-    @staticmethod
-    def _loops(
-        worlds: list[int],
-        robots: Sequence[RobotModel],
-        jobs: Sequence[Job],
-        starts: Sequence[Start],
-        steps: int,
-        first_rows: dict[int, np.ndarray],
-    ) -> ClosedLoops:
-        rows = np.stack([first_rows[w] for w in worlds])
-        return ClosedLoops(
-            [robots[w] for w in worlds], [jobs[w] for w in worlds], [starts[w] for w in worlds],
-            steps, rows,
-        )  # fmt: skip
+        self.groups: list[tuple[np.ndarray, ClosedLoops]] = []
+        for worlds in walks.values():
+            loops = ClosedLoops(
+                [robots[w] for w in worlds], [jobs[w] for w in worlds],
+                [starts[w] for w in worlds], steps, np.stack([first_rows[w] for w in worlds]),
+            )  # fmt: skip
+            self.groups.append((np.array(worlds), loops))
 
     def __bool__(self) -> bool:
         return bool(self.groups)
