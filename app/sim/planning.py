@@ -247,13 +247,10 @@ def plan_frame_of_runs(
     else:
         shared = (np.full(runs, f) for f in (walking.a_r, walking.a_p))
         own = MotionOfRuns(*shared, a_y, np.full(runs, walking.ca)).along_legs()
+        # the gait reads a motion's four fields; a motion of runs holds them per run
         out = joint_angles_with_flags(
-            params,
-            own,
-            np.repeat(phase, runs),
-            geometry,
-            startup=startup,  # type: ignore[arg-type]
-        )
+            params, own, np.repeat(phase, runs), geometry, startup=startup,  # type: ignore[arg-type]
+        )  # fmt: skip
         angles, gamma_clamped = out.values, out.gamma_clamped
     angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
     return _through_servos(
