@@ -436,30 +436,38 @@ class BatchEvaluator:
         initial = np.stack([start.state for start in starts])[:, None, :]  # (K, 1, state)
         warm = np.zeros((len(jobs), 1, self.model.nv))  # zeros: `rollout`'s cold start
         push_frame = [push.step // steps if push.step >= 0 else -1 for push in pushes]
-        models = [[robot.model] for robot in robots]
+        # each run's `rollout` arguments and output rows made once: a frame's Python per run
+        # is then the call itself
+        runs = [
+            ([robot.model], data, [data], initial[k], warm[k], data.qacc_warmstart)
+            for k, (robot, data) in enumerate(zip(robots, datas, strict=True))
+        ]
+        outs = [(state_out[j : j + 1], sensor_out[j : j + 1]) for j in range(len(jobs))]
+        planned, controls = None, []
         frames = np.full(len(jobs), n_frames)
         live = np.arange(len(jobs))  # the runs still in the group, in the loops' order
         for frame in range(n_frames):
             if tally.stopped():
                 raise Cancelled("cancelled")
             control = loops.plan(frame, [datas[k] for k in live])
+            if control is not planned:  # the loops' array: new only when runs left the group
+                planned, controls = control, [control[j : j + 1] for j in range(len(control))]
             for j, k in enumerate(live.tolist()):
-                data = datas[k]
+                model, data, data_list, first, warm_k, warm_after = runs[k]
                 if push_frame[k] == frame:
-                    mujoco.mj_setState(robots[k].model, data, initial[k, 0], STATE_SPEC)
+                    mujoco.mj_setState(model[0], data, first[0], STATE_SPEC)
                     if frame:
-                        data.qacc_warmstart[:] = warm[k, 0]
+                        data.qacc_warmstart[:] = warm_k[0]
                     step_by_hand(
                         robots[k], data, control[j], frame * steps, pushes[k], state_out[j],
                         sensor_out[j],
                     )  # fmt: skip
                 else:
                     runner.rollout(
-                        models[k], [data], initial[k], control[j : j + 1],
-                        initial_warmstart=warm[k], state=state_out[j : j + 1],
-                        sensordata=sensor_out[j : j + 1], nstep=steps, skip_checks=True,
+                        model, data_list, first, controls[j], initial_warmstart=warm_k,
+                        state=outs[j][0], sensordata=outs[j][1], nstep=steps, skip_checks=True,
                     )  # fmt: skip
-                warm[k, 0] = data.qacc_warmstart
+                warm_k[0] = warm_after
             n = len(live)
             loops.record(sensor_out[:n])
             ends.states[live, frame] = state_out[:n, -1]

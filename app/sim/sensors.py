@@ -141,10 +141,16 @@ def imu_readings(
     )
 
 
+#: a bank draws each run's gyro noise for this many readings at once (a generator's normals
+#: drawn in one call are those drawn one reading at a time, in order: the same bits)
+NOISE_BLOCK = 64
+
+
 class SensorBank:
     """K runs' sensors at once (a lane's group of closed-loop runs): `Sensors` of each run
     (robot, variation), read together from the sensor rows of their last physics steps. Each
-    run reads the bits it reads alone, its noise from its own generator."""
+    run reads the bits it reads alone, its noise from its own generator (`NOISE_BLOCK`
+    readings drawn at a time)."""
 
     def __init__(self, robots: Sequence[RobotModel], variations: Sequence[Variation]) -> None:
         runs = [Sensors(robot, v) for robot, v in zip(robots, variations, strict=True)]
@@ -156,12 +162,15 @@ class SensorBank:
         self._gyro, self._accel = runs[0]._gyro, runs[0]._accel
         if any((r._gyro, r._accel) != (self._gyro, self._accel) for r in runs):
             raise ValueError("the runs' models must hold the IMU at the same sensordata rows")
+        self._noise = np.empty((len(runs), 0, 3))  # each run's drawn, not yet read
+        self._read = 0
 
     def keep(self, runs: NDArray[np.bool_]) -> None:
         """Go on with the runs where `runs` (K,) is True."""
         self._runs = [r for r, kept in zip(self._runs, runs, strict=True) if kept]
         self.delay_steps, self._to_imu = self.delay_steps[runs], self._to_imu[runs]
         self._gyro_bias, self._gyro_noise = self._gyro_bias[runs], self._gyro_noise[runs]
+        self._noise = self._noise[runs]
 
     @property
     def steps_needed(self) -> int:
@@ -179,7 +188,11 @@ class SensorBank:
                 f"the IMUs' delays need the last {self.steps_needed} steps' sensor rows, got "
                 f"{rows.shape[1]}"
             )
-        noise = np.stack([r._rng.standard_normal(3) for r in self._runs])
+        if self._read == self._noise.shape[1]:
+            draws = [r._rng.standard_normal((NOISE_BLOCK, 3)) for r in self._runs]
+            self._noise, self._read = np.stack(draws), 0
+        noise = self._noise[:, self._read]
+        self._read += 1
         at = rows[np.arange(len(rows)), rows.shape[1] - 1 - self.delay_steps]
         return imu_readings(
             at, self._to_imu, self._gyro_bias, noise * self._gyro_noise[:, None], self._gyro,

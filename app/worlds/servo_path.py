@@ -105,6 +105,7 @@ class ServoPaths:
         widths = [0.5 * math.radians(v.deadband_deg + v.backlash_deg) for v in variations]
         self.half_width_rad = np.array(widths)
         self._played = self.half_width_rad != 0.0
+        self._all_offset = bool(self.has_offset.all())
         longest = int(self.delay_steps.max(initial=0))
         self._queue = np.repeat(initial[:, None, :], longest, axis=1)  # the last inputs
         self._output = np.where(self.has_offset[:, None], initial + self.offset_rad, initial)
@@ -113,6 +114,7 @@ class ServoPaths:
         """Go on with the runs where `runs` (K,) is True."""
         self.delay_steps, self.offset_rad = self.delay_steps[runs], self.offset_rad[runs]
         self.has_offset, self.half_width_rad = self.has_offset[runs], self.half_width_rad[runs]
+        self._all_offset = bool(self.has_offset.all())
         self._played, self._queue, self._output = (
             self._played[runs],
             self._queue[runs],
@@ -131,15 +133,20 @@ class ServoPaths:
             joined = np.concatenate([self._queue, x], axis=1)
             first = longest - self.delay_steps
             x = joined[np.arange(len(x))[:, None], first[:, None] + np.arange(n)]
-            self._queue = joined[:, n:].copy()
-        if self.has_offset.any():
+            self._queue = joined[:, n:]  # a view: the next call's concatenate copies it
+        if self._all_offset:  # the same bits as the where below, one pass fewer
+            x = x + self.offset_rad[:, None, :]
+        elif self.has_offset.any():
             x = np.where(self.has_offset[:, None, None], x + self.offset_rad[:, None, :], x)
         if self._played.any() and n:
             width = self.half_width_rad[None, :, None]
             steps = x.transpose(1, 0, 2)  # (n, K, 12): the play runs along the steps
-            played = play_outputs(self._output, steps - width, steps + width)
-            self._output = np.where(self._played[:, None], played[-1], self._output)
-            x = np.where(self._played[:, None, None], played.transpose(1, 0, 2), x)
+            played = play_outputs(self._output, steps - width, steps + width).transpose(1, 0, 2)
+            if self._played.all():
+                self._output, x = played[:, -1], played
+            else:
+                self._output = np.where(self._played[:, None], played[:, -1], self._output)
+                x = np.where(self._played[:, None, None], played, x)
         return x
 
 
@@ -148,14 +155,13 @@ def play_outputs(
 ) -> NDArray[np.float64]:
     """The play's output after each of K events per servo, (K, 12): out_k = clip(out_k-1,
     low_k, high_k) from out_0 = `start`, with low <= high (an event of (-inf, inf) changes
-    nothing).
+    nothing). Works in `low` and `high` (the callers' own scratch arrays), overwriting them.
 
     A clip of a clip is a clip: clip(clip(v, a1, b1), a2, b2) = clip(v, clip(a1, a2, b2),
     clip(b1, a2, b2)). So the events compose in log2(K) whole-array rounds (a prefix scan)
     rather than K Python steps, and since min and max only pick among their inputs, every
     output has the bits of the step-by-step definition (docs/DESIGN.md §8)."""
-    low, high = low.copy(), high.copy()  # after round r: events k-2^r+1 .. k composed
-    span = 1
+    span = 1  # after round r, low[k] and high[k] hold events k-2^r+1 .. k composed
     while span < len(low):
         later_low, later_high = low[span:], high[span:]
         earlier_low = np.minimum(np.maximum(low[:-span], later_low), later_high)
