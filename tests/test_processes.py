@@ -10,11 +10,13 @@ import threading
 
 import pytest
 
-from app.evaluation import BatchEvaluator, Cancelled, evaluator_for, same_results
+from app.evaluation import BatchEvaluator, Cancelled, Job, evaluator_for, same_results
 from app.evaluation._processes import ProcessEvaluator, WorkerDied
 from app.robots.model import RobotModel
 from app.sim.metrics import Trace
-from tests.evaluation_support import assert_same_traces, varied_jobs
+from app.worlds.variations import parse_variation
+from gait import Motion
+from tests.evaluation_support import CLOSED, assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow
 ROBOT = RobotModel.load()
@@ -50,6 +52,23 @@ def test_two_processes_give_the_threads_results_to_the_bit(workers):
     assert_same_traces(traces, local_traces)
     assert seen == sorted(seen) and seen[-1] == 6 and sorted(found) == list(range(6))
     assert workers.task_size(6) == 3  # both processes get a share of a small call
+
+
+def test_closed_loop_runs_of_one_walk_go_to_the_processes_as_whole_groups(workers):
+    walk = [
+        Job(CLOSED, Motion(a_p=0.07), variation=parse_variation(f"friction={0.5 + 0.02 * i:.2f}"))
+        for i in range(20)
+    ]
+    jobs = [*walk[:10], *varied_jobs(3)[::2], *walk[10:]]  # two open-loop runs between
+    tasks = workers.tasks(jobs)
+    grouped = [t for t in tasks if len(t) > 1]
+    # the walk's 20 runs: one group a process (not tasks of `runs_per_task`), in job order
+    assert [len(t) for t in grouped] == [10, 10] and grouped[0] == list(range(10))
+    assert sorted(i for t in tasks for i in t) == list(range(22))
+    short = jobs[6:14]  # 4 of the walk, the 2 others, 2 of the walk again
+    here = workers.evaluate(short, duration_s=2.0, warmup_s=0.5)
+    local = BatchEvaluator(ROBOT, threads=2).evaluate(short, duration_s=2.0, warmup_s=0.5)
+    assert same_results(here, local)
 
 
 def test_a_cancel_stops_the_evaluation(workers):

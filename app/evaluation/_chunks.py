@@ -22,12 +22,13 @@ from app.evaluation._api import (
     job_from_dict,
     job_to_dict,
 )
-from app.evaluation._lanes import BatchEvaluator
+from app.evaluation._lanes import BatchEvaluator, lane_tasks
 from app.robots import parse_description
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace
+from gait import feedback
 
-RUNS_PER_TASK = 8  # a task of 8 runs of 20 s is ~5 s of a core: the round trip is < 1 % of it
+RUNS_PER_TASK = 8  # a task of 8 open-loop runs of 20 s is ~5 s of a core: the round trip < 1 %
 POLL_S = 0.2  # how often a waiting `evaluate` looks at its cancel event
 
 
@@ -68,37 +69,37 @@ def evaluate_chunk(
 
 
 class ChunkedRuns:
-    """The jobs of one `evaluate` call cut into chunks as plain data (what `evaluate_chunk`
-    takes), and their results as chunks come back in any order: `metrics` and `traces` in job
-    order, `on_result` and `progress` called as each chunk arrives."""
+    """The jobs of one `evaluate` call cut into tasks (`lane_tasks`: lists of job indices) as
+    plain data (what `evaluate_chunk` takes), and their results as tasks come back in any
+    order: `metrics` and `traces` in job order, `on_result` and `progress` called as each task
+    arrives."""
 
     def __init__(
         self,
         jobs: Sequence[Job],
-        size: int,
+        tasks: list[list[int]],
         *,
         with_traces: bool,
         progress: Progress | None,
         on_result: OnResult | None,
     ) -> None:
-        self.size, self.total, self.with_traces = size, len(jobs), with_traces
-        self.chunks = [
-            [job_to_dict(j) for j in jobs[i : i + size]] for i in range(0, len(jobs), size)
-        ]
-        self._metrics: list[list[RunMetrics]] = [[] for _ in self.chunks]
-        self._traces: list[list[Trace]] = [[] for _ in self.chunks]
+        self.tasks, self.total, self.with_traces = tasks, len(jobs), with_traces
+        self.chunks = [[job_to_dict(jobs[i]) for i in task] for task in tasks]
+        self._metrics: list[RunMetrics | None] = [None] * len(jobs)
+        self._traces: list[Trace | None] = [None] * len(jobs)
         self._progress, self._on_result = progress, on_result
         self.done = 0
 
     def arrived(self, i: int, result: list) -> None:
-        """Chunk i's result (metrics, or (metrics, trace) pairs with traces)."""
+        """Task i's result (metrics, or (metrics, trace) pairs with traces)."""
         if self.with_traces:
-            self._traces[i] = [trace for _m, trace in result]
+            for job, (_metrics, trace) in zip(self.tasks[i], result, strict=True):
+                self._traces[job] = trace
             result = [metrics for metrics, _t in result]
-        self._metrics[i] = result
-        if self._on_result is not None:
-            for k, metrics in enumerate(result):
-                self._on_result(i * self.size + k, metrics)
+        for job, metrics in zip(self.tasks[i], result, strict=True):
+            self._metrics[job] = metrics
+            if self._on_result is not None:
+                self._on_result(job, metrics)
         self.done += len(result)
         if self._progress is not None:
             self._progress(self.done, self.total)
@@ -108,8 +109,8 @@ class ChunkedRuns:
 
     def results(self, traces: list[Trace] | None) -> list[RunMetrics]:
         if traces is not None:
-            traces.extend(trace for chunk in self._traces for trace in chunk)
-        return [m for chunk in self._metrics for m in chunk]
+            traces.extend(trace for trace in self._traces if trace is not None)
+        return [metrics for metrics in self._metrics if metrics is not None]
 
 
 class ChunkedEvaluator(ABC):
@@ -129,7 +130,17 @@ class ChunkedEvaluator(ABC):
 
     @abstractmethod
     def task_size(self, runs: int) -> int:
-        """Runs per task for a call of `runs` runs."""
+        """Open-loop runs per task for a call of `runs` of them."""
+
+    @abstractmethod
+    def lanes(self) -> int:
+        """How many tasks the executor runs at once (its workers)."""
+
+    def tasks(self, jobs: Sequence[Job]) -> list[list[int]]:
+        """The jobs' indices cut into tasks (`lane_tasks`): open-loop runs `task_size` at a
+        time, closed-loop runs of one walk in whole groups, at least one a worker."""
+        open_runs = sum(not feedback.any_law_on(job.params) for job in jobs)
+        return lane_tasks(jobs, self.lanes(), max(1, self.task_size(open_runs)))
 
     @abstractmethod
     def _lost(self, exc: BaseException, done: int, total: int) -> Exception | None:
@@ -150,15 +161,16 @@ class ChunkedEvaluator(ABC):
         `traces`, each run's trunk trace comes back too (one sample per frame: ~40 kB a
         minute of walking)."""
         with_traces = traces is not None
-        runs = ChunkedRuns(
-            jobs, self.task_size(len(jobs)), with_traces=with_traces, progress=progress,
-            on_result=on_result,
-        )  # fmt: skip
         finished: queue.SimpleQueue[Any] = queue.SimpleQueue()
         index: dict[int, int] = {}
         args = (duration_s, warmup_s, project_version(), with_traces)
         futures = []
+        runs: ChunkedRuns | None = None
         try:
+            runs = ChunkedRuns(
+                jobs, self.tasks(jobs), with_traces=with_traces, progress=progress,
+                on_result=on_result,
+            )  # fmt: skip
             for i, chunk in enumerate(runs.chunks):
                 future = self._submit(chunk, *args)
                 index[id(future)] = i
@@ -176,8 +188,8 @@ class ChunkedEvaluator(ABC):
                 runs.arrived(index[id(future)], future.result())
         except (Cancelled, VersionMismatch):
             raise
-        except Exception as exc:
-            lost = self._lost(exc, runs.done, runs.total)
+        except Exception as exc:  # the executor's own, also while the tasks are cut (workers)
+            lost = self._lost(exc, 0 if runs is None else runs.done, len(jobs))
             if lost is None:
                 raise
             raise lost from exc

@@ -215,6 +215,9 @@ class ClusterEvaluator(ChunkedEvaluator):
     def task_size(self, runs: int) -> int:
         return self.runs_per_task
 
+    def lanes(self) -> int:
+        return max(1, sum(self.client.nthreads().values()))
+
     def _submit(self, chunk: list[dict[str, Any]], *args: Any) -> Any:
         return self.client.submit(
             evaluate_chunk, self._robot_json, chunk, *args, pure=False, retries=1

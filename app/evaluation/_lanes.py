@@ -169,6 +169,27 @@ class _GroupEnds:
         self.sensors = np.empty((runs, n_frames, nsensordata))
 
 
+def lane_tasks(jobs: Sequence[Job], lanes: int, open_per_task: int = 1) -> list[list[int]]:
+    """The jobs' indices cut into tasks, in order of their first job: open-loop runs
+    `open_per_task` at a time, in job order; closed-loop runs of one walk (`walk_of`: one gait,
+    one start) in groups of up to `GROUP_RUNS`, stepped in lockstep (`_run_group`), as many
+    groups as `lanes` at least (a lane is a thread here, a worker for the executors that send
+    tasks away: a group of K runs shares the Python of a frame, so a task takes a whole one)."""
+    open_runs: list[int] = []
+    walks: dict[tuple, list[int]] = {}
+    for i, job in enumerate(jobs):
+        if feedback.any_law_on(job.params):
+            walks.setdefault(walk_of(job), []).append(i)
+        else:
+            open_runs.append(i)
+    tasks = [open_runs[i : i + open_per_task] for i in range(0, len(open_runs), open_per_task)]
+    for runs in walks.values():
+        groups = max(min(lanes, len(runs)), math.ceil(len(runs) / GROUP_RUNS))
+        size = math.ceil(len(runs) / groups)
+        tasks += [runs[first : first + size] for first in range(0, len(runs), size)]
+    return sorted(tasks)
+
+
 class _LaneKit:
     """What one lane needs at a time: an MjData of the robot's size, kept output arrays, and a
     kept `Rollout` on the calling thread (one per call costs ~1.4 % of a run, decision 0027)."""
@@ -309,22 +330,8 @@ class BatchEvaluator:
         return results
 
     def _tasks(self, jobs: Sequence[Job]) -> list[list[int]]:
-        """The jobs' indices as the lanes take them, in order of their first job: an open-loop
-        run alone; closed-loop runs of one walk (`walk_of`: one gait, one start) in groups of
-        up to `GROUP_RUNS`, stepped in lockstep (`_run_group`), as many groups as lanes at
-        least."""
-        tasks: list[list[int]] = []
-        walks: dict[tuple, list[int]] = {}
-        for i, job in enumerate(jobs):
-            if feedback.any_law_on(job.params):
-                walks.setdefault(walk_of(job), []).append(i)
-            else:
-                tasks.append([i])
-        for runs in walks.values():
-            groups = max(min(self.threads, len(runs)), math.ceil(len(runs) / GROUP_RUNS))
-            size = math.ceil(len(runs) / groups)
-            tasks += [runs[first : first + size] for first in range(0, len(runs), size)]
-        return sorted(tasks)
+        """The jobs' indices as the lanes take them (`lane_tasks`): an open-loop run alone."""
+        return lane_tasks(jobs, self.threads)
 
     def _run_task(
         self, jobs: list[Job], n_frames: int, warmup_s: float, tally: _Tally, task: int

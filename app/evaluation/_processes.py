@@ -24,8 +24,9 @@ class WorkerDied(ExecutorError):
 class ProcessEvaluator(ChunkedEvaluator):
     """`Evaluator` on `processes` local worker processes (default: every core, at most 8),
     started once (spawned: no MuJoCo state is forked) and kept until `close`. A task is up to
-    `runs_per_task` runs, fewer when a call has too few runs to give every process as many
-    (so both cores stay busy to the end of a call)."""
+    `runs_per_task` open-loop runs, fewer when a call has too few runs to give every process as
+    many (so both cores stay busy to the end of a call); closed-loop runs of one walk go as
+    whole groups, one a process at least (`lane_tasks`)."""
 
     def __init__(
         self,
@@ -53,6 +54,9 @@ class ProcessEvaluator(ChunkedEvaluator):
 
     def task_size(self, runs: int) -> int:
         return max(1, min(self.runs_per_task, math.ceil(runs / self.processes)))
+
+    def lanes(self) -> int:
+        return self.processes
 
     def _submit(self, chunk: list[dict[str, Any]], *args: Any) -> Future:
         return self._pool.submit(evaluate_chunk, self._robot_json, chunk, *args)
