@@ -5,6 +5,7 @@ the lanes cut the jobs into groups of one walk; a cancel stops a group between f
 from __future__ import annotations
 
 import dataclasses
+import math
 import threading
 
 import numpy as np
@@ -16,7 +17,7 @@ from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.sim.planning import MotionOfRuns, frame_steps, plan_frame_of_runs, plan_frames
 from app.worlds.sampling import VariationRanges, sample
-from app.worlds.servo_path import ServoPath, ServoPaths
+from app.worlds.servo_path import ServoPath, ServoPaths, latency_steps
 from app.worlds.variations import NOMINAL, parse_variation
 from gait import Motion, feedback
 from gait.params import LAW_GROUPS
@@ -157,6 +158,51 @@ def test_servo_paths_equal_each_runs_servo_path_chunk_by_chunk():
         got = together(chunk)
         for k, path in enumerate(alone):
             assert bits(got[k]) == bits(path(chunk[k]))
+
+
+def by_definition(variation, initial: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """The servo path of one run as DESIGN §8 defines it, step by step in its order: latency,
+    then calibration, then the play (which `ServoPaths` runs before the delay)."""
+    delay = latency_steps(variation.latency_ms, 0.001)
+    offset = np.radians(np.array(variation.calibration_deg, dtype=np.float64))
+    calibrated = bool(np.any(offset != 0.0))
+    half = 0.5 * math.radians(variation.deadband_deg + variation.backlash_deg)
+    out = initial + offset if calibrated else initial.copy()
+    got = np.empty_like(x)
+    for t in range(len(x)):
+        command = x[t - delay] if t >= delay else initial
+        command = command + offset if calibrated else command
+        out = np.minimum(np.maximum(out, command - half), command + half) if half else command
+        got[t] = out
+    return got
+
+
+@pytest.mark.parametrize("mixed", [True, False], ids=["mixed", "all varied"])
+def test_servo_paths_from_switches_equal_the_path_of_every_step_to_the_bit(mixed):
+    rng = np.random.default_rng(8)
+    worlds = list(sample(VariationRanges(), 6, seed=9))  # each with play and calibration
+    if mixed:
+        worlds += [NOMINAL, parse_variation("deadband_deg=1")]
+    start = rng.normal(size=(len(worlds), 12)) * 0.3
+    switches, steps = ServoPaths(worlds, 0.001, start), 20
+    stepped = ServoPaths(worlds, 0.001, start)
+    assert switches.delay_steps.max() > steps  # a latency longer than a frame
+    sent, frames, inputs = start.copy(), [], []
+    for _frame in range(14):
+        setpoint = sent + rng.normal(size=sent.shape) * rng.choice([0.001, 0.03], (len(sent), 1))
+        substep = rng.integers(0, steps + 1, size=sent.shape)
+        substep[rng.random(sent.shape) < 0.2] = rng.choice([0, steps])  # the edges
+        step_level = np.where(
+            np.arange(steps)[None, :, None] >= substep[:, None], setpoint[:, None], sent[:, None]
+        )
+        got = switches.switched(sent, setpoint, substep, steps)
+        assert bits(got) == bits(stepped(step_level))
+        frames.append(got)
+        inputs.append(step_level)
+        sent = setpoint
+    every_step, fed = np.concatenate(frames, axis=1), np.concatenate(inputs, axis=1)
+    for k, world in enumerate(worlds):
+        assert bits(every_step[k]) == bits(by_definition(world, start[k], fed[k]))
 
 
 def test_a_frame_of_runs_is_each_runs_one_frame_plan():

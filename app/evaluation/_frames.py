@@ -122,7 +122,6 @@ class ClosedLoops:
         self.motion_now = self.motion if job.start_motion is None else job.start_motion
         self.phase = starts[0].phase
         self.step_rad = 2.0 * math.pi * job.params.clock.freq_hz * FRAME_S
-        self.within = np.arange(steps)[None, :, None]
         self.control = np.stack([np.broadcast_to(s.ctrl, (steps, len(s.ctrl))) for s in starts])
 
     def plan(self, frame: int, datas: Sequence[mujoco.MjData] | None) -> np.ndarray:
@@ -148,11 +147,10 @@ class ClosedLoops:
             geometry=self.robot.geometry, joint_delta_rad=out.joint_delta_rad,
             a_y_delta=out.a_y_delta,
         )  # fmt: skip
-        held = np.where(
-            self.within >= plan.substep[:, None, :], plan.setpoint[:, None, :], self.sent[:, None]
+        self.control[:, :, act] = self.path.switched(
+            self.sent, plan.setpoint, plan.substep, self.steps
         )
         self.sent = plan.setpoint
-        self.control[:, :, act] = self.path(held)
         self.motion_now = plan.motions[0]
         next_phase = float(plan.phase[0]) + self.step_rad
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # as FrameLoop, in floats

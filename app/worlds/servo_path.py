@@ -80,9 +80,12 @@ class ServoPath:
 class ServoPaths:
     """K runs' servo paths at once (`ServoPath` is one run's), a chunk of the same steps for
     all (a lane's group of closed-loop runs): each run's output has the bits it has alone (a
-    test holds them equal). Latency by a gather from the last inputs at each run's delay; the
-    play at every step -- a repeated command clips the output to where it is -- composed
-    along the steps in log2(n) whole-array rounds (`play_outputs`).
+    test holds them equal). The play runs first, on the calibrated input, and the latency
+    delays what it puts out (the play is time-invariant and starts at rest on the initial
+    set-point, so the order changes no bit): at every step -- a repeated command clips the
+    output to where it is -- composed along the steps in log2(n) whole-array rounds
+    (`play_outputs`), or from a frame's switches alone (`switched`); the delay by a gather
+    from the last outputs at each run's delay.
 
     Args:
         variations: each run's `Variation`.
@@ -107,8 +110,8 @@ class ServoPaths:
         self._played = self.half_width_rad != 0.0
         self._all_offset = bool(self.has_offset.all())
         longest = int(self.delay_steps.max(initial=0))
-        self._queue = np.repeat(initial[:, None, :], longest, axis=1)  # the last inputs
         self._output = np.where(self.has_offset[:, None], initial + self.offset_rad, initial)
+        self._queue = np.repeat(self._output[:, None, :], longest, axis=1)  # the last outputs
 
     def keep(self, runs: NDArray[np.bool_]) -> None:
         """Go on with the runs where `runs` (K,) is True."""
@@ -128,17 +131,8 @@ class ServoPaths:
             raise ValueError(
                 f"ctrl_rad must have shape ({len(self.delay_steps)}, n, {N_SERVOS}), got {x.shape}"
             )
-        n, longest = x.shape[1], self._queue.shape[1]
-        if longest:
-            joined = np.concatenate([self._queue, x], axis=1)
-            first = longest - self.delay_steps
-            x = joined[np.arange(len(x))[:, None], first[:, None] + np.arange(n)]
-            self._queue = joined[:, n:]  # a view: the next call's concatenate copies it
-        if self._all_offset:  # the same bits as the where below, one pass fewer
-            x = x + self.offset_rad[:, None, :]
-        elif self.has_offset.any():
-            x = np.where(self.has_offset[:, None, None], x + self.offset_rad[:, None, :], x)
-        if self._played.any() and n:
+        x = self._calibrated(x, self.offset_rad[:, None, :], self.has_offset[:, None, None])
+        if self._played.any() and x.shape[1]:
             width = self.half_width_rad[None, :, None]
             steps = x.transpose(1, 0, 2)  # (n, K, 12): the play runs along the steps
             played = play_outputs(self._output, steps - width, steps + width).transpose(1, 0, 2)
@@ -147,7 +141,53 @@ class ServoPaths:
             else:
                 self._output = np.where(self._played[:, None], played[:, -1], self._output)
                 x = np.where(self._played[:, None, None], played, x)
-        return x
+        return self._delayed(x)
+
+    def switched(
+        self,
+        sent: NDArray[np.float64],
+        setpoint: NDArray[np.float64],
+        substep: NDArray[np.int64],
+        steps: int,
+    ) -> NDArray[np.float64]:
+        """The next frame of every run from its switches alone, (K, steps, 12): servo j of run
+        k is sent `sent[k, j]` until step `substep[k, j]` of the frame (0..steps; steps: not in
+        this frame) and `setpoint[k, j]` from there on -- what `__call__` gives for that
+        step-level input, to the bit, without the play along its steps: the play's output
+        changes only where its input does (a clip repeated with the same band is the clip)."""
+        first = self._calibrated(sent, self.offset_rad, self.has_offset[:, None])
+        then = self._calibrated(setpoint, self.offset_rad, self.has_offset[:, None])
+        if self._played.any():
+            width = self.half_width_rad[:, None]
+            kept = np.minimum(np.maximum(self._output, first - width), first + width)
+            kept = np.where(substep > 0, kept, self._output)  # switched at step 0: never sent
+            moved = np.minimum(np.maximum(kept, then - width), then + width)
+            self._output = np.where(substep < steps, moved, kept)
+            if self._played.all():
+                first, then = kept, moved
+            else:
+                first = np.where(self._played[:, None], kept, first)
+                then = np.where(self._played[:, None], moved, then)
+        at = np.arange(steps)[None, :, None] >= substep[:, None, :]
+        return self._delayed(np.where(at, then[:, None, :], first[:, None, :]))
+
+    def _calibrated(
+        self, x: NDArray[np.float64], offset: NDArray[np.float64], has: NDArray[np.bool_]
+    ) -> NDArray[np.float64]:
+        """x plus each run's calibration offset (runs without one as they are)."""
+        if self._all_offset:  # the same bits as the where below, one pass fewer
+            return x + offset
+        return np.where(has, x + offset, x) if self.has_offset.any() else x
+
+    def _delayed(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """x (K, n, 12) with each run's latency: the outputs of `delay_steps` steps before."""
+        n, longest = x.shape[1], self._queue.shape[1]
+        if not longest:
+            return x
+        joined = np.concatenate([self._queue, x], axis=1)
+        first = longest - self.delay_steps
+        self._queue = joined[:, n:]  # a view: the next call's concatenate copies it
+        return joined[np.arange(len(x))[:, None], first[:, None] + np.arange(n)]
 
 
 def play_outputs(
