@@ -108,8 +108,9 @@ class ClosedLoops:
         _check_one_walk(robots, jobs)
         self.robot, self.job, self.steps = robot, job, steps
         self.sensors = SensorBank(robots, [j.variation for j in jobs])
-        needed = self.sensors.steps_needed
-        self.rows = np.repeat(np.asarray(first_rows, dtype=np.float64)[:, None, :], needed, axis=1)
+        needed, self.columns = self.sensors.steps_needed, self.sensors.imu_columns
+        first = np.asarray(first_rows, dtype=np.float64)[:, None, : self.columns]
+        self.rows = np.repeat(first, needed, axis=1)  # the IMU's columns only
         self.timestep_s = float(robot.model.opt.timestep)
         act = robot.actuator_ids
         self.sent = np.stack([start.ctrl[act] for start in starts])
@@ -168,7 +169,7 @@ class ClosedLoops:
     def record(self, rows: np.ndarray) -> None:
         """The sensordata after each step of the frame just stepped (K, steps, nsensordata)."""
         kept = self.rows.shape[1]
-        self.rows = np.concatenate([self.rows, rows], axis=1)[:, -kept:]
+        self.rows = np.concatenate([self.rows, rows[:, :, : self.columns]], axis=1)[:, -kept:]
 
 
 def _check_one_walk(robots: Sequence[RobotModel], jobs: Sequence[Job]) -> None:

@@ -177,12 +177,17 @@ class SensorBank:
         """How many of the last physics steps' sensor rows `read_imu` needs."""
         return int(self.delay_steps.max()) + 1
 
+    @property
+    def imu_columns(self) -> int:
+        """How many leading columns of a sensordata row `read_imu` reads (the IMU's rows)."""
+        return max(self._gyro.stop, self._accel.stop)
+
     def read_imu(
         self, rows: NDArray[np.float64]
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Each run's gyro and accelerometer (K, 3) from `rows` (K, k, nsensordata), the sensor
-        rows after each run's last k steps (k ≥ `steps_needed`), each at its own delay; draws
-        each run's gyro noise of one reading."""
+        """Each run's gyro and accelerometer (K, 3) from `rows` (K, k, ≥ `imu_columns`), the
+        sensor rows after each run's last k steps (k ≥ `steps_needed`), each at its own delay;
+        draws each run's gyro noise of one reading."""
         if rows.shape[1] < self.steps_needed:
             raise ValueError(
                 f"the IMUs' delays need the last {self.steps_needed} steps' sensor rows, got "
