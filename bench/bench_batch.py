@@ -13,8 +13,9 @@ model and once with every walk on its own sampled variation:
   - the closed loop: --closed-runs varied walks (a study's call; a lane steps up to 64
     closed-loop runs of one gait in lockstep) with every law on and with `robust`'s laws, CPU
     per simulated second against the same walks open loop measured before and after (goal <=
-    1.1), and its floor: the open
-    loop's control rolled out a frame a `rollout` call against 50 frames a call;
+    1.1), with `robust`'s laws also on the worker processes (wall time: a walk's runs go to them
+    as whole groups), and its floor: the open loop's control rolled out a frame a `rollout` call
+    against 50 frames a call;
   - the goals: end to end >= 0.95 of that ceiling, and >= 0.9 of raw's steps per CPU second,
     each measurement against the mean of the ceilings measured just before and just after it
     (ceiling, batch, ceiling, processes, ceiling: a machine whose speed drifts biases neither);
@@ -30,7 +31,7 @@ says how many were free).
 A call of 64 walks (the default) leaves a lane idle at its end for under 1 % of the call;
 `bench robust` and `tune` evaluate whole generations (hundreds of runs) in one call.
 
-    python bench/bench_batch.py [--seconds 10] [--runs 64] [--repeats 6]   # ~10 min on 2 cores
+    python bench/bench_batch.py [--seconds 10] [--runs 64] [--repeats 6]   # ~12 min on 2 cores
         [--closed-runs 128] [--json PATH]
 
 Writes every figure (per kind, nominal and varied: the ceiling, batch and processes, each
@@ -232,6 +233,14 @@ def cpu_s_per_sim_s(evaluator: BatchEvaluator, jobs: list[Job], seconds: float) 
     return (time.process_time() - start) / sum(m["sim_s"] for m in metrics)
 
 
+def wall_s_per_sim_s(evaluator: ProcessEvaluator, jobs: list[Job], seconds: float) -> float:
+    """Wall seconds per simulated second over one call (the worker processes' CPU is not this
+    process's)."""
+    start = time.perf_counter()
+    metrics = evaluator.evaluate(jobs, duration_s=seconds, warmup_s=min(5.0, seconds / 2))
+    return (time.perf_counter() - start) / sum(m["sim_s"] for m in metrics)
+
+
 def processes_steps_per_s(
     evaluator: ProcessEvaluator, jobs: list[Job], seconds: float, needed: list[int]
 ) -> float:
@@ -285,7 +294,6 @@ def main() -> None:
             ceilings[kind].append(around)
     pool.close()
     pool.join()
-    workers.close()
     steal = steal_share(counters_before, cpu_times())
 
     print(
@@ -411,6 +419,8 @@ def main() -> None:
     # just after it (open, closed..., open, closed..., open): a machine whose speed drifts
     # biases neither
     open_cpu = cpu_s_per_sim_s(evaluators["varied"], open_jobs, args.seconds)
+    in_workers: list[float] = []
+    open_wall = wall_s_per_sim_s(workers, open_jobs, args.seconds)
     for _ in range(args.repeats):
         closed_cpu = {
             name: cpu_s_per_sim_s(evaluators["varied"], jobs, args.seconds)
@@ -420,15 +430,24 @@ def main() -> None:
         for name, cpu in closed_cpu.items():
             ratios[name].append(cpu / (0.5 * (open_cpu + open_after)))
         open_cpu = open_after
+        # on worker processes (their CPU is not this process's: wall time, both cores busy),
+        # `robust`'s laws against the open loop before and after, as above
+        closed_wall = wall_s_per_sim_s(workers, closed_jobs["robust's laws"], args.seconds)
+        open_wall_after = wall_s_per_sim_s(workers, open_jobs, args.seconds)
+        in_workers.append(closed_wall / (0.5 * (open_wall + open_wall_after)))
+        open_wall = open_wall_after
         floor_jobs = kinds["varied"][: max(2, len(kinds["varied"]) // 8)]
         floors.append(
             rollout_cpu_s(floor_jobs, frames, 1) / rollout_cpu_s(floor_jobs, frames, SEGMENT_FRAMES)
         )
+    workers.close()
     figures["closed_loop"] = {
         "walks": len(open_jobs),
         "laws": {name: list(groups) for name, groups in loops.items()},
         "of_open": {name: statistics.median(r) for name, r in ratios.items()},
         "of_open_repeats": {name: sorted(r) for name, r in ratios.items()},
+        "processes_robust_laws_wall_of_open": statistics.median(in_workers),
+        "processes_robust_laws_wall_of_open_repeats": sorted(in_workers),
         "floor_one_frame_per_call_of_open": statistics.median(floors),
         "floor_repeats": sorted(floors),
         "goal_of_open_max": CLOSED_GOAL,
@@ -439,6 +458,11 @@ def main() -> None:
             f"of the open loop's (repeats {min(r):.2f}…{max(r):.2f}; goal ≤ {CLOSED_GOAL})"
         )
     print(
+        f"closed loop, varied, robust's laws on, {n_threads} worker processes: wall time per "
+        f"simulated s {statistics.median(in_workers):.2f} of the open loop's (repeats "
+        f"{min(in_workers):.2f}…{max(in_workers):.2f}; a walk's runs go as whole groups)"
+    )
+    print(
         f"closed loop's floor, the open loop's control a frame a rollout call: "
         f"{statistics.median(floors):.3f} of {SEGMENT_FRAMES} frames a call (repeats "
         f"{min(floors):.3f}…{max(floors):.3f}): what is left of the goal for the Python per frame"
@@ -448,6 +472,9 @@ def main() -> None:
         headline[f"closed loop, {name}: CPU of the open loop's (goal ≤ {CLOSED_GOAL})"] = figures[
             "closed_loop"
         ]["of_open"][name]
+    headline["closed loop on worker processes, robust's laws: wall of the open loop's"] = figures[
+        "closed_loop"
+    ]["processes_robust_laws_wall_of_open"]
     headline["closed loop's floor: a frame a rollout call, CPU of the open loop's"] = figures[
         "closed_loop"
     ]["floor_one_frame_per_call_of_open"]

@@ -138,6 +138,9 @@ def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs(tmp_
     }
     for name in closed["laws"]:
         assert 0.5 < closed["of_open"][name] < 50 and len(closed["of_open_repeats"][name]) == 1
+    # on worker processes, wall time (a walk's closed-loop runs go as whole groups)
+    assert 0.2 < closed["processes_robust_laws_wall_of_open"] < 50
+    assert len(closed["processes_robust_laws_wall_of_open_repeats"]) == 1
     # a frame a call against fifty frames a call (on runs this short, timing noise alone)
     assert closed["floor_one_frame_per_call_of_open"] > 0 and len(closed["floor_repeats"]) == 1
 
