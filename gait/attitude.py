@@ -56,16 +56,18 @@ def complementary_step(
     accel: NDArray[np.floating],
     dt_s: float,
     tau_s: float,
+    tilt: tuple[NDArray[np.floating], NDArray[np.floating]] | None = None,
 ) -> tuple[NDArray[np.floating], NDArray[np.floating]]:
     """One step of the complementary filter: the last estimate advanced by the gyro's Euler
     rates over dt_s, blended with the accelerometer's tilt, weight tau / (tau + dt) on the gyro
     path: the accelerometer corrects slowly (time constant tau_s), the gyro carries the fast
-    motion. tau_s = 0 takes the accelerometer alone."""
+    motion. tau_s = 0 takes the accelerometer alone. `tilt`: `accel_tilt(accel)` when the
+    caller has it."""
     dtype = np.result_type(pitch, gyro, accel)
     keep = dtype.type(tau_s / (tau_s + dt_s))
     dt = dtype.type(dt_s)
     pitch_rate, roll_rate = euler_rates(pitch, roll, gyro)
-    acc_pitch, acc_roll = accel_tilt(accel)
+    acc_pitch, acc_roll = accel_tilt(accel) if tilt is None else tilt
     one = dtype.type(1.0)
     new_pitch = keep * (pitch + pitch_rate * dt) + (one - keep) * acc_pitch
     new_roll = keep * (roll + roll_rate * dt) + (one - keep) * acc_roll

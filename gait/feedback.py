@@ -21,6 +21,15 @@ HIP_ROLL, HIP_PITCH, ANKLE_PITCH, ANKLE_ROLL = (1, 7), (2, 8), (4, 10), (5, 11)
 OUTWARD = np.array([1.0, -1.0], dtype=F32)  # +y is outward for the left foot, inward for the right
 
 
+def _both_legs(joint: tuple[int, int]) -> slice:
+    """A joint's two columns (left, right: one leg's six apart) as a slice of the 12."""
+    return slice(joint[0], None, joint[1] - joint[0])
+
+
+_ANKLE_PITCHES, _HIP_PITCHES = _both_legs(ANKLE_PITCH), _both_legs(HIP_PITCH)
+_ANKLE_ROLLS, _HIP_ROLLS = _both_legs(ANKLE_ROLL), _both_legs(HIP_ROLL)
+
+
 def any_law_on(params: GaitParams) -> bool:
     """False: the open-loop gait, to the bit."""
     return any(getattr(params, group).enabled for group in LAW_GROUPS)
@@ -91,7 +100,9 @@ def expected_tilt(tilt: TiltParams, motion: Motion) -> NDArray[np.float32]:
     motion whose fields hold one value per run (K,)."""
     pitch = tilt.pitch_offset_rad + tilt.pitch_per_a_p * motion.a_p
     roll = tilt.roll_per_a_r * motion.a_r
-    return np.stack(np.broadcast_arrays(pitch, roll), axis=-1).astype(F32)
+    out = np.empty((*np.shape(pitch), 2), dtype=F32)  # each rounded to float32 as it is put
+    out[..., 0], out[..., 1] = pitch, roll
+    return out
 
 
 def commanded_turn_rate(yaw: YawRateParams, motion: Motion) -> np.float32:
@@ -242,19 +253,22 @@ def step_many(
     runs = len(gyro)
     was = state.started
     started = was | starts_attitude(accel)
-    new_pitch, new_roll = complementary_step(
-        state.pitch_rad, state.roll_rad, gyro, accel, dt_s, laws.attitude.tau_s
-    )
     first_pitch, first_roll = accel_tilt(accel)
-    pitch = np.where(was, new_pitch, np.where(started, first_pitch, F32(0.0))).astype(F32)
-    roll = np.where(was, new_roll, np.where(started, first_roll, F32(0.0))).astype(F32)
+    new_pitch, new_roll = complementary_step(
+        state.pitch_rad, state.roll_rad, gyro, accel, dt_s, laws.attitude.tau_s,
+        tilt=(first_pitch, first_roll),
+    )  # fmt: skip
+    attitude = np.empty((runs, 2), dtype=F32)  # (pitch, roll) estimated
+    attitude[:, 0] = np.where(was, new_pitch, np.where(started, first_pitch, F32(0.0)))
+    attitude[:, 1] = np.where(was, new_roll, np.where(started, first_roll, F32(0.0)))
+    pitch, roll = attitude[:, 0].copy(), attitude[:, 1].copy()
     delta = np.zeros((runs, 12), dtype=F32)
     new = {"started": started, "pitch_rad": pitch, "roll_rad": roll}  # the new States
 
     tilt = np.zeros((runs, 2), dtype=F32)
     if laws.tilt.enabled:
         t = laws.tilt
-        error = np.stack([pitch, roll], axis=-1) - expected_tilt(t, motion)
+        error = attitude - expected_tilt(t, motion)
         filtered = _low_pass(state.tilt_error, error, dt_s, t.filter_s)
         past = _dead_band(filtered, t.deadband_rad)
         limit = F32(t.clamp_rad)
@@ -267,8 +281,8 @@ def step_many(
             tilt_error=np.where(on, filtered, state.tilt_error).astype(F32),
             tilt_integral=np.where(on, integral, state.tilt_integral).astype(F32),
         )
-        delta[:, list(ANKLE_PITCH)] -= tilt[:, :1]  # toes down against a forward lean
-        delta[:, list(HIP_ROLL)] += tilt[:, 1:] * OUTWARD
+        delta[:, _ANKLE_PITCHES] -= tilt[:, :1]  # toes down against a forward lean
+        delta[:, _HIP_ROLLS] += tilt[:, 1:] * OUTWARD
 
     a_y_delta = np.zeros(runs, dtype=F32)
     if laws.yaw_rate.enabled:
@@ -285,10 +299,10 @@ def step_many(
         d = laws.damping
         # measured on ArtRo: against a forward pitch rate, toes down and legs back both calm
         # the trunk; against a rate lowering the right side, left out and right in
-        damping[:, list(ANKLE_PITCH)] = -F32(d.ankle_pitch) * gyro[:, 1:2]
-        damping[:, list(HIP_PITCH)] = -F32(d.hip_pitch) * gyro[:, 1:2]
-        damping[:, list(ANKLE_ROLL)] = F32(d.ankle_roll) * gyro[:, :1] * OUTWARD
-        damping[:, list(HIP_ROLL)] = F32(d.hip_roll) * gyro[:, :1] * OUTWARD
+        damping[:, _ANKLE_PITCHES] = -F32(d.ankle_pitch) * gyro[:, 1:2]
+        damping[:, _HIP_PITCHES] = -F32(d.hip_pitch) * gyro[:, 1:2]
+        damping[:, _ANKLE_ROLLS] = F32(d.ankle_roll) * gyro[:, :1] * OUTWARD
+        damping[:, _HIP_ROLLS] = F32(d.hip_roll) * gyro[:, :1] * OUTWARD
         delta += damping
 
     cop_out, support = np.zeros((runs, 2), dtype=F32), np.full(runs, -1)
@@ -308,6 +322,5 @@ def step_many(
         rows, foot = np.flatnonzero(support >= 0), support[support >= 0]
         delta[rows, np.array(ANKLE_PITCH)[foot]] += cop_out[rows, 0]
         delta[rows, np.array(ANKLE_ROLL)[foot]] += cop_out[rows, 1]
-    attitude = np.stack([pitch, roll], axis=-1)
     outs = Outputs(delta, a_y_delta, tilt, damping, cop_out, support, attitude)
-    return dataclasses.replace(state, **new), outs
+    return States(**{**state.__dict__, **new}), outs

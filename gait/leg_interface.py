@@ -97,17 +97,13 @@ def leg_to_joint_angles(
     eta = 1.0 + (1.0 - eta_min) * legs[..., GAMMA]  # eq (2)
     alpha1, alpha2, alpha3 = knee_triangle(eta, geometry)
     leg_roll, leg_pitch = legs[..., LEG_ROLL], legs[..., LEG_PITCH]
-    per_leg = np.stack(
-        [
-            legs[..., LEG_YAW],  # hip yaw, eq (7)
-            leg_roll,  # hip roll, eq (7)
-            leg_pitch + alpha2,  # hip pitch, eq (7)
-            alpha1 - np.pi,  # knee, eq (8)
-            alpha3 + legs[..., FOOT_PITCH] - leg_pitch,  # ankle pitch, eq (9)
-            legs[..., FOOT_ROLL] - leg_roll,  # ankle roll, eq (9)
-        ],
-        axis=-1,
-    )  # (..., 2, 6)
+    per_leg = np.empty((*leg_roll.shape, 6))  # (..., 2, 6), JOINT_NAMES order per leg
+    per_leg[..., 0] = legs[..., LEG_YAW]  # hip yaw, eq (7)
+    per_leg[..., 1] = leg_roll  # hip roll, eq (7)
+    per_leg[..., 2] = leg_pitch + alpha2  # hip pitch, eq (7)
+    per_leg[..., 3] = alpha1 - np.pi  # knee, eq (8)
+    per_leg[..., 4] = alpha3 + legs[..., FOOT_PITCH] - leg_pitch  # ankle pitch, eq (9)
+    per_leg[..., 5] = legs[..., FOOT_ROLL] - leg_roll  # ankle roll, eq (9)
     return per_leg.reshape(*per_leg.shape[:-2], 12)
 
 

@@ -139,7 +139,9 @@ def leg_parameters_with_flags(
 
     gamma_clamped = gamma < -1.0
     gamma = np.minimum(np.maximum(gamma, -1.0), 0.0)  # eq (45), the leg interface's range
-    values = np.stack([leg_roll, leg_pitch, leg_yaw, foot_roll, foot_pitch, gamma], axis=-1)
+    values = np.empty((*phi_leg.shape, 6))  # eqs (40)-(45), in `LegParameters` order
+    for column, value in enumerate((leg_roll, leg_pitch, leg_yaw, foot_roll, foot_pitch, gamma)):
+        values[..., column] = value
     return LegParameters(values, gamma_clamped)
 
 

@@ -17,7 +17,7 @@ from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.sim.planning import MotionOfRuns, frame_steps, plan_frame_of_runs, plan_frames
 from app.worlds.sampling import VariationRanges, sample
-from app.worlds.servo_path import ServoPath, ServoPaths, latency_steps
+from app.worlds.servo_path import FramePaths, ServoPath, ServoPaths, latency_steps
 from app.worlds.variations import NOMINAL, parse_variation
 from gait import Motion, feedback
 from gait.params import LAW_GROUPS
@@ -70,7 +70,10 @@ def test_the_lanes_cut_the_jobs_into_groups_of_one_walk():
     assert [0, 1, 2] not in tasks and [[0, 1], [2]] == [t for t in tasks if t[0] < 3]  # 2 lanes
     assert [3] in tasks and [4] in tasks and [5] in tasks  # ramps apart, open loop alone
     big = [t for t in tasks if t[0] >= 6]
-    assert len(big) == 3 and all(len(t) <= GROUP_RUNS for t in big)  # 129 runs: 43 a group
+    # 2 GROUP_RUNS + 1 runs: more than two groups, so four (the lanes get as many each)
+    assert len(big) == 4 and all(len(t) <= GROUP_RUNS for t in big)
+    tasks = BatchEvaluator(ROBOT, threads=2)._tasks(jobs[:6] + jobs[6 : 6 + GROUP_RUNS])
+    assert [len(t) for t in tasks if t[0] >= 6] == [GROUP_RUNS // 2] * 2  # a group each lane
 
 
 def test_a_cancel_stops_a_group_between_frames(monkeypatch):
@@ -184,8 +187,8 @@ def test_servo_paths_from_switches_equal_the_path_of_every_step_to_the_bit(mixed
     if mixed:
         worlds += [NOMINAL, parse_variation("deadband_deg=1")]
     start = rng.normal(size=(len(worlds), 12)) * 0.3
-    switches, steps = ServoPaths(worlds, 0.001, start), 20
-    stepped = ServoPaths(worlds, 0.001, start)
+    steps = 20
+    switches, stepped = FramePaths(worlds, 0.001, start, steps), ServoPaths(worlds, 0.001, start)
     assert switches.delay_steps.max() > steps  # a latency longer than a frame
     sent, frames, inputs = start.copy(), [], []
     for _frame in range(14):
@@ -195,7 +198,8 @@ def test_servo_paths_from_switches_equal_the_path_of_every_step_to_the_bit(mixed
         step_level = np.where(
             np.arange(steps)[None, :, None] >= substep[:, None], setpoint[:, None], sent[:, None]
         )
-        got = switches.switched(sent, setpoint, substep, steps)
+        got = np.full((len(worlds), steps, 12), np.nan)
+        switches(sent, setpoint, substep, got)
         assert bits(got) == bits(stepped(step_level))
         frames.append(got)
         inputs.append(step_level)
@@ -203,6 +207,28 @@ def test_servo_paths_from_switches_equal_the_path_of_every_step_to_the_bit(mixed
     every_step, fed = np.concatenate(frames, axis=1), np.concatenate(inputs, axis=1)
     for k, world in enumerate(worlds):
         assert bits(every_step[k]) == bits(by_definition(world, start[k], fed[k]))
+
+
+def test_frame_paths_go_on_with_the_runs_they_keep():
+    rng = np.random.default_rng(12)
+    worlds = [*sample(VariationRanges(), 5, seed=13), NOMINAL]
+    start = rng.normal(size=(len(worlds), 12)) * 0.3
+    kept = np.array([True, False, True, True, False, True])
+    group = FramePaths(worlds, 0.001, start, 20)
+    alone = FramePaths([w for w, k in zip(worlds, kept, strict=True) if k], 0.001, start[kept], 20)
+    sent, runs = start.copy(), np.ones(len(worlds), dtype=bool)  # the runs `group` steps
+    for frame in range(6):
+        setpoint = sent + rng.normal(size=sent.shape) * 0.02
+        substep = rng.integers(0, 21, size=sent.shape)
+        got = np.empty((int(runs.sum()), 20, 12))
+        group(sent[runs], setpoint[runs], substep[runs], got)
+        want = np.empty((int(kept.sum()), 20, 12))
+        alone(sent[kept], setpoint[kept], substep[kept], want)
+        assert bits(got[kept[runs]]) == bits(want), frame
+        if frame == 2:  # the others fell: the group goes on with the kept runs
+            group.keep(kept)
+            runs = kept
+        sent = setpoint
 
 
 def test_a_frame_of_runs_is_each_runs_one_frame_plan():
@@ -223,8 +249,9 @@ def test_a_frame_of_runs_is_each_runs_one_frame_plan():
                 ROBUST, own, hardware, 1.3, 1, steps, timestep_s, frame0=7,
                 geometry=ROBOT.geometry, joint_delta_rad=delta[k], a_y_delta=float(a_y_delta[k]),
             )  # fmt: skip
-            for name in ("angles", "setpoint", "substep", "saturated", "ocr"):
+            for name in ("setpoint", "substep"):
                 assert bits(getattr(runs, name)[k]) == bits(getattr(one, name)[0]), (k, name)
+            assert bits(runs.phase) == bits(one.phase[0])
     with pytest.raises(ValueError, match="do not ramp"):
         plan_frame_of_runs(
             ROBUST, MotionOfRuns.of(each), hardware, 1.3, steps, timestep_s, motion_now=Motion(),

@@ -16,7 +16,7 @@ from app.robots.model import RobotModel
 from app.sim.frame_loop import stand
 from app.sim.planning import FRAME_S, START_PHASE_RAD, MotionOfRuns, plan_frame_of_runs
 from app.sim.sensors import SensorBank
-from app.worlds.servo_path import ServoPaths
+from app.worlds.servo_path import FramePaths
 from gait import GaitParams, Motion, feedback
 
 STATE_SPEC = mujoco.mjtState.mjSTATE_FULLPHYSICS
@@ -114,7 +114,7 @@ class ClosedLoops:
         self.timestep_s = float(robot.model.opt.timestep)
         act = robot.actuator_ids
         self.sent = np.stack([start.ctrl[act] for start in starts])
-        self.path = ServoPaths([j.variation for j in jobs], self.timestep_s, self.sent)
+        self.path = FramePaths([j.variation for j in jobs], self.timestep_s, self.sent, steps)
         self.positions = robot.fsr_positions_m.astype(np.float32)
         self.law_state = feedback.States.fresh(len(jobs))
         self.motion: Motion | MotionOfRuns = job.motion
@@ -124,6 +124,9 @@ class ClosedLoops:
         self.phase = starts[0].phase
         self.step_rad = 2.0 * math.pi * job.params.clock.freq_hz * FRAME_S
         self.control = np.stack([np.broadcast_to(s.ctrl, (steps, len(s.ctrl))) for s in starts])
+        # the servos' columns of the control: written in place when they are all of it, in order
+        self._servos_are_ctrl = np.array_equal(act, np.arange(self.control.shape[2]))
+        self._servos = self.control if self._servos_are_ctrl else self.control[:, :, act]
 
     def plan(self, frame: int, datas: Sequence[mujoco.MjData] | None) -> np.ndarray:
         """The ctrl of frame `frame`'s steps of every run (K, steps, nu; the loops' own array,
@@ -148,12 +151,12 @@ class ClosedLoops:
             geometry=self.robot.geometry, joint_delta_rad=out.joint_delta_rad,
             a_y_delta=out.a_y_delta,
         )  # fmt: skip
-        self.control[:, :, act] = self.path.switched(
-            self.sent, plan.setpoint, plan.substep, self.steps
-        )
+        self.path(self.sent, plan.setpoint, plan.substep, self._servos)
+        if not self._servos_are_ctrl:
+            self.control[:, :, act] = self._servos
         self.sent = plan.setpoint
-        self.motion_now = plan.motions[0]
-        next_phase = float(plan.phase[0]) + self.step_rad
+        self.motion_now = plan.motion
+        next_phase = plan.phase + self.step_rad
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # as FrameLoop, in floats
         return self.control
 
@@ -165,6 +168,7 @@ class ClosedLoops:
         if isinstance(self.motion, MotionOfRuns):
             self.motion = self.motion_now = self.motion.take(runs)
         self.rows, self.sent, self.control = self.rows[runs], self.sent[runs], self.control[runs]
+        self._servos = self.control if self._servos_are_ctrl else self._servos[runs]
 
     def record(self, rows: np.ndarray) -> None:
         """The sensordata after each step of the frame just stepped (K, steps, nsensordata)."""

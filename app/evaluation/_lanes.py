@@ -42,7 +42,7 @@ from gait import feedback
 #: a run rolls out this many frames per `rollout` call and stops after the call it fell in
 SEGMENT_FRAMES = 50
 #: closed-loop runs of one walk step in lockstep in groups of up to this many (decision 0038)
-GROUP_RUNS = 64
+GROUP_RUNS = 128
 POLL_S = 0.2  # how often a waiting `evaluate` shows a group's progress and looks at its cancel
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
 
@@ -173,8 +173,9 @@ def lane_tasks(jobs: Sequence[Job], lanes: int, open_per_task: int = 1) -> list[
     """The jobs' indices cut into tasks, in order of their first job: open-loop runs
     `open_per_task` at a time, in job order; closed-loop runs of one walk (`walk_of`: one gait,
     one start) in groups of up to `GROUP_RUNS`, stepped in lockstep (`_run_group`), as many
-    groups as `lanes` at least (a lane is a thread here, a worker for the executors that send
-    tasks away: a group of K runs shares the Python of a frame, so a task takes a whole one)."""
+    groups as a multiple of `lanes` (a lane is a thread here, a worker for the executors that
+    send tasks away: a group of K runs shares the Python of a frame, so a task takes a whole
+    one, and the lanes get as many each)."""
     open_runs: list[int] = []
     walks: dict[tuple, list[int]] = {}
     for i, job in enumerate(jobs):
@@ -184,7 +185,7 @@ def lane_tasks(jobs: Sequence[Job], lanes: int, open_per_task: int = 1) -> list[
             open_runs.append(i)
     tasks = [open_runs[i : i + open_per_task] for i in range(0, len(open_runs), open_per_task)]
     for runs in walks.values():
-        groups = max(min(lanes, len(runs)), math.ceil(len(runs) / GROUP_RUNS))
+        groups = min(len(runs), lanes * math.ceil(len(runs) / (lanes * GROUP_RUNS)))
         size = math.ceil(len(runs) / groups)
         tasks += [runs[first : first + size] for first in range(0, len(runs), size)]
     return sorted(tasks)
@@ -453,6 +454,7 @@ class BatchEvaluator:
         planned, controls = None, []
         frames = np.full(len(jobs), n_frames)
         live = np.arange(len(jobs))  # the runs still in the group, in the loops' order
+        rows: slice | np.ndarray = slice(None)  # their rows in the group's arrays (all: a view)
         for frame in range(n_frames):
             if tally.stopped():
                 raise Cancelled("cancelled")
@@ -477,19 +479,19 @@ class BatchEvaluator:
                 warm_k[0] = warm_after
             n = len(live)
             loops.record(sensor_out[:n])
-            ends.states[live, frame] = state_out[:n, -1]
-            ends.sensors[live, frame] = sensor_out[:n, -1]
-            initial[live, 0] = state_out[:n, -1]
-            checks = self._end_checks(
-                ends.states[live, frame], (frame + 1) * steps - 1, start_s[live], heights[live]
-            )
+            ends.states[rows, frame] = state_out[:n, -1]
+            ends.sensors[rows, frame] = sensor_out[:n, -1]
+            initial[rows, 0] = state_out[:n, -1]
+            checks = self._end_checks(state_out[:n, -1], (frame + 1) * steps - 1, start_s, heights)
             stopped = checks.bad | checks.down
-            tally.frames[task] += len(live) + int(stopped.sum()) * (n_frames - frame - 1)
+            tally.frames[task] += n
             if stopped.any():
+                tally.frames[task] += int(stopped.sum()) * (n_frames - frame - 1)
                 frames[live[stopped]] = frame + 1
-                live = live[~stopped]
+                live, rows = live[~stopped], live[~stopped]
                 if not len(live):
                     break
+                start_s, heights = start_s[~stopped], heights[~stopped]
                 loops.keep(~stopped)
         return frames
 

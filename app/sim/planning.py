@@ -184,6 +184,17 @@ def plan_frames(
     )
 
 
+class FrameOfRuns(NamedTuple):
+    """One frame of K runs as a closed loop steps it: phi_Trunk at its start, the motion the
+    runs' gait got (before the laws' a_y), and each servo's set-point (K, 12) and the physics
+    step of the frame at which it takes effect (K, 12)."""
+
+    phase: float
+    motion: Motion | MotionOfRuns
+    setpoint: NDArray[np.float64]
+    substep: NDArray[np.int64]
+
+
 class MotionOfRuns(NamedTuple):
     """The motions of K runs that walk each its own motion vector and CA, a field (K,) each,
     as the gait and the laws take them (the gait along the legs' axis: `along_legs`)."""
@@ -219,12 +230,11 @@ def plan_frame_of_runs(
     geometry: LegGeometry,
     joint_delta_rad: NDArray[np.floating],
     a_y_delta: NDArray[np.floating],
-) -> FramePlan:
+) -> FrameOfRuns:
     """One frame of K runs that walk the same gait from the same phase, each with its own laws'
-    corrections (joint_delta_rad (K, 12), a_y_delta (K,)): a `FramePlan` whose leading axis is
-    the run (`motions` holds the motion the runs got, before a_y_delta). They walk one
-    `Motion` (its ramp from `motion_now`) or each its own (`MotionOfRuns`, which does not ramp:
-    `motion_now` is `motion`). Each run's row has the bits of `plan_frames(..., n_frames=1)`
+    corrections (joint_delta_rad (K, 12), a_y_delta (K,)). They walk one `Motion` (its ramp
+    from `motion_now`) or each its own (`MotionOfRuns`, which does not ramp: `motion_now` is
+    `motion`). Each run's set-points and steps have the bits of `plan_frames(..., n_frames=1)`
     with its corrections (a test holds them equal): the gait is elementwise along the runs."""
     phase = pi_cut(phase0 + 2.0 * math.pi * params.clock.freq_hz * FRAME_S * np.arange(1))
     if isinstance(motion, MotionOfRuns):
@@ -243,20 +253,37 @@ def plan_frame_of_runs(
         walked = walking if a_y[0] == walking.a_y else with_a_y_delta(walking, delta[0])
         one = joint_angles_with_flags(params, walked, phase, geometry, startup=startup)
         angles = np.repeat(one.values, runs, axis=0)
-        gamma_clamped = np.repeat(one.gamma_clamped, runs, axis=0)
     else:
-        shared = (np.full(runs, f) for f in (walking.a_r, walking.a_p))
-        own = MotionOfRuns(*shared, a_y, np.full(runs, walking.ca)).along_legs()
+        if isinstance(walking, MotionOfRuns):
+            own = walking._replace(a_y=a_y)
+        else:
+            shared = (np.full(runs, f) for f in (walking.a_r, walking.a_p))
+            own = MotionOfRuns(*shared, a_y, np.full(runs, walking.ca))
         # the gait reads a motion's four fields; a motion of runs holds them per run
         out = joint_angles_with_flags(
-            params, own, np.repeat(phase, runs), geometry, startup=startup,  # type: ignore[arg-type]
+            params, own.along_legs(), np.repeat(phase, runs), geometry, startup=startup,  # type: ignore[arg-type]
         )  # fmt: skip
-        angles, gamma_clamped = out.values, out.gamma_clamped
+        angles = out.values
     angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
-    return _through_servos(
-        np.repeat(phase, runs), angles, gamma_clamped, [walking], hardware, steps_per_frame,
-        timestep_s,
-    )  # fmt: skip
+    _ocr, _saturated, setpoint, substep = _servo_setpoints(
+        angles, hardware, steps_per_frame, timestep_s
+    )
+    return FrameOfRuns(float(phase[0]), walking, setpoint, substep)
+
+
+def _servo_setpoints(
+    angles: NDArray[np.float64], hardware: HardwareSetup, steps_per_frame: int, timestep_s: float
+) -> tuple[NDArray[np.int32], NDArray[np.bool_], NDArray[np.float64], NDArray[np.int64]]:
+    """Joint angles (n, 12) -> pulses -> each servo's OCR, saturation, the set-point it decodes
+    and the physics step of the frame at which it takes effect."""
+    pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
+    servo_ocr = pulse_us_to_ocr(pulse_us)  # what frame_ocr places; no slot idle
+    fall_ticks = servo_falling_edge_ticks(servo_ocr, hardware.tdm)
+    slot = hardware.tdm.channel_map.slot_index
+    received_us = (fall_ticks - slot * SLOT_TICKS) * TICK_US  # what the servo measured
+    setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
+    substep = falling_edge_substeps(fall_ticks, steps_per_frame, timestep_s)
+    return servo_ocr, saturated, setpoint, substep
 
 
 def _through_servos(
@@ -269,13 +296,9 @@ def _through_servos(
     timestep_s: float,
 ) -> FramePlan:
     """Joint angles (n, 12) -> pulses -> TDM-PWM frame -> set-points and their physics steps."""
-    pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
-    servo_ocr = pulse_us_to_ocr(pulse_us)  # what frame_ocr places; no slot idle
-    fall_ticks = servo_falling_edge_ticks(servo_ocr, hardware.tdm)
-    slot = hardware.tdm.channel_map.slot_index
-    received_us = (fall_ticks - slot * SLOT_TICKS) * TICK_US  # what the servo measured
-    setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
-    substep = falling_edge_substeps(fall_ticks, steps_per_frame, timestep_s)
+    servo_ocr, saturated, setpoint, substep = _servo_setpoints(
+        angles, hardware, steps_per_frame, timestep_s
+    )
     return FramePlan(
         phase=phase,
         angles=angles,

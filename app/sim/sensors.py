@@ -164,6 +164,7 @@ class SensorBank:
             raise ValueError("the runs' models must hold the IMU at the same sensordata rows")
         self._noise = np.empty((len(runs), 0, 3))  # each run's drawn, not yet read
         self._read = 0
+        self._needed = int(self.delay_steps.max()) + 1
 
     def keep(self, runs: NDArray[np.bool_]) -> None:
         """Go on with the runs where `runs` (K,) is True."""
@@ -171,11 +172,12 @@ class SensorBank:
         self.delay_steps, self._to_imu = self.delay_steps[runs], self._to_imu[runs]
         self._gyro_bias, self._gyro_noise = self._gyro_bias[runs], self._gyro_noise[runs]
         self._noise = self._noise[runs]
+        self._needed = int(self.delay_steps.max(initial=0)) + 1
 
     @property
     def steps_needed(self) -> int:
         """How many of the last physics steps' sensor rows `read_imu` needs."""
-        return int(self.delay_steps.max()) + 1
+        return self._needed
 
     @property
     def imu_columns(self) -> int:

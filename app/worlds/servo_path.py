@@ -77,21 +77,9 @@ class ServoPath:
         return x if self.passthrough else self._paths(x[None])[0]
 
 
-class ServoPaths:
-    """K runs' servo paths at once (`ServoPath` is one run's), a chunk of the same steps for
-    all (a lane's group of closed-loop runs): each run's output has the bits it has alone (a
-    test holds them equal). The play runs first, on the calibrated input, and the latency
-    delays what it puts out (the play is time-invariant and starts at rest on the initial
-    set-point, so the order changes no bit): at every step -- a repeated command clips the
-    output to where it is -- composed along the steps in log2(n) whole-array rounds
-    (`play_outputs`), or from a frame's switches alone (`switched`); the delay by a gather
-    from the last outputs at each run's delay.
-
-    Args:
-        variations: each run's `Variation`.
-        timestep_s: the physics step, s.
-        initial_rad: (K, 12) each run's set-points in force before the first step.
-    """
+class _RunsPaths:
+    """What K runs' servo paths share, however they are fed: each run's delay, calibration
+    offset and play, and the play's output at the last step."""
 
     def __init__(
         self, variations: Sequence[Variation], timestep_s: float, initial_rad: ArrayLike
@@ -109,20 +97,49 @@ class ServoPaths:
         self.half_width_rad = np.array(widths)
         self._played = self.half_width_rad != 0.0
         self._all_offset = bool(self.has_offset.all())
-        longest = int(self.delay_steps.max(initial=0))
         self._output = np.where(self.has_offset[:, None], initial + self.offset_rad, initial)
-        self._queue = np.repeat(self._output[:, None, :], longest, axis=1)  # the last outputs
 
     def keep(self, runs: NDArray[np.bool_]) -> None:
         """Go on with the runs where `runs` (K,) is True."""
         self.delay_steps, self.offset_rad = self.delay_steps[runs], self.offset_rad[runs]
         self.has_offset, self.half_width_rad = self.has_offset[runs], self.half_width_rad[runs]
         self._all_offset = bool(self.has_offset.all())
-        self._played, self._queue, self._output = (
-            self._played[runs],
-            self._queue[runs],
-            self._output[runs],
-        )
+        self._played, self._output = self._played[runs], self._output[runs]
+
+    def _calibrated(
+        self, x: NDArray[np.float64], offset: NDArray[np.float64], has: NDArray[np.bool_]
+    ) -> NDArray[np.float64]:
+        """x plus each run's calibration offset (runs without one as they are)."""
+        if self._all_offset:  # the same bits as the where below, one pass fewer
+            return x + offset
+        return np.where(has, x + offset, x) if self.has_offset.any() else x
+
+
+class ServoPaths(_RunsPaths):
+    """K runs' servo paths at once (`ServoPath` is one run's), a chunk of the same steps for
+    all: each run's output has the bits it has alone (a test holds them equal). The play runs
+    first, on the calibrated input, and the latency delays what it puts out (the play is
+    time-invariant and starts at rest on the initial set-point, so the order changes no bit):
+    at every step -- a repeated command clips the output to where it is -- composed along the
+    steps in log2(n) whole-array rounds (`play_outputs`); the delay by a gather from the last
+    outputs at each run's delay. `FramePaths` is the same path fed a frame's switches.
+
+    Args:
+        variations: each run's `Variation`.
+        timestep_s: the physics step, s.
+        initial_rad: (K, 12) each run's set-points in force before the first step.
+    """
+
+    def __init__(
+        self, variations: Sequence[Variation], timestep_s: float, initial_rad: ArrayLike
+    ) -> None:
+        super().__init__(variations, timestep_s, initial_rad)
+        longest = int(self.delay_steps.max(initial=0))
+        self._queue = np.repeat(self._output[:, None, :], longest, axis=1)  # the last outputs
+
+    def keep(self, runs: NDArray[np.bool_]) -> None:
+        super().keep(runs)
+        self._queue = self._queue[runs]
 
     def __call__(self, ctrl_rad: NDArray[np.float64]) -> NDArray[np.float64]:
         """The next chunk of every run, (K, n, 12) in rad, to (K, n, 12)."""
@@ -143,18 +160,66 @@ class ServoPaths:
                 x = np.where(self._played[:, None, None], played, x)
         return self._delayed(x)
 
-    def switched(
+    def _delayed(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
+        """x (K, n, 12) with each run's latency: the outputs of `delay_steps` steps before."""
+        n, longest = x.shape[1], self._queue.shape[1]
+        if not longest:
+            return x
+        joined = np.concatenate([self._queue, x], axis=1)
+        first = longest - self.delay_steps
+        self._queue = joined[:, n:]  # a view: the next call's concatenate copies it
+        return joined[np.arange(len(x))[:, None], first[:, None] + np.arange(n)]
+
+
+class FramePaths(_RunsPaths):
+    """K runs' servo paths fed a frame of `steps` physics steps at a time by its switches (a
+    lane's group of closed-loop runs): what `ServoPaths` gives for the step-level input, to
+    the bit (a test holds them equal), without going along the steps. The play's output
+    changes only where its input does (a clip repeated with the same band is the clip), so a
+    frame is played from its two values per servo; each servo's output is then constant in
+    pieces, and the delayed frame is the last frames' pieces, each starting its run's delay
+    later (docs/DESIGN.md §8).
+
+    Args:
+        variations, timestep_s, initial_rad: as for `ServoPaths`.
+        steps: physics steps per frame.
+    """
+
+    def __init__(
+        self,
+        variations: Sequence[Variation],
+        timestep_s: float,
+        initial_rad: ArrayLike,
+        steps: int,
+    ) -> None:
+        super().__init__(variations, timestep_s, initial_rad)
+        self.steps = steps
+        back = -(-int(self.delay_steps.max(initial=0)) // steps)  # frames a delay reaches into
+        # each servo's pieces, oldest first: the last `back` frames' two and this frame's two,
+        # their values (K, 12, 2 back + 2) and the steps they start at, counted from this
+        # frame's start, and the frame's end (K, 12, 2 back + 3); before the run, the output
+        # held (from -back frames on)
+        self._values = np.repeat(self._output[:, :, None], 2 * back + 2, axis=2)
+        self._starts = np.full((*self._output.shape, 2 * back + 3), -back * steps, np.int32)
+        self._starts[:, :, -1] = steps
+        self._delay = self.delay_steps.astype(np.int32)[:, None, None]
+
+    def keep(self, runs: NDArray[np.bool_]) -> None:
+        super().keep(runs)
+        self._values, self._starts = self._values[runs], self._starts[runs]
+        self._delay = self._delay[runs]
+
+    def __call__(
         self,
         sent: NDArray[np.float64],
         setpoint: NDArray[np.float64],
         substep: NDArray[np.int64],
-        steps: int,
-    ) -> NDArray[np.float64]:
-        """The next frame of every run from its switches alone, (K, steps, 12): servo j of run
-        k is sent `sent[k, j]` until step `substep[k, j]` of the frame (0..steps; steps: not in
-        this frame) and `setpoint[k, j]` from there on -- what `__call__` gives for that
-        step-level input, to the bit, without the play along its steps: the play's output
-        changes only where its input does (a clip repeated with the same band is the clip)."""
+        out: NDArray[np.float64],
+    ) -> None:
+        """The next frame of every run into `out` (K, steps, 12): servo j of run k is sent
+        `sent[k, j]` until step `substep[k, j]` of the frame (0..steps; steps: not in this
+        frame) and `setpoint[k, j]` from there on."""
+        steps = self.steps
         first = self._calibrated(sent, self.offset_rad, self.has_offset[:, None])
         then = self._calibrated(setpoint, self.offset_rad, self.has_offset[:, None])
         if self._played.any():
@@ -168,26 +233,16 @@ class ServoPaths:
             else:
                 first = np.where(self._played[:, None], kept, first)
                 then = np.where(self._played[:, None], moved, then)
-        at = np.arange(steps)[None, :, None] >= substep[:, None, :]
-        return self._delayed(np.where(at, then[:, None, :], first[:, None, :]))
-
-    def _calibrated(
-        self, x: NDArray[np.float64], offset: NDArray[np.float64], has: NDArray[np.bool_]
-    ) -> NDArray[np.float64]:
-        """x plus each run's calibration offset (runs without one as they are)."""
-        if self._all_offset:  # the same bits as the where below, one pass fewer
-            return x + offset
-        return np.where(has, x + offset, x) if self.has_offset.any() else x
-
-    def _delayed(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """x (K, n, 12) with each run's latency: the outputs of `delay_steps` steps before."""
-        n, longest = x.shape[1], self._queue.shape[1]
-        if not longest:
-            return x
-        joined = np.concatenate([self._queue, x], axis=1)
-        first = longest - self.delay_steps
-        self._queue = joined[:, n:]  # a view: the next call's concatenate copies it
-        return joined[np.arange(len(x))[:, None], first[:, None] + np.arange(n)]
+        values, starts = self._values, self._starts
+        values[:, :, -2], values[:, :, -1] = first, then
+        starts[:, :, -3], starts[:, :, -2] = 0, substep
+        # delayed, each piece starts `delay_steps` later; the frame shows its steps 0..steps-1
+        shown = np.minimum(np.maximum(starts + self._delay, 0), steps)
+        counts = shown[:, :, 1:] - shown[:, :, :-1]
+        pieces = np.repeat(values.reshape(-1), counts.reshape(-1))  # servo by servo
+        out[...] = pieces.reshape(len(values), N_SERVOS, steps).transpose(0, 2, 1)
+        values[:, :, :-2] = values[:, :, 2:]  # the next frame's: this one's pieces are the last
+        starts[:, :, :-3] = starts[:, :, 2:-1] - steps
 
 
 def play_outputs(
