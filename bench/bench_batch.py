@@ -10,7 +10,7 @@ model and once with every walk on its own sampled variation:
   - BatchEvaluator.evaluate with N lanes, end to end (planning the gait + hardware for every
     step, the rollout, measuring), the rollout alone, and its steps per CPU second;
   - ProcessEvaluator.evaluate with N worker processes of one MuJoCo thread each, end to end;
-  - the closed loop: --closed-runs varied walks (a study's call; a lane steps up to 64
+  - the closed loop: --closed-runs varied walks (a study's call; a lane steps up to 128
     closed-loop runs of one gait in lockstep) with every law on and with `robust`'s laws, CPU
     per simulated second against the same walks open loop measured before and after (goal <=
     1.1), with `robust`'s laws also on the worker processes (wall time: a walk's runs go to them
@@ -31,7 +31,7 @@ says how many were free).
 A call of 64 walks (the default) leaves a lane idle at its end for under 1 % of the call;
 `bench robust` and `tune` evaluate whole generations (hundreds of runs) in one call.
 
-    python bench/bench_batch.py [--seconds 10] [--runs 64] [--repeats 6]   # ~12 min on 2 cores
+    python bench/bench_batch.py [--seconds 10] [--runs 64] [--repeats 6]   # ~14 min on 2 cores
         [--closed-runs 128] [--json PATH]
 
 Writes every figure (per kind, nominal and varied: the ceiling, batch and processes, each
@@ -259,7 +259,8 @@ def main() -> None:
     parser.add_argument(
         "--closed-runs", type=int, default=128,
         help="varied walks per evaluate call for the closed loop against the open (a study's "
-        "call: a lane steps up to 64 closed-loop runs of one gait at once)",
+        "call: a lane steps up to 128 closed-loop runs of one gait at once; 128 on two lanes: "
+        "two groups of 64)",
     )  # fmt: skip
     args = results.parse_args(parser)
     n_threads = os.cpu_count() or 1
