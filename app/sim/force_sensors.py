@@ -51,10 +51,12 @@ def fsr_forces_of(
     ray = np.where(second[:, None], -ray, ray)  # the normal runs from geom 1 to 2: away from it
     zone = np.asarray(robots[0].fsr_sites)[foot]  # (n, 4)
     run = runs[contact]
-    site_pos = np.stack([data.site_xpos for data in datas])  # (K, sites, 3)
-    site_mat = np.stack([data.site_xmat for data in datas])  # (K, sites, 9)
+    # every run's sites, (K * sites, 3) and (K * sites, 9); each contact's zones' rows in them
+    site_pos = np.array([data.site_xpos for data in datas]).reshape(-1, 3)
+    site_mat = np.array([data.site_xmat for data in datas]).reshape(-1, 9)
+    rows = run[:, None] * model.nsite + zone
     hit = _ray_hits_box(
-        site_pos[run[:, None], zone], site_mat[run[:, None], zone], model.site_size[zone],
+        site_pos.take(rows, axis=0), site_mat.take(rows, axis=0), model.site_size[zone],
         points[contact, None, :], ray[:, None, :],
     )  # fmt: skip
     at, corner = np.nonzero(hit)  # a sensor's forces in contact order, as the touch sums them
