@@ -488,7 +488,7 @@ class BatchEvaluator:
             if stopped.any():
                 tally.frames[task] += int(stopped.sum()) * (n_frames - frame - 1)
                 frames[live[stopped]] = frame + 1
-                live, rows = live[~stopped], live[~stopped]
+                live = rows = live[~stopped]
                 if not len(live):
                     break
                 start_s, heights = start_s[~stopped], heights[~stopped]
