@@ -115,8 +115,11 @@ def _unit(vectors: NDArray[np.float64]) -> NDArray[np.float64]:
     return np.where(small[:, None], np.array([1.0, 0.0, 0.0]), scaled)
 
 
-#: each axis's two others, as MuJoCo's ray-box test takes them
-_OTHER_AXES = ((1, 2), (0, 2), (0, 1))
+#: the box's six faces as MuJoCo's ray-box test takes them, axis by axis, the near side first:
+#: each face's axis, its side, and the axis's two others
+_FACE_AXIS = np.array([0, 0, 1, 1, 2, 2])
+_FACE_SIDE = np.array([-1.0, 1.0, -1.0, 1.0, -1.0, 1.0])
+_FACE_A, _FACE_B = np.array([1, 1, 0, 0, 0, 0]), np.array([2, 2, 2, 2, 1, 1])
 
 
 def _ray_hits_box(
@@ -128,19 +131,17 @@ def _ray_hits_box(
 ) -> NDArray[np.bool_]:
     """Whether each ray from `point` along `ray` meets each box (centre `pos` (..., 3),
     orientation `mat` (..., 9) row-major, half sizes `size` (..., 3)), face by face as MuJoCo's
-    ray-box test: a face hit at a distance >= 0 within its rectangle."""
+    ray-box test: a face hit at a distance >= 0 within its rectangle (all six faces at once
+    along a last axis, each with the arithmetic of its own test)."""
     frame = mat.reshape(*mat.shape[:-1], 3, 3)
     dif = point - pos
     local_point = sum(frame[..., j, :] * dif[..., j, None] for j in range(3))
     local_ray = sum(frame[..., j, :] * ray[..., j, None] for j in range(3))
-    hit = np.zeros(local_point.shape[:-1], dtype=bool)
+    ray_n = local_ray[..., _FACE_AXIS]
     with np.errstate(divide="ignore", invalid="ignore"):
-        for axis, (a, b) in enumerate(_OTHER_AXES):
-            moving = np.abs(local_ray[..., axis]) > mujoco.mjMINVAL
-            for side in (-1.0, 1.0):
-                x = (side * size[..., axis] - local_point[..., axis]) / local_ray[..., axis]
-                p0 = local_point[..., a] + x * local_ray[..., a]
-                p1 = local_point[..., b] + x * local_ray[..., b]
-                inside = (np.abs(p0) <= size[..., a]) & (np.abs(p1) <= size[..., b])
-                hit |= moving & (x >= 0) & inside
-    return hit
+        x = (_FACE_SIDE * size[..., _FACE_AXIS] - local_point[..., _FACE_AXIS]) / ray_n
+        p0 = local_point[..., _FACE_A] + x * local_ray[..., _FACE_A]
+        p1 = local_point[..., _FACE_B] + x * local_ray[..., _FACE_B]
+        inside = (np.abs(p0) <= size[..., _FACE_A]) & (np.abs(p1) <= size[..., _FACE_B])
+        hit = (np.abs(ray_n) > mujoco.mjMINVAL) & (x >= 0) & inside
+    return hit.any(axis=-1)
