@@ -10,6 +10,21 @@ import tty
 from app.evaluation.progress import ProgressLine, bar, progress_printer
 
 
+def read_all(master: int) -> str:
+    """Everything written to a closed pseudo-terminal's slave: read until EIO, then close."""
+    chunks = []
+    while True:
+        try:
+            chunk = os.read(master, 4096)
+        except OSError:
+            break
+        if not chunk:
+            break
+        chunks.append(chunk)
+    os.close(master)
+    return b"".join(chunks).decode("utf-8")
+
+
 def test_not_a_terminal_gets_a_line_per_tenth_not_one_per_run():
     stream = io.StringIO()
     report = progress_printer("bench robust: 189 runs ...", stream, label="bench robust")
@@ -48,17 +63,7 @@ def test_a_terminal_gets_one_line_rewritten_in_place_with_a_bar():
         report = progress_printer("tune: 20 runs ...", stream, label="tune")
         for done in range(1, 21):
             report(done, 20)
-    chunks = []
-    while True:  # the slave is closed: the master reads what was written, then EIO
-        try:
-            chunk = os.read(master, 4096)
-        except OSError:
-            break
-        if not chunk:
-            break
-        chunks.append(chunk)
-    os.close(master)
-    text = b"".join(chunks).decode("utf-8")
+    text = read_all(master)
     note, rest = text.split("\n", 1)
     assert note == "tune: 20 runs ..."
     assert rest.endswith("\n") and rest.count("\n") == 1  # one line, ended when all are done
@@ -75,6 +80,5 @@ def test_a_shorter_update_wipes_the_longer_one_before_it():
         line = ProgressLine(stream)
         line.update(1, 3, "a long first text")
         line.update(2, 3, "short")
-    text = os.read(master, 4096).decode("utf-8")
-    os.close(master)
+    text = read_all(master)  # one read may return only the first write's bytes
     assert text == "\ra long first text\rshort" + " " * 12
