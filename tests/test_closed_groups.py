@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from app.evaluation import BatchEvaluator, Cancelled, Job, _frames
-from app.evaluation._lanes import GROUP_RUNS
+from app.evaluation._groups import GROUP_RUNS
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.sim.planning import MotionOfRuns, frame_steps, plan_frame_of_runs, plan_frames

@@ -22,7 +22,8 @@ from app.evaluation._api import (
     job_from_dict,
     job_to_dict,
 )
-from app.evaluation._lanes import BatchEvaluator, lane_tasks
+from app.evaluation._groups import lane_tasks
+from app.evaluation._lanes import BatchEvaluator
 from app.robots import parse_description
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace

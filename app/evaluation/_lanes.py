@@ -14,25 +14,16 @@ import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor, wait
-from typing import NamedTuple
 
 import mujoco
 import numpy as np
 from mujoco import rollout
 
 from app.evaluation._api import Cancelled, Job, OnResult, Progress
-from app.evaluation._frames import (
-    STATE_SPEC,
-    ClosedLoops,
-    Push,
-    Start,
-    start_at_rest,
-    step_by_hand,
-    walk_of,
-)
-from app.evaluation._measure import measure_frames, not_finite
+from app.evaluation._frames import STATE_SPEC, Push, Start, start_at_rest, step_by_hand
+from app.evaluation._groups import GroupEnds, Tally, lane_tasks, roll_out_group
+from app.evaluation._measure import FrameEnds, end_checks, measure_frames
 from app.robots.model import RobotModel
-from app.sim.frame_loop import has_fallen
 from app.sim.metrics import RunMetrics, Trace
 from app.sim.planning import FRAME_S, FramePlan, frame_steps, plan_frames
 from app.worlds.servo_path import acting_setpoints
@@ -41,8 +32,6 @@ from gait import feedback
 
 #: a run rolls out this many frames per `rollout` call and stops after the call it fell in
 SEGMENT_FRAMES = 50
-#: closed-loop runs of one walk step in lockstep in groups of up to this many (decision 0038)
-GROUP_RUNS = 128
 POLL_S = 0.2  # how often a waiting `evaluate` shows a group's progress and looks at its cancel
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
 
@@ -130,65 +119,6 @@ def _check_rollout_arrays(
                 f"{name} must be a C-ordered float64 array of shape {shape}, got "
                 f"{array.dtype} {array.shape}"
             )
-
-
-class _FrameEnds(NamedTuple):
-    """Frames' last physics steps: their rows in the run's states, qpos, blown up, fallen."""
-
-    rows: np.ndarray
-    qpos: np.ndarray
-    bad: np.ndarray
-    down: np.ndarray
-
-
-class _Tally:
-    """One `evaluate` call's work as its lanes do it: each task's frames stepped (a run's once
-    it ended, a group's as it steps; each written by its task's lane alone), for the call's
-    progress; and the call's stop, which a group looks at between frames."""
-
-    def __init__(self, tasks: int, n_frames: int, cancel: threading.Event | None) -> None:
-        self.frames = [0] * tasks
-        self.n_frames = n_frames
-        self.stop = threading.Event()
-        self.cancel = cancel
-
-    def stopped(self) -> bool:
-        return self.stop.is_set() or (self.cancel is not None and self.cancel.is_set())
-
-    def runs_worth(self) -> int:
-        """The frames stepped so far, in whole runs."""
-        return sum(self.frames) // self.n_frames
-
-
-class _GroupEnds:
-    """A group's frame ends: each run's state (K, frames, state size) and sensordata (K,
-    frames, nsensordata) after each frame's last physics step."""
-
-    def __init__(self, runs: int, n_frames: int, state_size: int, nsensordata: int) -> None:
-        self.states = np.empty((runs, n_frames, state_size))
-        self.sensors = np.empty((runs, n_frames, nsensordata))
-
-
-def lane_tasks(jobs: Sequence[Job], lanes: int, open_per_task: int = 1) -> list[list[int]]:
-    """The jobs' indices cut into tasks, in order of their first job: open-loop runs
-    `open_per_task` at a time, in job order; closed-loop runs of one walk (`walk_of`: one gait,
-    one start) in groups of up to `GROUP_RUNS`, stepped in lockstep (`_run_group`), as many
-    groups as a multiple of `lanes` (a lane is a thread here, a worker for the executors that
-    send tasks away: a group of K runs shares the Python of a frame, so a task takes a whole
-    one, and the lanes get as many each)."""
-    open_runs: list[int] = []
-    walks: dict[tuple, list[int]] = {}
-    for i, job in enumerate(jobs):
-        if feedback.any_law_on(job.params):
-            walks.setdefault(walk_of(job), []).append(i)
-        else:
-            open_runs.append(i)
-    tasks = [open_runs[i : i + open_per_task] for i in range(0, len(open_runs), open_per_task)]
-    for runs in walks.values():
-        groups = min(len(runs), lanes * math.ceil(len(runs) / (lanes * GROUP_RUNS)))
-        size = math.ceil(len(runs) / groups)
-        tasks += [runs[first : first + size] for first in range(0, len(runs), size)]
-    return sorted(tasks)
 
 
 class _LaneKit:
@@ -291,7 +221,7 @@ class BatchEvaluator:
         if not jobs:
             return results
         tasks = self._tasks(jobs)
-        tally = _Tally(len(tasks), n_frames, cancel)
+        tally = Tally(len(tasks), n_frames, cancel)
         shown = 0
 
         def show(done: int) -> None:
@@ -335,7 +265,7 @@ class BatchEvaluator:
         return lane_tasks(jobs, self.threads)
 
     def _run_task(
-        self, jobs: list[Job], n_frames: int, warmup_s: float, tally: _Tally, task: int
+        self, jobs: list[Job], n_frames: int, warmup_s: float, tally: Tally, task: int
     ) -> list[tuple[RunMetrics, Trace]]:
         if feedback.any_law_on(jobs[0].params):
             return self._run_group(jobs, n_frames, warmup_s, tally, task)
@@ -373,7 +303,7 @@ class BatchEvaluator:
         return metrics, trace
 
     def _run_group(
-        self, jobs: list[Job], n_frames: int, warmup_s: float, tally: _Tally, task: int
+        self, jobs: list[Job], n_frames: int, warmup_s: float, tally: Tally, task: int
     ) -> list[tuple[RunMetrics, Trace]]:
         """Closed-loop runs of one walk in a lane, in lockstep (`ClosedLoops`): per frame the
         sensors, laws and plans of all at once, then each run's frame by its own `rollout` call
@@ -387,18 +317,20 @@ class BatchEvaluator:
             robots = [robot for robot, _start in standing]
             starts = [start for _robot, start in standing]
             t1 = time.perf_counter()
-            ends = _GroupEnds(len(jobs), n_frames, starts[0].state.size, self.model.nsensordata)
-            frames = self._roll_out_group(
-                robots, datas, jobs, starts, n_frames, ends, kit.rollout, tally, task
-            )
+            ends = GroupEnds(len(jobs), n_frames, starts[0].state.size, self.model.nsensordata)
+            frames = roll_out_group(
+                robots, datas, jobs, starts, n_frames, self.steps_per_frame, ends, kit.rollout,
+                tally, task,
+            )  # fmt: skip
             t2 = time.perf_counter()
             done = []
             for k, job in enumerate(jobs):
                 rows = np.arange(1, frames[k] + 1) * self.steps_per_frame - 1
                 start = starts[k]
-                checks = self._end_checks(
-                    ends.states[k, : frames[k]], rows, start.state[0], start.standing_height_m
-                )
+                checks = end_checks(
+                    self.model, ends.states[k, : frames[k]], rows, start.state[0],
+                    start.standing_height_m,
+                )  # fmt: skip
                 done.append(
                     measure_frames(
                         self.robot, job, checks.qpos, ends.sensors[k, : frames[k]].copy(),
@@ -417,83 +349,6 @@ class BatchEvaluator:
             self.stage_s["measure"] += t3 - t2
             self.frames_rolled += int(frames.sum())
         return done
-
-    def _roll_out_group(
-        self,
-        robots: list[RobotModel],
-        datas: list[mujoco.MjData],
-        jobs: list[Job],
-        starts: list[Start],
-        n_frames: int,
-        ends: _GroupEnds,
-        runner: rollout.Rollout,
-        tally: _Tally,
-        task: int,
-    ) -> np.ndarray:
-        """The group's frames, each run to the frame it fell or blew up in: its frame ends into
-        `ends`, the frames stepped into `tally` as they go (a run that ended counts all).
-        Returns each run's frames rolled out (K,); Cancelled when the call stops."""
-        steps = self.steps_per_frame
-        start_s = np.array([start.state[0] for start in starts])
-        heights = np.array([start.standing_height_m for start in starts])
-        first_rows = np.stack([data.sensordata for data in datas])
-        loops = ClosedLoops(robots, jobs, starts, steps, first_rows)
-        pushes = [Push(robot, job) for robot, job in zip(robots, jobs, strict=True)]
-        state_out = np.empty((len(jobs), steps, ends.states.shape[2]))
-        sensor_out = np.empty((len(jobs), steps, self.model.nsensordata))
-        initial = np.stack([start.state for start in starts])[:, None, :]  # (K, 1, state)
-        warm = np.zeros((len(jobs), 1, self.model.nv))  # zeros: `rollout`'s cold start
-        push_frame = [push.step // steps if push.step >= 0 else -1 for push in pushes]
-        # each run's `rollout` arguments and output rows made once: a frame's Python per run
-        # is then the call itself
-        runs = [
-            ([robot.model], data, [data], initial[k], warm[k], data.qacc_warmstart)
-            for k, (robot, data) in enumerate(zip(robots, datas, strict=True))
-        ]
-        outs = [(state_out[j : j + 1], sensor_out[j : j + 1]) for j in range(len(jobs))]
-        planned, controls = None, []
-        frames = np.full(len(jobs), n_frames)
-        live = np.arange(len(jobs))  # the runs still in the group, in the loops' order
-        rows: slice | np.ndarray = slice(None)  # their rows in the group's arrays (all: a view)
-        for frame in range(n_frames):
-            if tally.stopped():
-                raise Cancelled("cancelled")
-            control = loops.plan(frame, [datas[k] for k in live])
-            if control is not planned:  # the loops' array: new only when runs left the group
-                planned, controls = control, [control[j : j + 1] for j in range(len(control))]
-            for j, k in enumerate(live.tolist()):
-                model, data, data_list, first, warm_k, warm_after = runs[k]
-                if push_frame[k] == frame:
-                    mujoco.mj_setState(model[0], data, first[0], STATE_SPEC)
-                    if frame:
-                        data.qacc_warmstart[:] = warm_k[0]
-                    step_by_hand(
-                        robots[k], data, control[j], frame * steps, pushes[k], state_out[j],
-                        sensor_out[j],
-                    )  # fmt: skip
-                else:
-                    runner.rollout(
-                        model, data_list, first, controls[j], initial_warmstart=warm_k,
-                        state=outs[j][0], sensordata=outs[j][1], nstep=steps, skip_checks=True,
-                    )  # fmt: skip
-                warm_k[0] = warm_after
-            n = len(live)
-            loops.record(sensor_out[:n])
-            ends.states[rows, frame] = state_out[:n, -1]
-            ends.sensors[rows, frame] = sensor_out[:n, -1]
-            initial[rows, 0] = state_out[:n, -1]
-            checks = self._end_checks(state_out[:n, -1], (frame + 1) * steps - 1, start_s, heights)
-            stopped = checks.bad | checks.down
-            tally.frames[task] += n
-            if stopped.any():
-                tally.frames[task] += int(stopped.sum()) * (n_frames - frame - 1)
-                frames[live[stopped]] = frame + 1
-                live = rows = live[~stopped]
-                if not len(live):
-                    break
-                start_s, heights = start_s[~stopped], heights[~stopped]
-                loops.keep(~stopped)
-        return frames
 
     def _roll_out(
         self,
@@ -540,27 +395,11 @@ class BatchEvaluator:
             initial, warmstart = state_out[:, part.stop - 1], data.qacc_warmstart[None].copy()
         return done
 
-    def _frame_ends(self, states: np.ndarray, start: Start, first: int, end: int) -> _FrameEnds:
+    def _frame_ends(self, states: np.ndarray, start: Start, first: int, end: int) -> FrameEnds:
         """Frames first..end-1 of a run as `FrameLoop` checks them after each frame: the state
-        after the frame's last step (`_end_checks`)."""
+        after the frame's last step (`end_checks`)."""
         rows = np.arange(first + 1, end + 1) * self.steps_per_frame - 1
-        return self._end_checks(states[rows], rows, start.state[0], start.standing_height_m)
-
-    def _end_checks(
-        self,
-        ends: np.ndarray,
-        rows: np.ndarray | int,
-        start_s: float | np.ndarray,
-        standing_height_m: float | np.ndarray,
-    ) -> _FrameEnds:
-        """Frame-end states `ends` (n, state size) -- each the state after physics step `rows`
-        of its run, which started at `start_s` standing `standing_height_m` high (each a number
-        or one per state) -- as `FrameLoop` checks them: blown up (not finite, or MuJoCo reset
-        it: time restarts at 0) or fallen."""
-        qpos = ends[:, 1 : 1 + self.model.nq]
-        expected_time = start_s + (np.asarray(rows) + 1) * self.model.opt.timestep
-        bad = not_finite(qpos) | (np.abs(ends[:, 0] - expected_time) > 1e-6)
-        return _FrameEnds(np.asarray(rows), qpos, bad, has_fallen(qpos, standing_height_m))
+        return end_checks(self.model, states[rows], rows, start.state[0], start.standing_height_m)
 
     def _varied(self, variation: Variation) -> RobotModel:
         variation = variation.physics  # the sensors' errors leave the model as it is

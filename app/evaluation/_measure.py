@@ -4,6 +4,9 @@ measures through here, whatever stepped the physics (docs/DESIGN.md §9)."""
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
+import mujoco
 import numpy as np
 
 from app.evaluation._api import Job
@@ -23,6 +26,32 @@ def fallen(qpos: np.ndarray, start: Start) -> np.ndarray:
 def not_finite(qpos: np.ndarray) -> np.ndarray:
     """(...) bool: the frame-end states `qpos` (..., nq) that blew up to inf or NaN."""
     return ~np.all(np.isfinite(qpos), axis=-1)
+
+
+class FrameEnds(NamedTuple):
+    """Frames' last physics steps: their rows in the run's states, qpos, blown up, fallen."""
+
+    rows: np.ndarray
+    qpos: np.ndarray
+    bad: np.ndarray
+    down: np.ndarray
+
+
+def end_checks(
+    model: mujoco.MjModel,
+    ends: np.ndarray,
+    rows: np.ndarray | int,
+    start_s: float | np.ndarray,
+    standing_height_m: float | np.ndarray,
+) -> FrameEnds:
+    """Frame-end states `ends` (n, state size) -- each the state after physics step `rows`
+    of its run, which started at `start_s` standing `standing_height_m` high (each a number
+    or one per state) -- as `FrameLoop` checks them: blown up (not finite, or MuJoCo reset
+    it: time restarts at 0) or fallen."""
+    qpos = ends[:, 1 : 1 + model.nq]
+    expected_time = start_s + (np.asarray(rows) + 1) * model.opt.timestep
+    bad = not_finite(qpos) | (np.abs(ends[:, 0] - expected_time) > 1e-6)
+    return FrameEnds(np.asarray(rows), qpos, bad, has_fallen(qpos, standing_height_m))
 
 
 def measure_frames(
