@@ -38,8 +38,9 @@ from mujoco import rollout
 from app.analysis.robustness import jobs_for
 from app.evaluation._measure import fallen, measure_frames, not_finite
 from app.evaluation._warp import SEGMENT_FRAMES, import_warp, warp_device
-from app.evaluation._warp_host import HostArray, HostPool, Planned, measure_world, plan_batch
+from app.evaluation._warp_host import Planned, plan_batch
 from app.evaluation._warp_model import _per_world_fields_put, per_world_fields
+from app.evaluation._warp_pool import HostArray, HostPool, measure_world
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.sim.planning import FRAME_S, frame_steps

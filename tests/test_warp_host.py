@@ -1,10 +1,9 @@
-"""The Warp batch's host work over worker processes (`app/evaluation/_warp_host.py`, docs/GPU.md
-"Where the time goes"): planning writes what `plan_open_loop` plans; two spawned workers plan and
-measure to the bit of the calling process; a Warp batch over them gives the same metrics and
-traces; its shared memory is gone after a call, a cancelled call and a failed one; a killed
-worker is a clear error and the next call starts new ones.
-
-The Warp tests run on Warp's CPU device (the gpu extra, as tests/test_warp_executor.py): two small
+"""The Warp batch's host work over worker processes (`app/evaluation/_warp_pool.py`,
+`_warp_host.py`, docs/GPU.md "Where the time goes"): planning writes what `plan_open_loop`
+plans; two spawned workers plan and measure to the bit of the calling process; a Warp batch over
+them gives the same metrics and traces; its shared memory is gone after a call, a cancelled call
+and a failed one; a killed worker is a clear error and the next call starts new ones. The Warp
+tests run on Warp's CPU device (the gpu extra, as tests/test_warp_executor.py): two small
 batches and a cancelled one."""
 
 from __future__ import annotations
@@ -23,13 +22,12 @@ from app.evaluation import Cancelled, Job, close_evaluator, same_results
 from app.evaluation._lanes import plan_open_loop
 from app.evaluation._processes import WorkerDied
 from app.evaluation._warp import WarpEvaluator
-from app.evaluation._warp_host import (
+from app.evaluation._warp_host import WorldEnds, plan_batch
+from app.evaluation._warp_pool import (
     SHM_PREFIX,
     HostArray,
     HostPool,
-    WorldEnds,
     initial_arrays,
-    plan_batch,
     plan_worlds,
     varied_robots,
 )

@@ -1,6 +1,6 @@
 """The evaluation API on MuJoCo Warp (`WarpEvaluator`, docs/DESIGN.md §9, docs/GPU.md): a call's
 runs are the worlds of one float32 batch on a CUDA device or Warp's CPU device, planned and
-measured by the lanes' functions (over host processes: `_warp_host.py`), controls uploaded per
+measured by the lanes' functions (over host processes: `_warp_pool.py`), controls uploaded per
 segment. The `gpu` extra."""
 
 from __future__ import annotations
@@ -17,9 +17,10 @@ import numpy as np
 
 from app.evaluation._api import Cancelled, ExecutorError, Job, OnResult, Progress
 from app.evaluation._frames import Push
-from app.evaluation._warp_host import POOL_MIN_WORLDS, HostPool, Planned, WorldEnds, plan_batch
+from app.evaluation._warp_host import POOL_MIN_WORLDS, Planned, WorldEnds, plan_batch
 from app.evaluation._warp_kernels import control_kernels
 from app.evaluation._warp_model import batch_model, per_world_fields
+from app.evaluation._warp_pool import HostPool
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace
 from app.sim.planning import FRAME_S, frame_steps
