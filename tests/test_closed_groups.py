@@ -257,3 +257,8 @@ def test_a_frame_of_runs_is_each_runs_one_frame_plan():
             ROBUST, MotionOfRuns.of(each), hardware, 1.3, steps, timestep_s, motion_now=Motion(),
             frame0=0, geometry=ROBOT.geometry, joint_delta_rad=delta, a_y_delta=a_y_delta,
         )  # fmt: skip
+    with pytest.raises(ValueError, match="motion_now must be a Motion"):
+        plan_frame_of_runs(
+            ROBUST, Motion(), hardware, 1.3, steps, timestep_s, motion_now=MotionOfRuns.of(each),
+            frame0=0, geometry=ROBOT.geometry, joint_delta_rad=delta, a_y_delta=a_y_delta,
+        )  # fmt: skip

@@ -241,8 +241,10 @@ def plan_frame_of_runs(
         if motion_now is not motion:
             raise ValueError("the runs' own motions do not ramp: motion_now must be motion")
         walking: Motion | MotionOfRuns = motion
+    elif isinstance(motion_now, MotionOfRuns):
+        raise ValueError("one Motion ramps from one Motion: motion_now must be a Motion")
     else:
-        (walking,) = frame_motions(params, motion, motion_now, 1)  # type: ignore[arg-type]
+        (walking,) = frame_motions(params, motion, motion_now, 1)
     startup = startup_gain(params, (frame0 + np.arange(1)) * FRAME_S)
     delta = np.asarray(a_y_delta, dtype=np.float64)
     low, high = A_Y_RANGE
