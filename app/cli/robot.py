@@ -19,7 +19,7 @@ from app.robots.swap import lightest_servo, suggest_servos, write_description
 
 EXAMPLES = """examples:
   artro robot list
-  artro robot show minibot --json
+  artro robot show micro --json
   cp models/robots/artro.yaml my.yaml; artro robot check my.yaml   then: artro serve --robot my.yaml
   artro robot check my.yaml --suggest -o my-servos.yaml   the lightest servos that carry it
   artro robot export-mjcf artro -o artro.xml"""
