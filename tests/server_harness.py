@@ -60,8 +60,9 @@ def running_server(
     its threads) afterwards."""
     port = free_port()
     config = ServerConfig(
-        port=port, viser_port=free_port(), data_dir=data_dir, viewer=viewer, drive=drive, **config
-    )
+        **{"viser_port": free_port(), **config},
+        port=port, data_dir=data_dir, viewer=viewer, drive=drive,
+    )  # fmt: skip
     app = create_app(config)
     server = _Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
     thread = threading.Thread(target=server.run, daemon=True)

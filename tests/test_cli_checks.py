@@ -38,6 +38,33 @@ CASES = {
     ),
     "firmware: --pty with a VCD": (["firmware", "run", "--pty", "--vcd", "x.vcd"], "--vcd belongs"),
     "firmware: frames for hours": (["firmware", "run", "--frames", "1000000"], "2 to 15000"),
+    "serve: a port past 65535": (["serve", "--port", "70000"], "--port must be a whole number 1"),
+    "serve: a 3D view's port past 65535": (
+        ["serve", "--viser-port", "70000"],
+        "--viser-port must be a whole number 0 to 65535",
+    ),
+    "bench: infinite duration": (
+        ["bench", "robust", "--duration", "inf"],
+        "--duration must be > 0 and at most 3600",
+    ),
+    "bench: variations by the billion": (
+        ["bench", "robust", "--samples", "99999999999"],
+        "--samples must be a whole number 1 to 100000",
+    ),
+    "bench: no threads": (["bench", "robust", "--threads", "-3"], "--threads must be a whole"),
+    "tune: robust by the billion": (
+        ["tune", "--robust", "99999999999"],
+        "--robust must be a whole number 0 to 100000",
+    ),
+    "tune: nothing to tune": (
+        ["tune", "--base", "paper", "--tune", ",,", "--generations", "1", "--popsize", "2"],
+        "nothing to tune: name at least one of",
+    ),
+    "tune: a parameter twice": (
+        ["tune", "--base", "paper", "--tune", "swing.v,swing.v", "--generations", "1"],
+        "swing.v named twice",
+    ),
+    "tune: a negative seed": (["tune", "--seed", "-1"], "seed must be a whole number 0 to 4294967"),
 }
 
 

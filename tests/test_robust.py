@@ -5,6 +5,7 @@ the bit."""
 from __future__ import annotations
 
 import json
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -130,15 +131,28 @@ def test_the_same_seed_gives_the_same_report_to_the_bit():
 
 
 def test_artro_bench_robust_json_and_files(tmp_path):
+    """On a robot from a file (ArtRo's description, copied): each worst variation's command
+    names the file, and runs as printed."""
+    robot_file = tmp_path / "mine.yaml"
+    robot_file.write_text((ROOT / "models/robots/artro.yaml").read_text(encoding="utf-8"))
     out = subprocess.run(
         [sys.executable, "-m", "app.cli", "bench", "robust", "--samples", "2", "--seed", "1",
          "--duration", "4", "--warmup", "1", "--range", "friction=0.3:0.6", "--out",
-         str(tmp_path), "--json"],
+         str(tmp_path), "--robot", str(robot_file), "--json"],
         capture_output=True, text=True, cwd=ROOT,
     )  # fmt: skip
     assert out.returncode == 0, out.stderr[-2000:]
     results = json.loads(out.stdout)
     assert results["ranges"]["friction"] == [0.3, 0.6] and results["seed"] == 1
+    worst = results["presets"][0]["worst"]
+    assert worst, "tuned fails some of these worlds open loop (seed 1)"
+    assert all(w["command"].startswith(f"artro run --robot {robot_file} ") for w in worst)
+    again = subprocess.run(
+        [sys.executable, "-m", "app.cli", *shlex.split(worst[0]["command"])[1:], "--json"],
+        capture_output=True, text=True, cwd=ROOT,
+    )  # fmt: skip
+    assert again.returncode == 0, again.stderr[-2000:]
+    assert json.loads(again.stdout)["variation"] == worst[0]["variation"]
     progress = [line for line in out.stderr.splitlines() if "/27 runs, " in line]
     assert "\r" not in out.stderr and 2 <= len(progress) <= 11  # a pipe: a line per tenth
     assert progress[-1].startswith("bench robust: 27/27 runs, ")

@@ -1,7 +1,7 @@
 """The Sensors panel's API and the Push on a real server (docs/DESIGN.md §15): the sensors'
 last frames in columns of one length, the soles carrying the robot's weight, the estimate
-following the true tilt; a push reaches the robot and the state says so; a bad one is refused
-and changes nothing."""
+following the true tilt; a push reaches the robot and the state says so; a bad one, or one at a
+fallen robot, is refused and changes nothing."""
 
 from __future__ import annotations
 
@@ -75,3 +75,23 @@ def test_a_bad_push_is_refused_and_changes_nothing(server, body):
     frame = server.get("/api/state").json()["frame"]
     wait_for(lambda: server.get("/api/state").json()["frame"] > frame + 5, "it walks on")
     assert server.get("/api/state").json()["push"] is None
+
+
+def test_a_fallen_robot_is_not_pushed_and_the_answer_says_to_reset(server):
+    server.post("/api/sim/reset")
+    wait_for(lambda: server.get("/api/state").json()["push"] is None, "no push yet")
+
+    def pushed_over() -> bool:
+        if server.get("/api/state").json()["fell"]:
+            return True
+        server.post("/api/sim/push", json={"impulse_n_s": 2.0, "direction_deg": 0.0})
+        return False
+
+    wait_for(pushed_over, "the robot pushed over")
+    mark = server.get("/api/state").json()["push"]
+    refused = server.post("/api/sim/push", json={"impulse_n_s": 1.0})
+    assert refused.status_code == 409, refused.text
+    assert "reset first (POST /api/sim/reset)" in refused.json()["detail"][0]["msg"]
+    assert server.get("/api/state").json()["push"] == mark  # no new mark, nothing recorded
+    server.post("/api/sim/reset")
+    wait_for(lambda: not server.get("/api/state").json()["fell"], "standing again")

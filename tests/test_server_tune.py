@@ -117,6 +117,7 @@ def test_a_tune_reports_progress_refuses_a_second_and_cancels_with_nothing_loade
         ({"robot": "micro"}, 409, "switch to 'micro' first (PUT /api/robot)"),
         ({"duration_s": 3.0}, 422, "allowed: duration_s of at least 9"),
         ({"cases": ["upside down"]}, 422, "forward"),
+        ({"cases": ["forward"] * 7}, 422, "each case once: forward named twice"),
         ({"popsize": 1}, 422, "popsize"),
         ({"budget": 3}, 422, "budget"),
     ],

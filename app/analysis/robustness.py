@@ -324,10 +324,12 @@ def run_robust(
     warmup_s: float,
     progress: Callable[[int, int], None] | None = None,
     cancel: threading.Event | None = None,
+    robot_arg: str | None = None,
 ) -> dict[str, Any]:
     """Every preset (name, gait, file) on the same `samples` variations (one evaluation call, so
     the threads or workers stay busy); the report as a JSON-ready dict, the same to the bit for a
-    seed."""
+    seed. `robot_arg` is the robot as the worst runs' `artro run --robot` gets it (default its
+    name; the description's path for a robot from a file)."""
     variations = sample(ranges, samples, seed)
     all_jobs: list[Job] = []
     for _, gait, _ in presets:
@@ -343,8 +345,8 @@ def run_robust(
             name,
             variations,
             metrics[i * per : (i + 1) * per],
-            repeat=f"artro run --robot {robot.name} --params {source} --duration {duration_s:g} "
-            f"--warmup {warmup_s:g}",
+            repeat=f"artro run --robot {robot_arg or robot.name} --params {source} "
+            f"--duration {duration_s:g} --warmup {warmup_s:g}",
             stall_nm=stall,
         )
         for i, (name, _, source) in enumerate(presets)

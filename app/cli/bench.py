@@ -12,11 +12,14 @@ from pathlib import Path
 from typing import Any
 
 from app.cli.options import (
+    MAX_DURATION_S,
+    MAX_SAMPLES,
     add_backend_options,
     add_cluster_options,
     add_range_option,
     add_robot_option,
     backend_of,
+    number,
     ranges_from,
     resolve_sets,
     subcommand,
@@ -26,7 +29,7 @@ PAPER_OUT = Path("out/bench-paper")
 ROBUST_OUT = Path("out/bench-robust")
 ROBUST_DURATION_S = 20.0
 EXAMPLES = """examples:
-  artro bench paper                        both presets, 60 s runs (~4 min on 2 cores)
+  artro bench paper                        paper, tuned and pfs, 60 s runs (~5 min on 2 cores)
   artro bench paper --quick --presets tuned
   artro bench robust --presets tuned --samples 100 --seed 1
   artro bench robust --presets tuned-artro,my_gait.json    a saved preset and a file"""
@@ -56,16 +59,30 @@ def add_parser(sub: Any) -> None:
     )
     parser.add_argument(
         "--duration",
-        type=float,
+        type=number(0, MAX_DURATION_S, above=True, what="--duration"),
         metavar="S",
         help="simulated seconds per run (default: paper 60, --quick 10; robust 20)",
     )
     parser.add_argument(
-        "--warmup", type=float, metavar="S", help="seconds not measured (default: 5; --quick 2)"
+        "--warmup",
+        type=number(0, MAX_DURATION_S, what="--warmup"),
+        metavar="S",
+        help="seconds not measured (default: 5; --quick 2)",
     )
     robust = parser.add_argument_group("bench robust")
-    robust.add_argument("--samples", type=int, default=200, metavar="N", help="variations")
-    robust.add_argument("--seed", type=int, default=0, help="of the variations drawn")
+    robust.add_argument(
+        "--samples",
+        type=number(1, MAX_SAMPLES, integer=True, what="--samples"),
+        default=200,
+        metavar="N",
+        help=f"variations (1 to {MAX_SAMPLES})",
+    )
+    robust.add_argument(
+        "--seed",
+        type=number(0, 2**32 - 1, integer=True, what="--seed"),
+        default=0,
+        help="of the variations drawn",
+    )
     add_range_option(robust, "")
     robust.add_argument("--json", action="store_true", help="print the report as one JSON object")
 
@@ -77,7 +94,10 @@ def add_parser(sub: Any) -> None:
         help=f"where the PNGs and results.json go (default {PAPER_OUT}, {ROBUST_OUT})",
     )
     parser.add_argument(
-        "--threads", type=int, metavar="N", help="rollout threads (default: all cores, <= 8)"
+        "--threads",
+        type=number(1, 1024, integer=True, what="--threads"),
+        metavar="N",
+        help="rollout threads (default: all cores, <= 8)",
     )
     add_cluster_options(
         parser, "run on this Dask scheduler (docs/CLUSTER.md) instead of local threads"
@@ -105,8 +125,6 @@ def command(args: argparse.Namespace) -> int:
     if args.cluster is not None:
         config = replace(config, cluster=args.cluster, wait_workers_s=args.wait_workers)
     if args.threads is not None:
-        if args.threads < 1:
-            raise ValueError(f"--threads must be >= 1, got {args.threads}")
         config = replace(config, threads=args.threads)
     if not config.duration_s > config.warmup_s >= 0:
         raise ValueError(
@@ -132,8 +150,6 @@ def robust(args: argparse.Namespace) -> int:
     from app.study.robust_report import render, write_plot
     from app.study.walks import resolve_presets
 
-    if args.samples < 1:
-        raise ValueError(f"--samples must be >= 1, got {args.samples}")
     if args.seed < 0:
         raise ValueError(f"--seed must be >= 0, got {args.seed}")
     duration = ROBUST_DURATION_S if args.duration is None else args.duration
@@ -170,6 +186,7 @@ def robust(args: argparse.Namespace) -> int:
             duration_s=duration,
             warmup_s=warmup,
             progress=progress,
+            robot_arg=None if args.robot is None else str(args.robot),
         )
     finally:
         close_evaluator(evaluator)

@@ -22,6 +22,7 @@ from gait import GaitParams
 from gait.params import describe_fields, group_class
 
 MAX_DURATION_S = 3600.0  # one simulated hour per run at most
+MAX_SAMPLES = 100_000  # variations of a robust bench or of a robust tune's generation at most
 ROBOT_HELP = "the robot: a built-in name (artro, ...) or a description .yaml (default: artro)"
 _NUMBERS = re.compile(r"^-\d*\.?\d+(e[-+]?\d+)?(,[-+]?\d*\.?\d+(e[-+]?\d+)?)*$", re.IGNORECASE)
 
@@ -102,7 +103,8 @@ def number(
     """An argparse type: a finite number from `low` (exclusive if `above`) to `high`; the error
     says what is allowed (argparse exits with status 2)."""
     kind = "a whole number " if integer else ""
-    allowed = f"> {low:g} and at most {high:g}" if above else f"{low:g} to {high:g}"
+    lo, hi = (f"{int(low)}", f"{int(high)}") if integer else (f"{low:g}", f"{high:g}")
+    allowed = f"> {lo} and at most {hi}" if above else f"{lo} to {hi}"
 
     def parse(text: str) -> float | int:
         try:

@@ -13,6 +13,7 @@ from app.cli.options import (
     add_params_option,
     add_robot_option,
     backend_of,
+    number,
     resolve_set,
     subcommand,
 )
@@ -30,8 +31,19 @@ def add_parser(sub: Any) -> None:
         sub, "serve", "the dashboard: simulation, API, 3D view and scope page", serve, EXAMPLES
     )
     s.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
-    s.add_argument("--port", type=int, default=8000, help="HTTP port of the dashboard and API")
-    s.add_argument("--viser-port", type=int, default=8080, help="port of the viser 3D view")
+    s.add_argument(
+        "--port",
+        type=number(1, 65535, integer=True, what="--port"),
+        default=8000,
+        help="HTTP port of the dashboard and API",
+    )
+    s.add_argument(
+        "--viser-port",
+        type=number(0, 65535, integer=True, what="--viser-port"),
+        default=8080,
+        help="port of the viser 3D view (taken: the next free one; 0: any free port; "
+        "GET /api/health says which)",
+    )
     add_params_option(s, "the --robot's default preset")
     add_robot_option(s)
     add_cluster_options(

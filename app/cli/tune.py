@@ -21,6 +21,7 @@ from app.analysis.robot_start import START_RECIPE, start_for, walks
 from app.analysis.robot_tune import RESULT, START, EventWriter, result_figures, tuned_name
 from app.cli.options import (
     MAX_DURATION_S,
+    MAX_SAMPLES,
     SETS_HELP,
     add_backend_options,
     add_cluster_options,
@@ -241,7 +242,7 @@ def add_parser(sub: Any) -> None:
     parser.add_argument("--study-name", default=DEFAULT_STUDY, help="the study within the store")
     parser.add_argument(
         "--robust",
-        type=int,
+        type=number(0, MAX_SAMPLES, integer=True, what="--robust"),
         default=0,
         metavar="N",
         help="also score each candidate on N model variations, the same for a whole generation "

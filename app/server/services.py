@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -90,6 +91,14 @@ class Services:
                 port=config.viser_port,
             )
             gate_viser(self.viewer.server, served_hosts(config.host, config.allowed_hosts))
+            bound = self.viewer.server.get_port()
+            if config.viser_port not in (0, bound):  # taken: viser went on to the next free one
+                print(
+                    f"artro serve: port {config.viser_port} is taken; the 3D view alone is on "
+                    f"{bound} (GET /api/health says so too)",
+                    file=sys.stderr,
+                    flush=True,
+                )
 
     @property
     def robot(self) -> RobotModel:

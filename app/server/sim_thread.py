@@ -341,6 +341,8 @@ class SimThread:
 
     def _push(self, push: Push) -> None:
         loop = self.live.loop
+        if loop.fell:  # it fell after the request was answered: nothing steps to push
+            return
         loop.push_now(push.impulse_n_s, push.direction_deg)
         x, y, yaw = loop.trunk_pose()
         world_deg = (math.degrees(yaw) + push.direction_deg + 180.0) % 360.0 - 180.0

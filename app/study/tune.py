@@ -78,6 +78,12 @@ def tunable_fields() -> dict[str, list[str]]:
 
 def dimensions(names: Sequence[str]) -> list[Dimension]:
     """The tunable parameters with their schema ranges; ValueError names what is allowed."""
+    tunable = [f"{g}.{f}" for g, fs in tunable_fields().items() for f in fs]
+    if not names:
+        raise ValueError(f"nothing to tune: name at least one of {tunable}")
+    twice = sorted({n for n in names if list(names).count(n) > 1})
+    if twice:
+        raise ValueError(f"each parameter to tune once: {', '.join(twice)} named twice")
     out = []
     for name in names:
         group, _, field = name.partition(".")
@@ -87,7 +93,6 @@ def dimensions(names: Sequence[str]) -> list[Dimension]:
             fields = {}
         meta = fields.get(field)
         if meta is None or meta.get("unit") == "bool":
-            tunable = [f"{g}.{f}" for g, fs in tunable_fields().items() for f in fs]
             raise ValueError(f"{name!r} is not a tunable number; choose from {tunable}")
         out.append(Dimension(name, meta["min"], meta["max"]))
     return out
@@ -426,5 +431,8 @@ def judged_runs(cases: Sequence[str] | None) -> tuple[tuple[str, Motion], ...]:
     unknown = [c for c in cases if c not in known]
     if unknown:
         raise ValueError(f"unknown cases {unknown}; allowed: {', '.join(known)}")
+    twice = sorted({c for c in cases if list(cases).count(c) > 1})
+    if twice:
+        raise ValueError(f"each case once: {', '.join(twice)} named twice")
     curves = {n for p in CURVES if p.straight in cases for n in curve_run_names(p)}
     return tuple((n, m) for n, m in JUDGED_RUNS if n in cases or n in curves)

@@ -47,7 +47,8 @@ def health(services: ServicesDep) -> dict[str, Any]:
     return {
         "status": "ok" if services.sim.alive else "simulation stopped",
         "version": project_version(),
-        "viser_port": services.config.viser_port if services.viewer is not None else None,
+        # the port the 3D view is on: viser takes the next free one when the asked one is taken
+        "viser_port": services.viewer.server.get_port() if services.viewer is not None else None,
     }
 
 
@@ -130,12 +131,19 @@ class PushBody(BaseModel):
 def push(body: PushBody, services: ServicesDep) -> dict:
     """Push the robot's trunk: the impulse in one physics step, level, in the direction given
     relative to the robot. `GET /api/state` says the last push (`push`), the 3D view draws it;
-    409 while a replay is shown."""
+    409 while a replay is shown or the robot lies fallen."""
     if services.replay.status()["active"]:
         raise ApiError(
             409,
             "a replay is shown: go back to live first (POST /api/recording/live)",
             "replaying",
+            loc=["path"],
+        )
+    if services.sim.status().fell:
+        raise ApiError(
+            409,
+            "the robot has fallen and the simulation stopped: reset first (POST /api/sim/reset)",
+            "fallen",
             loc=["path"],
         )
     services.sim.send(Push(body.impulse_n_s, body.direction_deg))

@@ -4,7 +4,7 @@ read and cancel it at /api/jobs/{id}), and the latest such job (docs/DESIGN.md Â
 from typing import Annotated, Any, Literal
 
 from fastapi import APIRouter, Body, Response
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from app.analysis.cases import CASES
 from app.analysis.robot_start import START_RECIPE
@@ -34,8 +34,17 @@ class TuneBody(BaseModel):
     cases: list[CaseName] = Field(
         default_factory=list,
         max_length=len(CASES),
-        description="judge only these paper cases (and the CA pairs at their a_p); none: all",
+        description="judge only these paper cases (and the CA pairs at their a_p), each once; "
+        "none: all",
     )
+
+    @field_validator("cases")
+    @classmethod
+    def _each_once(cls, cases: list[str]) -> list[str]:
+        twice = sorted({c for c in cases if cases.count(c) > 1})
+        if twice:
+            raise ValueError(f"each case once: {', '.join(twice)} named twice")
+        return cases
 
 
 @router.post("/jobs/tune", status_code=202, responses=responses(404, 409, 422))
