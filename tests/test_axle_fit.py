@@ -5,7 +5,7 @@ import math
 import pytest
 
 from app.analysis.axle_fit import fit_effective_axle, walking_amplitude
-from app.params.document import load_parameter_set
+from app.params.formats import load_parameter_set
 from app.params.presets import BUILTIN_DIR
 from app.server.axle_fitter import AxleFitter
 from app.server.path_tracker import PathTracker

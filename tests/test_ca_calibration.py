@@ -9,7 +9,7 @@ import pytest
 from app.analysis.ca_calibration import CalibrationError, calibrate_ca
 from app.cli import main
 from app.evaluation import Job
-from app.params.document import load_parameter_set
+from app.params.formats import load_parameter_set
 from gait import GaitParams, Motion
 
 SPEED_CM_S, FEET_CM = 3.0, 10.0

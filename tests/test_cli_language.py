@@ -14,7 +14,8 @@ import pytest
 
 from app.cli import build_parser, main
 from app.cli.options import MotionChoice, motion_arg
-from app.params.document import ParameterSet, load_parameter_set
+from app.params.document import ParameterSet
+from app.params.formats import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets
 from app.study.tune import tunable_fields
 from gait import Motion

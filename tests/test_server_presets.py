@@ -41,6 +41,11 @@ def test_builtin_and_bad_names_are_refused_and_nothing_is_written(http, server):
     assert http.put("/api/presets/paper").status_code == 422
     assert "read-only" in http.delete("/api/presets/paper").text
     assert http.put("/api/presets/current").status_code == 422
+    said = http.put("/api/presets/_x").json()["message"]  # the rule in words, not its regex
+    assert (
+        said == "path.name: a preset name is 1 to 64 characters: letters, digits, '_', '.' and "
+        "'-', starting with a letter or digit, without '..' and not ending in '.'; got '_x'"
+    )
     for name in PRESET_NAMES_BAD:
         response = http.put(f"/api/presets/{name}")
         assert response.status_code in (404, 405, 422), name

@@ -27,7 +27,7 @@ from app.assets import builtin_robots_dir
 from app.cli import main
 from app.cli._sets import resolve_set
 from app.cli.tune import CLASSIC, RECIPE
-from app.params.document import load_parameter_set
+from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets
 from app.robots.library import read_description
 from app.study.tune import tunable_fields

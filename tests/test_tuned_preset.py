@@ -5,7 +5,7 @@ import pytest
 
 from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, curve_run_names, measured, steering
 from app.evaluation import BatchEvaluator, Job
-from app.params.document import load_parameter_set
+from app.params.formats import load_parameter_set
 from app.params.presets import BUILTIN_DIR
 from app.study.tune_loss import meets_all_criteria
 

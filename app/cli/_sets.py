@@ -7,7 +7,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
-from app.params.document import ParameterSet, load_parameter_set
+from app.params.document import ParameterSet
+from app.params.formats import load_parameter_set
 from app.params.presets import (
     BUILTIN_DIR,
     SUFFIX,

@@ -6,11 +6,9 @@ The document's layout and its checks are `ParameterSet`'s (docs/DESIGN.md §6).
 from __future__ import annotations
 
 import dataclasses
-import json
 import re
 from dataclasses import dataclass, field
 from datetime import datetime, timezone
-from pathlib import Path
 from typing import Any
 
 from app.assets import project_version
@@ -110,16 +108,3 @@ class ParameterSet:
             created=str(data.get("created", "")),
             project_version=str(data.get("project_version", "")),
         )
-
-
-def load_parameter_set(path: Path | str) -> ParameterSet:
-    """Read a parameter-set JSON file; ValueError says what is wrong with it."""
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise ValueError(f"{path}: not valid JSON ({exc})") from exc
-    try:
-        return ParameterSet.from_dict(data)
-    except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from exc

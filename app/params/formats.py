@@ -9,6 +9,7 @@ from __future__ import annotations
 import json
 import math
 import re
+from pathlib import Path
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import yaml
@@ -183,7 +184,9 @@ def _load_json(text: str | bytes) -> Any:
             f"malformed JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
         ) from exc
     except RecursionError as exc:
-        raise ParameterImportError("JSON nested too deeply (a parameter set is 3 levels)") from exc
+        raise ParameterImportError(
+            "JSON nested too deeply (no body this project reads is deeper than 5 levels)"
+        ) from exc
     except ParameterImportError:
         raise
     except ValueError as exc:  # e.g. an integer with more digits than Python converts
@@ -383,3 +386,18 @@ def _allowed(loc: tuple[Any, ...]) -> str:
             unit = "" if meta["unit"] == "1" else f" {meta['unit']}"
             return f" (allowed: {meta['min']} to {meta['max']}{unit})"
     return ""
+
+
+def load_parameter_set(path: Path | str) -> ParameterSet:
+    """Read a parameter-set file, JSON or YAML (as `artro export` writes them), by the rules of an
+    import (`parse_import`: UTF-8, no duplicate keys, finite numbers, every wrong field named);
+    ValueError names the file and what is wrong with it."""
+    path = Path(path)
+    try:
+        raw = path.read_bytes()
+    except OSError as exc:
+        raise ValueError(f"{path}: cannot be read ({exc.strerror or exc})") from exc
+    try:
+        return parse_import(raw, filename=path.name)
+    except ParameterImportError as exc:
+        raise ValueError(f"{path}: {exc}") from exc

@@ -19,7 +19,8 @@ from pathlib import Path
 from typing import Any
 
 from app.assets import builtin_presets_dir
-from app.params.document import ParameterSet, load_parameter_set, project_version
+from app.params.document import ParameterSet, project_version
+from app.params.formats import load_parameter_set
 
 DATA_DIR_ENV = "ARTRO_DATA_DIR"
 # a short, fixed alphabet, so a name can never leave the presets directory

@@ -17,6 +17,8 @@ from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match, Mount
 
 MAX_ITEMS = 10
+#: a pattern of a path or query parameter -> the rule in words, said instead of the regex
+PATTERN_RULES: dict[str, str] = {}
 MAX_TEXT = 300
 MAX_LOC_PART = 64
 
@@ -162,10 +164,15 @@ def install_handlers(app: FastAPI) -> None:
         errors = exc.errors()
         items = []
         for e in errors[:MAX_ITEMS]:
-            msg = e.get("msg", "")
-            if e.get("type") == "json_invalid" and (e.get("ctx") or {}).get("error"):
-                msg = f"{msg}: {e['ctx']['error']}"
-            items.append({"loc": e.get("loc", ()), "msg": msg, "type": e.get("type", "invalid")})
+            msg, loc = e.get("msg", ""), e.get("loc", ())
+            if e.get("type") == "json_invalid":  # the strict parser says where; no offset 0
+                loc = ("body",)
+                if (e.get("ctx") or {}).get("error"):
+                    msg = f"{msg}: {e['ctx']['error']}"
+            rule = PATTERN_RULES.get((e.get("ctx") or {}).get("pattern", ""))
+            if e.get("type") == "string_pattern_mismatch" and rule:
+                msg = f"{rule}; got {e.get('input')!r}"
+            items.append({"loc": loc, "msg": msg, "type": e.get("type", "invalid")})
         return JSONResponse(status_code=422, content=error_content(items, total=len(errors)))
 
     @app.exception_handler(ValueError)

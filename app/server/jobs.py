@@ -26,7 +26,10 @@ class JobBusy(RuntimeError):
     """A job of that kind is already running."""
 
     def __init__(self, job: Job) -> None:
-        super().__init__(f"a {job.kind} job is already running ({job.id}); wait for it to finish")
+        super().__init__(
+            f"a {job.kind} job is already running ({job.id}): wait for it to finish or cancel "
+            f"it (DELETE /api/jobs/{job.id})"
+        )
         self.job = job
 
 
@@ -78,7 +81,7 @@ class Reporter:
         if self._stopping.is_set():  # no simulation outlives the server
             raise JobCancelled("the server stopped before the job finished")
         if self.job.cancel.is_set():
-            raise JobCancelled("cancelled (DELETE /api/jobs/{id}); nothing was applied")
+            raise JobCancelled(f"cancelled (DELETE /api/jobs/{self.job.id}); nothing was applied")
         if fraction is not None:
             self.job.progress = min(max(float(fraction), 0.0), 1.0)
 

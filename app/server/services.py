@@ -6,7 +6,8 @@ import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from app.params.document import ParameterSet, load_parameter_set
+from app.params.document import ParameterSet
+from app.params.formats import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.robots.model import RobotModel
 from app.server.axle_fitter import AxleFitter
@@ -131,10 +132,11 @@ class Services:
         handed over (`LiveRobot.take_drive`); a job's result applies only on its own robot."""
         change = f"changing the robot from {current.robot!r} to {robot!r}"
         if running := self.axle_fitter.jobs.running():
-            kinds = ", ".join(sorted({job.kind for job in running}))
+            jobs = ", ".join(f"{job.kind} {job.id}" for job in running)
+            cancel = " or ".join(f"DELETE /api/jobs/{job.id}" for job in running)
             raise RobotBusy(
-                f"a job runs on {current.robot!r} ({kinds}): wait for it or cancel it "
-                f"(DELETE /api/jobs/{{id}}) before {change}"
+                f"a job runs on {current.robot!r} ({jobs}): wait for it or cancel it "
+                f"({cancel}) before {change}"
             )
         if self.replay.active:
             raise RobotBusy(

@@ -11,7 +11,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from app.params.document import ParameterSet, load_parameter_set
+from app.params.document import ParameterSet
+from app.params.formats import load_parameter_set
 from app.params.presets import BUILTIN_DIR
 from app.sim.metrics import Trace, whole_cycles
 from gait import GaitParams, Motion

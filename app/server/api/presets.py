@@ -18,7 +18,7 @@ from app.params.formats import (
 from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
 from app.params.schema import ImportBody, ImportBodyV1, inline_schema
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
 from app.server.request_gate import JSON_TYPES, YAML_TYPES
 from app.server.services import Services
 
@@ -29,6 +29,7 @@ router = APIRouter(
 CURRENT = "current"  # in a diff: the parameters in use now
 # NAME_RULE as a JSON-schema pattern (no '..', no trailing '.'): clients see what is allowed
 NAME_SCHEMA_PATTERN = r"^[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$"
+PATTERN_RULES[NAME_SCHEMA_PATTERN] = f"a preset name is {NAME_RULE}"
 Name = Annotated[
     str, Path(max_length=64, pattern=NAME_SCHEMA_PATTERN, description=f"a preset name: {NAME_RULE}")
 ]

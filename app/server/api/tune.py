@@ -78,7 +78,7 @@ def start_tune(
         raise ApiError(409, str(exc), "robot_not_in_use", loc=["body", "robot"]) from exc
     except JobBusy as exc:
         raise ApiError(
-            409, f"{exc}, or cancel it (DELETE /api/jobs/{exc.job.id}); one tune runs at a time",
+            409, f"{exc}; one tune runs at a time",
             "job_running", loc=["job", exc.job.id],
         ) from exc  # fmt: skip
     except ValueError as exc:
