@@ -141,6 +141,14 @@ def test_nak_details_name_the_offending_id() -> None:
         assert isinstance(nak, Nak) and nak.detail == SPECS["short.o"].pid
         (nak,) = link.request(proto.set_param(250, 0.0))
         assert isinstance(nak, Nak) and nak.detail == 250
+        count = len(SPECS)  # of a range, its first id that does not exist
+        for first, named in ((250, 250), (count - 2, count)):
+            (nak,) = link.request(proto.set_params([0.0] * 5, first=first))
+            assert isinstance(nak, Nak) and nak.reason == NakReason.UNKNOWN_ID
+            assert nak.detail == named, first
+            (nak,) = link.request(proto.get_params(first, 5))
+            assert isinstance(nak, Nak) and nak.reason == NakReason.UNKNOWN_ID
+            assert nak.detail == named, first
 
 
 def test_torque_off_stop_and_start() -> None:

@@ -92,3 +92,16 @@ def test_nothing_to_redo_is_a_409_in_the_error_shape(http):
     assert response.json()["detail"] == [
         {"loc": [], "msg": "nothing to redo", "type": "nothing_to_redo"}
     ]
+
+
+def test_a_put_of_a_set_for_another_robot_warns_and_keeps_the_robot(http):
+    doc = http.get("/api/params").json()
+    here = doc["robot"]
+    other = "micro" if here != "micro" else "artro"
+    answer = http.put("/api/params", json=doc | {"robot": other, "name": "from-elsewhere"})
+    assert answer.status_code == 200, answer.text
+    (warning,) = answer.json()["warnings"]
+    assert f"tuned for the robot {other!r}" in warning and f"here is {here!r}" in warning
+    assert http.get("/api/params").json()["robot"] == here
+    same = http.put("/api/params", json=http.get("/api/params").json())
+    assert same.json()["warnings"] == []

@@ -89,16 +89,20 @@ def get_params(services: ServicesDep, response: Response) -> dict[str, Any]:
 def put_params(
     body: ParamsBody, services: ServicesDep, response: Response, if_match: IfMatch = None
 ) -> dict[str, Any]:
-    """Replace every parameter; invalid input or a stale version changes nothing."""
+    """Replace every parameter; invalid input or a stale version changes nothing. A set that
+    names the robot it was tuned for, another than the one in use, is loaded with `warnings`
+    saying so (the robot in use stays)."""
     store = services.store
     name = body.name or store.snapshot().name
-    pset = ParameterSet.from_dict(
-        {"name": name, "motion": body.motion.model_dump(), "gait": body.gait.model_dump()}
-    )
+    doc = {"name": name, "motion": body.motion.model_dump(), "gait": body.gait.model_dump()}
+    pset = ParameterSet.from_dict(doc | ({"robot": body.robot} if body.robot else {}))
+    warnings = services.robot_warnings(pset) if body.robot else []
     check = versions_check(body.version, if_match)
     if body.name is None:  # keep the name in use at the moment of the change
-        return _tagged(response, store.update(pset_patch(pset), "http", check=check))
-    return _tagged(response, store.replace(pset, "http", check=check))
+        snapshot = store.update(pset_patch(pset), "http", check=check)
+    else:
+        snapshot = store.replace(pset, "http", check=check)
+    return _tagged(response, snapshot) | {"warnings": warnings}
 
 
 def pset_patch(pset: ParameterSet) -> dict[str, Any]:

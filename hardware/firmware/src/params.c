@@ -63,7 +63,8 @@ uint8_t params_set(uint8_t id, float value)
 uint8_t params_set_many(uint8_t first, uint8_t count, const float *values, uint8_t *bad_id)
 {
     if ((uint16_t)first + count > ARTRO_PARAM_COUNT) {
-        *bad_id = ARTRO_PARAM_COUNT;
+        /* the first id of the range that does not exist */
+        *bad_id = first > ARTRO_PARAM_COUNT ? first : ARTRO_PARAM_COUNT;
         return PARAM_UNKNOWN_ID;
     }
     for (uint8_t i = 0; i < count; i++) {

@@ -243,7 +243,8 @@ static void dispatch(void)
         if (body[1] == 0 || body[1] > PROTO_MAX_VALUES) {
             send_nak(type, NAK_OUT_OF_RANGE, body[1]);
         } else if ((uint16_t)body[0] + body[1] > ARTRO_PARAM_COUNT) {
-            send_nak(type, NAK_UNKNOWN_ID, (uint8_t)(body[0] + body[1] - 1u));
+            /* the first id of the range that does not exist, as SET_PARAMS names it */
+            send_nak(type, NAK_UNKNOWN_ID, body[0] > ARTRO_PARAM_COUNT ? body[0] : ARTRO_PARAM_COUNT);
         } else {
             send_params(body[0], body[1]);
         }
