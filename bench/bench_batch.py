@@ -47,6 +47,7 @@ import multiprocessing
 import multiprocessing.pool
 import os
 import statistics
+import sys
 import time
 
 import mujoco
@@ -251,6 +252,11 @@ def processes_steps_per_s(
     return steps / (time.perf_counter() - start)
 
 
+def say(what: str) -> None:
+    """Progress on stderr (the figures go to stdout): a run takes ~14 minutes."""
+    print(f"bench_batch: {what} ...", file=sys.stderr, flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--seconds", type=float, default=10.0, help="simulated seconds per walk")
@@ -282,7 +288,8 @@ def main() -> None:
     #: batch and the processes, and after the processes
     ceilings: dict[str, list[list[tuple[float, float]]]] = {k: [] for k in kinds}
     pool = raw_pool(n_threads)
-    for _ in range(args.repeats):  # interleaved, so machine load affects all alike
+    for repeat in range(args.repeats):  # interleaved, so machine load affects all alike
+        say(f"throughput, repeat {repeat + 1} of {args.repeats}")
         one_core = kinds["nominal"][:4]
         single.append(raw_replay(one_core, [frames] * len(one_core)))
         for kind, jobs in kinds.items():  # the ceiling replays the very runs around them
@@ -422,7 +429,8 @@ def main() -> None:
     open_cpu = cpu_s_per_sim_s(evaluators["varied"], open_jobs, args.seconds)
     in_workers: list[float] = []
     open_wall = wall_s_per_sim_s(workers, open_jobs, args.seconds)
-    for _ in range(args.repeats):
+    for repeat in range(args.repeats):
+        say(f"closed loop against open, repeat {repeat + 1} of {args.repeats}")
         closed_cpu = {
             name: cpu_s_per_sim_s(evaluators["varied"], jobs, args.seconds)
             for name, jobs in closed_jobs.items()

@@ -16,12 +16,14 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import sys
 
 import results
 
 from app.analysis.robustness import ROBUST_CASES, _figure, passes
 from app.evaluation import BatchEvaluator, Job
-from app.params.document import load_parameter_set
+from app.evaluation.progress import progress_printer
+from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets
 from app.worlds.sampling import VariationRanges
 from app.worlds.variations import NOMINAL, PHYSICS_FIELDS, Variation
@@ -72,7 +74,14 @@ def main() -> None:
     for name in [n.strip() for n in args.presets.split(",") if n.strip()]:
         gait = (shelf[name] if name in shelf else load_parameter_set(name)).gait
         jobs = [Job(gait, c.motion, variation=w) for w in [NOMINAL, *worlds] for c in ROBUST_CASES]
-        metrics = evaluator.evaluate(jobs, duration_s=args.duration, warmup_s=args.warmup)
+        progress = progress_printer(
+            f"robust_factors: {name}, {len(jobs)} runs of {args.duration:g} s ...",
+            sys.stderr,
+            label="robust_factors",
+        )
+        metrics = evaluator.evaluate(
+            jobs, duration_s=args.duration, warmup_s=args.warmup, progress=progress
+        )
         n = len(ROBUST_CASES)
         nominal = metrics[:n]
         print(f"\n{name}: each departure alone; a cell is the run's figure as a share of the")

@@ -27,7 +27,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
 from app.analysis.cases import CASES, measured, target
-from app.params.document import ParameterSet, load_parameter_set
+from app.params.document import ParameterSet
+from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets, stamped, write_parameter_set
 from app.study.study_store import DEFAULT_STUDY, open_storage
 from app.study.tune import dimensions, with_values
