@@ -4,7 +4,7 @@ forward,backward`) walks forward and backward on the unchanged model without fal
 from __future__ import annotations
 
 from app.evaluation import BatchEvaluator, Job
-from app.params.document import load_parameter_set
+from app.params.formats import load_parameter_set
 from app.params.presets import BUILTIN_DIR
 from gait import Motion
 

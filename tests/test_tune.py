@@ -13,7 +13,8 @@ import pytest
 from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
 from app.analysis.robustness import ROBUST_CASES
 from app.evaluation import BatchEvaluator, Job
-from app.params.document import ParameterSet, load_parameter_set
+from app.params.document import ParameterSet
+from app.params.formats import load_parameter_set
 from app.params.presets import stamped, write_parameter_set
 from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, StudyStore, open_storage
 from app.study.tune import Tuner, dimensions
