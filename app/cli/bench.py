@@ -150,8 +150,6 @@ def robust(args: argparse.Namespace) -> int:
     from app.study.robust_report import render, write_plot
     from app.study.walks import resolve_presets
 
-    if args.seed < 0:
-        raise ValueError(f"--seed must be >= 0, got {args.seed}")
     duration = ROBUST_DURATION_S if args.duration is None else args.duration
     warmup = 5.0 if args.warmup is None else args.warmup
     if not duration > warmup >= 0:
