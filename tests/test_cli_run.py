@@ -73,7 +73,7 @@ def test_bad_param_file_names_the_problem(tmp_path):
     assert "unknown field swing.speed" in out.stderr
     path.write_text("{not json")
     out = artro("run", "--params", str(path))
-    assert out.returncode == 2 and "not valid JSON" in out.stderr
+    assert out.returncode == 2 and "bad.json: malformed JSON at line 1, column 2" in out.stderr
 
 
 @pytest.mark.parametrize("fmt", ["json", "yaml", "c"])
