@@ -14,7 +14,11 @@ of --duration s) it times, per stage and per world:
   - host processes: the planning of every world, and the measuring of as many worlds (world
     0's frame ends, as `bench robust` measures: no traces), in this process and over a pool of
     --processes spawned workers (`HostPool`: the controls written into shared memory), the
-    pool's start timed apart and the pool's controls checked equal to this process's.
+    pool's start timed apart and the pool's controls checked equal to this process's;
+  - the closed loop: the same study with `robust` (its laws on), the worlds' loops between
+    frames (`WorldLoops`: the sensors, laws and next frame of every world, one host thread), fed
+    each frame the sensor rows of a robot standing (the laws are elementwise: their cost does
+    not depend on the values), per world and frame.
 On the H200 (bench/results/bench_gpu.json, 1809 worlds) planning took 5.2 ms a world and the
 upload stage 9.1 s before these changes.
 
@@ -36,6 +40,7 @@ import results
 from mujoco import rollout
 
 from app.analysis.robustness import jobs_for
+from app.evaluation._frames import STATE_SPEC
 from app.evaluation._measure import fallen, measure_frames, not_finite
 from app.evaluation._warp import SEGMENT_FRAMES, import_warp, warp_device
 from app.evaluation._warp_host import Planned, plan_batch
@@ -67,6 +72,10 @@ def segment_copies(control: np.ndarray, steps: int, contiguous: bool) -> None:
         for first in range(0, total, per):
             rows = slice(first, min(first + per, total))
             np.stack([c[rows] for c in rows_of], axis=1)
+
+
+#: frames the closed loop's host work is timed over
+CLOSED_LOOP_FRAMES = 50
 
 
 def frame_ends(robot: RobotModel, batch: Planned, n_frames: int) -> tuple[np.ndarray, np.ndarray]:
@@ -136,6 +145,40 @@ def host_processes(
     }
 
 
+def closed_loop(robot: RobotModel, samples: int, frames: int) -> dict:
+    """The host's work between two frames of a closed-loop batch (`WorldLoops.record` of the
+    frame's sensor rows, then `plan` of the next frame) for `robust` on `samples` variations:
+    ms a frame and µs a world and frame, over `frames` frames."""
+    jobs = jobs_for(builtin_presets()["robust"].gait, sample(VariationRanges(), samples, 0))
+    steps = frame_steps(robot.model)
+    batch = plan_batch(robot, jobs, frames + 1, steps, None, None)
+    try:
+        data = mujoco.MjData(robot.model)
+        mujoco.mj_setState(robot.model, data, batch.starts[0].state, STATE_SPEC)
+        mujoco.mj_forward(robot.model, data)
+        worlds, shape = len(jobs), (len(jobs), steps, robot.model.nsensordata)
+        rows = np.broadcast_to(data.sensordata.astype(np.float32), shape).copy()
+        counting = np.ones(worlds, bool)
+        out = np.empty((worlds, steps, robot.model.nu), np.float32)
+        record_s = plan_s = 0.0
+        for frame in range(1, frames + 1):
+            t0 = time.perf_counter()
+            batch.loops.record(rows, counting)
+            t1 = time.perf_counter()
+            batch.loops.plan(frame, counting, out)
+            record_s, plan_s = record_s + t1 - t0, plan_s + time.perf_counter() - t1
+    finally:
+        batch.controls.release()
+    return {
+        "worlds": worlds,
+        "frames": frames,
+        "groups": len(batch.loops.groups),
+        "record_ms_per_frame": record_s / frames * 1e3,
+        "plan_ms_per_frame": plan_s / frames * 1e3,
+        "us_per_world_frame": (record_s + plan_s) / (frames * worlds) * 1e6,
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--samples", type=int, default=200, help="variations (worlds: 9 x (N+1))")
@@ -171,6 +214,7 @@ def main() -> None:
     worlds = len(jobs)
     item = (jobs[0], batch.starts[0], qpos.astype(np.float32), sens.astype(np.float32))
     pool = host_processes(robot, jobs, n_frames, batch, item, args.processes)
+    closed = closed_loop(robot, args.samples, CLOSED_LOOP_FRAMES)
     figures = {
         "worlds": worlds,
         "variations": args.samples,
@@ -181,6 +225,7 @@ def main() -> None:
         "segment_copies": {"world_major_s": copies_s, "step_major_stack_s": stack_s},
         "measure": {"ms_per_world": measure_s * 1e3, "s_all_worlds": measure_s * worlds},
         "host_processes": pool,
+        "closed_loop": closed,
     }
     n = args.processes
     print(f"{worlds} worlds, {n_frames} frames each")
@@ -195,6 +240,11 @@ def main() -> None:
         f"(1: {pool['measure_here']['ms_per_world']:.2f}); the same controls: "
         f"{pool['same_controls_and_initial_rows']}"
     )
+    print(
+        f"closed loop (robust, {closed['worlds']} worlds in {closed['groups']} group(s)): "
+        f"{closed['record_ms_per_frame']:.2f} ms recording and {closed['plan_ms_per_frame']:.2f} "
+        f"ms planning a frame, {closed['us_per_world_frame']:.1f} µs a world and frame"
+    )
     headline = {
         "worlds": worlds,
         "plan ms/world": plan_s / worlds * 1e3,
@@ -208,6 +258,7 @@ def main() -> None:
         "measure_world ms/world, 1 process": pool["measure_here"]["ms_per_world"],
         f"measure_world ms/world, {n} processes": pool["measure"]["ms_per_world"],
         "host pool start s": pool["pool_start_s"],
+        "closed loop µs/world-frame": closed["us_per_world_frame"],
     }
     batch.controls.release()
     results.write("bench_warp_host", args, figures, headline)

@@ -175,6 +175,16 @@ def test_bench_pipeline_session_and_firmware_write_their_figures(tmp_path):
     assert 0 < firmware["flash_bytes"] < firmware["flash_size_bytes"]
 
 
+def test_bench_warp_host_times_the_host_work_open_and_closed_loop(tmp_path):
+    args = ("--samples", "1", "--duration", "1", "--processes", "2")
+    figures = run_bench(tmp_path, "bench_warp_host", *args)["figures"]
+    assert figures["worlds"] == 18 and figures["plan"]["ms_per_world"] > 0
+    assert figures["host_processes"]["same_controls_and_initial_rows"] is True
+    closed = figures["closed_loop"]  # robust's worlds of every case: one walk, one group
+    assert closed["worlds"] == 18 and closed["groups"] == 1 and closed["frames"] == 50
+    assert closed["us_per_world_frame"] > 0 and closed["plan_ms_per_frame"] > 0
+
+
 def test_bench_api_load_writes_what_the_clients_saw(tmp_path):
     doc = run_bench(
         tmp_path, "bench_api_load",
