@@ -316,3 +316,52 @@ def test_the_hint_names_what_is_there_and_red_servos_are_explained(
         expect(note).to_contain_text(critical or "?")
         expect(note).to_contain_text("expected")
         expect(note).to_contain_text("motion 0 still steps")
+
+
+@SMALL
+def test_what_a_hostile_user_types_is_refused_in_words_and_kept(
+    server, walking, browser, width, height
+):
+    """A save over one's own preset asks first; a name the server would refuse is refused here
+    with the rule; a push with no direction is no push; a World text the server refused stays in
+    the field to be mended."""
+    base_url, http = server
+    http.put("/api/presets/mine")
+    mine = http.get("/api/presets/mine").json()
+    with open_page(browser, base_url, width, height) as page:
+        message = page.locator("#preset-message")
+        expect(page.locator("#preset-list tr[data-preset='mine']")).to_have_count(1)
+        http.patch("/api/params", json={"motion": {"a_p": 0.05}})
+        asked: list[str] = []
+        page.once("dialog", lambda d: (asked.append(d.message), d.dismiss()))
+        page.locator("#preset-name").fill("mine")
+        page.locator("#preset-save").click()
+        expect(message).to_contain_text("'mine' is kept as it was")
+        assert asked == ["Replace your preset 'mine' with the current parameters?"]
+        assert http.get("/api/presets/mine").json() == mine
+        page.once("dialog", lambda d: d.accept())
+        page.locator("#preset-save").click()
+        expect(message).to_contain_text("saved the current parameters as 'mine'")
+        assert http.get("/api/presets/mine").json()["motion"]["a_p"] == 0.05
+        for name in ("../etc/passwd", "a/b", "x" * 65, "ends."):
+            page.locator("#preset-name").fill(name)
+            page.locator("#preset-save").click()
+            expect(message).to_have_class(ERROR)
+            expect(message).to_contain_text("not saved: a preset name is 1 to 64 characters")
+        assert "x" * 65 not in [p["name"] for p in http.get("/api/presets").json()["presets"]]
+        # a push toward nowhere: refused with what the field takes, nothing pushed
+        push_message = page.locator("#push-message")
+        before = http.get("/api/state").json()["push"]
+        page.locator("#push-direction").fill("")
+        page.locator("#push-button").click()
+        expect(push_message).to_have_class(ERROR)
+        expect(push_message).to_contain_text("no push: toward takes a number -360 to 360")
+        assert http.get("/api/state").json()["push"] == before
+        # a refused World text stays to be mended
+        text = page.locator("#world-text")
+        text.fill("friction=abc,latency_ms=40")
+        page.locator("#world-text-apply").click()
+        expect(page.locator("#world-message")).to_contain_text("not changed")
+        page.wait_for_timeout(2500)  # the World panel polls the state every second
+        expect(text).to_have_value("friction=abc,latency_ms=40")
+    http.delete("/api/presets/mine")

@@ -11,8 +11,12 @@ export class ApiError extends Error {
   }
 }
 
-/** "gait.swing.v" for a FastAPI / import problem's `loc`. */
-export const locText = (loc) => (Array.isArray(loc) ? loc.filter((p) => p !== "body").join(".") : "");
+/** "gait.swing.v" for a FastAPI / import problem's `loc`; "" where it names no field of a body
+ *  (the URL's path or query, a header, a job): the message says it in words. */
+export const locText = (loc) => {
+  if (!Array.isArray(loc) || ["path", "query", "header", "job"].includes(loc[0])) return "";
+  return loc.filter((p) => p !== "body").join(".");
+};
 
 /** Turn FastAPI's `detail` (string | [{loc, msg}, ...] | object) into one readable line. */
 export function formatDetail(detail) {
@@ -21,7 +25,7 @@ export function formatDetail(detail) {
   if (Array.isArray(detail)) {
     return detail
       .map((d) => {
-        const loc = Array.isArray(d.loc) ? d.loc.filter((p) => p !== "body").join(".") : "";
+        const loc = locText(d.loc);
         return loc ? `${loc}: ${d.msg}` : d.msg || JSON.stringify(d);
       })
       .join("; ");

@@ -5,11 +5,16 @@ import { api } from "./api.js";
 import { refreshParams } from "./params.js";
 import { $, fmt, h, setMessage } from "./util.js";
 
-const NAME_RE = /^[A-Za-z0-9][A-Za-z0-9_.-]{0,63}$/;
+// app/params/presets.py's NAME_RULE: 1 to 64 characters, no '..', not ending in '.'
+const NAME_RE = /^(?=.{1,64}$)[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$/;
+const NAME_RULE =
+  "a preset name is 1 to 64 characters: letters, digits, '_', '.' and '-', starting with a " +
+  "letter or digit, without '..' and not ending in '.'";
 const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over this (app/server/gait_ramp.py)
 let drive = "model";
 let engine = null;
 let inUse = null; // the name of the set in use: its row is marked
+let saved = new Set(); // the user's presets (not the built-in ones): a save over one asks first
 
 export function initPresets() {
   document.addEventListener("artro:state", (e) => (drive = e.detail.drive));
@@ -39,6 +44,7 @@ export async function refreshPresets() {
     return;
   }
   const list = $("preset-list");
+  saved = new Set(data.presets.filter((p) => !p.builtin).map((p) => p.name));
   list.replaceChildren(...data.presets.map(row));
   if (!data.presets.length) list.append(h("tr", {}, h("td", { colspan: 4, class: "dim" }, "no presets")));
   const problems = $("preset-problems");
@@ -114,8 +120,18 @@ async function save() {
     setMessage(msg, "type a name first", "error");
     return;
   }
-  // the server decides; this only marks an obviously bad name while typing
-  input.classList.toggle("invalid", !NAME_RE.test(name));
+  // the server decides too; a name it would refuse (or one a URL path would mangle: '/', '..')
+  // is not sent
+  const bad = !NAME_RE.test(name);
+  input.classList.toggle("invalid", bad);
+  if (bad) {
+    setMessage(msg, `not saved: ${NAME_RULE}`, "error");
+    return;
+  }
+  if (saved.has(name) && !confirm(`Replace your preset '${name}' with the current parameters?`)) {
+    setMessage(msg, `not saved: '${name}' is kept as it was`, "ok");
+    return;
+  }
   try {
     await api.put(`/api/presets/${encodeURIComponent(name)}`);
     setMessage(msg, `saved the current parameters as '${name}'`, "ok");

@@ -9,7 +9,7 @@
 
 import { api, poll } from "./api.js";
 import { THEME, UPLOT_AXIS } from "./scope.js";
-import { $, fitCanvas, fmt, setMessage } from "./util.js";
+import { $, fieldNumber, fieldRule, fitCanvas, fmt, setMessage } from "./util.js";
 
 const uPlot = window.uPlot;
 const LAWS = [
@@ -76,10 +76,12 @@ const PLOT_HEIGHT = 190; // px, the legend below
 
 const plots = {};
 let latest = null;
+let fallen = false; // the robot lies fallen: a push waits for a reset (the server refuses it)
 
 export function initSensors() {
   for (const [key, spec] of Object.entries(PLOTS)) plots[key] = new SensorPlot($(spec.el), spec, ROBOT_SERIES[key]);
   $("push-button").addEventListener("click", push);
+  document.addEventListener("artro:state", (e) => (fallen = Boolean(e.detail.fell)));
   document.addEventListener("keydown", (e) => {
     const typing = e.target.closest?.("input, select, textarea, [contenteditable]");
     if ((e.key === "p" || e.key === "P") && !typing && !e.ctrlKey && !e.metaKey && !e.altKey) {
@@ -153,8 +155,18 @@ function showRobot(robot) {
 }
 
 async function push() {
-  const impulse = Number($("push-impulse").value);
-  const direction = Number($("push-direction").value);
+  const msg = $("push-message");
+  const impulse = fieldNumber($("push-impulse"));
+  const direction = fieldNumber($("push-direction"));
+  if (impulse === null || direction === null) {
+    const [what, field] = impulse === null ? ["impulse", $("push-impulse")] : ["toward", $("push-direction")];
+    setMessage(msg, `no push: ${what} ${fieldRule(field)}`, "error");
+    return;
+  }
+  if (fallen) {
+    setMessage(msg, "no push: the robot has fallen; reset it first", "error");
+    return;
+  }
   try {
     await api.post("/api/sim/push", { impulse_n_s: impulse, direction_deg: direction });
     setMessage($("push-message"), `pushed: ${fmt(impulse, 2)} N·s toward ${fmt(direction, 0)}°`, "ok");
@@ -192,7 +204,8 @@ class SensorPlot {
       {
         width: Math.max(120, this.el.clientWidth),
         height: PLOT_HEIGHT,
-        legend: { show: true, live: false },
+        // a dashed series (the true tilt beside the estimate) gets a dashed swatch too
+        legend: { show: true, live: false, markers: { dash: (u, i) => (u.series[i].dash ? "dashed" : "solid") } },
         cursor: { drag: { x: false, y: false }, points: { show: false } },
         scales: { x: { time: false } },
         axes: [

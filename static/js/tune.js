@@ -6,7 +6,7 @@
 import { api, formatDetail } from "./api.js";
 import { refreshParams } from "./params.js";
 import { refreshPresets } from "./presets.js";
-import { $, fmt, h, setMessage } from "./util.js";
+import { $, fieldNumber, fieldRule, fmt, h, setMessage } from "./util.js";
 
 let job = null; // the tune followed, while it runs
 let asking = false; // a read of it in flight
@@ -24,11 +24,16 @@ export async function initTune() {
 }
 
 async function start() {
-  const body = {
-    generations: Number($("tune-generations").value),
-    popsize: Number($("tune-popsize").value),
-    duration_s: Number($("tune-duration").value),
-  };
+  const fields = { generations: "tune-generations", popsize: "tune-popsize", duration_s: "tune-duration" };
+  const body = {};
+  for (const [key, id] of Object.entries(fields)) {
+    body[key] = fieldNumber($(id));
+    if (body[key] === null) {
+      const label = { generations: "generations", popsize: "candidates", duration_s: "s per run" }[key];
+      setMessage($("tune-message"), `not started: ${label} ${fieldRule($(id))}`, "error");
+      return;
+    }
+  }
   try {
     running(await api.post("/api/jobs/tune", body));
     $("tune-figures").hidden = true;

@@ -89,3 +89,20 @@ export function fitCanvas(canvas) {
   ctx.setTransform(dpr, 0, 0, dpr, 0, 0);
   return { ctx, w, h: hgt };
 }
+
+/** A number field's value, or null when it holds none, not a number, or one outside its
+ *  min..max (what the page sends is checked as the server would, with the field's words). */
+export function fieldNumber(input) {
+  const text = input.value.trim();
+  const value = Number(text);
+  if (!text || input.validity.badInput || !Number.isFinite(value)) return null;
+  if (value < Number(input.min) || value > Number(input.max)) return null;
+  return input.step === "1" && !Number.isInteger(value) ? null : value;
+}
+
+/** What a number field takes, in words: "takes a number 0.01 to 2" ("a whole number" for a
+ *  step of 1). */
+export function fieldRule(input) {
+  const kind = input.step === "1" ? "a whole number" : "a number";
+  return `takes ${kind} ${input.min} to ${input.max}`;
+}

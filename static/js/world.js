@@ -8,7 +8,7 @@
 
 import { api, formatDetail, poll } from "./api.js";
 import { showRobot } from "./robot.js";
-import { $, fmt, h, setMessage } from "./util.js";
+import { $, fieldNumber, fieldRule, fmt, h, setMessage } from "./util.js";
 
 const FIELDS = [
   ["friction", "floor friction", 2, ""],
@@ -39,16 +39,23 @@ let job = null;
 let ranges = {}; // the default ranges of `artro bench robust`, per field
 let liveWorld = "nominal"; // the world the state last named
 let reportTitle = ""; // the title of the report drawn ("" none)
+let gaitShown = null; // the gait (as JSON) whose last report was asked for: a motion change keeps it
+let textEdited = false; // the World text was typed in and not yet applied: the state keeps off it
 
 export function initWorld() {
   $("world-apply").addEventListener("click", () => apply(textFromSliders()));
   $("world-text-apply").addEventListener("click", () => apply($("world-text").value));
+  $("world-text").addEventListener("input", () => (textEdited = true));
   $("world-nominal").addEventListener("click", nominal);
   $("robust-start").addEventListener("click", startRobustness);
   buildSliders();
   poll(refresh, 1000);
-  showLastReport();
-  document.addEventListener("artro:params", () => showLastReport());
+  document.addEventListener("artro:params", (e) => {
+    const gait = JSON.stringify(e.detail.gait ?? null);
+    if (gait === gaitShown) return; // only a new gait can have another report
+    gaitShown = gait;
+    showLastReport();
+  });
 }
 
 async function buildSliders() {
@@ -117,6 +124,7 @@ function worldSummary(text) {
 async function apply(text) {
   try {
     const done = await api.put("/api/world", { variation: text.trim() });
+    textEdited = false; // applied: the text follows the live world again
     setMessage($("world-message"), `walking in: ${done.variation}`, "ok");
   } catch (err) {
     const why = Array.isArray(err.raw) && err.raw[0]?.msg ? err.raw[0].msg : err.message;
@@ -126,6 +134,7 @@ async function apply(text) {
 
 async function nominal() {
   await api.del("/api/world");
+  textEdited = false;
   await buildSliders();
   setMessage($("world-message"), "back on the nominal model", "ok");
 }
@@ -140,13 +149,20 @@ async function refresh() {
   $("world-state").textContent = worldSummary(state.world);
   $("world-state").title = varied ? state.world : "";
   showRobot(state.robot);
-  if (document.activeElement !== $("world-text")) $("world-text").value = varied ? state.world : "";
+  // the text follows the live world, unless it is being typed or was refused: then it is kept
+  if (document.activeElement !== $("world-text") && !textEdited) {
+    $("world-text").value = varied ? state.world : "";
+  }
   if (state.world !== liveWorld) await followWorld();
   if (job) await followJob();
 }
 
 async function startRobustness() {
-  const samples = Number($("robust-samples").value);
+  const samples = fieldNumber($("robust-samples"));
+  if (samples === null) {
+    setMessage($("robust-message"), `not started: variations ${fieldRule($("robust-samples"))}`, "error");
+    return;
+  }
   try {
     job = await api.post("/api/jobs/robustness", { samples });
     $("robust-progress").hidden = false;
