@@ -57,6 +57,18 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
         expect(page.locator("#world-message")).to_contain_text("friction must be")
         assert http.get("/api/state").json()["world"] == world
 
+        page.fill("#robust-samples", "400")  # a long job, cancelled from the page
+        page.click("#robust-start")
+        cancel = page.locator("#robust-cancel")
+        expect(cancel).to_be_visible(timeout=30_000)
+        expect(page.locator("#robust-start")).to_be_disabled()
+        cancel.click()
+        expect(page.locator("#robust-message")).to_contain_text(
+            "robustness cancelled: no report", timeout=120_000
+        )
+        expect(cancel).to_be_hidden()
+        assert http.get("/api/jobs/robustness-1").json()["status"] == "cancelled"  # the first job
+
         page.fill("#robust-samples", "4")
         page.click("#robust-start")
         rows = page.locator("#robust-bars .robust-row:not(.robust-header)")

@@ -48,6 +48,7 @@ export function initWorld() {
   $("world-text").addEventListener("input", () => (textEdited = true));
   $("world-nominal").addEventListener("click", nominal);
   $("robust-start").addEventListener("click", startRobustness);
+  $("robust-cancel").addEventListener("click", cancelRobustness);
   buildSliders();
   poll(refresh, 1000);
   document.addEventListener("artro:params", (e) => {
@@ -166,7 +167,19 @@ async function startRobustness() {
   try {
     job = await api.post("/api/jobs/robustness", { samples });
     $("robust-progress").hidden = false;
+    $("robust-cancel").hidden = false;
+    $("robust-start").disabled = true;
     setMessage($("robust-message"), "walking the variations …");
+  } catch (err) {
+    setMessage($("robust-message"), formatDetail(err.raw) || err.message, "error");
+  }
+}
+
+async function cancelRobustness() {
+  if (!job) return;
+  try {
+    await api.del(`/api/jobs/${job.id}`); // it ends at its next run: followJob sees it
+    setMessage($("robust-message"), "cancelling …");
   } catch (err) {
     setMessage($("robust-message"), formatDetail(err.raw) || err.message, "error");
   }
@@ -178,6 +191,12 @@ async function followJob() {
   if (now.status === "running") return;
   job = null;
   $("robust-progress").hidden = true;
+  $("robust-cancel").hidden = true;
+  $("robust-start").disabled = false;
+  if (now.status === "cancelled") {
+    setMessage($("robust-message"), "robustness cancelled: no report", "warn");
+    return;
+  }
   if (now.status === "failed") {
     setMessage($("robust-message"), `robustness failed: ${now.error}`, "error");
     return;
