@@ -4,7 +4,7 @@
 
 import { api, poll } from "./api.js";
 import { cycleMeans, PathPlot } from "./path-plot.js";
-import { $, fmt, setMessage } from "./util.js";
+import { $, fieldNumber, fmt, setMessage } from "./util.js";
 
 let plot = null;
 let last = null;
@@ -72,10 +72,8 @@ function byHand(id, what, unit, empty) {
   const takes = `${what} by hand takes ${input.min} to ${input.max} ${unit}, or nothing for ${empty}`;
   if (input.validity.badInput) throw new Error(`${what}: not a number, nothing changed — ${takes}`);
   if (raw === "") return null;
-  const v = Number(raw);
-  if (!Number.isFinite(v) || v < Number(input.min) || v > Number(input.max)) {
-    throw new Error(`${what} = ${raw} ${unit} not applied — ${takes}`);
-  }
+  const v = fieldNumber(input);
+  if (v === null) throw new Error(`${what} = ${raw} ${unit} not applied — ${takes}`);
   return v;
 }
 

@@ -169,9 +169,9 @@ async function push() {
   }
   try {
     await api.post("/api/sim/push", { impulse_n_s: impulse, direction_deg: direction });
-    setMessage($("push-message"), `pushed: ${fmt(impulse, 2)} N·s toward ${fmt(direction, 0)}°`, "ok");
+    setMessage(msg, `pushed: ${fmt(impulse, 2)} N·s toward ${fmt(direction, 0)}°`, "ok");
   } catch (err) {
-    setMessage($("push-message"), `no push: ${err.message}`, "error");
+    setMessage(msg, `no push: ${err.message}`, "error");
   }
 }
 
