@@ -40,6 +40,9 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         page.locator("#world-panel").screenshot(
             path=shot_path(f"tune-running-{width}.png", tmp_path)
         )
+        page.reload()  # a page loaded while it runs follows it (the state names it)
+        expect(page.locator("#tune-cancel")).to_be_visible(timeout=30_000)
+        expect(status).to_contain_text("/80 · best loss", timeout=TUNE_MS)
         page.click("#tune-cancel")
         expect(message).to_contain_text("tune cancelled: nothing loaded", timeout=30_000)
         expect(page.locator("#tune-cancel")).to_be_hidden()

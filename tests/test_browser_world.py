@@ -19,7 +19,8 @@ SIZES = [(1600, 1000), (1280, 720)]
 
 @contextmanager
 def opened_page(tmp_path, width: int, height: int):
-    """(page, http client, JavaScript errors) of the dashboard on a fresh server."""
+    """(page, http client, JavaScript errors) of the dashboard on a fresh server; the page's
+    404s are JavaScript errors too (it asks only for what the state says exists)."""
     with (
         running_server(tmp_path) as (base_url, _app),
         httpx.Client(base_url=base_url, timeout=10) as http,
@@ -29,6 +30,7 @@ def opened_page(tmp_path, width: int, height: int):
         page = browser.new_page(viewport={"width": width, "height": height})
         errors: list[str] = []
         page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.on("response", lambda r: r.status == 404 and errors.append(f"404 {r.url}"))
         page.goto(base_url + "/")
         yield page, http, errors
         browser.close()
@@ -62,6 +64,11 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
         cancel = page.locator("#robust-cancel")
         expect(cancel).to_be_visible(timeout=30_000)
         expect(page.locator("#robust-start")).to_be_disabled()
+        page.locator("#robot-select").select_option("micro")  # refused in the page's words
+        robot_message = page.locator("#robot-message")
+        expect(robot_message).to_contain_text("cancel it (its Cancel button) before changing")
+        assert "/api/" not in robot_message.text_content()
+        expect(page.locator("#robot-select")).to_have_value("artro")
         cancel.click()
         expect(page.locator("#robust-message")).to_contain_text(
             "robustness cancelled: no report", timeout=120_000

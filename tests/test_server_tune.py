@@ -36,6 +36,7 @@ def test_a_tiny_tune_loads_tuned_robot_as_one_undoable_change(tmp_path):
     with running_server(tmp_path) as (base_url, app), client(base_url) as http:
         before = http.get("/api/params").json()
         assert http.get("/api/tune").status_code == 404  # none yet
+        assert http.get("/api/state").json()["tune"] is None  # what a page reads first
         started = http.post("/api/jobs/tune", json=TINY)
         assert started.status_code == 202, started.text
         job_id = started.json()["id"]
@@ -66,6 +67,7 @@ def test_a_tiny_tune_loads_tuned_robot_as_one_undoable_change(tmp_path):
         undone = http.post("/api/params/undo").json()
         assert (undone["name"], undone["gait"]) == (before["name"], before["gait"])
         assert http.get("/api/tune").json()["id"] == job_id
+        assert http.get("/api/state").json()["tune"] == {"id": job_id, "status": "done"}
         assert http.get("/api/jobs/tune").status_code == 405
 
 

@@ -63,6 +63,7 @@ def test_the_robot_is_named_with_its_figures(server):
 
 @pytest.mark.slow
 def test_the_robustness_job_reports_every_case(server):
+    assert server.get("/api/state").json()["robustness_report"] is False  # none run yet
     started = server.post("/api/jobs/robustness", json={"samples": 4, "seed": 2})
     assert started.status_code == 202
     job_id = started.json()["id"]
@@ -77,3 +78,12 @@ def test_the_robustness_job_reports_every_case(server):
     report = job["result"]["presets"][0]
     assert len(report["cases"]) == 9 and all(c["runs"] == 4 for c in report["cases"])
     assert server.post("/api/jobs/robustness", json={"samples": 2}).status_code == 422
+    # kept for the gait: the state says so (a page asks only then), a new gait has none
+    assert server.get("/api/state").json()["robustness_report"] is True
+    kept = server.get("/api/world/robustness").json()
+    assert kept["presets"] == job["result"]["presets"]
+    server.patch("/api/params", json={"gait": {"swing": {"v": 2.5}}})
+    assert server.get("/api/state").json()["robustness_report"] is False
+    assert server.get("/api/world/robustness").status_code == 404
+    server.post("/api/params/undo")
+    assert server.get("/api/state").json()["robustness_report"] is True

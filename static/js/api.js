@@ -18,6 +18,24 @@ export const locText = (loc) => {
   return loc.filter((p) => p !== "body").join(".");
 };
 
+// The API's messages name the endpoint that mends a refusal, for API clients; the page names its
+// own control instead (or nothing, where it has none).
+const PAGE_WORDS = [
+  [/ \(POST \/api\/sim\/reset\)/g, " (⟲ Reset)"],
+  [/ \(POST \/api\/recording\/live(?:, 'Back to live')?\)/g, " ('Back to live')"],
+  [/ \(DELETE \/api\/jobs\/[\w-]+(?: or DELETE \/api\/jobs\/[\w-]+)*\)/g, " (its Cancel button)"],
+  [/ \(PUT \/api\/sim\/drive\)/g, " (pulses: model, at the top)"],
+  [/ \(PUT \/api\/robot\)/g, " (the World panel's robot)"],
+  [/POST \/api\/jobs\/(?:\{id\}|[\w-]+)\/apply with the version to apply it onto/g, "'Apply it anyway' applies it"],
+  [/; GET \/api\/params and try again/g, "; try again"],
+  [/ \((?:GET|POST|PUT|PATCH|DELETE) \/api\/[^)]*\)/g, ""],
+];
+
+/** A server message in the page's words: its controls where the API names an endpoint. */
+export function pageWords(text) {
+  return PAGE_WORDS.reduce((t, [pattern, words]) => t.replace(pattern, words), String(text));
+}
+
 /** Turn FastAPI's `detail` (string | [{loc, msg}, ...] | object) into one readable line. */
 export function formatDetail(detail) {
   if (detail == null) return "";

@@ -171,6 +171,8 @@ async function push() {
     await api.post("/api/sim/push", { impulse_n_s: impulse, direction_deg: direction });
     setMessage(msg, `pushed: ${fmt(impulse, 2)} N·s toward ${fmt(direction, 0)}°`, "ok");
   } catch (err) {
+    // fallen since the last state: the next pushes wait here for a reset, not at the server
+    if (err.status === 409 && err.raw?.[0]?.type === "fallen") fallen = true;
     setMessage(msg, `no push: ${err.message}`, "error");
   }
 }

@@ -10,16 +10,25 @@ import { $, fieldNumber, fieldRule, fmt, h, setMessage } from "./util.js";
 
 let job = null; // the tune followed, while it runs
 let asking = false; // a read of it in flight
+let seen = false; // the first state was read (it names a tune running since before the page)
 
-export async function initTune() {
+export function initTune() {
   $("tune-start").addEventListener("click", start);
   $("tune-cancel").addEventListener("click", cancel);
-  document.addEventListener("artro:state", () => job && follow());
+  document.addEventListener("artro:state", (e) => {
+    if (job) follow();
+    else if (!seen) followStarted(e.detail.tune); // a tune started before this page was loaded
+    seen = true;
+  });
+}
+
+/** The state's latest tune ({id, status} | null): followed if it runs. */
+async function followStarted(latest) {
+  if (latest?.status !== "running") return;
   try {
-    const latest = await api.get("/api/tune"); // a tune started before this page was loaded
-    if (latest.status === "running") running(latest);
+    running(await api.get(`/api/jobs/${latest.id}`));
   } catch {
-    // 404: none has run
+    // it ended meanwhile and was let go: nothing to follow
   }
 }
 

@@ -1,5 +1,7 @@
 // Shared helpers: DOM shortcuts, number formatting, servo names and their colours.
 
+import { pageWords } from "./api.js";
+
 export const $ = (id) => document.getElementById(id);
 
 /** Create an element: h("td", {class: "num"}, "1.0", child, ...). */
@@ -34,11 +36,11 @@ export function fmtSigned(x, digits = 3) {
 const EXPIRE_MS = 8000; // an "ok" or "quiet" message goes away after this long
 const expiry = new WeakMap();
 
-/** Set a message element's text and state class ("ok" | "warn" | "error" | "quiet" | "" for
- *  neutral). Success and quiet messages expire; warnings, errors and progress lines stay until
- *  replaced. */
+/** Set a message element's text, in the page's words (`pageWords`), and its state class
+ *  ("ok" | "warn" | "error" | "quiet" | "" for neutral). Success and quiet messages expire;
+ *  warnings, errors and progress lines stay until replaced. */
 export function setMessage(el, text, kind = "") {
-  el.textContent = text;
+  el.textContent = pageWords(text);
   el.classList.remove("ok", "warn", "error", "quiet");
   if (kind) el.classList.add(kind);
   clearTimeout(expiry.get(el));

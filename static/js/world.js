@@ -4,7 +4,7 @@
 // loads it into the live simulation, so the gait can be watched failing and tuned there. The
 // sliders follow the live world (however it was set); Apply keeps the terms no slider shows
 // (calibration, a push). The last report of the gait in use is kept by the server and drawn again
-// on a reload (GET /api/world/robustness).
+// on a reload (GET /api/world/robustness, when GET /api/state says there is one).
 
 import { api, formatDetail, poll } from "./api.js";
 import { showRobot } from "./robot.js";
@@ -208,11 +208,15 @@ async function followJob() {
 async function showLastReport() {
   if (job) return; // the running job's report comes when it ends
   try {
-    drawReport(await api.get("/api/world/robustness"));
+    // the state says whether the gait in use has a report: none is asked for (a 404) if not
+    if ((await api.get("/api/state")).robustness_report) {
+      drawReport(await api.get("/api/world/robustness"));
+      return;
+    }
   } catch (err) {
-    if (err.status !== 404) return;
-    if (reportTitle) $("robust-title").textContent = `(of an earlier gait) ${reportTitle}`;
+    if (err.status !== 404) return; // the server is away; a 404: it went with a change meanwhile
   }
+  if (reportTitle) $("robust-title").textContent = `(of an earlier gait) ${reportTitle}`;
 }
 
 /** A worst variation's terms, those in the outer tenth of their default range on their side of

@@ -54,13 +54,18 @@ def health(services: ServicesDep) -> dict[str, Any]:
 
 @router.get("/api/state")
 def state(services: ServicesDep) -> dict[str, Any]:
-    """Sim time, real-time factor, fell, trunk pose, parameter version and more."""
-    sim = services.sim
+    """Sim time, real-time factor, fell, trunk pose, parameter version and more; `tune` is
+    the latest tune job's id and status (null: none ran) and `robustness_report` whether a
+    report of the gait in use is kept (`GET /api/world/robustness`), so a page asks for
+    neither when there is none."""
+    sim, snap, tune = services.sim, services.store.snapshot(), services.tuner.latest
     return sim.status().to_dict() | {
-        "params_version": services.store.snapshot().version,
+        "params_version": snap.version,
         "scope": {"clients": sim.scope.client_count, "dropped": sim.scope.dropped},
         "running": sim.alive,
         "replay": services.replay.status(),
+        "tune": None if tune is None else {"id": tune.id, "status": tune.status},
+        "robustness_report": services.robustness.last_report(snap) is not None,
     }
 
 
