@@ -4,6 +4,7 @@ be a store is refused in one sentence (exit status 2), and one tune writes a stu
 
 from __future__ import annotations
 
+import io
 import os
 import re
 import signal
@@ -70,6 +71,8 @@ def refused(args: list[str], capsys) -> str:
         ("sqlite:///{tmp}/a-file/t.db", "cannot make the study's folder"),
         ("{tmp}/not-a-db.db", "is not an Optuna journal"),
         ("{tmp}", "is a folder, not a study file"),
+        ("/dev/full", "/dev/full is not a regular file"),  # read for ever: 24 GB and killed
+        ("sqlite:////dev/null", "/dev/null is not a regular file"),
     ],
 )
 def test_what_cannot_be_a_study_store_is_refused_in_a_sentence(tmp_path, capsys, study, what):
@@ -192,3 +195,48 @@ def test_a_study_on_a_database_server_has_one_writer_by_its_lease(tmp_path):
     assert study.user_attrs["writer"]["token"] == third.token
     with pytest.raises(StudyBusy):
         WriterLease(optuna.load_study(study_name="s", storage=url), url).acquire()
+
+
+def test_a_study_reached_through_a_link_has_the_one_writer(tmp_path):
+    """A second tune on a symbolic link to a study being written is refused as on the file
+    itself (two writers put 23 trials in a study of 16)."""
+    real = tmp_path / "real.log"
+    link = tmp_path / "link.log"
+    link.symlink_to(real)
+    with StudyStore(real, SETTINGS) as store:
+        fill(store)
+        with pytest.raises(StudyBusy, match="another tune"):
+            StudyStore(link, SETTINGS)
+    assert not any(tmp_path.glob("*.writer"))
+
+
+def test_other_settings_are_refused_naming_each_that_differs(tmp_path):
+    with StudyStore(tmp_path / "s.log", SETTINGS) as store:
+        fill(store)
+    other = {**SETTINGS, "popsize": SETTINGS["popsize"] + 1, "extra": 1}
+    with pytest.raises(ValueError, match="other settings") as refused_:
+        StudyStore(tmp_path / "s.log", other)
+    said = str(refused_.value)
+    assert f"popsize was {SETTINGS['popsize']!r}, now {SETTINGS['popsize'] + 1!r}" in said
+    assert "extra was None, now 1" in said
+    assert "seed" not in said  # only what differs
+
+
+def test_a_journal_damaged_in_its_middle_is_said_so(tmp_path):
+    """Not "ended in a damaged entry": a bad line with whole entries after it was no crash at
+    the end; what is moved aside is said, and the journal keeps the entries before it."""
+    journal = tmp_path / "s.log"
+    with StudyStore(journal, SETTINGS) as store:
+        fill(store)
+    lines = journal.read_bytes().splitlines(keepends=True)
+    middle = len(lines) // 2
+    journal.write_bytes(b"".join([*lines[:middle], b"{not json\n", *lines[middle:]]))
+    said = io.StringIO()
+    with StudyStore(journal, SETTINGS, log=said):
+        pass
+    assert f"has a damaged entry at line {middle + 1}, with {len(lines) - middle} whole" in (
+        said.getvalue()
+    )
+    assert journal.read_bytes().startswith(b"".join(lines[:middle]))  # then what it wrote
+    (aside,) = tmp_path.glob("s.log.damaged-*")
+    assert aside.read_bytes() == b"".join([b"{not json\n", *lines[middle:]])

@@ -83,6 +83,13 @@ def test_resuming_replays_the_store_without_simulating(tmp_path):
     again.run(2, store(tmp_path, again), progress=None)  # both generations come from the store
     assert Counting.runs == 0
     assert again.best[0] == first.best[0] and again.generation == 2
+    fewer = Tuner(POOR, NAMES, evaluator=Counting(threads=1), **SETTINGS)
+    with (
+        store(tmp_path, fewer) as held,
+        pytest.raises(ValueError, match="holds 2 generations, more than the 1 asked for"),
+    ):
+        fewer.run(1, held, progress=None)  # it would choose among the first only
+    assert Counting.runs == 0 and fewer.best is None
     other = Tuner(POOR, NAMES, evaluator=EVALUATOR, **{**SETTINGS, "seed": 4})
     with pytest.raises(ValueError, match="other settings"):
         store(tmp_path, other)
@@ -148,6 +155,42 @@ def test_a_study_killed_mid_generation_resumes_without_losing_a_finished_evaluat
     assert len(set(units)) == 6
     for unit, value in before.items():  # what finished before the kill was kept, not redone
         assert [t.value for t in after if tuple(t.user_attrs["unit"]) == unit] == [value]
+
+
+@pytest.mark.slow
+def test_ctrl_c_ends_a_tune_in_a_sentence_and_the_study_resumes(tmp_path):
+    study_file = tmp_path / "interrupted.log"
+    command = [
+        sys.executable, "-m", "app.cli", "tune", "--tune", "swing.v,short.amp_base",
+        "--generations", "3", "--popsize", "4", "--duration", "4", "--warmup", "1", "--seed",
+        "3", "--cases", "forward", "--study", str(study_file), "--out",
+        str(tmp_path / "out.json"), "--threads", "2",
+    ]  # fmt: skip
+    tuner = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    for _ in range(3000):  # bounded: until a candidate is in the study
+        try:
+            if study_file.exists() and trials_in(study_file):
+                break
+        except KeyError:  # the study is still being made in the file
+            pass
+        try:
+            tuner.wait(0.1)
+            break
+        except subprocess.TimeoutExpired:
+            pass
+    assert tuner.poll() is None, "the tune ended before it could be interrupted"
+    tuner.send_signal(signal.SIGINT)
+    said = tuner.communicate(timeout=120)[1].decode()
+    assert tuner.returncode == 130, said[-2000:]
+    assert "Traceback" not in said
+    assert said.strip().splitlines()[-1] == (
+        f"artro tune: interrupted; the study {study_file} keeps every candidate that finished: "
+        "the same command resumes it"
+    )
+    kept = len(trials_in(study_file))
+    resumed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True)
+    assert resumed.returncode == 0, resumed.stderr[-2000:]
+    assert 1 <= kept <= len(trials_in(study_file)) == 12
 
 
 def trials_in(path: Path, *, study: bool = False):

@@ -35,4 +35,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     # RuntimeError: BuildError, EmulatorError, LinkError, CalibrationError, ExecutorError
     except (ValueError, OSError, RuntimeError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")
+    except KeyboardInterrupt:  # Ctrl-C: said in a line, not a traceback
+        parser.exit(130, f"artro {args.command}: interrupted\n")
     return 1

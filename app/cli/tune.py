@@ -333,7 +333,15 @@ def command(args: argparse.Namespace) -> int:
     settings = {**tuner.settings, "robot": robot.name}
     with contextlib.ExitStack() as stack:
         events = EventWriter(events_out(args.events, stack))
-        chosen = search(args, robot, tuner, local, settings, events)
+        try:
+            chosen = search(args, robot, tuner, local, settings, events)
+        except KeyboardInterrupt:
+            print(
+                f"artro tune: interrupted; the study {args.study} keeps every candidate that "
+                "finished: the same command resumes it",
+                file=sys.stderr,
+            )
+            return 130
         report(args, robot.name, name, start_mode, tuner, chosen, events)
     return 0
 

@@ -32,7 +32,8 @@ class WriterLock:
 
     def __init__(self, path: str | Path) -> None:
         self.study = Path(path)
-        self.path = Path(f"{path}{LOCK_SUFFIX}")
+        # beside the file itself: a study reached through a link has one lock
+        self.path = Path(f"{self.study.resolve()}{LOCK_SUFFIX}")
         self._fd: int | None = None
 
     def acquire(self) -> None:
@@ -166,9 +167,18 @@ def _mend(path: Path) -> str | None:
         f.truncate(good)
         f.flush()
         os.fsync(f.fileno())
+    rest = data[good:].splitlines(keepends=True)
+    later = sum(line.endswith(b"\n") and _is_entry(line) for line in rest[1:])
+    if not later:
+        return (
+            f"the study journal {path} ended in a damaged entry (a crash while writing?): kept "
+            f"its {entries} whole entries, moved the last {len(data) - good} bytes to {aside}"
+        )
     return (
-        f"the study journal {path} ended in a damaged entry (a crash while writing?): kept its "
-        f"{entries} whole entries, moved the last {len(data) - good} bytes to {aside}"
+        f"the study journal {path} has a damaged entry at line {entries + 1}, with {later} "
+        f"whole entries after it (edited, or written by another program?): kept the "
+        f"{entries} before it; it and everything after it ({len(data) - good} bytes) moved "
+        f"to {aside}; the candidates recorded there are simulated again"
     )
 
 

@@ -39,8 +39,7 @@ def check_location(where: str | Path) -> str:
     if "://" not in text:
         if not text.strip():
             raise ValueError(f"an empty study file name; {ALLOWED}")
-        if Path(text).is_dir():
-            raise ValueError(f"{text} is a folder, not a study file; {ALLOWED}")
+        _check_file(Path(text), text)
         return text
     scheme, _, rest = text.partition("://")
     dialect = scheme.split("+")[0].lower()
@@ -53,9 +52,19 @@ def check_location(where: str | Path) -> str:
                 f"{text!r} names no database file (sqlite:/// then a path; sqlite:///:memory: "
                 f"or an empty path would keep nothing); {ALLOWED}"
             )
+        _check_file(path, text)
     elif not rest.strip("/"):
         raise ValueError(f"{text!r} names no database server; {ALLOWED}")
     return text
+
+
+def _check_file(path: Path, text: str) -> None:
+    """ValueError unless `path` is a regular file or nothing yet (a folder, a device such as
+    /dev/full, a pipe: a study read from one never ends or keeps nothing)."""
+    if path.is_dir():
+        raise ValueError(f"{text} is a folder, not a study file; {ALLOWED}")
+    if path.exists() and not path.is_file():
+        raise ValueError(f"{text} is not a regular file (a device, a pipe or a socket); {ALLOWED}")
 
 
 def sqlite_path(url: str) -> Path | None:
@@ -184,8 +193,13 @@ class StudyStore:
         if found is None:
             self.study.set_user_attr("settings", wanted)
         elif found != wanted:
+            differ = "; ".join(
+                f"{key} was {found.get(key)!r}, now {wanted.get(key)!r}"
+                for key in sorted(set(found) | set(wanted), key=str)
+                if found.get(key) != wanted.get(key)
+            )
             raise ValueError(
-                f"the study {name!r} in {self.where} was run with other settings ({found}); "
+                f"the study {name!r} in {self.where} was run with other settings ({differ}); "
                 f"use another --study file, another --study-name or the same options"
             )
 

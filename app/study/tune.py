@@ -310,6 +310,12 @@ class Tuner:
         self.events = events or EventWriter(None)
         self.budget = generations * self.es.popsize
         recorded = store.recorded()
+        if (held := max(recorded, default=-1) + 1) > generations:
+            raise ValueError(
+                f"the study {store.where} holds {held} generations, more than the "
+                f"{generations} asked for (a tune of fewer would choose among them only): give "
+                f"--generations {held} or more to resume it, or use another --study file"
+            )
         while self.generation < generations and not self.es.stop():
             candidates = self.es.ask()
             known = self._match(candidates, recorded.get(self.generation, []))
