@@ -14,7 +14,7 @@ from typing import Any
 import httpx
 import uvicorn
 
-from app.server.app import create_app
+from app.server.app import UVICORN_OPTIONS, create_app
 from app.server.services import ServerConfig
 
 #: Debian's Chromium, driven by Playwright through `executable_path` (never Playwright's download)
@@ -64,7 +64,9 @@ def running_server(
         port=port, data_dir=data_dir, viewer=viewer, drive=drive,
     )  # fmt: skip
     app = create_app(config)
-    server = _Server(uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning"))
+    server = _Server(
+        uvicorn.Config(app, host="127.0.0.1", port=port, log_level="warning", **UVICORN_OPTIONS)
+    )
     thread = threading.Thread(target=server.run, daemon=True)
     thread.start()
     if not server.ready.wait(30):

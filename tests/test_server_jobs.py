@@ -89,7 +89,10 @@ def test_a_running_job_is_cancelled_and_applies_nothing(server, http):
     assert http.get("/api/path").json()["axle_source"] == "feet"
     again = http.delete(f"/api/jobs/{started['id']}")
     assert again.status_code == 409 and "already finished" in again.json()["message"]
-    assert http.delete("/api/jobs/axle-fit-999").status_code == 404
+    unknown = http.delete("/api/jobs/axle-fit-999")
+    assert unknown.status_code == 404 and unknown.json()["detail"][0]["loc"] == ["path", "job_id"]
+    for kind in ("axle-fit", "calibrate-ca", "tune", "robustness"):  # they start jobs (POST)
+        assert http.get(f"/api/jobs/{kind}").status_code == 405
     # the kind is free again at once
     restarted = http.post("/api/jobs/axle-fit", json={})
     assert restarted.status_code == 202

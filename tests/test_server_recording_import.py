@@ -101,3 +101,40 @@ def test_the_schema_says_what_the_server_takes(http):
         "frame", "t_s", "sim_t_s", "phase", "qpos", "ocr", "version", "drive"
     }  # fmt: skip
     assert columns["additionalProperties"] is False
+
+
+def test_one_import_at_a_time_the_next_is_told_to_retry(server, http, exported):
+    """24 imports of 16 MiB at once stalled the simulation and the API for 20-30 s (4.9 GB):
+    while one is read, another is 429 with `Retry-After`; the first gone, the next is read."""
+    import socket
+    from urllib.parse import urlsplit
+
+    address = urlsplit(server[0])
+    first = socket.create_connection((address.hostname, address.port), timeout=10)
+    try:  # an import whose body is still on its way: it holds the import
+        first.sendall(
+            b"POST /api/recording/import HTTP/1.1\r\nHost: 127.0.0.1\r\n"
+            b"Content-Type: application/json\r\nContent-Length: 100000\r\n\r\n{"
+        )
+        busy = wait_for(
+            lambda: (
+                (r := http.post("/api/recording/import", json=exported)).status_code == 429 and r
+            ),
+            "the second import is refused while the first is read",
+        )
+        assert busy.headers["retry-after"] == "2"
+        assert busy.json()["detail"][0]["msg"] == (
+            "another recording is being imported: try again when it is done"
+        )
+    finally:
+        first.close()  # it leaves mid-upload: the import is free again
+    try:
+        back = wait_for(
+            lambda: (
+                (r := http.post("/api/recording/import", json=exported)).status_code != 429 and r
+            ),
+            "the next import is read",
+        )
+        assert back.status_code == 200 and back.json()["origin"] == "file"
+    finally:
+        http.post("/api/recording/live")

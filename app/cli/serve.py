@@ -80,7 +80,7 @@ def serve(args: argparse.Namespace) -> int:
 
     from app.firmware.build import missing_tools
     from app.params.presets import default_data_dir
-    from app.server.app import create_app
+    from app.server.app import UVICORN_OPTIONS, create_app
     from app.server.robot_shelf import RobotShelf
     from app.server.services import ServerConfig
     from app.server.viser_view import viser_url
@@ -120,6 +120,5 @@ def serve(args: argparse.Namespace) -> int:
         f"API docs: {url}/docs)",
         flush=True,
     )
-    # WebSocket clients only listen: a message larger than this closes their socket
-    uvicorn.run(app, host=args.host, port=args.port, log_level="warning", ws_max_size=65536)
+    uvicorn.run(app, host=args.host, port=args.port, log_level="warning", **UVICORN_OPTIONS)
     return 0

@@ -10,6 +10,7 @@ import re
 import shutil
 import subprocess
 import tempfile
+import threading
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -65,10 +66,26 @@ def missing_tools(tools: tuple[str, ...] = TOOLS) -> list[str]:
 
 
 def _run(command: list[str], cwd: Path) -> str:
+    """The command's output; BuildError if it fails, its compiler errors said first (a message
+    cut short keeps them), then the command and its whole output."""
     result = subprocess.run(command, cwd=cwd, capture_output=True, text=True)
     if result.returncode != 0:
-        raise BuildError(f"{' '.join(command)} failed:\n{result.stdout}{result.stderr}")
+        output = f"{result.stdout}{result.stderr}"
+        lines = output.strip().splitlines()
+        errors = [line.strip() for line in lines if "error" in line.lower()] or lines[-3:]
+        raise BuildError(
+            f"{Path(command[0]).name} failed: {' | '.join(errors[:4])}\n"
+            f"command: {' '.join(command)}\n{output}"
+        )
     return result.stdout
+
+
+def _write_whole(path: Path, text: str) -> None:
+    """`text` into `path`, replaced in one step: a build reading it meanwhile sees the old file
+    or the new one, never a file cut short (two builds of one set share their folder)."""
+    part = path.with_name(f".{path.name}.{os.getpid()}-{threading.get_ident()}")
+    part.write_text(text, encoding="ascii")
+    os.replace(part, path)
 
 
 def generated_headers(
@@ -161,7 +178,7 @@ def build_firmware(
         gen = out_dir / "gen"
         gen.mkdir(parents=True, exist_ok=True)
         for name, text in headers.items():
-            (gen / name).write_text(text, encoding="ascii")
+            _write_whole(gen / name, text)
         with tempfile.TemporaryDirectory(dir=out_dir) as tmp:
             _run(
                 [
@@ -179,7 +196,7 @@ def build_firmware(
             for name in ("artro.elf", "artro.hex"):
                 os.replace(Path(tmp) / name, out_dir / "build" / name)  # atomic for other runs
     flash, sram = memory_use(elf)
-    (out_dir / "build" / "size.json").write_text(json.dumps({"flash": flash, "sram": sram}))
+    _write_whole(out_dir / "build" / "size.json", json.dumps({"flash": flash, "sram": sram}))
     return FirmwareBuild(out_dir, elf, hexfile, flash, sram)
 
 

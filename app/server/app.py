@@ -42,6 +42,13 @@ VENDOR = "/vendor"  # third-party files served with the page (static/vendor/)
 FAVICON = "data:image/svg+xml,%3Csvg xmlns='http://www.w3.org/2000/svg' viewBox='0 0 16 16'%3E%3Cpath d='M1 12h3V4h4v8h3V4h4' fill='none' stroke='%23f2d04b' stroke-width='2'/%3E%3C/svg%3E"  # noqa: E501
 
 
+#: how uvicorn serves the app (`artro serve`, the tests' servers): a WebSocket client only
+#: listens, so a message larger than 64 KiB closes its socket; a stop waits at most 5 s for
+#: requests in flight (a client holding a body half sent held the server, its simulation and
+#: a tune's child process after SIGTERM for as long as it liked)
+UVICORN_OPTIONS = {"ws_max_size": 65536, "timeout_graceful_shutdown": 5}
+
+
 def create_app(config: ServerConfig | None = None) -> FastAPI:
     config = config or ServerConfig()
 

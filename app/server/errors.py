@@ -200,6 +200,7 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
         413: "the request body is too large",
         415: "a body that is not JSON (or YAML where declared)",
         422: "invalid input; nothing changed",
+        429: "another recording is being imported: try again when it is done (`Retry-After`)",
         503: "the firmware tool chain (avr-gcc) or the emulator (simavr) is not available",
     }
     return {s: {"model": ErrorBody, "description": text[s]} for s in statuses}

@@ -6,6 +6,7 @@ bodies counted, a 413 as soon as one is too large; a client gone mid-upload ends
 
 from __future__ import annotations
 
+import asyncio
 import ipaddress
 import json
 import logging
@@ -160,6 +161,11 @@ class RequestGate:
             log.debug(
                 "%s %s: the client left before its body arrived", scope["method"], scope["path"]
             )
+            return
+        except asyncio.CancelledError:  # the server stops, and this request outlasted its wait
+            log.warning("%s %s: cut short, the server stops", scope["method"], scope["path"])
+            if not state["started"]:  # answered in a line, not a traceback in the server's log
+                await _send_json(send, 503, "the server is stopping", "server_stopping", [])
             return
         if state["over"] and not state["started"]:
             await _send_json(send, *_too_large(limit))

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import sys
+import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -56,6 +57,8 @@ class Services:
         self.robot_sensors = RobotSensors()  # a linked robot's, from `artro link` (§15)
         self.sim = SimThread(self.store, robot=started, robots=self.robots.get)
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
+        #: held while a recording file is read and checked: one import at a time
+        self.importing = threading.Lock()
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
         # their jobs: GET /api/jobs/{id}

@@ -12,6 +12,7 @@ from app.server.axle_fitter import KIND
 from app.server.ca_calibrator import KIND as CALIBRATE
 from app.server.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs import Job, JobBusy, StaleVersion
+from app.server.robustness_job import KIND as ROBUSTNESS
 from app.server.services import Services
 from app.server.tune_job import KIND as TUNE
 
@@ -73,11 +74,14 @@ def start_ca_calibration(
 
 
 def _job(job_id: str, services: Services) -> Job:
-    if job_id in (KIND, CALIBRATE, TUNE):  # these start jobs (POST), they are not one
+    if job_id in (KIND, CALIBRATE, TUNE, ROBUSTNESS):  # these start jobs (POST), not one
         raise StarletteHTTPException(405)
     job = services.axle_fitter.jobs.get(job_id)
     if job is None:
-        raise ApiError(404, f"no job {job_id[:64]!r} (the latest 20 are kept)", "not_found")
+        raise ApiError(
+            404, f"no job {job_id[:64]!r} (the latest 20 are kept)", "not_found",
+            loc=["path", "job_id"],
+        )  # fmt: skip
     return job
 
 

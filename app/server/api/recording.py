@@ -201,16 +201,27 @@ assert set(
 ) == set(KEYS)
 
 
-@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(413, 422))
+@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(413, 422, 429))
 async def import_recording(request: Request, services: ServicesDep) -> dict[str, Any]:
-    """Load a recording file (from export) and replay it from its first frame."""
-    body, nq = await request.body(), services.sim.model.nq
-    try:  # megabytes of JSON: parsed and checked off the event loop
-        rec = await run_in_threadpool(lambda: recording_from_json(load_json_strict(body), nq))
-    except RecordingError as exc:
-        loc = ["body", *exc.loc]
-        raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=loc) from exc
-    except (ValueError, ParameterImportError, UnicodeDecodeError) as exc:
-        raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=["body"]) from exc
+    """Load a recording file (from export) and replay it from its first frame; one import at
+    a time (429 while another is read: each is seconds of parsing beside the simulation)."""
+    if not services.importing.acquire(blocking=False):
+        raise ApiError(
+            429, "another recording is being imported: try again when it is done",
+            "import_busy", headers={"Retry-After": "2"},
+        )  # fmt: skip
+    try:
+        body, nq = await request.body(), services.sim.model.nq
+        try:  # megabytes of JSON: parsed and checked off the event loop
+            rec = await run_in_threadpool(lambda: recording_from_json(load_json_strict(body), nq))
+        except RecordingError as exc:
+            loc = ["body", *exc.loc]
+            raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=loc) from exc
+        except (ValueError, ParameterImportError, UnicodeDecodeError) as exc:
+            raise ApiError(
+                422, f"not a recording: {exc}", "invalid_recording", loc=["body"]
+            ) from exc
+    finally:
+        services.importing.release()
     services.replay.enter(0, recording=rec)
     return services.replay.status()

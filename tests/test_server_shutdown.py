@@ -1,0 +1,60 @@
+"""`artro serve` ends on SIGTERM though a client holds a request half sent: uvicorn waits at
+most `timeout_graceful_shutdown` for requests in flight (`UVICORN_OPTIONS`), then the app stops
+its jobs, simulation and 3D view. Before, the process lived as long as the client liked."""
+
+from __future__ import annotations
+
+import signal
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import httpx
+import pytest
+
+from tests.server_harness import free_port, wait_for
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def healthy(base_url: str) -> bool:
+    try:
+        return httpx.get(f"{base_url}/api/health", timeout=5).status_code == 200
+    except httpx.HTTPError:
+        return False
+
+
+@pytest.mark.slow
+def test_sigterm_ends_the_server_though_a_client_holds_a_request_half_sent(tmp_path):
+    port = free_port()
+    server = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--viser-port",
+         str(free_port()), "--data-dir", str(tmp_path)],
+        cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    held = None
+    try:
+        wait_for(lambda: healthy(f"http://127.0.0.1:{port}"), "the server answers", 1200)
+        held = socket.create_connection(("127.0.0.1", port), timeout=10)
+        held.sendall(
+            b"PUT /api/params HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Type: application/json\r\n"
+            b"Content-Length: 5000\r\n\r\n{"
+        )  # and nothing more: the body stays half sent while the server is asked to stop
+        server.send_signal(signal.SIGTERM)
+        try:
+            server.wait(60)
+        except subprocess.TimeoutExpired:
+            server.kill()
+            pytest.fail("the server still ran 60 s after SIGTERM while a request was half sent")
+        said = server.stderr.read().decode()
+        assert server.returncode in (0, -signal.SIGTERM), said[-2000:]  # uvicorn re-raises it
+        assert "Traceback" not in said
+        assert "PUT /api/params: cut short, the server stops" in said
+        assert held.recv(65536).startswith(b"HTTP/1.1 503 ")  # told, not left hanging
+    finally:
+        if held is not None:
+            held.close()
+        if server.poll() is None:
+            server.kill()
+            server.wait(30)
