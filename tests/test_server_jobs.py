@@ -116,3 +116,22 @@ def test_a_result_fitted_on_one_robot_never_applies_to_another():
     with pytest.raises(StaleVersion, match="fitted on the robot 'micro'; the robot in use is"):
         store.update({"gait": {"steer": {}}}, "calibration", check=only_onto(2, "micro"))
     assert store.snapshot().robot == "artro" and store.snapshot().version == 2
+
+
+def test_a_job_registered_as_the_robot_changed_lets_itself_go():
+    """A switch of robots passed its guard (no job ran) just before a job registered: the job,
+    reading the robot once the switch has landed, refuses to walk the old one (two of 60 tries
+    of a concurrent switch and start had both accepted)."""
+    from app.params.document import ParameterSet
+    from app.server.jobs import Jobs, RobotChanged
+
+    store = ParameterStore(ParameterSet(), robot="artro")
+    jobs = Jobs()
+    jobs.robot_in_use = store.settled_robot
+    ran = []
+    store.replace(ParameterSet(), "robot", robot="micro")  # the switch, landed
+    with pytest.raises(RobotChanged, match="changed from 'artro' to 'micro'"):
+        jobs.start("axle-fit", ran.append, robot="artro")
+    assert jobs.running() == [] and ran == []
+    job = jobs.start("axle-fit", lambda progress: {"ok": True}, robot="micro")  # its own: runs
+    assert job.finished.wait(30) and job.status == "done"

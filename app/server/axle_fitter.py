@@ -102,7 +102,7 @@ class AxleFitter:
                 now = None if self.store is None else self.store.snapshot().version
                 return done | {"conflict": conflict(exc, now)}
 
-        return self.jobs.start(KIND, work, from_version=params_version)
+        return self.jobs.start(KIND, work, from_version=params_version, robot=robot.name)
 
     def fit(self, params: GaitParams, motion: Motion, paths: PathTracker) -> dict[str, Any]:
         """Start the job and wait for it (for a caller's own thread, never the event loop); its

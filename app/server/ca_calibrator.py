@@ -106,4 +106,4 @@ class CaCalibrator:
                     "conflict": conflict(exc, now),
                 }
 
-        return self.jobs.start(KIND, work, from_version=snap.version)
+        return self.jobs.start(KIND, work, from_version=snap.version, robot=robot.name)

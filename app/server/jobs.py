@@ -22,6 +22,11 @@ Progress = Callable[[float | None], None]
 Applier = Callable[[int], dict[str, Any]]
 
 
+class RobotChanged(RuntimeError):
+    """The robot in use changed as a job started (the switch's guard had not seen it yet):
+    the job was let go before it ran."""
+
+
 class JobBusy(RuntimeError):
     """A job of that kind is already running."""
 
@@ -94,6 +99,9 @@ class Jobs:
         self._lock = threading.Lock()
         self._jobs: OrderedDict[str, Job] = OrderedDict()
         self._ids = itertools.count(1)
+        #: the robot in use, read after any change of robots lands (`settled_robot`): a job
+        #: started for another is let go (None: not checked)
+        self.robot_in_use: Callable[[], str] | None = None
 
     def start(
         self,
@@ -102,9 +110,13 @@ class Jobs:
         describe: Callable[[Any], dict[str, Any]] = dict,
         *,
         from_version: int | None = None,
+        robot: str | None = None,
     ) -> Job:
         """Run `work(progress)` in a thread; `describe(its value)` is the result, an exception
-        the error. Raises JobBusy while a job of this kind runs."""
+        the error. Raises JobBusy while a job of this kind runs, RobotChanged when `robot`
+        (what the job walks) is no longer in use once the job is registered: a switch of
+        robots refuses while a job runs, and one that passed its guard just before is seen
+        here (docs/DESIGN.md §10)."""
         with self._lock:
             if self._stopping.is_set():
                 raise JobCancelled("the server is stopping")
@@ -115,6 +127,14 @@ class Jobs:
             self._jobs[job.id] = job
             while len(self._jobs) > KEEP_JOBS:
                 self._jobs.popitem(last=False)
+        if robot is not None and self.robot_in_use is not None:
+            if (now := self.robot_in_use()) != robot:
+                with self._lock:
+                    self._jobs.pop(job.id, None)
+                raise RobotChanged(
+                    f"the robot changed from {robot!r} to {now!r} as the {kind} job started: "
+                    "it did not run; start it again"
+                )
 
         progress = Reporter(job, self._stopping)
 

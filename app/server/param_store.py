@@ -85,6 +85,12 @@ class ParameterStore:
         """The robot the version in use is simulated on."""
         return self._snapshot.robot
 
+    def settled_robot(self) -> str:
+        """The robot in use once a change being made has landed (a change of robots holds the
+        lock from its guard to its commit): what a job just registered checks it walks."""
+        with self._lock:
+            return self._snapshot.robot
+
     def subscribe(self, callback: Subscriber) -> Callable[[], None]:
         """Call `callback(snapshot, changed, source)` after every change; returns unsubscribe."""
         with self._lock:

@@ -91,7 +91,7 @@ class RobustnessRunner:
             self._keep(snap, report)
             return report
 
-        return self.jobs.start(KIND, work)
+        return self.jobs.start(KIND, work, robot=robot.name)
 
 
 def runs_of(samples: int) -> int:

@@ -65,6 +65,7 @@ class Services:
         # each job walks the robot of the version it starts from
         robot_now = self._robot_now
         self.axle_fitter = AxleFitter(store=self.store, robot_now=robot_now)
+        self.axle_fitter.jobs.robot_in_use = self.store.settled_robot
         self.ca_calibrator = CaCalibrator(
             self.axle_fitter.jobs, self.store, self.sim.paths, robot_now
         )

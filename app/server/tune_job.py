@@ -108,8 +108,9 @@ class TuneRunner:
         name = check_name(tuned_name(model.name, builtin_presets()))
         study = study_file(self.presets.data_dir, model.name)
         job = self.jobs.start(
-            KIND, lambda progress: self._work(progress, model, name, study, budget)
-        )
+            KIND, lambda progress: self._work(progress, model, name, study, budget),
+            robot=model.name,
+        )  # fmt: skip
         self.latest = job
         return job
 

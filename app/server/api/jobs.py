@@ -11,7 +11,7 @@ from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.axle_fitter import KIND
 from app.server.ca_calibrator import KIND as CALIBRATE
 from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import Job, JobBusy, StaleVersion
+from app.server.jobs import Job, JobBusy, RobotChanged, StaleVersion
 from app.server.robustness_job import KIND as ROBUSTNESS
 from app.server.services import Services
 from app.server.tune_job import KIND as TUNE
@@ -52,6 +52,8 @@ def start_axle_fit(
         )
     except JobBusy as exc:
         raise ApiError(409, str(exc), "job_running", loc=["job", exc.job.id]) from exc
+    except RobotChanged as exc:
+        raise ApiError(409, str(exc), "robot_changed", loc=["path"]) from exc
     response.headers["Location"] = f"/api/jobs/{job.id}"
     return job.to_dict()
 
@@ -69,6 +71,8 @@ def start_ca_calibration(
         job = services.ca_calibrator.start()
     except JobBusy as exc:
         raise ApiError(409, str(exc), "job_running", loc=["job", exc.job.id]) from exc
+    except RobotChanged as exc:
+        raise ApiError(409, str(exc), "robot_changed", loc=["path"]) from exc
     response.headers["Location"] = f"/api/jobs/{job.id}"
     return job.to_dict()
 

@@ -10,7 +10,7 @@ from app.analysis.cases import CASES
 from app.analysis.robot_start import START_RECIPE
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import JobBusy
+from app.server.jobs import JobBusy, RobotChanged
 from app.server.robot_shelf import UnknownRobot
 from app.server.tune_job import TuneBudget, WrongRobot, cases_of
 
@@ -81,6 +81,8 @@ def start_tune(
             409, f"{exc}; one tune runs at a time",
             "job_running", loc=["job", exc.job.id],
         ) from exc  # fmt: skip
+    except RobotChanged as exc:
+        raise ApiError(409, str(exc), "robot_changed", loc=["path"]) from exc
     except ValueError as exc:
         raise ApiError(422, str(exc), "invalid_tune", loc=["body"]) from exc
     response.headers["Location"] = f"/api/jobs/{job.id}"

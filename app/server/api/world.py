@@ -9,7 +9,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import JobBusy
+from app.server.jobs import JobBusy, RobotChanged
 from app.server.sim_commands import SetWorld
 from app.worlds.sampling import VariationRanges
 from app.worlds.variations import FIELDS, NOMINAL, parse_variation
@@ -95,5 +95,7 @@ def start_robustness(
         job = services.robustness.start(samples=body.samples, seed=body.seed)
     except JobBusy as exc:
         raise ApiError(409, str(exc), "job_running", loc=["job", exc.job.id]) from exc
+    except RobotChanged as exc:
+        raise ApiError(409, str(exc), "robot_changed", loc=["path"]) from exc
     response.headers["Location"] = f"/api/jobs/{job.id}"
     return job.to_dict()
