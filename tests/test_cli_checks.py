@@ -65,6 +65,18 @@ CASES = {
         "swing.v named twice",
     ),
     "tune: a negative seed": (["tune", "--seed", "-1"], "seed must be a whole number 0 to 4294967"),
+    "tune: a device as the study": (
+        ["tune", "--tune", "swing.v", "--study", "/dev/full"],
+        "/dev/full is not a regular file",
+    ),
+    "export: a full disk": (
+        ["export", "--format", "json", "-o", "/dev/full"],
+        "cannot write /dev/full: No space left on device",
+    ),
+    "export: a firmware folder where a file is": (
+        ["export", "--format", "firmware", "-o", "/dev/full"],
+        "cannot write the firmware folder /dev/full: Not a directory (/dev/full/src)",
+    ),
 }
 
 

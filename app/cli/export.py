@@ -44,12 +44,25 @@ def command(args: argparse.Namespace) -> int:
     if args.format == "firmware":
         if not args.output:
             raise ValueError("--format firmware writes a folder: give it with -o DIR")
-        folder = export_firmware_folder(pset.to_dict(), Path(args.output), **wiring(robot))
+        try:
+            folder = export_firmware_folder(pset.to_dict(), Path(args.output), **wiring(robot))
+        except OSError as exc:
+            why = _why(exc, args.output)
+            raise OSError(f"cannot write the firmware folder {args.output}: {why}") from exc
         print(f"{folder}: the firmware for {pset.name or 'the paper set'}; `make` builds it")
         return 0
     text, _media_type, _filename = export_text(pset, args.format)
     if args.output:
-        Path(args.output).write_text(text, encoding="utf-8")
+        try:
+            Path(args.output).write_text(text, encoding="utf-8")
+        except OSError as exc:
+            raise OSError(f"cannot write {args.output}: {_why(exc, args.output)}") from exc
     else:
         sys.stdout.write(text)
     return 0
+
+
+def _why(exc: OSError, output: str) -> str:
+    """What went wrong in words, with the path it happened at when that is not `output`."""
+    where = f" ({exc.filename})" if exc.filename and str(exc.filename) != output else ""
+    return f"{exc.strerror or exc}{where}"

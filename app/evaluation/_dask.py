@@ -79,11 +79,11 @@ def probe(address: str, timeout_s: float = CONNECT_TIMEOUT_S) -> dict[str, Any]:
                 f"something at {address} accepts connections but gives no Dask scheduler's "
                 f"answer within {timeout_s:g} s; is that the scheduler's port (8786 by default)?"
             ) from None
-        except Exception as exc:  # another protocol's bytes read as Dask's (HTTP, ...)
+        except Exception:  # another protocol's bytes read as Dask's (HTTP, ...): no use to say
             raise ClusterError(
-                f"the server at {address} is not a Dask scheduler (it does not speak Dask's "
-                f"protocol: {type(exc).__name__}); is that the scheduler's port (8786 by "
-                f"default, not its dashboard's)?"
+                f"the server at {address} is not a Dask scheduler (its answer is not Dask's "
+                f"protocol); is that the scheduler's port (8786 by default, not its "
+                f"dashboard's)?"
             ) from None
     if not isinstance(found, dict) or found.get("type") != "Scheduler":
         kind = found.get("type") if isinstance(found, dict) else type(found).__name__
