@@ -144,3 +144,72 @@ def test_check_and_suggest_offer_the_files_own_servo_without_a_total_mass(tmp_pa
     assert "SG90 -> BUILDER-40G" in out.stdout and "wrote" in out.stdout
     strong = load_description(tmp_path / "strong.yaml")
     assert all(t.margin >= 0 for t in eq1_torques(strong))
+
+
+def artro_doc() -> dict:
+    return yaml.safe_load((builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8"))
+
+
+def test_eq1_covers_the_robots_own_gait_not_only_the_papers(tmp_path):
+    """ArtRo with three times its trunk: the paper's poses leave the knees a third to spare, its
+    default preset's (robust) ask more than their MG996R gives. The check used the paper's
+    alone, so `--suggest` cleared a robot that could not step."""
+    from app.robots.description import preset_gait
+    from gait import GaitParams
+
+    doc = artro_doc()
+    doc["name"] = "heavy"
+    for part in doc["trunk"]:
+        part["mass_kg"] = round(3 * part["mass_kg"], 6)
+    doc.pop("total_mass_kg", None)
+    path = tmp_path / "heavy.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    heavy = load_description(path)
+    paper = {t.joint: t for t in eq1_torques(heavy, GaitParams())}
+    own = {t.joint: t for t in eq1_torques(heavy, preset_gait(heavy.default_preset))}
+    checked = {t.joint: t for t in eq1_torques(heavy)}
+    assert paper["l_knee"].margin > 0.2 and own["l_knee"].margin < 0  # the two gaits differ
+    for joint, t in checked.items():  # the check takes the worse of the two
+        assert t.required_nm == max(paper[joint].required_nm, own[joint].required_nm)
+    out = artro("robot", "check", str(path))
+    assert re.search(r"l_knee: the MG996R stalls at .* short", out.stdout + out.stderr)
+
+
+def test_a_range_that_holds_the_papers_reach_but_not_the_default_presets_is_refused(tmp_path):
+    """Joint ranges just wide enough for the paper's constants passed, and the robot's own
+    preset (robust) then walked into its limits: 59 % slower forward, 86 % sideways."""
+    from app.robots.description import REACH_CASES, REACH_PHASES
+    from gait import JOINT_NAMES, GaitParams, LegGeometry, joint_angles_with_flags
+
+    doc = artro_doc()
+    geometry = LegGeometry(upper_m=doc["geometry"]["thigh_m"], lower_m=doc["geometry"]["shank_m"])
+    phases = np.linspace(-math.pi, math.pi, REACH_PHASES, endpoint=False)
+    poses = np.concatenate(
+        [joint_angles_with_flags(GaitParams(), m, phases, geometry).values for m in REACH_CASES]
+    )
+    doc["name"] = "narrow"
+    for i, joint in enumerate(JOINT_NAMES):  # the paper's reach and a hair more
+        if joint.endswith("knee"):
+            continue  # the knees' own check: from the shortest leg to straight
+        low, high = float(poses[:, i].min()) - 0.01, float(poses[:, i].max()) + 0.01
+        doc["joints"].setdefault(joint, {})["range_rad"] = [min(low, -0.01), max(high, 0.01)]
+    path = tmp_path / "narrow.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    out = artro("robot", "check", str(path))
+    assert out.returncode == 2
+    assert "default_preset 'robust' walking forward, backward, sideways" in out.stderr
+
+
+def test_suggest_fails_when_no_servo_carries_a_joint(tmp_path):
+    """It said that none carries some joint and exited 0, as if the robot were fine."""
+    doc = artro_doc()
+    doc["name"] = "anvil"
+    for part in doc["trunk"]:
+        part["mass_kg"] = round(12 * part["mass_kg"], 6)
+    doc.pop("total_mass_kg", None)
+    path = tmp_path / "anvil.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    out = artro("robot", "check", str(path), "--suggest", "-o", str(tmp_path / "out.yaml"))
+    assert out.returncode == 1, out.stdout + out.stderr
+    assert "no servo of the table or the file carries" in out.stdout
+    assert "eq (1) still fails there (exit status 1)" in out.stdout  # what it wrote is not enough

@@ -214,6 +214,15 @@ def test_a_servo_too_weak_for_its_load_gets_a_warning_with_the_numbers():
     assert torques["l_knee"].gait_worst_nm > torques["l_knee"].standing_nm  # a bent knee
 
 
+def test_figures_between_datasheet_voltages_are_said_for_every_joint_once():
+    doc = artro_doc()
+    doc["joints"]["r_knee"]["servo"] = "DS3218"
+    doc["joints"]["r_ankle_pitch"] = {**doc["joints"].get("r_ankle_pitch", {}), "servo": "DS3218"}
+    doc.pop("total_mass_kg", None)
+    (said,) = [w for w in robot_warnings(parse_description(doc, "two")) if "interpolated" in w]
+    assert said.startswith("joints r_knee, r_ankle_pitch: the DS3218's figures at ")  # both
+
+
 def test_an_unknown_robot_or_file_says_what_there_is():
     with pytest.raises(RobotError, match="the built-in robots are artro, micro"):
         load_description("nao")

@@ -129,13 +129,22 @@ def servo_advice(desc: RobotDescription) -> list[str]:
     return lines
 
 
+UNCARRIED = (
+    "eq (1) still fails there (exit status 1): a lighter robot, shorter legs, or a stronger "
+    "servo of your own in the file's `servos` would carry it"
+)
+
+
 def suggest(desc: RobotDescription, output: str | None, out: TextIO) -> int:
-    """`robot check --suggest`: the description with the servos that carry it, written."""
+    """`robot check --suggest`: the description with the servos that carry it, written. Exit
+    status 1 when some joint no servo carries (eq (1) still fails), else 0."""
     found = suggest_servos(desc, lambda r: {t.joint: t.required_nm for t in eq1_torques(r)})
     if not found.swaps:
         left = f"; none carries {', '.join(found.uncarried)}" if found.uncarried else ""
         print(f"no servo to change{left}: nothing written", file=out)
-        return 0
+        if found.uncarried:
+            print(UNCARRIED, file=out)
+        return 1 if found.uncarried else 0
     path = write_description(found.robot, Path(output or f"{desc.name}-suggested.yaml"))
     for joint, old, new, need in found.swaps:
         print(f"  {joint}: {old} -> {new} (eq (1) asks {need:.3f} N·m)", file=out)
@@ -144,4 +153,6 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO) -> int:
     mass = found.robot.parts_mass_kg()
     print(f"wrote {path} ({mass:.3f} kg); next: artro robot check {path}, then "
           f"artro tune --robot {path}", file=out)  # fmt: skip
-    return 0
+    if found.uncarried:
+        print(UNCARRIED, file=out)
+    return 1 if found.uncarried else 0

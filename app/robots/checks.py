@@ -72,8 +72,9 @@ def _gravity_torques(
 
 
 def eq1_torques(robot: RobotDescription, params: GaitParams | None = None) -> list[JointTorque]:
-    """Eq (1) on every joint of `robot` for the gait `params` (default: the paper's)."""
-    params = params or GaitParams()
+    """Eq (1) on every joint of `robot` for the gait `params` (default: the worse of the gaits
+    the robot is checked for, the paper's and its default preset's: `walked_gaits`)."""
+    gaits = [params] if params is not None else [g for _, g in robot.walked_gaits()]
     model = build_model(robot)
     data = mujoco.MjData(model)
     geometry = LegGeometry(upper_m=robot.geometry.thigh_m, lower_m=robot.geometry.shank_m)
@@ -90,10 +91,10 @@ def eq1_torques(robot: RobotDescription, params: GaitParams | None = None) -> li
     standing = load_at(np.zeros(len(JOINT_NAMES)))
     phases = np.linspace(-np.pi, np.pi, PHASES, endpoint=False)
     walking = np.zeros(len(JOINT_NAMES))
-    for motion in GAIT_CASES:
-        poses = joint_angles_with_flags(params, motion, phases, geometry).values
-        for pose in poses:
-            walking = np.maximum(walking, load_at(pose))
+    for gait in gaits:
+        for motion in GAIT_CASES:
+            for pose in joint_angles_with_flags(gait, motion, phases, geometry).values:
+                walking = np.maximum(walking, load_at(pose))
     settings = joint_settings(robot)
     out = []
     for i, name in enumerate(JOINT_NAMES):
@@ -116,8 +117,8 @@ def eq1_torques(robot: RobotDescription, params: GaitParams | None = None) -> li
 def robot_warnings(robot: RobotDescription, params: GaitParams | None = None) -> list[str]:
     """What a builder should know before walking `robot` (it walks all the same): servos too
     weak by eq (1), figures interpolated between datasheet voltages, a stated total mass that
-    differs from the parts' (within the tolerance, or it would be refused)."""
-    params = params or GaitParams()
+    differs from the parts' (within the tolerance, or it would be refused). `params`: as for
+    `eq1_torques`."""
     warnings = [w for t in eq1_torques(robot, params) if (w := t.warning())]
     parts = robot.parts_mass_kg()
     if robot.total_mass_kg is not None and abs(robot.total_mass_kg - parts) >= 0.0005:
@@ -127,11 +128,13 @@ def robot_warnings(robot: RobotDescription, params: GaitParams | None = None) ->
             f"(allowed ±{1000 * mass_tolerance_kg(parts):.0f} g); the model carries the parts: "
             f"add what is missing (wires, screws) to a link's parts to carry it where it is"
         )
+    interpolated: dict[tuple[str, float], list[str]] = {}
     for name, s in joint_settings(robot).items():
         if s.interpolated:
-            warnings.append(
-                f"joints.{name}: the {s.name}'s figures at {s.voltage_v:g} V are interpolated "
-                f"between the datasheet's voltages"
-            )
-            break
+            interpolated.setdefault((s.name, s.voltage_v), []).append(name)
+    for (servo, volts), joints in interpolated.items():  # every joint named, once per servo
+        warnings.append(
+            f"joints {', '.join(joints)}: the {servo}'s figures at {volts:g} V are "
+            f"interpolated between the datasheet's voltages"
+        )
     return warnings

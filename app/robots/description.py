@@ -6,6 +6,8 @@ servos (`servos:`, validated as the table's); the total mass is optional (`mass_
 
 from __future__ import annotations
 
+import functools
+import json
 import math
 from typing import Annotated, Literal
 
@@ -34,6 +36,15 @@ REACH_CASES = (
       for sign in (1.0, -1.0)),
 )  # fmt: skip
 REACH_PHASES = 64
+
+
+@functools.cache
+def preset_gait(name: str) -> GaitParams:
+    """The gait constants of the built-in preset `name` (models/presets/NAME.json), read here:
+    the robots' checks need no parameter-set documents (`app.params`)."""
+    doc = json.loads((builtin_presets_dir() / f"{name}.json").read_text(encoding="utf-8"))
+    return GaitParams.from_dict(doc["gait"])
+
 
 #: a number written as one (not "0.09", not true), finite
 Real = Annotated[float, Strict()]
@@ -272,9 +283,18 @@ class RobotDescription(_Strict):
         self._check_tdm()
         self._check_mass()
         self._check_capsules()
-        self._check_knee_reach(GaitParams().leg.eta_min)
+        self._check_knee_reach(min(gait.leg.eta_min for _, gait in self.walked_gaits()))
         self._check_reach()
         return self
+
+    def walked_gaits(self) -> list[tuple[str, GaitParams]]:
+        """The gaits the robot is checked for, named: the paper's constants and those of its
+        default preset (what `artro serve` and `artro run` walk it with)."""
+        own = preset_gait(self.default_preset)
+        return [
+            ("the paper's constants", GaitParams()),
+            (f"default_preset {self.default_preset!r}", own),
+        ]
 
     def link_length_m(self, link: str) -> float:
         """How far a link reaches from its joint to the next (0 where two axes cross)."""
@@ -297,22 +317,23 @@ class RobotDescription(_Strict):
                     )
 
     def _check_reach(self) -> None:
-        """Every joint's range holds the poses of the gait's table motions (the paper's
-        constants, this robot's legs): a narrower range stops the walk at its limit."""
+        """Every joint's range holds the poses of the table motions in each gait it is checked
+        for (`walked_gaits`, this robot's legs): a narrower range stops the walk at its limit."""
         geometry = LegGeometry(upper_m=self.geometry.thigh_m, lower_m=self.geometry.shank_m)
         phases = np.linspace(-np.pi, np.pi, REACH_PHASES, endpoint=False)
-        poses = np.concatenate(
-            [joint_angles_with_flags(GaitParams(), m, phases, geometry).values for m in REACH_CASES]
-        )
-        for i, name in enumerate(JOINT_NAMES):
-            lo, hi = self.joints[name].range_rad
-            need_lo, need_hi = float(poses[:, i].min()), float(poses[:, i].max())
-            if need_lo < lo - 1e-6 or need_hi > hi + 1e-6:
-                raise ValueError(
-                    f"joints.{name}.range_rad: {lo:.4f}..{hi:.4f} rad does not hold the gait's "
-                    f"reach of {need_lo:.4f}..{need_hi:.4f} rad (the paper's constants walking "
-                    f"forward, backward, sideways and turning at seed 000's table speeds)"
-                )
+        for gait_name, gait in self.walked_gaits():
+            poses = np.concatenate(
+                [joint_angles_with_flags(gait, m, phases, geometry).values for m in REACH_CASES]
+            )
+            for i, name in enumerate(JOINT_NAMES):
+                lo, hi = self.joints[name].range_rad
+                need_lo, need_hi = float(poses[:, i].min()), float(poses[:, i].max())
+                if need_lo < lo - 1e-6 or need_hi > hi + 1e-6:
+                    raise ValueError(
+                        f"joints.{name}.range_rad: {lo:.4f}..{hi:.4f} rad does not hold the "
+                        f"gait's reach of {need_lo:.4f}..{need_hi:.4f} rad ({gait_name} walking "
+                        f"forward, backward, sideways and turning at seed 000's table speeds)"
+                    )
 
     def _check_knee_reach(self, eta_min: float) -> None:
         """The knees bend to the gait's shortest leg, knee = α1 − π at η_min (eqs 3–7), and
