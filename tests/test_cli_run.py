@@ -1,6 +1,7 @@
 """`artro run` as a user calls it: the installed console script, real simulation."""
 
 import json
+import re
 import shutil
 import subprocess
 import sys
@@ -45,6 +46,27 @@ def test_human_summary_and_param_file(tmp_path):
     assert out.returncode == 0, out.stderr
     assert "parameter set 'slow'" in out.stdout and "a_p=0.05" in out.stdout
     assert "real time" in out.stdout
+    assert re.search(r"servo load: peak \d+\.\d\d N m at \w+, \d+% of its stall torque", out.stdout)
+
+
+def test_the_servo_load_is_said_as_measured_against_the_stall_torque():
+    """It said "largest required servo torque (eq 1, sf 0.2)": 1.2 x a peak that cannot pass
+    the stall torque, the same words as `robot check`'s static eq (1) and other numbers."""
+    from app.cli.run import servo_load_line
+    from app.robots.model import RobotModel
+
+    robot = RobotModel.load()
+    names = [robot.model.actuator(i).name for i in range(robot.model.nu)]
+    stall = robot.model.actuator_forcerange[:, 1]
+    peaks = [0.5 * s for s in stall]
+    peaks[3] = stall[3]
+    limits = [0.0] * robot.model.nu
+    limits[3], limits[9] = 0.25, 0.1
+    line = servo_load_line(robot, names, {"peak_torque_nm": peaks, "at_limit_share": limits})
+    assert line == (
+        f"servo load: peak {stall[3]:.2f} N m at {names[3]}, 100% of its stall torque; at their "
+        f"limit (share of frames): {names[3]} 25%, {names[9]} 10%"
+    )
 
 
 @pytest.mark.parametrize(

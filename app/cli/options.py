@@ -245,17 +245,18 @@ def check_timing(
     """Each run must leave at least one whole gait cycle after the warm-up (the metrics are
     measured over whole cycles): of the slowest clock the search may try (`names` are the
     parameters a tune varies). ValueError otherwise."""
-    slowest = base.clock.freq_hz
+    slowest, which = base.clock.freq_hz, "the clock"
     if "clock.freq_hz" in names:
         slowest = next(
             m["min"] for f, _d, m in describe_fields(group_class("clock")) if f == "freq_hz"
         )
+        which = "the slowest clock the search may try (clock.freq_hz is tuned)"
     need = warmup_s + 1.0 / slowest
     if duration_s < need:
         raise ValueError(
             f"--duration {duration_s:g} leaves no whole gait cycle after --warmup {warmup_s:g}: "
-            f"the runs are measured over whole cycles after the warm-up, and a cycle at "
-            f"{slowest:g} Hz takes {1.0 / slowest:g} s; allowed: --duration of at least {need:g}"
+            f"the runs are measured over whole cycles after the warm-up, and a cycle of {which}, "
+            f"{slowest:g} Hz, takes {1.0 / slowest:g} s; allowed: --duration of at least {need:g}"
         )
 
 

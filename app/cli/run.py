@@ -20,6 +20,7 @@ from app.cli.options import (
     subcommand,
     variation,
 )
+from app.robots.model import RobotModel
 from app.sim.headless import run
 from app.worlds.variations import NOMINAL
 from gait import ENGINES, Motion
@@ -112,9 +113,27 @@ def command(args: argparse.Namespace) -> int:
         )
         print(f"gyro RMS {m['gyro_rms']:.3f} rad/s")
     print(f"{m['sim_s']:.1f} s simulated in {m['wall_s']:.2f} s: {m['rtf']:.1f}x real time")
-    peak = max(result.required_torque_nm.items(), key=lambda kv: kv[1])
-    print(f"largest required servo torque (eq 1, sf 0.2): {peak[1]:.2f} N m at {peak[0]}")
+    print(servo_load_line(robot, list(result.required_torque_nm), m))
     flags = {k: v for k, v in m["flags"].items() if v}
     if flags:
         print(f"flags: {flags}")
     return 0
+
+
+def servo_load_line(robot: RobotModel, names: list[str], m: dict[str, Any]) -> str:
+    """The servos' load as measured: the highest peak torque against its stall torque, and the
+    servos that sat at their limit (a servo cannot give more than its stall torque, so a peak
+    there says only that it needed at least that: eq (1)'s static check is `robot check`)."""
+    stall = robot.model.actuator_forcerange[:, 1]
+    peaks, limits = m["peak_torque_nm"], m["at_limit_share"]
+    top = max(range(len(names)), key=lambda i: peaks[i] / stall[i])
+    line = (
+        f"servo load: peak {peaks[top]:.2f} N m at {names[top]}, "
+        f"{peaks[top] / stall[top]:.0%} of its stall torque"
+    )
+    held = sorted((i for i in range(len(names)) if limits[i] > 0), key=lambda i: -limits[i])
+    if held:
+        shares = ", ".join(f"{names[i]} {limits[i]:.0%}" for i in held[:4])
+        more = f" (+{len(held) - 4} more)" if len(held) > 4 else ""
+        line += f"; at their limit (share of frames): {shares}{more}"
+    return line

@@ -334,7 +334,7 @@ def command(args: argparse.Namespace) -> int:
     with contextlib.ExitStack() as stack:
         events = EventWriter(events_out(args.events, stack))
         try:
-            chosen = search(args, robot, tuner, local, settings, events)
+            chosen, selected = search(args, robot, tuner, local, settings, events)
         except KeyboardInterrupt:
             print(
                 f"artro tune: interrupted; the study {args.study} keeps every candidate that "
@@ -342,7 +342,7 @@ def command(args: argparse.Namespace) -> int:
                 file=sys.stderr,
             )
             return 130
-        report(args, robot.name, name, start_mode, tuner, chosen, events)
+        report(args, robot.name, name, start_mode, tuner, chosen, selected, events)
     return 0
 
 
@@ -364,9 +364,10 @@ def search(
     local: Any,
     settings: dict[str, Any],
     events: EventWriter,
-) -> tuple[float, Any, dict[str, Any]]:
+) -> tuple[tuple[float, Any, dict[str, Any]], str]:
     """Run the study (its store opened first: a second writer is refused before a cluster is
-    reached) and pick the candidate `--select` names."""
+    reached) and pick the candidate `--select` names: (it, how it was chosen: the `--select`,
+    or "lowest loss" where no candidate met it)."""
     with StudyStore(args.study, settings, name=args.study_name) as store:
         events(START, robot=robot.name, base=tuner.base.name, study=str(args.study),
                study_name=args.study_name, generations=args.generations,
@@ -382,19 +383,19 @@ def search(
                 tuner.run(args.generations, store, events=events)
             finally:
                 close_evaluator(tuner.evaluator)
-    chosen = tuner.best
+    chosen, selected = tuner.best, args.select
     if args.select == "walking":
         chosen = tuner.best_walking()
         if chosen is None:
             print("no candidate walked every run without a fall; saving the lowest loss instead")
-            chosen = tuner.best
+            chosen, selected = tuner.best, "lowest loss"
     elif args.select in ("passing", "steering"):
         chosen = tuner.best_passing(by="loss" if args.select == "passing" else "steering")
         if chosen is None:
             print("no candidate met every criterion; saving the lowest loss instead")
-            chosen = tuner.best
+            chosen, selected = tuner.best, "lowest loss"
     assert chosen is not None
-    return chosen
+    return chosen, selected
 
 
 def report(
@@ -404,6 +405,7 @@ def report(
     start_mode: bool,
     tuner: Tuner,
     chosen: tuple[float, Any, dict[str, Any]],
+    selected: str,
     events: EventWriter,
 ) -> None:
     """Save the chosen set (among the presets without `--base`, to `--out`) and say what it
@@ -421,7 +423,7 @@ def report(
         write_parameter_set(out, result)
         saved.append(f"{out} as {name!r}")
     print(
-        f"loss {chosen[0]:.4f} ({args.select}) after {tuner.generation} generations; "
+        f"loss {chosen[0]:.4f} ({selected}) after {tuner.generation} generations; "
         f"saved {' and '.join(saved)}"
     )
     figures = result_figures(chosen[2], tuner.weights.speed_scale)

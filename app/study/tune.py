@@ -153,6 +153,8 @@ class Tuner:
             "seed": seed,
             "verbose": -9,
         }
+        if len(self.dims) == 1:  # cma's step-size cap from the bounds fails on one dimension
+            options["maxstd_boundrange"] = math.inf  # ("not yet initialized"): none for one
         import cma  # ~0.25 s: only to tune
 
         self.es = cma.CMAEvolutionStrategy(x0, sigma0, options)
