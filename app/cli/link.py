@@ -5,10 +5,13 @@ off on every exit (Ctrl-C, SIGTERM, SIGHUP, an error)."""
 from __future__ import annotations
 
 import argparse
+import os
 import signal
+import stat
 import sys
 import threading
 from typing import Any, TextIO
+from urllib.parse import urlsplit
 
 from app.cli.options import SETS_HELP, resolve_set, subcommand
 from app.firmware.link import SerialLink, SerialPort
@@ -42,8 +45,18 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--port", help="serial device, e.g. /dev/ttyUSB0 (no default: needed unless --dry-run)"
     )
-    p.add_argument("--baud", type=int, default=DEFAULT_BAUD, help=f"(default {DEFAULT_BAUD})")
-    p.add_argument("--server", default="http://127.0.0.1:8000", help="the dashboard to follow")
+    p.add_argument(
+        "--baud",
+        type=int,
+        default=DEFAULT_BAUD,
+        help=f"the firmware's rate (config.h UART_BAUD; default {DEFAULT_BAUD}): another one "
+        "only for a firmware built with it",
+    )
+    p.add_argument(
+        "--server",
+        default="http://127.0.0.1:8000",
+        help="the dashboard to follow: http://HOST[:PORT] or https://HOST[:PORT]",
+    )
     p.add_argument(
         "--params",
         metavar="FILE|NAME",
@@ -83,6 +96,49 @@ def _stop_on_signals() -> dict[int, Any]:
     return previous
 
 
+def check_server(url: str) -> None:
+    """ValueError unless `url` is an http or https address with a host (a dashboard's)."""
+    allowed = "http://HOST[:PORT] or https://HOST[:PORT], e.g. http://127.0.0.1:8000"
+    try:
+        parts = urlsplit(url)
+        _ = parts.port  # ValueError for a port that is not a number in 0..65535
+    except ValueError as exc:
+        raise ValueError(
+            f"--server must be a dashboard's address, {allowed}; {url!r}: {exc}"
+        ) from exc
+    if parts.scheme not in ("http", "https") or not parts.hostname:
+        raise ValueError(f"--server must be a dashboard's address, {allowed}; got {url!r}")
+
+
+def open_port(name: str, baud: int) -> SerialPort:
+    """The robot's serial device, opened with pyserial; OSError naming it and what it is if it
+    is not one (a folder, a regular file, /dev/null)."""
+    import serial  # pyserial
+
+    allowed = "give the robot's serial adapter, e.g. /dev/ttyUSB0, /dev/ttyACM0 or a pty"
+    try:
+        mode = os.stat(name).st_mode
+    except OSError:
+        mode = None  # pyserial says why (no such file, no permission)
+    if mode is not None and not stat.S_ISCHR(mode):
+        kind = (
+            "a regular file" if stat.S_ISREG(mode) else "a folder" if stat.S_ISDIR(mode) else None
+        )
+        raise OSError(
+            f"the port {name} is not a serial device ({kind or 'not a device'}): {allowed}"
+        )
+    try:
+        return serial.Serial(name, baud, timeout=0.02)
+    except serial.SerialException as exc:
+        if exc.errno is not None:  # the open failed: pyserial repeats the errno in its text
+            raise OSError(f"could not open the port {name}: {os.strerror(exc.errno)}") from exc
+        cause = exc.__context__  # pyserial's text wraps termios.error(errno, text)
+        why = cause.args[-1] if cause is not None and cause.args else exc
+        raise OSError(
+            f"the port {name} is not a serial device (it takes no line settings: {why}): {allowed}"
+        ) from exc
+
+
 def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     import httpx  # ~0.5 s: only to follow a dashboard
 
@@ -91,15 +147,18 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")
     if args.baud <= 0:
         raise ValueError(f"--baud must be a positive rate such as {DEFAULT_BAUD}, got {args.baud}")
-    # the set first: a bad name or file is said before a port is opened
+    if args.baud != DEFAULT_BAUD:  # the firmware's rate is config.h's, a build-time choice
+        print(
+            f"warning: --baud {args.baud}: the ArtRo firmware talks at {DEFAULT_BAUD} "
+            "(hardware/firmware/src/config.h UART_BAUD); another rate reaches only a firmware "
+            "built with it",
+            file=out,
+        )
+    # the set and the dashboard first: a bad name, file or address is said before a port is opened
     one_set = resolve_set(args.params, "--params").pset if args.params else None
-    port: SerialPort
-    if args.dry_run:
-        port = DryRunPort(out)
-    else:
-        import serial  # pyserial
-
-        port = serial.Serial(args.port, args.baud, timeout=0.02)
+    if one_set is None:
+        check_server(args.server)
+    port = DryRunPort(out) if args.dry_run else open_port(args.port, args.baud)
     robot = RobotLink(SerialLink(port), dry_run=args.dry_run, log=lambda s: print(s, file=out))
     stop = threading.Event()
     previous = _stop_on_signals()
@@ -108,27 +167,40 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         if one_set is not None:
             robot.send_set(one_set.to_dict())
             robot.start()
-            return 0
-        print(f"following {args.server} (Ctrl-C stops and switches the servos off)", file=out)
-        sensors = getattr(args, "sensors", True)
-        follow(robot, args.server, stop, max_updates=0 if args.dry_run else None, sensors=sensors)
-        return 0
+        else:
+            print(f"following {args.server} (Ctrl-C stops and switches the servos off)", file=out)
+            sensors = getattr(args, "sensors", True)
+            dry = args.dry_run
+            follow(robot, args.server, stop, max_updates=0 if dry else None, sensors=sensors)
     except KeyboardInterrupt:
-        return 0
+        pass
     except LinkStopped as exc:
         print(f"{exc}: stopping", file=out)
-        return 0
     except httpx.HTTPError as exc:
         raise LinkError(f"the dashboard at {args.server} did not answer: {exc}") from exc
     finally:
-        stop.set()
-        for number in previous:  # nothing cuts the switching off short
-            signal.signal(number, signal.SIG_IGN)
+        servos_off = _switch_off(robot, stop, previous, out)
+    return 0 if servos_off else 2  # a stop asked for, but the servos may still be on
+
+
+def _switch_off(
+    robot: RobotLink, stop: threading.Event, previous: dict[int, Any], out: TextIO
+) -> bool:
+    """The servos off, or said why not (without hiding why the link ended); the port closed
+    and the signal handlers put back. Whether the servos are off."""
+    stop.set()
+    for number in previous:  # nothing cuts the switching off short
+        signal.signal(number, signal.SIG_IGN)
+    try:
+        robot.torque_off()
+        return True
+    except (LinkError, OSError) as exc:  # pyserial's SerialException is an OSError
+        print(f"could not switch the servos off: {exc}", file=out)
+        return False
+    finally:
         try:
-            robot.torque_off()
-        except LinkError as exc:  # say so, but do not hide why the link ended
-            print(f"could not switch the servos off: {exc}", file=out)
-        finally:
             robot.link.close()
-            for number, handler in previous.items():
-                signal.signal(number, handler)
+        except OSError:
+            pass  # a port that failed may fail its closing too
+        for number, handler in previous.items():
+            signal.signal(number, handler)

@@ -1,6 +1,7 @@
 """The host side of the ArtRo UART protocol (hardware/firmware/PROTOCOL.md; docs/DESIGN.md §5):
 `0xA5 | LEN | TYPE | PAYLOAD | CRC-16/CCITT-FALSE`, little-endian, float32 values; `encode`
-builds messages, `Decoder` splits a byte stream, `parse` types the robot's replies."""
+builds messages, `Decoder` splits a byte stream, `parse` types the robot's replies (LinkError for
+one whose payload is not its type's), `answers` pairs a reply with its request."""
 
 from __future__ import annotations
 
@@ -17,6 +18,11 @@ MAX_LEN = 200  # TYPE + PAYLOAD
 VERSION = 2
 #: values in one SET_PARAMS or PARAMS (3 + 4 * 48 <= MAX_LEN): a whole set takes several
 MAX_VALUES = 48
+
+
+class LinkError(RuntimeError):
+    """The robot did not answer, answered out of protocol, refused a request, or runs firmware
+    of another schema."""
 
 
 class Msg(IntEnum):
@@ -135,7 +141,7 @@ class Ack:
 @dataclass(frozen=True)
 class Nak:
     rejected: int  # message type, 0 if unknown
-    reason: NakReason
+    reason: NakReason | int  # an int if PROTOCOL.md names no such reason
     detail: int  # parameter id, or the bad length
 
 
@@ -209,35 +215,122 @@ def _sensors(p: bytes) -> Sensors:
 
 Reply = Ack | Nak | Info | Telemetry | Angles | Params | Sensors | Message
 
+#: payload bytes of each reply of a fixed size (PROTOCOL.md); PARAMS: 2 + 4 x count
+PAYLOAD_BYTES = {Msg.ACK: 5, Msg.NAK: 3, Msg.INFO: 11, Msg.PARAM: 5, Msg.TELEMETRY: 36,
+                 Msg.ANGLES: 52, Msg.SENSORS: _SENSORS.size}  # fmt: skip
+
+
+def type_name(msg_type: int) -> str:
+    """A message type as PROTOCOL.md names it, e.g. TORQUE_OFF, or its number if it names none."""
+    return Msg(msg_type).name if msg_type in Msg._value2member_map_ else f"type 0x{msg_type:02x}"
+
+
+def _check_length(t: int, p: bytes) -> None:
+    if t == Msg.PARAMS:
+        count = p[1] if len(p) >= 2 else 0
+        if not 1 <= count <= MAX_VALUES or len(p) != 2 + 4 * count:
+            of = f" for count {count}" if len(p) >= 2 else ""
+            raise LinkError(
+                f"the robot's PARAMS has {len(p)} payload bytes{of}, expected 2 + 4 x count, "
+                f"count 1..{MAX_VALUES} (firmware of another protocol?)"
+            )
+    elif t in PAYLOAD_BYTES and len(p) != PAYLOAD_BYTES[Msg(t)]:
+        raise LinkError(
+            f"the robot's {Msg(t).name} has {len(p)} payload byte{'' if len(p) == 1 else 's'}, "
+            f"expected {PAYLOAD_BYTES[Msg(t)]} (firmware of another protocol?)"
+        )
+
+
+def _state(name: str, value: int) -> RunState:
+    if value not in RunState._value2member_map_:
+        raise LinkError(
+            f"the robot's {name} names state {value}; PROTOCOL.md's are 0 walking, 1 stopped, "
+            "2 torque off (firmware of another protocol?)"
+        )
+    return RunState(value)
+
 
 def parse(message: Message) -> Reply:
-    """A robot message as a typed record (a Message if the type is not a reply)."""
+    """A robot message as a typed record (a Message if the type is not a reply); LinkError for
+    a reply whose payload is not as long as PROTOCOL.md gives its type."""
     t, p = message.type, message.payload
+    _check_length(t, p)
     if t == Msg.ACK:
         acked, frame = struct.unpack("<BI", p)
         return Ack(acked, frame)
     if t == Msg.NAK:
-        return Nak(p[0], NakReason(p[1]), p[2])
+        reason = NakReason(p[1]) if p[1] in NakReason._value2member_map_ else p[1]
+        return Nak(p[0], reason, p[2])
     if t == Msg.INFO:
         version, count, schema, frame, state = struct.unpack("<BBIIB", p)
-        return Info(version, count, schema, frame, RunState(state))
+        return Info(version, count, schema, frame, _state("INFO", state))
     if t == Msg.TELEMETRY:
         frame, phase = struct.unpack_from("<If", p)
         ocr = struct.unpack_from("<12H", p, 8)
         saturated, flags, state = struct.unpack_from("<HBB", p, 32)
-        return Telemetry(frame, phase, ocr, saturated, flags, RunState(state))
+        return Telemetry(frame, phase, ocr, saturated, flags, _state("TELEMETRY", state))
     if t == Msg.ANGLES:
         frame = struct.unpack_from("<I", p)[0]
         return Angles(frame, struct.unpack_from("<12f", p, 4))
     if t == Msg.SENSORS:
         return _sensors(p)
-    if t in (Msg.PARAMS, Msg.PARAM):
-        if t == Msg.PARAM:
-            pid, value = struct.unpack("<Bf", p)
-            return Params(pid, (value,))
-        first, count = p[0], p[1]
-        return Params(first, struct.unpack_from(f"<{count}f", p, 2))
+    if t == Msg.PARAM:
+        pid, value = struct.unpack("<Bf", p)
+        return Params(pid, (value,))
+    if t == Msg.PARAMS:
+        return Params(p[0], struct.unpack_from(f"<{p[1]}f", p, 2))
     return message
+
+
+#: what PROTOCOL.md gives as the answer to each request: ACK of that type, or a data reply
+ACKED = frozenset({Msg.SET_MOTION, Msg.SET_PARAM, Msg.SET_PARAMS, Msg.START, Msg.STOP,
+                   Msg.TORQUE_OFF, Msg.TELEMETRY_ON, Msg.RESET_PARAMS})  # fmt: skip
+DATA_REPLIES: dict[int, tuple[Msg, type]] = {
+    Msg.PING: (Msg.INFO, Info),
+    Msg.GET_PARAM: (Msg.PARAM, Params),
+    Msg.GET_PARAMS: (Msg.PARAMS, Params),
+    Msg.GET_TELEMETRY: (Msg.TELEMETRY, Telemetry),
+    Msg.GET_ANGLES: (Msg.ANGLES, Angles),
+    Msg.GET_SENSORS: (Msg.SENSORS, Sensors),
+}
+
+
+def expected_answer(request: bytes) -> str:
+    """The answer PROTOCOL.md gives for the message `request` (a whole frame), in words."""
+    t = request[2]
+    if t in ACKED:
+        return f"ACK of {type_name(t)}"
+    return DATA_REPLIES[t][0].name if t in DATA_REPLIES else "no answer PROTOCOL.md names"
+
+
+def answers(request: bytes, reply: Reply) -> bool:
+    """Whether `reply` is the answer PROTOCOL.md gives for `request` (a whole frame): the ACK
+    of its type, or the data it asks for (the ids it asks for); a NAK is not one."""
+    t = request[2]
+    if t in ACKED:
+        return isinstance(reply, Ack) and reply.acked == t
+    if t not in DATA_REPLIES or not isinstance(reply, DATA_REPLIES[t][1]):
+        return False
+    if t == Msg.GET_PARAM:
+        return isinstance(reply, Params) and (reply.first, len(reply.values)) == (request[3], 1)
+    if t == Msg.GET_PARAMS:
+        return isinstance(reply, Params) and (reply.first, len(reply.values)) == tuple(request[3:5])
+    return True
+
+
+def describe(reply: Reply) -> str:
+    """A reply in a few words, for a message that says what came instead of the answer."""
+    if isinstance(reply, Ack):
+        return f"ACK of {type_name(reply.acked)}"
+    if isinstance(reply, Nak):
+        return f"NAK of {type_name(reply.rejected)}"
+    if isinstance(reply, Params):
+        return f"PARAMS of ids {reply.first}..{reply.first + len(reply.values) - 1}"
+    if isinstance(reply, Message):
+        if reply.type in Msg._value2member_map_ and reply.type < Msg.ACK:
+            return f"{type_name(reply.type)}, a message of the host's"
+        return f"a message of {type_name(reply.type)}, which PROTOCOL.md does not name"
+    return type(reply).__name__.upper()
 
 
 class Decoder:

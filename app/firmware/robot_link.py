@@ -1,7 +1,8 @@
 """A robot's ATmega128 over its serial port (hardware/firmware/PROTOCOL.md; docs/DESIGN.md §15):
 a whole parameter set, the dashboard's set followed as it changes, the robot's SENSORS stream
-forwarded to the Sensors panel meanwhile, the servos off at the end. Every request is paired
-with its answer; while the stream is on, a `PortReader` thread reads the port alone."""
+forwarded to the Sensors panel meanwhile, the servos off at the end. Every request takes only
+the answer PROTOCOL.md gives it; while the stream is on, a `PortReader` thread reads the port
+alone; a robot gone quiet or a port that failed ends the following within about a second."""
 
 from __future__ import annotations
 
@@ -14,16 +15,34 @@ from typing import Any, TextIO
 
 from app.firmware import protocol as proto
 from app.firmware.link import SerialLink
+from app.firmware.protocol import LinkError  # the link's error, raised also by parse
 from app.firmware.robot_telemetry import SensorForwarder
 from app.params.document import ParameterSet
 from hardware.firmware.schema import FIRMWARE_ENGINE, schema_hash, values_from_document
 
-DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 %
+DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 % (config.h UART_BAUD)
 POLL_S = 0.2  # how often the dashboard is asked for its parameter version
+KEEPALIVE_S = 1.0  # while following, a PING when the robot said nothing for this long
+JSON_KINDS = {list: "list", str: "string", int: "number", float: "number", bool: "boolean",
+              type(None): "null"}  # fmt: skip
+DASHBOARD_SET = (
+    "a parameter set as an ArtRo dashboard's GET /api/params returns it (a JSON object with "
+    "version, motion and gait)"
+)
 
 
-class LinkError(RuntimeError):
-    """The robot did not answer, refused a set, or runs firmware of another schema."""
+class PortLost(LinkError):
+    """The robot's port failed (the adapter unplugged, the robot's side of a pty closed): every
+    later request says so at once."""
+
+
+def _port_name(port: object) -> str:
+    name = getattr(port, "port", None)  # pyserial's Serial names its device
+    return f"the robot's port {name}" if isinstance(name, str) else "the robot's port"
+
+
+def _lost(port: object, exc: BaseException) -> PortLost:
+    return PortLost(f"{_port_name(port)} failed ({exc})")
 
 
 class DryRunPort:
@@ -45,6 +64,16 @@ class DryRunPort:
         pass
 
 
+def _got(message: bytes, reply: proto.Reply) -> str:
+    """What came instead of the answer; the host's own message back is an echo."""
+    if isinstance(reply, proto.Message) and proto.encode(reply.type, reply.payload) == message:
+        return (
+            f"its own {proto.type_name(reply.type)} back (an echo: the adapter's TX wired to its "
+            "RX, or a loopback plug?)"
+        )
+    return proto.describe(reply)
+
+
 def _answers(message: bytes, reply: proto.Reply) -> bool:
     """Whether `reply` can be the answer to `message` (streamed frames answer only a GET)."""
     if isinstance(reply, proto.Sensors):
@@ -63,8 +92,9 @@ class PortReader:
     def __init__(self, link: SerialLink, on_sensors: Callable[[proto.Sensors], None]) -> None:
         self.link = link
         self.on_sensors = on_sensors
-        self.error: Exception | None = None  # why the port failed, if it did
-        self._answers: queue.Queue[proto.Reply] = queue.Queue()
+        self.error: LinkError | None = None  # why the reading ended, if it did
+        self.last_frame = time.monotonic()  # when a streamed frame came last
+        self._answers: queue.Queue[proto.Reply | None] = queue.Queue()  # None: the reader ended
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="robot-port", daemon=True)
 
@@ -82,23 +112,36 @@ class PortReader:
                 for message in self.link.decoder.feed(self.link.serial.read(256)):
                     reply = proto.parse(message)
                     if isinstance(reply, proto.Sensors):
+                        self.last_frame = time.monotonic()
                         self.on_sensors(reply)
                     elif not isinstance(reply, proto.Telemetry):  # not asked for: not kept
                         self._answers.put(reply)
-        except Exception as exc:  # an unplugged adapter: the next request says so
+        except LinkError as exc:  # a reply out of protocol
             self.error = exc
+        except OSError as exc:  # pyserial's SerialException too: an unplugged adapter
+            self.error = _lost(self.link.serial, exc)
+        except Exception as exc:  # e.g. a frame the forwarder cannot take: said, not lost
+            self.error = LinkError(f"reading {_port_name(self.link.serial)} stopped: {exc!r}")
+        finally:  # a request waiting learns it at once, the follow loop at its next poll
+            self._answers.put(None)
 
     def request(self, message: bytes) -> list[proto.Reply]:
-        """Send `message`; its answer, or [] after the link's timeout."""
+        """Send `message`; its answer, or [] after the link's timeout; LinkError if the
+        reading ended (the port failed, or a reply out of protocol)."""
+        self.raise_error()
         while not self._answers.empty():  # a late answer to a request that timed out
             self._answers.get_nowait()
         self.link.serial.write(message)
         try:
-            return [self._answers.get(timeout=self.link.timeout_s)]
+            reply = self._answers.get(timeout=self.link.timeout_s)
         except queue.Empty:
-            if self.error is not None:
-                raise LinkError(f"the robot's port failed: {self.error}") from self.error
-            return []
+            reply = None
+        self.raise_error()
+        return [] if reply is None else [reply]
+
+    def raise_error(self) -> None:
+        if self.error is not None:
+            raise self.error
 
 
 @dataclass
@@ -110,10 +153,28 @@ class RobotLink:
     dry_run: bool = False
     log: Callable[[str], None] = print
     _reader: PortReader | None = field(default=None, init=False, repr=False)
+    _lost: PortLost | None = field(default=None, init=False, repr=False)
+    _heard: float = field(default_factory=time.monotonic, init=False, repr=False)
 
     def request(self, message: bytes) -> list[proto.Reply]:
         """Send `message`; its answer (paired: a streamed frame is never taken for it), or []
-        after the link's timeout. Nothing is read in a dry run."""
+        after the link's timeout. Nothing is read in a dry run. PortLost once the port failed,
+        LinkError for a reply out of protocol."""
+        if self._lost is not None:
+            raise self._lost
+        try:
+            replies = self._request(message)
+        except OSError as exc:  # pyserial's SerialException is one
+            self._lost = _lost(self.link.serial, exc)
+            raise self._lost from exc
+        except PortLost as exc:
+            self._lost = exc
+            raise
+        if replies:
+            self._heard = time.monotonic()
+        return replies
+
+    def _request(self, message: bytes) -> list[proto.Reply]:
         if self.dry_run:
             self.link.serial.write(message)
             return []
@@ -130,7 +191,14 @@ class RobotLink:
         return []
 
     def expect(self, message: bytes, what: str) -> proto.Reply | None:
-        replies = self.request(message)
+        """The answer PROTOCOL.md gives `message` (None in a dry run); LinkError for none, a
+        NAK, or anything else, named."""
+        try:
+            replies = self.request(message)
+        except PortLost:
+            raise
+        except LinkError as exc:  # a reply out of protocol
+            raise LinkError(f"{what}: {exc}") from exc
         if self.dry_run:
             return None
         if not replies:
@@ -139,15 +207,32 @@ class RobotLink:
         if isinstance(reply, proto.Nak):
             reason = getattr(reply.reason, "name", reply.reason)
             raise LinkError(f"{what}: the robot refused it ({reason}, detail {reply.detail})")
+        if not proto.answers(message, reply):
+            raise LinkError(
+                f"{what}: expected {proto.expected_answer(message)}, got {_got(message, reply)}"
+            )
         return reply
+
+    def check(self) -> None:
+        """LinkError if the robot is gone: the port failed (also on the reader's thread), a
+        reply came out of protocol, or a PING after KEEPALIVE_S of silence is not answered."""
+        if self._lost is not None:
+            raise self._lost
+        if self._reader is not None:
+            try:
+                self._reader.raise_error()
+            except PortLost as exc:
+                self._lost = exc
+                raise
+            self._heard = max(self._heard, self._reader.last_frame)
+        if not self.dry_run and time.monotonic() - self._heard >= KEEPALIVE_S:
+            self.expect(proto.command(proto.Msg.PING), "keep-alive ping")
 
     def hello(self) -> None:
         """PING; the robot's firmware must address parameters as this studio does."""
         info = self.expect(proto.encode(proto.Msg.PING), "ping")
-        if info is None:
+        if not isinstance(info, proto.Info):  # None: a dry run
             return
-        if not isinstance(info, proto.Info):
-            raise LinkError(f"ping: expected INFO, got {info}")
         if info.schema_hash != schema_hash():
             raise LinkError(
                 f"the robot's firmware has schema {info.schema_hash:08x}, this studio "
@@ -171,7 +256,7 @@ class RobotLink:
             )
         frame = None
         for message in proto.set_all_params(values_from_document(doc)):
-            ack = self.expect(message, "parameter set")
+            ack = self.expect(message, "parameter set")  # its ACK: None only in a dry run
             frame = ack.effective_frame if isinstance(ack, proto.Ack) else None
         where = "" if frame is None else f" from frame {frame}"
         tag = "" if version is None else f" (dashboard version {version})"
@@ -197,9 +282,17 @@ class RobotLink:
         self.expect(proto.telemetry_on(2), "sensor stream")
 
     def end_stream(self) -> None:
-        """TELEMETRY_ON 0, then the port is read by each request again (as before the stream)."""
+        """TELEMETRY_ON 0, then the port is read by each request again (as before the stream).
+        Nothing is sent on a port that failed (the servos' message says it)."""
+        reader = self._reader
+        if reader is not None and reader.error is not None:  # read by each request from now
+            reader.stop()
+            self._reader = None
+            if isinstance(reader.error, PortLost):
+                self._lost = reader.error
         try:
-            self.expect(proto.telemetry_on(0), "end of the sensor stream")
+            if self._lost is None:
+                self.expect(proto.telemetry_on(0), "end of the sensor stream")
         finally:
             if self._reader is not None:
                 self._reader.stop()
@@ -218,7 +311,9 @@ def follow(
     after the first). From the first set on (with `sensors`, not in a dry run) the robot
     streams its SENSORS and they go to the dashboard's Sensors panel; the stream ends with
     this call. A dashboard that stops answering after the first set is said once and asked
-    again: the robot walks on in the last set meanwhile. Returns how many sets were sent."""
+    again: the robot walks on in the last set meanwhile. LinkError for a robot gone (its port
+    failed, or silent for KEEPALIVE_S and a PING unanswered) and for a server whose answer is
+    not a dashboard's parameter set. Returns how many sets were sent."""
     import httpx  # ~0.5 s: only to follow a dashboard
 
     sent = 0
@@ -229,8 +324,9 @@ def follow(
     try:
         with httpx.Client(base_url=server, timeout=5) as http:
             while not stop.is_set():
+                robot.check()  # a robot gone ends the link, also while the set stays the same
                 try:
-                    doc = http.get("/api/params").raise_for_status().json()
+                    doc = _dashboard_set(http.get("/api/params").raise_for_status(), server)
                 except httpx.HTTPError as exc:
                     if sent == 0:
                         raise  # never reached: the command says so and ends
@@ -245,9 +341,9 @@ def follow(
                 if lost is not None:
                     lost = None
                     robot.log(f"the dashboard at {server} answers again")
-                if doc.get("version") != last:
-                    last = doc.get("version")
-                    robot.send_set(_plain(doc), last)
+                if doc["version"] != last:
+                    last = doc["version"]
+                    robot.send_set(_plain(doc, server), last)
                     if sent == 0:
                         robot.start()
                         if forwarder is not None:
@@ -271,12 +367,41 @@ def _end_stream(robot: RobotLink) -> None:
     """The robot's stream off, or said why not: the servos must still be switched off after."""
     try:
         robot.end_stream()
-    except LinkError as exc:
+    except (LinkError, OSError) as exc:
         robot.log(f"could not end the robot's sensor stream: {exc}")
 
 
-def _plain(doc: dict[str, Any]) -> dict[str, Any]:
-    """The parameter-set document of an API answer (validated by the schema)."""
-    return ParameterSet.from_dict({"motion": doc["motion"], "gait": doc["gait"]}).to_dict() | {
-        "name": doc.get("name") or "dashboard"
-    }
+def _dashboard_set(response: Any, server: str) -> dict[str, Any]:
+    """The JSON object of a GET /api/params answer; LinkError naming the server and what came
+    if it is not a dashboard's parameter set."""
+    try:
+        doc = response.json()
+    except ValueError:
+        kind = response.headers.get("content-type") or "no content type"
+        what = f"{kind}, not JSON ({response.text[:40]!r})"
+    else:
+        if not isinstance(doc, dict):
+            what = f"a JSON {JSON_KINDS.get(type(doc), type(doc).__name__)}"
+        else:
+            missing = [key for key in ("version", "motion", "gait") if key not in doc]
+            if not missing:
+                return doc
+            what = f"a JSON object without {', '.join(missing)}"
+    raise LinkError(
+        f"the server at {server} is not an ArtRo dashboard: GET /api/params gave {what}; "
+        f"expected {DASHBOARD_SET}"
+    )
+
+
+def _plain(doc: dict[str, Any], server: str | None = None) -> dict[str, Any]:
+    """The parameter-set document of an API answer (validated by the schema; LinkError naming
+    the `server` if the schema refuses it)."""
+    try:
+        pset = ParameterSet.from_dict({"motion": doc["motion"], "gait": doc["gait"]})
+    except ValueError as exc:
+        at = "" if server is None else f" at {server}"
+        raise LinkError(
+            f"the server{at} gave a parameter set this studio cannot take ({exc}); "
+            f"expected {DASHBOARD_SET}"
+        ) from exc
+    return pset.to_dict() | {"name": doc.get("name") or "dashboard"}
