@@ -20,6 +20,7 @@ from tests.browser_support import (
     LINES,
     SMALL,
     open_page,
+    shot_path,
 )
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
 from tests.test_server_gait_ramp import largest_step
@@ -104,6 +105,41 @@ def test_calibrate_ca_its_result_and_the_header_are_all_in_view(
         _header_fits(page, "paused")
         page.locator("#sim-resume").click()
         expect(page.locator("#paused-badge")).to_be_hidden(timeout=10_000)
+
+
+# a narrow window (a netbook, a tablet, a zoomed page): the panels stack, none over another
+COVERED = """selectors => selectors.filter(sel => {
+  const el = document.querySelector(sel);
+  el.scrollIntoView({block: "center"});
+  const r = el.getBoundingClientRect();
+  const hit = document.elementFromPoint(r.x + r.width / 2, r.y + r.height / 2);
+  return !(hit && (hit === el || el.contains(hit) || hit.contains(el)));
+})"""
+NARROW_CONTROLS = ["#anchor-speed", "#path-anchor", "#axle-cm", "#axle-set", "#axle-fit",
+                   "#ca-calibrate", "#scope-mode-single", "#scope-mode-roll", "#scope-mode-cycle",
+                   "#scope-freeze", "#scope-servos", "#sim-time", "#sim-rtf"]  # fmt: skip
+
+
+@pytest.mark.parametrize(("width", "height"), [(1024, 600), (800, 1280)])
+def test_a_narrow_window_stacks_the_panels_and_covers_no_control(
+    server, browser, width, height, tmp_path
+):
+    """At 1100 px or less the left column had a fixed height: the Path panel ran over the
+    scope's buttons and servo chips (and they over its own), and the header's status spilt
+    out of its bar, the sim time cut off."""
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        expect(page.locator("#scope-servos input")).to_have_count(12, timeout=30_000)
+        assert page.evaluate(COVERED, NARROW_CONTROLS) == []
+        page.evaluate("window.scrollTo(0, 0)")
+        for stat in ("#sim-time", "#sim-rtf"):
+            expect(page.locator(stat)).to_be_in_viewport(ratio=1)
+        assert page.evaluate("document.documentElement.scrollWidth") <= width
+        page.screenshot(path=shot_path(f"narrow-{width}x{height}.png", tmp_path), full_page=True)
+        # the recording import is reached from the keyboard (its input was display: none)
+        page.locator("#replay-vcd").focus()
+        page.keyboard.press("Tab")
+        assert page.evaluate("document.activeElement.id") == "replay-import"
 
 
 # --- item 3: one drag or one burst of key presses is one undo step -------------------------------

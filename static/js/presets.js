@@ -64,10 +64,10 @@ function markInUse() {
 
 function row(p) {
   const m = p.motion || {};
-  const load = h("button", { type: "button", class: "small", "data-preset": p.name, onclick: () => load_(p.name) }, "Load");
+  const load = h("button", { type: "button", class: "small", "data-preset": p.name, "aria-label": `load ${p.name}`, onclick: () => load_(p.name) }, "Load");
   const del = p.builtin
     ? h("span", { class: "badge ro", title: "built in: read-only" }, "read-only")
-    : h("button", { type: "button", class: "small danger", "data-preset": p.name, onclick: () => remove(p.name) }, "Delete");
+    : h("button", { type: "button", class: "small danger", "data-preset": p.name, "aria-label": `delete ${p.name}`, onclick: () => remove(p.name) }, "Delete");
   return h(
     "tr",
     { "data-preset": p.name, class: p.builtin ? "builtin" : "" },

@@ -282,7 +282,7 @@ function showFrameInfo(frame) {
 function placeholder(ctx, w, hgt, text) {
   ctx.fillStyle = "#070b0e";
   ctx.fillRect(0, 0, w, hgt);
-  ctx.fillStyle = "#5d6b66";
+  ctx.fillStyle = "#8a9893";
   ctx.font = "14px system-ui, sans-serif";
   ctx.textAlign = "center";
   ctx.textBaseline = "middle";

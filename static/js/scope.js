@@ -15,7 +15,7 @@ export const THEME = {
   gridMajor: "rgba(120, 170, 150, 0.20)",
   slotLine: "rgba(255, 255, 255, 0.30)",
   text: "#b9c6c0",
-  dim: "#5d6b66",
+  dim: "#8a9893", // 6.6:1 on the scope's background
   tdm: "#f2d04b",
   select: "#45c8e0",
   sat: "#ff9a1f",
