@@ -69,6 +69,12 @@ def test_a_tiny_tune_loads_tuned_robot_as_one_undoable_change(tmp_path):
         assert http.get("/api/tune").json()["id"] == job_id
         assert http.get("/api/state").json()["tune"] == {"id": job_id, "status": "done"}
         assert http.get("/api/jobs/tune").status_code == 405
+        assert result["replaced"] is False
+        # a second tune of the robot replaces its preset, and says so (the study resumes)
+        again = http.post("/api/jobs/tune", json=TINY).json()["id"]
+        assert app.state.services.axle_fitter.jobs.get(again).finished.wait(TUNE_DEADLINE * 0.05)
+        second = http.get(f"/api/jobs/{again}").json()
+        assert second["status"] == "done" and second["result"]["replaced"] is True, second
 
 
 def test_a_tune_reports_progress_refuses_a_second_and_cancels_with_nothing_loaded(tmp_path):

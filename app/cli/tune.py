@@ -38,6 +38,8 @@ from app.cli.options import (
 from app.evaluation import close_evaluator, evaluator_for
 from app.params.document import ParameterSet
 from app.params.presets import (
+    PresetError,
+    PresetNotFound,
     PresetStore,
     builtin_presets,
     check_name,
@@ -411,11 +413,15 @@ def report(
     """Save the chosen set (among the presets without `--base`, to `--out`) and say what it
     did: printed, and as the RESULT event."""
     result = stamped(ParameterSet(robot=robot, gait=chosen[1]), name)
-    saved = []
+    saved, earlier = [], ""
     if start_mode:
         store = PresetStore(default_data_dir(), builtin_presets())
+        try:  # the robot's last tune: replaced, and said so (the dashboard's tune saves it too)
+            earlier = f" (replacing the one of {store.get(name).created or 'earlier'})"
+        except (PresetNotFound, PresetError):
+            earlier = ""
         store.save(name, result)
-        saved.append(f"preset {name!r} in {store.directory}")
+        saved.append(f"preset {name!r} in {store.directory}{earlier}")
     out_spec = args.out if args.out is not None else (None if start_mode else DEFAULT_OUT)
     if out_spec is not None:
         out = Path(out_spec.replace("NAME", name) if out_spec == DEFAULT_OUT else out_spec)
@@ -429,7 +435,7 @@ def report(
     figures = result_figures(chosen[2], tuner.weights.speed_scale)
     events(RESULT, name=name, preset=start_mode, loss=chosen[0], select=args.select,
            walked=walks(chosen[2]), generations=tuner.generation, trials=len(tuner.evaluated),
-           saved=saved, figures=figures)  # fmt: skip
+           saved=saved, replaced=bool(start_mode and earlier), figures=figures)  # fmt: skip
     if varied := tuner.varied_summary(chosen):
         print(f"  robust: {varied}")
     for row in figures:  # the judged runs: each case against its target, each CA pair

@@ -182,7 +182,7 @@ class TuneRunner:
         pset = self.presets.get(name)
         pset = dataclasses.replace(pset, motion=self.store.snapshot().motion)
         snap = self.store.replace(pset, "tune", check=on_robot(robot))
-        keep = ("loss", "select", "walked", "generations", "trials", "figures")
+        keep = ("loss", "select", "walked", "generations", "trials", "figures", "replaced")
         return {**{k: result.get(k) for k in keep}, "preset": name, "robot": robot,
                 "study": detail["study"], "study_name": detail.get("study_name"),
                 "budget": detail["budget"], "params_version": snap.version,

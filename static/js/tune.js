@@ -108,7 +108,8 @@ function finish(now) {
   } else {
     const r = now.result;
     const walked = r.walked ? "every run walked without a fall" : "some run fell (the lowest loss kept)";
-    setMessage(msg, `'${r.preset}' saved and loaded (v${r.params_version}; Undo goes back): loss ${fmt(r.loss, 3)}, ${walked}`);
+    const replaced = r.replaced ? ", replacing this robot's earlier tune" : "";
+    setMessage(msg, `'${r.preset}' saved${replaced} and loaded (v${r.params_version}; Undo goes back): loss ${fmt(r.loss, 3)}, ${walked}`);
     figures(r.figures || []);
     refreshPresets();
     refreshParams();
