@@ -624,6 +624,7 @@ def _recording_replays(page: Page, http: httpx.Client) -> None:
             )
         page.locator("#replay-live").click()
         expect(page.locator("#replay-live")).to_be_hidden(timeout=10_000)
+        expect(page.locator("#replay-enter")).to_be_focused()  # the focus went on from it
         wait_until(page, lambda: not http.get("/api/state").json()["paused"], "live again")
         expect(page.locator("#scope-info")).not_to_contain_text("recorded", timeout=10_000)
     finally:

@@ -46,6 +46,7 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         page.click("#tune-cancel")
         expect(message).to_contain_text("tune cancelled: nothing loaded", timeout=30_000)
         expect(page.locator("#tune-cancel")).to_be_hidden()
+        expect(page.locator("#tune-start")).to_be_focused()  # the focus went on, not to the top
         assert http.get("/api/params").json()["name"] == "robust"
 
         # a tiny one: done, tuned-artro is the set in use, its row marked, its figures shown

@@ -74,6 +74,7 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
             "robustness cancelled: no report", timeout=120_000
         )
         expect(cancel).to_be_hidden()
+        expect(page.locator("#robust-start")).to_be_focused()  # the focus went on from Cancel
         assert http.get("/api/jobs/robustness-1").json()["status"] == "cancelled"  # the first job
 
         page.fill("#robust-samples", "4")

@@ -5,7 +5,7 @@
 import { api } from "./api.js";
 import { showRecorded } from "./scope-panel.js";
 import { note } from "./status.js";
-import { $, fmt, setMessage } from "./util.js";
+import { $, fmt, hideKeepingFocus, setMessage } from "./util.js";
 
 let active = false;
 let seeking = null; // the index being fetched; a newer drag position waits for it
@@ -95,7 +95,9 @@ async function show(status, fetchFrame = true) {
   const was = active;
   active = !!status.active;
   $("replay-bar").classList.toggle("active", active);
-  $("replay-live").style.visibility = active ? "visible" : "hidden"; // keeps its place: no jump
+  // keeps its place (no jump); a focus on it goes on from Replay
+  if (active) $("replay-live").style.visibility = "visible";
+  else hideKeepingFocus($("replay-live"), $("replay-enter"), "visibility");
   for (const id of ["replay-scrub", "replay-prev", "replay-next"]) $(id).disabled = !active;
   if (!active) {
     if (was) showRecorded(null);

@@ -6,7 +6,7 @@
 import { api, formatDetail } from "./api.js";
 import { refreshParams } from "./params.js";
 import { refreshPresets } from "./presets.js";
-import { $, fieldNumber, fieldRule, fmt, h, setMessage } from "./util.js";
+import { $, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
 
 let job = null; // the tune followed, while it runs
 let asking = false; // a read of it in flight
@@ -97,7 +97,7 @@ function finish(now) {
   if (!job || now.status === "running") return;
   job = null;
   $("tune-start").disabled = false;
-  $("tune-cancel").hidden = true;
+  hideKeepingFocus($("tune-cancel"), $("tune-start"));
   const msg = $("tune-message");
   if (now.status === "cancelled") {
     $("tune-progress-row").hidden = true;

@@ -33,6 +33,14 @@ export function fmtSigned(x, digits = 3) {
   return x > 0 ? `+${s}` : s;
 }
 
+/** Hide `el`; a keyboard user whose focus was on it goes on from `next` (not the page's top). */
+export function hideKeepingFocus(el, next, how = "hidden") {
+  const had = document.activeElement === el;
+  if (how === "visibility") el.style.visibility = "hidden";
+  else el.hidden = true;
+  if (had) next.focus();
+}
+
 const EXPIRE_MS = 8000; // an "ok" or "quiet" message goes away after this long
 const expiry = new WeakMap();
 

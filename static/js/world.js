@@ -8,7 +8,7 @@
 
 import { api, formatDetail, poll } from "./api.js";
 import { showRobot } from "./robot.js";
-import { $, fieldNumber, fieldRule, fmt, h, setMessage } from "./util.js";
+import { $, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
 
 const FIELDS = [
   ["friction", "floor friction", 2, ""],
@@ -191,8 +191,8 @@ async function followJob() {
   if (now.status === "running") return;
   job = null;
   $("robust-progress").hidden = true;
-  $("robust-cancel").hidden = true;
   $("robust-start").disabled = false;
+  hideKeepingFocus($("robust-cancel"), $("robust-start"));
   if (now.status === "cancelled") {
     setMessage($("robust-message"), "robustness cancelled: no report", "warn");
     return;
