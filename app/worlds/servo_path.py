@@ -203,10 +203,14 @@ class FramePaths(_RunsPaths):
         self._starts = np.full((*self._output.shape, 2 * back + 3), -back * steps, np.int32)
         self._starts[:, :, -1] = steps
         self._delay = self.delay_steps.astype(np.int32)[:, None, None]
+        # the next frame's pieces are this one's moved down by two: written into a second pair
+        # of arrays, then swapped (moved in place, numpy copies the overlap twice)
+        self._values_next, self._starts_next = self._values.copy(), self._starts.copy()
 
     def keep(self, runs: NDArray[np.bool_]) -> None:
         super().keep(runs)
         self._values, self._starts = self._values[runs], self._starts[runs]
+        self._values_next, self._starts_next = self._values_next[runs], self._starts_next[runs]
         self._delay = self._delay[runs]
 
     def __call__(
@@ -237,12 +241,17 @@ class FramePaths(_RunsPaths):
         values[:, :, -2], values[:, :, -1] = first, then
         starts[:, :, -3], starts[:, :, -2] = 0, substep
         # delayed, each piece starts `delay_steps` later; the frame shows its steps 0..steps-1
-        shown = np.minimum(np.maximum(starts + self._delay, 0), steps)
+        shown = starts + self._delay
+        np.clip(shown, 0, steps, out=shown)
         counts = shown[:, :, 1:] - shown[:, :, :-1]
         pieces = np.repeat(values.reshape(-1), counts.reshape(-1))  # servo by servo
         out[...] = pieces.reshape(len(values), N_SERVOS, steps).transpose(0, 2, 1)
-        values[:, :, :-2] = values[:, :, 2:]  # the next frame's: this one's pieces are the last
-        starts[:, :, :-3] = starts[:, :, 2:-1] - steps
+        # the next frame's: this one's pieces are the last (the ends' columns it writes itself)
+        following, following_starts = self._values_next, self._starts_next
+        following[:, :, :-2] = values[:, :, 2:]
+        np.subtract(starts[:, :, 2:-1], steps, out=following_starts[:, :, :-3])
+        self._values, self._values_next = following, values
+        self._starts, self._starts_next = following_starts, starts
 
 
 def play_outputs(
