@@ -150,6 +150,18 @@ def artro_doc() -> dict:
     return yaml.safe_load((builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8"))
 
 
+def with_trunk_times(factor: float, name: str, folder: Path) -> Path:
+    """ArtRo with its trunk's parts `factor` times as heavy, written as NAME.yaml in `folder`."""
+    doc = artro_doc()
+    doc["name"] = name
+    for part in doc["trunk"]:
+        part["mass_kg"] = round(factor * part["mass_kg"], 6)
+    doc.pop("total_mass_kg", None)
+    path = folder / f"{name}.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    return path
+
+
 def test_eq1_covers_the_robots_own_gait_not_only_the_papers(tmp_path):
     """ArtRo with three times its trunk: the paper's poses leave the knees a third to spare, its
     default preset's (robust) ask more than their MG996R gives. The check used the paper's
@@ -157,13 +169,7 @@ def test_eq1_covers_the_robots_own_gait_not_only_the_papers(tmp_path):
     from app.robots.description import preset_gait
     from gait import GaitParams
 
-    doc = artro_doc()
-    doc["name"] = "heavy"
-    for part in doc["trunk"]:
-        part["mass_kg"] = round(3 * part["mass_kg"], 6)
-    doc.pop("total_mass_kg", None)
-    path = tmp_path / "heavy.yaml"
-    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    path = with_trunk_times(3, "heavy", tmp_path)
     heavy = load_description(path)
     paper = {t.joint: t for t in eq1_torques(heavy, GaitParams())}
     own = {t.joint: t for t in eq1_torques(heavy, preset_gait(heavy.default_preset))}
@@ -202,13 +208,7 @@ def test_a_range_that_holds_the_papers_reach_but_not_the_default_presets_is_refu
 
 def test_suggest_fails_when_no_servo_carries_a_joint(tmp_path):
     """It said that none carries some joint and exited 0, as if the robot were fine."""
-    doc = artro_doc()
-    doc["name"] = "anvil"
-    for part in doc["trunk"]:
-        part["mass_kg"] = round(12 * part["mass_kg"], 6)
-    doc.pop("total_mass_kg", None)
-    path = tmp_path / "anvil.yaml"
-    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    path = with_trunk_times(12, "anvil", tmp_path)
     out = artro("robot", "check", str(path), "--suggest", "-o", str(tmp_path / "out.yaml"))
     assert out.returncode == 1, out.stdout + out.stderr
     assert "no servo of the table or the file carries" in out.stdout

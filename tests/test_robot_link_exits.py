@@ -39,6 +39,17 @@ class Lines:
         return any(line.startswith(start) for line in self.lines)
 
 
+def link_process(port: str, server: str) -> subprocess.Popen[str]:
+    """`artro link --port PORT --server SERVER` as a process, its output unbuffered."""
+    return subprocess.Popen(
+        [str(ARTRO), "link", "--port", port, "--server", server],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.STDOUT,
+        text=True,
+        env=os.environ | {"PYTHONUNBUFFERED": "1"},
+    )
+
+
 def _state(port: str) -> proto.RunState:
     link = SerialLink(serial.Serial(port, 57600, timeout=0.02), timeout_s=30.0)
     try:
@@ -52,13 +63,7 @@ def _state(port: str) -> proto.RunState:
 @pytest.mark.parametrize("stop", ["SIGTERM", "SIGHUP"])
 def test_a_signal_ends_the_link_with_the_servos_off(robot_on_a_pty, tmp_path, stop):
     with running_server(tmp_path) as (base_url, _app):
-        link = subprocess.Popen(
-            [str(ARTRO), "link", "--port", robot_on_a_pty, "--server", base_url],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            env=os.environ | {"PYTHONUNBUFFERED": "1"},
-        )
+        link = link_process(robot_on_a_pty, base_url)
         out = Lines(link.stdout)
         try:
             wait_for(lambda: out.has("sent"), "the dashboard's set sent", attempts=1200)

@@ -12,7 +12,6 @@ import re
 import select
 import signal
 import struct
-import subprocess
 import threading
 import tty
 from collections.abc import Callable, Iterator
@@ -33,7 +32,7 @@ from app.firmware.robot_link import DEFAULT_BAUD, PortLost, RobotLink, follow
 from hardware.firmware.schema import param_specs, schema_hash
 from tests.firmware_support import emulator, preset
 from tests.server_harness import running_server, wait_for
-from tests.test_robot_link_exits import ARTRO, Lines
+from tests.test_robot_link_exits import Lines, link_process
 
 ROOT = Path(__file__).resolve().parent.parent
 Answer = Callable[[proto.Message], bytes]
@@ -327,13 +326,7 @@ def test_a_robot_gone_ends_the_following(tmp_path, gone, sensors, said):
 def test_the_command_ends_when_the_robot_is_killed(tmp_path):
     """As a process: exit status 2, the port named, the servos said not switched off."""
     with bridged_robot() as killed, running_server(tmp_path) as (base_url, _app):
-        link = subprocess.Popen(
-            [str(ARTRO), "link", "--port", killed.port, "--server", base_url],
-            stdout=subprocess.PIPE,
-            stderr=subprocess.STDOUT,
-            text=True,
-            env=os.environ | {"PYTHONUNBUFFERED": "1"},
-        )
+        link = link_process(killed.port, base_url)
         out = Lines(link.stdout)
         try:
             wait_for(lambda: out.has("the robot's sensors go to"), "the stream", attempts=1200)
