@@ -377,8 +377,11 @@ def test_what_a_hostile_user_types_is_refused_in_words_and_kept(
         assert http.get("/api/presets/mine").json() == mine
         page.once("dialog", lambda d: d.accept())
         page.locator("#preset-save").click()
-        expect(message).to_contain_text("saved the current parameters as 'mine'")
+        expect(message).to_contain_text("saved the current parameters as 'mine', the set in use")
         assert http.get("/api/presets/mine").json()["motion"]["a_p"] == 0.05
+        # saved as: the set in use is named so (it kept the name it was loaded with)
+        assert http.get("/api/params").json()["name"] == "mine"
+        expect(page.locator("#params-name")).to_have_text("mine", timeout=10_000)
         for name in ("../etc/passwd", "a/b", "x" * 65, "ends."):
             page.locator("#preset-name").fill(name)
             page.locator("#preset-save").click()

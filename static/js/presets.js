@@ -134,13 +134,20 @@ async function save() {
   }
   try {
     await api.put(`/api/presets/${encodeURIComponent(name)}`);
-    setMessage(msg, `saved the current parameters as '${name}'`, "ok");
-    input.value = "";
-    input.classList.remove("invalid");
-    refreshPresets();
   } catch (err) {
     setMessage(msg, err.message, "error");
+    return;
   }
+  input.value = "";
+  input.classList.remove("invalid");
+  try {  // saved as: the set in use takes the name (one version, the same values; undoable)
+    const p = await api.post(`/api/presets/${encodeURIComponent(name)}/load?keep_motion=true`);
+    setMessage(msg, `saved the current parameters as '${name}', the set in use now (v${p.version})`, "ok");
+    refreshParams();
+  } catch (err) {
+    setMessage(msg, `saved the current parameters as '${name}' (still in use as before: ${err.message})`, "warn");
+  }
+  refreshPresets();
 }
 
 function fillDiffSelects(names) {
