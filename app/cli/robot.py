@@ -7,12 +7,13 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
 from app.cli.options import subcommand
 from app.robots import builtin_robot_names, load_description, model_xml
-from app.robots.checks import eq1_torques, robot_warnings
+from app.robots.checks import JointTorque, eq1_torques, robot_warnings
 from app.robots.description import RobotDescription
 from app.robots.model import RobotModel
 from app.robots.swap import lightest_servo, suggest_servos, write_description
@@ -60,7 +61,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     desc = load_description(args.robot)  # RobotError (a ValueError) names every bad field
     if args.robot_command == "check":
         robot = RobotModel.load(desc)  # compiles
-        warnings = robot_warnings(desc)
+        torques = eq1_torques(desc)  # once: the warnings and the advice
+        warnings = robot_warnings(desc, torques=torques)
         print(
             f"{desc.name}: valid; {robot.total_mass_kg():.3f} kg, legs "
             f"{desc.geometry.thigh_m:g} + {desc.geometry.shank_m:g} m",
@@ -68,7 +70,7 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         )
         for w in warnings:
             print(f"warning: {w}", file=out)
-        for line in servo_advice(desc):
+        for line in servo_advice(desc, torques):
             print(f"  advice: {line}", file=out)
         if args.suggest:
             return suggest(desc, args.output, out)
@@ -110,11 +112,11 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     return 0
 
 
-def servo_advice(desc: RobotDescription) -> list[str]:
-    """Per joint that eq (1) finds short: the lightest servo of the table or the file that
-    carries it."""
+def servo_advice(desc: RobotDescription, torques: Sequence[JointTorque]) -> list[str]:
+    """Per joint that eq (1) finds short (`torques`: `eq1_torques(desc)`): the lightest servo of
+    the table or the file that carries it."""
     lines = []
-    for t in eq1_torques(desc):
+    for t in torques:
         if t.margin >= 0:
             continue
         choice = lightest_servo(t.required_nm, desc.supply_voltage_v, servos=desc.servo_catalogue())

@@ -74,8 +74,9 @@ def _got(message: bytes, reply: proto.Reply) -> str:
     return proto.describe(reply)
 
 
-def _answers(message: bytes, reply: proto.Reply) -> bool:
-    """Whether `reply` can be the answer to `message` (streamed frames answer only a GET)."""
+def _may_answer(message: bytes, reply: proto.Reply) -> bool:
+    """Whether `reply` may be the answer to `message`, not a streamed frame (those answer only
+    a GET); `proto.answers` then says whether it is the right one."""
     if isinstance(reply, proto.Sensors):
         return message[2] == proto.Msg.GET_SENSORS
     if isinstance(reply, proto.Telemetry):
@@ -185,7 +186,7 @@ class RobotLink:
         deadline = time.monotonic() + link.timeout_s
         while time.monotonic() < deadline:
             replies = [proto.parse(m) for m in link.decoder.feed(link.serial.read(256))]
-            answers = [r for r in replies if _answers(message, r)]
+            answers = [r for r in replies if _may_answer(message, r)]
             if answers:
                 return answers[:1]
         return []

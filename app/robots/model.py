@@ -113,6 +113,7 @@ class RobotModel:
         """The description and the figures that follow from it (`artro robot show`,
         `GET /api/robot`): masses, leg, each joint's servo settings, eq (1) per joint."""
         desc = self.description
+        torques = eq1_torques(desc)  # once: the figures and the warnings
         return {
             "name": desc.name,
             "title": desc.title,
@@ -124,8 +125,8 @@ class RobotModel:
                 "leg": {"upper_m": self.geometry.upper_m, "lower_m": self.geometry.lower_m},
                 "standing_height_m": desc.geometry.standing_height_m,
                 "servos": {k: v.to_dict() for k, v in joint_settings(desc).items()},
-                "eq1": [t.to_dict() for t in eq1_torques(desc)],
-                "warnings": robot_warnings(desc),
+                "eq1": [t.to_dict() for t in torques],
+                "warnings": robot_warnings(desc, torques=torques),
             },
         }
 
