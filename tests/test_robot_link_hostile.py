@@ -341,6 +341,25 @@ def test_the_command_ends_when_the_robot_is_killed(tmp_path):
 
 
 @contextlib.contextmanager
+def serving(
+    handler: type[BaseHTTPRequestHandler], on_close: Callable[[], None] = lambda: None
+) -> Iterator[str]:
+    """An HTTP server on a free port answering with `handler`, on threads of its own: its URL.
+    `on_close` is called first at the end (to let a held request go)."""
+    server = ThreadingHTTPServer(("127.0.0.1", 0), handler)
+    server.daemon_threads = True
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    try:
+        yield f"http://127.0.0.1:{server.server_address[1]}"
+    finally:
+        on_close()
+        server.shutdown()
+        thread.join()
+        server.server_close()
+
+
+@contextlib.contextmanager
 def dashboard_then_hold(on_hold: Callable[[], None]) -> Iterator[str]:
     """A dashboard whose first GET /api/params gives the paper's set and whose next one calls
     `on_hold` and never answers (until the block ends): its URL."""
@@ -370,17 +389,8 @@ def dashboard_then_hold(on_hold: Callable[[], None]) -> Iterator[str]:
             self.send_header("Content-Length", "0")
             self.end_headers()
 
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-    server.daemon_threads = True
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    try:
-        yield f"http://127.0.0.1:{server.server_address[1]}"
-    finally:
-        release.set()
-        server.shutdown()
-        thread.join()
-        server.server_close()
+    with serving(Handler, on_close=release.set) as url:
+        yield url
 
 
 @pytest.mark.slow
@@ -422,15 +432,8 @@ def fake_dashboard(body: bytes, content_type: str) -> Iterator[str]:
             self.end_headers()
             self.wfile.write(body)
 
-    server = ThreadingHTTPServer(("127.0.0.1", 0), Handler)
-    thread = threading.Thread(target=server.serve_forever, daemon=True)
-    thread.start()
-    try:
-        yield f"http://127.0.0.1:{server.server_address[1]}"
-    finally:
-        server.shutdown()
-        thread.join()
-        server.server_close()
+    with serving(Handler) as url:
+        yield url
 
 
 def _out_of_range() -> bytes:
