@@ -109,32 +109,24 @@ def test_one_import_at_a_time_the_next_is_told_to_retry(server, http, exported):
     import socket
     from urllib.parse import urlsplit
 
-    address = urlsplit(server[0])
+    address, importing = urlsplit(server[0]), server[1].state.services.importing
     first = socket.create_connection((address.hostname, address.port), timeout=10)
     try:  # an import whose body is still on its way: it holds the import
         first.sendall(
             b"POST /api/recording/import HTTP/1.1\r\nHost: 127.0.0.1\r\n"
             b"Content-Type: application/json\r\nContent-Length: 100000\r\n\r\n{"
         )
-        busy = wait_for(
-            lambda: (
-                (r := http.post("/api/recording/import", json=exported)).status_code == 429 and r
-            ),
-            "the second import is refused while the first is read",
-        )
-        assert busy.headers["retry-after"] == "2"
+        wait_for(importing.locked, "the first import is being read")
+        busy = http.post("/api/recording/import", json=exported)
+        assert busy.status_code == 429 and busy.headers["retry-after"] == "2"
         assert busy.json()["detail"][0]["msg"] == (
             "another recording is being imported: try again when it is done"
         )
     finally:
         first.close()  # it leaves mid-upload: the import is free again
+    wait_for(lambda: not importing.locked(), "the first import let go")
     try:
-        back = wait_for(
-            lambda: (
-                (r := http.post("/api/recording/import", json=exported)).status_code != 429 and r
-            ),
-            "the next import is read",
-        )
+        back = http.post("/api/recording/import", json=exported)
         assert back.status_code == 200 and back.json()["origin"] == "file"
     finally:
         http.post("/api/recording/live")
