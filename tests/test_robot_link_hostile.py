@@ -28,7 +28,7 @@ from app.firmware.emulator import FRAME_CYCLES
 from app.firmware.link import EmulatedLink, SerialLink
 from app.firmware.protocol import LinkError, Msg
 from app.firmware.pty_bridge import PtyBridge
-from app.firmware.robot_link import DEFAULT_BAUD, PortLost, RobotLink, follow
+from app.firmware.robot_link import DEFAULT_BAUD, PortLost, RobotLink, RobotRestarted, follow
 from hardware.firmware.schema import param_specs, schema_hash
 from tests.firmware_support import emulator, preset
 from tests.server_harness import running_server, wait_for
@@ -38,9 +38,9 @@ ROOT = Path(__file__).resolve().parent.parent
 Answer = Callable[[proto.Message], bytes]
 
 
-def info(state: int = 0) -> bytes:
+def info(state: int = 0, frame: int = 5) -> bytes:
     """The INFO this studio's firmware sends: its schema, so `hello` passes."""
-    payload = struct.pack("<BBIIB", proto.VERSION, len(param_specs()), schema_hash(), 5, state)
+    payload = struct.pack("<BBIIB", proto.VERSION, len(param_specs()), schema_hash(), frame, state)
     return proto.encode(Msg.INFO, payload)
 
 
@@ -340,6 +340,19 @@ def test_the_command_ends_when_the_robot_is_killed(tmp_path):
     assert re.fullmatch(f"artro link: error: {lost}", out.lines[-1]), out.lines
 
 
+class Dashboard(BaseHTTPRequestHandler):
+    """A handler that logs nothing and takes every POST (the robot's sensors)."""
+
+    def log_message(self, *args: object) -> None:
+        pass
+
+    def do_POST(self) -> None:
+        self.rfile.read(int(self.headers.get("Content-Length", 0)))
+        self.send_response(200)
+        self.send_header("Content-Length", "0")
+        self.end_headers()
+
+
 @contextlib.contextmanager
 def serving(
     handler: type[BaseHTTPRequestHandler], on_close: Callable[[], None] = lambda: None
@@ -367,10 +380,7 @@ def dashboard_then_hold(on_hold: Callable[[], None]) -> Iterator[str]:
     gets: list[int] = []
     release = threading.Event()
 
-    class Handler(BaseHTTPRequestHandler):
-        def log_message(self, *args: object) -> None:
-            pass
-
+    class Handler(Dashboard):
         def do_GET(self) -> None:
             gets.append(1)
             if len(gets) > 1:
@@ -382,12 +392,6 @@ def dashboard_then_hold(on_hold: Callable[[], None]) -> Iterator[str]:
             self.send_header("Content-Length", str(len(doc)))
             self.end_headers()
             self.wfile.write(doc)
-
-        def do_POST(self) -> None:  # the robot's sensors: taken
-            self.rfile.read(int(self.headers.get("Content-Length", 0)))
-            self.send_response(200)
-            self.send_header("Content-Length", "0")
-            self.end_headers()
 
     with serving(Handler, on_close=release.set) as url:
         yield url
@@ -419,12 +423,9 @@ def test_sigterm_after_the_robot_died_says_it_and_the_servos(capsys):
 
 @contextlib.contextmanager
 def fake_dashboard(body: bytes, content_type: str) -> Iterator[str]:
-    """A server that answers every GET with `body`: its URL."""
+    """A server that answers every GET with `body` and takes every POST: its URL."""
 
-    class Handler(BaseHTTPRequestHandler):
-        def log_message(self, *args: object) -> None:
-            pass
-
+    class Handler(Dashboard):
         def do_GET(self) -> None:
             self.send_response(200)
             self.send_header("Content-Type", content_type)
@@ -557,3 +558,55 @@ def test_bad_lengths_detail_is_len_at_framing_and_the_payloads_length_after():
     assert framing == proto.Nak(0, proto.NakReason.BAD_LENGTH, 201)
     assert message == proto.Nak(Msg.PING, proto.NakReason.BAD_LENGTH, 2)
     assert a_set == proto.Nak(Msg.SET_PARAMS, proto.NakReason.BAD_LENGTH, 6)
+
+
+# ---- a robot that restarted (its MCU reset: frames count from reset) -----------------------
+
+
+@pytest.mark.parametrize("sensors", [False, True], ids=["no stream", "stream"])
+def test_a_robot_that_restarted_is_said_and_sent_the_set_again(sensors):
+    """Its frame count goes back at a keep-alive PING: the link says so and sends the
+    dashboard's set and START (and asks for the stream) again, as at its start: a reset robot
+    walks in its own set. Frames streamed before an INFO may trail it: no restart."""
+    at_frame = [5000]
+    asked: list[int] = []
+
+    def answer(message: proto.Message) -> bytes:
+        asked.append(message.type)
+        if message.type != Msg.PING:
+            return ack(message.type)
+        if at_frame[0] == 40:  # reset: the stream is off
+            return info(frame=40)
+        at_frame[0] += 50
+        return streamed(at_frame[0] - 30) + info(frame=at_frame[0])
+
+    dashboard = json.dumps(preset("paper") | {"version": 4}).encode()
+    with FakeRobot(answer) as fake, fake_dashboard(dashboard, "application/json") as url:
+        robot, lines = robot_on(fake.port)
+        robot.hello()
+        ended_with = follow_on_a_thread(robot, url, sensors=sensors, max_updates=1)
+        wait_for(lambda: asked.count(Msg.PING) >= 3, "two keep-alive PINGs", attempts=600)
+        at_frame[0] = 40  # reset: the next keep-alive PING tells frame 40
+        assert ended_with() is None  # the set sent again is the one more update allowed
+        robot.link.close()
+    said = [line for line in lines if line.startswith("the robot restarted")]
+    assert len(said) == 1 and said[0].endswith(
+        " back to 40 (a reset: a brown-out as the servos draw, the watchdog or its reset "
+        "button), so it walks in its firmware's own set: sending version 4 again"
+    ), lines
+    assert asked.count(Msg.START) == 2
+    assert asked.count(Msg.TELEMETRY_ON) == (3 if sensors else 0)  # on, on again, off
+
+
+def streamed(frame: int) -> bytes:
+    """A SENSORS frame of `frame` with every other value 0."""
+    return proto.encode(Msg.SENSORS, struct.pack("<I", frame) + bytes(66))
+
+
+def test_frames_that_go_on_or_trail_by_a_frame_or_two_are_no_restart():
+    robot = RobotLink(SerialLink(object()), dry_run=True, log=lambda _: None)
+    for frame in (10, 9, 8, 30, 29):  # an INFO's frame may trail a SENSORS' planned one
+        robot._told_frame(frame)
+    with pytest.raises(RobotRestarted, match="went from 30 back to 27"):
+        robot._told_frame(27)
+    robot._told_frame(28)  # counted from the reset on

@@ -2,7 +2,8 @@
 a whole parameter set, the dashboard's set followed as it changes, the robot's SENSORS stream
 forwarded to the Sensors panel meanwhile, the servos off at the end. Every request takes only
 the answer PROTOCOL.md gives it; while the stream is on, a `PortReader` thread reads the port
-alone; a robot gone quiet or a port that failed ends the following within about a second."""
+alone; a robot gone quiet or a port that failed ends the following within about a second, and a
+robot that restarted (its frame count went back) is sent the dashboard's set again."""
 
 from __future__ import annotations
 
@@ -23,6 +24,7 @@ from hardware.firmware.schema import FIRMWARE_ENGINE, schema_hash, values_from_d
 DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 % (config.h UART_BAUD)
 POLL_S = 0.2  # how often the dashboard is asked for its parameter version
 KEEPALIVE_S = 1.0  # while following, a PING when the robot said nothing for this long
+FRAME_SLACK = 2  # an INFO's frame (the one on) may trail a SENSORS' (the one planned) by this
 JSON_KINDS = {list: "list", str: "string", int: "number", float: "number", bool: "boolean",
               type(None): "null"}  # fmt: skip
 DASHBOARD_SET = (
@@ -34,6 +36,11 @@ DASHBOARD_SET = (
 class PortLost(LinkError):
     """The robot's port failed (the adapter unplugged, the robot's side of a pty closed): every
     later request says so at once."""
+
+
+class RobotRestarted(LinkError):
+    """The robot's frame count went back: its MCU was reset (a brown-out as the servos draw, the
+    watchdog, its reset button) and it walks in its firmware's own set again."""
 
 
 def _port_name(port: object) -> str:
@@ -95,7 +102,10 @@ class PortReader:
         self.on_sensors = on_sensors
         self.error: LinkError | None = None  # why the reading ended, if it did
         self.last_frame = time.monotonic()  # when a streamed frame came last
-        self._answers: queue.Queue[proto.Reply | None] = queue.Queue()  # None: the reader ended
+        self.streamed_before: int | None = None  # the last frame streamed before the answer
+        self._streamed: int | None = None  # the last frame streamed since the last answer
+        # each answer with the last frame streamed before it; None: the reader ended
+        self._answers: queue.Queue[tuple[proto.Reply, int | None] | None] = queue.Queue()
         self._stop = threading.Event()
         self._thread = threading.Thread(target=self._run, name="robot-port", daemon=True)
 
@@ -114,9 +124,11 @@ class PortReader:
                     reply = proto.parse(message)
                     if isinstance(reply, proto.Sensors):
                         self.last_frame = time.monotonic()
+                        self._streamed = reply.frame
                         self.on_sensors(reply)
                     elif not isinstance(reply, proto.Telemetry):  # not asked for: not kept
-                        self._answers.put(reply)
+                        self._answers.put((reply, self._streamed))
+                        self._streamed = None
         except LinkError as exc:  # a reply out of protocol
             self.error = exc
         except OSError as exc:  # pyserial's SerialException too: an unplugged adapter
@@ -128,17 +140,22 @@ class PortReader:
 
     def request(self, message: bytes) -> list[proto.Reply]:
         """Send `message`; its answer, or [] after the link's timeout; LinkError if the
-        reading ended (the port failed, or a reply out of protocol)."""
+        reading ended (the port failed, or a reply out of protocol). `streamed_before` is then
+        the last frame streamed before that answer (and after the one before it), if any."""
         self.raise_error()
         while not self._answers.empty():  # a late answer to a request that timed out
             self._answers.get_nowait()
         self.link.serial.write(message)
+        self.streamed_before = None
         try:
-            reply = self._answers.get(timeout=self.link.timeout_s)
+            answer = self._answers.get(timeout=self.link.timeout_s)
         except queue.Empty:
-            reply = None
+            answer = None
         self.raise_error()
-        return [] if reply is None else [reply]
+        if answer is None:
+            return []
+        reply, self.streamed_before = answer
+        return [reply]
 
     def raise_error(self) -> None:
         if self.error is not None:
@@ -156,6 +173,7 @@ class RobotLink:
     _reader: PortReader | None = field(default=None, init=False, repr=False)
     _lost: PortLost | None = field(default=None, init=False, repr=False)
     _heard: float = field(default_factory=time.monotonic, init=False, repr=False)
+    _frame: int | None = field(default=None, init=False, repr=False)  # the newest it told
 
     def request(self, message: bytes) -> list[proto.Reply]:
         """Send `message`; its answer (paired: a streamed frame is never taken for it), or []
@@ -180,7 +198,11 @@ class RobotLink:
             self.link.serial.write(message)
             return []
         if self._reader is not None:
-            return self._reader.request(message)
+            replies = self._reader.request(message)
+            streamed = self._reader.streamed_before  # before the answer: compared at a PING's
+            if streamed is not None:
+                self._frame = streamed if self._frame is None else max(self._frame, streamed)
+            return replies
         link = self.link
         link.serial.write(message)
         deadline = time.monotonic() + link.timeout_s
@@ -216,7 +238,9 @@ class RobotLink:
 
     def check(self) -> None:
         """LinkError if the robot is gone: the port failed (also on the reader's thread), a
-        reply came out of protocol, or a PING after KEEPALIVE_S of silence is not answered."""
+        reply came out of protocol, or a PING after KEEPALIVE_S of silence is not answered;
+        RobotRestarted if the PING's INFO tells a frame before one told already (by an INFO,
+        or a SENSORS streamed before it)."""
         if self._lost is not None:
             raise self._lost
         if self._reader is not None:
@@ -227,7 +251,22 @@ class RobotLink:
                 raise
             self._heard = max(self._heard, self._reader.last_frame)
         if not self.dry_run and time.monotonic() - self._heard >= KEEPALIVE_S:
-            self.expect(proto.command(proto.Msg.PING), "keep-alive ping")
+            info = self.expect(proto.command(proto.Msg.PING), "keep-alive ping")
+            if isinstance(info, proto.Info):
+                self._told_frame(info.frame)
+
+    def _told_frame(self, frame: int) -> None:
+        """Keep the newest frame the robot told, in the order it told them; RobotRestarted if
+        this one went back (frames count from reset, PROTOCOL.md)."""
+        newest = self._frame
+        self._frame = frame if newest is None else max(frame, newest)
+        if newest is not None and frame + FRAME_SLACK < newest:
+            self._frame = frame  # counted from the reset on
+            raise RobotRestarted(
+                f"the robot restarted: its frame count went from {newest} back to {frame} (a "
+                "reset: a brown-out as the servos draw, the watchdog or its reset button), so it "
+                "walks in its firmware's own set"
+            )
 
     def hello(self) -> None:
         """PING; the robot's firmware must address parameters as this studio does."""
@@ -240,6 +279,7 @@ class RobotLink:
                 f"{schema_hash():08x}: flash the firmware of this version (artro export "
                 "--format firmware)"
             )
+        self._told_frame(info.frame)
         self.log(
             f"robot: protocol {info.version}, {info.param_count} parameters, at frame {info.frame}"
         )
@@ -312,7 +352,8 @@ def follow(
     after the first). From the first set on (with `sensors`, not in a dry run) the robot
     streams its SENSORS and they go to the dashboard's Sensors panel; the stream ends with
     this call. A dashboard that stops answering after the first set is said once and asked
-    again: the robot walks on in the last set meanwhile. LinkError for a robot gone (its port
+    again: the robot walks on in the last set meanwhile. A robot that restarted is said and
+    sent the set again (and started, and its stream asked for). LinkError for a robot gone (its port
     failed, or silent for KEEPALIVE_S and a PING unanswered) and for a server whose answer is
     not a dashboard's parameter set. Returns how many sets were sent."""
     import httpx  # ~0.5 s: only to follow a dashboard
@@ -321,11 +362,16 @@ def follow(
     last = None
     lost: str | None = None
     streaming = False
+    restarted = False
     forwarder = SensorForwarder(server, robot.log) if sensors and not robot.dry_run else None
     try:
         with httpx.Client(base_url=server, timeout=5) as http:
             while not stop.is_set():
-                robot.check()  # a robot gone ends the link, also while the set stays the same
+                try:  # a robot gone ends the link, also while the set stays the same
+                    robot.check()
+                except RobotRestarted as exc:
+                    robot.log(f"{exc}: sending version {last} again")
+                    restarted = True
                 try:
                     doc = _dashboard_set(http.get("/api/params").raise_for_status(), server)
                 except httpx.HTTPError as exc:
@@ -342,16 +388,19 @@ def follow(
                 if lost is not None:
                     lost = None
                     robot.log(f"the dashboard at {server} answers again")
-                if doc["version"] != last:
+                if doc["version"] != last or restarted:
                     last = doc["version"]
                     robot.send_set(_plain(doc, server), last)
-                    if sent == 0:
+                    if sent == 0 or restarted:
                         robot.start()
-                        if forwarder is not None:
+                    if forwarder is not None and (sent == 0 or restarted):
+                        if not streaming:
                             forwarder.start()
                             streaming = True
-                            robot.stream_sensors(forwarder.put)
+                        robot.stream_sensors(forwarder.put)
+                        if not restarted:
                             robot.log(f"the robot's sensors go to {server} (Sensors panel)")
+                    restarted = False
                     sent += 1
                     if max_updates is not None and sent > max_updates:
                         break
