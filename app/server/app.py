@@ -35,6 +35,7 @@ from app.server.api import (
     world,
 )
 from app.server.errors import install_handlers
+from app.server.http_protocol import HeadDeadlineProtocol
 from app.server.request_gate import GATED_PREFIXES, RequestGate, served_hosts
 from app.server.services import ServerConfig, Services
 
@@ -45,8 +46,13 @@ FAVICON = "data:image/svg+xml,%3Csvg xmlns='http://www.w3.org/2000/svg' viewBox=
 #: how uvicorn serves the app (`artro serve`, the tests' servers): a WebSocket client only
 #: listens, so a message larger than 64 KiB closes its socket; a stop waits at most 5 s for
 #: requests in flight (a client holding a body half sent held the server, its simulation and
-#: a tune's child process after SIGTERM for as long as it liked)
-UVICORN_OPTIONS = {"ws_max_size": 65536, "timeout_graceful_shutdown": 5}
+#: a tune's child process after SIGTERM for as long as it liked); a request's head must come
+#: whole within HEAD_TIMEOUT_S (HeadDeadlineProtocol)
+UVICORN_OPTIONS = {
+    "ws_max_size": 65536,
+    "timeout_graceful_shutdown": 5,
+    "http": HeadDeadlineProtocol,
+}
 
 
 def create_app(config: ServerConfig | None = None) -> FastAPI:
