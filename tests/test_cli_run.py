@@ -127,3 +127,21 @@ def test_every_subcommand_has_help_with_an_example(command):
     out = artro(command, "--help")
     assert out.returncode == 0, out.stderr
     assert "examples:" in out.stdout and f"artro {command} " in out.stdout.split("examples:")[1]
+
+
+@pytest.mark.parametrize(
+    ("flags", "view"),
+    [
+        ([], "3D view alone: http://localhost:8080, "),
+        (["--viser-port", "0"], "3D view alone: a free port, GET /api/health names it, "),
+        (["--no-viewer"], ""),
+    ],
+    ids=["default", "any port", "no viewer"],
+)
+def test_the_serve_banner_names_the_3d_view_only_where_there_is_one(flags, view):
+    from app.cli import build_parser
+    from app.cli.serve import banner
+
+    args = build_parser().parse_args(["serve", *flags])
+    page = "http://localhost:8000"
+    assert banner(args) == f"ArtRo Gait Studio: {page}  ({view}API docs: {page}/docs)"

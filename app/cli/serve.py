@@ -83,7 +83,6 @@ def serve(args: argparse.Namespace) -> int:
     from app.server.app import UVICORN_OPTIONS, create_app
     from app.server.robot_shelf import RobotShelf
     from app.server.services import ServerConfig
-    from app.server.viser_view import viser_url
 
     data_dir = Path(args.data_dir) if args.data_dir else default_data_dir()
     # a file, or a preset's name (built in or saved in --data-dir): read here, before serving
@@ -114,11 +113,21 @@ def serve(args: argparse.Namespace) -> int:
         print("install them with: bash scripts/setup.sh", file=sys.stderr)
         return 2
     app = create_app(config)
-    url = viser_url(args.host, args.port)
-    print(
-        f"ArtRo Gait Studio: {url}  (3D view alone: {viser_url(args.host, args.viser_port)}, "
-        f"API docs: {url}/docs)",
-        flush=True,
-    )
+    print(banner(args), flush=True)
     uvicorn.run(app, host=args.host, port=args.port, log_level="warning", **UVICORN_OPTIONS)
     return 0
+
+
+def banner(args: argparse.Namespace) -> str:
+    """The line that says where the page, the 3D view (none with --no-viewer) and the API's docs
+    are; a 3D view's port that is taken is said by the server once it knows the next."""
+    from app.server.viser_view import viser_url
+
+    url = viser_url(args.host, args.port)
+    if args.no_viewer:
+        view = ""
+    elif args.viser_port == 0:  # known once it listens
+        view = "3D view alone: a free port, GET /api/health names it, "
+    else:
+        view = f"3D view alone: {viser_url(args.host, args.viser_port)}, "
+    return f"ArtRo Gait Studio: {url}  ({view}API docs: {url}/docs)"
