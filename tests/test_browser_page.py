@@ -142,6 +142,37 @@ def test_a_narrow_window_stacks_the_panels_and_covers_no_control(
         assert page.evaluate("document.activeElement.id") == "replay-import"
 
 
+@SMALL
+def test_the_keyboard_skips_to_a_panel_and_moves_the_scope_cursors(
+    server, browser, width, height, tmp_path
+):
+    """Crossing the 3D view by Tab took 31 presses; the scope's cursors were mouse-only."""
+    base_url, _http = server
+    with open_page(browser, base_url, width, height) as page:
+        expect(page.locator("#scope-fps")).not_to_have_text("—", timeout=30_000)  # a frame drawn
+        page.keyboard.press("Tab")  # the first stop: the skip links, shown once focused
+        first = page.locator(".skip-links a").first
+        expect(first).to_be_focused()
+        expect(first).to_be_in_viewport(ratio=1)
+        page.screenshot(path=shot_path("skip-link.png", tmp_path))
+        page.keyboard.press("Enter")
+        assert page.evaluate("document.activeElement.id") == "drive-panel"
+        page.keyboard.press("Tab")  # on into the panel, not back to the header
+        inside = "document.getElementById('drive-panel').contains(document.activeElement)"
+        assert page.evaluate(inside)
+        readout = page.locator("#scope-cursors")
+        page.locator("#scope-canvas").focus()
+        page.keyboard.press("a")
+        for _ in range(3):
+            page.keyboard.press("ArrowRight")
+        expect(readout).to_have_text("A 10.030 ms")  # mid-frame, then 3 × 10 µs
+        page.keyboard.press("b")
+        page.keyboard.press("Shift+ArrowLeft")
+        expect(readout).to_have_text(re.compile(r"^A 10\.030 ms\s+B 9\.900 ms\s+Δt -130\.0 µs"))
+        page.keyboard.press("Escape")
+        expect(readout).to_contain_text("keys (scope focused)")
+
+
 # --- item 3: one drag or one burst of key presses is one undo step -------------------------------
 
 

@@ -63,6 +63,7 @@ export function initScope() {
     requestDraw();
   });
   $("scope-canvas").addEventListener("click", onCanvasClick);
+  $("scope-canvas").addEventListener("keydown", onCanvasKey);
   roll = new RollPlot($("roll-plot"), $("roll-legend"), setCursor);
   cycle = new CyclePlot($("cycle-plot"), $("cycle-info"));
   $("scope-mode-cycle").addEventListener("click", () => setMode("cycle"));
@@ -299,6 +300,34 @@ function onCanvasClick(ev) {
   setCursor(ax.toTime(x), ev.shiftKey);
 }
 
+const KEY_STEP_US = 10; // an arrow moves a cursor 10 µs (Shift: 100 µs; a TDM slot is 2 500 µs)
+let keyCursor = "a"; // the cursor the arrows move: the last one placed by key
+
+/** Keys on the single-frame view: A or B places that cursor (mid-frame if unset), ←/→ move
+ * it (Shift: ×10), Escape clears both. */
+function onCanvasKey(ev) {
+  const ax = state.axis;
+  if (!ax || ev.ctrlKey || ev.metaKey || ev.altKey) return;
+  const frameUs = ax.toTime(ax.x1);
+  const c = state.cursors;
+  const key = ev.key.toLowerCase();
+  if (key === "a" || key === "b") {
+    keyCursor = key;
+    if (c[key] == null) c[key] = frameUs / 2;
+  } else if (ev.key === "ArrowLeft" || ev.key === "ArrowRight") {
+    const step = (ev.key === "ArrowLeft" ? -1 : 1) * KEY_STEP_US * (ev.shiftKey ? 10 : 1);
+    const from = c[keyCursor] ?? frameUs / 2;
+    c[keyCursor] = Math.min(frameUs, Math.max(0, from + step));
+  } else if (ev.key === "Escape") {
+    state.cursors = { a: null, b: null };
+  } else {
+    return;
+  }
+  ev.preventDefault();
+  updateCursorReadout();
+  requestDraw();
+}
+
 /** Cursor A at `t`, or B if A is set and B is not (or with shift). */
 function setCursor(t, shiftKey) {
   const c = state.cursors;
@@ -320,7 +349,12 @@ function updateCursorReadout() {
   const { a, b } = state.cursors;
   const el = $("scope-cursors");
   if (a == null && b == null) {
-    el.textContent = state.mode === "cycle" ? "cycle view: hover for values" : "cursors: click = A, shift-click or 2nd click = B";
+    el.textContent =
+      state.mode === "cycle"
+        ? "cycle view: hover for values"
+        : state.mode === "single"
+          ? "cursors: click = A, shift-click or 2nd click = B; keys (scope focused): A, B, ← →"
+          : "cursors: click = A, shift-click or 2nd click = B";
     el.classList.add("dim");
     return;
   }
