@@ -1,6 +1,7 @@
 """`artro serve` ends on SIGTERM though a client holds a request half sent: uvicorn waits at
 most `timeout_graceful_shutdown` for requests in flight (`UVICORN_OPTIONS`), then the app stops
-its jobs, simulation and 3D view. Before, the process lived as long as the client liked."""
+its jobs, simulation and 3D view. Before, the process lived as long as the client liked. A second
+Ctrl-C while it waits ends it at once, quietly."""
 
 from __future__ import annotations
 
@@ -58,3 +59,38 @@ def test_sigterm_ends_the_server_though_a_client_holds_a_request_half_sent(tmp_p
         if server.poll() is None:
             server.kill()
             server.wait(30)
+
+
+@pytest.mark.slow
+def test_a_second_ctrl_c_while_stopping_ends_the_server_quietly(tmp_path):
+    """uvicorn takes a second Ctrl-C as "force quit": it skips the app's end and cancels it as the
+    loop closes, which it logged as a traceback; the services stop all the same, quietly."""
+    port = free_port()
+    server = subprocess.Popen(
+        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), "--no-viewer",
+         "--data-dir", str(tmp_path)],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
+    )  # fmt: skip
+    held = None
+    try:
+        base_url = f"http://127.0.0.1:{port}"
+        wait_for(lambda: healthy(base_url), "the server answers", 1200)
+        assert httpx.post(f"{base_url}/api/jobs/robustness", json={}).status_code == 202
+        held = socket.create_connection(("127.0.0.1", port), timeout=10)
+        held.sendall(b"PUT /api/params HTTP/1.1\r\nHost: 127.0.0.1\r\nContent-Length: 9\r\n\r\n{")
+        server.send_signal(signal.SIGINT)  # the first: it waits up to 5 s for the held request
+        wait_for(lambda: not healthy(base_url), "the server stops listening", 1200)
+        server.send_signal(signal.SIGINT)  # the second, while it waits
+        try:
+            said = server.communicate(timeout=60)[0].decode()
+        except subprocess.TimeoutExpired:
+            server.kill()
+            pytest.fail("the server still ran 60 s after a second Ctrl-C")
+    finally:
+        if held is not None:
+            held.close()
+        if server.poll() is None:
+            server.kill()
+            server.wait(30)
+    assert "Traceback" not in said and "ERROR" not in said, said[-3000:]
+    assert server.returncode == 0, said[-2000:]  # uvicorn ends a Ctrl-C'd server with 0

@@ -66,6 +66,10 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
         app.state.services = services
         try:
             yield
+        except asyncio.CancelledError:
+            # a second Ctrl-C: uvicorn skips the lifespan's end and the loop's close cancels it;
+            # the services stop all the same, without uvicorn's traceback of the cancellation
+            pass
         finally:
             services.stop()
 
