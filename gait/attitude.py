@@ -19,6 +19,10 @@ def accel_tilt(accel: NDArray[np.floating]) -> tuple[NDArray[np.floating], NDArr
     return pitch, roll
 
 
+#: the estimate's pitch is held within ± this, rad (86°): the Euler rates need tan(pitch),
+#: which grows without bound toward ±π/2, where the robot has long fallen; its roll is kept in
+#: (-π, π] (a robot rolled over would otherwise count on past π)
+PITCH_LIMIT_RAD = 1.5
 #: standard gravity, m/s²
 G_M_S2 = 9.80665
 #: the attitude starts only from an accelerometer reading within this share of g: at rest, not
@@ -62,13 +66,27 @@ def complementary_step(
     rates over dt_s, blended with the accelerometer's tilt, weight tau / (tau + dt) on the gyro
     path: the accelerometer corrects slowly (time constant tau_s), the gyro carries the fast
     motion. tau_s = 0 takes the accelerometer alone. `tilt`: `accel_tilt(accel)` when the
-    caller has it."""
+    caller has it. Across ±π the accelerometer's roll is taken on the gyro path's side (the
+    blend of π and -π is not 0), the roll kept in (-π, π], the pitch within ±PITCH_LIMIT_RAD;
+    while the robot stands none of these acts, nor changes a bit."""
     dtype = np.result_type(pitch, gyro, accel)
     keep = dtype.type(tau_s / (tau_s + dt_s))
     dt = dtype.type(dt_s)
+    pi, two_pi = dtype.type(np.pi), dtype.type(2) * dtype.type(np.pi)
     pitch_rate, roll_rate = euler_rates(pitch, roll, gyro)
     acc_pitch, acc_roll = accel_tilt(accel) if tilt is None else tilt
     one = dtype.type(1.0)
-    new_pitch = keep * (pitch + pitch_rate * dt) + (one - keep) * acc_pitch
-    new_roll = keep * (roll + roll_rate * dt) + (one - keep) * acc_roll
+    pitch_path = pitch + pitch_rate * dt
+    roll_path = roll + roll_rate * dt
+    apart = acc_roll - roll_path
+    acc_roll = np.where(
+        apart > pi, acc_roll - two_pi, np.where(apart < -pi, acc_roll + two_pi, acc_roll)
+    )
+    new_pitch = keep * pitch_path + (one - keep) * acc_pitch
+    new_roll = keep * roll_path + (one - keep) * acc_roll
+    new_roll = np.where(
+        new_roll > pi, new_roll - two_pi, np.where(new_roll <= -pi, new_roll + two_pi, new_roll)
+    )
+    limit = dtype.type(PITCH_LIMIT_RAD)
+    new_pitch = np.minimum(np.maximum(new_pitch, -limit), limit)
     return new_pitch.astype(dtype), new_roll.astype(dtype)

@@ -14,6 +14,8 @@ import pytest
 from app.cli.firmware import add_parser as add_firmware_parser
 from app.cli.firmware import command as cmd_firmware
 from app.firmware.build import export_firmware_folder, memory_use
+from app.firmware.closed_loop import LAW_TOLERANCE, ClosedLoopRun
+from app.firmware.conformance import ANGLE_TOLERANCE_RAD, Comparison
 from hardware.firmware.schema import complete_document
 from tests.firmware_support import preset
 
@@ -89,3 +91,41 @@ def test_firmware_run_json_prints_nothing_but_the_json() -> None:
         capture_output=True, text=True, check=True,
     )  # fmt: skip
     assert json.loads(run.stdout)["frames"] == 5
+
+
+def test_a_fall_ends_what_is_judged_and_a_difference_is_said(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A gyro biased 250 °/s fells the robot at frame 39; after it the attitude estimate parts
+    by float32's last bits (2.2e-5 against a tolerance of 2e-5) and the run exited 1 without a
+    word. Frames from the fall on are said, not judged (a fall ends every evaluator's run), and
+    any failure is named on stderr."""
+    doc = complete_document(preset("tuned", a_p=0.05))
+    for law in ("tilt", "yaw_rate", "damping", "cop"):
+        doc["gait"][law]["enabled"] = True
+    (tmp_path / "laws.json").write_text(json.dumps(doc))
+    argv = ["firmware", "run", "--params", str(tmp_path / "laws.json"), "--frames", "150",
+            "--json", "--vary", "gyro_bias_deg_s=250"]  # fmt: skip
+    assert cmd_firmware(parse(argv)) == 0
+    said = capsys.readouterr()
+    out = json.loads(said.out)
+    assert out["ok"] and out["failures"] == [] and said.err == ""
+    assert out["fell_at_frame"] is not None and 0 < out["fell_at_frame"] < 150
+    assert out["law_error_max"] <= LAW_TOLERANCE and out["law_error_max_fallen"] >= 0.0
+
+
+def test_what_differs_is_named_with_its_tolerance() -> None:
+    run = ClosedLoopRun(
+        Comparison(mismatches=["frame 3 OC1A slot 2: 1501 ticks, the model 1500"],
+                   max_angle_error_rad=0.5),
+        law_error_max=1e-3, overrun=True, fell_at=7,
+    )  # fmt: skip
+    assert not run.ok
+    assert run.failures() == [
+        "pulses that differ from the model's: 1 (the first: frame 3 OC1A slot 2: 1501 ticks, "
+        "the model 1500)",
+        f"the angles differ by up to 0.5 rad (tolerance {ANGLE_TOLERANCE_RAD:g})",
+        f"the laws' outputs differ by up to 0.001 (tolerance {LAW_TOLERANCE:g}) before the fall",
+        "a plan was late and a frame repeated (the TDM's overrun flag)",
+    ]
+    assert ClosedLoopRun(Comparison()).failures() == []

@@ -29,7 +29,7 @@ from app.sim.sensors import (
 )
 from app.worlds.variations import NOMINAL, Variation, parse_variation
 from gait import GaitParams, Motion
-from gait.attitude import accel_tilt, complementary_step
+from gait.attitude import PITCH_LIMIT_RAD, accel_tilt, complementary_step
 
 ROBOT = RobotModel.load()
 
@@ -181,6 +181,27 @@ def test_the_complementary_filter_blends_gyro_and_accelerometer():
     for _ in range(250):  # 5 s = 10 tau
         p, r = complementary_step(p, r, np.zeros(3), accel, 0.02, 0.5)
     assert p == pytest.approx(0.05, abs=1e-5)
+
+
+def test_the_estimate_rolls_over_within_pi_and_its_pitch_stays_off_the_singularity():
+    """A robot rolled over: the roll goes on past π as -π + ..., never blended to 0 across the
+    wrap; pitched past the vertical, the pitch stops at PITCH_LIMIT_RAD (tan(pitch) is finite)."""
+    g = GRAVITY_M_S2
+    roll, rolls = np.float64(0.0), []
+    for k in range(1, 160):  # 2.5 rad/s about x for 3.2 s: 8 rad, past π
+        angle = 0.05 * k
+        accel = np.array([0.0, g * math.sin(angle), g * math.cos(angle)])
+        _, roll = complementary_step(0.0, roll, np.array([2.5, 0.0, 0.0]), accel, 0.02, 0.5)
+        rolls.append(float(roll))
+        wrapped = math.remainder(angle, 2 * math.pi)
+        assert abs(math.remainder(float(roll) - wrapped, 2 * math.pi)) < 0.05, (k, roll)
+    assert all(-math.pi < r <= math.pi for r in rolls) and min(rolls) < -3.0
+    pitch, pitches = np.float64(0.0), []
+    for k in range(1, 60):  # 2.5 rad/s about y: over the top
+        accel = np.array([-g * math.sin(0.05 * k), 0.0, g * math.cos(0.05 * k)])
+        pitch, _ = complementary_step(pitch, 0.0, np.array([0.0, 2.5, 0.0]), accel, 0.02, 0.5)
+        pitches.append(float(pitch))
+    assert max(pitches) == PITCH_LIMIT_RAD and min(pitches) >= 0.0
 
 
 def test_the_filter_keeps_float32():

@@ -123,6 +123,11 @@ class ClosedLoopRun:
 
     comparison: Comparison
     law_error_max: float = 0.0  # largest law output difference, firmware against model
+    #: the same from the frame the robot fell on (the attitude estimate, tan(pitch) steep near
+    #: its limit, then parts by float32 rounding): said, not judged; a fall ends every
+    #: evaluator's run (decision 0026)
+    law_error_max_fallen: float = 0.0
+    fell_at: int | None = None  # the frame the robot fell on
     twi_transactions: list[int] = field(default_factory=list)  # per frame
     adc_conversions: list[int] = field(default_factory=list)  # per frame
     imu_stale_frames: list[int] = field(default_factory=list)  # frames whose IMU read failed
@@ -141,12 +146,27 @@ class ClosedLoopRun:
 
     @property
     def ok(self) -> bool:
-        return self.comparison.ok and self.law_error_max <= LAW_TOLERANCE and not self.overrun
+        return not self.failures()
+
+    def failures(self) -> list[str]:
+        """What differs from the model beyond its tolerance, in words ([] when it matches)."""
+        said = self.comparison.failures()
+        if self.law_error_max > LAW_TOLERANCE:
+            said.append(
+                f"the laws' outputs differ by up to {self.law_error_max:.3g} (tolerance "
+                f"{LAW_TOLERANCE:g})" + ("" if self.fell_at is None else " before the fall")
+            )
+        if self.overrun:
+            said.append("a plan was late and a frame repeated (the TDM's overrun flag)")
+        return said
 
     def summary(self) -> dict[str, Any]:
         return {
             **self.comparison.summary(),
+            "ok": self.ok,
             "law_error_max": self.law_error_max,
+            "law_error_max_fallen": self.law_error_max_fallen,
+            "fell_at_frame": self.fell_at,
             "twi_transactions_per_frame": _spread(self.twi_transactions),
             "adc_conversions_per_frame": _spread(self.adc_conversions),
             "imu_stale_frames": self.imu_stale_frames,
@@ -258,7 +278,8 @@ def run_closed_loop(
                 motion,
             )  # fmt: skip
             record = loop.step_pins(pins)
-            run.fell = run.fell or loop.fell
+            if loop.fell and not run.fell:
+                run.fell, run.fell_at = True, k
             assert record.reading is not None  # watch_sensors
             drive.feed(record.reading)
         run.imu_failures = mcu.read_symbol("g_imu_failures")[0]
@@ -279,8 +300,13 @@ def run_closed_loop(
         result.max_angle_error_rad = max(result.max_angle_error_rad, error)
         result.busy_cycles.append(frame.busy_cycles)
         law = run.model_laws[k + 1]
-        if law is not None:
-            run.law_error_max = max(run.law_error_max, _law_error(run.laws[k], law))
+        if law is None:
+            continue
+        error = _law_error(run.laws[k], law)
+        if run.fell_at is not None and k >= run.fell_at:
+            run.law_error_max_fallen = max(run.law_error_max_fallen, error)
+        else:
+            run.law_error_max = max(run.law_error_max, error)
     result.frames = len(fw_frames)
     run.switch_frames = [frame_from for frame_from, _, _ in switches]
     return run

@@ -150,14 +150,31 @@ class Comparison:
 
     @property
     def ok(self) -> bool:
-        return (
-            not self.mismatches
-            and self.select_outside_guard == 0
-            and self.max_angle_error_rad <= ANGLE_TOLERANCE_RAD
-        )
+        return not self.failures()
+
+    def failures(self) -> list[str]:
+        """What differs from the model beyond its tolerance, in words ([] when it matches)."""
+        said = []
+        if self.mismatches:
+            said.append(
+                f"pulses that differ from the model's: {len(self.mismatches)} (the first: "
+                f"{self.mismatches[0]})"
+            )
+        if self.select_outside_guard:
+            said.append(
+                "select-line edges outside the guard's change tick: "
+                f"{self.select_outside_guard}"
+            )
+        if self.max_angle_error_rad > ANGLE_TOLERANCE_RAD:
+            said.append(
+                f"the angles differ by up to {self.max_angle_error_rad:.3g} rad (tolerance "
+                f"{ANGLE_TOLERANCE_RAD:g})"
+            )
+        return said
 
     def summary(self) -> dict[str, Any]:
         return {
+            "ok": self.ok,
             "frames": self.frames,
             "pulses_compared": self.pulses,
             "exact": self.exact,
@@ -263,4 +280,5 @@ def check_firmware(
         "sram_bytes": build.sram_bytes,
         "timer3_start_lag_cycles": lag,
         "robot": robot.name,
+        "failures": result.failures(),
     }

@@ -62,6 +62,10 @@ static uint8_t starts_attitude(const float *a)
     return low * low <= squared && squared <= high * high;
 }
 
+/* gait/attitude.py PITCH_LIMIT_RAD: tan(pitch) grows without bound toward +-pi/2 */
+#define PITCH_LIMIT_RAD 1.5f
+#define PI_F 3.14159265358979f
+
 /* gait/attitude.py complementary_step; no estimate (pitch, roll 0) until a reading starts it */
 static void attitude_step(law_state_t *s, const float *gyro, const float *accel)
 {
@@ -80,9 +84,21 @@ static void attitude_step(law_state_t *s, const float *gyro, const float *accel)
     const float sin_r = sinf(s->roll), cos_r = cosf(s->roll);
     const float pitch_rate = cos_r * gyro[1] - sin_r * gyro[2];
     const float roll_rate = gyro[0] + tanf(s->pitch) * (sin_r * gyro[1] + cos_r * gyro[2]);
-    const float pitch = keep * (s->pitch + pitch_rate * FRAME_DT_S) + (1.0f - keep) * acc_pitch;
-    const float roll = keep * (s->roll + roll_rate * FRAME_DT_S) + (1.0f - keep) * acc_roll;
-    s->pitch = pitch;
+    const float pitch_path = s->pitch + pitch_rate * FRAME_DT_S;
+    const float roll_path = s->roll + roll_rate * FRAME_DT_S;
+    const float apart = acc_roll - roll_path; /* across +-pi: on the gyro path's side */
+    if (apart > PI_F)
+        acc_roll -= 2 * PI_F;
+    else if (apart < -PI_F)
+        acc_roll += 2 * PI_F;
+    const float pitch = keep * pitch_path + (1.0f - keep) * acc_pitch;
+    float roll = keep * roll_path + (1.0f - keep) * acc_roll;
+    if (roll > PI_F)
+        roll -= 2 * PI_F;
+    else if (roll <= -PI_F)
+        roll += 2 * PI_F;
+    s->pitch = pitch > PITCH_LIMIT_RAD ? PITCH_LIMIT_RAD
+             : pitch < -PITCH_LIMIT_RAD ? -PITCH_LIMIT_RAD : pitch;
     s->roll = roll;
 }
 
