@@ -169,3 +169,33 @@ def test_frames_wait_for_a_dashboard_that_does_not_answer_and_put_never_blocks()
     assert forwarder.posted == 0 and len(log.lines) == 1
     nan = sensors.__class__(**{**sensors.__dict__, "attitude_rad": (float("nan"), 0.0)})
     assert frame_json(nan) is None
+
+
+def test_a_frame_the_dashboard_refuses_costs_only_itself(tmp_path):
+    """A frame out of the dashboard's bounds (an attitude past π, as the firmware sent before
+    it wrapped the roll) was refused with its whole batch of up to 16: now the others go again."""
+    log = Log()
+    sensors = proto.Sensors(
+        frame=0, status=proto.IMU_PRESENT, imu_failures=0, laws=0, support=-1,
+        gyro_offset=GYRO_ZERO_RATE_COUNTS, accel_raw=tilted().accel,
+        gyro_raw=GYRO_ZERO_RATE_COUNTS, adc=(0,) * 8, attitude_rad=(0.1, 0.0),
+        tilt_rad=(0.0, 0.0), a_y_delta=0.0, cop_rad=(0.0, 0.0),
+    )  # fmt: skip
+    with running_server(tmp_path) as (base_url, _app), client(base_url) as http:
+        forwarder = SensorForwarder(base_url, log)
+        for n in range(1, 41):
+            roll = 5.5 if n in (7, 30) else 0.0
+            forwarder.put(sensors.__class__(**{**sensors.__dict__, "frame": n,
+                                               "attitude_rad": (0.1, roll)}))  # fmt: skip
+        forwarder.start()
+        try:
+            wait_for(lambda: forwarder.posted + forwarder.refused == 40, "every frame handled")
+        finally:
+            forwarder.stop()
+        frames = http.get("/api/sensors").json()["robot"]["columns"]["frame"]
+    assert forwarder.refused == 2 and forwarder.posted == 38
+    assert frames == [n for n in range(1, 41) if n not in (7, 30)]
+    assert len(log.lines) == 1 and log.lines[0].startswith(
+        "the dashboard refused the robot's sensor frame 7 (frames.6.attitude_rad.1: Input "
+        "should be less than or equal to 3.14"
+    ), log.lines

@@ -162,8 +162,7 @@ class Comparison:
             )
         if self.select_outside_guard:
             said.append(
-                "select-line edges outside the guard's change tick: "
-                f"{self.select_outside_guard}"
+                f"select-line edges outside the guard's change tick: {self.select_outside_guard}"
             )
         if self.max_angle_error_rad > ANGLE_TOLERANCE_RAD:
             said.append(

@@ -107,11 +107,22 @@ class SensorForwarder:
         if answer.status_code not in (200, 422):
             self._say_failing(f"HTTP {answer.status_code}")
             return False
-        self._drop(batch)
         if answer.status_code == 422:
-            self.refused += len(batch)
-            self._say_failing(f"refused: {answer.json().get('message', answer.text)[:200]}")
-            return False
+            named = _frames_named(answer, len(batch))
+            if not named:
+                self._drop(batch)
+                self.refused += len(batch)
+                self._say_failing(f"refused: {_message(answer)[:200]}")
+                return False
+            self._forget([batch[i] for i in named])  # the others go again at once
+            if self.refused == 0:
+                self.log(
+                    f"the dashboard refused the robot's sensor frame {batch[named[0]]['frame']} "
+                    f"({_message(answer)[:200]}); such frames are left out and counted"
+                )
+            self.refused += len(named)
+            return True
+        self._drop(batch)
         self.posted += len(batch)
         if self._failing is not None:
             self._failing = None
@@ -125,6 +136,14 @@ class SensorForwarder:
             while self._pending and id(self._pending[0]) in sent:
                 self._pending.popleft()
 
+    def _forget(self, frames: list[dict[str, Any]]) -> None:
+        """Forget these frames wherever they wait (the dashboard refused them)."""
+        gone = {id(frame) for frame in frames}
+        with self._lock:
+            kept = [frame for frame in self._pending if id(frame) not in gone]
+            self._pending.clear()
+            self._pending.extend(kept)
+
     def _say_failing(self, why: str) -> None:
         if self._failing is None:
             self.log(
@@ -132,3 +151,27 @@ class SensorForwarder:
                 "the link goes on and tries again"
             )
         self._failing = why
+
+
+def _message(answer: Any) -> str:
+    try:
+        return str(answer.json().get("message", answer.text))
+    except (ValueError, AttributeError):
+        return answer.text
+
+
+def _frames_named(answer: Any, count: int) -> list[int]:
+    """The frames of a batch of `count` that a 422 names (its items' loc: body, frames, i, ...);
+    [] when it names none (then the batch as a whole was refused)."""
+    try:
+        items = answer.json()["detail"]
+        named = {
+            item["loc"][2]
+            for item in items
+            if list(item["loc"][:2]) == ["body", "frames"] and len(item["loc"]) > 2
+        }
+    except (ValueError, KeyError, TypeError, IndexError):
+        return []
+    if not all(isinstance(i, int) and 0 <= i < count for i in named):
+        return []
+    return sorted(named)
