@@ -11,6 +11,10 @@ import numpy as np
 import pytest
 
 from app.firmware.pulses import FirmwarePulses
+from app.params.document import ParameterSet
+from app.robots.model import RobotModel
+from app.server.emulated_controller import EmulatedController
+from app.server.param_store import ParameterStore
 from app.server.sim_commands import Reset
 from app.sim.frame_loop import FrameLoop, PinFrame
 from gait import GaitParams, Motion
@@ -89,6 +93,32 @@ def test_the_simulation_thread_switches_to_the_firmware_and_sends_it_changes(sim
     sim.switch_drive("model")
     wait_for(lambda: sim.status().drive == "model", "the model drive")
     assert sim.status().resets == 1  # back to the model the robot walks on
+
+
+def test_a_burst_of_versions_sends_one_set_at_a_time_and_the_newest_next() -> None:
+    """150 law switches in 2 s had each gone whole onto the emulated UART: the MCU replayed
+    stale sets for 13 s. One set is on the wire at a time; a newer version replaces any that
+    waited, and its latency counts from when it was asked for."""
+    store = ParameterStore(ParameterSet.from_dict(preset("tuned", a_p=0.06)))
+    controller = EmulatedController.boot(store.snapshot(), RobotModel.load().hardware())
+    try:
+        versions = [store.update({"motion": {"a_p": 0.01 * (k % 7)}}, "test") for k in range(30)]
+        for snapshot in versions:
+            controller.send(snapshot)
+        forced, latencies = [], []
+        for _ in range(100):
+            _pins, problems, reached = controller.next_pins()
+            assert problems == []
+            latencies += reached
+            forced.append(controller.status().params_version_acked)
+            if forced[-1] == versions[-1].version:
+                break
+        status = controller.status()
+    finally:
+        controller.close()
+    assert status.sets_skipped == 28 and status.sets_in_flight == 0  # the first and the last went
+    assert set(forced) == {versions[0].version - 1, versions[0].version, versions[-1].version}
+    assert len(latencies) == 2 and latencies[1] > latencies[0]  # the last waited for the first
 
 
 def test_a_set_the_firmware_cannot_run_is_refused_and_ends_the_firmware_drive(sim_thread) -> None:

@@ -34,7 +34,8 @@ class FirmwareStatus:
     busy_cycles_max: int = 0  # over the last second
     busy_budget_cycles: int = BUSY_BUDGET_CYCLES
     params_version_acked: int = 0  # the last parameter version the firmware acknowledged
-    sets_in_flight: int = 0  # sent, not yet answered
+    sets_in_flight: int = 0  # sent, not yet answered (one at most)
+    sets_skipped: int = 0  # versions replaced by a newer one before they went (never sent)
     naks: int = 0
     laws_on: tuple[str, ...] = ()  # the feedback laws the set in force switches on
     attitude_rad: tuple[float, float] = (0.0, 0.0)  # the firmware's pitch, roll estimate
@@ -45,11 +46,12 @@ class FirmwareStatus:
 
 @dataclass
 class _InFlight:
-    """A set on the wire: its snapshot, the firmware's frame when it was sent, the answers
-    still to come (a set is several SET_PARAMS), whether one was a NAK."""
+    """A set on the wire: its snapshot, the firmware's frame when it was asked for (sent then,
+    or once the set before it was answered), the answers still to come (a set is several
+    SET_PARAMS), whether one was a NAK."""
 
     snapshot: Snapshot
-    sent_frame: int
+    asked_frame: int
     answers_due: int
     refused: bool = False
 
@@ -64,7 +66,10 @@ class EmulatedController:
         self.robot = snapshot.robot  # the robot whose legs and servos it was built for
         self._target = snapshot  # the set in force on the MCU
         self._motion = snapshot.motion  # what its gait got in the last frame (ramped, as its own)
-        self._in_flight: deque[_InFlight] = deque()  # sets on the wire, oldest first
+        self._in_flight: deque[_InFlight] = deque()  # the set on the wire (one at most)
+        # the newest set, to go once the wire is free, and the frame it was asked in
+        self._waiting: tuple[Snapshot, int] | None = None
+        self._skipped = 0
         # acknowledged sets not yet reached: (first frame, snapshot)
         self._scheduled: deque[tuple[int, Snapshot]] = deque()
         self._busy: deque[int] = deque(maxlen=BUSY_WINDOW_FRAMES)
@@ -96,11 +101,20 @@ class EmulatedController:
         )
         return cls(pulses, snapshot)
 
-    def send(self, snapshot: Snapshot) -> None:
-        """Queue the whole set on the UART (the protocol's SET_PARAMS); it reaches the frame
-        the firmware's ACK names."""
+    def send(self, snapshot: Snapshot, asked_frame: int | None = None) -> None:
+        """The whole set over the UART (the protocol's SET_PARAMS); it reaches the frame the
+        firmware's ACK names. One set is on the wire at a time, as `artro link` sends them:
+        a newer version waits for it and replaces any that waited (a slider's drag, 150 law
+        switches in 2 s, each sent whole had kept the MCU replaying stale sets for 13 s). Its
+        latency counts from `asked_frame` (default: now)."""
+        asked = self.pulses.frame if asked_frame is None else asked_frame
+        if self._in_flight:
+            if self._waiting is not None:
+                self._skipped += 1
+            self._waiting = (snapshot, asked)
+            return
         parts = self.pulses.send_parameters(snapshot.parameter_set().to_dict())
-        self._in_flight.append(_InFlight(snapshot, self.pulses.frame, parts))
+        self._in_flight.append(_InFlight(snapshot, asked, parts))
 
     def next_pins(self) -> tuple[PinFrame, list[str], list[int]]:
         """Run the MCU through its next frame: the pins, problems to report, and per set that
@@ -123,7 +137,10 @@ class EmulatedController:
             self._in_flight.popleft()
             if isinstance(reply, proto.Ack) and not entry.refused:  # the last part: whole set
                 self._scheduled.append((reply.effective_frame, entry.snapshot))
-                latencies.append(reply.effective_frame - entry.sent_frame + 1)
+                latencies.append(reply.effective_frame - entry.asked_frame + 1)
+            if self._waiting is not None:  # the wire is free: the newest set goes
+                (waiting, asked), self._waiting = self._waiting, None
+                self.send(waiting, asked)
         while self._scheduled and self._scheduled[0][0] <= frame.index:
             _, self._target = self._scheduled.popleft()
         if frame.index > 0:  # the firmware's ramp takes one step per planned frame (ramp.c)
@@ -160,6 +177,7 @@ class EmulatedController:
             busy_cycles_max=max(self._busy, default=0),
             params_version_acked=self._target.version,
             sets_in_flight=len(self._in_flight),
+            sets_skipped=self._skipped,
             naks=self._naks,
         )
 

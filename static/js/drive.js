@@ -41,7 +41,8 @@ function show(s) {
       `pulses from the firmware on an emulated ATmega128: MCU frame ${fw.mcu_frame}, ` +
       `busy ${fw.busy_cycles_max} cycles of the frame's 320 000 (max over 1 s; budget ` +
       `${fw.busy_budget_cycles}), parameter v${fw.params_version_acked} acknowledged, ` +
-      `${fw.sets_in_flight} set(s) on the wire, ${fw.naks} refused`;
+      `${fw.sets_in_flight} set(s) on the wire (one at a time: ${fw.sets_skipped} versions ` +
+      `replaced by a newer one before they went), ${fw.naks} refused`;
   }
   const select = $("drive-select");
   if (!switching && document.activeElement !== select) select.value = s.drive || "model";
