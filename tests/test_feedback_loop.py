@@ -157,6 +157,23 @@ def test_a_live_push_is_the_worlds_push_turned_with_the_robot():
     np.testing.assert_allclose(loop.data.qpos, pushed.data.qpos, atol=1e-9)
 
 
+def test_two_pushes_before_the_next_step_both_act():
+    """Two pushes in one frame (the P key twice, two clients): the second had taken the place
+    of the first, answered 200 all the same. Their impulses now add."""
+    loops = [FrameLoop(ROBOT, TUNED, Motion(a_p=0.07)) for _ in range(2)]
+    for loop in loops:
+        for _ in range(30):
+            loop.step_frame()
+    once = loops[0].push_now(0.4, 90.0)
+    loops[1].push_now(0.25, 90.0)
+    twice = loops[1].push_now(0.15, 90.0)
+    assert twice == pytest.approx(once, abs=1e-12) and math.hypot(*once) == pytest.approx(0.4)
+    for _ in range(25):
+        for loop in loops:
+            loop.step_frame()
+    np.testing.assert_allclose(loops[1].data.qpos, loops[0].data.qpos, atol=1e-9)
+
+
 def test_the_sole_sensors_carry_the_robots_weight():
     """Stepping on the spot, the force sensors of both soles read, on average over whole gait
     cycles, the robot's weight (gain 1, the floor level)."""
