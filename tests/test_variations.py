@@ -426,17 +426,17 @@ def test_the_cli_text_names_the_non_nominal_fields_only():
 finite = {"allow_nan": False, "allow_infinity": False}
 variations = st.builds(
     Variation,
-    friction=st.none() | st.floats(0.0, 1.0, exclude_min=True),
-    trunk_mass_scale=st.floats(0.0, 5.0, exclude_min=True),
-    link_mass_scale=st.floats(0.0, 3.0, exclude_min=True) | st.just(1.0),
-    kp_scale=st.floats(0.0, 3.0, exclude_min=True),
-    torque_scale=st.floats(0.0, 1.2, exclude_min=True),
-    damping_scale=st.just(1.0) | st.floats(1e-300, 10.0),
+    friction=st.none() | st.floats(0.01, 1.0),
+    trunk_mass_scale=st.floats(0.1, 5.0),
+    link_mass_scale=st.floats(0.1, 3.0) | st.just(1.0),
+    kp_scale=st.floats(0.1, 3.0),
+    torque_scale=st.floats(0.1, 1.2),
+    damping_scale=st.just(1.0) | st.floats(0.1, 10.0),
     frictionloss_scale=st.floats(0.5, 2.0),
     latency_ms=st.floats(0.0, 200.0),
     deadband_deg=st.floats(0.0, 1.0),
     backlash_deg=st.just(0.0) | st.floats(0.0, 5.0),
-    tilt_deg=st.floats(0.0, 90.0, exclude_max=True),
+    tilt_deg=st.floats(0.0, 45.0),
     tilt_direction_deg=st.floats(0.0, 360.0, exclude_max=True),
     calibration_deg=st.tuples(*[st.just(0.0) | st.floats(-45.0, 45.0)] * 12),
 )
@@ -457,28 +457,32 @@ def test_the_text_reads_back_to_the_bit(v):
 @pytest.mark.parametrize(
     ("kwargs", "message"),
     [
-        ({"friction": 0.0}, "friction must be > 0 and ≤ 1"),
-        ({"friction": 1.2}, "friction must be > 0 and ≤ 1"),
-        ({"friction": math.nan}, "friction must be > 0 and ≤ 1"),
-        ({"kp_scale": 0.0}, "kp_scale must be > 0"),
-        ({"trunk_mass_scale": -1.0}, "trunk_mass_scale must be > 0"),
-        ({"link_mass_scale": math.inf}, "link_mass_scale must be > 0"),
-        ({"torque_scale": 1.5}, "torque_scale must be > 0 and ≤ 1.2"),
+        ({"friction": 0.0}, "friction must be ≥ 0.01 and ≤ 1"),
+        ({"friction": 1.2}, "friction must be ≥ 0.01 and ≤ 1"),
+        ({"friction": math.nan}, "friction must be ≥ 0.01 and ≤ 1"),
+        # a floor too: friction 1e-6 blew the physics up at every start, a kp of 1e-300 was taken
+        ({"friction": 5e-324}, "friction must be ≥ 0.01 and ≤ 1"),
+        ({"kp_scale": 0.0}, "kp_scale must be ≥ 0.1"),
+        ({"kp_scale": 1e-300}, "kp_scale must be ≥ 0.1"),
+        ({"damping_scale": 0.05}, "damping_scale must be ≥ 0.1"),
+        ({"trunk_mass_scale": -1.0}, "trunk_mass_scale must be ≥ 0.1"),
+        ({"link_mass_scale": math.inf}, "link_mass_scale must be ≥ 0.1"),
+        ({"torque_scale": 1.5}, "torque_scale must be ≥ 0.1 and ≤ 1.2"),
         ({"latency_ms": -1.0}, "latency_ms must be ≥ 0"),
         ({"deadband_deg": -0.1}, "deadband_deg must be ≥ 0"),
         ({"backlash_deg": math.inf}, "backlash_deg must be ≥ 0"),
-        ({"tilt_deg": 90.0}, "tilt_deg must be ≥ 0 and < 90"),
+        ({"tilt_deg": 46.0}, "tilt_deg must be ≥ 0 and ≤ 45"),
         ({"tilt_direction_deg": 360.0}, "tilt_direction_deg must be ≥ 0 and < 360"),
         ({"calibration_deg": (0.0,) * 11}, "calibration_deg needs 12 values"),
         ({"calibration_deg": (0.0,) * 11 + (math.nan,)}, "cal.r_ankle_roll must be ≥ -45"),
         # every field has a physical upper bound (a latency of 1e308 ms killed the server)
         ({"latency_ms": 1e308}, "latency_ms must be ≥ 0 and ≤ 200"),
         ({"latency_ms": 201.0}, "latency_ms must be ≥ 0 and ≤ 200"),
-        ({"kp_scale": 5.01}, "kp_scale must be > 0 and ≤ 5"),
-        ({"trunk_mass_scale": 1e10}, "trunk_mass_scale must be > 0 and ≤ 5"),
-        ({"link_mass_scale": 3.5}, "link_mass_scale must be > 0 and ≤ 3"),
-        ({"damping_scale": 1e300}, "damping_scale must be > 0 and ≤ 10"),
-        ({"frictionloss_scale": 11.0}, "frictionloss_scale must be > 0 and ≤ 10"),
+        ({"kp_scale": 5.01}, "kp_scale must be ≥ 0.1 and ≤ 5"),
+        ({"trunk_mass_scale": 1e10}, "trunk_mass_scale must be ≥ 0.1 and ≤ 5"),
+        ({"link_mass_scale": 3.5}, "link_mass_scale must be ≥ 0.1 and ≤ 3"),
+        ({"damping_scale": 1e300}, "damping_scale must be ≥ 0.1 and ≤ 10"),
+        ({"frictionloss_scale": 11.0}, "frictionloss_scale must be ≥ 0.1 and ≤ 10"),
         ({"deadband_deg": 10.5}, "deadband_deg must be ≥ 0 and ≤ 10"),
         ({"backlash_deg": 90.0}, "backlash_deg must be ≥ 0 and ≤ 10"),
         ({"calibration_deg": (0.0,) * 11 + (46.0,)}, "cal.r_ankle_roll must be ≥ -45 and ≤ 45"),
@@ -509,7 +513,8 @@ def test_values_that_are_no_numbers_are_refused(kwargs, field):
         ("cal.l_knee=1,cal.l_knee=2", "cal.l_knee is given twice"),
         ("cal.knee=1", "unknown joint in 'cal.knee'; joints: l_hip_yaw"),
         ("latency_ms=40ms", "latency_ms: '40ms' is not a number"),
-        ("friction=2", "friction must be > 0 and ≤ 1"),
+        ("friction=2", "friction must be ≥ 0.01 and ≤ 1"),
+        ("fsr_gain=0_5", "fsr_gain: '0_5' is not a number"),  # not 5: a typo of 0.5
         ("cal.l_knee=inf", "cal.l_knee must be ≥ -45 and ≤ 45"),
         ("latency_ms=1e308", "latency_ms must be ≥ 0 and ≤ 200"),
     ],
@@ -522,7 +527,7 @@ def test_bad_text_is_refused_naming_the_item(text, message):
 def test_ranges_are_set_by_name_and_checked():
     ranges = VariationRanges().with_range(*parse_range("friction=0.3:0.6"))
     assert ranges.friction == (0.3, 0.6) and ranges.kp_scale == (0.8, 1.2)
-    with pytest.raises(ValueError, match="range of variation field friction must be > 0"):
+    with pytest.raises(ValueError, match=r"range of variation field friction must be ≥ 0\.01"):
         ranges.with_range("friction", 0.0, 0.5)
     with pytest.raises(ValueError, match=r"range of torque_scale: low 1.0 > high 0.9"):
         ranges.with_range("torque_scale", 1.0, 0.9)

@@ -110,7 +110,7 @@ def test_artro_run_vary_names_the_variation():
         [sys.executable, "-m", "app.cli", "run", "--vary", "friction=1.5"],
         capture_output=True, text=True, cwd=ROOT,
     )  # fmt: skip
-    assert bad.returncode == 2 and "friction must be > 0 and ≤ 1" in bad.stderr
+    assert bad.returncode == 2 and "friction must be ≥ 0.01 and ≤ 1" in bad.stderr
 
 
 @pytest.mark.parametrize("text", ["", "tilt_deg=2,tilt_direction_deg=90"])

@@ -31,6 +31,13 @@ SCALES = (
     "frictionloss_scale",
 )
 NON_NEGATIVE = ("latency_ms", "deadband_deg", "backlash_deg")
+#: the smallest scale that still describes a robot of this build (a tenth of its masses, its
+#: servos' stiffness, torque, damping or gear friction); friction's floor: wet ice is ~0.02, no
+#: floor a robot walks on is under 0.01, and by 1e-6 the physics blows up at every start;
+#: a slope past 45° holds no foot with friction ≤ 1 (tan 45° = 1)
+SCALE_MIN = 0.1
+FRICTION_MIN = 0.01
+TILT_MAX_DEG = 45.0
 #: the largest value of each scale and servo error that still describes a hobby biped
 #: (docs/DESIGN.md §8): a value past it is no plausible robot, and some (a latency of 1e10 ms,
 #: a stiffness of 1e308) cannot even be simulated
@@ -66,17 +73,18 @@ SENSOR_FIELDS = tuple(SENSOR_LIMITS)
 def _limits(name: str) -> tuple[str, float, float, bool, bool]:
     """(text, low, high, low_open, high_open) of a scalar field's allowed values."""
     if name == "friction":
-        return "> 0 and ≤ 1", 0.0, 1.0, True, False
+        return f"≥ {FRICTION_MIN:g} and ≤ 1", FRICTION_MIN, 1.0, False, False
     if name == "torque_scale":
-        return f"> 0 and ≤ {TORQUE_SCALE_MAX}", 0.0, TORQUE_SCALE_MAX, True, False
+        high = TORQUE_SCALE_MAX
+        return f"≥ {SCALE_MIN:g} and ≤ {high}", SCALE_MIN, high, False, False
     if name in SCALES:
         high = UPPER_LIMITS[name]
-        return f"> 0 and ≤ {high:g}", 0.0, high, True, False
+        return f"≥ {SCALE_MIN:g} and ≤ {high:g}", SCALE_MIN, high, False, False
     if name in NON_NEGATIVE:
         high = UPPER_LIMITS[name]
         return f"≥ 0 and ≤ {high:g}", 0.0, high, False, False
     if name == "tilt_deg":
-        return "≥ 0 and < 90", 0.0, 90.0, False, True
+        return f"≥ 0 and ≤ {TILT_MAX_DEG:g}", 0.0, TILT_MAX_DEG, False, False
     if name == "tilt_direction_deg":
         return "≥ 0 and < 360", 0.0, 360.0, False, True
     if name == "calibration_deg":
@@ -276,7 +284,9 @@ def parse_variation(text: str) -> Variation:
             raise ValueError(f"variation field {key} is given twice")
         seen.add(key)
         try:
-            if not raw.isascii():  # float() would read other scripts' digits ("١" is 1.0)
+            # float() would read other scripts' digits ("١" is 1.0) and digit groups ("0_5"
+            # is 5: a typo of 0.5 read as ten times it)
+            if not raw.isascii() or "_" in raw:
                 raise ValueError
             value = float(raw)
         except ValueError:
