@@ -38,7 +38,7 @@ def add_parser(sub: Any) -> None:
         command,
         EXAMPLES,
     )
-    add_params_option(c, "the --robot's default preset, else the paper's values")
+    add_params_option(c, "the --robot's default preset, as the dashboard's")
     add_robot_option(c)
     c.add_argument(
         "--engine",

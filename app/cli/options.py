@@ -260,21 +260,17 @@ def check_timing(
         )
 
 
-def starting_set(robot: RobotModel, params: str | None, *, robot_given: bool) -> ParameterSet:
+def starting_set(robot: RobotModel, params: str | None) -> ParameterSet:
     """The parameter set a command starts with: `params` (a file, or a built-in or saved
-    preset's name: `resolve_set`), else the robot's default preset when a robot was named, else
-    the paper's values (ArtRo, as before robots existed)."""
+    preset's name: `resolve_set`), else the robot's default preset, as the dashboard starts
+    (`robust` for ArtRo; the paper's values are `--params paper`)."""
     if params:
         return resolve_set(params, "--params").pset
-    if robot_given:
-        presets = builtin_presets()
-        name = robot.description.default_preset
-        if name not in presets:
-            raise ValueError(
-                f"robot {robot.name!r} names the preset {name!r}, which is not built in"
-            )
-        return presets[name]
-    return ParameterSet()
+    presets = builtin_presets()
+    name = robot.description.default_preset
+    if name not in presets:
+        raise ValueError(f"robot {robot.name!r} names the preset {name!r}, which is not built in")
+    return presets[name]
 
 
 def warn_if_other_robot(pset: ParameterSet, robot: RobotModel, out: TextIO = sys.stderr) -> None:
@@ -289,6 +285,6 @@ def warn_if_other_robot(pset: ParameterSet, robot: RobotModel, out: TextIO = sys
 def robot_and_set(args: argparse.Namespace) -> tuple[RobotModel, ParameterSet]:
     """The `--robot` and the `--params` a command starts with (a warning if they do not match)."""
     robot = RobotModel.load(args.robot)
-    pset = starting_set(robot, args.params, robot_given=args.robot is not None)
+    pset = starting_set(robot, args.params)
     warn_if_other_robot(pset, robot)
     return robot, pset
