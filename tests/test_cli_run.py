@@ -145,3 +145,21 @@ def test_the_serve_banner_names_the_3d_view_only_where_there_is_one(flags, view)
     args = build_parser().parse_args(["serve", *flags])
     page = "http://localhost:8000"
     assert banner(args) == f"ArtRo Gait Studio: {page}  ({view}API docs: {page}/docs)"
+
+
+def test_serve_on_a_taken_port_says_so_before_it_names_the_page(tmp_path, capsys):
+    """It printed the page's URL, then uvicorn's raw "address already in use" (exit 3)."""
+    import socket
+
+    from app.cli import main
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        with pytest.raises(SystemExit) as ended:
+            main(["serve", "--port", str(port), "--no-viewer", "--data-dir", str(tmp_path)])
+    said = capsys.readouterr()
+    assert ended.value.code == 2 and said.out == ""
+    assert said.err.startswith(f"artro serve: error: --port {port} on 127.0.0.1 is taken (")
+    assert said.err.rstrip().endswith("give another --port")

@@ -102,6 +102,7 @@ def serve(args: argparse.Namespace) -> int:
         drive=args.drive,
     )
     RobotShelf(RobotModel.load(args.robot))  # fail here, clearly, not inside the server
+    check_port_free(args.host, args.port)  # before the banner names it (uvicorn's error: raw)
     if config.backend != "cpu":  # a missing extra or CUDA device: here, not in the first job
         from app.evaluation import close_evaluator, evaluator_for
 
@@ -131,3 +132,19 @@ def banner(args: argparse.Namespace) -> str:
     else:
         view = f"3D view alone: {viser_url(args.host, args.viser_port)}, "
     return f"ArtRo Gait Studio: {url}  ({view}API docs: {url}/docs)"
+
+
+def check_port_free(host: str, port: int) -> None:
+    """OSError naming the --port if something listens on it already (bound as uvicorn binds)."""
+    import socket
+
+    family = socket.AF_INET6 if ":" in host else socket.AF_INET
+    with socket.socket(family, socket.SOCK_STREAM) as probe:
+        probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+        try:
+            probe.bind((host, port))
+        except OSError as exc:
+            raise OSError(
+                f"--port {port} on {host} is taken ({exc.strerror or exc}): another server, "
+                "maybe another artro serve, listens there; give another --port"
+            ) from None
