@@ -14,7 +14,7 @@ from PIL import Image
 from playwright.sync_api import FrameLocator, Page, expect, sync_playwright
 
 from tests.browser_support import BOTH_SIZES, LARGE, SMALL, shot_path
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
+from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")
@@ -370,6 +370,26 @@ def test_a_fall_is_shown_and_reset_with_motion_0_recovers(dashboard):
     state = http.get("/api/state").json()
     assert not state["fell"] and state["resets"] >= 1
     http.patch("/api/params", json={"motion": {"a_p": 0.07}})
+
+
+def test_a_page_opened_after_a_fall_names_the_motion_and_no_first_steps(server, browser):
+    """A robot that fell on the spot before the page opened: the notice said "walking —" and
+    the "walks on the spot" hint stood beside it."""
+    base_url, http = server
+    http.patch("/api/params", json={"motion": {"a_p": 0.0, "a_r": 0.0, "a_y": 0.0, "ca": 0.0}})
+    assert http.put("/api/world", json={"variation": "tilt_deg=40"}).status_code == 200
+    try:
+        wait_for(lambda: http.get("/api/state").json()["fell"], "it falls off the slope", 600)
+        with open_page(browser, base_url, 1280, 720) as page:
+            expect(page.locator("#fall-notice")).to_be_visible(timeout=10_000)
+            expect(page.locator("#fall-what")).to_contain_text(
+                "walking a_p 0.000, a_r 0.000, a_y 0.000, CA 0.000", timeout=10_000
+            )
+            expect(page.locator("#first-steps")).to_be_hidden()
+    finally:
+        http.delete("/api/world")
+        http.post("/api/sim/reset")
+        http.patch("/api/params", json={"motion": {"a_p": 0.07}})
 
 
 # --- the path view --------------------------------------------------------------------------------

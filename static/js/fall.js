@@ -13,6 +13,7 @@ let fell = null; // {t, motion} of the fall on screen, or null
 export function initFall() {
   document.addEventListener("artro:params", (e) => {
     params = e.detail;
+    if (fell && !fell.motion) fell.motion = params.motion ?? null; // the page opened after the fall
     if (fell) show();
   });
   document.addEventListener("artro:state", (e) => onState(e.detail));
@@ -32,6 +33,7 @@ function onState(s) {
   } else if (!s.fell && fell) {
     fell = null;
     $("fall-notice").hidden = true;
+    document.body.classList.remove("fallen");
   }
 }
 
@@ -45,6 +47,7 @@ function show() {
   $("fall-now").hidden = !changed;
   $("fall-reset").textContent = changed ? "Reset and walk the new motion" : "Reset (same motion)";
   $("fall-notice").hidden = false;
+  document.body.classList.add("fallen"); // the "walks on the spot" hint would contradict it
 }
 
 async function reset(toZero) {
