@@ -102,6 +102,25 @@ def test_a_run_that_falls_says_why_in_one_line_and_counts_torque_limit_frames(we
     assert "fell at" not in walking.stderr and not json.loads(walking.stdout)["fell"]
 
 
+def test_the_advice_after_a_fall_never_sends_to_a_command_with_nothing_to_do():
+    """`--suggest` was advised where eq (1) passes every servo (it then said "no servo to
+    change"), and a tune where the set in use was that robot's own tune."""
+    from app.cli.run import fall_advice
+    from app.params.presets import builtin_presets
+    from app.robots.model import RobotModel
+
+    artro_robot, presets = RobotModel.load("artro"), builtin_presets()
+    own = fall_advice(artro_robot, presets["robust"], ("l_knee", "r_knee"), "artro")
+    assert "--suggest" not in own and "a gait tuned for this robot" not in own
+    assert own == (
+        "stronger servos on l_knee, r_knee (eq (1) carries them standing, walking asks more: a "
+        "servo of your own in the file's `servos`) or a smaller motion, or a longer tune of "
+        "'robust' (artro tune --robot artro --base robust with more --generations)"
+    )
+    other = fall_advice(artro_robot, presets["micro-tuned"], (), "artro")
+    assert other == "a gait tuned for this robot (artro tune --robot artro)"
+
+
 @pytest.mark.parametrize(
     ("axis", "angle", "side"),
     [((0, 1, 0), 0.9, "front"), ((0, 1, 0), -0.9, "back"), ((1, 0, 0), -0.9, "left"),

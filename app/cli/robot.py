@@ -68,6 +68,14 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
             f"{desc.geometry.thigh_m:g} + {desc.geometry.shank_m:g} m",
             file=out,
         )
+        least = min(torques, key=lambda t: t.margin)
+        gaits = " and ".join(name for name, _ in desc.walked_gaits())
+        print(
+            f"eq (1) at the poses of {gaits}: the least margin {least.margin:+.0%} "
+            f"({least.joint}); a walk asks more at its peaks (artro run, and the dashboard's "
+            "servo load budget, measure them)",
+            file=out,
+        )
         for w in warnings:
             print(f"warning: {w}", file=out)
         for line in servo_advice(desc, torques):

@@ -7,6 +7,7 @@ import argparse
 import dataclasses
 import json
 import sys
+from collections.abc import Sequence
 from typing import Any
 
 from app.cli.options import (
@@ -20,6 +21,8 @@ from app.cli.options import (
     subcommand,
     variation,
 )
+from app.params.document import ParameterSet
+from app.robots.checks import eq1_torques
 from app.robots.model import RobotModel
 from app.sim.headless import run
 from app.worlds.variations import NOMINAL
@@ -89,8 +92,8 @@ def command(args: argparse.Namespace) -> int:
     )
     m = result.metrics
     if result.diagnosis:  # one line, on stderr also with --json
-        where = args.robot or "artro"
-        print(f"artro run: {result.diagnosis.replace('ROBOT', str(where))}", file=sys.stderr)
+        advice = fall_advice(robot, pset, result.stuck, args.robot or "artro")
+        print(f"artro run: {result.diagnosis}: try {advice}", file=sys.stderr)
     if args.json:
         named = {"robot": robot.name, "variation": args.vary.name}
         print(json.dumps({**m, **named}, allow_nan=False))
@@ -118,6 +121,30 @@ def command(args: argparse.Namespace) -> int:
     if flags:
         print(f"flags: {flags}")
     return 0
+
+
+def fall_advice(robot: RobotModel, pset: ParameterSet, stuck: Sequence[str], where: str) -> str:
+    """What to try after a fall, never a command that would then say there is nothing to do:
+    `robot check --suggest` only where eq (1) finds a servo short (it swaps only those), a
+    tune only where the set in use was not tuned for this robot (`where`: its name or file)."""
+    short = [t.joint for t in eq1_torques(robot.description) if t.margin < 0]
+    tries = []
+    if short:
+        joints = ", ".join(short[:3])
+        tries.append(f"stronger servos on {joints} (artro robot check {where} --suggest)")
+    elif stuck:
+        tries.append(
+            f"stronger servos on {', '.join(stuck[:3])} (eq (1) carries them standing, walking "
+            "asks more: a servo of your own in the file's `servos`)"
+        )
+    if pset.robot != robot.name:
+        tries.append(f"a gait tuned for this robot (artro tune --robot {where})")
+    else:
+        tries.append(
+            f"a smaller motion, or a longer tune of {pset.name!r} (artro tune --robot {where} "
+            f"--base {pset.name} with more --generations)"
+        )
+    return " or ".join(tries)
 
 
 def servo_load_line(robot: RobotModel, names: list[str], m: dict[str, Any]) -> str:

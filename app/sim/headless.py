@@ -30,6 +30,8 @@ class RunResult:
     required_torque_nm: dict[str, float] = field(default_factory=dict)
     #: a run that fell: when, toward which side, which servos sat at their torque limit
     diagnosis: str | None = None
+    #: those servos' joints, most frames at the limit first
+    stuck: tuple[str, ...] = ()
 
 
 def fall_side(quat: np.ndarray) -> tuple[str, float]:
@@ -45,21 +47,26 @@ def fall_side(quat: np.ndarray) -> tuple[str, float]:
     return side, math.degrees(math.acos(max(-1.0, min(1.0, up[2]))))
 
 
+def stuck_joints(at_limit: np.ndarray) -> tuple[str, ...]:
+    """The joints whose servos sat at their torque limit in some of the frames `at_limit`
+    (frames x 12), most frames first."""
+    counts = at_limit.sum(axis=0)
+    return tuple(JOINT_NAMES[i] for i in np.argsort(-counts, kind="stable") if counts[i])
+
+
 def diagnose(time_s: float, quat: np.ndarray, at_limit: np.ndarray) -> str:
     """One line on a fall: when, toward which side, and which servos sat at their torque limit
-    in the frames of the last second (`at_limit`: frames x 12), with what to try (ROBOT stands
-    for the robot's name or file)."""
+    in the frames of the last second (`at_limit`: frames x 12). What to try depends on the
+    robot and the gait: the command's (`app/cli/run.py` `fall_advice`)."""
     side, tilt = fall_side(quat)
-    counts = at_limit.sum(axis=0)
-    stuck = [f"{JOINT_NAMES[i]} {int(counts[i])}" for i in np.argsort(-counts) if counts[i]]
+    counts = dict(zip(JOINT_NAMES, at_limit.sum(axis=0), strict=True))
+    stuck = [f"{joint} {int(counts[joint])}" for joint in stuck_joints(at_limit)]
     head = f"fell at {time_s:.2f} s toward its {side} ({tilt:.0f}° from upright)"
-    tuned = "a gait tuned for this robot (artro tune --robot ROBOT)"
     if not stuck:
-        return f"{head}; no servo at its torque limit in the last {LAST_S:g} s: try {tuned}"
+        return f"{head}; no servo at its torque limit in the last {LAST_S:g} s"
     return (
         f"{head}; servos at their torque limit in the last {LAST_S:g} s ({len(at_limit)} "
-        f"frames): {', '.join(stuck[:4])}: try stronger servos (artro robot check ROBOT "
-        f"--suggest) or {tuned}"
+        f"frames): {', '.join(stuck[:4])}"
     )
 
 
@@ -130,7 +137,9 @@ def run(
     metrics["at_limit_share"] = (at_limit_frames / max(1, len(trace.t_s))).tolist()
     required = required_torque_from_loads(peak_torque[None, :], SAFETY_FACTOR)
     names = [sim.model.actuator(int(i)).name for i in actuators]
-    diagnosis = None
+    diagnosis, stuck = None, ()
     if sim.fell and not sim.blew_up:
         diagnosis = diagnose(sim.time_s, sim.data.qpos[3:7], np.array(recent))
-    return RunResult(metrics, trace, dict(zip(names, map(float, required), strict=True)), diagnosis)
+        stuck = stuck_joints(np.array(recent))
+    torques = dict(zip(names, map(float, required), strict=True))
+    return RunResult(metrics, trace, torques, diagnosis, stuck)
