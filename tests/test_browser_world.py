@@ -139,9 +139,14 @@ def test_the_robot_is_switched_on_the_page_and_undo_takes_it_back(tmp_path, widt
         preset_message = page.locator("#preset-message")
         expect(preset_message).to_contain_text("tuned for the robot 'artro'", timeout=30_000)
         expect(preset_message).to_have_class(re.compile(r"\bwarn\b"))
+        note = page.locator("#params-robot-note")  # by the sliders, while the set is in use
+        expect(note).to_contain_text("'paper' was tuned for the robot artro, not micro")
+        robots = page.locator("#preset-list tr[data-preset='micro-tuned'] td").nth(1)
+        expect(robots).to_have_text("micro")  # the table names each set's robot
 
         page.click("#params-undo")  # the preset load
         expect(page.locator("#params-message")).to_contain_text("undone", timeout=30_000)
+        expect(note).to_be_hidden()  # micro-tuned, on micro
         page.click("#params-undo")  # the switch: the page says the robot changed back
         expect(page.locator("#params-message")).to_contain_text(
             "the robot is artro again (was micro)", timeout=30_000

@@ -14,6 +14,7 @@ def test_the_server_starts_with_the_robust_preset_and_lists_the_builtins(http):
     assert started["name"] == "robust" and started["gait"]["tilt"]["enabled"]
     presets = {p["name"]: p for p in http.get("/api/presets").json()["presets"]}
     assert presets["paper"]["builtin"] and presets["tuned"]["builtin"]
+    assert presets["robust"]["robot"] == "artro" and presets["micro-tuned"]["robot"] == "micro"
     assert http.put("/api/presets/tuned").status_code == 422  # read-only
 
 

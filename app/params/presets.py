@@ -55,6 +55,7 @@ class PresetInfo:
     builtin: bool
     created: str
     motion: dict[str, float]
+    robot: str  # the robot it was tuned for
 
     def to_dict(self) -> dict[str, Any]:
         return dataclasses.asdict(self)
@@ -275,7 +276,7 @@ class PresetStore:
         file never hides the others.
         """
         infos = [
-            PresetInfo(name, True, pset.created, dataclasses.asdict(pset.motion))
+            PresetInfo(name, True, pset.created, dataclasses.asdict(pset.motion), pset.robot)
             for name, pset in self._builtins.items()
         ]
         problems: ProblemList = []
@@ -295,6 +296,7 @@ class PresetStore:
             except (OSError, UnicodeDecodeError, ValueError) as exc:
                 problems.append(PresetProblem(path.name, str(exc)))
                 continue
-            infos.append(PresetInfo(name, False, pset.created, dataclasses.asdict(pset.motion)))
+            motion = dataclasses.asdict(pset.motion)
+            infos.append(PresetInfo(name, False, pset.created, motion, pset.robot))
         self.problems = problems
         return infos

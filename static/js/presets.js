@@ -3,7 +3,7 @@
 
 import { api } from "./api.js";
 import { refreshParams } from "./params.js";
-import { $, fmt, h, setMessage } from "./util.js";
+import { $, h, setMessage } from "./util.js";
 
 // app/params/presets.py's NAME_RULE: 1 to 64 characters, no '..', not ending in '.'
 const NAME_RE = /^(?=.{1,64}$)[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$/;
@@ -14,6 +14,8 @@ const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over th
 let drive = "model";
 let engine = null;
 let inUse = null; // the name of the set in use: its row is marked
+let simulated = null; // the robot the set in use is simulated on
+let tunedFor = {}; // preset name -> the robot it was tuned for
 let saved = new Set(); // the user's presets (not the built-in ones): a save over one asks first
 
 export function initPresets() {
@@ -21,6 +23,7 @@ export function initPresets() {
   document.addEventListener("artro:params", (e) => {
     engine = e.detail.gait?.engine ?? engine;
     inUse = e.detail.name ?? inUse;
+    simulated = e.detail.robot ?? simulated;
     markInUse();
   });
   $("preset-save").addEventListener("click", save);
@@ -45,6 +48,7 @@ export async function refreshPresets() {
   }
   const list = $("preset-list");
   saved = new Set(data.presets.filter((p) => !p.builtin).map((p) => p.name));
+  tunedFor = Object.fromEntries(data.presets.map((p) => [p.name, p.robot]));
   list.replaceChildren(...data.presets.map(row));
   if (!data.presets.length) list.append(h("tr", {}, h("td", { colspan: 4, class: "dim" }, "no presets")));
   const problems = $("preset-problems");
@@ -55,15 +59,23 @@ export async function refreshPresets() {
   markInUse();
 }
 
-/** The row of the preset whose name the set in use has (loaded, or tuned here) marked. */
+/** The row of the preset whose name the set in use has (loaded, or tuned here) marked; and a
+ * standing note while that preset was tuned for another robot than the one simulated. */
 function markInUse() {
   for (const tr of $("preset-list").querySelectorAll("tr[data-preset]")) {
     tr.classList.toggle("in-use", tr.dataset.preset === inUse);
   }
+  const other = tunedFor[inUse];
+  const note = $("params-robot-note");
+  note.hidden = !(other && simulated && other !== simulated);
+  if (!note.hidden) {
+    note.textContent =
+      `⚠ '${inUse}' was tuned for the robot ${other}, not ${simulated}: it may walk differently or ` +
+      `fall, and the shaded bands are ${other}'s. Tune for this robot (World panel) or load a set tuned for it.`;
+  }
 }
 
 function row(p) {
-  const m = p.motion || {};
   const load = h("button", { type: "button", class: "small", "data-preset": p.name, "aria-label": `load ${p.name}`, onclick: () => load_(p.name) }, "Load");
   const del = p.builtin
     ? h("span", { class: "badge ro", title: "built in: read-only" }, "read-only")
@@ -72,7 +84,7 @@ function row(p) {
     "tr",
     { "data-preset": p.name, class: p.builtin ? "builtin" : "" },
     h("td", {}, h("strong", {}, p.name), p.created ? h("div", { class: "dim small" }, p.created.replace("T", " ").slice(0, 19)) : null),
-    h("td", { class: "num small" }, `a_p ${fmt(m.a_p, 3)} · a_r ${fmt(m.a_r, 3)} · a_y ${fmt(m.a_y, 3)} · CA ${fmt(m.ca, 3)}`),
+    h("td", { class: "small", title: "the robot this set was tuned for" }, p.robot ?? "—"),
     h("td", { class: "actions" }, load, del),
   );
 }
