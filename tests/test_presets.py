@@ -17,6 +17,7 @@ from app.params.presets import (
     PresetStore,
     default_data_dir,
     diff,
+    write_parameter_set,
 )
 from gait import GaitParams, Motion
 
@@ -177,3 +178,22 @@ def test_default_data_dir(monkeypatch: pytest.MonkeyPatch, tmp_path: Path) -> No
     monkeypatch.delenv("ARTRO_DATA_DIR")
     monkeypatch.setenv("HOME", str(tmp_path))
     assert default_data_dir() == tmp_path / ".local" / "share" / "artro-gait-studio"
+
+
+def test_a_robot_starts_in_its_own_newest_tune_where_its_default_is_another_robots(
+    tmp_path: Path,
+) -> None:
+    """A robot of one's own named ArtRo's `robust` and so started, and fell, in it even after a
+    tune for it was saved (a description may only name a built-in preset)."""
+    robust = ParameterSet(name="robust", robot="artro")
+    store = PresetStore(tmp_path, {"paper": ParameterSet(name="paper"), "robust": robust})
+    assert store.start_for("mine", "robust") is robust  # nothing saved for it yet
+    older = dataclasses.replace(walk_forward(), robot="mine", created="2026-11-27T10:00:00+00:00")
+    newer = dataclasses.replace(older, created="2026-11-28T10:00:00+00:00")
+    store.directory.mkdir(parents=True)
+    for name, pset in (("tuned-mine", newer), ("first-try", older),
+                       ("tuned-other", dataclasses.replace(newer, robot="other"))):  # fmt: skip
+        write_parameter_set(store._path(name), dataclasses.replace(pset, name=name))
+    assert store.start_for("mine", "robust").name == "tuned-mine"  # the newest of its own
+    assert store.start_for("artro", "robust") is robust  # its default was tuned for it: kept
+    assert store.start_for("nobody", "robust") is robust

@@ -14,7 +14,7 @@ from typing import Any, TextIO
 from app.cli._motion import MOTION_HELP, MOTION_METAVAR, MotionChoice, motion_arg
 from app.cli._sets import SETS_HELP, ChosenSet, preset_names, resolve_set, resolve_sets
 from app.params.document import ParameterSet
-from app.params.presets import builtin_presets
+from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, parse_range
 from app.worlds.variations import Variation, parse_variation
@@ -262,15 +262,16 @@ def check_timing(
 
 def starting_set(robot: RobotModel, params: str | None) -> ParameterSet:
     """The parameter set a command starts with: `params` (a file, or a built-in or saved
-    preset's name: `resolve_set`), else the robot's default preset, as the dashboard starts
-    (`robust` for ArtRo; the paper's values are `--params paper`)."""
+    preset's name: `resolve_set`), else the one the dashboard starts the robot in: its default
+    preset (`robust` for ArtRo; the paper's values are `--params paper`), or the newest set
+    saved for it where that preset was tuned for another robot (`PresetStore.start_for`)."""
     if params:
         return resolve_set(params, "--params").pset
     presets = builtin_presets()
     name = robot.description.default_preset
     if name not in presets:
         raise ValueError(f"robot {robot.name!r} names the preset {name!r}, which is not built in")
-    return presets[name]
+    return PresetStore(default_data_dir(), presets).start_for(robot.name, name)
 
 
 def warn_if_other_robot(pset: ParameterSet, robot: RobotModel, out: TextIO = sys.stderr) -> None:

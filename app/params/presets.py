@@ -269,6 +269,23 @@ class PresetStore:
             raise PresetNotFound(f"no preset named {name!r}") from None
         _fsync_dir(self.directory)
 
+    def start_for(self, robot: str, default: str) -> ParameterSet:
+        """The set a robot starts in: its `default` preset (built in), unless that was tuned for
+        another robot and a preset saved here was tuned for this one (by `artro tune` or the
+        page's "Tune for this robot"): then the newest such. A robot of your own thus walks its
+        own tune, not ArtRo's `robust`, once it has one."""
+        chosen = self._builtins.get(default, self._builtins.get("paper"))
+        if chosen is None or chosen.robot == robot:
+            return chosen or ParameterSet()
+        own = [info for info in self.list() if not info.builtin and info.robot == robot]
+        if not own:
+            return chosen
+        newest = max(own, key=lambda info: info.created)
+        try:
+            return self.get(newest.name)
+        except (PresetNotFound, PresetError):  # removed or broken since the listing
+            return chosen
+
     def list(self) -> PresetList:
         """Built-ins (in the given order), then saved presets sorted by name.
 

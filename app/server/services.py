@@ -47,13 +47,13 @@ class Services:
         builtins = builtin_presets()
         self.robots = RobotShelf(RobotModel.load(config.robot))
         started = self.robots.started
+        self.presets = PresetStore(config.data_dir, builtins)
         if config.params_file:
             initial = load_parameter_set(config.params_file)
         else:  # the robot's own preset: a new user should see a robot that walks
             initial = self.default_preset(started)
         self.store = ParameterStore(initial, robot=started.name)
         self.store.robot_guard = self._robot_free  # every change of robots, however made
-        self.presets = PresetStore(config.data_dir, builtins)
         self.robot_sensors = RobotSensors()  # a linked robot's, from `artro link` (§15)
         self.sim = SimThread(self.store, robot=started, robots=self.robots.get)
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
@@ -113,11 +113,10 @@ class Services:
     def _robot_now(self) -> RobotModel:
         return self.robot
 
-    @staticmethod
-    def default_preset(robot: RobotModel) -> ParameterSet:
-        """The parameter set `robot` names as its own (a built-in preset), else `paper`."""
-        builtins = builtin_presets()
-        return builtins.get(robot.description.default_preset, builtins["paper"])
+    def default_preset(self, robot: RobotModel) -> ParameterSet:
+        """The set `robot` starts in: the preset it names (built in), or the newest saved one
+        tuned for it where that was tuned for another robot (`PresetStore.start_for`)."""
+        return self.presets.start_for(robot.name, robot.description.default_preset)
 
     def switch_robot(self, name: str) -> tuple[Snapshot, bool]:
         """Simulate the robot `name` from the next frame, standing at the start in its default
