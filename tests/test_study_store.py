@@ -13,11 +13,12 @@ import sys
 from pathlib import Path
 
 import httpx
+import optuna
 import pytest
 
 from app.cli import main
 from app.study.study_files import StudyBusy
-from app.study.study_store import StudyStore
+from app.study.study_store import StudyStore, open_storage
 from tests.server_harness import free_port, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -240,3 +241,23 @@ def test_a_journal_damaged_in_its_middle_is_said_so(tmp_path):
     assert journal.read_bytes().startswith(b"".join(lines[:middle]))  # then what it wrote
     (aside,) = tmp_path.glob("s.log.damaged-*")
     assert aside.read_bytes() == b"".join([b"{not json\n", *lines[middle:]])
+
+
+@pytest.mark.slow
+def test_a_tune_of_another_size_starts_its_own_study_in_the_same_file(tmp_path):
+    """The README's quick start broke on a second tune: every tune wrote the study "artro-tune"
+    of out/tune/study.log, and a tune of another size was refused ("run with other settings").
+    Each robot and set of options now has its own study there; the same command resumes it."""
+    where = tmp_path / "study.log"
+    for popsize in ("2", "3"):
+        done = subprocess.run(
+            [sys.executable, "-m", "app.cli", *TUNE, "--popsize", popsize, "--study", str(where),
+             "--out", str(tmp_path / f"o{popsize}.json")],
+            cwd=ROOT, capture_output=True, text=True, timeout=600,
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr[-2000:]
+    names = optuna.get_all_study_names(open_storage(where))
+    assert len(names) == 2 and all(re.fullmatch(r"tune-artro-[0-9a-f]{8}", n) for n in names)
+    sizes = {optuna.load_study(study_name=n, storage=open_storage(where)).user_attrs["settings"]
+             ["popsize"] for n in names}  # fmt: skip
+    assert sizes == {2, 3}

@@ -194,8 +194,14 @@ def test_ctrl_c_ends_a_tune_in_a_sentence_and_the_study_resumes(tmp_path):
 
 
 def trials_in(path: Path, *, study: bool = False):
-    """The finished trials of the tuning study in `path` (or the study itself)."""
-    loaded = optuna.load_study(study_name=DEFAULT_STUDY, storage=open_storage(path))
+    """The finished trials of the one tuning study in `path` (or the study itself): a Tuner's
+    own (DEFAULT_STUDY) or `artro tune`'s (tune-ROBOT-DIGEST). KeyError while none is made."""
+    storage = open_storage(path)
+    names = optuna.get_all_study_names(storage)
+    if not names:
+        raise KeyError("no study yet")
+    (name,) = names
+    loaded = optuna.load_study(study_name=name, storage=storage)
     return loaded if study else loaded.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
 
 

@@ -48,7 +48,7 @@ from app.params.presets import (
     write_parameter_set,
 )
 from app.robots.model import RobotModel
-from app.study.study_store import DEFAULT_STUDY, StudyStore
+from app.study.study_store import StudyStore, study_name_for
 from app.study.tune import DEFAULT_NAMES, Tuner, tunable_fields
 from app.study.tune_loss import LossWeights
 from gait.params import merge, parse_settings
@@ -241,7 +241,12 @@ def add_parser(sub: Any) -> None:
         "such as sqlite:///tune.db; an interrupted study resumes from it, optuna-dashboard opens "
         "it; one tune writes it at a time (docs/DESIGN.md §12)",
     )
-    parser.add_argument("--study-name", default=DEFAULT_STUDY, help="the study within the store")
+    parser.add_argument(
+        "--study-name",
+        default=None,
+        help="the study within the store (default: tune-ROBOT-DIGEST of the options: the same "
+        "command resumes it, a tune of another size or robot starts its own)",
+    )
     parser.add_argument(
         "--robust",
         type=number(0, MAX_SAMPLES, integer=True, what="--robust"),
@@ -333,6 +338,7 @@ def command(args: argparse.Namespace) -> int:
     )
     tuner.settings["set"] = args.set
     settings = {**tuner.settings, "robot": robot.name}
+    args.study_name = args.study_name or study_name_for(robot.name, settings)
     with contextlib.ExitStack() as stack:
         events = EventWriter(events_out(args.events, stack))
         try:

@@ -6,6 +6,7 @@ study at a time; a journal a crash cut short resumes from its whole entries (`st
 from __future__ import annotations
 
 import datetime
+import hashlib
 import json
 import re
 import sys
@@ -19,7 +20,7 @@ from app.study.study_files import WriterLease, WriterLock, mend_journal
 if TYPE_CHECKING:
     import optuna
 
-DEFAULT_STUDY = "artro-tune"
+DEFAULT_STUDY = "artro-tune"  # a Tuner's own study (tests, scripts); `artro tune`: study_name_for
 #: the objective's name in optuna-dashboard
 OBJECTIVE = "loss (paper criteria + robust term)"
 #: the figures of each nominal run that become user attributes of their own
@@ -143,6 +144,19 @@ def figures(metrics: dict[str, Any]) -> dict[str, Any]:
     return out
 
 
+def _said(value: Any) -> str:
+    """A setting as a message shows it: numbers to 6 digits (0.5, not 0.5000000000000001)."""
+    return f"{value:.6g}" if isinstance(value, float) else repr(value)
+
+
+def study_name_for(robot: str, settings: dict[str, Any]) -> str:
+    """`artro tune`'s study within its store when none is named: one per robot and settings
+    (a digest of them), so the same command resumes its study and a tune of another size or
+    robot starts its own instead of being refused."""
+    digest = hashlib.sha1(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()
+    return f"tune-{robot}-{digest[:8]}"
+
+
 class StudyStore:
     """One tuning study: its settings (fixed at creation; other settings are refused) and its
     trials, each with the generation, the candidate's point in the unit box, its loss and the
@@ -194,7 +208,7 @@ class StudyStore:
             self.study.set_user_attr("settings", wanted)
         elif found != wanted:
             differ = "; ".join(
-                f"{key} was {found.get(key)!r}, now {wanted.get(key)!r}"
+                f"{key} was {_said(found.get(key))}, now {_said(wanted.get(key))}"
                 for key in sorted(set(found) | set(wanted), key=str)
                 if found.get(key) != wanted.get(key)
             )
