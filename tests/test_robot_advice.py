@@ -61,6 +61,16 @@ def test_check_names_the_lightest_servo_that_carries_each_short_joint(weak):
         assert lighter == [], line
 
 
+def test_suggest_never_writes_over_the_description_it_read(weak):
+    """The README's quick start wrote `--suggest -o my.yaml` over my.yaml: 71 lines of a
+    builder's notes became 346 without a comment."""
+    before = weak.read_text(encoding="utf-8")
+    out = artro("robot", "check", str(weak), "--suggest", "-o", str(weak))
+    assert out.returncode == 2 and "is the description read" in out.stderr
+    assert "give another file, e.g. -o weak-suggested.yaml" in out.stderr
+    assert weak.read_text(encoding="utf-8") == before
+
+
 def stall_at(name: str, volts: float) -> float | None:
     """A servo's stall torque at `volts`, N·m (None: not rated there)."""
     try:

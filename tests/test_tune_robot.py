@@ -235,8 +235,14 @@ def test_the_readme_quick_start_runs_as_written(work, capsys):
         assert main([*words[1:], *SMALLER.get(words[1], [])]) == 0, line
     said = capsys.readouterr().out
     assert "l_hip_roll: MG90S -> " in said  # the suggestion swapped a servo in
-    suggested = read_description(Path("my.yaml"))
+    suggested = read_description(Path("my2.yaml"))  # its own file: my.yaml kept as written
     assert suggested.joints["l_hip_roll"].servo != "MG90S"
+    assert read_description(Path("my.yaml")).joint_servo("l_hip_roll") == "MG90S"
+    assert (
+        Path("my2.yaml")
+        .read_text(encoding="utf-8")
+        .startswith("# my-suggested: written by `artro robot check my.yaml --suggest`,")
+    )
     assert (work / "data" / "presets" / "tuned-my.json").is_file()
     header = (Path("my_firmware") / "gen" / "artro_params.h").read_text(encoding="utf-8")
     assert '"tuned-my"' in header

@@ -81,7 +81,7 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         for line in servo_advice(desc, torques):
             print(f"  advice: {line}", file=out)
         if args.suggest:
-            return suggest(desc, args.output, out)
+            return suggest(desc, args.output, out, source=args.robot)
         if args.output:
             raise ValueError("-o FILE goes with --suggest")
         return 0
@@ -145,9 +145,16 @@ UNCARRIED = (
 )
 
 
-def suggest(desc: RobotDescription, output: str | None, out: TextIO) -> int:
-    """`robot check --suggest`: the description with the servos that carry it, written. Exit
-    status 1 when some joint no servo carries (eq (1) still fails), else 0."""
+def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str = "") -> int:
+    """`robot check --suggest`: the description with the servos that carry it, written (never
+    over `source`, the file it was read from: its comments would be lost). Exit status 1 when
+    some joint no servo carries (eq (1) still fails), else 0."""
+    target = Path(output or f"{desc.name}-suggested.yaml")
+    if source and Path(source).exists() and target.exists() and target.samefile(source):
+        raise ValueError(
+            f"-o {output} is the description read ({source}): writing it would lose its "
+            f"comments and layout; give another file, e.g. -o {desc.name}-suggested.yaml"
+        )
     found = suggest_servos(desc, lambda r: {t.joint: t.required_nm for t in eq1_torques(r)})
     if not found.swaps:
         left = f"; none carries {', '.join(found.uncarried)}" if found.uncarried else ""
@@ -155,7 +162,12 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO) -> int:
         if found.uncarried:
             print(UNCARRIED, file=out)
         return 1 if found.uncarried else 0
-    path = write_description(found.robot, Path(output or f"{desc.name}-suggested.yaml"))
+    header = (
+        f"{found.robot.name}: written by `artro robot check {source or desc.name} --suggest`,\n"
+        f"the robot {desc.name} with the lightest servos that carry it (eq (1)); what is left\n"
+        "at its default is left out, and the comments stay in the file it was read from"
+    )
+    path = write_description(found.robot, target, header)
     for joint, old, new, need in found.swaps:
         print(f"  {joint}: {old} -> {new} (eq (1) asks {need:.3f} N·m)", file=out)
     if found.uncarried:

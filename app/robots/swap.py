@@ -137,9 +137,25 @@ def with_servo(desc: RobotDescription, joints: Sequence[str], servo: str) -> Rob
     return RobotDescription.model_validate(data)
 
 
-def write_description(desc: RobotDescription, path: Path) -> Path:
-    """`desc` as a description file (`--robot FILE` reads it back to the same robot)."""
+class _Dumper(yaml.SafeDumper):
+    """Lists of numbers on one line, as a person writes a size or a position."""
+
+
+def _list(dumper: yaml.SafeDumper, items: list) -> yaml.Node:
+    flat = all(isinstance(item, int | float | str | bool) for item in items)
+    return dumper.represent_sequence("tag:yaml.org,2002:seq", items, flow_style=flat)
+
+
+_Dumper.add_representer(list, _list)
+
+
+def write_description(desc: RobotDescription, path: Path, header: str = "") -> Path:
+    """`desc` as a description file (`--robot FILE` reads it back to the same robot): what
+    differs from the defaults, lists of numbers on a line, `header` as comment lines first."""
     path.parent.mkdir(parents=True, exist_ok=True)
-    text = yaml.safe_dump(desc.model_dump(mode="json"), sort_keys=False, allow_unicode=True)
-    path.write_text(text, encoding="utf-8")
+    fields = {"schema_version": desc.schema_version}
+    fields |= desc.model_dump(mode="json", exclude_defaults=True)
+    text = yaml.dump(fields, Dumper=_Dumper, sort_keys=False, allow_unicode=True, width=100)
+    comments = "".join(f"# {line}\n" for line in header.splitlines())
+    path.write_text(comments + text, encoding="utf-8")
     return path
