@@ -330,7 +330,7 @@ def test_a_missing_extra_names_the_pip_command():
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
     ).stdout
     error, auto = out.strip().splitlines()
-    assert "needs MuJoCo Warp" in error and 'pip install "artro-gait-studio[gpu]"' in error
+    assert "needs MuJoCo Warp" in error and 'pip install -e ".[gpu]"' in error
     assert auto == "BatchEvaluator"  # auto falls back to the CPU's executors without the extra
 
 

@@ -156,7 +156,8 @@ class ClusterEvaluator(ChunkedEvaluator):
             import distributed  # noqa: F401
         except ImportError as exc:  # the optional extra
             raise ClusterError(
-                'a cluster needs Dask: pip install "artro-gait-studio[cluster]"'
+                "a cluster needs Dask, the cluster extra: in the project's folder, "
+                'pip install -e ".[cluster]"'
             ) from exc
         super().__init__(robot)
         self.address = check_address(address)

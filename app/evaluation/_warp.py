@@ -26,7 +26,8 @@ from app.sim.planning import FRAME_S, frame_steps
 #: `device=` (and "cuda:N")
 DEVICES = ("cpu", "cuda")
 
-GPU_EXTRA = 'pip install "artro-gait-studio[gpu]"'
+#: how to install an extra where the package came from its folder (it is not on PyPI)
+GPU_EXTRA = 'install the gpu extra: in the project\'s folder, pip install -e ".[gpu]"'
 #: frames per upload of controls and download of frame ends, fewer when the controls of a
 #: segment would pass `_warp_batch.CONTROL_BYTES`
 SEGMENT_FRAMES = 50
