@@ -183,3 +183,50 @@ def test_the_robot_started_from_a_file_is_tuned_from_its_description(tmp_path):
         assert forward["target"] == pytest.approx(3.8 * 0.234 / 0.18)
         params = http.get("/api/params").json()
         assert (params["name"], params["robot"]) == ("tuned-big", "big")
+
+
+def test_a_gait_changed_while_the_tune_ran_is_kept_and_the_result_saved_not_loaded(tmp_path):
+    """A tune overwrote what the user changed while it ran (every other job answers 409): the
+    result is now saved, not loaded, and says why; a motion moved meanwhile does not count."""
+    with running_server(tmp_path) as (base_url, app), client(base_url) as http:
+        job_id = http.post("/api/jobs/tune", json=TINY).json()["id"]
+        http.patch("/api/params", json={"motion": {"a_p": 0.03}})  # kept by a tune anyway
+        edited = http.patch("/api/params", json={"gait": {"damping": {"ankle_pitch": 0.2}}})
+        assert edited.status_code == 200
+        job = app.state.services.axle_fitter.jobs.get(job_id)
+        assert job.finished.wait(TUNE_DEADLINE * 0.05), "the tune did not finish"
+        result = http.get(f"/api/jobs/{job_id}").json()["result"]
+        assert result["applied"] is False and result["params_version"] is None
+        assert result["not_loaded"].startswith("the gait changed while the tune ran (version ")
+        assert result["not_loaded"].endswith(
+            "'tuned-artro' is saved, not loaded; the set in use stays (load it from the presets "
+            "to try it)"
+        )
+        now = http.get("/api/params").json()
+        assert now["version"] == edited.json()["version"] and now["name"] == "robust"
+        assert "tuned-artro" in [p["name"] for p in http.get("/api/presets").json()["presets"]]
+
+
+def test_a_tune_whose_candidates_all_fell_is_saved_not_loaded(tmp_path):
+    """A tiny tune on a robot of one's own replaced `tuned-my`, which walked, by a set that fell
+    in every walking case ("the lowest loss kept")."""
+    from app.params.presets import PresetStore, builtin_presets
+    from app.robots.model import RobotModel
+    from app.server.jobs import Jobs
+    from app.server.param_store import ParameterStore
+    from app.server.tune_job import TuneRunner
+
+    presets = PresetStore(tmp_path, builtin_presets())
+    store = ParameterStore(builtin_presets()["robust"])
+    presets.save("tuned-artro", builtin_presets()["tuned"])
+    runner = TuneRunner(Jobs(), store, presets, RobotModel.load)
+    before = store.snapshot()
+    detail = {"study": "s.log", "study_name": "s", "budget": 2}
+    fell = runner._load("artro", "tuned-artro", {"walked": False, "loss": 9.0}, detail, before)
+    assert fell["applied"] is False and fell["not_loaded"].startswith(
+        "no candidate walked every run without a fall (the lowest loss was saved): "
+        "'tuned-artro' is saved, not loaded"
+    )
+    assert store.snapshot() == before
+    walked = runner._load("artro", "tuned-artro", {"walked": True}, detail, before)
+    assert walked["applied"] is True and store.snapshot().name == "tuned-artro"

@@ -34,8 +34,8 @@ from app.analysis.robot_tune import (
 from app.params.presets import PresetStore, builtin_presets, check_name
 from app.robots import builtin_robot_names
 from app.robots.model import RobotModel
-from app.server.jobs import Job, Jobs, Progress, on_robot
-from app.server.param_store import ParameterStore
+from app.server.jobs import Job, Jobs, Progress, StaleVersion, on_robot
+from app.server.param_store import ParameterStore, Snapshot
 from gait.params import describe_fields, group_class
 
 KIND = "tune"
@@ -107,9 +107,10 @@ class TuneRunner:
         budget.check()
         name = check_name(tuned_name(model.name, builtin_presets()))
         study = study_file(self.presets.data_dir, model.name)
+        start = self.store.snapshot()
         job = self.jobs.start(
-            KIND, lambda progress: self._work(progress, model, name, study, budget),
-            robot=model.name,
+            KIND, lambda progress: self._work(progress, model, name, study, budget, start),
+            robot=model.name, from_version=start.version,
         )  # fmt: skip
         self.latest = job
         return job
@@ -132,7 +133,13 @@ class TuneRunner:
         return [*cmd, "--cases", ",".join(budget.cases)] if budget.cases else cmd
 
     def _work(
-        self, progress: Progress, model: RobotModel, name: str, study: Path, budget: TuneBudget
+        self,
+        progress: Progress,
+        model: RobotModel,
+        name: str,
+        study: Path,
+        budget: TuneBudget,
+        start: Snapshot,
     ) -> dict[str, Any]:
         job: Job = progress.job  # type: ignore[attr-defined]
         detail: dict[str, Any] = {"robot": model.name, "name": name, "study": str(study),
@@ -172,21 +179,50 @@ class TuneRunner:
         if code != 0 or result is None:
             said = " | ".join(log) or "no output"
             raise RuntimeError(f"artro tune stopped (exit status {code}) before a result: {said}")
-        return self._load(model.name, name, result, detail)
+        return self._load(model.name, name, result, detail, start)
 
     def _load(
-        self, robot: str, name: str, result: dict[str, Any], detail: dict[str, Any]
+        self, robot: str, name: str, result: dict[str, Any], detail: dict[str, Any], start: Snapshot
     ) -> dict[str, Any]:
         """The saved preset `name` made the parameters in use (its gait, the motion in use
-        kept): one undoable change, only on the robot tuned."""
-        pset = self.presets.get(name)
-        pset = dataclasses.replace(pset, motion=self.store.snapshot().motion)
-        snap = self.store.replace(pset, "tune", check=on_robot(robot))
+        kept): one undoable change, only on the robot tuned, only while the gait in use is the
+        one it started from (a motion moved meanwhile is kept; a gait changed is the user's:
+        docs/DESIGN.md §14), and only if a candidate walked every run. Else it stays saved, not
+        loaded, and `not_loaded` says why: a tiny tune had replaced a set that walked by one
+        that fell in every walking case, and one had undone edits made while it ran."""
         keep = ("loss", "select", "walked", "generations", "trials", "figures", "replaced")
-        return {**{k: result.get(k) for k in keep}, "preset": name, "robot": robot,
+        said = {**{k: result.get(k) for k in keep}, "preset": name, "robot": robot,
                 "study": detail["study"], "study_name": detail.get("study_name"),
-                "budget": detail["budget"], "params_version": snap.version,
-                "applied": True}  # fmt: skip
+                "budget": detail["budget"]}  # fmt: skip
+        why = None
+        if not result.get("walked"):
+            why = "no candidate walked every run without a fall (the lowest loss was saved)"
+        else:
+            pset = self.presets.get(name)
+            pset = dataclasses.replace(pset, motion=self.store.snapshot().motion)
+            try:
+                snap = self.store.replace(pset, "tune", check=_same_gait(start, robot))
+            except StaleVersion as exc:
+                why = str(exc)
+            else:
+                return said | {"params_version": snap.version, "applied": True, "not_loaded": None}
+        return said | {"params_version": None, "applied": False,
+                       "not_loaded": f"{why}: {name!r} is saved, not loaded; the set in use "
+                                     "stays (load it from the presets to try it)"}  # fmt: skip
+
+
+def _same_gait(start: Snapshot, robot: str) -> Callable[[Snapshot], None]:
+    """A store check: the robot tuned is in use and its gait is still `start`'s."""
+
+    def check(current: Snapshot) -> None:
+        on_robot(robot)(current)
+        if current.gait != start.gait:
+            raise StaleVersion(
+                f"the gait changed while the tune ran (version {start.version} is now "
+                f"{current.version}, changed by {current.source})"
+            )
+
+    return check
 
 
 def _pump(child: subprocess.Popen[str], lines: queue.Queue[str | None]) -> None:

@@ -107,9 +107,12 @@ function finish(now) {
     setMessage(msg, `tune failed: ${now.error}`, "error");
   } else {
     const r = now.result;
-    const walked = r.walked ? "every run walked without a fall" : "some run fell (the lowest loss kept)";
     const replaced = r.replaced ? ", replacing this robot's earlier tune" : "";
-    setMessage(msg, `'${r.preset}' saved${replaced} and loaded (v${r.params_version}; Undo goes back): loss ${fmt(r.loss, 3)}, ${walked}`);
+    if (r.applied) {
+      setMessage(msg, `'${r.preset}' saved${replaced} and loaded (v${r.params_version}; Undo goes back): loss ${fmt(r.loss, 3)}, every run walked without a fall`);
+    } else {
+      setMessage(msg, `${r.not_loaded}${replaced} (loss ${fmt(r.loss, 3)})`, "warn");
+    }
     figures(r.figures || []);
     refreshPresets();
     refreshParams();
