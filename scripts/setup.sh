@@ -13,7 +13,9 @@ extras=""
 python3 -c 'import sys; sys.exit(sys.version_info < (3, 11))' || {
   echo "setup: Python 3.11 or newer is needed; python3 is $(python3 --version 2>&1)" >&2; exit 2; }
 
-[ -x .venv/bin/python ] || python3 -m venv .venv
+[ -x .venv/bin/python ] || { echo "setup: making .venv ($(python3 --version 2>&1))"; python3 -m venv .venv; }
+echo "setup: installing the locked Python packages${extras:+ with the extras $extras} (a first"\
+" install downloads every wheel: minutes)"
 # uv installs: it checks the lock's hashes when the lock is given as constraints (pip asks then
 # for a hash of the editable checkout too, which has none). Its own version is pinned.
 .venv/bin/python -m pip install --quiet --disable-pip-version-check -r scripts/uv-requirement.txt
@@ -32,11 +34,11 @@ if [ "${1:-}" = "--test" ]; then
   command -v sigrok-cli >/dev/null 2>&1 || debs="$debs sigrok-cli"
 fi
 if [ -n "$debs" ]; then
-  echo "installing Debian packages:$debs"
+  echo "setup: installing Debian packages:$debs (apt-get: minutes)"
   sudo_cmd=""
   [ "$(id -u)" -eq 0 ] || sudo_cmd="sudo"
   $sudo_cmd apt-get update -qq
   # shellcheck disable=SC2086
   DEBIAN_FRONTEND=noninteractive $sudo_cmd apt-get install -y -qq $debs >/dev/null
 fi
-echo "ready: .venv"
+echo "ready: .venv (its commands: .venv/bin/artro, or activate it: . .venv/bin/activate)"

@@ -9,6 +9,8 @@ from pathlib import Path
 
 import pytest
 
+from app.params.document import project_version
+
 ARTRO = shutil.which("artro", path=str(Path(sys.executable).parent)) or "artro"
 
 
@@ -163,3 +165,8 @@ def test_serve_on_a_taken_port_says_so_before_it_names_the_page(tmp_path, capsys
     assert ended.value.code == 2 and said.out == ""
     assert said.err.startswith(f"artro serve: error: --port {port} on 127.0.0.1 is taken (")
     assert said.err.rstrip().endswith("give another --port")
+
+
+def test_artro_version_names_the_package_and_its_version():
+    out = artro("--version")
+    assert out.returncode == 0 and out.stdout.strip() == f"artro-gait-studio {project_version()}"

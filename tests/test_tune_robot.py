@@ -193,8 +193,9 @@ def test_tune_events_say_what_the_dashboard_follows(work, capsys):
     result = read[-1]
     assert result["name"] == "tuned-micro" and result["trials"] == 2
     forward = next(row for row in result["figures"] if row["run"] == "forward")
-    shown = "fell" if forward["fell"] else f"{forward['value']:+.2f}"
-    assert f"target {forward['target']:+6.2f}  tuned {shown}" in said
+    shown = "fell" if forward["fell"] else f"{forward['value']:+.2f} cm/s"
+    assert f"target {forward['target']:+6.2f} cm/s   tuned {shown}" in said  # with units
+    assert "next: artro run --robot micro --params tuned-micro" in said
 
 
 def quick_start() -> list[str]:

@@ -237,8 +237,8 @@ def summarise(
                 "variation": variations[i].name,
                 "failed_cases": len(failed),
                 "failed": [c.name for c in failed],
-                "command": f"{repeat} --motion {m.a_r:g},{m.a_p:g},{m.a_y:g} --ca {m.ca:g} "
-                f"--vary {variations[i].name}",
+                "command": f"{repeat} --motion a_p={m.a_p:g},a_r={m.a_r:g},a_y={m.a_y:g},"
+                f"ca={m.ca:g} --vary {variations[i].name}",
             }
         )
     every = sum(c["passed"] for c in cases) / max(1, sum(c["runs"] for c in cases))

@@ -9,6 +9,7 @@ from collections.abc import Sequence
 
 from app.cli import bench, calibrate_ca, export, firmware, link, robot, run, serve, tune
 from app.cli.options import join_negative_values, use_help_formatter
+from app.params.document import project_version
 
 COMMANDS = (serve, run, export, calibrate_ca, bench, tune, firmware, link, robot)
 
@@ -19,6 +20,9 @@ def build_parser() -> argparse.ArgumentParser:
         description="ArtRo Gait Studio: tune the ArtRo biped's gait in a MuJoCo simulation.",
         epilog="Directions: a_p > 0 walks forward, a_r > 0 steps to the right, a_y > 0 and "
         "CA > 0 turn clockwise.",
+    )
+    parser.add_argument(
+        "--version", action="version", version=f"artro-gait-studio {project_version()}"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     for command in COMMANDS:

@@ -446,8 +446,15 @@ def report(
         print(f"  robust: {varied}")
     for row in figures:  # the judged runs: each case against its target, each CA pair
         if "target" in row:
-            shown = "fell" if row["fell"] else f"{row['value']:+.2f}"
-            print(f"  {row['run']:24s} target {row['target']:+6.2f}  tuned {shown}")
+            unit = row.get("unit", "")
+            shown = "fell" if row["fell"] else f"{row['value']:+.2f} {unit}"
+            print(f"  {row['run']:24s} target {row['target']:+6.2f} {unit:5s}  tuned {shown}")
         else:
             shown = "fell" if row["fell"] else f"gain {row['gain']:.2f}, bend {row['bend']:+.2f}"
             print(f"  {row['run']:24s} eq (13): gain 1, bend 0;  tuned {shown}")
+    if start_mode:  # what to do with it
+        where = args.robot or robot
+        print(f"next: artro run --robot {where} --params {name} --motion a_p=0.07; artro serve "
+              f"--robot {where} --params {name} (a robot of your own starts in its newest tune "
+              f"without --params); artro bench robust --robot {where} --presets {name} (does it "
+              "walk off the model too?)")  # fmt: skip
