@@ -610,3 +610,22 @@ def test_frames_that_go_on_or_trail_by_a_frame_or_two_are_no_restart():
     with pytest.raises(RobotRestarted, match="went from 30 back to 27"):
         robot._told_frame(27)
     robot._told_frame(28)  # counted from the reset on
+
+
+# ---- a stray byte on the line (probe B of the thirteenth session) -----------------------------
+
+
+@pytest.mark.slow
+def test_a_stray_sync_byte_before_a_request_costs_one_resend_not_the_link():
+    """A lone 0xA5 (line noise at power-up) makes the firmware take the request's own sync byte
+    for a length of 165: the request is swallowed and NAKed as cut short. The link sends it
+    once more and goes on; the set arrives whole."""
+    with bridged_robot() as noisy:
+        robot, lines = robot_on(noisy.port, timeout_s=30.0)
+        robot.hello()
+        robot.link.serial.write(b"\xa5")  # the noise, just before the set
+        robot.send_set(preset("tuned"))
+        robot.link.close()
+    garbled = [line for line in lines if "the line garbled it" in line]
+    assert garbled == ["parameter set: the line garbled it (TIMEOUT); sent again"], lines
+    assert any(line.startswith("sent tuned") for line in lines), lines

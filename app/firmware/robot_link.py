@@ -25,6 +25,8 @@ DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 % (config.h 
 POLL_S = 0.2  # how often the dashboard is asked for its parameter version
 KEEPALIVE_S = 1.0  # while following, a PING when the robot said nothing for this long
 FRAME_SLACK = 2  # an INFO's frame (the one on) may trail a SENSORS' (the one planned) by this
+#: refusals of the line, not of the message (a rejected message changes nothing: sent again once)
+LINE_NAKS = (proto.NakReason.BAD_CRC, proto.NakReason.TIMEOUT, proto.NakReason.RX_OVERFLOW)
 JSON_KINDS = {list: "list", str: "string", int: "number", float: "number", bool: "boolean",
               type(None): "null"}  # fmt: skip
 DASHBOARD_SET = (
@@ -215,18 +217,25 @@ class RobotLink:
 
     def expect(self, message: bytes, what: str) -> proto.Reply | None:
         """The answer PROTOCOL.md gives `message` (None in a dry run); LinkError for none, a
-        NAK, or anything else, named."""
-        try:
-            replies = self.request(message)
-        except PortLost:
-            raise
-        except LinkError as exc:  # a reply out of protocol
-            raise LinkError(f"{what}: {exc}") from exc
-        if self.dry_run:
-            return None
-        if not replies:
-            raise LinkError(f"{what}: no answer from the robot (wiring, baud rate, power?)")
-        reply = replies[0]
+        NAK, or anything else, named. A NAK of the line (a bad CRC, a message cut short, an
+        overrun: noise, or a stray byte that swallowed its start) sends it once more."""
+        for attempt in (1, 2):
+            try:
+                replies = self.request(message)
+            except PortLost:
+                raise
+            except LinkError as exc:  # a reply out of protocol
+                raise LinkError(f"{what}: {exc}") from exc
+            if self.dry_run:
+                return None
+            if not replies:
+                raise LinkError(f"{what}: no answer from the robot (wiring, baud rate, power?)")
+            reply = replies[0]
+            if attempt == 1 and isinstance(reply, proto.Nak) and reply.reason in LINE_NAKS:
+                reason = getattr(reply.reason, "name", reply.reason)
+                self.log(f"{what}: the line garbled it ({reason}); sent again")
+                continue
+            break
         if isinstance(reply, proto.Nak):
             reason = getattr(reply.reason, "name", reply.reason)
             raise LinkError(f"{what}: the robot refused it ({reason}, detail {reply.detail})")
