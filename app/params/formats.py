@@ -185,7 +185,8 @@ def _load_json(text: str | bytes) -> Any:
         ) from exc
     except RecursionError as exc:
         raise ParameterImportError(
-            "JSON nested too deeply (no body this project reads is deeper than 5 levels)"
+            f"JSON nested too deeply (a parameter set is 3 levels, and no body this project "
+            f"reads is deeper than {MAX_DEPTH})"
         ) from exc
     except ParameterImportError:
         raise

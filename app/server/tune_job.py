@@ -69,8 +69,9 @@ class TuneBudget:
         need = shortest_duration_s(slowest, self.warmup_s)
         if self.duration_s < need:
             raise ValueError(
-                f"duration_s {self.duration_s:g} leaves no whole gait cycle at {slowest:g} Hz "
-                f"after warmup_s {self.warmup_s:g}: allowed: duration_s of at least {need:g}"
+                f"duration_s {self.duration_s:g} leaves no whole gait cycle after warmup_s "
+                f"{self.warmup_s:g} at {slowest:g} Hz, the slowest clock the tune may try (it "
+                f"tunes clock.freq_hz): allowed: duration_s of at least {need:g}"
             )
 
 
