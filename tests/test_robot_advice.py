@@ -21,6 +21,7 @@ from app.assets import builtin_robots_dir
 from app.robots import load_description
 from app.robots.checks import eq1_torques
 from app.robots.servos import rating_at, servo_table
+from app.robots.swap import mirror
 from app.sim.headless import diagnose, fall_side
 
 ARTRO = shutil.which("artro", path=str(Path(sys.executable).parent)) or "artro"
@@ -85,6 +86,8 @@ def test_suggest_writes_a_robot_whose_servos_carry_it(weak, tmp_path):
     assert "l_hip_roll: SG90 -> MG996R" in out.stdout and "next: artro robot check" in out.stdout
     strong = load_description(tmp_path / "strong.yaml")
     assert all(t.margin >= 0 for t in eq1_torques(strong))  # eq (1) holds on every joint
+    # built alike on both legs, it stays so (a symmetric robot had got one hip roll swapped)
+    assert all(strong.joint_servo(j) == strong.joint_servo(mirror(j)) for j in strong.joints)
     before = load_description(weak)
     table = servo_table()
     moved = sum(

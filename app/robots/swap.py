@@ -73,11 +73,19 @@ class Suggestion:
     uncarried: tuple[str, ...]
 
 
+def mirror(joint: str) -> str:
+    """The joint's twin on the other leg: l_knee <-> r_knee."""
+    side, rest = joint.split("_", 1)
+    return f"{'r' if side == 'l' else 'l'}_{rest}"
+
+
 def suggest_servos(
     desc: RobotDescription, required_nm: Callable[[RobotDescription], dict[str, float]]
 ) -> Suggestion:
     """`desc` with the lightest servo that carries its eq (1) need on each joint whose servo is
-    too weak; `required_nm(robot)` gives each joint's need (1 + sf times its load). A heavier
+    too weak, and on its mirror joint where both legs had the same servo (the larger need of
+    the two: a robot built alike on both sides stays so, though one pose loads one side more);
+    `required_nm(robot)` gives each joint's need (1 + sf times its load). A heavier
     servo adds load below it, so the needs are taken again after each round (at most
     len(JOINT_NAMES) rounds: a joint only ever gets a stronger servo)."""
     table, swaps, uncarried = desc.servo_catalogue(), [], set()
@@ -88,6 +96,12 @@ def suggest_servos(
             j: n for j, n in need.items()
             if n > rating_at(table[robot.joint_servo(j)], robot.supply_voltage_v, j)[0]
         }  # fmt: skip
+        for joint, n in list(short.items()):  # the mirror joint too: a biped is built alike
+            twin = mirror(joint)
+            if twin not in short and robot.joint_servo(twin) == robot.joint_servo(joint):
+                short[twin] = max(n, need[twin])
+        for joint in short:  # a pair takes the servo that carries the larger need of the two
+            short[joint] = max(short[joint], short.get(mirror(joint), 0.0))
         changed = False
         for joint, n in short.items():
             choice = lightest_servo(n, robot.supply_voltage_v, servos=table)
