@@ -16,6 +16,7 @@ from app.analysis.robustness import (
     FALL_MARGIN_LOSS,
     ROBUST_CASES,
     dependence,
+    nominal_walks,
     pass_margin_loss,
     passes,
     run_robust,
@@ -169,3 +170,19 @@ def test_the_cases_are_the_paper_benchs():
     from app.analysis.cases import CASES
 
     assert [(c.name, c.motion) for c in CASES] == [(c.name, c.motion) for c in ROBUST_CASES[:7]]
+
+
+def test_a_case_the_nominal_model_does_not_walk_passes_no_run():
+    """A newcomer's tune stepped sideways right at +0.08 cm/s (the wrong way, about still), and
+    varied runs that stood still passed 50 % against it. Judged only where the nominal model
+    walks the case: the paper's way by at least 0.3 cm/s (1 deg/s turning)."""
+    right = next(c for c in ROBUST_CASES if c.name == "sideways right")
+    still = {"fell": False, "forward_cm_s": 0.0, "lateral_cm_s": 0.06, "turn_deg_s": 0.0}
+    wrong_way = still | {"lateral_cm_s": 0.08}
+    walking = still | {"lateral_cm_s": -2.6}
+    assert not nominal_walks(right, wrong_way) and nominal_walks(right, walking)
+    assert not passes(right, still, wrong_way)  # passed before: 0.06 >= 0.5 x 0.08
+    assert pass_margin_loss(right, walking, wrong_way) == FALL_MARGIN_LOSS
+    assert passes(right, walking | {"lateral_cm_s": -2.0}, walking)
+    clockwise = next(c for c in ROBUST_CASES if c.name == "curve CA +0.1")
+    assert clockwise.way == -1.0  # CA > 0 turns clockwise: a negative heading rate

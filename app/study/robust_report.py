@@ -72,6 +72,8 @@ def render(results: dict[str, Any], *, markdown: bool = False) -> str:
         for c in report["cases"]:
             lo, hi = c["interval"]
             nominal = "fell" if c["nominal_fell"] else _figure(c)
+            if not c["nominal_fell"] and not c.get("nominal_walks", True):
+                nominal += " (does not walk it: no run passes)"
             speed = c["metric"] in SPEED_METRICS
             rows.append(
                 [
