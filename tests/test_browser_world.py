@@ -105,12 +105,15 @@ def test_the_world_panel_varies_the_live_robot_and_draws_the_report(tmp_path, wi
         again = [bars.nth(i).evaluate("e => e.style.width") for i in range(9)]
         assert [float(w.rstrip("%")) for w in again] == job_shares
         walk = page.locator("#robust-worst button")
-        if walk.count():  # a variation that failed a case: watch it there
+        if walk.count():  # a variation that failed a case: watch it there, in that case's motion
+            kept = http.get("/api/world/robustness").json()
+            (report,) = kept["presets"]
             walk.first.click()
             expect(page.locator("#world-message")).to_contain_text(
                 "in the variation", timeout=30_000
             )
             assert http.get("/api/state").json()["world"] != "nominal"
+            assert http.get("/api/params").json()["motion"] == report["worst"][0]["motion"]
 
         page.click("#world-nominal")
         expect(world_badge).to_be_hidden(timeout=30_000)

@@ -261,6 +261,7 @@ def summarise(
                 "variation": variations[i].name,
                 "failed_cases": len(failed),
                 "failed": [c.name for c in failed],
+                "motion": {"a_r": m.a_r, "a_p": m.a_p, "a_y": m.a_y, "ca": m.ca},  # the first's
                 "command": f"{repeat} --motion a_p={m.a_p:g},a_r={m.a_r:g},a_y={m.a_y:g},"
                 f"ca={m.ca:g} --vary {variations[i].name}",
             }

@@ -272,12 +272,8 @@ export function drawReport(result) {
 }
 
 async function watch(worst) {
-  const motion = worst.command.match(/--motion (\S+) --ca (\S+)/);
   await apply(worst.variation);
-  if (motion) {
-    const [a_r, a_p, a_y] = motion[1].split(",").map(Number);
-    await api.patch("/api/params", { motion: { a_r, a_p, a_y, ca: Number(motion[2]) } });
-  }
+  if (worst.motion) await api.patch("/api/params", { motion: worst.motion }); // its first failed case's
   await api.post("/api/sim/reset");
   setMessage($("world-message"), `walking ${worst.failed[0]} in the variation that failed it`, "ok");
 }
