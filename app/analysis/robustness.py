@@ -29,7 +29,7 @@ MAX_TURN_DEG_S = 5.0
 SPOT_DRIFT_CM_S = 1.0  # on the spot: drift at most this, and the heading as above
 #: the nominal model walks a case when it moves the case's way (the paper's sign; a CA curve
 #: eq (13)'s) by at least this much, cm/s or deg/s: judged against its own figure, a gait that
-#: barely moves (or the wrong way) let varied runs that stood still pass
+#: barely moves (or the wrong way) let varied runs that stood still pass (decision 0044)
 NOMINAL_WALKS_CM_S, NOMINAL_WALKS_DEG_S = 0.3, 1.0
 Z95 = 1.959964  # the normal quantile of a two-sided 95 % interval
 WORST = 5
