@@ -41,13 +41,13 @@ DURATION_S, WARMUP_S = 2.5, 1.0
 FORWARD, TURN, CURVE = Motion(a_p=0.07), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1)
 #: (job, the robust case it is judged as, index of its nominal run)
 STUDY = (
-    (Job(GaitParams(), FORWARD), RobustCase("forward", FORWARD, "forward"), 0),
-    (Job(GaitParams(), TURN), RobustCase("turn", TURN, "turn"), 1),
-    (Job(GaitParams(), CURVE), RobustCase("curve", CURVE, "curve"), 2),
-    (Job(GaitParams(), Motion(a_r=0.1)), RobustCase("side", Motion(a_r=0.1), "lateral"), 3),
+    (Job(GaitParams(), FORWARD), RobustCase("forward", FORWARD, "forward", 1.0), 0),
+    (Job(GaitParams(), TURN), RobustCase("turn", TURN, "turn", -1.0), 1),
+    (Job(GaitParams(), CURVE), RobustCase("curve", CURVE, "curve", -1.0), 2),
+    (Job(GaitParams(), Motion(a_r=0.1)), RobustCase("side", Motion(a_r=0.1), "lateral", -1.0), 3),
     (
         Job(GaitParams(), FORWARD, variation=parse_variation("friction=0.5,kp_scale=1.2")),
-        RobustCase("forward", FORWARD, "forward"),
+        RobustCase("forward", FORWARD, "forward", 1.0),
         0,
     ),
     (
@@ -58,7 +58,7 @@ STUDY = (
                 "trunk_mass_scale=1.3,tilt_deg=2,latency_ms=10,push_n_s=0.3,push_time_s=1.2"
             ),
         ),
-        RobustCase("turn", TURN, "turn"),
+        RobustCase("turn", TURN, "turn", -1.0),
         1,
     ),
 )

@@ -44,7 +44,7 @@ class RobustCase:
     name: str
     motion: Motion
     kind: str  # "spot", "forward", "lateral", "turn", "curve"
-    way: float = 0.0  # the sign its figure should have (0: on the spot)
+    way: float  # the sign its figure should have (0: on the spot)
 
 
 #: the paper's cases (`app.analysis.cases.CASES`), and CA = +-0.1 walking forward (CA > 0 turns

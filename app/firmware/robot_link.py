@@ -1,9 +1,8 @@
 """A robot's ATmega128 over its serial port (hardware/firmware/PROTOCOL.md; docs/DESIGN.md §15):
-a whole parameter set, the dashboard's set followed as it changes, the robot's SENSORS stream
-forwarded to the Sensors panel meanwhile, the servos off at the end. Every request takes only
-the answer PROTOCOL.md gives it; while the stream is on, a `PortReader` thread reads the port
-alone; a robot gone quiet or a port that failed ends the following within about a second, and a
-robot that restarted (its frame count went back) is sent the dashboard's set again."""
+a whole set, the dashboard's followed as it changes, the robot's SENSORS forwarded to the
+Sensors panel, the servos off at the end. Each request takes only its answer (a `PortReader`
+thread reads while the stream is on); a robot gone quiet or a failed port ends the following
+within about a second; a robot that restarted (its frame count went back) gets the set again."""
 
 from __future__ import annotations
 

@@ -343,12 +343,15 @@ class SimThread:
         loop = self.live.loop
         if loop.fell:  # it fell after the request was answered: nothing steps to push
             return
-        ix, iy = loop.push_now(push.impulse_n_s, push.direction_deg)  # with one due, summed
+        summed = loop.push_now(push.impulse_n_s, push.direction_deg)  # with one due, added
         x, y, yaw = loop.trunk_pose()
         world_deg = (math.degrees(yaw) + push.direction_deg + 180.0) % 360.0 - 180.0
         z = float(loop.data.qpos[2])
-        acting_deg = math.degrees(math.atan2(iy, ix))
-        self._last_push = PushMark(loop.time_s, math.hypot(ix, iy), acting_deg, x, y, z)
+        impulse, acting_deg = push.impulse_n_s, world_deg
+        if summed is not None:  # the mark shows what acts: the two pushes' sum
+            impulse = math.hypot(*summed)
+            acting_deg = math.degrees(math.atan2(summed[1], summed[0]))
+        self._last_push = PushMark(loop.time_s, impulse, acting_deg, x, y, z)
         self.recorder.event("push", impulse_n_s=push.impulse_n_s, direction_deg=world_deg)
         self._publish_status()
 

@@ -279,20 +279,21 @@ class FrameLoop:
         )
         return reading, out
 
-    def push_now(self, impulse_n_s: float, direction_deg: float) -> tuple[float, float]:
+    def push_now(self, impulse_n_s: float, direction_deg: float) -> tuple[float, float] | None:
         """Push the trunk in the next physics step (the dashboard's Push): impulse_n_s, level,
         toward direction_deg counter-clockwise from where the trunk faces (0: forward, 90: to
         its left). Takes the place of the world's push if that is still to come; a push already
-        due in that step adds to it (two in one frame both act). The impulse that step gives,
-        N·s along the world's x and y."""
+        due in that step adds to it (two in one frame both act): then the impulse of the two,
+        N·s along the world's x and y, is returned (else None)."""
         heading = self.trunk_pose()[2] + math.radians(direction_deg)
         force = impulse_n_s / self.timestep_s
         fx, fy = force * math.cos(heading), force * math.sin(heading)
-        if self._push_step == self.steps_done:  # another push acts in this step: they add
+        summed = self._push_step == self.steps_done  # another push acts in this step: they add
+        if summed:
             fx, fy = fx + self._push_force[0], fy + self._push_force[1]
         self._push_step = self.steps_done
         self._push_force = (fx, fy, 0.0)
-        return fx * self.timestep_s, fy * self.timestep_s
+        return (fx * self.timestep_s, fy * self.timestep_s) if summed else None
 
     def _plan_from_here(
         self, n_frames: int, correction: feedback.Output | None = None
