@@ -92,3 +92,17 @@ def test_artro_calibrate_ca_on_the_real_model(tmp_path, capsys):
     gains = {t["yaw_per_ca"]: t["gain"] for t in result["trials"]}
     assert gains[k] > 0 and abs(gains[k] - 1) <= abs(gains[0.0] - 1)
     assert result["axle_eff_m"] == pytest.approx(result["feet_m"] / gains[k])
+
+
+def test_a_step_that_overshot_is_kept_to_bracket_the_next():
+    """`paper` backward: K = 0 and 0.15 both turned short of eq (13), the secant overshot to
+    K = 1.0 (1821 %), and the next secant, through the two nearest (0 and 0.15), went back to
+    1.0: the calibration stopped at -10 %. The next K is drawn between the trials on either side."""
+    from app.analysis.ca_calibration import Trial, _secant_pair
+
+    target = math.radians(6.07)
+    trials = [Trial(0.0, -1.75, 0.0), Trial(0.15, -0.61, 0.0), Trial(1.0, 110.59, 0.0)]
+    (k_a, _), (k_b, _) = _secant_pair(trials, target)
+    assert (k_a, k_b) == (0.15, 1.0)
+    (k_a, _), (k_b, _) = _secant_pair(trials[:2], target)  # none above: the two nearest
+    assert {k_a, k_b} == {0.0, 0.15}

@@ -89,6 +89,19 @@ def _clip_k(k: float) -> float:
     return round(min(max(k, K_RANGE[0]), K_RANGE[1]), 4)
 
 
+def _secant_pair(trials: list[Trial], target: float) -> list[tuple[float, float]]:
+    """The two trials (K, slope rad/s per CA) the next K is drawn between: the nearest on
+    either side of eq (13)'s slope when some lie on each (the target between them: a step that
+    overshot is not forgotten), else the two nearest it."""
+    by_miss = sorted(
+        ((t.yaw_per_ca, math.radians(t.slope_deg_s)) for t in trials),
+        key=lambda ks: abs(ks[1] - target),
+    )
+    below = [ks for ks in by_miss if ks[1] < target]
+    above = [ks for ks in by_miss if ks[1] > target]
+    return [below[0], above[0]] if below and above else by_miss[:2]
+
+
 def calibrate_ca(
     params: GaitParams,
     motion: Motion,
@@ -109,7 +122,8 @@ def calibrate_ca(
 
     1. one batch: K = 0 at CA = -c, 0, +c and K = `probe_k` at CA = -c, +c (the CA = 0 walk is the
        same gait for every K) -> the slopes, and V and b (feet distance) from the straight walk;
-    2. a secant step toward the slope of eq (13), s* = -2 V / b, through the two nearest trials;
+    2. a secant step toward the slope of eq (13), s* = -2 V / b, between the nearest trials on
+       either side of it (else the two nearest: `_secant_pair`);
     3. a check walk at that K (CA = +-c); steps 2–3 repeat up to `iterations` times while the
        slope misses s* by more than TOLERANCE.
 
@@ -178,10 +192,7 @@ def calibrate_ca(
     trials = [trial(0.0, [first[0], first[2]]), trial(probe_k, first[3:])]
     without = fit_axle(ca, turns(first[:3]), speed).axle_eff_m
     for _ in range(iterations):
-        (k_a, s_a), (k_b, s_b) = sorted(
-            ((t.yaw_per_ca, math.radians(t.slope_deg_s)) for t in trials),
-            key=lambda ks: abs(ks[1] - target),
-        )[:2]
+        (k_a, s_a), (k_b, s_b) = _secant_pair(trials, target)
         if s_a == s_b or k_a == k_b:
             raise CalibrationError("K does not change how CA turns this gait")
         k = _clip_k(k_a + (target - s_a) * (k_b - k_a) / (s_b - s_a))  # secant through two

@@ -80,6 +80,13 @@ def command(args: argparse.Namespace) -> int:
     if args.a_p is not None and args.direction == "both":
         signs = (1.0 if args.a_p >= 0 else -1.0,)  # a given a_p names its direction
     log = sys.stderr if args.json else sys.stdout
+    if gait.yaw_rate.enabled:  # the fit still holds, but K is not what makes CA steer here
+        print(
+            f"note: {pset.name!r} has the yaw-rate loop on: it turns a_y and CA into turn-rate "
+            "commands (CA's by eq (13)) and steers to them itself, so K is a feed-forward under "
+            "the loop and matters little; calibrate with yaw_rate off to fit the open-loop gait",
+            file=log,
+        )
     evaluator = evaluator_for(
         robot,
         cluster=args.cluster,
