@@ -54,6 +54,16 @@ def robot_with_sensors():
         yield port
 
 
+def still_frame() -> proto.Sensors:
+    """A SENSORS frame 0 of the robot leaning as `tilted()`, still, the soles unloaded."""
+    return proto.Sensors(
+        frame=0, status=proto.IMU_PRESENT, imu_failures=0, laws=0, support=-1,
+        gyro_offset=GYRO_ZERO_RATE_COUNTS, accel_raw=tilted().accel,
+        gyro_raw=GYRO_ZERO_RATE_COUNTS, adc=(0,) * 8, attitude_rad=(0.1, 0.0),
+        tilt_rad=(0.0, 0.0), a_y_delta=0.0, cop_rad=(0.0, 0.0),
+    )  # fmt: skip
+
+
 class Log:
     def __init__(self) -> None:
         self.lines: list[str] = []
@@ -153,12 +163,7 @@ def test_frames_wait_for_a_dashboard_that_does_not_answer_and_put_never_blocks()
     forwarder = SensorForwarder(f"http://127.0.0.1:{free_port()}", log)
     forwarder.start()
     try:
-        sensors = proto.Sensors(
-            frame=0, status=proto.IMU_PRESENT, imu_failures=0, laws=0, support=-1,
-            gyro_offset=GYRO_ZERO_RATE_COUNTS, accel_raw=tilted().accel,
-            gyro_raw=GYRO_ZERO_RATE_COUNTS, adc=(0,) * 8, attitude_rad=(0.1, 0.0),
-            tilt_rad=(0.0, 0.0), a_y_delta=0.0, cop_rad=(0.0, 0.0),
-        )  # fmt: skip
+        sensors = still_frame()
         for n in range(400):
             forwarder.put(sensors.__class__(**{**sensors.__dict__, "frame": n}))
         wait_for(lambda: log.has("did not take the robot's sensors"), "the failure said")
@@ -175,12 +180,7 @@ def test_a_frame_the_dashboard_refuses_costs_only_itself(tmp_path):
     """A frame out of the dashboard's bounds (an attitude past π, as the firmware sent before
     it wrapped the roll) was refused with its whole batch of up to 16: now the others go again."""
     log = Log()
-    sensors = proto.Sensors(
-        frame=0, status=proto.IMU_PRESENT, imu_failures=0, laws=0, support=-1,
-        gyro_offset=GYRO_ZERO_RATE_COUNTS, accel_raw=tilted().accel,
-        gyro_raw=GYRO_ZERO_RATE_COUNTS, adc=(0,) * 8, attitude_rad=(0.1, 0.0),
-        tilt_rad=(0.0, 0.0), a_y_delta=0.0, cop_rad=(0.0, 0.0),
-    )  # fmt: skip
+    sensors = still_frame()
     with running_server(tmp_path) as (base_url, _app), client(base_url) as http:
         forwarder = SensorForwarder(base_url, log)
         for n in range(1, 41):
