@@ -170,3 +170,15 @@ def test_serve_on_a_taken_port_says_so_before_it_names_the_page(tmp_path, capsys
 def test_artro_version_names_the_package_and_its_version():
     out = artro("--version")
     assert out.returncode == 0 and out.stdout.strip() == f"artro-gait-studio {project_version()}"
+
+
+def test_ctrl_c_while_the_commands_load_is_one_line(monkeypatch, capsys):
+    """The commands' modules take ~2 s to load; a Ctrl-C then printed a traceback."""
+    import app.cli
+
+    def interrupted():
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(app.cli, "build_parser", interrupted)
+    assert app.cli.main(["run"]) == 130
+    assert capsys.readouterr().err == "artro: interrupted\n"

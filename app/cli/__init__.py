@@ -1,5 +1,6 @@
 """The `artro` command line: one module per command, each adding its parser and its `handler`;
-the options several share are `app.cli.options` (`artro COMMAND --help` for each)."""
+the options several share are `app.cli.options` (`artro COMMAND --help` for each). The commands
+load inside `main`, so a Ctrl-C while they load (~2 s) ends in one line too."""
 
 from __future__ import annotations
 
@@ -7,14 +8,12 @@ import argparse
 import sys
 from collections.abc import Sequence
 
-from app.cli import bench, calibrate_ca, export, firmware, link, robot, run, serve, tune
-from app.cli.options import join_negative_values, use_help_formatter
-from app.params.document import project_version
-
-COMMANDS = (serve, run, export, calibrate_ca, bench, tune, firmware, link, robot)
-
 
 def build_parser() -> argparse.ArgumentParser:
+    from app.cli import bench, calibrate_ca, export, firmware, link, robot, run, serve, tune
+    from app.cli.options import use_help_formatter
+    from app.params.document import project_version
+
     parser = argparse.ArgumentParser(
         prog="artro",
         description="ArtRo Gait Studio: tune the ArtRo biped's gait in a MuJoCo simulation.",
@@ -25,14 +24,20 @@ def build_parser() -> argparse.ArgumentParser:
         "--version", action="version", version=f"artro-gait-studio {project_version()}"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for command in COMMANDS:
+    for command in (serve, run, export, calibrate_ca, bench, tune, firmware, link, robot):
         command.add_parser(sub)
     use_help_formatter(parser)  # the action parsers too (firmware run, robot check, ...)
     return parser
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    parser = build_parser()
+    try:
+        from app.cli.options import join_negative_values
+
+        parser = build_parser()
+    except KeyboardInterrupt:  # Ctrl-C while the commands load: a line, not a traceback
+        print("artro: interrupted", file=sys.stderr)
+        return 130
     args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else argv))
     try:
         return args.handler(args)
