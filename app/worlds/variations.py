@@ -148,7 +148,7 @@ class Variation:
         latency_ms: set-point delay, ms in [0, 200], rounded to whole physics steps.
         deadband_deg, backlash_deg: servo dead band and gear play, degrees in [0, 10] (full
             widths).
-        tilt_deg: floor tilt in [0, 90); tilt_direction_deg: the downhill direction, degrees
+        tilt_deg: floor tilt in [0, 45]; tilt_direction_deg: the downhill direction, degrees
             counter-clockwise from the world x axis, in [0, 360).
         imu_tilt_bias_deg, imu_tilt_direction_deg: the IMU's frame tilted against the trunk's
             (mounting, accelerometer offset after calibration) by this angle, about the
