@@ -114,7 +114,7 @@ class SensorForwarder:
                 self.refused += len(batch)
                 self._say_failing(f"refused: {_message(answer)[:200]}")
                 return False
-            self._forget([batch[i] for i in named])  # the others go again at once
+            self._drop([batch[i] for i in named])  # the others go again at once
             if self.refused == 0:
                 self.log(
                     f"the dashboard refused the robot's sensor frame {batch[named[0]]['frame']} "
@@ -129,15 +129,9 @@ class SensorForwarder:
             self.log("the dashboard takes the robot's sensors again")
         return len(batch) == POST_FRAMES
 
-    def _drop(self, batch: list[dict[str, Any]]) -> None:
-        """Forget the frames sent (those still waiting: the reader may have pushed some out)."""
-        sent = {id(frame) for frame in batch}
-        with self._lock:
-            while self._pending and id(self._pending[0]) in sent:
-                self._pending.popleft()
-
-    def _forget(self, frames: list[dict[str, Any]]) -> None:
-        """Forget these frames wherever they wait (the dashboard refused them)."""
+    def _drop(self, frames: list[dict[str, Any]]) -> None:
+        """Forget these frames (sent, or refused) wherever they still wait: the reader may have
+        pushed some out meanwhile."""
         gone = {id(frame) for frame in frames}
         with self._lock:
             kept = [frame for frame in self._pending if id(frame) not in gone]
