@@ -17,7 +17,7 @@ import optuna
 import pytest
 
 from app.cli import main
-from app.study.study_files import StudyBusy
+from app.study.study_files import StudyBusy, whole_write
 from app.study.study_store import StudyStore, open_storage
 from tests.server_harness import free_port, wait_for
 
@@ -46,6 +46,25 @@ def test_trials_come_back_from_the_store_alone(tmp_path, kind):
     assert again[0][1]["metrics"] == {"nominal": {"forward": {"k": 1}}}
     with pytest.raises(ValueError, match="other settings"):
         StudyStore(where, {**SETTINGS, "seed": 2})
+
+
+def test_a_ctrl_c_during_a_write_acts_once_the_candidate_is_written_whole(tmp_path):
+    where = tmp_path / "study.log"
+    store = StudyStore(where, SETTINGS)
+    reached = []
+    with pytest.raises(KeyboardInterrupt):
+        with whole_write():
+            os.kill(os.getpid(), signal.SIGINT)  # without the hold, KeyboardInterrupt is here
+            reached.append("after the signal")
+            fill(store)
+    store.close()
+    assert reached == ["after the signal"]
+    assert not Path(f"{where}.lock").exists()  # Optuna's journal lock is not left behind
+    with StudyStore(where, SETTINGS) as again:
+        assert [r["loss"] for r in again.recorded()[0]] == [1.5, 0.7]
+    with whole_write():  # a block without a signal ends as it would without the hold
+        pass
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
 
 
 def refused(args: list[str], capsys) -> str:

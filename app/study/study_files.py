@@ -1,15 +1,20 @@
 """What a crash or a second process can do to a study (docs/DESIGN.md §12), and what the tuner
 does about it: one writer at a time -- a lock file beside a study in a file (`WriterLock`), a
-lease in a study on a database server (`WriterLease`) -- and a journal whose last entry a crash
-cut short resumes from its whole entries (`mend_journal`)."""
+lease in a study on a database server (`WriterLease`), a Ctrl-C held back until a write is whole
+(`whole_write`) -- and a journal whose last entry a crash cut short resumes from its whole entries
+(`mend_journal`)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
+import signal
 import socket
+import threading
 import time
 import uuid
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -19,6 +24,24 @@ except ImportError:  # not on Windows: the study is then not locked
     fcntl = None  # type: ignore[assignment]
 
 LOCK_SUFFIX = ".writer"  # Optuna's journal keeps its own short-lived `.lock` beside the file
+
+
+@contextlib.contextmanager
+def whole_write() -> Iterator[None]:
+    """A Ctrl-C during the block acts at its end. Optuna's journal lock, interrupted between its
+    rename and its unlink, raised FileNotFoundError instead and could leave its lock file for the
+    next run to wait out. Only the main thread receives signals; elsewhere this does nothing."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    asked: list[int] = []
+    previous = signal.signal(signal.SIGINT, lambda signum, _frame: asked.append(signum))
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    if asked and callable(previous):  # the default handler raises KeyboardInterrupt
+        previous(signal.SIGINT, None)
 
 
 class StudyBusy(ValueError):

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from app.study.study_files import WriterLease, WriterLock, mend_journal
+from app.study.study_files import WriterLease, WriterLock, mend_journal, whole_write
 
 if TYPE_CHECKING:
     import optuna
@@ -187,13 +187,14 @@ class StudyStore:
         try:
             if journal and (said := mend_journal(self.where)):
                 print(said, file=log or sys.stderr, flush=True)
-            self.study = optuna.create_study(
-                study_name=name,
-                storage=open_storage(self.where),
-                direction="minimize",
-                load_if_exists=True,
-            )
-            self._check_settings(settings, name)
+            with whole_write():
+                self.study = optuna.create_study(
+                    study_name=name,
+                    storage=open_storage(self.where),
+                    direction="minimize",
+                    load_if_exists=True,
+                )
+                self._check_settings(settings, name)
             if self._lock is None:  # a database server: a lease in the study itself
                 self._lease = WriterLease(self.study, self.where)
                 self._lease.acquire()
@@ -269,10 +270,11 @@ class StudyStore:
         )  # fmt: skip
         if started_s is not None:
             trial.datetime_start = datetime.datetime.fromtimestamp(started_s)
-        if not self.study.metric_names:
-            with warnings.catch_warnings():  # "experimental" since Optuna 3.2, kept in 5
-                warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
-                self.study.set_metric_names([OBJECTIVE])
-        self.study.add_trial(trial)
-        if self._lease is not None:
-            self._lease.renew()
+        with whole_write():  # a Ctrl-C now keeps this candidate and the journal's lock whole
+            if not self.study.metric_names:
+                with warnings.catch_warnings():  # "experimental" since Optuna 3.2, kept in 5
+                    warnings.simplefilter("ignore", optuna.exceptions.ExperimentalWarning)
+                    self.study.set_metric_names([OBJECTIVE])
+            self.study.add_trial(trial)
+            if self._lease is not None:
+                self._lease.renew()
