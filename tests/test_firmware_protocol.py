@@ -133,6 +133,17 @@ def test_every_bad_message_gets_its_nak_and_changes_nothing() -> None:
         assert_unchanged(mcu, link, doc, 50)
 
 
+def test_stray_sync_bytes_before_a_message_cost_nothing() -> None:
+    """No message is 165 long, so a 0xA5 where a LEN belongs starts the message anew."""
+    with emulator(preset("paper")) as mcu:
+        link = EmulatedLink(mcu)
+        for noise in (b"\xa5", b"\xa5\xa5\xa5", b"\x00\xa5"):
+            (reply,) = link.request(noise + proto.command(Msg.PING))
+            assert isinstance(reply, Info), (noise, reply)
+    with pytest.raises(ValueError, match="164 bytes is reserved"):
+        proto.encode(Msg.SET_PARAMS, bytes(164))
+
+
 def test_nak_details_name_the_offending_id() -> None:
     with emulator(preset("paper")) as mcu:
         link = EmulatedLink(mcu)

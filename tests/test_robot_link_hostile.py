@@ -26,7 +26,7 @@ from app.cli import main
 from app.firmware import protocol as proto
 from app.firmware.emulator import FRAME_CYCLES
 from app.firmware.link import EmulatedLink, SerialLink
-from app.firmware.protocol import LinkError, Msg
+from app.firmware.protocol import Info, LinkError, Msg
 from app.firmware.pty_bridge import PtyBridge
 from app.firmware.robot_link import DEFAULT_BAUD, PortLost, RobotLink, RobotRestarted, follow
 from hardware.firmware.schema import param_specs, schema_hash
@@ -615,17 +615,43 @@ def test_frames_that_go_on_or_trail_by_a_frame_or_two_are_no_restart():
 # ---- a stray byte on the line (probe B of the thirteenth session) -----------------------------
 
 
+class NoiseBefore:
+    """A port whose next write has `noise` on the line just before it, back to back (a gap of
+    8 TDM slots would end the noise with NAK TIMEOUT instead)."""
+
+    def __init__(self, port: serial.Serial, noise: bytes) -> None:
+        self.port, self.noise = port, noise
+
+    def write(self, data: bytes) -> int | None:
+        data, self.noise = self.noise + data, b""
+        return self.port.write(data)
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.port, name)
+
+
 @pytest.mark.slow
-def test_a_stray_sync_byte_before_a_request_costs_one_resend_not_the_link():
-    """A lone 0xA5 (line noise at power-up) makes the firmware take the request's own sync byte
-    for a length of 165: the request is swallowed and NAKed as cut short. The link sends it
-    once more and goes on; the set arrives whole."""
+@pytest.mark.parametrize(
+    ("noise", "garbled"),
+    [
+        # a lone sync byte: the firmware takes the request's own sync for a new start
+        (b"\xa5", []),
+        # a sync and a LEN of 2: the request's first bytes are the noise's body and checksum
+        (b"\xa5\x02", ["parameter set: the line garbled it (BAD_CRC); sent again"]),
+    ],
+)
+def test_noise_before_a_request_costs_at_most_one_resend_not_the_link(noise, garbled):
+    """Line noise (at power-up, say) just before a request. A lone 0xA5 costs nothing (no
+    message is 165 long, so the firmware reads the request's sync as a new start); noise that
+    looks like a message's start swallows the request, which is NAKed and sent once more. The
+    link goes on either way, and the set arrives whole."""
     with bridged_robot() as noisy:
         robot, lines = robot_on(noisy.port, timeout_s=30.0)
         robot.hello()
-        robot.link.serial.write(b"\xa5")  # the noise, just before the set
+        robot.link.serial = NoiseBefore(robot.link.serial, noise)
         robot.send_set(preset("tuned"))
+        (info,) = robot.link.request(proto.command(Msg.PING))
         robot.link.close()
-    garbled = [line for line in lines if "the line garbled it" in line]
-    assert garbled == ["parameter set: the line garbled it (TIMEOUT); sent again"], lines
+    assert [line for line in lines if "the line garbled it" in line] == garbled, lines
     assert any(line.startswith("sent tuned") for line in lines), lines
+    assert isinstance(info, Info)

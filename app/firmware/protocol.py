@@ -77,6 +77,8 @@ def encode(msg_type: int, payload: bytes = b"") -> bytes:
     body = bytes([len(payload) + 1, msg_type]) + payload
     if len(payload) + 1 > MAX_LEN:
         raise ValueError(f"payload of {len(payload)} bytes exceeds {MAX_LEN - 1}")
+    if len(payload) + 1 == SYNC:  # the robot takes a LEN of 0xA5 for a new message's sync
+        raise ValueError(f"a payload of {SYNC - 1} bytes is reserved (PROTOCOL.md, Framing)")
     return bytes([SYNC]) + body + struct.pack("<H", crc16(body))
 
 

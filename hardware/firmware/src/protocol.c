@@ -289,6 +289,8 @@ static void receive(uint8_t byte)
             s_state = RX_LEN;
         break; /* anything else between messages is line noise: skipped */
     case RX_LEN:
+        if (byte == PROTO_SYNC)
+            break; /* a LEN of 165 is no message's (PROTOCOL.md): the sync before was noise */
         if (byte == 0 || byte > PROTO_MAX_LEN) {
             send_nak(0, NAK_BAD_LENGTH, byte);
             s_state = RX_SYNC;
