@@ -335,9 +335,15 @@ def test_a_new_page_shows_the_ghost_that_walks(server, walking, browser, width, 
             expect(page.locator("#ghost-source")).to_have_value("preset:tuned")
     finally:
         http.delete("/api/ghost")
+    http.patch("/api/params", json={"motion": {"a_p": 0.06}})  # a version made by an edit
+    http.patch("/api/params", json={"motion": {"a_p": 0.07}})
     with open_page(browser, base_url, width, height) as page:  # no ghost: another set than ours
         expect(page.locator("#ghost-state")).to_have_text("no ghost", timeout=10_000)
         expect(page.locator("#ghost-source")).to_have_value("preset:paper")
+        # the versions say who made them in words (`walking` loaded a preset, then edited it)
+        labels = page.locator("#ghost-source option").all_inner_texts()
+        made_by = [label.rsplit(" (", 1)[-1] for label in labels]
+        assert {"preset loaded)", "edit or undo)"} <= set(made_by), made_by
 
 
 @LARGE

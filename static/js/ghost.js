@@ -43,6 +43,19 @@ let presets = [];
 let presetsAt = -Infinity;
 const PRESETS_EVERY_MS = 10000; // saved presets change rarely: the list is fetched every 10 s
 
+// who made a version, in the page's words (the store's sources: app/server, `store.update`)
+const MADE_BY = {
+  http: "edit or undo",
+  viser: "3D view",
+  "viser-button": "3D view",
+  preset: "preset loaded",
+  import: "imported",
+  robot: "robot switched",
+  tune: "tune",
+  calibration: "CA calibration",
+};
+const madeBy = (source) => MADE_BY[source] ?? source;
+
 async function sources(state) {
   const select = $("ghost-source");
   if (document.activeElement === select) return;
@@ -52,7 +65,7 @@ async function sources(state) {
   }
   const options = [
     ...presets.map((name) => [`preset:${name}`, `preset ${name}`]),
-    ...state.versions.slice(1).map((v) => [`version:${v.version}`, `v${v.version} (${v.source})`]),
+    ...state.versions.slice(1).map((v) => [`version:${v.version}`, `v${v.version} (${madeBy(v.source)})`]),
   ];
   const key = options.map((o) => o[0]).join("|");
   if (select.dataset.key !== key) {
