@@ -14,8 +14,8 @@ import pytest
 import yaml
 
 from app.assets import builtin_robots_dir
-from app.robots import RobotError, load_description, parse_description
-from app.robots.library import MAX_DEPTH, MAX_DESCRIPTION_BYTES
+from app.robots import RobotError, build_model, load_description, parse_description
+from app.robots.library import MAX_DEPTH, MAX_DESCRIPTION_BYTES, read_description
 from app.robots.model import RobotModel
 from app.server.robot_shelf import RobotShelf
 
@@ -91,6 +91,18 @@ def test_a_key_given_twice_in_a_real_description_names_key_and_line(tmp_path):
         ("joints.l_hip_pitch", {"range_rad": [-0.01, 0.01]}, "l_hip_pitch.range_rad: -0.0100"),
         ("joints.r_ankle_roll", {"range_rad": [-0.2, 1.0]}, "does not hold the gait's reach"),
         ("default_preset", "nosuch", "default_preset: 'nosuch' is not a built-in preset; built"),
+        # the fourteenth session's probe: impossible robots the checks had let through
+        ("geometry.thigh_m", 1e-6, "geometry.thigh_m: Input should be greater than or equal to"),
+        ("trunk.0.box_m", [5e-324, 0.1, 0.1], "trunk.0.box_m.0: Input should be greater than"),
+        ("geometry.foot_length_m", 1.0, "must not exceed the leg's length, hip to sole (0.215"),
+        (
+            "trunk",
+            [{"name": f"ballast {i}", "mass_kg": 10.0} for i in range(3)],
+            "the parts add up to 31.020 kg (links and 12 servos); a small servo-driven biped",
+        ),
+        ("servo_mounts", {"hip_yaw": {}}, "servo_mounts: no mount for ['hip_roll', 'hip_pitch',"),
+        ("links.foot", [], "links.foot: the foot plate must weigh something"),
+        ("links.foot.0.box_m", [0.5, 0.5, 0.01], "links.foot.0: the foot's parts weigh its plate"),
     ],
 )
 def test_a_description_that_cannot_walk_or_be_simulated_is_refused(path, value, said):
@@ -109,8 +121,11 @@ def test_a_robot_that_takes_a_builtins_name_is_refused_by_the_server(tmp_path):
     path = tmp_path / "artro-copy.yaml"
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
     with pytest.raises(ValueError, match="named 'artro' like a built-in robot it is not"):
-        RobotShelf(RobotModel.load(path))
+        RobotModel.load(path)  # what every command loads a robot by
+    with pytest.raises(ValueError, match="named 'artro' like a built-in robot it is not"):
+        RobotShelf(RobotModel.of_model(read_description(path), build_model(read_description(path))))
     RobotShelf(RobotModel.load("artro"))  # the built-in itself is fine
+    RobotModel.load(builtin_robots_dir() / "artro.yaml")  # and so is its own file
     run = subprocess.run(
         [sys.executable, "-m", "app.cli", "serve", "--robot", str(path), "--port", "1"],
         capture_output=True, text=True, timeout=120,

@@ -16,7 +16,7 @@ from app.robots import builtin_robot_names, load_description, model_xml
 from app.robots.checks import JointTorque, eq1_torques, robot_warnings
 from app.robots.description import RobotDescription
 from app.robots.model import RobotModel
-from app.robots.swap import lightest_servo, suggest_servos, write_description
+from app.robots.swap import derived_name, lightest_servo, suggest_servos, write_description
 
 EXAMPLES = """examples:
   artro robot list
@@ -88,6 +88,7 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     if args.robot_command == "export-mjcf":
         text = model_xml(desc)
         if args.output:
+            not_the_source(Path(args.output), args.robot, f"-o {args.output}", "e.g. -o my.xml")
             Path(args.output).write_text(text, encoding="utf-8")
         else:
             out.write(text)
@@ -145,16 +146,26 @@ UNCARRIED = (
 )
 
 
+def not_the_source(target: Path, source: str, what: str, instead: str) -> None:
+    """ValueError if `target` is the description file `source` (also through a link): writing
+    it would lose its comments and layout."""
+    if source and Path(source).exists() and target.exists() and target.samefile(source):
+        raise ValueError(
+            f"{what} is the description read ({source}): writing it would lose the "
+            f"description; give another file, {instead}"
+        )
+
+
 def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str = "") -> int:
     """`robot check --suggest`: the description with the servos that carry it, written (never
     over `source`, the file it was read from: its comments would be lost). Exit status 1 when
     some joint no servo carries (eq (1) still fails), else 0."""
-    target = Path(output or f"{desc.name}-suggested.yaml")
-    if source and Path(source).exists() and target.exists() and target.samefile(source):
-        raise ValueError(
-            f"-o {output} is the description read ({source}): writing it would lose its "
-            f"comments and layout; give another file, e.g. -o {desc.name}-suggested.yaml"
-        )
+    target = Path(output or f"{derived_name(desc.name, 'suggested')}.yaml")
+    not_the_source(
+        target, source, f"-o {output}", f"e.g. -o {derived_name(desc.name, 'suggested')}.yaml"
+    )
+    if output is None and target.exists():
+        raise ValueError(f"{target} exists: give -o {target} to write over it, or -o another file")
     found = suggest_servos(desc, lambda r: {t.joint: t.required_nm for t in eq1_torques(r)})
     if not found.swaps:
         left = f"; none carries {', '.join(found.uncarried)}" if found.uncarried else ""

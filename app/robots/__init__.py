@@ -9,6 +9,7 @@ from app.robots.library import (
     RobotError,
     builtin_robot_names,
     load_description,
+    not_a_builtin_impostor,
     parse_description,
 )
 from app.robots.servos import ServoSettings, ServoSpec, servo_settings, servo_table
@@ -29,6 +30,7 @@ __all__ = [
     "joint_settings",
     "load_description",
     "model_xml",
+    "not_a_builtin_impostor",
     "parse_description",
     "servo_settings",
     "servo_table",

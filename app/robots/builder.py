@@ -6,6 +6,7 @@ figures become settings through `servo_settings` alone (docs/DESIGN.md §7)."""
 from __future__ import annotations
 
 import math
+import re
 
 import mujoco
 
@@ -78,11 +79,50 @@ def build_spec(robot: RobotDescription) -> mujoco.MjSpec:
 
 
 def build_model(robot: RobotDescription) -> mujoco.MjModel:
-    """The compiled model; ValueError with MuJoCo's message if it does not compile."""
+    """The compiled model; ValueError with MuJoCo's message if it does not compile, or naming
+    the part that starts inside the floor."""
     try:
-        return build_spec(robot).compile()
+        model = build_spec(robot).compile()
     except ValueError as err:
-        raise ValueError(f"robot {robot.name!r}: the model does not compile: {err}") from err
+        element = re.search(r"Element name '(\w+)'", str(err))
+        field = f" (the description's {_field_of(element.group(1))})" if element else ""
+        said = " ".join(str(err).split())
+        raise ValueError(
+            f"robot {robot.name!r}: the model does not compile{field}: {said}"
+        ) from err
+    _check_only_the_soles_touch(model, robot)
+    return model
+
+
+def _check_only_the_soles_touch(model: mujoco.MjModel, robot: RobotDescription) -> None:
+    """Standing (straight legs, soles on the floor), no colliding part is inside the floor: the
+    contact would throw the robot up at the first step."""
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    floor = model.geom("floor").id
+    soles = {model.geom(f"{side}_foot_plate").id for side in ("l", "r")}
+    for contact in data.contact[: data.ncon]:
+        pair = {int(contact.geom1), int(contact.geom2)}
+        if floor in pair and not pair & soles and contact.dist < -1e-4:
+            (geom,) = pair - {floor}
+            raise ValueError(
+                f"{_field_of(model.geom(geom).name)}: a colliding part starts "
+                f"{-contact.dist * 1000:.0f} mm inside the floor with the robot standing; move "
+                "it above the soles (pos_m, its size) or set collides: false"
+            )
+
+
+def _field_of(name: str) -> str:
+    """The description's field of a part's geom ("trunk_abdomen_0": "trunk.0", "l_thigh_1":
+    "links.thigh.1") or of a leg's body ("l_foot": "links.foot"); else the name as it is."""
+    head, _, index = name.rpartition("_")
+    if head.startswith("trunk_") and index.isdigit():
+        return f"trunk.{index}"
+    side, _, rest = (head if index.isdigit() else name).partition("_")
+    if side in ("l", "r") and rest in DESCRIPTION_LINK:
+        link = f"links.{DESCRIPTION_LINK[rest]}"
+        return f"{link}.{index}" if index.isdigit() else link
+    return name
 
 
 def model_xml(robot: RobotDescription) -> str:

@@ -29,6 +29,7 @@ LINKS = ("trunk", "hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot")
 #: masses: they agree within 2 % of the parts or 5 g, whichever is larger (docs/DESIGN.md §7)
 MASS_TOLERANCE_FRACTION = 0.02
 MASS_TOLERANCE_MIN_KG = 0.005
+MAX_MASS_KG = 20.0  # stated or the parts' sum: a small servo-driven biped
 #: the motions whose poses every joint's range must hold: seed 000's table, both ways
 REACH_CASES = (
     Motion(),
@@ -48,8 +49,8 @@ def preset_gait(name: str) -> GaitParams:
 
 #: a number written as one (not "0.09", not true), finite
 Real = Annotated[float, Strict()]
-#: a length of a small servo-driven biped's part: > 0 and at most a metre
-Length = Annotated[float, Strict(), Field(gt=0, le=1.0)]
+#: a length of a small servo-driven biped's part: 0.1 mm to a metre
+Length = Annotated[float, Strict(), Field(ge=1e-4, le=1.0)]
 #: a position relative to a joint, each coordinate within a metre
 Vec3 = tuple[
     Annotated[float, Strict(), Field(ge=-1.0, le=1.0)],
@@ -74,8 +75,9 @@ class Geometry(_Strict):
     hip_roll_offset_m: Length = Field(
         description="hip-yaw joint down to the hip roll/pitch crossing"
     )
-    thigh_m: Length = Field(description="L_UL: hip crossing to knee axis (eq 3)")
-    shank_m: Length = Field(description="L_LL: knee axis to ankle crossing (eq 3)")
+    # at least a centimetre: a servo-driven leg is longer than the servos' horns
+    thigh_m: Length = Field(ge=0.01, description="L_UL: hip crossing to knee axis (eq 3)")
+    shank_m: Length = Field(ge=0.01, description="L_LL: knee axis to ankle crossing (eq 3)")
     ankle_to_sole_m: Length = Field(description="ankle crossing down to the sole")
     foot_length_m: Length
     foot_width_m: Length
@@ -87,6 +89,12 @@ class Geometry(_Strict):
             raise ValueError(
                 f"foot_thickness_m ({self.foot_thickness_m}) must be less than ankle_to_sole_m "
                 f"({self.ankle_to_sole_m}): the plate hangs below the ankle"
+            )
+        leg_m = self.thigh_m + self.shank_m + self.ankle_to_sole_m
+        if self.foot_length_m > leg_m:
+            raise ValueError(
+                f"foot_length_m ({self.foot_length_m}) must not exceed the leg's length, hip to "
+                f"sole ({leg_m:.4g} m): a biped on longer feet stands like a table"
             )
         if self.foot_width_m > self.hip_spacing_m:
             raise ValueError(
@@ -202,7 +210,7 @@ class RobotDescription(_Strict):
     total_mass_kg: Real | None = Field(
         None,
         gt=0,
-        le=20.0,
+        le=MAX_MASS_KG,
         description="the robot on a scale (optional): checked against the sum of all parts "
         "within 2 % or 5 g, whichever is larger; the model carries the parts' sum",
     )
@@ -274,11 +282,29 @@ class RobotDescription(_Strict):
                     f"joints.{name}.range_rad: {lo:.4f}..{hi:.4f} rad is beyond the {servo}'s "
                     f"travel of ±{half_travel:.4f} rad"
                 )
+        missing_mounts = [j for j in LEG_JOINTS if j not in self.servo_mounts]
+        if missing_mounts:
+            raise ValueError(
+                f"servo_mounts: no mount for {missing_mounts}; give each of {list(LEG_JOINTS)} "
+                "(an empty {} puts the case at its joint)"
+            )
         presets = sorted(p.stem for p in builtin_presets_dir().glob("*.json"))
         if self.default_preset not in presets:
             raise ValueError(
                 f"default_preset: {self.default_preset!r} is not a built-in preset; built in: "
                 f"{', '.join(presets)}"
+            )
+        for i, part in enumerate(self.links.get("foot", ())):
+            if part.box_m or part.capsule_radius_m or part.collides or any(part.pos_m):
+                raise ValueError(
+                    f"links.foot.{i}: the foot's parts weigh its plate (geometry.foot_length_m, "
+                    "foot_width_m, foot_thickness_m), which is its shape: give name and mass_kg "
+                    "only"
+                )
+        if sum(p.mass_kg for p in self.links.get("foot", ())) <= 0:
+            raise ValueError(
+                "links.foot: the foot plate must weigh something (MuJoCo moves no massless "
+                "body): give it a part with mass_kg > 0"
             )
         self._check_tdm()
         self._check_mass()
@@ -378,9 +404,14 @@ class RobotDescription(_Strict):
             raise ValueError(f"tdm_channels: no output for {missing}")
 
     def _check_mass(self) -> None:
+        total = self.parts_mass_kg()
+        if total > MAX_MASS_KG:
+            raise ValueError(
+                f"the parts add up to {total:.3f} kg (links and 12 servos); a small servo-driven "
+                f"biped weighs at most {MAX_MASS_KG:g} kg"
+            )
         if self.total_mass_kg is None:
             return
-        total = self.parts_mass_kg()
         tolerance = mass_tolerance_kg(total)
         if abs(total - self.total_mass_kg) > tolerance:
             raise ValueError(

@@ -20,6 +20,8 @@ BUILTIN_DEFAULT = "artro"
 MAX_DESCRIPTION_BYTES = 256 * 1024
 #: the deepest a description nests (links > thigh > a part > box_m is 4)
 MAX_DEPTH = 8
+#: the problems a refusal lists (a malformed file can have a hundred thousand)
+MAX_LISTED_ERRORS = 20
 #: the field a check's message starts with ("servos.MG90S: ..."), where pydantic gives no path
 _LEADING_FIELD = re.compile(r"^([A-Za-z_][\w-]*(?:\.[\w.-]+)*): ")
 
@@ -40,13 +42,16 @@ def describe_errors(err: ValidationError, source: str, text: str | None = None) 
     with `(line N)` where the field is found in the file's `text`."""
     root = _composed(text)
     lines = []
-    for e in err.errors():
+    errors = err.errors()
+    for e in errors[:MAX_LISTED_ERRORS]:
         where = ".".join(str(p) for p in e["loc"])
         msg = e["msg"].removeprefix("Value error, ")
         line = f"  {where}: {msg}" if where else f"  {msg}"
         named = where or ((m := _LEADING_FIELD.match(msg)) and m.group(1))
         at = _line_of(root, named) if named else None
         lines.append(f"{line} (line {at})" if at else line)
+    if len(errors) > MAX_LISTED_ERRORS:
+        lines.append(f"  ... and {len(errors) - MAX_LISTED_ERRORS} more")
     return f"{source} is not a valid robot description:\n" + "\n".join(lines)
 
 
@@ -117,7 +122,8 @@ def decoded(data: bytes, path: Path | str) -> str:
 
 
 class _DescriptionLoader(yaml.SafeLoader):
-    """SafeLoader that refuses a key given twice (YAML would keep the last, silently)."""
+    """SafeLoader that refuses a key given twice (YAML would keep the last, silently) and reads
+    `5e-05` and `4.0e3` as numbers, as YAML 1.2 and JSON do (YAML 1.1 made them strings)."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[object] = set()
@@ -129,6 +135,13 @@ class _DescriptionLoader(yaml.SafeLoader):
                 )
             seen.add(key if isinstance(key, str) else id(key_node))
         return super().construct_mapping(node, deep=deep)
+
+
+_DescriptionLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+    list("-+0123456789."),
+)
 
 
 def load_yaml(text: str, path: Path | str) -> object:
@@ -177,13 +190,26 @@ def load_description(robot: str | Path | RobotDescription | None = None) -> Robo
         return _builtin(BUILTIN_DEFAULT)
     text = str(robot)
     path = Path(text).expanduser()
+    if text in builtin_robot_names():  # a file of that name is ./NAME
+        return _builtin(text)
     if path.suffix in (".yaml", ".yml", ".json") or path.exists() or "/" in text:
         if not path.is_file():
             raise RobotError(f"no robot description file {text!r}")
-        return read_description(path)
+        return not_a_builtin_impostor(read_description(path), text)
     if text not in builtin_robot_names():
         raise RobotError(
             f"unknown robot {text!r}: the built-in robots are {', '.join(builtin_robot_names())}, "
             f"or give the path of a .yaml description"
         )
     return _builtin(text)
+
+
+def not_a_builtin_impostor(desc: RobotDescription, source: str) -> RobotDescription:
+    """`desc`, unless it takes a built-in robot's name without being that robot (its presets,
+    `tuned-NAME` and studies would then mix with the built-in's); RobotError then."""
+    if desc.name in builtin_robot_names() and desc != _builtin(desc.name):
+        raise RobotError(
+            f"{source} is named {desc.name!r} like a built-in robot it is not; give it a name of "
+            "its own (name: in the description)"
+        )
+    return desc

@@ -23,8 +23,8 @@ KGF_CM_TO_NM = 0.0980665  # 1 kgf·cm in N·m
 Real = Annotated[float, Strict()]
 #: a servo's name as a joint gives it: "MG996R", "AX-12A", "XL430-W250"
 ServoName = Annotated[str, Strict(), Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]{0,39}$")]
-#: a case's size, mm: > 0 and at most 200 mm (a hobby servo is 20-60 mm)
-CaseMm = Annotated[float, Strict(), Field(gt=0, le=200.0)]
+#: a case's size, mm: 1 to 200 mm (a hobby servo is 20-60 mm)
+CaseMm = Annotated[float, Strict(), Field(ge=1.0, le=200.0)]
 
 
 class _Figures(BaseModel):
@@ -35,15 +35,18 @@ class Rating(_Figures):
     """One datasheet line: stall torque and no-load speed at a voltage."""
 
     voltage_v: Real = Field(gt=0, le=24.0)
-    stall_torque_kgf_cm: Real = Field(gt=0, le=1000.0)
-    speed_s_per_60deg: Real = Field(gt=0, le=10.0)
+    # the smallest hobby servos give ~0.2 kgf·cm and the fastest ~0.04 s/60°; below these bounds
+    # the MuJoCo settings that follow (damping = torque / speed) are not a servo's any more
+    stall_torque_kgf_cm: Real = Field(ge=0.05, le=1000.0)
+    speed_s_per_60deg: Real = Field(ge=0.01, le=10.0)
 
 
 class Assumed(_Figures):
     """What no datasheet gives, with the reason for each value (extra keys: the reasons)."""
 
     model_config = ConfigDict(extra="allow")
-    saturation_error_rad: Real = Field(gt=0, le=1.0)
+    # kp = stall torque / this: below 0.01 rad (0.6°) the gain is a rigid joint's, not a servo's
+    saturation_error_rad: Real = Field(ge=0.01, le=1.0)
     armature_kg_m2: Real = Field(ge=0, le=1.0)
     frictionloss_nm: Real = Field(ge=0, le=10.0)
 
@@ -56,7 +59,7 @@ class ServoSpec(_Figures):
     signal: Literal["pwm", "bus"]
     source: Annotated[str, Strict()] = Field(min_length=1, max_length=1000)
     ratings: tuple[Rating, ...] = Field(min_length=1, max_length=8)
-    mass_kg: Real = Field(gt=0, le=1.0)
+    mass_kg: Real = Field(ge=0.001, le=1.0)
     case_mm: tuple[CaseMm, CaseMm, CaseMm]
     pulse_min_us: Real | None = Field(None, ge=0, le=3000.0)
     pulse_max_us: Real | None = Field(None, ge=0, le=3000.0)

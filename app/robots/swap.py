@@ -118,13 +118,19 @@ def suggest_servos(
     for joint, old, new, n in swaps:  # a joint swapped twice: from its first servo to its last
         first = final.get(joint, (joint, old, new, n))[1]
         final[joint] = (joint, first, new, n)
-    named = dict(robot.model_dump(mode="json"), name=f"{desc.name}-suggested"[:40])
-    named["title"] = f"{desc.title}; servos suggested by eq (1)" if final else desc.title
+    named = dict(robot.model_dump(mode="json"), name=derived_name(desc.name, "suggested"))
+    named["title"] = f"{desc.title}; servos suggested by eq (1)"[:200] if final else desc.title
     return Suggestion(
         RobotDescription.model_validate(named) if final else desc,
         tuple(final.values()),
         tuple(sorted(uncarried)),
     )
+
+
+def derived_name(name: str, tag: str) -> str:
+    """`name-tag`, within a name's 40 characters: `name` shortened, never the tag, so the new
+    robot's name (its presets, its studies) is never the old one's."""
+    return f"{name[: 40 - len(tag) - 1]}-{tag}"
 
 
 def with_servo(desc: RobotDescription, joints: Sequence[str], servo: str) -> RobotDescription:
@@ -144,7 +150,7 @@ def with_servo(desc: RobotDescription, joints: Sequence[str], servo: str) -> Rob
             mass += table[servo].mass_kg - table[desc.joint_servo(joint)].mass_kg
         data["joints"][joint]["servo"] = servo
     tag = servo.lower().replace("-", "")
-    data["name"] = f"{desc.name}-{tag}"[:40]
+    data["name"] = derived_name(desc.name, tag)
     data["title"] = f"{desc.title}; {servo} on {', '.join(joints)}"[:200]
     if mass is not None:
         data["total_mass_kg"] = round(mass, 6)

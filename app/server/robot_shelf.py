@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import threading
 
-from app.robots import builtin_robot_names, load_description
+from app.robots import builtin_robot_names, not_a_builtin_impostor
 from app.robots.model import RobotModel
 
 
@@ -18,12 +18,7 @@ class RobotShelf:
     def __init__(self, started: RobotModel) -> None:
         """ValueError if `started` is not a built-in robot but takes a built-in's name (it
         would hide that robot)."""
-        builtin = started.name in builtin_robot_names()
-        if builtin and started.description != load_description(started.name):
-            raise ValueError(
-                f"the robot started with is named {started.name!r} like a built-in robot it is "
-                "not; give it a name of its own (name: in its description)"
-            )
+        not_a_builtin_impostor(started.description, "the robot started with")
         self.started = started
         self._built: dict[str, RobotModel] = {started.name: started}
         self._lock = threading.Lock()
