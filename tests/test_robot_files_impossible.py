@@ -108,6 +108,9 @@ def test_a_file_of_many_errors_lists_a_few_and_counts_the_rest(tmp_path):
     lines = str(err.value).splitlines()
     assert len(lines) == 1 + MAX_LISTED_ERRORS + 1, lines[-3:]
     assert lines[-1].strip().startswith("... and ") and lines[-1].endswith(" more")
+    path.write_text("trunk: [" + "0," * 120_000 + "0]\n", encoding="utf-8")  # under 256 KiB
+    with pytest.raises(RobotError, match=r"many.yaml, line 1, column \d+: more than 20,000 values"):
+        load_description(path)  # 12 s and 120 010 lines before the count
 
 
 def test_a_builtin_name_is_the_builtin_robot_whatever_the_folder_holds(tmp_path, monkeypatch):

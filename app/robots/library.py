@@ -20,6 +20,8 @@ BUILTIN_DEFAULT = "artro"
 MAX_DESCRIPTION_BYTES = 256 * 1024
 #: the deepest a description nests (links > thigh > a part > box_m is 4)
 MAX_DEPTH = 8
+#: the YAML events (values, keys, lists, maps) a description may hold: artro.yaml has ~400
+MAX_EVENTS = 20_000
 #: the problems a refusal lists (a malformed file can have a hundred thousand)
 MAX_LISTED_ERRORS = 20
 #: the field a check's message starts with ("servos.MG90S: ..."), where pydantic gives no path
@@ -153,7 +155,12 @@ def load_yaml(text: str, path: Path | str) -> object:
 
     try:
         depth = 0  # checked while streaming, before anything recursive sees the document
-        for event in yaml.parse(text, Loader=_DescriptionLoader):
+        for count, event in enumerate(yaml.parse(text, Loader=_DescriptionLoader)):
+            if count > MAX_EVENTS:
+                raise RobotError(
+                    f"{where(event.start_mark)}: more than {MAX_EVENTS:,} values; a robot "
+                    "description holds a few hundred"
+                )
             if isinstance(event, yaml.CollectionStartEvent):
                 depth += 1
                 if depth > MAX_DEPTH:
