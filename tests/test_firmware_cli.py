@@ -38,6 +38,19 @@ def test_exported_folder_builds_with_make_alone(tmp_path: Path) -> None:
     ).stdout.replace("flash:w", "flash:")
 
 
+def test_a_folder_of_other_files_is_never_written_over(tmp_path: Path) -> None:
+    precious = tmp_path / "precious"
+    (precious / "src").mkdir(parents=True)
+    (precious / "Makefile").write_text("all:\n\techo mine\n", encoding="utf-8")
+    with pytest.raises(ValueError, match="holds other files and is not a firmware folder"):
+        export_firmware_folder(preset("tuned"), precious)
+    assert (precious / "Makefile").read_text(encoding="utf-8") == "all:\n\techo mine\n"
+    assert list((precious / "src").iterdir()) == []
+    folder = export_firmware_folder(preset("tuned"), tmp_path / "fw")  # a new folder, then
+    export_firmware_folder(preset("paper"), folder)  # written again: a folder of its own
+    assert '"paper"' in (folder / "parameters.json").read_text(encoding="utf-8")
+
+
 def test_firmware_run_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     vcd = tmp_path / "walk.vcd"
     args = parse(["firmware", "run", "--motion", "0,0.07,0", "--frames", "12", "--json",

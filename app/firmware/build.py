@@ -229,8 +229,15 @@ def export_firmware_folder(
     """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
     programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
     headers), Makefile, PROTOCOL.md, README.md, parameters.json (the document). Returns the
-    folder."""
+    folder. ValueError for a folder that holds other files and no parameters.json (not one
+    this wrote before): its Makefile and src/ would be written over."""
     out = Path(out_dir)
+    if out.is_dir() and any(out.iterdir()) and not (out / "parameters.json").is_file():
+        raise ValueError(
+            f"{out} holds other files and is not a firmware folder written before (no "
+            "parameters.json): its Makefile and src/ would be written over; give a new or "
+            "empty folder"
+        )
     (out / "src").mkdir(parents=True, exist_ok=True)
     (out / "gen").mkdir(exist_ok=True)
     for name, data in source_files().items():
