@@ -62,6 +62,7 @@ def test_a_huge_file_is_refused_before_it_is_read(tmp_path):
         (b"a: &x 1\nb: *x\n", "anchors and aliases are not allowed"),
         (b"name: [1,\n", "my.yaml, line 2, column 1: malformed YAML"),
         (b"name: !!python/object:os.system x\n", "my.yaml, line 1, column 7: malformed YAML"),
+        (b"name: x\ntitle: a\x00b\n", "my.yaml, line 2, column 9: the character U+0000 has no"),
     ],
 )
 def test_an_unreadable_file_is_named_with_what_is_wrong(tmp_path, data, said):

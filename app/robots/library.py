@@ -179,6 +179,13 @@ def load_yaml(text: str, path: Path | str) -> object:
     except yaml.MarkedYAMLError as err:
         mark = err.problem_mark or err.context_mark
         raise RobotError(f"{where(mark)}: malformed YAML: {err.problem}") from None
+    except yaml.reader.ReaderError as err:  # a control character: at a position, not a mark
+        before = text[: err.position]
+        line, column = before.count("\n") + 1, err.position - before.rfind("\n")
+        raise RobotError(
+            f"{path}, line {line}, column {column}: the character U+{err.character:04X} has no "
+            "place in a description (YAML allows no control characters but tab and newline)"
+        ) from None
     except yaml.YAMLError as err:
         raise RobotError(f"{path} is not YAML: {err}") from None
 
