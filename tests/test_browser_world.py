@@ -133,7 +133,7 @@ def test_the_robot_is_switched_on_the_page_and_undo_takes_it_back(tmp_path, widt
         expect(message).to_contain_text("now micro", timeout=30_000)
         expect(message).to_contain_text("Undo goes back to artro")
         expect(badge).to_have_text("robot micro")
-        expect(page.locator("#params-name")).to_have_text("micro-tuned", timeout=30_000)
+        expect(page.locator("#params-name")).to_have_text("micro-robust", timeout=30_000)
         assert http.get("/api/state").json()["robot"] == "micro"
         page.locator("#world-panel").screenshot(path=str(tmp_path / f"robot-{width}.png"))
 
@@ -144,12 +144,12 @@ def test_the_robot_is_switched_on_the_page_and_undo_takes_it_back(tmp_path, widt
         expect(preset_message).to_have_class(re.compile(r"\bwarn\b"))
         note = page.locator("#params-robot-note")  # by the sliders, while the set is in use
         expect(note).to_contain_text("'paper' was tuned for the robot artro, not micro")
-        robots = page.locator("#preset-list tr[data-preset='micro-tuned'] td").nth(1)
+        robots = page.locator("#preset-list tr[data-preset='micro-robust'] td").nth(1)
         expect(robots).to_have_text("micro")  # the table names each set's robot
 
         page.click("#params-undo")  # the preset load
         expect(page.locator("#params-message")).to_contain_text("undone", timeout=30_000)
-        expect(note).to_be_hidden()  # micro-tuned, on micro
+        expect(note).to_be_hidden()  # micro-robust, on micro
         page.click("#params-undo")  # the switch: the page says the robot changed back
         expect(page.locator("#params-message")).to_contain_text(
             "the robot is artro again (was micro)", timeout=30_000

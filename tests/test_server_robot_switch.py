@@ -38,7 +38,7 @@ def test_the_robots_on_offer_are_listed_with_their_figures(http):
     assert offer["robots"][0]["name"] == "artro" and "micro" in by_name
     assert by_name["artro"]["total_mass_kg"] == pytest.approx(1.65)
     assert by_name["micro"]["total_mass_kg"] < 0.5 * by_name["artro"]["total_mass_kg"]
-    assert by_name["micro"]["default_preset"] == "micro-tuned"
+    assert by_name["micro"]["default_preset"] == "micro-robust"
 
 
 def test_a_switch_simulates_the_new_robot_in_its_preset_and_undo_takes_it_back(http):
@@ -47,7 +47,7 @@ def test_a_switch_simulates_the_new_robot_in_its_preset_and_undo_takes_it_back(h
     assert switched.status_code == 200, switched.text
     body = switched.json()
     assert body["changed"] and body["params"]["robot"] == "micro"
-    assert body["params"]["name"] == "micro-tuned" and body["params"]["version"] > before["version"]
+    assert body["params"]["name"] == "micro-robust" and body["params"]["version"] > before["version"]
     state = _simulated(http, "micro")
     micro = http.get("/api/robot").json()
     assert micro["name"] == "micro" and micro["derived"]["total_mass_kg"] < 0.5
@@ -68,7 +68,7 @@ def test_a_switch_simulates_the_new_robot_in_its_preset_and_undo_takes_it_back(h
     wait_for(lambda: http.get("/api/state").json()["trunk"]["z_m"] > standing + 0.03,
              "ArtRo stands taller than the micro robot")  # fmt: skip
     redone = http.post("/api/params/redo").json()
-    assert redone["robot"] == "micro" and redone["name"] == "micro-tuned"
+    assert redone["robot"] == "micro" and redone["name"] == "micro-robust"
     _simulated(http, "micro")
 
 

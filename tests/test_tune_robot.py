@@ -64,8 +64,8 @@ def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 
 def test_the_references_are_the_built_in_robots_and_their_presets():
-    # each built-in robot's default preset: ArtRo's is `robust` (the laws on), micro's its own
-    assert reference_legs() == {"robust": pytest.approx(0.18), "micro-tuned": pytest.approx(0.09)}
+    # each built-in robot's default preset: both with the laws on, micro's scaled to its legs
+    assert reference_legs() == {"robust": pytest.approx(0.18), "micro-robust": pytest.approx(0.09)}
 
 
 @pytest.mark.parametrize(
@@ -113,11 +113,12 @@ def test_scaling_changes_the_clock_and_the_yaw_loops_lengths_alone(name):
 def test_the_start_of_a_file_robot_is_its_nearest_preset_scaled(tmp_path):
     small = read_description(robot_file(tmp_path / "s.yaml", "s", 0.06, "MG90S"))
     start = start_for(small, builtin_presets())
-    assert (start.preset, start.leg_ref_m, start.leg_m) == ("micro-tuned", 0.09, 0.12)
-    micro = builtin_presets()["micro-tuned"].gait
+    assert (start.preset, start.leg_ref_m, start.leg_m) == ("micro-robust", 0.09, 0.12)
+    micro = builtin_presets()["micro-robust"].gait
     assert start.gait == scaled_gait(micro, 0.09, 0.12)
     assert start.gait.clock.freq_hz == scaled_freq_hz(0.910486, 0.09, 0.12)
-    assert "'micro-tuned'" in start.describe() and "0.789 Hz" in start.describe()
+    assert "'micro-robust'" in start.describe() and "0.789 Hz" in start.describe()
+    assert start.gait.yaw_rate.enabled and start.gait.tilt.enabled  # a tune starts closed-loop
 
 
 # --- the recipe --------------------------------------------------------------------------------
