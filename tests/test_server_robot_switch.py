@@ -47,7 +47,8 @@ def test_a_switch_simulates_the_new_robot_in_its_preset_and_undo_takes_it_back(h
     assert switched.status_code == 200, switched.text
     body = switched.json()
     assert body["changed"] and body["params"]["robot"] == "micro"
-    assert body["params"]["name"] == "micro-robust" and body["params"]["version"] > before["version"]
+    assert body["params"]["name"] == "micro-robust"
+    assert body["params"]["version"] > before["version"]
     state = _simulated(http, "micro")
     micro = http.get("/api/robot").json()
     assert micro["name"] == "micro" and micro["derived"]["total_mass_kg"] < 0.5
