@@ -73,6 +73,44 @@ CASES = {
         ["export", "--format", "json", "-o", "/dev/full"],
         "cannot write /dev/full: No space left on device",
     ),
+    # the fourteenth session's probe of every command's options
+    "tune: a device as the output": (
+        ["tune", "--base", "tuned", "--generations", "1", "-o", "/dev/full"],
+        "/dev/full is not a regular file (a device or a pipe)",  # as root, it was replaced
+    ),
+    "tune: a folder as the output": (["tune", "-o", "/tmp"], "/tmp is a folder; give the file"),
+    "tune: an empty output": (["tune", "-o", ""], "an empty file name"),
+    "bench: a file as the folder": (["bench", "robust", "--out", "/dev/null"], "is a file, not"),
+    "bench: less than a cycle measured": (
+        ["bench", "robust", "--samples", "2", "--duration", "4", "--warmup", "3.9"],
+        "leaves no whole gait cycle after --warmup 3.9",
+    ),
+    "bench paper: less than a cycle measured": (
+        ["bench", "paper", "--quick", "--duration", "2", "--warmup", "1.9"],
+        "leaves no whole gait cycle after --warmup 1.9",
+    ),
+    "calibrate-ca: threads by the hundred thousand": (
+        ["calibrate-ca", "--threads", "100000"],
+        "--threads must be a whole number 1 to 1024",
+    ),
+    "calibrate-ca: no threads": (["calibrate-ca", "--threads", "-1"], "--threads must be a whole"),
+    "calibrate-ca: no duration": (["calibrate-ca", "--duration", "0"], "--duration must be > 0"),
+    "calibrate-ca: a duration of ages": (["calibrate-ca", "--duration", "1e9"], "at most 3600"),
+    "calibrate-ca: a negative warm-up": (["calibrate-ca", "--warmup", "-1"], "--warmup must be"),
+    "calibrate-ca: less than a cycle measured": (
+        ["calibrate-ca", "--duration", "4", "--warmup", "3.9"],
+        "leaves no whole gait cycle after --warmup 3.9",
+    ),
+    "calibrate-ca: a step too short": (["calibrate-ca", "--a-p", "0"], "allowed |a_p| >= 0.02"),
+    "calibrate-ca: a_p against the direction": (
+        ["calibrate-ca", "--a-p", "-0.07", "--direction", "forward"],
+        "walks the other way than --direction forward",
+    ),
+    "serve: a file as the data folder": (
+        ["serve", "--data-dir", "/dev/null", "--port", "1"],
+        "/dev/null is a file, not a folder",
+    ),
+    "serve: an empty address": (["serve", "--host", "", "--port", "1"], "an empty address"),
     "export: a firmware folder where a file is": (
         ["export", "--format", "firmware", "-o", "/dev/full"],
         "cannot write the firmware folder /dev/full: Not a directory (/dev/full/src)",

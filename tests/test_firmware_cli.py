@@ -53,8 +53,8 @@ def test_a_folder_of_other_files_is_never_written_over(tmp_path: Path) -> None:
 
 def test_firmware_run_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     vcd = tmp_path / "walk.vcd"
-    args = parse(["firmware", "run", "--motion", "0,0.07,0", "--frames", "12", "--json",
-                  "--vcd", str(vcd)])  # fmt: skip
+    args = parse(["firmware", "run", "--params", "paper", "--motion", "0,0.07,0", "--frames",
+                  "12", "--json", "--vcd", str(vcd)])  # fmt: skip
     assert cmd_firmware(args) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["frames"] == 12 and out["pulses_compared"] == 144
@@ -87,7 +87,8 @@ def test_firmware_run_closes_the_loop_with_a_law_on(
     assert out["variation"] == "imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1"
     # open loop, --vary has nothing to vary: said so, nothing runs
     with pytest.raises(ValueError, match="needs a set with a feedback law on"):
-        cmd_firmware(parse(["firmware", "run", "--frames", "5", "--vary", "fsr_gain=1.1"]))
+        argv = ["firmware", "run", "--params", "paper", "--frames", "5", "--vary", "fsr_gain=1.1"]
+        cmd_firmware(parse(argv))
 
 
 def test_firmware_build_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -97,13 +98,15 @@ def test_firmware_build_folder(tmp_path: Path, capsys: pytest.CaptureFixture[str
 
 
 def test_firmware_run_json_prints_nothing_but_the_json() -> None:
-    """The emulator's own messages (simavr logs its ELF loading on stdout) stay out of it."""
+    """The emulator's own messages (simavr logs its ELF loading on stdout) stay out of it. No
+    --params: the robot's default preset (ArtRo's `robust`, closed-loop), as every command's."""
     artro = Path(sys.executable).with_name("artro")
     run = subprocess.run(
         [str(artro), "firmware", "run", "--frames", "5", "--json"],
         capture_output=True, text=True, check=True,
     )  # fmt: skip
-    assert json.loads(run.stdout)["frames"] == 5
+    said = json.loads(run.stdout)
+    assert said["frames"] == 5 and "law_error_max" in said  # robust's laws ran on the MCU
 
 
 def test_a_fall_ends_what_is_judged_and_a_difference_is_said(

@@ -19,7 +19,9 @@ from app.cli.options import (
     add_range_option,
     add_robot_option,
     backend_of,
+    check_timing,
     number,
+    output_folder,
     ranges_from,
     resolve_sets,
     subcommand,
@@ -88,7 +90,7 @@ def add_parser(sub: Any) -> None:
 
     parser.add_argument(
         "--out",
-        type=Path,
+        type=output_folder,
         default=None,
         metavar="DIR",
         help=f"where the PNGs and results.json go (default {PAPER_OUT}, {ROBUST_OUT})",
@@ -126,19 +128,19 @@ def command(args: argparse.Namespace) -> int:
         config = replace(config, cluster=args.cluster, wait_workers_s=args.wait_workers)
     if args.threads is not None:
         config = replace(config, threads=args.threads)
-    if not config.duration_s > config.warmup_s >= 0:
-        raise ValueError(
-            f"need duration > warm-up >= 0 s, got --duration {config.duration_s:g} "
-            f"--warmup {config.warmup_s:g}"
-        )
-    run_paper_bench(preset_specs(args.presets, "paper,tuned,pfs"), config, args.out or PAPER_OUT)
+    specs = preset_specs(args.presets, "paper,tuned,pfs", config.duration_s, config.warmup_s)
+    run_paper_bench(specs, config, args.out or PAPER_OUT)
     return 0
 
 
-def preset_specs(text: str | None, default: str) -> list[str]:
+def preset_specs(text: str | None, default: str, duration_s: float, warmup_s: float) -> list[str]:
     """`--presets` as the benches take them, each checked by `resolve_sets`: a built-in name as
-    typed, a saved preset or a file as its path; ValueError names the presets there are."""
-    return [c.spec if c.builtin else str(c.path) for c in resolve_sets(text or default)]
+    typed, a saved preset or a file as its path; ValueError names the presets there are, or a
+    run that leaves one of them no whole gait cycle to measure after the warm-up."""
+    chosen = resolve_sets(text or default)
+    for c in chosen:
+        check_timing((), c.pset.gait, duration_s, warmup_s)
+    return [c.spec if c.builtin else str(c.path) for c in chosen]
 
 
 def robust(args: argparse.Namespace) -> int:
@@ -152,10 +154,8 @@ def robust(args: argparse.Namespace) -> int:
 
     duration = ROBUST_DURATION_S if args.duration is None else args.duration
     warmup = 5.0 if args.warmup is None else args.warmup
-    if not duration > warmup >= 0:
-        raise ValueError(f"need duration > warm-up >= 0 s, got {duration:g} and {warmup:g}")
     ranges = ranges_from(args.range)
-    specs = preset_specs(args.presets, "tuned")
+    specs = preset_specs(args.presets, "tuned", duration, warmup)
     presets, notes = resolve_presets(specs)
     if not presets:
         raise ValueError(f"no presets to run (asked for {specs}): {'; '.join(notes)}")

@@ -10,14 +10,17 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from app.analysis.axle_fit import walking_amplitude
+from app.analysis.axle_fit import MIN_A_P, walking_amplitude
 from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
 from app.cli.options import (
+    MAX_DURATION_S,
     add_backend_options,
     add_cluster_options,
     add_params_option,
     add_robot_option,
     backend_of,
+    check_timing,
+    number,
     robot_and_set,
     subcommand,
 )
@@ -38,7 +41,7 @@ def add_parser(sub: Any) -> None:
         command,
         EXAMPLES,
     )
-    add_params_option(c, "the --robot's default preset, as the dashboard's")
+    add_params_option(c)
     add_robot_option(c)
     c.add_argument(
         "--engine",
@@ -47,11 +50,32 @@ def add_parser(sub: Any) -> None:
         help="gait engine to calibrate (default: the parameter set's)",
     )
     c.add_argument(
-        "--a-p", type=float, default=None, help="forward amplitude to walk at (default: the set's)"
+        "--a-p",
+        type=number(-1, 1, what="--a-p"),
+        default=None,
+        help=f"sagittal amplitude to walk at, |a_p| >= {MIN_A_P:g}; its sign names the direction "
+        f"(default: the set's, or 0.07 where the set walks slower than {MIN_A_P:g})",
     )
-    c.add_argument("--duration", type=float, default=20.0, metavar="S", help="seconds per walk")
-    c.add_argument("--warmup", type=float, default=4.0, metavar="S", help="seconds not measured")
-    c.add_argument("--iterations", type=int, default=2, help="checks of a fitted K (default 2)")
+    c.add_argument(
+        "--duration",
+        type=number(0, MAX_DURATION_S, above=True, what="--duration"),
+        default=20.0,
+        metavar="S",
+        help="seconds per walk; at least one gait cycle longer than --warmup",
+    )
+    c.add_argument(
+        "--warmup",
+        type=number(0, MAX_DURATION_S, what="--warmup"),
+        default=4.0,
+        metavar="S",
+        help="seconds not measured",
+    )
+    c.add_argument(
+        "--iterations",
+        type=number(1, 20, integer=True, what="--iterations"),
+        default=2,
+        help="checks of a fitted K (default 2)",
+    )
     c.add_argument(
         "--direction",
         choices=("forward", "backward", "both"),
@@ -59,7 +83,12 @@ def add_parser(sub: Any) -> None:
         help="which K to fit: walking forward (steer.yaw_per_ca), backward "
         "(steer.yaw_per_ca_backward), or both (default; a given --a-p picks its own)",
     )
-    c.add_argument("--threads", type=int, default=None, help="simulation threads (default: all)")
+    c.add_argument(
+        "--threads",
+        type=number(1, 1024, integer=True, what="--threads"),
+        default=None,
+        help="simulation threads (default: all)",
+    )
     add_cluster_options(c, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     add_backend_options(c)
     c.add_argument(
@@ -72,8 +101,19 @@ def add_parser(sub: Any) -> None:
 
 
 def command(args: argparse.Namespace) -> int:
+    if args.a_p is not None and abs(args.a_p) < MIN_A_P:
+        raise ValueError(
+            f"--a-p {args.a_p:g} is too short a step to steer with: allowed |a_p| >= {MIN_A_P:g}"
+        )
+    wanted = {"forward": 1.0, "backward": -1.0}.get(args.direction)
+    if args.a_p is not None and wanted is not None and args.a_p * wanted < 0:
+        raise ValueError(
+            f"--a-p {args.a_p:g} walks the other way than --direction {args.direction}: give "
+            "the amplitude's size, or its sign alone (without --direction)"
+        )
     robot, pset = robot_and_set(args)
     gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
+    check_timing((), gait, args.duration, args.warmup)  # a whole cycle to measure
     motion = pset.motion if args.a_p is None else dataclasses.replace(pset.motion, a_p=args.a_p)
     size = abs(walking_amplitude(motion))
     signs = {"forward": (1.0,), "backward": (-1.0,), "both": (1.0, -1.0)}[args.direction]

@@ -34,7 +34,7 @@ def add_parser(sub: Any) -> None:
         help="output format; firmware: a folder with the C sources, this set's header and a "
         "Makefile (make, make flash) -- needs -o DIR",
     )
-    add_params_option(e, "the --robot's default preset, as the dashboard's")
+    add_params_option(e)
     add_robot_option(e)
     e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
 

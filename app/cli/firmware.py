@@ -15,9 +15,10 @@ from typing import Any
 from app.cli.options import (
     add_motion_option,
     add_params_option,
-    resolve_set,
+    starting_set,
     subcommand,
     variation,
+    warn_if_other_robot,
 )
 from app.firmware.build import build_firmware, export_firmware_folder, wiring
 from app.firmware.closed_loop import run_closed_loop
@@ -26,7 +27,6 @@ from app.firmware.emulator import Mcu
 from app.robots.model import RobotModel
 from app.worlds.variations import NOMINAL
 from gait import GaitParams, Motion, feedback
-from gait.params import replace_checked
 
 FRAMES, MIN_FRAMES, MAX_FRAMES = 250, 2, 15_000  # 5 s by default, 5 min at most
 COMPARISON_ONLY = ("frames", "json", "vcd")  # options of the comparison run, not of --pty
@@ -85,28 +85,12 @@ def add_parser(sub: Any) -> None:
     )
 
 
-def load_document(path: str | None) -> dict[str, Any]:
-    """A parameter-set document (as `ParameterSet.to_dict()` writes it), validated by the gait
-    schema; the paper values without a file."""
-    data: dict[str, Any] = {"name": "paper"}
-    if path:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-        if not isinstance(data, dict):
-            raise ValueError(f"{path}: a parameter set is a JSON object")
-    motion = replace_checked(Motion(), data.get("motion", {}), "motion")
-    return {
-        "schema_version": data.get("schema_version", 1),
-        "name": str(data.get("name", "unnamed")),
-        "created": str(data.get("created", "")),
-        "project_version": str(data.get("project_version", "")),
-        "motion": dataclasses.asdict(motion),
-        "gait": GaitParams.from_dict(data.get("gait", {})).to_dict(),
-    }
-
-
-def _document(args: argparse.Namespace) -> dict[str, Any]:
-    chosen = resolve_set(args.params, "--params") if args.params else None
-    doc = load_document(str(chosen.path) if chosen and chosen.path else None)
+def _document(args: argparse.Namespace, robot: RobotModel) -> dict[str, Any]:
+    """The parameter-set document the firmware is built with: `--params`, else the robot's
+    starting set as every command's (`starting_set`), with `--motion` and `--ca` applied."""
+    pset = starting_set(robot, args.params)
+    warn_if_other_robot(pset, robot)
+    doc = pset.to_dict()
     motion = Motion(**doc["motion"])
     ca = getattr(args, "ca", None)
     if getattr(args, "motion", None) is not None:
@@ -135,8 +119,8 @@ def _serve_pty(doc: dict[str, Any], robot: RobotModel) -> int:
 
 
 def command(args: argparse.Namespace) -> int:
-    doc = _document(args)
     robot = RobotModel.load(getattr(args, "robot", None))
+    doc = _document(args, robot)
     if args.firmware_command == "build":
         folder = export_firmware_folder(doc, Path(args.output), **wiring(robot))
         build = build_firmware(doc, out_dir=folder, **wiring(robot))

@@ -9,6 +9,7 @@ import math
 import re
 import sys
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any, TextIO
 
 from app.cli._motion import MOTION_HELP, MOTION_METAVAR, MotionChoice, motion_arg
@@ -118,6 +119,41 @@ def number(
     return parse
 
 
+def output_file(text: str) -> str:
+    """An argparse type: a file to write, checked before the work: not empty, not a folder, not
+    a device or pipe (writing one through a renamed temporary file would replace it), in a
+    folder that is one."""
+    path = Path(text)
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty file name; give the file to write")
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder; give the file to write in it")
+    if path.exists() and not path.is_file():
+        raise argparse.ArgumentTypeError(f"{text} is not a regular file (a device or a pipe)")
+    if path.parent.exists() and not path.parent.is_dir():
+        raise argparse.ArgumentTypeError(f"{path.parent} is not a folder")
+    return text
+
+
+def host_name(text: str) -> str:
+    """An argparse type: an address to listen on, not empty (uvicorn would take every
+    interface)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty address; 0.0.0.0 listens on every interface")
+    return text
+
+
+def output_folder(text: str) -> Path:
+    """An argparse type: a folder to write into, checked before the work: not empty, not a
+    file."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty folder name; give the folder to write into")
+    path = Path(text)
+    if path.exists() and not path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
+    return path
+
+
 def variation(text: str) -> Variation:
     """An argparse type: a variation's `key=value,...` text."""
     try:
@@ -214,7 +250,9 @@ def ranges_from(texts: list[str]) -> VariationRanges:
     return ranges
 
 
-def add_params_option(parser: Any, default: str = "the paper's values") -> None:
+def add_params_option(
+    parser: Any, default: str = "the --robot's default preset, as the dashboard's"
+) -> None:
     """`--params FILE|NAME`, read by `resolve_set` (or `robot_and_set`)."""
     parser.add_argument(
         "--params",

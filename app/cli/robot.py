@@ -21,7 +21,8 @@ from app.robots.swap import derived_name, lightest_servo, suggest_servos, write_
 EXAMPLES = """examples:
   artro robot list
   artro robot show micro --json
-  cp models/robots/artro.yaml my.yaml; artro robot check my.yaml   then: artro serve --robot my.yaml
+  cp models/robots/artro.yaml my.yaml   then in it name: my, and your lengths, masses, servos
+  artro robot check my.yaml            then: artro serve --robot my.yaml
   artro robot check my.yaml --suggest -o my-servos.yaml   the lightest servos that carry it
   artro robot export-mjcf artro -o artro.xml"""
 

@@ -45,7 +45,7 @@ def add_parser(sub: Any) -> None:
         default=None,
         help="curve amount, > 0 turns clockwise (default: the motion's)",
     )
-    add_params_option(r, "the --robot's default preset, as the dashboard's")
+    add_params_option(r)
     add_robot_option(r)
     seconds = number(0, MAX_DURATION_S, above=True, what="duration")
     r.add_argument("--duration", type=seconds, default=30.0, metavar="S", help="simulated seconds")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from pathlib import Path
 from typing import Any
 
 from app.cli.options import (
@@ -13,7 +12,9 @@ from app.cli.options import (
     add_params_option,
     add_robot_option,
     backend_of,
+    host_name,
     number,
+    output_folder,
     resolve_set,
     subcommand,
 )
@@ -30,7 +31,12 @@ def add_parser(sub: Any) -> None:
     s = subcommand(
         sub, "serve", "the dashboard: simulation, API, 3D view and scope page", serve, EXAMPLES
     )
-    s.add_argument("--host", default="127.0.0.1", help="address to listen on (default 127.0.0.1)")
+    s.add_argument(
+        "--host",
+        type=host_name,
+        default="127.0.0.1",
+        help="address to listen on (default 127.0.0.1; 0.0.0.0 for every interface)",
+    )
     s.add_argument(
         "--port",
         type=number(1, 65535, integer=True, what="--port"),
@@ -53,6 +59,7 @@ def add_parser(sub: Any) -> None:
     add_backend_options(s)  # the robustness job's; the live simulation is always MuJoCo's
     s.add_argument(
         "--data-dir",
+        type=output_folder,
         metavar="DIR",
         help="where presets are saved "
         "(default: $ARTRO_DATA_DIR or ~/.local/share/artro-gait-studio)",
@@ -84,7 +91,9 @@ def serve(args: argparse.Namespace) -> int:
     from app.server.robot_shelf import RobotShelf
     from app.server.services import ServerConfig
 
-    data_dir = Path(args.data_dir) if args.data_dir else default_data_dir()
+    data_dir = args.data_dir or default_data_dir()
+    if data_dir.exists() and not data_dir.is_dir():  # $ARTRO_DATA_DIR as --data-dir is checked
+        raise ValueError(f"the data folder {data_dir} is a file, not a folder")
     # a file, or a preset's name (built in or saved in --data-dir): read here, before serving
     chosen = resolve_set(args.params, "--params", data_dir) if args.params else None
     config = ServerConfig(

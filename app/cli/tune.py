@@ -30,6 +30,7 @@ from app.cli.options import (
     backend_of,
     check_timing,
     number,
+    output_file,
     ranges_from,
     resolve_set,
     study_location,
@@ -262,6 +263,7 @@ def add_parser(sub: Any) -> None:
     parser.add_argument(
         "-o",
         "--out",
+        type=output_file,
         default=None,
         metavar="FILE",
         help=f"the chosen set, as a preset file (default: {DEFAULT_OUT} with --base; without "

@@ -142,6 +142,8 @@ def write_parameter_set(path: Path, pset: ParameterSet) -> None:
     over `path` with `os.replace`, and the directory is fsync'ed: a crash at any point leaves
     either the old file or the new one, never a torn one. OSError if the folder is not writable.
     """
+    if path.exists() and not path.is_file():  # the rename below would replace a device
+        raise OSError(f"{path} is not a regular file (a device, a pipe or a folder)")
     text = json.dumps(pset.to_dict(), indent=2, allow_nan=False) + "\n"
     fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
     tmp = Path(tmp_name)
