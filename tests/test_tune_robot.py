@@ -197,6 +197,13 @@ def test_tune_events_say_what_the_dashboard_follows(work, capsys):
     shown = "fell" if forward["fell"] else f"{forward['value']:+.2f} cm/s"
     assert f"target {forward['target']:+6.2f} cm/s   tuned {shown}" in said  # with units
     assert "next: artro run --robot micro --params tuned-micro" in said
+    # --events -: standard output carries the events alone, the words go to standard error
+    again = ["tune", "--robot", "micro", *TINY_TUNE, "--study", "s2.log", "--events", "-"]
+    assert main(again) == 0
+    both = capsys.readouterr()
+    streamed = [read_event(line) for line in both.out.splitlines()]
+    assert streamed and None not in streamed and streamed[-1]["event"] == RESULT
+    assert "next: artro run --robot micro --params tuned-micro" in both.err
 
 
 def quick_start() -> list[str]:

@@ -294,6 +294,16 @@ def add_parser(sub: Any) -> None:
 
 
 def command(args: argparse.Namespace) -> int:
+    """The tune (`tune`); with `--events -` standard output carries the events alone, and what
+    is said for a person goes to standard error."""
+    if args.events != "-":
+        return tune(args, events_to=None)
+    events_to = sys.stdout
+    with contextlib.redirect_stdout(sys.stderr):
+        return tune(args, events_to=events_to)
+
+
+def tune(args: argparse.Namespace, events_to: Any) -> int:
     """Without `--base`: the start for the robot (`app.analysis.robot_start`), the built-in
     preset nearest its leg length with its clock scaled by √(L_ref/L), tuned by `START_RECIPE`
     (every search option left out takes the recipe's value: 8 fields, 10 generations of 8, 20 s
@@ -342,7 +352,7 @@ def command(args: argparse.Namespace) -> int:
     settings = {**tuner.settings, "robot": robot.name}
     args.study_name = args.study_name or study_name_for(robot.name, settings)
     with contextlib.ExitStack() as stack:
-        events = EventWriter(events_out(args.events, stack))
+        events = EventWriter(events_to or events_out(args.events, stack))
         try:
             chosen, selected = search(args, robot, tuner, local, settings, events)
         except KeyboardInterrupt:
