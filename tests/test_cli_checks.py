@@ -89,6 +89,10 @@ CASES = {
         ["bench", "paper", "--quick", "--duration", "2", "--warmup", "1.9"],
         "leaves no whole gait cycle after --warmup 1.9",
     ),
+    "bench paper: an option of bench robust": (
+        ["bench", "paper", "--quick", "--json", "--samples", "3"],
+        "--samples, --json: options of bench robust",
+    ),
     "calibrate-ca: threads by the hundred thousand": (
         ["calibrate-ca", "--threads", "100000"],
         "--threads must be a whole number 1 to 1024",

@@ -30,6 +30,7 @@ from app.cli.options import (
 PAPER_OUT = Path("out/bench-paper")
 ROBUST_OUT = Path("out/bench-robust")
 ROBUST_DURATION_S = 20.0
+ROBUST_SAMPLES = 200
 EXAMPLES = """examples:
   artro bench paper                        paper, tuned and pfs, 60 s runs (~5 min on 2 cores)
   artro bench paper --quick --presets tuned
@@ -75,15 +76,15 @@ def add_parser(sub: Any) -> None:
     robust.add_argument(
         "--samples",
         type=number(1, MAX_SAMPLES, integer=True, what="--samples"),
-        default=200,
+        default=None,
         metavar="N",
-        help=f"variations (1 to {MAX_SAMPLES})",
+        help=f"variations (1 to {MAX_SAMPLES}; default {ROBUST_SAMPLES})",
     )
     robust.add_argument(
         "--seed",
         type=number(0, 2**32 - 1, integer=True, what="--seed"),
-        default=0,
-        help="of the variations drawn",
+        default=None,
+        help="of the variations drawn (default 0)",
     )
     add_range_option(robust, "")
     robust.add_argument("--json", action="store_true", help="print the report as one JSON object")
@@ -114,6 +115,13 @@ def add_parser(sub: Any) -> None:
 def command(args: argparse.Namespace) -> int:
     if args.suite == "robust":
         return robust(args)
+    robust_only = {"--samples": args.samples, "--seed": args.seed, "--range": args.range or None,
+                   "--json": args.json or None}  # fmt: skip
+    if given := [name for name, value in robust_only.items() if value is not None]:
+        raise ValueError(
+            f"{', '.join(given)}: options of bench robust; bench paper runs the paper's cases "
+            "on the model itself and writes its figures to --out (results.json)"
+        )
     from app.study.paper_bench import run_paper_bench  # the studies load when run, not for --help
     from app.study.runs import QUICK, BenchConfig
 
@@ -154,6 +162,8 @@ def robust(args: argparse.Namespace) -> int:
 
     duration = ROBUST_DURATION_S if args.duration is None else args.duration
     warmup = 5.0 if args.warmup is None else args.warmup
+    args.samples = ROBUST_SAMPLES if args.samples is None else args.samples
+    args.seed = 0 if args.seed is None else args.seed
     ranges = ranges_from(args.range)
     specs = preset_specs(args.presets, "tuned", duration, warmup)
     presets, notes = resolve_presets(specs)
