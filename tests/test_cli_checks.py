@@ -93,6 +93,19 @@ CASES = {
         ["bench", "paper", "--quick", "--json", "--samples", "3"],
         "--samples, --json: options of bench robust",
     ),
+    "run: an empty set": (["run", "--params", ""], "--params is empty; leave it out"),
+    "bench: empty presets": (["bench", "robust", "--presets", ""], "--presets is empty"),
+    "tune: empty cases": (["tune", "--cases", ""], "--cases is empty"),
+    "export: an empty output": (["export", "--format", "yaml", "-o", ""], "-o is empty"),
+    "firmware: an empty VCD": (["firmware", "run", "--vcd", ""], "an empty file name"),
+    "bench: a range twice": (
+        ["bench", "robust", "--range", "friction=0.3:0.6", "--range", "friction=0.2:0.5"],
+        "--range friction given twice",
+    ),
+    "tune: a range without --robust": (
+        ["tune", "--range", "friction=0.3:0.6"],
+        "--range narrows the variations of --robust N",
+    ),
     "calibrate-ca: threads by the hundred thousand": (
         ["calibrate-ca", "--threads", "100000"],
         "--threads must be a whole number 1 to 1024",

@@ -20,6 +20,7 @@ from app.cli.options import (
     add_robot_option,
     backend_of,
     check_timing,
+    nonempty,
     number,
     output_folder,
     ranges_from,
@@ -55,6 +56,7 @@ def add_parser(sub: Any) -> None:
     )
     parser.add_argument(
         "--presets",
+        type=nonempty("--presets"),
         default=None,
         metavar="NAME|FILE,...",
         help="parameter sets, each a built-in or saved preset's name or a parameter-set file "

@@ -8,7 +8,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from app.cli.options import add_params_option, add_robot_option, robot_and_set, subcommand
+from app.cli.options import (
+    add_params_option,
+    add_robot_option,
+    nonempty,
+    robot_and_set,
+    subcommand,
+)
 from app.firmware.build import export_firmware_folder, wiring
 from app.params.formats import FORMATS, export_text
 
@@ -36,7 +42,10 @@ def add_parser(sub: Any) -> None:
     )
     add_params_option(e)
     add_robot_option(e)
-    e.add_argument("-o", "--output", metavar="FILE", help="write here (default: standard output)")
+    e.add_argument(
+        "-o", "--output", type=nonempty("-o"), metavar="FILE",
+        help="write here (default: standard output)",
+    )  # fmt: skip
 
 
 def command(args: argparse.Namespace) -> int:

@@ -15,6 +15,7 @@ from typing import Any
 from app.cli.options import (
     add_motion_option,
     add_params_option,
+    output_file,
     starting_set,
     subcommand,
     variation,
@@ -65,7 +66,10 @@ def add_parser(sub: Any) -> None:
     )  # fmt: skip
     run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
     run.add_argument(
-        "--vcd", metavar="FILE", help="write the nine output lines as VCD (default: no VCD)"
+        "--vcd",
+        type=output_file,
+        metavar="FILE",
+        help="write the nine output lines as VCD (default: no VCD)",
     )
     run.add_argument(
         "--vary",

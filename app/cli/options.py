@@ -119,6 +119,17 @@ def number(
     return parse
 
 
+def nonempty(what: str) -> Callable[[str], str]:
+    """An argparse type: any text but an empty one (which would mean the default unsaid)."""
+
+    def parse(text: str) -> str:
+        if not text.strip():
+            raise argparse.ArgumentTypeError(f"{what} is empty; leave it out for its default")
+        return text
+
+    return parse
+
+
 def output_file(text: str) -> str:
     """An argparse type: a file to write, checked before the work: not empty, not a folder, not
     a device or pipe (writing one through a renamed temporary file would replace it), in a
@@ -244,9 +255,14 @@ def add_range_option(parser: Any, purpose: str) -> None:
 
 
 def ranges_from(texts: list[str]) -> VariationRanges:
-    ranges = VariationRanges()
+    """The `--range` options as ranges; ValueError for a field given twice (as `--vary`)."""
+    ranges, seen = VariationRanges(), set()
     for text in texts:
-        ranges = ranges.with_range(*parse_range(text))
+        name, low, high = parse_range(text)
+        if name in seen:
+            raise ValueError(f"--range {name} given twice; give each field once")
+        seen.add(name)
+        ranges = ranges.with_range(name, low, high)
     return ranges
 
 
@@ -256,6 +272,7 @@ def add_params_option(
     """`--params FILE|NAME`, read by `resolve_set` (or `robot_and_set`)."""
     parser.add_argument(
         "--params",
+        type=nonempty("--params"),
         metavar="FILE|NAME",
         default=None,
         help=f"the parameter set: {SETS_HELP} (e.g. tuned) (default: {default})",

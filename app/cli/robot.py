@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from app.cli.options import subcommand
+from app.cli.options import output_file, subcommand
 from app.robots import builtin_robot_names, load_description, model_xml
 from app.robots.checks import JointTorque, eq1_torques, robot_warnings
 from app.robots.description import RobotDescription
@@ -49,7 +49,9 @@ def add_parser(sub: Any) -> None:
     )
     export = sub.add_parser("export-mjcf", help="write the generated MuJoCo model as MJCF")
     export.add_argument("robot", metavar="NAME|FILE")
-    export.add_argument("-o", "--output", metavar="FILE", help="default: standard output")
+    export.add_argument(
+        "-o", "--output", type=output_file, metavar="FILE", help="default: standard output"
+    )
 
 
 def command(args: argparse.Namespace, out: TextIO | None = None) -> int:

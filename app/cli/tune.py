@@ -29,6 +29,7 @@ from app.cli.options import (
     add_robot_option,
     backend_of,
     check_timing,
+    nonempty,
     number,
     output_file,
     ranges_from,
@@ -152,6 +153,7 @@ def add_parser(sub: Any) -> None:
     add_robot_option(parser)
     parser.add_argument(
         "--cases",
+        type=nonempty("--cases"),
         default=None,
         metavar="NAME,...",
         help="judge only these paper cases (e.g. forward,backward) and the CA pairs at their "
@@ -323,6 +325,8 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
     base = dataclasses.replace(base, gait=merge(base.gait, parse_settings(args.set)))
     names = [n.strip() for n in args.tune.split(",") if n.strip()]
     check_timing(names, base.gait, args.duration, args.warmup)
+    if args.range and not args.robust:
+        raise ValueError("--range narrows the variations of --robust N: give --robust too")
     ranges = ranges_from(args.range)
     backend = backend_of(args)
     local = (
