@@ -168,7 +168,12 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
             robot.send_set(one_set.to_dict())
             robot.start()
         else:
-            print(f"following {args.server} (Ctrl-C stops and switches the servos off)", file=out)
+            said = (
+                f"the messages that would follow {args.server}: its set once, then stop"
+                if args.dry_run
+                else f"following {args.server} (Ctrl-C stops and switches the servos off)"
+            )
+            print(said, file=out)
             sensors = getattr(args, "sensors", True)
             dry = args.dry_run
             follow(robot, args.server, stop, max_updates=0 if dry else None, sensors=sensors)
