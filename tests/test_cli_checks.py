@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 ARTRO = shutil.which("artro", path=str(Path(sys.executable).parent)) or "artro"
+ROBOT_FILE = Path(__file__).resolve().parent.parent / "models" / "robots" / "micro.yaml"
 
 CASES = {
     "tune: duration within the warm-up": (
@@ -92,6 +93,10 @@ CASES = {
     "bench paper: an option of bench robust": (
         ["bench", "paper", "--quick", "--json", "--samples", "3"],
         "--samples, --json: options of bench robust",
+    ),
+    "run: a robot as the set": (
+        ["run", "--params", str(ROBOT_FILE)],
+        "this is a robot description, not a parameter set: a robot is given with --robot",
     ),
     "run: an empty set": (["run", "--params", ""], "--params is empty; leave it out"),
     "bench: empty presets": (["bench", "robust", "--presets", ""], "--presets is empty"),

@@ -329,6 +329,11 @@ def parse_import(
             f"a parameter set must be a {fmt.upper()} object (mapping) with keys like 'motion' "
             f"and 'gait', got {kind}"
         )
+    if {"geometry", "joints", "servo"} <= data.keys():  # twelve unknown keys said nothing useful
+        raise ParameterImportError(
+            "this is a robot description, not a parameter set: a robot is given with --robot "
+            "(or the dashboard's robot switch)"
+        )
     _count_values(data)
     _check_plain(data)
     version = data.get("version", 0)
