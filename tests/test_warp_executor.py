@@ -389,7 +389,7 @@ def test_the_cli_without_a_cuda_device_names_the_cpu_device(args):
 def test_bench_robust_runs_on_the_warp_backend_and_says_it_compiles(tmp_path):
     done = artro(
         "bench", "robust", "--backend", "warp", "--device", "cpu", "--samples", "1",
-        "--duration", "1.5", "--warmup", "0.5", "--json", "--out", str(tmp_path),
+        "--duration", "2", "--warmup", "0.5", "--json", "--out", str(tmp_path),
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "warp: compiling MuJoCo Warp's kernels for device cpu" in done.stderr
