@@ -35,9 +35,11 @@ COMPARISON_ONLY = ("frames", "json", "vcd")  # options of the comparison run, no
 EXAMPLES = """examples:
   artro firmware build -o artro_fw          then: make -C artro_fw && make -C artro_fw flash
   artro firmware run --motion a_p=0.07 --frames 250 --json
+                                           the robot's default preset (ArtRo's robust: laws on)
   artro firmware run --params tuned --motion a_p=0.07,ca=0.1 --vcd walk.vcd
-  artro firmware run --params laws.json --vary imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1
-                                           a set with a feedback law on: closed loop
+                                           an open-loop set: its output lines as VCD
+  artro firmware run --vary imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1
+                                           the laws on the MCU against a varied robot
   artro firmware run --pty                 the emulated robot on a serial pseudo-terminal"""
 
 
