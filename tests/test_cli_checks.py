@@ -77,7 +77,7 @@ CASES = {
     # the fourteenth session's probe of every command's options
     "tune: a device as the output": (
         ["tune", "--base", "tuned", "--generations", "1", "-o", "/dev/full"],
-        "/dev/full is not a regular file (a device or a pipe)",  # as root, it was replaced
+        "/dev/full is not a regular file (a device, a pipe or a socket)",  # root: was replaced
     ),
     "tune: a folder as the output": (["tune", "-o", "/tmp"], "/tmp is a folder; give the file"),
     "tune: an empty output": (["tune", "-o", ""], "an empty file name"),
@@ -137,6 +137,45 @@ CASES = {
         ["export", "--format", "firmware", "-o", "/dev/full"],
         "cannot write the firmware folder /dev/full: Not a directory (/dev/full/src)",
     ),
+    # the fifteenth session: paths, ranges and options left unsaid
+    "run: a folder as the set": (["run", "--params", "/"], "/ is a folder for --params"),
+    "run: a device as the set": (["run", "--params", "/dev/null"], "/dev/null is not a regular"),
+    "calibrate-ca: a folder as output": (["calibrate-ca", "-o", "/"], "/ is a folder; give the"),
+    "firmware: build into a device": (
+        ["firmware", "build", "-o", "/dev/full"],
+        "/dev/full is a file, not a folder",
+    ),
+    "firmware: build inside a device": (
+        ["firmware", "build", "-o", "/dev/full/fw"],
+        "/dev/full/fw is inside a file, not a folder",
+    ),
+    "firmware: nan frames": (["firmware", "run", "--frames", "nan"], "whole number 2 to 15000"),
+    "run: an empty curve amount": (["run", "--ca", ""], "--ca must be -0.5 to 0.5, got ''"),
+    "run: a curve amount out of range": (["run", "--ca", "0.9"], "--ca must be -0.5 to 0.5"),
+    "link: nan baud": (["link", "--dry-run", "--baud", "nan"], "--baud must be a whole number"),
+    "bench: --wait-workers without a cluster": (
+        ["bench", "robust", "--wait-workers", "5"],
+        "--wait-workers is how long to wait for a --cluster's workers",
+    ),
+    "serve: --wait-workers without a cluster": (
+        ["serve", "--wait-workers", "5", "--port", "1"],
+        "--wait-workers is how long to wait",
+    ),
+    "link: a dashboard with one set": (
+        ["link", "--dry-run", "--params", "tuned", "--server", "http://x:1"],
+        "--params sends one set and follows no dashboard",
+    ),
+    "link: a port with --dry-run": (
+        ["link", "--dry-run", "--port", "/dev/ttyUSB0"],
+        "--dry-run opens no port",
+    ),
+    "run: an empty variation": (["run", "--vary", ""], "an empty variation; leave it out"),
+    "robot check: -o without --suggest": (
+        ["robot", "check", "artro", "-o", "x.yaml"],
+        "-o FILE goes with --suggest",
+    ),
+    "tune: events into a folder": (["tune", "--events", "/"], "/ is a folder"),
+    "tune: a nan robust weight": (["tune", "--robust-weight", "nan"], "--robust-weight must be"),
 }
 
 
@@ -148,3 +187,15 @@ def test_bad_input_is_an_error_that_says_what_is_allowed(tmp_path, case):
     assert message in out.stderr, out.stderr
     assert "Traceback" not in out.stderr
     assert list(tmp_path.iterdir()) == []  # no results file, no VCD: nothing ran
+
+
+def test_a_tune_whose_events_cannot_be_written_says_so_before_the_work(tmp_path):
+    """`--events /dev/full`: the first event fails, named by its option, not as raw errno."""
+    out = subprocess.run(
+        [ARTRO, "tune", "--events", "/dev/full", "--generations", "1", "--popsize", "2",
+         "--duration", "6", "--warmup", "1", "--study", str(tmp_path / "study.log")],
+        capture_output=True, text=True, timeout=300, cwd=tmp_path,
+    )  # fmt: skip
+    assert out.returncode == 2, (out.stdout[-2000:], out.stderr[-2000:])
+    assert "cannot write --events /dev/full: No space left on device" in out.stderr
+    assert "Traceback" not in out.stderr and "tuned" not in out.stdout.split("\n")[-2]

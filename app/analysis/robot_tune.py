@@ -86,16 +86,20 @@ def result_figures(
 
 
 class EventWriter:
-    """Writes the events to `out` (a line each, flushed at once); `None` writes nothing."""
+    """Writes the events to `out` (a line each, flushed at once); `None` writes nothing. A write
+    that fails raises OSError naming `where` (the first event is written before any work)."""
 
-    def __init__(self, out: TextIO | None) -> None:
-        self.out = out
+    def __init__(self, out: TextIO | None, where: str = "the events") -> None:
+        self.out, self.where = out, where
 
     def __call__(self, event: str, **fields: Any) -> None:
         if self.out is not None:
             line = json.dumps(_finite({"event": event, **fields}), allow_nan=False)
-            self.out.write(line + "\n")
-            self.out.flush()
+            try:
+                self.out.write(line + "\n")
+                self.out.flush()
+            except OSError as exc:
+                raise OSError(f"cannot write {self.where}: {exc.strerror or exc}") from exc
 
 
 def _finite(value: Any) -> Any:

@@ -17,6 +17,7 @@ from app.params.presets import (
     PresetStore,
     builtin_presets,
     default_data_dir,
+    not_a_file,
 )
 
 SETS_HELP = "a parameter-set file, or a built-in or saved preset's name"
@@ -45,8 +46,10 @@ def unknown_set(spec: str, option: str, data_dir: Path | None = None) -> str:
     """The sentence for a `spec` that is neither a file nor a preset: what there is instead."""
     directory = (data_dir or default_data_dir()) / "presets"
     builtins, saved = preset_names(data_dir)
+    problem = not_a_file(Path(spec))
+    what = f"{spec} {problem}" if problem else f"No such file or preset {spec!r}"
     return (
-        f"No such file or preset {spec!r} for {option}: give a parameter-set file or a preset's "
+        f"{what} for {option}: give a parameter-set file or a preset's "
         f"name; built-in presets: {', '.join(builtins)}; saved presets (in {directory}): "
         f"{', '.join(saved) or 'none'}"
     )

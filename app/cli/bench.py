@@ -18,8 +18,10 @@ from app.cli.options import (
     add_cluster_options,
     add_range_option,
     add_robot_option,
+    add_threads_option,
     backend_of,
     check_timing,
+    cluster_of,
     nonempty,
     number,
     output_folder,
@@ -98,12 +100,7 @@ def add_parser(sub: Any) -> None:
         metavar="DIR",
         help=f"where the PNGs and results.json go (default {PAPER_OUT}, {ROBUST_OUT})",
     )
-    parser.add_argument(
-        "--threads",
-        type=number(1, 1024, integer=True, what="--threads"),
-        metavar="N",
-        help="rollout threads (default: all cores, <= 8)",
-    )
+    add_threads_option(parser, "rollout threads", "all cores, <= 8")
     add_cluster_options(
         parser, "run on this Dask scheduler (docs/CLUSTER.md) instead of local threads"
     )
@@ -134,8 +131,7 @@ def command(args: argparse.Namespace) -> int:
         config = replace(config, warmup_s=args.warmup)
     if args.robot is not None:
         config = replace(config, robot=args.robot)
-    if args.cluster is not None:
-        config = replace(config, cluster=args.cluster, wait_workers_s=args.wait_workers)
+    config = replace(config, **cluster_of(args))
     if args.threads is not None:
         config = replace(config, threads=args.threads)
     specs = preset_specs(args.presets, "paper,tuned,pfs", config.duration_s, config.warmup_s)
@@ -174,9 +170,8 @@ def robust(args: argparse.Namespace) -> int:
     robot = RobotModel.load(args.robot)
     evaluator = evaluator_for(
         robot,
-        cluster=args.cluster,
         threads=args.threads,
-        wait_workers_s=args.wait_workers,
+        **cluster_of(args),
         **backend_of(args),
     )
     n_runs = len(presets) * (args.samples + 1) * len(ROBUST_CASES)

@@ -18,9 +18,12 @@ from app.cli.options import (
     add_cluster_options,
     add_params_option,
     add_robot_option,
+    add_threads_option,
     backend_of,
     check_timing,
+    cluster_of,
     number,
+    output_file,
     robot_and_set,
     subcommand,
 )
@@ -83,17 +86,13 @@ def add_parser(sub: Any) -> None:
         help="which K to fit: walking forward (steer.yaw_per_ca), backward "
         "(steer.yaw_per_ca_backward), or both (default; a given --a-p picks its own)",
     )
-    c.add_argument(
-        "--threads",
-        type=number(1, 1024, integer=True, what="--threads"),
-        default=None,
-        help="simulation threads (default: all)",
-    )
+    add_threads_option(c)
     add_cluster_options(c, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     add_backend_options(c)
     c.add_argument(
         "-o",
         "--output",
+        type=output_file,
         metavar="FILE",
         help="write the parameter set with K here (default: nothing written)",
     )
@@ -129,9 +128,8 @@ def command(args: argparse.Namespace) -> int:
         )
     evaluator = evaluator_for(
         robot,
-        cluster=args.cluster,
         threads=args.threads,
-        wait_workers_s=args.wait_workers,
+        **cluster_of(args),
         **backend_of(args),
     )
     results, failed = {}, {}

@@ -13,9 +13,13 @@ from pathlib import Path
 from typing import Any
 
 from app.cli.options import (
+    action,
     add_motion_option,
     add_params_option,
+    motion_number,
+    number,
     output_file,
+    output_folder,
     starting_set,
     subcommand,
     variation,
@@ -52,20 +56,46 @@ def add_parser(sub: Any) -> None:
         EXAMPLES,
     )
     sub = fw.add_subparsers(dest="firmware_command", required=True, metavar="ACTION")
-    build = sub.add_parser("build", help="write and build a firmware folder")
+    build = action(
+        sub,
+        "build",
+        "write and build a firmware folder",
+        """examples:
+  artro firmware build -o artro_fw          the robot's default preset; then:
+                                           make -C artro_fw && make -C artro_fw flash
+  artro firmware build --robot micro -o micro_fw   micro's default preset, micro-robust""",
+    )
     add_params_option(build)
     build.add_argument(
-        "-o", "--output", metavar="DIR", default="artro_firmware", help="the firmware folder"
+        "-o",
+        "--output",
+        type=output_folder,
+        metavar="DIR",
+        default="artro_firmware",
+        help="the firmware folder",
     )
     build.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
-    run = sub.add_parser("run", help="emulate on simavr and compare with the model")
+    run = action(
+        sub,
+        "run",
+        "emulate on simavr and compare with the model",
+        """examples:
+  artro firmware run --frames 250 --json   closed loop (ArtRo's default preset has laws on)
+  artro firmware run --params tuned --vcd walk.vcd   open loop, pin for pin; its lines as VCD
+  artro firmware run --pty                 the emulated robot on a serial pseudo-terminal""",
+    )
     add_params_option(run)
     add_motion_option(run)
-    run.add_argument("--ca", type=float, help="curve amount (default: the motion's)")
     run.add_argument(
-        "--frames", type=int, default=None, metavar="N", help=f"20 ms frames (default {FRAMES}, "
-        f"{MIN_FRAMES} to {MAX_FRAMES})"
-    )  # fmt: skip
+        "--ca", type=motion_number("ca", "--ca"), help="curve amount (default: the motion's)"
+    )
+    run.add_argument(
+        "--frames",
+        type=number(MIN_FRAMES, MAX_FRAMES, integer=True, what="--frames"),
+        default=None,
+        metavar="N",
+        help=f"20 ms frames, {MIN_FRAMES} to {MAX_FRAMES} (default {FRAMES})",
+    )
     run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
     run.add_argument(
         "--vcd",
@@ -148,11 +178,7 @@ def command(args: argparse.Namespace) -> int:
                 "(--params, --motion and --ca apply)"
             )
         return _serve_pty(doc, robot)
-    frames = FRAMES if args.frames is None else args.frames
-    if not MIN_FRAMES <= frames <= MAX_FRAMES:
-        raise ValueError(
-            f"--frames must be {MIN_FRAMES} to {MAX_FRAMES} (20 ms each), got {frames}"
-        )
+    frames = FRAMES if args.frames is None else args.frames  # its range checked as parsed
     closed = feedback.any_law_on(GaitParams.from_dict(doc["gait"]))
     if closed and args.vcd:
         raise ValueError("--vcd writes the open-loop comparison's lines; leave it out here")

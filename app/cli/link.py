@@ -13,10 +13,11 @@ import threading
 from typing import Any, TextIO
 from urllib.parse import urlsplit
 
-from app.cli.options import SETS_HELP, resolve_set, subcommand
+from app.cli.options import SETS_HELP, number, resolve_set, subcommand
 from app.firmware.link import SerialLink, SerialPort
 from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
 
+DEFAULT_SERVER = "http://127.0.0.1:8000"
 STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
 EXAMPLES = """examples:
   artro link --port /dev/ttyUSB0             follow the dashboard on http://127.0.0.1:8000,
@@ -47,15 +48,16 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--baud",
-        type=int,
+        type=number(1, 4_000_000, integer=True, what="--baud"),
         default=DEFAULT_BAUD,
         help=f"the firmware's rate (config.h UART_BAUD; default {DEFAULT_BAUD}): another one "
         "only for a firmware built with it",
     )
     p.add_argument(
         "--server",
-        default="http://127.0.0.1:8000",
-        help="the dashboard to follow: http://HOST[:PORT] or https://HOST[:PORT]",
+        default=None,
+        help="the dashboard to follow: http://HOST[:PORT] or https://HOST[:PORT] "
+        f"(default: {DEFAULT_SERVER})",
     )
     p.add_argument(
         "--params",
@@ -145,8 +147,13 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     out = out or sys.stdout
     if not args.dry_run and not args.port:
         raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")
-    if args.baud <= 0:
-        raise ValueError(f"--baud must be a positive rate such as {DEFAULT_BAUD}, got {args.baud}")
+    if args.dry_run and args.port:
+        raise ValueError(f"--dry-run opens no port: leave --port {args.port} out, or --dry-run")
+    if args.params and args.server:
+        raise ValueError(
+            f"--params sends one set and follows no dashboard: leave --server {args.server} out"
+        )
+    args.server = args.server or DEFAULT_SERVER
     if args.baud != DEFAULT_BAUD:  # the firmware's rate is config.h's, a build-time choice
         print(
             f"warning: --baud {args.baud}: the ArtRo firmware talks at {DEFAULT_BAUD} "
@@ -194,8 +201,8 @@ def _switch_off(
     """The servos off, or said why not (without hiding why the link ended); the port closed
     and the signal handlers put back. Whether the servos are off."""
     stop.set()
-    for number in previous:  # nothing cuts the switching off short
-        signal.signal(number, signal.SIG_IGN)
+    for signum in previous:  # nothing cuts the switching off short
+        signal.signal(signum, signal.SIG_IGN)
     try:
         robot.torque_off()
         return True

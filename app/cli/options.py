@@ -5,6 +5,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import math
 import re
 import sys
@@ -15,11 +16,11 @@ from typing import Any, TextIO
 from app.cli._motion import MOTION_HELP, MOTION_METAVAR, MotionChoice, motion_arg
 from app.cli._sets import SETS_HELP, ChosenSet, preset_names, resolve_set, resolve_sets
 from app.params.document import ParameterSet
-from app.params.presets import PresetStore, builtin_presets, default_data_dir
+from app.params.presets import PresetStore, builtin_presets, default_data_dir, not_a_file
 from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, parse_range
 from app.worlds.variations import Variation, parse_variation
-from gait import GaitParams
+from gait import GaitParams, Motion
 from gait.params import describe_fields, group_class
 
 MAX_DURATION_S = 3600.0  # one simulated hour per run at most
@@ -87,6 +88,14 @@ def subcommand(
     return parser
 
 
+def action(sub: Any, name: str, help_text: str, examples: str) -> argparse.ArgumentParser:
+    """An action of a command (`artro robot check`): its help as the description, and its
+    examples under --help."""
+    return sub.add_parser(
+        name, help=help_text, description=help_text, epilog=examples, formatter_class=HelpFormatter
+    )
+
+
 def join_negative_values(argv: Sequence[str]) -> list[str]:
     """`--motion -0.1,0,0` -> `--motion=-0.1,0,0`: argparse would take the value for an option."""
     out: list[str] = []
@@ -137,10 +146,8 @@ def output_file(text: str) -> str:
     path = Path(text)
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty file name; give the file to write")
-    if path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text} is a folder; give the file to write in it")
-    if path.exists() and not path.is_file():
-        raise argparse.ArgumentTypeError(f"{text} is not a regular file (a device or a pipe)")
+    if problem := not_a_file(path):
+        raise argparse.ArgumentTypeError(f"{text} {problem}; give the file to write")
     if path.parent.exists() and not path.parent.is_dir():
         raise argparse.ArgumentTypeError(f"{path.parent} is not a folder")
     return text
@@ -156,17 +163,42 @@ def host_name(text: str) -> str:
 
 def output_folder(text: str) -> Path:
     """An argparse type: a folder to write into, checked before the work: not empty, not a
-    file."""
+    file, in a folder that is one."""
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty folder name; give the folder to write into")
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
+    if any(up.exists() and not up.is_dir() for up in path.parents):
+        raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
     return path
 
 
+def motion_number(name: str, option: str) -> Any:
+    """An argparse type: a number in the range of the motion vector's field `name`
+    (`gait.Motion`), the error naming `option` and that range."""
+    meta = next(f.metadata for f in dataclasses.fields(Motion) if f.name == name)
+    return number(meta["min"], meta["max"], what=option)
+
+
+def add_threads_option(
+    parser: Any, what: str = "simulation threads", default: str = "all cores"
+) -> None:
+    """`--threads N`: how many threads step the physics on this machine."""
+    parser.add_argument(
+        "--threads",
+        type=number(1, 1024, integer=True, what="--threads"),
+        default=None,
+        metavar="N",
+        help=f"{what} (default: {default})",
+    )
+
+
 def variation(text: str) -> Variation:
-    """An argparse type: a variation's `key=value,...` text."""
+    """An argparse type: a variation's `key=value,...` text, not empty (leave it out for the
+    nominal model)."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty variation; leave it out for the nominal model")
     try:
         return parse_variation(text)
     except (ValueError, TypeError) as exc:
@@ -231,6 +263,15 @@ def add_backend_options(parser: Any) -> None:
         default=None,
         help="with --backend warp: cuda (default) or cpu (Warp's CPU device: slow, for checks)",
     )
+
+
+def cluster_of(args: argparse.Namespace) -> dict[str, Any]:
+    """`--cluster` and `--wait-workers` as the evaluator's `cluster` and `wait_workers_s`;
+    ValueError for --wait-workers without a cluster to wait for."""
+    wait = getattr(args, "wait_workers", None)
+    if wait is not None and args.cluster is None:
+        raise ValueError("--wait-workers is how long to wait for a --cluster's workers; give both")
+    return {"cluster": args.cluster, "wait_workers_s": wait}
 
 
 def backend_of(args: argparse.Namespace) -> dict[str, Any]:

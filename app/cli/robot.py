@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from app.cli.options import output_file, subcommand
+from app.cli.options import action, output_file, subcommand
 from app.robots import builtin_robot_names, load_description, model_xml
 from app.robots.checks import JointTorque, eq1_torques, robot_warnings
 from app.robots.description import RobotDescription
@@ -32,11 +32,26 @@ def add_parser(sub: Any) -> None:
         sub, "robot", "list, show, check and export robot descriptions", command, EXAMPLES
     )
     sub = robot.add_subparsers(dest="robot_command", required=True, metavar="ACTION")
-    sub.add_parser("list", help="the built-in robots")
-    show = sub.add_parser("show", help="a description and the figures that follow from it")
+    action(sub, "list", "the built-in robots", "examples:\n  artro robot list")
+    show = action(
+        sub,
+        "show",
+        "a description and the figures that follow from it",
+        """examples:
+  artro robot show artro               mass, heights, servos, eq (1) per joint
+  artro robot show my.yaml --json      the same as one JSON object""",
+    )
     show.add_argument("robot", metavar="NAME|FILE")
     show.add_argument("--json", action="store_true", help="print one JSON object")
-    check = sub.add_parser("check", help="validate a description; exit 2 with every error")
+    check = action(
+        sub,
+        "check",
+        "validate a description; exit 2 with every error",
+        """examples:
+  artro robot check my.yaml            every error, or: valid, with eq (1)'s least margin
+  artro robot check my.yaml --suggest  write my-suggested.yaml with servos that carry it
+  artro robot check my.yaml --suggest -o my-servos.yaml""",
+    )
     check.add_argument("robot", metavar="NAME|FILE")
     check.add_argument(
         "--suggest",
@@ -45,9 +60,20 @@ def add_parser(sub: Any) -> None:
         "joint eq (1) finds short (masses follow the servos)",
     )
     check.add_argument(
-        "-o", "--output", metavar="FILE", help="with --suggest (default: NAME-suggested.yaml)"
+        "-o",
+        "--output",
+        type=output_file,
+        metavar="FILE",
+        help="with --suggest (default: NAME-suggested.yaml)",
     )
-    export = sub.add_parser("export-mjcf", help="write the generated MuJoCo model as MJCF")
+    export = action(
+        sub,
+        "export-mjcf",
+        "write the generated MuJoCo model as MJCF",
+        """examples:
+  artro robot export-mjcf artro -o artro.xml    then: python -m mujoco.viewer --mjcf artro.xml
+  artro robot export-mjcf my.yaml | less""",
+    )
     export.add_argument("robot", metavar="NAME|FILE")
     export.add_argument(
         "-o", "--output", type=output_file, metavar="FILE", help="default: standard output"
@@ -61,6 +87,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
             desc = load_description(name)
             print(f"{name:12s} {desc.title}", file=out)
         return 0
+    if args.robot_command == "check" and args.output and not args.suggest:
+        raise ValueError("-o FILE goes with --suggest")
     desc = load_description(args.robot)  # RobotError (a ValueError) names every bad field
     if args.robot_command == "check":
         robot = RobotModel.load(desc)  # compiles
@@ -85,8 +113,6 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
             print(f"  advice: {line}", file=out)
         if args.suggest:
             return suggest(desc, args.output, out, source=args.robot)
-        if args.output:
-            raise ValueError("-o FILE goes with --suggest")
         return 0
     if args.robot_command == "export-mjcf":
         text = model_xml(desc)

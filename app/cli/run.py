@@ -16,6 +16,7 @@ from app.cli.options import (
     add_params_option,
     add_robot_option,
     check_timing,
+    motion_number,
     number,
     robot_and_set,
     subcommand,
@@ -41,7 +42,7 @@ def add_parser(sub: Any) -> None:
     add_motion_option(r)
     r.add_argument(
         "--ca",
-        type=float,
+        type=motion_number("ca", "--ca"),
         default=None,
         help="curve amount, > 0 turns clockwise (default: the motion's)",
     )

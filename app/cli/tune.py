@@ -12,7 +12,7 @@ import sys
 import textwrap
 from collections.abc import Iterable
 from pathlib import Path
-from typing import Any
+from typing import Any, TextIO
 
 from app.analysis.cases import (
     speed_scale_of,
@@ -27,8 +27,10 @@ from app.cli.options import (
     add_cluster_options,
     add_range_option,
     add_robot_option,
+    add_threads_option,
     backend_of,
     check_timing,
+    cluster_of,
     nonempty,
     number,
     output_file,
@@ -58,7 +60,7 @@ from gait.params import merge, parse_settings
 EXAMPLES = """examples:
   artro tune --robot my.yaml       the start for my.yaml, tuned to walk; saved as tuned-my
   artro tune --base paper --tune swing.v,short.amp_base --generations 4 --popsize 6
-  artro tune --base tuned --set leg.paper_signs=false --select passing --name unsigned
+  artro tune --base paper --set leg.paper_signs=false --select passing --name unsigned
   artro tune --base my_gait.json --robot my.yaml       a file; the result: tuned-ROBOT
   artro tune --base tuned --robust 8 --tune tilt.ki_per_s,yaw_rate.kp,swing.v (gains, gait)"""
 DEFAULT_OUT = "out/tune/NAME.json"
@@ -229,12 +231,7 @@ def add_parser(sub: Any) -> None:
         default=0.2,
         help="weight of unwanted rotation while translating and translation while turning",
     )
-    parser.add_argument(
-        "--threads",
-        type=number(1, 1024, **whole, what="threads"),
-        default=None,
-        help="simulation threads (default: all cores)",
-    )
+    add_threads_option(parser)
     parser.add_argument(
         "--study",
         type=study_location,
@@ -258,7 +255,12 @@ def add_parser(sub: Any) -> None:
         help="also score each candidate on N model variations, the same for a whole generation "
         "and drawn anew each generation; the loss adds the mean of the worst quarter",
     )
-    parser.add_argument("--robust-weight", type=float, default=1.0, help="weight of that term")
+    parser.add_argument(
+        "--robust-weight",
+        type=number(0, 1000, what="--robust-weight"),
+        default=1.0,
+        help="weight of that term",
+    )
     add_range_option(parser, " for --robust")
     add_cluster_options(parser, "evaluate on this Dask scheduler (docs/CLUSTER.md)")
     add_backend_options(parser)
@@ -287,6 +289,7 @@ def add_parser(sub: Any) -> None:
     )
     parser.add_argument(
         "--events",
+        type=events_file,
         default=None,
         metavar="FILE|-",
         help="also write what happens as JSON lines to FILE ('-': standard output): start, "
@@ -356,7 +359,7 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
     settings = {**tuner.settings, "robot": robot.name}
     args.study_name = args.study_name or study_name_for(robot.name, settings)
     with contextlib.ExitStack() as stack:
-        events = EventWriter(events_to or events_out(args.events, stack))
+        events = EventWriter(events_to or events_out(args.events, stack), f"--events {args.events}")
         try:
             chosen, selected = search(args, robot, tuner, local, settings, events)
         except KeyboardInterrupt:
@@ -370,6 +373,21 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
     return 0
 
 
+def events_file(text: str) -> str:
+    """An argparse type: `-` (standard output) or a file to write the events to, checked before
+    the work; a device or a pipe is written as it is (line by line, never replaced)."""
+    if text == "-":
+        return text
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty file name; give the file to write, or -")
+    path = Path(text)
+    if path.is_dir():
+        raise argparse.ArgumentTypeError(f"{text} is a folder; give the file to write in it")
+    if any(up.exists() and not up.is_dir() for up in path.parents):
+        raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
+    return text
+
+
 def events_out(spec: str | None, stack: contextlib.ExitStack) -> Any:
     """Where `--events` goes: None, standard output, or a file (made, line-buffered)."""
     if spec is None:
@@ -377,8 +395,18 @@ def events_out(spec: str | None, stack: contextlib.ExitStack) -> Any:
     if spec == "-":
         return sys.stdout
     path = Path(spec)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    return stack.enter_context(path.open("w", encoding="utf-8", buffering=1))
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle = path.open("w", encoding="utf-8", buffering=1)
+    except OSError as exc:
+        raise OSError(f"cannot write --events {spec}: {exc.strerror or exc}") from exc
+    stack.callback(_close_quietly, handle)  # a write that failed has been said already
+    return handle
+
+
+def _close_quietly(handle: TextIO) -> None:
+    with contextlib.suppress(OSError):
+        handle.close()
 
 
 def search(
@@ -400,9 +428,7 @@ def search(
         if local is not None:
             tuner.run(args.generations, store, events=events)
         else:
-            tuner.evaluator = evaluator_for(
-                robot, cluster=args.cluster, wait_workers_s=args.wait_workers
-            )
+            tuner.evaluator = evaluator_for(robot, **cluster_of(args))
             try:
                 tuner.run(args.generations, store, events=events)
             finally:
@@ -460,6 +486,12 @@ def report(
            saved=saved, replaced=bool(start_mode and earlier), figures=figures)  # fmt: skip
     if varied := tuner.varied_summary(chosen):
         print(f"  robust: {varied}")
+    if fell := [run for run, m in chosen[2].items() if m.get("fell", True)]:
+        print(
+            f"  note: the saved set falls in {len(fell)} of {len(chosen[2])} runs "
+            f"({', '.join(fell)}): more --generations, or --select walking, may find one that "
+            "walks them all"
+        )
     for row in figures:  # the judged runs: each case against its target, each CA pair
         if "target" in row:
             unit = row.get("unit", "")

@@ -135,6 +135,17 @@ def stamped(pset: ParameterSet, name: str) -> ParameterSet:
     )
 
 
+def not_a_file(path: Path) -> str | None:
+    """Why `path` cannot be read or written as a file, or None (a regular file, or nothing yet):
+    a folder, or a device, pipe or socket (one read never ends; a temporary file renamed over it
+    would replace it)."""
+    if path.is_dir():
+        return "is a folder"
+    if path.exists() and not path.is_file():
+        return "is not a regular file (a device, a pipe or a socket)"
+    return None
+
+
 def write_parameter_set(path: Path, pset: ParameterSet) -> None:
     """Write a parameter-set file atomically: a crash mid-write leaves the old file intact.
 
@@ -142,8 +153,8 @@ def write_parameter_set(path: Path, pset: ParameterSet) -> None:
     over `path` with `os.replace`, and the directory is fsync'ed: a crash at any point leaves
     either the old file or the new one, never a torn one. OSError if the folder is not writable.
     """
-    if path.exists() and not path.is_file():  # the rename below would replace a device
-        raise OSError(f"{path} is not a regular file (a device, a pipe or a folder)")
+    if problem := not_a_file(path):  # the rename below would replace a device
+        raise OSError(f"{path} {problem}")
     text = json.dumps(pset.to_dict(), indent=2, allow_nan=False) + "\n"
     fd, tmp_name = tempfile.mkstemp(dir=path.parent, prefix=f".{path.stem}.", suffix=".tmp")
     tmp = Path(tmp_name)
