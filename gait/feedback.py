@@ -200,6 +200,13 @@ class Outputs:
         )  # fmt: skip
 
 
+def restarted(state: State) -> State:
+    """`state` with every law's filter and integral zeroed and the attitude estimate kept: the
+    laws start anew when the set of laws that step changes (a law switched on or off; on the
+    robot also STOP and START, since no law steps while it does not walk: laws.c)."""
+    return State(started=state.started, pitch_rad=state.pitch_rad, roll_rad=state.roll_rad)
+
+
 def step(
     laws: GaitParams,
     state: State,

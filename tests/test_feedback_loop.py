@@ -221,3 +221,36 @@ def test_a_lane_walks_the_closed_loop_and_a_push_as_artro_run_does_to_the_bit(
         k: v for k, v in live.metrics.items() if k not in strip
     }
     assert traces[0].x_m == live.trace.x_m and traces[0].yaw_rad == live.trace.yaw_rad
+
+
+def test_a_law_switched_on_mid_walk_reads_the_robot_as_it_is_now():
+    """The sensors are not read while every law is off and the Sensors panel is closed: a law
+    switched on then once read the rows of the last reset (a robot at rest, gyro 0, while it
+    turned). It now reads the state as it is, its law state started anew."""
+    loop = FrameLoop(ROBOT, TUNED, Motion(a_p=0.05, a_y=0.2))
+    for _ in range(50):
+        loop.step_frame()
+    gyro = slice(ROBOT.gyro_adr, ROBOT.gyro_adr + 3)
+    now = loop.data.sensordata[gyro].copy()
+    damped = dataclasses.replace(TUNED, damping=DampingParams(enabled=True))
+    loop.set_gait(damped)
+    record = loop.step_frame()
+    assert abs(now[2]) > 0.1  # turning: what a stale row would miss
+    np.testing.assert_allclose(record.reading.gyro_rad_s, now, atol=2e-4)  # a count: 1.3e-4
+
+
+def test_another_set_of_laws_starts_them_anew_keeping_the_attitude():
+    """As the firmware (laws.c): a law switched on or off zeroes every law's filter and
+    integral (`feedback.restarted`); the attitude estimate, current, carries on."""
+    loop = FrameLoop(ROBOT, TRIMMED, Motion())
+    for _ in range(100):
+        loop.step_frame()
+    before = loop._law_state
+    assert before.started and before.tilt_integral.any()
+    both = dataclasses.replace(TRIMMED, damping=DampingParams(enabled=True))
+    loop.set_gait(both)
+    after = loop._law_state
+    assert not after.tilt_integral.any() and not after.tilt_error.any()
+    assert (after.pitch_rad, after.roll_rad) == (before.pitch_rad, before.roll_rad)
+    loop.set_gait(both)  # the same laws: nothing restarts
+    assert loop._law_state is after

@@ -249,3 +249,47 @@ def test_a_whole_set_sent_mid_walk_keeps_every_plan_in_its_window() -> None:
     ready = np.array(run.plan_ready_ticks[1:])
     spare = (PLAN_LATCH_TICK - ready) / (PLAN_LATCH_TICK - PLAN_REQUEST_TICK)
     assert spare.min() >= 0.2, (spare.min(), int(ready.argmax()) + 1)
+
+
+def test_a_gyro_at_its_rail_reads_the_way_it_turns() -> None:
+    """A fall past 250 °/s pins the gyro's register at its rail; less the boot calibration's
+    offset that is past the int16 range, which the firmware once cast back to 16 bits: -32768
+    less +197 read as +32571, a roll the other way. Firmware and model read it as it turns."""
+    raw = dataclasses.replace(leaning_forward(0.0), gyro=(-32768, 32767, 0))
+    doc = closed_loop_set(("damping",))
+    run = run_closed_loop(doc, 12, samples=[at_rest()] * 2 + [raw] * 10)
+    assert_conforms(run)
+    assert GYRO_ZERO_RATE_COUNTS[0] > 0 > GYRO_ZERO_RATE_COUNTS[1]  # both rails past int16
+    pitch, roll = run.laws[-1].attitude_rad  # x at -32768 rolls left, y at +32767 pitches down
+    assert roll < -0.3 and pitch > 0.3, (pitch, roll)
+
+
+def law_integral(mcu: Mcu) -> np.ndarray:
+    """The tilt trim's integral in the firmware's `g_law_state` (laws.h: two uint8 first)."""
+    return np.frombuffer(mcu.read_symbol("g_law_state", 2 + 4 * 4, 8), dtype="<f4")
+
+
+def test_the_laws_rest_while_the_robot_stands_and_start_anew_when_it_walks() -> None:
+    """Held after STOP (or carried, or limp) a leaning robot's tilt integral wound up to its
+    clamp for the next START. The laws now step only while the robot walks, and start anew
+    with it (gait/feedback.py `restarted`); the attitude estimate runs on throughout."""
+    doc = tilt_trim_set()
+    with Mcu(build_firmware(doc).elf, sensors=sample_of(at_rest())) as mcu:
+        link = EmulatedLink(mcu)
+        mcu.set_sensors(sample_of(leaning_forward(LEAN)))
+        mcu.run_to_frame(40, AFTER_PLANNING_TICK)
+        (walking,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+        wound = law_integral(mcu)
+        link.request(proto.command(proto.Msg.STOP))
+        mcu.run_to_frame(next_read_frame(mcu) + 40, AFTER_PLANNING_TICK)
+        (stopped,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+        held = law_integral(mcu)
+        link.request(proto.command(proto.Msg.START))
+        mcu.run_to_frame(next_read_frame(mcu) + 3, AFTER_PLANNING_TICK)
+        (started,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+        restarted = law_integral(mcu)
+    assert walking.tilt_rad[0] > 0.01 and wound[0] > 0.0
+    assert stopped.tilt_rad == (0.0, 0.0) and not held.any()
+    assert stopped.attitude_rad[0] == pytest.approx(LEAN, abs=1e-3)  # estimated all along
+    assert 0.0 < restarted[0] < wound[0] / 10  # a frame or two's worth
+    assert 0.0 < started.tilt_rad[0] < walking.tilt_rad[0] / 5

@@ -88,7 +88,7 @@ def sample_of(raw: RawSample) -> SensorSample:
 def decoded(raw: RawSample, gyro_offset: tuple[int, ...]) -> feedback.Reading:
     """The float32 reading the firmware makes of `raw` (sensors.c `sensors_take`)."""
     counts = np.array(raw.gyro, dtype=np.int32) - np.array(gyro_offset, dtype=np.int32)
-    gyro = counts.astype(np.int16).astype(F32) * F32(GYRO_RAD_S_PER_COUNT)
+    gyro = counts.astype(F32) * F32(GYRO_RAD_S_PER_COUNT)  # 32 bits: a rail less the offset
     accel = np.array(raw.accel, dtype=F32) * F32(ACCEL_M_S2_PER_COUNT)
     adc = np.array(raw.adc, dtype=F32)
     fsr = F32(FSR_DIVIDER_N) * adc / (F32(ADC_FULL) - adc)

@@ -235,10 +235,23 @@ class FrameLoop:
         if params is not None:
             if params.engine != self.params.engine:
                 self.engine_start_frame = self.frame_index
+            if feedback.laws_on(params) != feedback.laws_on(self.params):
+                self._restart_laws()
             self.params = params
         if motion is not None:
             self.motion = motion
         self._plan = None
+
+    def _restart_laws(self) -> None:
+        """Another set of laws is on from the next frame: they start anew, as the firmware's
+        (`feedback.restarted`). The attitude estimate is kept where it is current (a law was on
+        or the sensors watched); else the rows, not read meanwhile, are filled with the state
+        as it is and the estimate starts from them."""
+        if feedback.any_law_on(self.params) or self.watch_sensors:
+            self._law_state = feedback.restarted(self._law_state)
+            return
+        self._rows.extend([self.data.sensordata.copy()] * self.sensors.steps_needed)
+        self._law_state = feedback.State()
 
     def set_hardware(self, hardware: HardwareSetup) -> None:
         """New calibration or channel map: in effect from the next frame on."""
@@ -250,7 +263,7 @@ class FrameLoop:
     def step_frame(self) -> FrameRecord:
         """Simulate the next 20 ms frame; returns its record. Sets `fell` / `blew_up` when so.
         With a feedback law on (`params`), the frame is planned alone, after the laws have
-        read the sensors (docs/DESIGN.md §15); their state carries over a change of laws."""
+        read the sensors (docs/DESIGN.md §15); another set of laws starts them anew."""
         if feedback.any_law_on(self.params):
             return self._step_closed_loop()
         plan = self._plan

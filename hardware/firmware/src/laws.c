@@ -23,10 +23,27 @@ law_state_t g_law_state;
 law_output_t g_law_output;
 uint32_t g_law_frame;
 
+enum { LAW_TILT = 1, LAW_YAW_RATE = 2, LAW_DAMPING = 4, LAW_COP = 8 };
+
+static uint8_t laws_switched_on(void)
+{
+    return (SWITCH(TILT_ENABLED) ? LAW_TILT : 0) | (SWITCH(YAW_RATE_ENABLED) ? LAW_YAW_RATE : 0)
+         | (SWITCH(DAMPING_ENABLED) ? LAW_DAMPING : 0) | (SWITCH(COP_ENABLED) ? LAW_COP : 0);
+}
+
 uint8_t laws_any_on(void)
 {
-    return SWITCH(TILT_ENABLED) || SWITCH(YAW_RATE_ENABLED) || SWITCH(DAMPING_ENABLED)
-        || SWITCH(COP_ENABLED);
+    return laws_switched_on() != 0;
+}
+
+/* gait/feedback.py restarted: every law's filter and integral zeroed, the attitude kept */
+static void laws_restart(law_state_t *s)
+{
+    s->tilt_error[0] = s->tilt_error[1] = 0.0f;
+    s->tilt_integral[0] = s->tilt_integral[1] = 0.0f;
+    s->yaw_error = s->yaw_integral = 0.0f;
+    s->cop_integral[0] = s->cop_integral[1] = 0.0f;
+    s->cop_last[0] = s->cop_last[1] = 0.0f;
 }
 
 static float clampf(float x, float limit)
@@ -180,24 +197,29 @@ static void cop_loop(law_state_t *s, law_output_t *out, const float fsr[2][4])
     out->joint_delta[ANKLE_ROLL[foot]] += out->cop[1];
 }
 
-void laws_step(const sensor_reading_t *reading, uint8_t imu_present)
+void laws_step(const sensor_reading_t *reading, uint8_t imu_present, uint8_t walking)
 {
     law_state_t *s = &g_law_state;
     law_output_t *out = &g_law_output;
     memset(out, 0, sizeof *out);
     out->support = -1;
+    const uint8_t on = walking ? laws_switched_on() : 0;
+    if (on != s->switches) { /* held, carried or limp, no integral winds up */
+        laws_restart(s);
+        s->switches = on;
+    }
     if (imu_present) { /* without the IMU its laws stay off rather than act on zeros */
         attitude_step(s, reading->gyro_rad_s, reading->accel_m_s2);
         out->attitude[0] = s->pitch;
         out->attitude[1] = s->roll;
-        if (SWITCH(TILT_ENABLED) && s->started)
+        if ((on & LAW_TILT) && s->started)
             tilt_trim(s, out);
-        if (SWITCH(YAW_RATE_ENABLED))
+        if (on & LAW_YAW_RATE)
             yaw_rate(s, out, reading->gyro_rad_s[2]);
-        if (SWITCH(DAMPING_ENABLED))
+        if (on & LAW_DAMPING)
             damping(out, reading->gyro_rad_s);
     }
-    if (SWITCH(COP_ENABLED))
+    if (on & LAW_COP)
         cop_loop(s, out, reading->fsr_n);
 }
 

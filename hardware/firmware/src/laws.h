@@ -12,6 +12,7 @@
 #include "sensors.h"
 
 typedef struct {
+    uint8_t switches; /* the laws that stepped last (LAW_* bits): another set restarts them */
     uint8_t started;
     float pitch, roll;
     float tilt_error[2], tilt_integral[2];
@@ -34,10 +35,13 @@ extern uint32_t g_law_frame;       /* that frame */
 
 /* 1 if a law is switched on (else the plan is the open-loop gait's, to the bit). */
 uint8_t laws_any_on(void);
-/* One frame of the attitude estimate and every law that is on, from `reading` and the motion
- * the gait got in the frame before (g_motion, ramp.h); fills g_law_output. Without the IMU
- * (`imu_present` 0) only the centre-of-pressure loop runs. */
-void laws_step(const sensor_reading_t *reading, uint8_t imu_present);
+/* One frame of the attitude estimate and, while the robot walks (`walking`), every law that is
+ * on, from `reading` and the motion the gait got in the frame before (g_motion, ramp.h); fills
+ * g_law_output. Without the IMU (`imu_present` 0) only the centre-of-pressure loop runs. The
+ * laws restart (their filters and integrals zeroed, the attitude kept: gait/feedback.py
+ * `restarted`) whenever the set of laws that step changes: a law switched on or off, and
+ * STOP, TORQUE_OFF and START, since no law steps while the robot does not walk. */
+void laws_step(const sensor_reading_t *reading, uint8_t imu_present, uint8_t walking);
 /* a_y as the gait gets it: the ramped a_y plus the yaw-rate loop's change, within a_y's range */
 float laws_a_y(float ramped_a_y);
 

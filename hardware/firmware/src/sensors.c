@@ -246,7 +246,9 @@ void sensors_take(sensor_reading_t *out)
 
     const sensor_raw_t *raw = &g_sensor_raw;
     for (uint8_t i = 0; i < 3; i++) {
-        const int16_t counts = (int16_t)((int32_t)raw->gyro[i] - g_gyro_offset[i]);
+        /* in 32 bits: a reading at its rail less the offset can pass the int16 range (a fast
+           fall past 250 deg/s); cast to 16 bits it would read the other way */
+        const int32_t counts = (int32_t)raw->gyro[i] - g_gyro_offset[i];
         out->gyro_rad_s[i] = (float)counts * IMU_GYRO_RAD_S_PER_COUNT;
         out->accel_m_s2[i] = (float)raw->accel[i] * IMU_ACCEL_M_S2_PER_COUNT;
     }
