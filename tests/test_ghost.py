@@ -7,6 +7,7 @@ import dataclasses
 import math
 
 import httpx
+import numpy as np
 
 from app.params.presets import builtin_presets
 from app.server.ghost import BESIDE_M, Ghost
@@ -14,6 +15,7 @@ from app.server.param_store import ParameterStore
 from app.server.sim_commands import RemoveGhost, Reset, SetGhost
 from app.server.sim_thread import SimThread
 from app.sim.frame_loop import FrameLoop
+from app.worlds.variations import Variation
 from gait import GaitParams, Motion
 from tests.server_harness import wait_for
 
@@ -144,3 +146,23 @@ def test_the_ghost_api_round_trip_and_its_refusals(http: httpx.Client) -> None:
         wait_for(lambda: not http.get("/api/ghost").json()["enabled"], "the ghost gone")
     finally:
         http.delete("/api/ghost")
+
+
+def test_a_ghost_turned_to_the_live_heading_reads_its_imu_in_that_pose() -> None:
+    """On a tilted floor gravity leans in the body's frame by the heading: the ghost's sensor
+    rows, once filled at heading 0 before it was turned, now read it as it stands."""
+    pset = builtin_presets()["robust"]
+    live = FrameLoop(
+        params=pset.gait,
+        motion=Motion(a_p=0.03, a_y=0.3),
+        variation=Variation(tilt_deg=3.0, tilt_direction_deg=90.0),
+    )
+    for _ in range(100):
+        live.step_frame()
+    assert abs(live.trunk_pose()[2]) > 0.3  # turned
+    ghost = Ghost(live, live.params, "version 1")
+    model, data = ghost.loop.model, ghost.loop.data
+    site = model.sensor_objid[model.sensor_adr.tolist().index(live.robot.accel_adr)]
+    at_rest = data.site_xmat[site].reshape(3, 3).T @ -model.opt.gravity
+    rows = np.array(ghost.loop._rows)[:, live.robot.accel_adr : live.robot.accel_adr + 3]
+    np.testing.assert_allclose(rows, np.broadcast_to(at_rest, rows.shape), atol=1e-9)

@@ -27,6 +27,7 @@ from app.sim.sensors import (
     mount_rotation,
     quantised,
 )
+from app.worlds.servo_path import latency_steps
 from app.worlds.variations import NOMINAL, Variation, parse_variation
 from gait import GaitParams, Motion
 from gait.attitude import PITCH_LIMIT_RAD, accel_tilt, complementary_step
@@ -108,6 +109,13 @@ def test_the_delay_reads_the_imu_that_many_steps_before(standing):
     assert reading.accel_m_s2[2] == pytest.approx(29 - 12, abs=ACCEL_M_S2_PER_COUNT)
     with pytest.raises(ValueError, match="last 13 steps"):
         sensors.read(rows[-12:], standing[1])
+
+
+@pytest.mark.parametrize("delay_ms", [0.5, 2.5, 12.5, 24.5])
+def test_the_imu_delay_rounds_as_the_servos_latency(delay_ms):
+    """Whole steps, half up for both (`latency_steps`); the IMU's once rounded half to even."""
+    steps = Sensors(ROBOT, Variation(imu_delay_ms=delay_ms)).delay_steps
+    assert steps == latency_steps(delay_ms, ROBOT.model.opt.timestep) == math.ceil(delay_ms)
 
 
 def test_the_force_sensors_read_what_mujoco_touch_sensors_read_to_the_bit():

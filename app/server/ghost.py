@@ -115,6 +115,7 @@ class Ghost:
         data.qpos[1] = y + BESIDE_M * math.cos(yaw)
         data.qpos[3:7] = (math.cos(yaw / 2.0), 0.0, 0.0, math.sin(yaw / 2.0))
         mujoco.mj_forward(self.loop.model, data)
+        self.loop.placed()  # its IMU at rest facing that way, on the world's floor
         self._live_track, self._ghost_track = _Track(), _Track()
         self.phase_gap_rad = 0.0
 

@@ -242,6 +242,12 @@ class FrameLoop:
             self.motion = motion
         self._plan = None
 
+    def placed(self) -> None:
+        """The robot was put where `data.qpos` says (forward kinematics done): the sensors'
+        rows read it at rest there, the floor's tilt in its pose (`rest_accelerometers`)."""
+        rest_accelerometers(self.model, self.data)
+        self._rows.extend([self.data.sensordata.copy()] * self.sensors.steps_needed)
+
     def _restart_laws(self) -> None:
         """Another set of laws is on from the next frame: they start anew, as the firmware's
         (`feedback.restarted`). The attitude estimate is kept where it is current (a law was on

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
 from app.sim.force_sensors import fsr_forces, fsr_forces_of
+from app.worlds.servo_path import latency_steps
 from app.worlds.variations import NOMINAL, Variation
 from gait.attitude import G_M_S2 as GRAVITY_M_S2
 
@@ -79,7 +80,7 @@ class Sensors:
     def __init__(self, robot: RobotModel, variation: Variation = NOMINAL) -> None:
         v = variation
         self.timestep_s = float(robot.model.opt.timestep)
-        self.delay_steps = round(v.imu_delay_ms * 1e-3 / self.timestep_s)
+        self.delay_steps = latency_steps(v.imu_delay_ms, self.timestep_s)  # half up, as the servos
         self._to_imu = mount_rotation(v.imu_tilt_bias_deg, v.imu_tilt_direction_deg).T
         self._gyro_bias = math.radians(v.gyro_bias_deg_s)
         self._gyro_noise = math.radians(v.gyro_noise_deg_s)
