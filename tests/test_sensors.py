@@ -61,7 +61,7 @@ def test_the_soles_of_a_standing_robot_carry_its_weight_on_all_eight_sensors(sta
     half = ROBOT.fsr_positions_m.max(axis=0)
     assert np.all(np.abs(cop) < half)  # inside the sensors' box, near the sole centre
     gained = read(Sensors(ROBOT, Variation(fsr_gain=1.2)), standing)
-    np.testing.assert_allclose(gained.fsr_n, 1.2 * reading.fsr_n)
+    np.testing.assert_allclose(gained.fsr_n, 1.2 * reading.fsr_n, atol=0.015)  # an ADC step
 
 
 def test_a_foot_in_the_air_has_no_centre_of_pressure(standing):

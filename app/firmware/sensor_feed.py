@@ -13,17 +13,15 @@ from numpy.typing import NDArray
 
 from app.sim.sensors import ACCEL_M_S2_PER_COUNT, COUNT_RANGE, GYRO_RAD_S_PER_COUNT, SensorReading
 from gait import feedback
+from hardware.fsr import ADC_FULL, FSR_DIVIDER_N, adc_counts
 
 # The part and the board, stated: the IMU's raw gyro carries a zero-rate offset (well inside the
 # MPU-6050's ±20 °/s tolerance) that the firmware's calibration at rest removes; what a world
 # calls gyro bias is what remains after it, as in the simulation. Each force sensor sits in a
-# divider to ground: V / 5 V = F / (F + 5 N) (R_FSR = 10 kΩ·N / F over R_M = 2 kΩ: an FSR 402
-# follows 1/F within its part-to-part spread from 0.2 to 20 N); the chip converts
-# floor(1024 V / 5 V), at most 1023.
+# divider the chip converts (`hardware.fsr`: R_FSR = 10 kΩ·N / F over R_M = 2 kΩ: an FSR 402
+# follows 1/F within its part-to-part spread from 0.2 to 20 N).
 F32 = np.float32
 VREF_MV = 5000
-ADC_FULL = 1024
-FSR_DIVIDER_N = 5.0  # the divider's F at half the supply (config.h)
 #: the emulated part's raw gyro at rest (x, y, z), counts: +1.5, -0.8, +0.4 °/s
 GYRO_ZERO_RATE_COUNTS = (197, -105, 52)
 ONE_G_COUNTS = 16384
@@ -51,12 +49,6 @@ def _counts(values: NDArray[np.float64], per_count: float) -> tuple[int, ...]:
     return tuple(int(min(max(round(v / per_count), lo), hi)) for v in values)
 
 
-def adc_count(force_n: float) -> int:
-    """The chip's conversion of a force sensor's divider (0..1023)."""
-    force = max(float(force_n), 0.0)
-    return min(math.floor(ADC_FULL * force / (force + FSR_DIVIDER_N)), ADC_FULL - 1)
-
-
 def simavr_millivolts(count: int) -> int:
     """The input millivolts that make simavr's ADC (count = mV * 1023 / Vref) give `count`."""
     return math.ceil(count * VREF_MV / (ADC_FULL - 1))
@@ -70,7 +62,7 @@ def raw_of(reading: SensorReading) -> RawSample:
         for g, o in zip(gyro, GYRO_ZERO_RATE_COUNTS, strict=True)
     )
     accel = _counts(reading.accel_m_s2, ACCEL_M_S2_PER_COUNT)
-    adc = tuple(adc_count(f) for f in np.asarray(reading.fsr_n).reshape(8))
+    adc = tuple(int(c) for c in adc_counts(np.asarray(reading.fsr_n).reshape(8)))
     return RawSample(accel, gyro, adc)  # type: ignore[arg-type]
 
 

@@ -18,6 +18,7 @@ from app.sim.force_sensors import fsr_forces, fsr_forces_of
 from app.worlds.servo_path import latency_steps
 from app.worlds.variations import NOMINAL, Variation
 from gait.attitude import G_M_S2 as GRAVITY_M_S2
+from hardware.fsr import as_read
 
 #: MPU-6050 at its most sensitive ranges: 131 counts per °/s (±250 °/s), 16384 per g (±2 g)
 GYRO_RAD_S_PER_COUNT = math.radians(1.0 / 131.0)
@@ -116,7 +117,9 @@ class Sensors:
         return SensorReading(
             gyro_rad_s=gyro[0],
             accel_m_s2=accel[0],
-            fsr_n=self._fsr_gain * fsr_forces(self._robot, data) if forces else np.zeros((2, 4)),
+            fsr_n=as_read(self._fsr_gain * fsr_forces(self._robot, data))
+            if forces
+            else np.zeros((2, 4)),
         )
 
 
@@ -209,6 +212,6 @@ class SensorBank:
 
     def fsr_all(self, datas: Sequence[mujoco.MjData]) -> NDArray[np.float64]:
         """Every run's force sensors (K, 2, 4), each from its `datas` entry as its last step
-        left it, times its gain."""
+        left it, times its gain, in the ADC's steps (`hardware.fsr.as_read`)."""
         forces = fsr_forces_of([r._robot for r in self._runs], datas)
-        return np.array([r._fsr_gain for r in self._runs])[:, None, None] * forces
+        return as_read(np.array([r._fsr_gain for r in self._runs])[:, None, None] * forces)
