@@ -4,7 +4,7 @@ calibration error on every joint at once, both signs), every case of `artro benc
 whether it passes by `bench robust`'s rule, with the run's figure as a share of the nominal one.
 
     python bench/robust_factors.py [--presets paper,tuned] [--duration 20] [--warmup 4]
-        [--json PATH]
+        [--robot artro] [--json PATH]
 
 The random draws of `bench robust` mix ten departures at once; this shows what each one alone
 costs, which is where a robust gait has to give something up. Writes its figures (per preset
@@ -25,6 +25,7 @@ from app.evaluation import BatchEvaluator, Job
 from app.evaluation.progress import progress_printer
 from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets
+from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges
 from app.worlds.variations import NOMINAL, PHYSICS_FIELDS, Variation
 from gait import JOINT_NAMES
@@ -52,6 +53,9 @@ def one_factor_worlds(ranges: VariationRanges | None = None) -> list[Variation]:
 
 
 def label(world: Variation) -> str:
+    if world.imu_tilt_bias_deg:
+        toward = {0.0: "ahead", 90.0: "left", 180.0: "behind", 270.0: "right"}
+        return f"IMU tilted {world.imu_tilt_bias_deg:g}° {toward[world.imu_tilt_direction_deg]}"
     if world.tilt_deg:
         downhill = {0.0: "ahead", 90.0: "left", 180.0: "behind", 270.0: "right"}
         return f"tilt {world.tilt_deg:g}°, downhill {downhill[world.tilt_direction_deg]}"
@@ -61,23 +65,29 @@ def label(world: Variation) -> str:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("--presets", default="paper,tuned", help="built-in names or files")
+    measure("robust_factors", one_factor_worlds(), __doc__, "paper,tuned")
+
+
+def measure(bench: str, worlds: list[Variation], doc: str, presets: str) -> None:
+    """Every case of `bench robust` on each of `worlds` and the nominal model, for each of
+    --presets, judged as `bench robust` judges; printed as a table, written as `bench`'s."""
+    parser = argparse.ArgumentParser(description=doc.split("\n")[0])
+    parser.add_argument("--presets", default=presets, help="built-in names or files")
     parser.add_argument("--duration", type=float, default=20.0)
     parser.add_argument("--warmup", type=float, default=4.0)
+    parser.add_argument("--robot", default="artro", help="a built-in name or a description")
     args = results.parse_args(parser)
     shelf = builtin_presets()
-    worlds = one_factor_worlds()
-    evaluator = BatchEvaluator()
+    evaluator = BatchEvaluator(RobotModel.load(args.robot))
     short = ["spot", "fwd", "bwd", "side R", "side L", "turn CW", "turn CCW", "CA+", "CA-"]
     presets: dict[str, dict] = {}
     for name in [n.strip() for n in args.presets.split(",") if n.strip()]:
         gait = (shelf[name] if name in shelf else load_parameter_set(name)).gait
         jobs = [Job(gait, c.motion, variation=w) for w in [NOMINAL, *worlds] for c in ROBUST_CASES]
         progress = progress_printer(
-            f"robust_factors: {name}, {len(jobs)} runs of {args.duration:g} s ...",
+            f"{bench}: {name}, {len(jobs)} runs of {args.duration:g} s ...",
             sys.stderr,
-            label="robust_factors",
+            label=bench,
         )
         metrics = evaluator.evaluate(
             jobs, duration_s=args.duration, warmup_s=args.warmup, progress=progress
@@ -134,7 +144,7 @@ def main() -> None:
         headline[f"{name}: departures passing every case (of {len(worlds)})"] = p[
             "departures_all_pass"
         ]
-    results.write("robust_factors", args, figures, headline)
+    results.write(bench, args, figures, headline)
 
 
 if __name__ == "__main__":

@@ -118,6 +118,19 @@ def test_robust_factors_tries_each_departure_alone(tmp_path):
     assert tuned["passed"] == sum(r["passed"] for r in rows) and tuned["runs"] == 22 * 9
 
 
+def test_sensor_factors_tries_each_sensor_error_alone(tmp_path):
+    """The closed-loop preset's sensors, each error alone: the robot's own IMU delay (17 ms)
+    and an uncalibrated accelerometer (2.9°) among them."""
+    doc = run_bench(
+        tmp_path, "sensor_factors", "--presets", "robust", "--duration", "3", "--warmup", "1"
+    )
+    robust = doc["figures"]["presets"]["robust"]
+    labels = [row["departure"] for row in robust["departures"]]
+    assert labels[:2] == ["imu_delay_ms 17", "imu_delay_ms 25"]
+    assert "IMU tilted 2.9° behind" in labels and "IMU tilted 1° left" in labels
+    assert robust["runs"] == 13 * 9 == sum(len(row["cases"]) for row in robust["departures"])
+
+
 def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs(tmp_path):
     doc = run_bench(tmp_path, "bench_batch", "--seconds", "0.4", "--runs", "2", "--repeats", "1")
     kinds = doc["figures"]["kinds"]
