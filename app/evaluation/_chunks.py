@@ -27,6 +27,7 @@ from app.evaluation._lanes import BatchEvaluator
 from app.robots import parse_description
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace
+from app.sim.mujoco_warnings import keep_warnings_out_of_the_folder
 from gait import feedback
 
 RUNS_PER_TASK = 8  # a task of 8 open-loop runs of 20 s is ~5 s of a core: the round trip < 1 %
@@ -39,7 +40,9 @@ class VersionMismatch(ExecutorError):
 
 @lru_cache(maxsize=8)
 def _worker_evaluator(robot_json: str) -> BatchEvaluator:
-    """The compiled model of a robot, built once per worker process and robot."""
+    """The compiled model of a robot, built once per worker process and robot (the worker's
+    MuJoCo warnings kept out of its folder)."""
+    keep_warnings_out_of_the_folder()
     robot = RobotModel.load(parse_description(json.loads(robot_json), "the robot sent"))
     return BatchEvaluator(robot, threads=1)
 
