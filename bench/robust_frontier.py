@@ -4,7 +4,7 @@ paper's table on the nominal model, with the goal lines (>= 90 % passing; within
 candidates no other beats on both (the frontier).
 
     python bench/robust_frontier.py out/tune/robust2.log [--png out/tune/frontier.png]
-        [--save TRIAL --out FILE] [--json PATH]
+        [--study-name NAME] [--save TRIAL --out FILE] [--json PATH]
 
 Prints the frontier as a table; the PNG draws every candidate, coloured by generation. The pass
 share here is over all cases of the study's worlds together, each generation on its own worlds
@@ -30,7 +30,7 @@ from app.analysis.cases import CASES, measured, target
 from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets, stamped, write_parameter_set
-from app.study.study_store import DEFAULT_STUDY, open_storage
+from app.study.study_store import open_storage
 from app.study.tune import dimensions, with_values
 
 PASS_GOAL = 0.9
@@ -51,9 +51,19 @@ def worst_paper_error(nominal: dict) -> float:
     return worst
 
 
-def load(store: str) -> optuna.Study:
+def load(store: str, name: str | None = None) -> optuna.Study:
+    """The study `name` in `store`, by default its only one (`artro tune` names each
+    tune-ROBOT-DIGEST); SystemExit naming the studies there when that is not one study."""
     optuna.logging.set_verbosity(optuna.logging.WARNING)
-    return optuna.load_study(study_name=DEFAULT_STUDY, storage=open_storage(Path(store)))
+    storage = open_storage(Path(store))
+    names = [s.study_name for s in optuna.get_all_study_summaries(storage)]
+    if name is None and len(names) == 1:
+        name = names[0]
+    if name not in names:
+        asked = f"no study {name!r}" if name else f"{len(names)} studies"
+        there = ", ".join(names) or "none"
+        raise SystemExit(f"{store}: {asked}; give --study-name, one of: {there}")
+    return optuna.load_study(study_name=name, storage=storage)
 
 
 def save_trial(study: optuna.Study, number: int, path: Path, base: str | None) -> ParameterSet:
@@ -149,10 +159,11 @@ def main() -> None:
     parser.add_argument("--save", type=int, metavar="TRIAL", help="write this trial's set")
     parser.add_argument("--out", metavar="FILE", help="where --save writes (a .json file)")
     parser.add_argument("--base", help="the study's base set, if not a built-in (for --save)")
+    parser.add_argument("--study-name", help="the study in the store (default: its only one)")
     args = results.parse_args(parser)
     if (args.save is None) != (args.out is None):
         parser.error("--save TRIAL and --out FILE go together")
-    study = load(args.store)
+    study = load(args.store, args.study_name)
     if args.save is not None:
         pset = save_trial(study, args.save, Path(args.out), args.base)
         print(f"wrote trial {args.save} as {args.out} ('{pset.name}')")

@@ -77,7 +77,7 @@ def test_the_servo_load_is_said_as_measured_against_the_stall_torque():
         (["--motion", "0,0"], "expected three numbers"),
         (["--motion", "0,nan,0"], "expected three numbers"),
         (["--motion", "0,0.9,0"], "allowed: -0.3 to 0.3"),
-        (["--ca", "2"], "allowed: -0.5 to 0.5"),
+        (["--ca", "2"], "--ca must be -0.5 to 0.5"),
         (["--params", "/nonexistent/p.json"], "No such file"),
         (["--duration", "-1"], "duration must be > 0"),
     ],
@@ -182,3 +182,31 @@ def test_ctrl_c_while_the_commands_load_is_one_line(monkeypatch, capsys):
     monkeypatch.setattr(app.cli, "build_parser", interrupted)
     assert app.cli.main(["run"]) == 130
     assert capsys.readouterr().err == "artro: interrupted\n"
+
+
+def test_a_taken_3d_view_port_moves_on_past_the_pages_own(capsys):
+    """viser moved a taken port on to the next, which could be the page's own --port: the page
+    then could not listen (exit 3) and the banner named the taken port. The CLI picks the 3D
+    view's port itself now, never the page's, before the banner."""
+    import socket
+
+    from app.cli.serve import bind_error, viser_port_for
+
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        asked = taken.getsockname()[1]
+        port = viser_port_for("127.0.0.1", asked, page_port=asked + 1)
+        assert port not in (asked, asked + 1) and bind_error("127.0.0.1", port) is None
+        assert f"port {asked} is taken; the 3D view alone is on {port}" in capsys.readouterr().err
+        assert viser_port_for("127.0.0.1", 0, asked) == 0  # any free port: viser's choice
+
+
+def test_a_reader_that_stops_early_ends_the_command_quietly():
+    """`artro run | head -1`: the pipe closed before the command wrote; it said "error: [Errno
+    32] Broken pipe" (exit 2). It now ends as a process its pipe ended does: 141, no message."""
+    proc = subprocess.Popen([ARTRO, "robot", "show", "artro"], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)  # fmt: skip
+    proc.stdout.close()  # long before the command (~1 s to start) writes
+    err = proc.stderr.read()
+    assert proc.wait(timeout=120) == 141 and err == ""

@@ -85,6 +85,7 @@ def test_firmware_run_closes_the_loop_with_a_law_on(
     assert out["twi_transactions_per_frame"]["min"] == 1 and out["imu_failures"] == 0
     assert out["adc_conversions_per_frame"] == {"min": 8, "max": 8, "mean": 8.0}
     assert out["variation"] == "imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1"
+    assert 0 < out["flash_bytes"] < 128 * 1024 and 0 < out["sram_bytes"] < 4096  # as open loop
     # open loop, --vary has nothing to vary: said so, nothing runs
     with pytest.raises(ValueError, match="needs a set with a feedback law on"):
         argv = ["firmware", "run", "--params", "paper", "--frames", "5", "--vary", "fsr_gain=1.1"]

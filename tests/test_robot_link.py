@@ -79,7 +79,7 @@ def test_dry_run_prints_the_messages_and_switches_off(tmp_path):
         dry_run=True,
         port=None,
         baud=57600,
-        server="http://127.0.0.1:9",
+        server=None,  # one set, no dashboard to follow
         params=str(tmp_path / "set.json"),
     )
     assert cmd_link(args, out) == 0

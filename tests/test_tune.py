@@ -358,12 +358,21 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
     )  # fmt: skip
     assert drawn.returncode == 0, drawn.stderr
     assert drawn.stdout.startswith("4 candidates") and png.stat().st_size > 10_000
+    # a store of two studies (`artro tune` names each tune-ROBOT-DIGEST): it asks which one
+    optuna.create_study(study_name="tune-other", storage=storage)
+    two = subprocess.run(drawn.args, cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert (
+        two.returncode == 1
+        and f"2 studies; give --study-name, one of: {DEFAULT_STUDY}, tune-other" in two.stderr
+    ), two.stderr
+    named = [*drawn.args, "--study-name", DEFAULT_STUDY]
+    assert subprocess.run(named, cwd=ROOT, capture_output=True, timeout=300).returncode == 0
     # and writes a candidate as a parameter set: the POOR base with that trial's values
     best = min(trials, key=lambda t: t.value)
     saved = subprocess.run(
         [sys.executable, "bench/robust_frontier.py", str(tmp_path / "study.log"),
          "--save", str(best.number), "--out", str(tmp_path / "pick.json"),
-         "--base", str(tmp_path / "poor.json")],
+         "--base", str(tmp_path / "poor.json"), "--study-name", DEFAULT_STUDY],
         cwd=ROOT, capture_output=True, text=True, timeout=300,
     )  # fmt: skip
     assert saved.returncode == 1  # the base file does not exist yet

@@ -5,6 +5,8 @@ load inside `main`, so a Ctrl-C while they load (~2 s) ends in one line too."""
 from __future__ import annotations
 
 import argparse
+import os
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -44,6 +46,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     keep_warnings_out_of_the_folder()  # no MUJOCO_LOG.TXT where a run blew up
     try:
         return args.handler(args)
+    except BrokenPipeError:  # `artro run | head -1`: the reader took what it wanted
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # no error at exit
+        return 128 + signal.SIGPIPE  # as a shell reports a process its pipe ended
     # RuntimeError: BuildError, EmulatorError, LinkError, CalibrationError, ExecutorError
     except (ValueError, OSError, RuntimeError) as exc:
         parser.exit(2, f"artro {args.command}: error: {exc}\n")

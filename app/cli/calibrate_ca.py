@@ -32,7 +32,7 @@ from app.params.formats import export_text
 from gait import ENGINES
 
 EXAMPLES = """examples:
-  artro calibrate-ca                       the robot's default preset, forward at a_p = 0.07
+  artro calibrate-ca                       the robot's default preset, both ways at |a_p| 0.07
   artro calibrate-ca --params tuned -o tuned_steered.json"""
 
 

@@ -190,7 +190,9 @@ def command(args: argparse.Namespace) -> int:
     if closed:
         run = run_closed_loop(doc, frames, robot, args.vary)
         failures = run.failures()
-        summary = {**run.summary(), "robot": robot.name, "variation": args.vary.name}
+        build = build_firmware(doc, **wiring(robot))  # the run's own build, from the cache
+        summary = {**run.summary(), "robot": robot.name, "variation": args.vary.name,
+                   "flash_bytes": build.flash_bytes, "sram_bytes": build.sram_bytes}  # fmt: skip
         summary["failures"] = failures
     else:
         summary = check_firmware(doc, frames, args.vcd, robot)

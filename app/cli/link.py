@@ -24,7 +24,8 @@ EXAMPLES = """examples:
                                              the robot's sensors in its Sensors panel
   artro link --port /dev/ttyUSB0 --no-sensors   follow it, the robot's sensors not asked for
   artro link --port /dev/pts/5 --params tuned   send one set (a preset's name or a file)
-  artro link --dry-run                       print the messages it would send"""
+  artro link --dry-run --params tuned        print the messages it would send
+  artro link --dry-run                       the same, following the dashboard on :8000"""
 
 
 def add_parser(sub: Any) -> None:

@@ -46,7 +46,7 @@ def add_parser(sub: Any) -> None:
     check = action(
         sub,
         "check",
-        "validate a description; exit 2 with every error",
+        "validate a description; exit 2 naming every bad field (then the checks across fields)",
         """examples:
   artro robot check my.yaml            every error, or: valid, with eq (1)'s least margin
   artro robot check my.yaml --suggest  write my-suggested.yaml with servos that carry it
@@ -175,6 +175,10 @@ UNCARRIED = (
 )
 
 
+def renamed(desc: RobotDescription, name: str) -> RobotDescription:
+    return RobotDescription.model_validate(dict(desc.model_dump(mode="json"), name=name))
+
+
 def not_the_source(target: Path, source: str, what: str, instead: str) -> None:
     """ValueError if `target` is the description file `source` (also through a link): writing
     it would lose its comments and layout."""
@@ -187,7 +191,8 @@ def not_the_source(target: Path, source: str, what: str, instead: str) -> None:
 
 def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str = "") -> int:
     """`robot check --suggest`: the description with the servos that carry it, written (never
-    over `source`, the file it was read from: its comments would be lost). Exit status 1 when
+    over `source`, the file it was read from: its comments would be lost); with no servo to
+    change, written only where `output` asks (the next command reads it). Exit status 1 when
     some joint no servo carries (eq (1) still fails), else 0."""
     target = Path(output or f"{derived_name(desc.name, 'suggested')}.yaml")
     not_the_source(
@@ -198,21 +203,25 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str
     found = suggest_servos(desc, lambda r: {t.joint: t.required_nm for t in eq1_torques(r)})
     if not found.swaps:
         left = f"; none carries {', '.join(found.uncarried)}" if found.uncarried else ""
-        print(f"no servo to change{left}: nothing written", file=out)
-        if found.uncarried:
-            print(UNCARRIED, file=out)
-        return 1 if found.uncarried else 0
+        if output is None:
+            print(f"no servo to change{left}: nothing written", file=out)
+            if found.uncarried:
+                print(UNCARRIED, file=out)
+            return 1 if found.uncarried else 0
+        print(f"no servo to change{left}: -o {output} gets the robot as it is", file=out)
+    servos = "with the lightest servos that carry it" if found.swaps else "with its own servos"
+    robot = found.robot if found.swaps else renamed(desc, derived_name(desc.name, "suggested"))
     header = (
-        f"{found.robot.name}: written by `artro robot check {source or desc.name} --suggest`,\n"
-        f"the robot {desc.name} with the lightest servos that carry it (eq (1)); what is left\n"
+        f"{robot.name}: written by `artro robot check {source or desc.name} --suggest`,\n"
+        f"the robot {desc.name} {servos} (eq (1)); what is left\n"
         "at its default is left out, and the comments stay in the file it was read from"
     )
-    path = write_description(found.robot, target, header)
+    path = write_description(robot, target, header)
     for joint, old, new, need in found.swaps:
         print(f"  {joint}: {old} -> {new} (eq (1) asks {need:.3f} N·m)", file=out)
     if found.uncarried:
         print(f"  no servo of the table or the file carries {', '.join(found.uncarried)}", file=out)
-    mass = found.robot.parts_mass_kg()
+    mass = robot.parts_mass_kg()
     print(f"wrote {path} ({mass:.3f} kg); next: artro robot check {path}, then "
           f"artro tune --robot {path}", file=out)  # fmt: skip
     if found.uncarried:

@@ -63,7 +63,8 @@ def add_parser(sub: Any) -> None:
         type=output_folder,
         metavar="DIR",
         help="where presets are saved "
-        "(default: $ARTRO_DATA_DIR or ~/.local/share/artro-gait-studio)",
+        "(default: $ARTRO_DATA_DIR, else $XDG_DATA_HOME/artro-gait-studio or "
+        "~/.local/share/artro-gait-studio)",
     )
     s.add_argument("--no-viewer", action="store_true", help="run without the viser 3D view")
     s.add_argument(
@@ -97,6 +98,9 @@ def serve(args: argparse.Namespace) -> int:
         raise ValueError(f"the data folder {data_dir} is a file, not a folder")
     # a file, or a preset's name (built in or saved in --data-dir): read here, before serving
     chosen = resolve_set(args.params, "--params", data_dir) if args.params else None
+    check_port_free(args.host, args.port)  # before the banner names it (uvicorn's error: raw)
+    if not args.no_viewer:  # and the 3D view's, the banner naming the one it gets
+        args.viser_port = viser_port_for(args.host, args.viser_port, args.port)
     config = ServerConfig(
         host=args.host,
         port=args.port,
@@ -111,7 +115,6 @@ def serve(args: argparse.Namespace) -> int:
         drive=args.drive,
     )
     RobotShelf(RobotModel.load(args.robot))  # fail here, clearly, not inside the server
-    check_port_free(args.host, args.port)  # before the banner names it (uvicorn's error: raw)
     if config.backend != "cpu":  # a missing extra or CUDA device: here, not in the first job
         from app.evaluation import close_evaluator, evaluator_for
 
@@ -143,8 +146,8 @@ def banner(args: argparse.Namespace) -> str:
     return f"ArtRo Gait Studio: {url}  ({view}API docs: {url}/docs)"
 
 
-def check_port_free(host: str, port: int) -> None:
-    """OSError naming the --port if something listens on it already (bound as uvicorn binds)."""
+def bind_error(host: str, port: int) -> OSError | None:
+    """Why `port` on `host` cannot be listened on (bound as uvicorn binds), or None."""
     import socket
 
     family = socket.AF_INET6 if ":" in host else socket.AF_INET
@@ -153,7 +156,29 @@ def check_port_free(host: str, port: int) -> None:
         try:
             probe.bind((host, port))
         except OSError as exc:
-            raise OSError(
-                f"--port {port} on {host} is taken ({exc.strerror or exc}): another server, "
-                "maybe another artro serve, listens there; give another --port"
-            ) from None
+            return exc
+    return None
+
+
+def check_port_free(host: str, port: int) -> None:
+    """OSError naming the --port if something listens on it already."""
+    if exc := bind_error(host, port):
+        raise OSError(
+            f"--port {port} on {host} is taken ({exc.strerror or exc}): another server, "
+            "maybe another artro serve, listens there; give another --port"
+        ) from None
+
+
+def viser_port_for(host: str, wanted: int, page_port: int) -> int:
+    """The 3D view's port: `wanted`, or where it is taken the next free one that is not the
+    page's own (viser would take that, and the page could then not listen); 0 stays 0 (any
+    free port, chosen as viser starts)."""
+    if wanted == 0:
+        return 0
+    for port in range(wanted, min(wanted + 100, 65_536)):
+        if port != page_port and bind_error(host, port) is None:
+            if port != wanted:
+                print(f"artro serve: port {wanted} is taken; the 3D view alone is on {port}",
+                      file=sys.stderr)  # fmt: skip
+            return port
+    raise OSError(f"--viser-port {wanted} and the 99 ports after it are taken; give another")

@@ -77,11 +77,15 @@ ProblemList = list[PresetProblem]
 
 
 def default_data_dir() -> Path:
-    """$ARTRO_DATA_DIR if set, else ~/.local/share/artro-gait-studio."""
+    """$ARTRO_DATA_DIR if set, else $XDG_DATA_HOME/artro-gait-studio (an absolute
+    $XDG_DATA_HOME, as the XDG base directories have it), else
+    ~/.local/share/artro-gait-studio."""
     configured = os.environ.get(DATA_DIR_ENV, "").strip()
     if configured:
         return Path(configured).expanduser()
-    return Path.home() / ".local" / "share" / "artro-gait-studio"
+    xdg = os.environ.get("XDG_DATA_HOME", "").strip()
+    base = Path(xdg) if xdg and Path(xdg).is_absolute() else Path.home() / ".local" / "share"
+    return base / "artro-gait-studio"
 
 
 def check_name(name: object) -> str:
