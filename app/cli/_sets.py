@@ -58,7 +58,7 @@ def unknown_set(spec: str, option: str, data_dir: Path | None = None) -> str:
 def resolve_set(spec: str, option: str = "--params", data_dir: Path | None = None) -> ChosenSet:
     """The parameter set `spec` names for `option`: an existing file first (so a file called
     like a preset is still read), then a built-in preset, then a saved one (in `data_dir`, by
-    default `default_data_dir()`, ~/.local/share/artro-gait-studio). ValueError otherwise, naming
+    default `default_data_dir()`). ValueError otherwise, naming
     the built-in and saved presets; a file that is not a parameter set says what is wrong."""
     path = Path(spec)
     if path.is_file():

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 from typing import Any
 
@@ -98,9 +99,6 @@ def serve(args: argparse.Namespace) -> int:
         raise ValueError(f"the data folder {data_dir} is a file, not a folder")
     # a file, or a preset's name (built in or saved in --data-dir): read here, before serving
     chosen = resolve_set(args.params, "--params", data_dir) if args.params else None
-    check_port_free(args.host, args.port)  # before the banner names it (uvicorn's error: raw)
-    if not args.no_viewer:  # and the 3D view's, the banner naming the one it gets
-        args.viser_port = viser_port_for(args.host, args.viser_port, args.port)
     config = ServerConfig(
         host=args.host,
         port=args.port,
@@ -115,6 +113,10 @@ def serve(args: argparse.Namespace) -> int:
         drive=args.drive,
     )
     RobotShelf(RobotModel.load(args.robot))  # fail here, clearly, not inside the server
+    check_port_free(args.host, args.port)  # before the banner names it (uvicorn's error: raw)
+    if not args.no_viewer:  # and the 3D view's, the banner naming the one it gets
+        args.viser_port = viser_port_for(args.host, args.viser_port, args.port)
+        config = dataclasses.replace(config, viser_port=args.viser_port)
     if config.backend != "cpu":  # a missing extra or CUDA device: here, not in the first job
         from app.evaluation import close_evaluator, evaluator_for
 
