@@ -38,3 +38,26 @@ def test_one_fit_at_a_time():
     with pytest.raises(RuntimeError, match="already running"):
         fitter.fit(TUNED, Motion(a_p=0.07), PathTracker())
     first.finished.wait()
+
+
+def test_a_kept_result_applies_its_own_fit_not_a_later_ones():
+    """A fit whose version was gone by its end keeps its result for `POST .../apply`; applied
+    after another fit had run, it once set that later fit's b_eff (all fits shared one
+    `last`). Two real fits of two gaits: the kept one applies its own."""
+    import dataclasses
+
+    from app.params.document import ParameterSet
+    from app.server.param_store import ParameterStore
+
+    store = ParameterStore(ParameterSet(gait=TUNED, motion=Motion(a_p=0.07)), robot="artro")
+    fitter, paths = AxleFitter(store=store), PathTracker()
+    snap = store.snapshot()
+    kept = fitter.start(snap.gait, snap.motion, paths, params_version=snap.version - 1)
+    assert kept.finished.wait(300) and kept.result["conflict"] and kept.applier is not None
+    swing = dataclasses.replace(TUNED.swing, v=TUNED.swing.v * 1.3)
+    wider = dataclasses.replace(TUNED, swing=swing)
+    later = fitter.start(wider, snap.motion, paths, params_version=snap.version)
+    assert later.finished.wait(300) and later.result["applied"]
+    assert later.result["axle_eff_m"] != pytest.approx(kept.result["axle_eff_m"], rel=1e-3)
+    kept.applier(store.snapshot().version)
+    assert paths.view()["axle_m"] == kept.result["axle_eff_m"]

@@ -48,3 +48,21 @@ def test_frame_to_dict_is_json_ready() -> None:
         "stray": [],
     }
     assert data["lines"][8] == {"name": "S2", "initial": 0, "edges": [[19900, 1], [39900, 0]]}
+
+
+def test_a_frame_published_before_a_switch_of_robots_keeps_its_wiring() -> None:
+    """The feed formats a frame when it is first asked for; the simulation thread swaps the
+    feed's wiring when the robot changes. A frame of the old robot was then named with the
+    new robot's channel map; it keeps the one it was published under."""
+    from app.server.scope_feed import ScopeFeed
+    from app.sim.frame_loop import FrameLoop
+    from hardware import ChannelMap
+
+    record = FrameLoop().step_frame()
+    feed = ScopeFeed(CONFIG)
+    feed.publish(record, 1)
+    swapped = ChannelMap(tuple(reversed(CONFIG.channel_map.assignments)))
+    feed.tdm = TdmConfig(channel_map=swapped)  # another robot's wiring, from the next frame
+    (frame,) = json.loads(feed.recent_json(1))["frames"]
+    first = frame["channels"][0]["slots"][0]
+    assert first["servo"] == SERVO_NAMES[0]  # as wired when it was published

@@ -7,6 +7,7 @@ import socket
 
 import httpx
 
+from app.robots.model import RobotModel
 from tests.server_harness import client, running_server
 
 
@@ -46,3 +47,17 @@ def test_a_taken_port_moves_the_view_on_and_the_health_names_the_port_in_use(tmp
             page = httpx.get(f"http://127.0.0.1:{shown}/", timeout=10)
             assert page.status_code == 200 and "<html" in page.text.lower()
     assert f"port {asked} is taken; the 3D view alone is on {shown}" in capfd.readouterr().err
+
+
+def test_the_view_draws_from_its_own_copy_of_the_model(tmp_path):
+    """mjviser's scene sets the model's display scales (frames x 0.3, ...): drawn from the
+    simulation's own model, each switch back to a robot seen before shrank them again, in the
+    simulation thread's model. The view keeps to a copy; a rebuild leaves the model as built."""
+    built = RobotModel.load().model.vis.scale.framewidth
+    with running_server(tmp_path, viewer=True) as (_base_url, app):
+        viewer, sim = app.state.services.viewer, app.state.services.sim
+        assert sim.model.vis.scale.framewidth == built
+        viewer._rebuild_scene(sim.model)
+        viewer._rebuild_scene(sim.model)
+        assert sim.model.vis.scale.framewidth == built
+        assert viewer.scene.mj_model is not sim.model

@@ -63,6 +63,7 @@ class AxleFitter:
             params_version = self.store.snapshot().version
         axle_serial = paths.axle_serial
         robot = self.robot_now()
+        fitted: list[Any] = []  # this fit's result: a kept applier applies it, not a later fit's
 
         def apply(version: int | None, serial: int | None = None) -> dict[str, Any]:
             if self.store is not None and version is not None:
@@ -75,8 +76,8 @@ class AxleFitter:
                         "result is kept: POST /api/jobs/{id}/apply with the version to apply "
                         "it onto"
                     )
-            result = self.last
-            assert result is not None and result.axle_eff_m is not None
+            result = fitted[0]
+            assert result.axle_eff_m is not None
             if not paths.set_axle(result.axle_eff_m, "fitted", only_onto=serial):
                 raise StaleVersion(
                     "the axle b was set while the fit ran: not applied; the result is kept: "
@@ -88,6 +89,7 @@ class AxleFitter:
         def work(progress: Progress) -> dict[str, Any]:
             result = fit_effective_axle(params, motion, _Counting(progress, robot))  # type: ignore[arg-type]
             self.last = result
+            fitted.append(result)
             done = result.to_dict() | {
                 "params_version": params_version,
                 "fitted_from_version": params_version,

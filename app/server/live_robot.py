@@ -127,9 +127,13 @@ class LiveRobot:
             )
             self._report(refusal)
         else:
-            self._hand_pulses_to(controller)
-            if controller is not None and applied.version != controller.built_version:
-                controller.send(applied)  # the set changed while it was built
+            try:
+                self._hand_pulses_to(controller)
+                if controller is not None and applied.version != controller.built_version:
+                    controller.send(applied)  # the set changed while it was built
+            except Exception as exc:  # the asker hears of it at once, not after its wait
+                command.answer.give(f"the drive switch failed: {exc}")
+                raise
         command.answer.give(refusal)
         return refusal is None
 

@@ -12,7 +12,7 @@ from collections.abc import Callable
 from typing import Any
 
 from app.analysis.robustness import ROBUST_CASES, run_robust
-from app.evaluation import evaluator_for
+from app.evaluation import close_evaluator, evaluator_for
 from app.robots.model import RobotModel
 from app.server.jobs import Job, Jobs, Progress
 from app.server.param_store import ParameterStore, Snapshot
@@ -78,16 +78,19 @@ class RobustnessRunner:
                 wait_workers_s=self.wait_workers_s,
                 **self.backend,
             )
-            report = run_robust(
-                [(name, snap.gait, snap.name)],
-                evaluator,
-                samples=samples,
-                seed=seed,
-                ranges=VariationRanges(),
-                duration_s=DURATION_S,
-                warmup_s=WARMUP_S,
-                progress=lambda done, total: progress(done / total),
-            )
+            try:
+                report = run_robust(
+                    [(name, snap.gait, snap.name)],
+                    evaluator,
+                    samples=samples,
+                    seed=seed,
+                    ranges=VariationRanges(),
+                    duration_s=DURATION_S,
+                    warmup_s=WARMUP_S,
+                    progress=lambda done, total: progress(done / total),
+                )
+            finally:  # a Warp host's processes, a Dask client: each job's own
+                close_evaluator(evaluator)
             self._keep(snap, report)
             return report
 

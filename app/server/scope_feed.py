@@ -27,11 +27,12 @@ CLIENT_QUEUE_FRAMES = 10
 class _Frame:
     record: FrameRecord
     params_version: int
+    tdm: TdmConfig  # the robot's wiring when it was published (a switch of robots changes it)
     text: str | None = None  # the JSON message, made once (a race makes it twice, both equal)
 
-    def json(self, tdm: TdmConfig) -> str:
+    def json(self) -> str:
         if self.text is None:
-            message = frame_message(self.record, tdm, self.params_version)
+            message = frame_message(self.record, self.tdm, self.params_version)
             self.text = json.dumps(message, default=_json_default)
         return self.text
 
@@ -59,7 +60,7 @@ class ScopeFeed:
     # --- simulation thread ----------------------------------------------------------------------
 
     def publish(self, record: FrameRecord, params_version: int) -> None:
-        frame = _Frame(record, params_version)
+        frame = _Frame(record, params_version, self.tdm)
         with self._lock:
             self._history.append(frame)
             self.published += 1
@@ -83,7 +84,7 @@ class ScopeFeed:
         cached = self._recent
         if cached[0] == published and cached[1] == n:
             return cached[2]
-        text = ('{"frames": [' + ", ".join(f.json(self.tdm) for f in frames) + "]}").encode()
+        text = ('{"frames": [' + ", ".join(f.json() for f in frames) + "]}").encode()
         self._recent = (published, n, text)
         return text
 
@@ -120,7 +121,7 @@ class ScopeFeed:
         clients = self._clients
         if not clients:
             return
-        text = frame.json(self.tdm)
+        text = frame.json()
         for client in clients:
             if client.queue.full():
                 client.queue.get_nowait()  # lose the oldest frame, never wait

@@ -198,7 +198,8 @@ class SimThread:
         """Make the pulses with the model or the emulated firmware from the next frame boundary.
         The firmware is built and booted here, in the caller's thread (seconds on a cold build
         cache): ValueError for an unknown drive or a set the firmware cannot run, BuildError or
-        EmulatorError if the tool chain or emulator fail. Either way nothing changes then."""
+        EmulatorError if the tool chain or emulator fail. Either way nothing changes then.
+        TimeoutError if the simulation thread did not answer within DRIVE_ANSWER_S."""
         try:
             drive = Drive(drive)
         except ValueError:
@@ -210,7 +211,14 @@ class SimThread:
         command = SwitchDrive(controller)
         self.send(command)
         # the set may change while the firmware boots: the simulation thread has the last word
-        if self.alive and command.answer.wait(DRIVE_ANSWER_S) and command.answer.refusal:
+        if not self.alive:
+            return
+        if not command.answer.wait(DRIVE_ANSWER_S):
+            raise TimeoutError(
+                f"the simulation did not take the drive within {DRIVE_ANSWER_S:g} s: GET "
+                "/api/state says which drive is on"
+            )
+        if command.answer.refusal:
             raise ValueError(command.answer.refusal)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:

@@ -6,6 +6,7 @@ Built once, refreshed at <= 30 Hz only when something changed and someone watche
 
 from __future__ import annotations
 
+import copy
 import logging
 import threading
 import time
@@ -89,7 +90,7 @@ class Viewer:
         self.server.gui.main_panel.dock_right()
         self.server.gui.main_panel.minimize()
         self._model = model  # the robot drawn; the scene is built again when the robot changes
-        self.scene = mjviser.ViserMujocoScene(self.server, model, num_envs=1)
+        self.scene = self._scene_of(model)
         # a 35 cm robot: start close, looking at the trunk from the front left
         self.server.initial_camera.position = (0.55, 0.45, 0.12)
         self.server.initial_camera.look_at = (0.0, 0.0, -0.08)
@@ -482,11 +483,17 @@ class Viewer:
             self._push_shown = push
             self._push.points = push_arrow(push)
 
+    def _scene_of(self, model: mujoco.MjModel) -> Any:
+        """mjviser's scene of `model`, drawn from a copy: the scene sets the model's display
+        settings (sizes of frames, markers), and the simulation's model is the simulation
+        thread's (a switch back to a robot seen before shrank them again)."""
+        return mjviser.ViserMujocoScene(self.server, copy.copy(model), num_envs=1)
+
     def _rebuild_scene(self, model: mujoco.MjModel) -> None:
         """Draw another robot: the bodies, the paths and the ghost's bodies anew."""
         self.server.scene.reset()
         self._model = model
-        self.scene = mjviser.ViserMujocoScene(self.server, model, num_envs=1)
+        self.scene = self._scene_of(model)
         self._build_paths()
         self._ghost = GhostDrawing(self.server, model, self.scene.fixed_bodies_frame.name)
 

@@ -168,5 +168,11 @@ async def import_params(request: Request, services: ServicesDep) -> dict[str, An
         raise ApiError(422, str(exc), "invalid_import", loc=["body"], items=items) from exc
     except ValueError as exc:
         raise ApiError(422, str(exc), "invalid_import", loc=["body"]) from exc
+    return await run_in_threadpool(_make_current, services, pset)
+
+
+def _make_current(services: Services, pset: ParameterSet) -> dict[str, Any]:
+    """The imported set in use, and what it warns of: off the event loop (the store's change
+    runs every listener: the simulation's, the 3D view's ~100 controls)."""
     loaded = services.store.replace(pset, "import").to_dict()
     return loaded | {"warnings": services.robot_warnings(pset)}

@@ -223,5 +223,5 @@ async def import_recording(request: Request, services: ServicesDep) -> dict[str,
             ) from exc
     finally:
         services.importing.release()
-    services.replay.enter(0, recording=rec)
+    await run_in_threadpool(services.replay.enter, 0, recording=rec)  # its lock off the loop
     return services.replay.status()

@@ -28,7 +28,7 @@ async def robot(services: ServicesDep) -> dict[str, Any]:
     """The loaded robot's description and derived figures: total and link masses, leg lengths,
     each joint's servo settings (force range, kp, damping, armature, friction loss) and eq (1)'s
     required torque and margin per joint, with warnings."""
-    return await run_in_threadpool(services.robot.summary)
+    return await run_in_threadpool(lambda: services.robot.summary())  # its lock off the loop
 
 
 @router.get("/robot/schema")

@@ -115,6 +115,8 @@ def set_drive(body: DriveBody, services: ServicesDep) -> dict:
         raise ApiError(409, str(exc), "unsupported_engine", loc=["body", "drive"]) from exc
     except (BuildError, EmulatorError) as exc:
         raise ApiError(503, str(exc), "firmware_unavailable", loc=["body", "drive"]) from exc
+    except TimeoutError as exc:
+        raise ApiError(503, str(exc), "drive_unanswered", loc=["body", "drive"]) from exc
     return {"accepted": "drive", "drive": body.drive}
 
 
