@@ -111,8 +111,10 @@ class SimThread:
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._applied = snap
-        # the frames done when the first change not yet applied entered the store
-        self._pending_since_frame: int | None = None
+        #: the frame each version not yet applied was committed in (committing threads add,
+        #: the simulation thread takes those it applied), under its own lock
+        self._pending_frames: dict[int, int] = {}
+        self._pending_lock = threading.Lock()
         self.paused = False
         self.resets = 0
         self._quick_blow_ups = 0  # blow-ups in a row, each within QUICK_BLOW_UP_FRAMES of a start
@@ -226,8 +228,8 @@ class SimThread:
         self.recorder.event(
             "params", version=snapshot.version, source=source, changed=sorted(changed)
         )
-        if self._pending_since_frame is None:
-            self._pending_since_frame = self.bulletin.status.frame
+        with self._pending_lock:
+            self._pending_frames[snapshot.version] = self.bulletin.status.frame
         self._wake.set()
 
     # --- the thread -----------------------------------------------------------------------------
@@ -387,9 +389,11 @@ class SimThread:
         if snap.motion != old.motion:
             self.paths.reanchor()
         self._applied = snap
-        if self._pending_since_frame is not None:
-            self.live.count_latency(self._pending_since_frame)
-            self._pending_since_frame = None
+        with self._pending_lock:  # a version committed after `snap` waits for its own frame
+            applied = [v for v in self._pending_frames if v <= snap.version]
+            since = [self._pending_frames.pop(v) for v in applied]
+        if since:
+            self.live.count_latency(min(since))
 
     def _switch_robot(self, robot: RobotModel, snap: Snapshot) -> None:
         """Simulate `robot` from now, standing at the start in `snap`'s set, in the same world.
