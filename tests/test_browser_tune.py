@@ -63,6 +63,8 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         expect(rows).to_have_count(9)  # the seven paper cases, the two CA pairs
         forward = page.locator('#tune-figures-body tr[data-run="forward"]')
         expect(forward).to_contain_text("3.80 cm/s")
+        judged = forward.get_attribute("data-passes") == "true"  # the tune's own verdict, shown
+        assert (" ok" in forward.inner_text()) == judged
         expect(page.locator('#tune-figures-body tr[data-run="curve forward"]')).to_contain_text(
             "gain 1, bend 0"
         )

@@ -255,3 +255,20 @@ def test_the_readme_quick_start_runs_as_written(work, capsys):
     assert (work / "data" / "presets" / "tuned-my.json").is_file()
     header = (Path("my_firmware") / "gen" / "artro_params.h").read_text(encoding="utf-8")
     assert '"tuned-my"' in header
+
+
+def test_a_tune_on_servos_too_weak_says_so_and_points_to_them(work, capsys):
+    """A robot eq (1) finds short (MG90Ss on ArtRo's legs): the tune warned of nothing, saved a
+    set that fell in every run and advised more generations or `--select walking`, which is
+    already its default. It now says at the start that no tune makes up for the servos, marks
+    each figure, and sends the falls to `robot check --suggest`."""
+    robot = robot_file(work / "weak.yaml", "weak", 0.09, "MG90S")
+    assert main(["tune", "--robot", str(robot), *TINY_TUNE, "--study", "s.log"]) == 0
+    out, err = capsys.readouterr()
+    assert "warning: eq (1) finds the servos of" in err
+    assert f"a tune cannot make up for them: artro robot check {robot} --suggest" in err
+    note = next(line for line in out.splitlines() if "note: the saved set falls in" in line)
+    assert note.endswith(f"stronger servos first: artro robot check {robot} --suggest")
+    assert "--select walking" not in note
+    assert re.search(r"forward +target .* tuned (fell|.* (ok|off))$", out, re.MULTILINE)
+    assert "(ok: within 25% of the target" in out

@@ -11,7 +11,16 @@ from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from app.analysis.cases import CASES, CURVES, curve_run_names, measured, steering, target
+from app.analysis.cases import (
+    CASES,
+    CURVES,
+    curve_run_names,
+    measured,
+    passes,
+    steering,
+    target,
+    within_eq13,
+)
 
 #: the events, one JSON object a line: {"event": START | RUNS | TRIAL | RESULT, ...}
 START, RUNS, TRIAL, RESULT = "start", "runs", "trial", "result"
@@ -50,8 +59,10 @@ def result_figures(
     by_run: Mapping[str, Mapping[str, Any]], speed_scale: float = 1.0
 ) -> list[dict[str, Any]]:
     """What the chosen set did in each judged run, as `artro tune` prints it: a paper case's
-    figure against its target ({"run", "unit", "target", "value", "fell"}), a CA pair's
-    steering against eq (13) ({"run", "gain", "bend", "fell"}); the runs not judged left out."""
+    figure against its target ({"run", "unit", "target", "value", "fell", "passes"}: within
+    the paper table's tolerance, `cases.passes`), a CA pair's steering against eq (13) ({"run",
+    "gain", "bend", "fell", "passes"}: within 30 %, `within_eq13`); the runs not judged left
+    out."""
     rows: list[dict[str, Any]] = []
     for case in CASES:
         if case.name not in by_run:
@@ -66,6 +77,7 @@ def result_figures(
                 "target": target(case, speed_scale),
                 "value": value,
                 "fell": bool(metrics.get("fell")),
+                "passes": passes(case, value, bool(metrics.get("fell")), speed_scale),
             }
         )
     for pair in CURVES:
@@ -80,6 +92,7 @@ def result_figures(
                 "gain": None if s is None else s.gain,
                 "bend": None if s is None else s.bend,
                 "fell": s is None,
+                "passes": within_eq13(s),
             }
         )
     return rows

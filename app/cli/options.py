@@ -308,7 +308,9 @@ def ranges_from(texts: list[str]) -> VariationRanges:
 
 
 def add_params_option(
-    parser: Any, default: str = "the --robot's default preset, as the dashboard's"
+    parser: Any,
+    default: str = "the --robot's default preset, or its newest tune where that preset was "
+    "tuned for another robot: as the dashboard starts it",
 ) -> None:
     """`--params FILE|NAME`, read by `resolve_set` (or `robot_and_set`)."""
     parser.add_argument(

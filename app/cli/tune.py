@@ -15,6 +15,9 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from app.analysis.cases import (
+    SPEED_TOLERANCE,
+    SPOT_DRIFT_LIMIT_CM_S,
+    STEERING_TOLERANCE,
     speed_scale_of,
 )
 from app.analysis.robot_start import START_RECIPE, start_for, walks
@@ -51,6 +54,7 @@ from app.params.presets import (
     stamped,
     write_parameter_set,
 )
+from app.robots.checks import eq1_torques
 from app.robots.model import RobotModel
 from app.study.study_store import StudyStore, study_name_for
 from app.study.tune import DEFAULT_NAMES, Tuner, tunable_fields
@@ -319,6 +323,13 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
     start_mode = fill_defaults(args)
     robot = RobotModel.load(args.robot)
     name = result_name(args.name, robot.name)  # refused before anything runs
+    args.short_servos = [t.joint for t in eq1_torques(robot.description) if t.margin < 0]
+    if args.short_servos:  # no gait walks on servos that cannot hold the robot standing
+        print(
+            f"warning: eq (1) finds the servos of {', '.join(args.short_servos)} short; a tune "
+            f"cannot make up for them: artro robot check {args.robot or robot.name} --suggest",
+            file=sys.stderr,
+        )
     if start_mode:
         start = start_for(robot.description, builtin_presets())
         print(start.describe())
@@ -487,19 +498,29 @@ def report(
     if varied := tuner.varied_summary(chosen):
         print(f"  robust: {varied}")
     if fell := [run for run, m in chosen[2].items() if m.get("fell", True)]:
-        print(
-            f"  note: the saved set falls in {len(fell)} of {len(chosen[2])} runs "
-            f"({', '.join(fell)}): more --generations, or --select walking, may find one that "
-            "walks them all"
+        where = args.robot or robot
+        select = "" if args.select == "walking" else ", or --select walking,"
+        instead = (
+            f"stronger servos first: artro robot check {where} --suggest"
+            if args.short_servos
+            else f"more --generations{select} may find one that walks them all; artro bench "
+            f"robust --robot {where} names the servos at their limit"
         )
+        print(f"  note: the saved set falls in {len(fell)} of {len(chosen[2])} runs "
+              f"({', '.join(fell)}): {instead}")  # fmt: skip
     for row in figures:  # the judged runs: each case against its target, each CA pair
+        mark = "" if row["fell"] else ("  ok" if row["passes"] else "  off")
         if "target" in row:
             unit = row.get("unit", "")
             shown = "fell" if row["fell"] else f"{row['value']:+.2f} {unit}"
-            print(f"  {row['run']:24s} target {row['target']:+6.2f} {unit:5s}  tuned {shown}")
+            print(f"  {row['run']:24s} target {row['target']:+6.2f} {unit:5s}  tuned {shown}{mark}")
         else:
             shown = "fell" if row["fell"] else f"gain {row['gain']:.2f}, bend {row['bend']:+.2f}"
-            print(f"  {row['run']:24s} eq (13): gain 1, bend 0;  tuned {shown}")
+            print(f"  {row['run']:24s} eq (13): gain 1, bend 0;  tuned {shown}{mark}")
+    if any("target" in row for row in figures):
+        print(f"  (ok: within {SPEED_TOLERANCE:.0%} of the target, the spot's drift under "
+              f"{SPOT_DRIFT_LIMIT_CM_S:g} cm/s scaled to the legs, eq (13)'s gain within "
+              f"{STEERING_TOLERANCE:.0%}; artro bench paper judges 60 s runs)")  # fmt: skip
     if start_mode:  # what to do with it
         where = args.robot or robot
         print(f"next: artro run --robot {where} --params {name} --motion a_p=0.07; artro serve "

@@ -127,8 +127,11 @@ function figures(rows) {
       const fell = r.fell ? "fell" : null;
       const target = r.unit ? `${fmt(r.target, 2)} ${r.unit}` : "gain 1, bend 0";
       const tuned = fell ?? (r.unit ? `${fmt(r.value, 2)} ${r.unit}` : `gain ${fmt(r.gain, 2)}, bend ${fmt(r.bend, 2)}`);
-      return h("tr", { "data-run": r.run },
-        h("td", {}, r.run), h("td", { class: "num" }, target), h("td", { class: fell ? "num fell" : "num" }, tuned));
+      // within the paper table's 25 % (eq (13)'s 30 %): ok; else off (the tune's own words)
+      const mark = fell || r.passes === undefined ? "" : r.passes ? " ok" : " off";
+      return h("tr", { "data-run": r.run, "data-passes": String(!!r.passes) },
+        h("td", {}, r.run), h("td", { class: "num" }, target),
+        h("td", { class: fell ? "num fell" : r.passes === false ? "num off" : "num" }, tuned + mark));
     }),
   );
   $("tune-figures").hidden = !rows.length;
