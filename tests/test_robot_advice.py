@@ -129,9 +129,10 @@ def test_the_advice_after_a_fall_never_sends_to_a_command_with_nothing_to_do():
     own = fall_advice(artro_robot, presets["robust"], ("l_knee", "r_knee"), "artro")
     assert "--suggest" not in own and "a gait tuned for this robot" not in own
     assert own == (
-        "stronger servos on l_knee, r_knee (eq (1) carries them standing, walking asks more: a "
-        "servo of your own in the file's `servos`) or a smaller motion, or a longer tune of "
-        "'robust' (artro tune --robot artro --base robust with more --generations)"
+        "stronger servos on l_knee, r_knee (eq (1) carries them standing, walking asks more: "
+        "the DS3218 of the table, or a servo of your own in the file's `servos`) or a smaller "
+        "motion, or a longer tune of 'robust' (artro tune --robot artro --base robust with more "
+        "--generations)"
     )
     other = fall_advice(artro_robot, presets["micro-tuned"], (), "artro")
     assert other == "a gait tuned for this robot (artro tune --robot artro)"

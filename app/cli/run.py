@@ -25,9 +25,12 @@ from app.cli.options import (
 from app.params.document import ParameterSet
 from app.robots.checks import eq1_torques
 from app.robots.model import RobotModel
+from app.robots.servos import rating_at
+from app.robots.swap import ServoChoice, lightest_servo
 from app.sim.headless import run
 from app.worlds.variations import NOMINAL
 from gait import ENGINES, Motion
+from hardware import SAFETY_FACTOR
 
 EXAMPLES = """examples:
   artro run --motion a_p=0.07 --json       forward, the paper's case, metrics as JSON
@@ -134,9 +137,11 @@ def fall_advice(robot: RobotModel, pset: ParameterSet, stuck: Sequence[str], whe
         joints = ", ".join(short[:3])
         tries.append(f"stronger servos on {joints} (artro robot check {where} --suggest)")
     elif stuck:
+        stronger = stronger_servo(robot, stuck[0])
+        named = f"the {stronger.name} of the table, or " if stronger else ""
         tries.append(
             f"stronger servos on {', '.join(stuck[:3])} (eq (1) carries them standing, walking "
-            "asks more: a servo of your own in the file's `servos`)"
+            f"asks more: {named}a servo of your own in the file's `servos`)"
         )
     if pset.robot != robot.name:
         tries.append(f"a gait tuned for this robot (artro tune --robot {where})")
@@ -146,6 +151,16 @@ def fall_advice(robot: RobotModel, pset: ParameterSet, stuck: Sequence[str], whe
             f"--base {pset.name} with more --generations)"
         )
     return " or ".join(tries)
+
+
+def stronger_servo(robot: RobotModel, joint: str) -> ServoChoice | None:
+    """The lightest servo of the table (and the file's) that gives (1 + SAFETY_FACTOR) times
+    the stall torque of `joint`'s servo, as `bench robust` sizes one for a servo at its limit."""
+    desc = robot.description
+    servos = desc.servo_catalogue()
+    servo = desc.joint_servo(joint)
+    stall = rating_at(servos[servo], desc.supply_voltage_v, servo)[0]
+    return lightest_servo((1 + SAFETY_FACTOR) * stall, desc.supply_voltage_v, servos=servos)
 
 
 def servo_load_line(robot: RobotModel, names: list[str], m: dict[str, Any]) -> str:
