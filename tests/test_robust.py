@@ -186,3 +186,16 @@ def test_a_case_the_nominal_model_does_not_walk_passes_no_run():
     assert passes(right, walking | {"lateral_cm_s": -2.0}, walking)
     clockwise = next(c for c in ROBUST_CASES if c.name == "curve CA +0.1")
     assert clockwise.way == -1.0  # CA > 0 turns clockwise: a negative heading rate
+
+
+def test_each_robots_report_has_a_folder_of_its_own(tmp_path):
+    """`out/bench-robust` for every robot: a second robot's bench replaced the first's report
+    (a probe lost one so). ArtRo's stays there; another robot's goes to bench-robust-ROBOT."""
+    done = subprocess.run(
+        [sys.executable, "-m", "app.cli", "bench", "robust", "--robot", "micro", "--samples",
+         "1", "--duration", "3", "--warmup", "1", "--threads", "1"],
+        capture_output=True, text=True, cwd=tmp_path,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert (tmp_path / "out" / "bench-robust-micro" / "report.md").stat().st_size > 100
+    assert not (tmp_path / "out" / "bench-robust").exists()

@@ -98,7 +98,8 @@ def add_parser(sub: Any) -> None:
         type=output_folder,
         default=None,
         metavar="DIR",
-        help=f"where the PNGs and results.json go (default {PAPER_OUT}, {ROBUST_OUT})",
+        help=f"where the PNGs and results.json go (default {PAPER_OUT}, {ROBUST_OUT}; "
+        f"another robot's robust report: {ROBUST_OUT}-ROBOT)",
     )
     add_threads_option(parser, "rollout threads", "all cores, <= 8")
     add_cluster_options(
@@ -195,7 +196,9 @@ def robust(args: argparse.Namespace) -> int:
         )
     finally:
         close_evaluator(evaluator)
-    out = args.out or ROBUST_OUT
+    # each robot's report a folder of its own: the next robot's would replace it
+    default = ROBUST_OUT if robot.name == "artro" else Path(f"{ROBUST_OUT}-{robot.name}")
+    out = args.out or default
     out.mkdir(parents=True, exist_ok=True)
     for report in results["presets"]:  # the robot with the servos the report advises
         advice = report["servo_advice"]
