@@ -23,14 +23,13 @@ from app.cli.options import (
     variation,
 )
 from app.params.document import ParameterSet
-from app.robots.checks import eq1_torques
+from app.robots.checks import SAFETY_FACTOR, eq1_torques
 from app.robots.model import RobotModel
 from app.robots.servos import rating_at
 from app.robots.swap import ServoChoice, lightest_servo
 from app.sim.headless import run
 from app.worlds.variations import NOMINAL
 from gait import ENGINES, Motion
-from hardware import SAFETY_FACTOR
 
 EXAMPLES = """examples:
   artro run --motion a_p=0.07 --json       forward, the paper's case, metrics as JSON
