@@ -208,8 +208,8 @@ class FrameLoop:
         """The variation's sensors, read anew from here (their noise too), with the rows they
         need filled with the state as it is."""
         self.sensors = Sensors(self.robot, self.variation)
-        self._rows = deque([self.data.sensordata.copy()], maxlen=self.sensors.steps_needed)
-        self._rows.extend([self._rows[0]] * (self.sensors.steps_needed - 1))
+        self._rows: deque[NDArray[np.float64]] = deque(maxlen=self.sensors.steps_needed)
+        self._rows_as_now()
         self._push_step, self._push_force = self.variation.push(self.timestep_s)
 
     def _new_path(self, setpoint: NDArray[np.float64]) -> None:
@@ -246,7 +246,7 @@ class FrameLoop:
         """The robot was put where `data.qpos` says (forward kinematics done): the sensors'
         rows read it at rest there, the floor's tilt in its pose (`rest_accelerometers`)."""
         rest_accelerometers(self.model, self.data)
-        self._rows.extend([self.data.sensordata.copy()] * self.sensors.steps_needed)
+        self._rows_as_now()
 
     def _restart_laws(self) -> None:
         """Another set of laws is on from the next frame: they start anew, as the firmware's
@@ -256,8 +256,12 @@ class FrameLoop:
         if feedback.any_law_on(self.params) or self.watch_sensors:
             self._law_state = feedback.restarted(self._law_state)
             return
-        self._rows.extend([self.data.sensordata.copy()] * self.sensors.steps_needed)
+        self._rows_as_now()
         self._law_state = feedback.State()
+
+    def _rows_as_now(self) -> None:
+        """Every sensor row the IMU's delay reaches back to: the sensors as they read now."""
+        self._rows.extend([self.data.sensordata.copy()] * self.sensors.steps_needed)
 
     def set_hardware(self, hardware: HardwareSetup) -> None:
         """New calibration or channel map: in effect from the next frame on."""
