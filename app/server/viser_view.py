@@ -96,6 +96,10 @@ class Viewer:
         self.server.initial_camera.look_at = (0.0, 0.0, -0.08)
         self._controls: dict[tuple[str, str], Any] = {}
         self._bursts: dict[tuple[int, str], tuple[int, float]] = {}  # slider gestures
+        # the store announces a change on the thread that committed it: two at once would each
+        # read the store and set the sliders, the older possibly last; under this lock the last
+        # to set them read the store after every change announced so far
+        self._showing = threading.RLock()
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
         self._build_gui()
@@ -343,7 +347,7 @@ class Viewer:
                 self.store.update(patch, SLIDER_SOURCE, gesture=gesture)
             except ValueError as exc:
                 event.client.add_notification("Not applied", str(exc), color="red")
-                self._show(self.store.snapshot())
+                self._show_store()
 
         return on_update
 
@@ -384,19 +388,23 @@ class Viewer:
             _assign(folder, "visible", engine in engines)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
-        if "engine" in changed:
-            engine = self.store.snapshot().gait.engine
-            _assign(self._engine, "value", engine)
-            self._show_engine(engine)
-        if source != SLIDER_SOURCE:
-            self._show(self.store.snapshot(), changed)
+        with self._showing:
+            if "engine" in changed:
+                engine = self.store.snapshot().gait.engine
+                _assign(self._engine, "value", engine)
+                self._show_engine(engine)
+            if source != SLIDER_SOURCE:
+                self._show_store(changed)
 
-    def _show(self, snapshot: Snapshot, only: frozenset[str] | None = None) -> None:
-        values = snapshot.flat()
-        for (key, name), handle in self._controls.items():
-            dotted = f"{key}.{name}"
-            if only is None or dotted in only:
-                handle.value = values[dotted]  # fires the callback with client None: ignored
+    def _show_store(self, only: frozenset[str] | None = None) -> None:
+        """Set the sliders (all, or those in `only`) to the store's values, read under
+        `_showing` (re-entrant: `_on_params` holds it)."""
+        with self._showing:
+            values = self.store.snapshot().flat()
+            for (key, name), handle in self._controls.items():
+                dotted = f"{key}.{name}"
+                if only is None or dotted in only:
+                    handle.value = values[dotted]  # fires the callback with client None: ignored
 
     # --- paths ------------------------------------------------------------------------------------
 
