@@ -176,6 +176,15 @@ CASES = {
     ),
     "tune: events into a folder": (["tune", "--events", "/"], "/ is a folder"),
     "tune: a nan robust weight": (["tune", "--robust-weight", "nan"], "--robust-weight must be"),
+    # the sixteenth session: a file two folders below a file (the parent alone was looked at)
+    "calibrate-ca: output deep inside a device": (
+        ["calibrate-ca", "-o", "/dev/full/a/ca.json"],
+        "/dev/full/a/ca.json is inside a file, not a folder",
+    ),
+    "tune: events deep inside a device": (
+        ["tune", "--events", "/dev/full/a/e.jsonl"],
+        "/dev/full/a/e.jsonl is inside a file, not a folder",
+    ),
 }
 
 

@@ -148,9 +148,14 @@ def output_file(text: str) -> str:
         raise argparse.ArgumentTypeError("an empty file name; give the file to write")
     if problem := not_a_file(path):
         raise argparse.ArgumentTypeError(f"{text} {problem}; give the file to write")
-    if path.parent.exists() and not path.parent.is_dir():
-        raise argparse.ArgumentTypeError(f"{path.parent} is not a folder")
+    if inside_a_file(path):
+        raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
     return text
+
+
+def inside_a_file(path: Path) -> bool:
+    """Whether a folder above `path` is a file, so nothing can be written there."""
+    return any(up.exists() and not up.is_dir() for up in path.parents)
 
 
 def host_name(text: str) -> str:
@@ -169,7 +174,7 @@ def output_folder(text: str) -> Path:
     path = Path(text)
     if path.exists() and not path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
-    if any(up.exists() and not up.is_dir() for up in path.parents):
+    if inside_a_file(path):
         raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
     return path
 

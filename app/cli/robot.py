@@ -16,7 +16,13 @@ from app.robots import builtin_robot_names, load_description, model_xml
 from app.robots.checks import JointTorque, eq1_torques, robot_warnings
 from app.robots.description import RobotDescription
 from app.robots.model import RobotModel
-from app.robots.swap import derived_name, lightest_servo, suggest_servos, write_description
+from app.robots.swap import (
+    derived,
+    derived_name,
+    lightest_servo,
+    suggest_servos,
+    write_description,
+)
 
 EXAMPLES = """examples:
   artro robot list
@@ -175,10 +181,6 @@ UNCARRIED = (
 )
 
 
-def renamed(desc: RobotDescription, name: str) -> RobotDescription:
-    return RobotDescription.model_validate(dict(desc.model_dump(mode="json"), name=name))
-
-
 def not_the_source(target: Path, source: str, what: str, instead: str) -> None:
     """ValueError if `target` is the description file `source` (also through a link): writing
     it would lose its comments and layout."""
@@ -210,7 +212,7 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str
             return 1 if found.uncarried else 0
         print(f"no servo to change{left}: -o {output} gets the robot as it is", file=out)
     servos = "with the lightest servos that carry it" if found.swaps else "with its own servos"
-    robot = found.robot if found.swaps else renamed(desc, derived_name(desc.name, "suggested"))
+    robot = found.robot if found.swaps else derived(desc, derived_name(desc.name, "suggested"))
     header = (
         f"{robot.name}: written by `artro robot check {source or desc.name} --suggest`,\n"
         f"the robot {desc.name} {servos} (eq (1)); what is left\n"

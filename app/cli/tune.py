@@ -34,6 +34,7 @@ from app.cli.options import (
     backend_of,
     check_timing,
     cluster_of,
+    inside_a_file,
     nonempty,
     number,
     output_file,
@@ -394,7 +395,7 @@ def events_file(text: str) -> str:
     path = Path(text)
     if path.is_dir():
         raise argparse.ArgumentTypeError(f"{text} is a folder; give the file to write in it")
-    if any(up.exists() and not up.is_dir() for up in path.parents):
+    if inside_a_file(path):
         raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
     return text
 

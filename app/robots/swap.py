@@ -118,13 +118,21 @@ def suggest_servos(
     for joint, old, new, n in swaps:  # a joint swapped twice: from its first servo to its last
         first = final.get(joint, (joint, old, new, n))[1]
         final[joint] = (joint, first, new, n)
-    named = dict(robot.model_dump(mode="json"), name=derived_name(desc.name, "suggested"))
-    named["title"] = f"{desc.title}; servos suggested by eq (1)"[:200] if final else desc.title
+    title = f"{desc.title}; servos suggested by eq (1)"
     return Suggestion(
-        RobotDescription.model_validate(named) if final else desc,
+        derived(robot, derived_name(desc.name, "suggested"), title) if final else desc,
         tuple(final.values()),
         tuple(sorted(uncarried)),
     )
+
+
+def derived(desc: RobotDescription, name: str, title: str | None = None) -> RobotDescription:
+    """`desc` as a robot of its own: named `name` (its presets and studies are not `desc`'s),
+    titled `title` (to a title's 200 characters) where given."""
+    data = dict(desc.model_dump(mode="json"), name=name)
+    if title is not None:
+        data["title"] = title[:200]
+    return RobotDescription.model_validate(data)
 
 
 def derived_name(name: str, tag: str) -> str:
