@@ -135,3 +135,32 @@ def test_a_job_registered_as_the_robot_changed_lets_itself_go():
     assert jobs.running() == [] and ran == []
     job = jobs.start("axle-fit", lambda progress: {"ok": True}, robot="micro")  # its own: runs
     assert job.finished.wait(30) and job.status == "done"
+
+
+def test_a_running_job_is_never_forgotten_for_newer_ones():
+    """Past KEEP_JOBS newer jobs a running one stays readable, cancellable and busy: it was
+    dropped as the oldest, and a second tune then started beside it (the hostile probe)."""
+    import threading
+
+    from app.server.jobs import KEEP_JOBS, JobBusy, Jobs
+
+    jobs = Jobs()
+    release = threading.Event()
+
+    def long_work(progress):
+        while not release.wait(0.05):
+            progress()  # a cancel lands at a progress report
+        return {}
+
+    long_job = jobs.start("tune", long_work)
+    quick = []
+    for _ in range(KEEP_JOBS + 5):  # one of a kind at a time: each finishes before the next
+        quick.append(jobs.start("robustness", lambda progress: {}))
+        assert quick[-1].finished.wait(30)
+    assert jobs.get(long_job.id) is long_job
+    assert jobs.running() == [long_job]
+    with pytest.raises(JobBusy):
+        jobs.start("tune", lambda progress: {})
+    kept = [job for job in quick if jobs.get(job.id) is not None]
+    assert kept == quick[-(KEEP_JOBS - 1) :]  # the oldest finished ones go, the newest stay
+    assert jobs.cancel(long_job) and long_job.status == "cancelled"

@@ -92,7 +92,8 @@ class Reporter:
 
 
 class Jobs:
-    """At most one running job per kind; the latest KEEP_JOBS are kept for reading."""
+    """At most one running job per kind; the running ones and the latest finished ones (up to
+    KEEP_JOBS in all) are kept for reading."""
 
     def __init__(self) -> None:
         self._stopping = threading.Event()
@@ -125,8 +126,7 @@ class Jobs:
                     raise JobBusy(job)
             job = Job(id=f"{kind}-{next(self._ids)}", kind=kind, from_version=from_version)
             self._jobs[job.id] = job
-            while len(self._jobs) > KEEP_JOBS:
-                self._jobs.popitem(last=False)
+            self._forget_finished()
         if robot is not None and self.robot_in_use is not None:
             if (now := self.robot_in_use()) != robot:
                 with self._lock:
@@ -154,6 +154,14 @@ class Jobs:
 
         threading.Thread(target=run, name=f"artro-job-{job.id}", daemon=True).start()
         return job
+
+    def _forget_finished(self) -> None:
+        """Drop the oldest finished jobs past KEEP_JOBS (under the lock). A running job is never
+        dropped: it stays readable and cancellable, and keeps refusing a second job of its kind
+        and a switch of robots."""
+        finished = [job_id for job_id, job in self._jobs.items() if job.status != "running"]
+        for job_id in finished[: max(0, len(self._jobs) - KEEP_JOBS)]:
+            del self._jobs[job_id]
 
     def stop(self, timeout_s: float = 30.0) -> None:
         """Cancel the running jobs (at their next progress report) and wait for them."""

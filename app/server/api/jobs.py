@@ -11,7 +11,7 @@ from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.axle_fitter import KIND
 from app.server.ca_calibrator import KIND as CALIBRATE
 from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import Job, JobBusy, RobotChanged, StaleVersion
+from app.server.jobs import KEEP_JOBS, Job, JobBusy, RobotChanged, StaleVersion
 from app.server.robustness_job import KIND as ROBUSTNESS
 from app.server.services import Services
 from app.server.tune_job import KIND as TUNE
@@ -83,7 +83,8 @@ def _job(job_id: str, services: Services) -> Job:
     job = services.axle_fitter.jobs.get(job_id)
     if job is None:
         raise ApiError(
-            404, f"no job {job_id[:64]!r} (the latest 20 are kept)", "not_found",
+            404, f"no job {job_id[:64]!r} (the running and the latest {KEEP_JOBS} are kept)",
+            "not_found",
             loc=["path", "job_id"],
         )  # fmt: skip
     return job
