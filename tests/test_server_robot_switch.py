@@ -145,3 +145,35 @@ def test_the_errors_start_over_with_each_robot(http):
     assert http.post("/api/params/undo").json()["robot"] == "artro"
     state = _simulated(http, "artro")
     assert not any("it walked" in e for e in state["errors"]), state["errors"]
+
+
+def test_an_export_after_a_switch_and_a_push_imports_on_its_robot_only(http):
+    """The recorder logs `robot` and `push` events, which the import refused ("not a
+    recording"); a file of one robot imported on another replayed its poses and pulses on the
+    wrong bodies (the hostile probe). Now it is the robot's own file back, and refused by
+    name elsewhere."""
+    assert http.put("/api/robot", json={"name": "micro"}).status_code == 200
+    _simulated(http, "micro")
+    pushed = http.post("/api/sim/push", json={"impulse_n_s": 0.05, "direction_deg": 90})
+    assert pushed.status_code == 200, pushed.text
+    wait_for(
+        lambda: (
+            {"robot", "push"} <= {e["kind"] for e in http.get("/api/recording").json()["events"]}
+        ),
+        "the switch and the push recorded",
+    )
+    exported = http.get("/api/recording/export").json()
+    assert exported["model"] == "micro"
+    back = http.post("/api/recording/import", json=exported)
+    assert back.status_code == 200, back.text[:400]
+    assert back.json()["origin"] == "file"
+    assert http.post("/api/recording/live").status_code == 200
+    assert http.put("/api/robot", json={"name": "artro"}).status_code == 200
+    _simulated(http, "artro")
+    before = http.get("/api/recording").json()["replay"]
+    refused = http.post("/api/recording/import", json=exported)
+    assert refused.status_code == 409, refused.text[:400]
+    problem = refused.json()["detail"][0]
+    assert problem["type"] == "other_robot" and problem["loc"] == ["body", "model"]
+    assert "recorded on the robot 'micro'; the robot in use is 'artro'" in problem["msg"]
+    assert http.get("/api/recording").json()["replay"] == before  # no replay started

@@ -20,6 +20,7 @@ from app.server.recorder import (
     RECORD_FRAMES,
     Recording,
 )
+from app.server.sim_commands import PUSH_RANGE_N_S
 from app.sim.planning import FRAME_S
 from gait import JOINT_NAMES, Motion
 from gait.params import replace_checked
@@ -33,7 +34,7 @@ INT64_MAX = 2**63 - 1
 INT32_MAX = 2**31 - 1
 OCR_IDLE = -1
 KEYS = ("format", "format_version", "model", "frame_s", "frames", "columns", "events", "params")
-EVENT_KINDS = ("params", "reset", "fall", "drive")
+EVENT_KINDS = ("params", "reset", "fall", "drive", "push", "robot")  # as the recorder logs them
 
 
 def columns_spec(nq: int) -> dict[str, tuple[tuple[int, ...], bool, float, float, Any]]:
@@ -119,6 +120,8 @@ def _event(event: Any, loc: list[str | int]) -> dict[str, Any]:
         "reset": set(),
         "fall": {"motion"},
         "drive": {"drive"},
+        "push": {"impulse_n_s", "direction_deg"},
+        "robot": {"robot"},
     }[kind]
     for key in set(event) - {"kind", "t_s"} - allowed:
         raise RecordingError([*loc, key], f"unknown for a {kind} event; allowed: t_s, kind, "
@@ -140,6 +143,15 @@ def _event(event: Any, loc: list[str | int]) -> dict[str, Any]:
             raise RecordingError([*loc, "motion"], str(exc)) from None
     elif kind == "drive" and event.get("drive") not in ("model", "firmware"):
         raise RecordingError([*loc, "drive"], "must be model or firmware")
+    elif kind == "push":
+        for key, (low, high) in (("impulse_n_s", PUSH_RANGE_N_S), ("direction_deg", (-180, 180))):
+            value = event.get(key)
+            if not _is_number(value) or not low <= value <= high:
+                raise RecordingError([*loc, key], f"must be a number, {low:g} to {high:g}")
+    elif kind == "robot":
+        robot = event.get("robot")
+        if not isinstance(robot, str) or not 1 <= len(robot) <= 64:
+            raise RecordingError([*loc, "robot"], "must be a robot's name, 1 to 64 characters")
     return event
 
 

@@ -13,6 +13,7 @@ from typing import Any
 import mujoco
 import numpy as np
 
+from app.server.live_robot import model_name
 from app.server.recorder import Recorder, Recording
 from app.server.scope_frames import frame_to_dict
 from app.server.sim_commands import Control, Pause, Resume, Step
@@ -22,6 +23,11 @@ from hardware import TdmConfig
 
 class NothingRecorded(ValueError):
     """A replay was asked for before any frame was recorded."""
+
+
+class OtherRobot(ValueError):
+    """A recording made on another robot than the one loaded: its poses and pulses are that
+    robot's."""
 
 
 class Replaying(RuntimeError):
@@ -64,8 +70,8 @@ class Replay:
 
     def enter(self, index: int | None = None, recording: Recording | None = None) -> None:
         """Replay `recording` (default: the session so far) at `index` (default: its last
-        frame, or where the replay is). NothingRecorded, or IndexError with the allowed range;
-        nothing changes then."""
+        frame, or where the replay is). NothingRecorded, OtherRobot (a file of another robot
+        than the one loaded), or IndexError with the allowed range; nothing changes then."""
         with self._lock:
             new = recording is not None or self.recording is None
             rec = recording if recording is not None else self.recording
@@ -73,6 +79,12 @@ class Replay:
                 rec = self.recorder.recording()
             if len(rec) == 0:
                 raise NothingRecorded("nothing recorded yet: let the simulation run first")
+            loaded = model_name(self.sim.model)
+            if recording is not None and rec.model and rec.model != loaded:
+                raise OtherRobot(
+                    f"recorded on the robot {rec.model!r}; the robot in use is {loaded!r}: "
+                    f"switch to {rec.model!r} (PUT /api/robot), then import it"
+                )
             if index is None:
                 index = len(rec) - 1 if new else self.index
             self._check(rec, index)

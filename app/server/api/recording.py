@@ -28,7 +28,7 @@ from app.server.recording_file import (
     RecordingError,
     recording_from_json,
 )
-from app.server.replay import NothingRecorded
+from app.server.replay import NothingRecorded, OtherRobot
 from app.server.services import Services
 from hardware import CHANNELS, OCR_MAX, SLOTS_PER_FRAME, frame_edges
 
@@ -201,7 +201,7 @@ assert set(
 ) == set(KEYS)
 
 
-@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(413, 422, 429))
+@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(409, 413, 422, 429))
 async def import_recording(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Load a recording file (from export) and replay it from its first frame; one import at
     a time (429 while another is read: each is seconds of parsing beside the simulation)."""
@@ -223,5 +223,10 @@ async def import_recording(request: Request, services: ServicesDep) -> dict[str,
             ) from exc
     finally:
         services.importing.release()
-    await run_in_threadpool(services.replay.enter, 0, recording=rec)  # its lock off the loop
+    try:
+        await run_in_threadpool(services.replay.enter, 0, recording=rec)  # its lock off the loop
+    except OtherRobot as exc:
+        raise ApiError(409, str(exc), "other_robot", loc=["body", "model"]) from exc
+    except NothingRecorded as exc:
+        raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=["body"]) from exc
     return services.replay.status()
