@@ -12,14 +12,14 @@ import httpx
 import pytest
 
 from app.server.emulated_controller import EmulatedController
-from app.server.sim_commands import SwitchDrive
+from app.server.sim_commands import DriveRefused, SwitchDrive
 from tests.server_harness import client, wait_for
 
 
-def handed_over(sim, controller):
-    """Hand `controller` to the simulation thread; its status once it has decided (the
-    firmware drives, or a refusal is said)."""
-    sim.send(SwitchDrive(controller))
+def handed_over(sim, command):
+    """Hand `command`'s controller to the simulation thread (a SwitchDrive, or the controller
+    alone); its status once it has decided (the firmware drives, or a refusal is said)."""
+    sim.send(command if isinstance(command, SwitchDrive) else SwitchDrive(command))
 
     def verdict():
         s = sim.status()
@@ -36,8 +36,10 @@ def test_a_firmware_booted_for_behnke_is_refused_once_the_set_names_pfs(sim_thre
     controller = EmulatedController.boot(store.snapshot(), sim.hardware)
     changed = store.update({"gait": {"engine": "pfs"}}, "test")
     wait_for(lambda: sim.status().params_version_applied == changed.version, "pfs applied")
-    status = handed_over(sim, controller)
+    command = SwitchDrive(controller)
+    status = handed_over(sim, command)
     assert status.drive == "model", "the firmware drives a pfs set it refuses"
+    assert command.answer.wait(30) and command.answer.reason == "unsupported_engine"
     assert any("runs the behnke gait engine" in e and "'pfs'" in e for e in status.errors)
     frame = status.frame
     wait_for(lambda: sim.status().frame > frame + 10, "the model drives on")
@@ -81,9 +83,12 @@ def test_a_firmware_booted_for_one_robot_never_drives_another(sim_thread):
     controller = sim.live.boot_firmware(store.snapshot())
     micro = store.replace(store.snapshot().parameter_set(), "test", robot="micro")
     wait_for(lambda: sim.status().robot == "micro", "the simulation took the micro robot")
-    status = handed_over(sim, controller)
+    command = SwitchDrive(controller)
+    status = handed_over(sim, command)
     assert status.drive == "model", "ArtRo's firmware drives the micro robot"
     assert any("built for the robot 'artro'; the robot is now 'micro'" in e for e in status.errors)
+    assert command.answer.wait(30) and command.answer.reason == "robot_changed"  # not an engine's
     not_simulated = dataclasses.replace(micro, robot="artro")  # as if the store moved on
-    with pytest.raises(ValueError, match="the robot is changing to 'artro'"):
+    with pytest.raises(DriveRefused, match="the robot is changing to 'artro'") as refused:
         sim.live.boot_firmware(not_simulated)
+    assert refused.value.reason == "robot_changed"  # over HTTP the error's type, not an engine's

@@ -17,7 +17,7 @@ from app.server.emulated_controller import EmulatedController, FirmwareStatus
 from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.param_store import Snapshot
 from app.server.recorder import Recorder
-from app.server.sim_commands import SwitchDrive
+from app.server.sim_commands import DriveRefused, SwitchDrive
 from app.sim.frame_loop import FrameLoop, FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
 from hardware import HardwareSetup
@@ -95,9 +95,10 @@ class LiveRobot:
         the firmware cannot run, BuildError or EmulatorError if the tool chain or emulator fail."""
         robot, hardware = self.robot, self.hardware  # replaced by the simulation thread
         if snapshot.robot != robot.name or self.robot is not robot:
-            raise ValueError(
+            raise DriveRefused(
                 f"the robot is changing to {snapshot.robot!r} (the simulation still runs "
-                f"{robot.name!r}): switch the drive again in a moment"
+                f"{robot.name!r}): switch the drive again in a moment",
+                "robot_changed",
             )
         positions = tuple(map(tuple, robot.fsr_positions_m.tolist()))
         return EmulatedController.boot(snapshot, hardware, robot.geometry, positions)
@@ -109,10 +110,11 @@ class LiveRobot:
         boots at its start phase, so the caller then stands the robot at the start."""
         controller = command.controller
         engines = {applied.gait.engine, coming.gait.engine}
-        refusal = None
+        refusal, reason = None, ""
         robots = {applied.robot, coming.robot, self.robot.name}
         if controller is not None and robots != {controller.robot}:
             controller.close()
+            reason = "robot_changed"
             refusal = (
                 f"firmware drive not started: it was built for the robot {controller.robot!r}; "
                 f"the robot is now {coming.robot!r} (it changed while the firmware booted)"
@@ -120,6 +122,7 @@ class LiveRobot:
             self._report(refusal)
         elif controller is not None and engines != {FIRMWARE_ENGINE}:
             controller.close()
+            reason = "unsupported_engine"
             refusal = (
                 f"firmware drive not started: the firmware runs the {FIRMWARE_ENGINE} gait "
                 f"engine; the set in use now names {(engines - {FIRMWARE_ENGINE}).pop()!r} (it "
@@ -132,9 +135,9 @@ class LiveRobot:
                 if controller is not None and applied.version != controller.built_version:
                     controller.send(applied)  # the set changed while it was built
             except Exception as exc:  # the asker hears of it at once, not after its wait
-                command.answer.give(f"the drive switch failed: {exc}")
+                command.answer.give(f"the drive switch failed: {exc}", "drive_failed")
                 raise
-        command.answer.give(refusal)
+        command.answer.give(refusal, reason)
         return refusal is None
 
     def _hand_pulses_to(self, controller: EmulatedController | None) -> None:

@@ -81,15 +81,27 @@ class Reanchor:
         object.__setattr__(self, "speed_m_s", float(value))
 
 
+class DriveRefused(ValueError):
+    """A drive switch refused; `reason` names why for the API's error type: `robot_changed`
+    (the robot changed while the firmware booted), `unsupported_engine` (the set names an
+    engine the firmware does not run) or `drive_failed` (handing the pulses over failed)."""
+
+    def __init__(self, message: str, reason: str) -> None:
+        super().__init__(message)
+        self.reason = reason
+
+
 class DriveAnswer:
-    """The simulation thread's verdict on one `SwitchDrive`: given once; `refusal` says why not."""
+    """The simulation thread's verdict on one `SwitchDrive`: given once; `refusal` says why not,
+    `reason` names it (as `DriveRefused.reason`)."""
 
     def __init__(self) -> None:
         self._given = threading.Event()
         self.refusal: str | None = None
+        self.reason = ""
 
-    def give(self, refusal: str | None) -> None:
-        self.refusal = refusal
+    def give(self, refusal: str | None, reason: str = "") -> None:
+        self.refusal, self.reason = refusal, reason
         self._given.set()
 
     def wait(self, timeout_s: float) -> bool:

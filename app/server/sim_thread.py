@@ -40,6 +40,7 @@ from app.server.scope_feed import ScopeFeed
 from app.server.sensor_trace import SensorTrace, SensorView
 from app.server.sim_commands import (
     CommandQueue,
+    DriveRefused,
     Pause,
     Push,
     Reanchor,
@@ -221,7 +222,7 @@ class SimThread:
                 "/api/state says which drive is on"
             )
         if command.answer.refusal:
-            raise ValueError(command.answer.refusal)
+            raise DriveRefused(command.answer.refusal, command.answer.reason)
 
     def _on_params(self, snapshot: Snapshot, changed: frozenset[str], source: str) -> None:
         self.recorder.keep_params(snapshot.version, snapshot.parameter_set().to_dict())

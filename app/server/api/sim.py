@@ -18,6 +18,7 @@ from app.server.services import Services
 from app.server.sim_commands import (
     PUSH_RANGE_N_S,
     Control,
+    DriveRefused,
     Pause,
     Push,
     Reset,
@@ -111,6 +112,9 @@ def set_drive(body: DriveBody, services: ServicesDep) -> dict:
     walks on. `GET /api/state` says which drive is on (`drive`, `firmware`)."""
     try:
         services.sim.switch_drive(body.drive)
+    except DriveRefused as exc:
+        status = 503 if exc.reason == "drive_failed" else 409
+        raise ApiError(status, str(exc), exc.reason, loc=["body", "drive"]) from exc
     except ValueError as exc:
         raise ApiError(409, str(exc), "unsupported_engine", loc=["body", "drive"]) from exc
     except (BuildError, EmulatorError) as exc:
