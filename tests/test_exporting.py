@@ -14,6 +14,7 @@ from app.params.formats import (
     ImportTooLarge,
     ParameterImportError,
     export_text,
+    load_json_strict,
     parse_import,
 )
 from gait import GaitParams, Motion
@@ -132,6 +133,17 @@ def test_bad_imports_are_rejected(raw: bytes, message: str) -> None:
         parse_import(raw)
     assert isinstance(info.value, ValueError)
     assert message in str(info.value)
+
+
+@pytest.mark.parametrize(
+    "raw", [b"\xff\xfe\x00", '{"a": 1}'.encode("utf-16"), '{"a": 1}'.encode("utf-32")]
+)
+def test_a_json_body_in_another_encoding_is_named_so(raw: bytes) -> None:
+    """A request body read as JSON (`load_json_strict`) is UTF-8: json.loads guessed UTF-16
+    from the bytes and said "'utf-16-le' codec can't decode" (the hostile probe)."""
+    with pytest.raises(ParameterImportError, match=r"not UTF-8 text .*JSON must be UTF-8"):
+        load_json_strict(raw)
+    assert load_json_strict(b'\xef\xbb\xbf{"a": 1}') == {"a": 1}  # a UTF-8 BOM is read past
 
 
 def test_json_under_a_yaml_content_type_still_parses() -> None:

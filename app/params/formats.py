@@ -177,6 +177,13 @@ def load_json_strict(text: str | bytes) -> Any:
 
 
 def _load_json(text: str | bytes) -> Any:
+    if isinstance(text, bytes | bytearray):
+        try:  # JSON is UTF-8 (RFC 8259); json.loads would guess UTF-16 or UTF-32 from the bytes
+            text = bytes(text).decode("utf-8-sig")
+        except UnicodeDecodeError as exc:
+            raise ParameterImportError(
+                f"not UTF-8 text (byte {exc.start}): JSON must be UTF-8"
+            ) from None
     try:
         return json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_json_pairs)
     except json.JSONDecodeError as exc:
