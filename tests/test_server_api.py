@@ -78,6 +78,30 @@ def test_bad_patch_is_refused_and_changes_nothing(http, body, message):
     assert http.get("/api/params").json() == before
 
 
+ALLOWED_SAID = [  # pydantic's words alone did not say what is allowed (the hostile probe)
+    ("PUT", "/api/robot", "", ["body"], "Field required; allowed: a JSON object with name"),
+    ("POST", "/api/jobs/robustness", '{"samples": 4.5}', ["body", "samples"],
+     "allowed: a whole number 4 to 400"),
+    ("POST", "/api/jobs/tune", '{"generations": null}', ["body", "generations"],
+     "allowed: a whole number 1 to 100"),
+    ("PUT", "/api/sim/drive", '{"drive": "wires"}', ["body", "drive"], "'model', 'firmware'"),
+    ("PATCH", "/api/params", '{"gait": {"swing": {"speed": 2}}}',
+     ["body", "gait", "swing", "speed"], "Extra inputs are not permitted; allowed: a JSON object"),
+    ("PATCH", "/api/params", '{"gait": {"swing": {"v": "fast"}}}', ["body", "gait", "swing", "v"],
+     "allowed: a finite number 1.5 to 6"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("method", "path", "body", "loc", "message"), ALLOWED_SAID)
+def test_a_bad_body_is_told_what_is_allowed(http, method, path, body, loc, message):
+    before = http.get("/api/params").json()
+    response = http.request(method, path, content=body, headers=PATCH_HEADERS)
+    assert response.status_code == 422, response.text[:300]
+    problem = response.json()["detail"][0]
+    assert problem["loc"] == loc and message in problem["msg"], problem
+    assert http.get("/api/params").json() == before
+
+
 def test_put_needs_every_field(http):
     before = http.get("/api/params").json()
     response = http.put("/api/params", json={"motion": {"a_p": 0.1}, "gait": before["gait"]})

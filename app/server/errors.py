@@ -13,8 +13,11 @@ from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
 from fastapi.responses import JSONResponse
 from pydantic import BaseModel, Field
+from pydantic.errors import PydanticUserError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match, Mount
+
+from app.server.body_rules import allowed_at, body_schema
 
 MAX_ITEMS = 10
 #: a pattern of a path or query parameter -> the rule in words, said instead of the regex
@@ -160,7 +163,7 @@ def install_handlers(app: FastAPI) -> None:
         return error_response(exc.status_code, msg, kind, headers=headers)
 
     @app.exception_handler(RequestValidationError)
-    async def invalid_request(_request: Request, exc: RequestValidationError) -> JSONResponse:
+    async def invalid_request(request: Request, exc: RequestValidationError) -> JSONResponse:
         errors = exc.errors()
         items = []
         for e in errors[:MAX_ITEMS]:
@@ -172,6 +175,8 @@ def install_handlers(app: FastAPI) -> None:
             rule = PATTERN_RULES.get((e.get("ctx") or {}).get("pattern", ""))
             if e.get("type") == "string_pattern_mismatch" and rule:
                 msg = f"{rule}; got {e.get('input')!r}"
+            elif e.get("type") != "json_invalid" and "allowed" not in msg:
+                msg += _allowed_in_body(request, loc, e.get("type", ""))
             items.append({"loc": loc, "msg": msg, "type": e.get("type", "invalid")})
         return JSONResponse(status_code=422, content=error_content(items, total=len(errors)))
 
@@ -185,6 +190,20 @@ def install_handlers(app: FastAPI) -> None:
         carries on (the traceback goes to the log)."""
         msg = f"the server failed on this request ({type(exc).__name__}); it carries on"
         return error_response(500, msg, "internal_error")
+
+
+def _allowed_in_body(request: Request, loc: Sequence[Any], kind: str) -> str:
+    """ "; allowed: ..." for an error in the route's body, from its schema ("" elsewhere or
+    where the schema does not say); an unknown field gets what its object allows."""
+    field = getattr(request.scope.get("route"), "body_field", None)
+    if field is None or not loc or loc[0] != "body":
+        return ""
+    where = list(loc[1:-1] if kind == "extra_forbidden" else loc[1:])
+    try:
+        allowed = allowed_at(body_schema(field.field_info.annotation), where)
+    except (PydanticUserError, TypeError, ValueError):  # no schema: pydantic's message alone
+        return ""
+    return f"; allowed: {allowed}" if allowed else ""
 
 
 def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
