@@ -156,12 +156,13 @@ def test_an_export_after_a_switch_and_a_push_imports_on_its_robot_only(http):
     _simulated(http, "micro")
     pushed = http.post("/api/sim/push", json={"impulse_n_s": 0.05, "direction_deg": 90})
     assert pushed.status_code == 200, pushed.text
-    wait_for(
-        lambda: (
-            {"robot", "push"} <= {e["kind"] for e in http.get("/api/recording").json()["events"]}
-        ),
-        "the switch and the push recorded",
-    )
+
+    def recorded():  # the push's event can come a frame before the frame that holds it
+        summary = http.get("/api/recording").json()
+        kinds = {e["kind"] for e in summary["events"]}
+        return summary["frames"] > 0 and {"robot", "push"} <= kinds
+
+    wait_for(recorded, "frames, the switch and the push recorded")
     exported = http.get("/api/recording/export").json()
     assert exported["model"] == "micro"
     back = http.post("/api/recording/import", json=exported)
@@ -177,3 +178,20 @@ def test_an_export_after_a_switch_and_a_push_imports_on_its_robot_only(http):
     assert problem["type"] == "other_robot" and problem["loc"] == ["body", "model"]
     assert "recorded on the robot 'micro'; the robot in use is 'artro'" in problem["msg"]
     assert http.get("/api/recording").json()["replay"] == before  # no replay started
+
+
+def test_a_ghost_of_another_robots_set_is_warned_of(http):
+    """A ghost walks its set on the robot here: a set tuned for another robot is said so, as a
+    preset load says it (the hostile probe)."""
+    assert http.put("/api/robot", json={"name": "micro"}).status_code == 200
+    try:
+        other = http.put("/api/ghost", json={"preset": "robust"})
+        assert other.status_code == 200, other.text
+        assert other.json()["warnings"] == [
+            "parameter set 'robust' was tuned for the robot 'artro'; the robot here is 'micro': "
+            "it may walk differently or fall"
+        ]
+        own = http.put("/api/ghost", json={"preset": "micro-robust"})
+        assert own.status_code == 200 and own.json()["warnings"] == []
+    finally:
+        http.delete("/api/ghost")

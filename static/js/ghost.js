@@ -31,8 +31,9 @@ async function start() {
   const [kind, value] = $("ghost-source").value.split(":");
   const body = kind === "version" ? { version: Number(value) } : { preset: value };
   try {
-    await api.put("/api/ghost", body);
-    note("");
+    const answer = await api.put("/api/ghost", body);
+    const warnings = answer?.warnings ?? [];
+    note(warnings.length ? `ghost: ⚠ ${warnings.join("; ")}` : "");
     setTimeout(refresh, 300);
   } catch (err) {
     note(`no ghost: ${err.message}`);

@@ -75,10 +75,11 @@ def get_ghost(services: ServicesDep) -> dict[str, Any]:
 @router.put("/ghost", responses=responses(404, 422))
 def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[str, Any]:
     """Let a preset or an earlier version walk beside the live robot, phase-locked, with the live
-    motion vector and CA. It replaces any ghost there was."""
+    motion vector and CA. It replaces any ghost there was. `warnings` says if the set was tuned
+    for another robot than the one here (the ghost walks it on this one)."""
     if isinstance(body, PresetGhost):
         try:
-            gait, source = services.presets.get(body.preset).gait, f"preset {body.preset}"
+            pset, source = services.presets.get(body.preset), f"preset {body.preset}"
         except PresetNotFound as exc:
             names = ", ".join(p.name for p in services.presets.list())
             raise ApiError(
@@ -95,9 +96,9 @@ def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[s
                 404, f"no version {body.version} to compare with; versions: {allowed}",
                 "not_found", loc=["body", "version"],
             )  # fmt: skip
-        gait, source = found[body.version].gait, f"version {body.version}"
-    services.sim.send(SetGhost(gait, source))
-    return {"accepted": "ghost", "source": source}
+        pset, source = found[body.version].parameter_set(), f"version {body.version}"
+    services.sim.send(SetGhost(pset.gait, source))
+    return {"accepted": "ghost", "source": source, "warnings": services.robot_warnings(pset)}
 
 
 @router.delete("/ghost")
