@@ -119,6 +119,33 @@ def test_replay_pauses_the_simulation_and_shows_a_recorded_pose() -> None:
         sim.stop()
 
 
+def test_a_replay_entered_just_after_a_pause_leaves_the_simulation_paused() -> None:
+    """The replay decides whether to resume on leaving from the simulation thread's own answer
+    to its pause, which comes after every command sent before it; the published status, up to a
+    frame old, said "running" just after a pause and the replay's leaving resumed it."""
+    from app.server.sim_commands import Pause, Resume
+
+    store = ParameterStore(builtin_presets()["tuned"])
+    sim = SimThread(store)
+    sim.start()
+    try:
+        wait_for(lambda: len(sim.recorder.recording()) > 20, "frames recorded")
+        replay = Replay(sim.model, sim.recorder, sim)
+        for _ in range(5):
+            sim.send(Pause())  # the user's pause, not yet in the status
+            replay.enter(5)
+            assert not replay._resume_after, "a paused simulation would be resumed on leaving"
+            replay.leave()
+            sim.send(Resume())
+            wait_for(lambda: not sim.status().paused, "running again")
+            replay.enter(5)  # from a running simulation: resumed on leaving
+            assert replay._resume_after
+            replay.leave()
+            wait_for(lambda: not sim.status().paused, "resumed by the replay's leaving")
+    finally:
+        sim.stop()
+
+
 def test_the_recording_api(http: httpx.Client) -> None:
     try:
         wait_for(lambda: http.get("/api/recording").json()["frames"] > 30, "frames")

@@ -6,6 +6,7 @@ scope its frame (docs/DESIGN.md §10). Called from HTTP and viewer threads, unde
 from __future__ import annotations
 
 import math
+import queue
 import threading
 from dataclasses import dataclass
 from typing import Any
@@ -16,7 +17,7 @@ import numpy as np
 from app.server.live_robot import model_name
 from app.server.recorder import Recorder, Recording
 from app.server.scope_frames import frame_to_dict
-from app.server.sim_commands import Control, Pause, Resume, Step
+from app.server.sim_commands import Control, PauseForReplay, Resume, Step
 from app.server.sim_thread import SimThread
 from hardware import TdmConfig
 
@@ -33,6 +34,8 @@ class OtherRobot(ValueError):
 class Replaying(RuntimeError):
     """The live simulation may not run while a replay owns the 3D view and the scope."""
 
+
+PAUSE_ANSWER_S = 2.0  # a frame is 20 ms; a simulation thread stuck longer answers by status
 
 #: what would run the live simulation under the replay's views
 RUNS_LIVE = Resume | Step
@@ -91,12 +94,21 @@ class Replay:
             if self.model is not self.sim.model:  # the robot was switched since the last replay
                 self.model, self._data = self.sim.model, mujoco.MjData(self.sim.model)
             if self.recording is None:  # from live: pause it, resume it when leaving
-                self._resume_after = not self.sim.status().paused
-                self.sim.send(Pause())
+                self._resume_after = not self._pause_live()
             if new:
                 self.origin = "live" if recording is None else "file"
             self.recording = rec
             self._show(index)
+
+    def _pause_live(self) -> bool:
+        """Pause the live simulation; whether it was paused already, as the simulation thread
+        took the pause (after every command sent before it), else as its status says."""
+        pause = PauseForReplay()
+        self.sim.send(pause)
+        try:
+            return pause.was_paused.get(timeout=PAUSE_ANSWER_S if self.sim.alive else 0)
+        except queue.Empty:  # a simulation thread not running: its last status
+            return self.sim.status().paused
 
     def live_command(self, command: Control) -> None:
         """Send a command to the live simulation; Replaying (nothing sent) for one that would run

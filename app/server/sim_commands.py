@@ -25,6 +25,17 @@ class Pause:
 
 
 @dataclass(frozen=True)
+class PauseForReplay(Pause):
+    """Pause, and answer whether the loop was paused already (`was_paused`, put once the
+    simulation thread takes it): a replay resumes on leaving only a simulation it found running,
+    which a published status up to a frame old cannot tell."""
+
+    was_paused: queue.Queue[bool] = field(
+        default_factory=lambda: queue.Queue(maxsize=1), compare=False
+    )
+
+
+@dataclass(frozen=True)
 class Resume:
     """Run the frame loop again, paced from now."""
 

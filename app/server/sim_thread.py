@@ -42,6 +42,7 @@ from app.server.sim_commands import (
     CommandQueue,
     DriveRefused,
     Pause,
+    PauseForReplay,
     Push,
     Reanchor,
     RemoveGhost,
@@ -317,6 +318,8 @@ class SimThread:
         restart = False
         for command in self._commands.drain():
             if isinstance(command, Pause):
+                if isinstance(command, PauseForReplay):
+                    command.was_paused.put(self.paused)
                 self.paused = True
             elif isinstance(command, Resume):
                 self.paused, restart = False, True
