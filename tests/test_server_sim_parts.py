@@ -115,3 +115,21 @@ def test_the_queue_keeps_the_order_wakes_the_thread_and_takes_only_commands() ->
     assert list(commands.drain()) == []
     with pytest.raises(ValueError, match="not a command"):
         commands.put("pause")  # type: ignore[arg-type]
+
+
+def test_published_poses_name_the_model_they_are_poses_of(sim_thread):
+    """The 3D view draws poses only on the model they are of: for a refresh after a switch of
+    robots it drew the new robot's bodies in the last robot's poses (the thread audit)."""
+    from tests.server_harness import wait_for
+
+    sim, store = sim_thread
+    sim.publish_poses = True
+    first = wait_for(lambda: sim.body_poses(), "poses published")
+    artro = sim.model
+    assert first.model is artro and len(first.xpos) == artro.nbody
+    store.replace(store.snapshot().parameter_set(), "test", robot="micro")
+    wait_for(lambda: sim.status().robot == "micro", "the simulation took the micro robot")
+    poses = wait_for(
+        lambda: (p := sim.body_poses()) and p.model is not artro and p, "the micro robot's poses"
+    )
+    assert poses.model is sim.model and sim.model is not artro

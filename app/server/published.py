@@ -100,6 +100,7 @@ class BodyPoses:
     xmat: np.ndarray
     ghost_xpos: np.ndarray | None = None  # the A/B ghost's bodies, when there is one
     ghost_xmat: np.ndarray | None = None
+    model: mujoco.MjModel | None = None  # the robot's model they are poses of
 
 
 class Bulletin:
@@ -117,9 +118,11 @@ class Bulletin:
         self._load_meter = ServoLoadMeter(robot)  # the servo budget of the current gait
         self.servo_load: ServoLoadReport = self._load_meter.report()
 
-    def publish_body_poses(self, live: mujoco.MjData, ghost: mujoco.MjData | None) -> None:
-        """Copies of the live robot's (and the ghost's) body poses: made only when a view
-        exists."""
+    def publish_body_poses(
+        self, model: mujoco.MjModel, live: mujoco.MjData, ghost: mujoco.MjData | None
+    ) -> None:
+        """Copies of the live robot's (and the ghost's) body poses, with the `model` they are
+        poses of: made only when a view exists."""
         if not self.publish_poses:
             return
         self._pose_serial += 1
@@ -129,6 +132,7 @@ class Bulletin:
             live.xmat.copy(),
             None if ghost is None else ghost.xpos.copy(),
             None if ghost is None else ghost.xmat.copy(),
+            model,
         )
 
     # --- the servo load: measured every frame, published twice a second ---------------------------

@@ -50,6 +50,7 @@ class ReplayPoses:
     xmat: np.ndarray
     ghost_xpos: None = None
     ghost_xmat: None = None
+    model: mujoco.MjModel | None = None  # the robot's model they are poses of
 
 
 class Replay:
@@ -181,4 +182,6 @@ class Replay:
             quat /= norm  # float32 storage: renormalise the trunk orientation
         mujoco.mj_kinematics(self.model, self._data)
         self._serial += 1
-        self._poses = ReplayPoses(self._serial, self._data.xpos.copy(), self._data.xmat.copy())
+        self._poses = ReplayPoses(
+            self._serial, self._data.xpos.copy(), self._data.xmat.copy(), model=self.model
+        )

@@ -505,7 +505,7 @@ class SimThread:
     def _publish_poses(self) -> None:
         ghost = self._ghost
         self.bulletin.publish_body_poses(
-            self.live.loop.data, None if ghost is None else ghost.loop.data
+            self.live.model, self.live.loop.data, None if ghost is None else ghost.loop.data
         )
 
     def _sample_and_publish(self) -> None:

@@ -466,6 +466,8 @@ class Viewer:
                     shown = None
                 replaying = self.replay.active
                 poses = self.replay.poses() if replaying else self.sim.body_poses()
+                if poses is not None and poses.model is not self._model:
+                    poses = None  # the last robot's, published before the switch: not drawn
                 if poses is not None and (replaying, poses.serial) != shown:
                     shown = (replaying, poses.serial)
                     self.scene.update_from_arrays(
