@@ -66,8 +66,8 @@ def _describe(root: dict[str, Any], node: dict[str, Any]) -> str:
         names = [f"{n} (required)" if n in required else n for n in node["properties"]]
         return "a JSON object with " + _listed(names)
     if "anyOf" in node:
-        shapes = [_describe(root, b) for b in map(lambda b: _resolved(root, b), node["anyOf"]) if b]
-        return " or ".join(s for s in shapes if s)
+        branches = [_resolved(root, b) for b in node["anyOf"]]
+        return " or ".join(s for b in branches if b and (s := _describe(root, b)))
     return ""
 
 
