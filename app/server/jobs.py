@@ -4,7 +4,9 @@ request; a job's result applies only onto what it was fitted from (docs/DESIGN.m
 
 from __future__ import annotations
 
+import ctypes
 import dataclasses
+import functools
 import itertools
 import threading
 import time
@@ -14,6 +16,25 @@ from dataclasses import dataclass, field
 from typing import Any
 
 KEEP_JOBS = 20
+
+
+def release_free_heap() -> None:
+    """Hand the C heap's free pages back to the system (glibc's `malloc_trim`; nothing where
+    the C library has none). A job's thread frees its simulations' arrays into a malloc arena
+    of its own, which stays resident: over 120 cancelled jobs the server's RSS rose ~15 MB a
+    job to a 440-470 MB plateau while ~45 MB were in use (decision 0048)."""
+    trim = getattr(_libc(), "malloc_trim", None)
+    if trim is not None:
+        trim(0)
+
+
+@functools.cache
+def _libc() -> ctypes.CDLL | None:
+    try:
+        return ctypes.CDLL(None)
+    except OSError:
+        return None
+
 
 #: Report progress (0..1), or None just to check for cancellation; raises JobCancelled then
 #: (a `Reporter`).
@@ -151,6 +172,7 @@ class Jobs:
                 job.progress, job.status = 1.0, "done"
             job.finished_s = time.time()
             job.finished.set()
+            release_free_heap()
 
         threading.Thread(target=run, name=f"artro-job-{job.id}", daemon=True).start()
         return job
