@@ -207,3 +207,12 @@ def test_bench_api_load_writes_what_the_clients_saw(tmp_path):
     assert figures["rtf_samples"] > 0 and figures["rtf_min"] > 0
     assert figures["polls_per_s"] > 0 and len(figures["ws_frames_received"]) == 1
     assert doc["arguments"]["pollers"] == 2
+
+
+def test_bench_server_memory_reads_the_servers_rss_over_rounds_of_jobs(tmp_path):
+    doc = run_bench(tmp_path, "bench_server_memory", "--rounds", "2")
+    figures = doc["figures"]
+    assert figures["statuses"] and sum(figures["statuses"].values()) == 4  # 2 jobs a round
+    assert set(figures["statuses"]) <= {"cancelled", "done"}
+    assert len(figures["rss_mib_every_round"]) == 3 and figures["rss_mib_start"] > 10
+    assert finite(figures["mib_per_round_second_half"])
