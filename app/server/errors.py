@@ -84,9 +84,9 @@ def error_content(
         f"{'.'.join(str(p) for p in d['loc'] if p != 'body')}: {d['msg']}".removeprefix(": ")
         for d in detail
     ]
-    if total is not None and total > len(detail):
-        parts.append(f"and {total - len(detail)} more")
-    return {"detail": detail, "message": _cap("; ".join(parts), 2 * MAX_TEXT), "version": version}
+    more = f"; and {total - len(detail)} more" if total is not None and total > len(detail) else ""
+    message = _cap("; ".join(parts), 2 * MAX_TEXT - len(more)) + more  # the count is never cut
+    return {"detail": detail, "message": message.removeprefix("; "), "version": version}
 
 
 def error_response(
