@@ -217,6 +217,32 @@ def test_torque_off_takes_only_its_ack(answer, got):
     assert "torque off" not in lines
 
 
+@pytest.mark.parametrize("streaming", [False, True], ids=["read by the request", "reader"])
+def test_the_late_ack_of_a_start_given_up_on_is_not_the_torque_offs(streaming):
+    """A START given up on (its wait ended: no answer in time, or SIGTERM) is acknowledged late,
+    just before the TORQUE_OFF after it: the servos still go off. The fresh-clone CI once saw
+    "torque off: expected ACK of TORQUE_OFF, got ACK of START" after a SIGTERM."""
+
+    def late_start(message: proto.Message) -> bytes:
+        if message.type == Msg.START:
+            return b""  # its ACK comes later, with the next answer
+        if message.type == Msg.TORQUE_OFF:
+            return ack(Msg.START) + ack(Msg.TORQUE_OFF)
+        return honest(message)
+
+    with FakeRobot(late_start) as fake:
+        robot, lines = robot_on(fake.port, timeout_s=0.3)
+        if streaming:
+            robot.stream_sensors(lambda frame: None)
+        with pytest.raises(LinkError, match=r"^start: no answer from the robot"):
+            robot.start()
+        robot.torque_off()
+        if streaming:
+            robot.end_stream()
+        robot.link.close()
+    assert "torque off" in lines
+
+
 def test_a_set_and_the_start_take_only_their_acks():
     """A robot that answers every message with INFO passes the PING, and nothing after it."""
     with FakeRobot(lambda m: info()) as fake:

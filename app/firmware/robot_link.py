@@ -82,6 +82,17 @@ def _got(message: bytes, reply: proto.Reply) -> str:
     return proto.describe(reply)
 
 
+def _late(message: bytes, reply: proto.Reply, given_up: set[int]) -> bool:
+    """Whether `reply` is the late ACK of a request given up on (`given_up`: their types), not
+    an answer to `message`: e.g. a START whose wait a signal ended, acknowledged while the
+    TORQUE_OFF after it waits. Taken off `given_up` then: a robot that keeps answering with
+    another message's ACK is still named."""
+    if isinstance(reply, proto.Ack) and reply.acked != message[2] and reply.acked in given_up:
+        given_up.discard(reply.acked)
+        return True
+    return False
+
+
 def _may_answer(message: bytes, reply: proto.Reply) -> bool:
     """Whether `reply` may be the answer to `message`, not a streamed frame (those answer only
     a GET); `proto.answers` then says whether it is the right one."""
@@ -139,19 +150,27 @@ class PortReader:
         finally:  # a request waiting learns it at once, the follow loop at its next poll
             self._answers.put(None)
 
-    def request(self, message: bytes) -> list[proto.Reply]:
+    def request(self, message: bytes, given_up: set[int]) -> list[proto.Reply]:
         """Send `message`; its answer, or [] after the link's timeout; LinkError if the
-        reading ended (the port failed, or a reply out of protocol). `streamed_before` is then
-        the last frame streamed before that answer (and after the one before it), if any."""
+        reading ended (the port failed, or a reply out of protocol). A late ACK of a request
+        given up on (`_late`) is passed over. `streamed_before` is then the last frame
+        streamed before that answer (and after the one before it), if any."""
         self.raise_error()
         while not self._answers.empty():  # a late answer to a request that timed out
             self._answers.get_nowait()
         self.link.serial.write(message)
         self.streamed_before = None
-        try:
-            answer = self._answers.get(timeout=self.link.timeout_s)
-        except queue.Empty:
-            answer = None
+        deadline = time.monotonic() + self.link.timeout_s
+        answer = None
+        while answer is None and (left := deadline - time.monotonic()) > 0:
+            try:
+                answer = self._answers.get(timeout=left)
+            except queue.Empty:
+                break
+            if answer is None:  # the reader ended
+                break
+            if _late(message, answer[0], given_up):
+                answer = None
         self.raise_error()
         if answer is None:
             return []
@@ -175,11 +194,14 @@ class RobotLink:
     _lost: PortLost | None = field(default=None, init=False, repr=False)
     _heard: float = field(default_factory=time.monotonic, init=False, repr=False)
     _frame: int | None = field(default=None, init=False, repr=False)  # the newest it told
+    #: the types of requests given up on (no answer in time, or their wait interrupted), whose
+    #: late ACK is not taken for the next request's answer
+    _given_up: set[int] = field(default_factory=set, init=False, repr=False)
 
     def request(self, message: bytes) -> list[proto.Reply]:
-        """Send `message`; its answer (paired: a streamed frame is never taken for it), or []
-        after the link's timeout. Nothing is read in a dry run. PortLost once the port failed,
-        LinkError for a reply out of protocol."""
+        """Send `message`; its answer (paired: a streamed frame is never taken for it, nor the
+        late ACK of a request given up on), or [] after the link's timeout. Nothing is read in
+        a dry run. PortLost once the port failed, LinkError for a reply out of protocol."""
         if self._lost is not None:
             raise self._lost
         try:
@@ -190,8 +212,13 @@ class RobotLink:
         except PortLost as exc:
             self._lost = exc
             raise
+        except BaseException:  # a signal ended the wait: its answer may still come
+            self._given_up.add(message[2])
+            raise
         if replies:
             self._heard = time.monotonic()
+        elif not self.dry_run:  # no answer in time: a late one is not the next request's
+            self._given_up.add(message[2])
         return replies
 
     def _request(self, message: bytes) -> list[proto.Reply]:
@@ -199,7 +226,7 @@ class RobotLink:
             self.link.serial.write(message)
             return []
         if self._reader is not None:
-            replies = self._reader.request(message)
+            replies = self._reader.request(message, self._given_up)
             streamed = self._reader.streamed_before  # before the answer: compared at a PING's
             if streamed is not None:
                 self._frame = streamed if self._frame is None else max(self._frame, streamed)
@@ -209,7 +236,11 @@ class RobotLink:
         deadline = time.monotonic() + link.timeout_s
         while time.monotonic() < deadline:
             replies = [proto.parse(m) for m in link.decoder.feed(link.serial.read(256))]
-            answers = [r for r in replies if _may_answer(message, r)]
+            answers = [
+                r
+                for r in replies
+                if _may_answer(message, r) and not _late(message, r, self._given_up)
+            ]
             if answers:
                 return answers[:1]
         return []
