@@ -5,16 +5,25 @@ figures become settings through `servo_settings` alone (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 
-import math
 import re
+import warnings
 
 import mujoco
 
+from app.robots.cad_builder import add_cad_robot
 from app.robots.description import LEG_JOINTS, Part, RobotDescription
-from app.robots.servos import ServoSettings, servo_settings
+from app.robots.model_parts import (
+    BODY_GROUP,
+    FLOOR_GROUP,
+    FSR_CORNERS,
+    FSR_ZONE_M,
+    add_actuator,
+    add_sensors,
+    collide,
+    joint_settings,
+)
 
 TIMESTEP_S = 0.001  # 20 physics steps per 20 ms TDM frame
-FLOOR_GROUP, BODY_GROUP = 0, 1
 MATERIALS = {
     "aluminium": (0.78, 0.80, 0.82, 1.0),
     "servo": (0.12, 0.12, 0.14, 1.0),
@@ -42,7 +51,18 @@ DESCRIPTION_LINK = {  # body name suffix -> the description's `links` key
 
 
 def build_spec(robot: RobotDescription) -> mujoco.MjSpec:
-    """The scene (floor, light, materials) with the robot standing on it, as an `MjSpec`."""
+    """The scene (floor, light, materials) with the robot standing on it, as an `MjSpec`; an
+    imported robot's from its file (`app.robots.cad_builder`)."""
+    spec = scene_spec(robot)
+    if robot.cad is not None:
+        add_cad_robot(spec, robot)
+        return spec
+    _add_robot(spec, robot)
+    return spec
+
+
+def scene_spec(robot: RobotDescription) -> mujoco.MjSpec:
+    """The floor, light, materials and physics options every robot stands in."""
     spec = mujoco.MjSpec()
     spec.modelname = robot.name
     spec.compiler.degree = False  # every angle below is in radians
@@ -60,8 +80,11 @@ def build_spec(robot: RobotDescription) -> mujoco.MjSpec:
     floor = spec.worldbody.add_geom(
         name="floor", type=mujoco.mjtGeom.mjGEOM_PLANE, size=[0, 0, 0.05], material="floor"
     )
-    _collide(floor, robot, FLOOR_GROUP)
+    collide(floor, robot, FLOOR_GROUP)
+    return spec
 
+
+def _add_robot(spec: mujoco.MjSpec, robot: RobotDescription) -> None:
     geo = robot.geometry
     trunk = spec.worldbody.add_body(name="trunk", pos=[0, 0, geo.standing_height_m])
     trunk.add_freejoint(name="root")
@@ -73,16 +96,17 @@ def build_spec(robot: RobotDescription) -> mujoco.MjSpec:
 
     for side in ("l", "r"):
         for joint in LEG_JOINTS:
-            _add_actuator(spec, robot, f"{side}_{joint}")
-    _add_sensors(spec)
-    return spec
+            add_actuator(spec, robot, f"{side}_{joint}")
+    add_sensors(spec)
 
 
 def build_model(robot: RobotDescription) -> mujoco.MjModel:
     """The compiled model; ValueError with MuJoCo's message if it does not compile, or naming
     the part that starts inside the floor."""
     try:
-        model = build_spec(robot).compile()
+        with warnings.catch_warnings():  # an imported robot's file is attached with no prefix
+            warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
+            model = build_spec(robot).compile()
     except ValueError as err:
         element = re.search(r"Element name '(\w+)'", str(err))
         field = f" (the description's {_field_of(element.group(1))})" if element else ""
@@ -132,16 +156,6 @@ def model_xml(robot: RobotDescription) -> str:
     return spec.to_xml()
 
 
-def joint_settings(robot: RobotDescription) -> dict[str, ServoSettings]:
-    """Each joint's servo settings at the robot's supply voltage."""
-    return {
-        name: servo_settings(
-            robot.joint_servo(name), robot.supply_voltage_v, robot.servo_catalogue()
-        )
-        for name in robot.joints
-    }
-
-
 # --- parts ------------------------------------------------------------------------------------
 
 
@@ -159,14 +173,6 @@ def _add_materials(spec: mujoco.MjSpec) -> None:
     floor.textures[mujoco.mjtTextureRole.mjTEXROLE_RGB] = "grid"
     for name, rgba in MATERIALS.items():
         spec.add_material(name=name, rgba=list(rgba))
-
-
-def _collide(geom: mujoco.MjsGeom, robot: RobotDescription, group: int) -> None:
-    c = robot.contact
-    geom.contype = geom.conaffinity = 1
-    geom.condim = c.condim
-    geom.friction = [c.friction, c.torsional_friction, c.rolling_friction]
-    geom.group = group
 
 
 def _visual(geom: mujoco.MjsGeom) -> None:
@@ -210,7 +216,7 @@ def _add_part(
         )
     geom.material = part.material
     if part.collides:
-        _collide(geom, robot, BODY_GROUP)
+        collide(geom, robot, BODY_GROUP)
     else:
         _visual(geom)
 
@@ -282,11 +288,6 @@ def _add_leg(
     _add_foot(parent, robot, side)
 
 
-#: the force sensors under each sole: front/back, left/right, as signs of the sole's x and y
-FSR_CORNERS = {"fl": (1, 1), "fr": (1, -1), "bl": (-1, 1), "br": (-1, -1)}
-FSR_ZONE_M = 0.003  # a sensor's zone: its half height about the sole plane, its margin
-
-
 def _mirror(pos: tuple[float, float, float], side: str) -> tuple[float, float, float]:
     return pos if side == "l" else (pos[0], -pos[1], pos[2])
 
@@ -307,7 +308,7 @@ def _add_foot(foot: mujoco.MjsBody, robot: RobotDescription, side: str) -> None:
         mass=mass,
         material="aluminium",
     )
-    _collide(plate, robot, BODY_GROUP)
+    collide(plate, robot, BODY_GROUP)
     foot.add_site(name=f"{side}_sole", pos=[0, 0, -geo.ankle_to_sole_m], size=[0.006, 0, 0])
     # the four force sensors under the sole, one per corner quadrant (docs/DESIGN.md §15): each
     # reads what a MuJoCo touch sensor on its site would, once per frame (`app.sim.sensors`)
@@ -319,36 +320,4 @@ def _add_foot(foot: mujoco.MjsBody, robot: RobotDescription, side: str) -> None:
             type=mujoco.mjtGeom.mjGEOM_BOX,
             pos=[sx * half_x, sy * half_y, -geo.ankle_to_sole_m],
             size=[half_x, half_y, FSR_ZONE_M],
-        )
-
-
-def _add_actuator(spec: mujoco.MjSpec, robot: RobotDescription, name: str) -> None:
-    s = servo_settings(robot.joint_servo(name), robot.supply_voltage_v, robot.servo_catalogue())
-    travel = min(math.radians(robot.joint_servo_spec(name).travel_deg) / 2, math.pi / 2)
-    act = spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT)
-    act.set_to_position(kp=s.kp_nm_rad)
-    act.forcerange = [-s.stall_torque_nm, s.stall_torque_nm]
-    act.ctrlrange = [-travel, travel]
-
-
-def _add_sensors(spec: mujoco.MjSpec) -> None:
-    site = mujoco.mjtObj.mjOBJ_SITE
-    sensor = mujoco.mjtSensor
-    spec.add_sensor(name="imu_gyro", type=sensor.mjSENS_GYRO, objtype=site, objname="imu")
-    spec.add_sensor(name="imu_accel", type=sensor.mjSENS_ACCELEROMETER, objtype=site, objname="imu")
-    for side in ("l", "r"):
-        spec.add_sensor(
-            name=f"{side}_sole_pos",
-            type=sensor.mjSENS_FRAMEPOS,
-            objtype=site,
-            objname=f"{side}_sole",
-        )
-    # each servo's torque (the actuator's force after its limit): the servo budget and the
-    # robustness report's servo advice read it from every run, the lanes' too (docs/DESIGN.md §7)
-    for joint in (f"{side}_{j}" for side in ("l", "r") for j in LEG_JOINTS):
-        spec.add_sensor(
-            name=f"{joint}_torque",
-            type=sensor.mjSENS_ACTUATORFRC,
-            objtype=mujoco.mjtObj.mjOBJ_ACTUATOR,
-            objname=joint,
         )

@@ -15,6 +15,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, model_validator
 
 from app.assets import builtin_presets_dir
+from app.robots.cad_source import CadSource
 from app.robots.servos import ServoName, ServoSpec, rating_at, servo_table
 from gait import JOINT_NAMES, GaitParams, LegGeometry, Motion, joint_angles_with_flags
 from gait.leg_interface import knee_triangle
@@ -229,6 +230,11 @@ class RobotDescription(_Strict):
         description="TDM-PWM line -> the servos on its demultiplexer outputs, slot 0 first"
     )
     contact: Contact = Contact()
+    cad: CadSource | None = Field(
+        None,
+        description="imported from a URDF or MJCF file (`artro robot import`): the model "
+        "is the file's, mapped onto the gait; its links' masses are the file's",
+    )
 
     @model_validator(mode="after")
     def _consistent(self) -> RobotDescription:
@@ -283,7 +289,7 @@ class RobotDescription(_Strict):
                     f"travel of ±{half_travel:.4f} rad"
                 )
         missing_mounts = [j for j in LEG_JOINTS if j not in self.servo_mounts]
-        if missing_mounts:
+        if missing_mounts and self.cad is None:  # an imported robot's servos are in its file
             raise ValueError(
                 f"servo_mounts: no mount for {missing_mounts}; give each of {list(LEG_JOINTS)} "
                 "(an empty {} puts the case at its joint)"
@@ -441,6 +447,8 @@ class RobotDescription(_Strict):
         carrier = dict(zip(LEG_JOINTS, LINKS[:-1], strict=True))  # joint -> link carrying its servo
         masses = {"trunk": sum(p.mass_kg for p in self.trunk)}
         masses |= {link: sum(p.mass_kg for p in self.links.get(link, ())) for link in LINKS[1:]}
+        if self.cad is not None:  # the file's masses carry its servos
+            return masses
         for side in ("l", "r"):
             for joint in LEG_JOINTS:
                 servo = table[self.joint_servo(f"{side}_{joint}")]

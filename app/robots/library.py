@@ -12,6 +12,7 @@ import yaml
 from pydantic import ValidationError
 
 from app.assets import builtin_robots_dir
+from app.robots.cad_source import resolved
 from app.robots.description import RobotDescription
 
 BUILTIN_DEFAULT = "artro"
@@ -107,7 +108,10 @@ def read_description(path: Path) -> RobotDescription:
     except OSError as err:
         raise RobotError(f"cannot read the robot description {path}: {err.strerror}") from None
     text = decoded(data, path)
-    return parse_description(load_yaml(text, path), str(path), text)
+    description = parse_description(load_yaml(text, path), str(path), text)
+    if description.cad is None:
+        return description
+    return description.model_copy(update={"cad": resolved(description.cad, path.parent)})
 
 
 def decoded(data: bytes, path: Path | str) -> str:

@@ -15,6 +15,7 @@ from numpy.typing import NDArray
 
 from app.robots import RobotDescription, build_model, joint_settings, load_description
 from app.robots.builder import FSR_CORNERS
+from app.robots.cad_import import mapping_rows
 from app.robots.checks import eq1_torques, robot_warnings
 from gait import JOINT_NAMES, LegGeometry
 from hardware import ChannelMap, HardwareSetup, ServoCalibration, TdmConfig
@@ -119,6 +120,11 @@ class RobotModel:
             "title": desc.title,
             "default_preset": desc.default_preset,
             "description": desc.model_dump(mode="json"),
+            "geometry": desc.geometry.model_dump(mode="json"),
+            "total_mass_kg": self.total_mass_kg(),
+            "mapping": {
+                joint.pop("joint"): joint for joint in mapping_rows(desc)
+            },  # an imported robot's: gait joint -> file joint, sign, zero, axis error
             "derived": {
                 "total_mass_kg": self.total_mass_kg(),
                 "link_masses_kg": desc.link_masses_kg(),
