@@ -1,5 +1,5 @@
 """Benchmark: the Warp executor's work on the host for a robust study, without a GPU: what
-stays on the CPU beside the stepping (docs/GPU.md "Where the time goes", decision 0042).
+stays on the CPU beside the stepping (docs/GPU.md "Where the time goes", decision 0056).
 
 For `bench robust`'s jobs (every case on the nominal robot and on N sampled variations, runs
 of --duration s) it times, per stage and per world:

@@ -1,4 +1,4 @@
-"""Closed-loop runs stepped in lockstep groups (docs/DESIGN.md §9, decision 0038): sensors, laws,
+"""Closed-loop runs stepped in lockstep groups (docs/DESIGN.md §9, decision 0050): sensors, laws,
 the frame's plan and the servo paths of many runs at once give each run the bits it gets alone;
 the lanes cut the jobs into groups of one walk; a cancel stops a group between frames."""
 

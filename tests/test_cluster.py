@@ -15,9 +15,9 @@ import pytest
 from app.evaluation import BatchEvaluator, job_to_dict, same_results
 from app.evaluation._chunks import VersionMismatch, evaluate_chunk
 from app.evaluation._dask import ClusterError, ClusterEvaluator
-from app.evaluation.local_cluster import LoopbackCluster
 from app.robots.model import RobotModel
 from app.sim.metrics import Trace
+from tests.cluster_support import LoopbackCluster
 from tests.evaluation_support import assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow

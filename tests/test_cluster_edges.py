@@ -18,8 +18,8 @@ import pytest
 
 from app.cli import main
 from app.evaluation._dask import CONNECT_TIMEOUT_S, ClusterEvaluator
-from app.evaluation.local_cluster import LoopbackCluster
 from app.robots.model import RobotModel
+from tests.cluster_support import LoopbackCluster
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOT = RobotModel.load()

@@ -1,11 +1,11 @@
 """The shipped `robust` preset (docs/DESIGN.md §15): `tuned` with the yaw-rate loop, ankle-pitch
 gyro damping and a pitch trim on (mostly proportional, toward an upright trunk: the integral-only
-trim swung the trunk's pitch into falls on soft servos, decision 0040), its stance leaned
+trim swung the trunk's pitch into falls on soft servos, decision 0054), its stance leaned
 0.03 rad forward (the balance offset of eq (38)) and its clock 2.5 % faster, read-only like
 every built-in. On the nominal model it walks the paper's table within 25 % without a fall, CA
 steering the right way, and its yaw-rate loop makes CA turn as eq (13) says within 30 %, forward
 and backward: what no open-loop gait on this model reached (models/README.md). Leaning forward
-costs the tuner's mirror rule: backward walks ~20 % faster than forward (decision 0040)."""
+costs the tuner's mirror rule: backward walks ~20 % faster than forward (decision 0052)."""
 
 import dataclasses
 
@@ -34,7 +34,7 @@ def test_the_robust_preset_is_tuned_with_the_laws_on_and_read_only(tmp_path):
     # proportional, a slow integral, upright expected: integral-only swung into falls (0040)
     assert gait.tilt.enabled and gait.tilt.kp > gait.tilt.ki_per_s
     assert (gait.tilt.pitch_offset_rad, gait.tilt.pitch_per_a_p) == (0.0, 0.0)
-    # pitch only: the hips' roll trim cost the servo swap sideways (94 -> 83 %, decision 0040)
+    # pitch only: the hips' roll trim cost the servo swap sideways (94 -> 83 %, decision 0054)
     assert gait.tilt.roll_share == 0.0
     assert not gait.cop.enabled  # measured: it lost robustness (models/README.md)
     for group in ("shift", "short", "swing", "load", "leg", "steer"):

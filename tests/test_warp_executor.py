@@ -307,8 +307,10 @@ def test_an_unknown_backend_or_device_says_what_is_allowed(robot):
         evaluator_for(robot, backend="gpu")
     with pytest.raises(ExecutorError, match="--device must be one of cpu, cuda, got 'tpu'"):
         evaluator_for(robot, backend="warp", device="tpu")
-    with pytest.raises(ExecutorError, match="leave out --cluster and --processes"):
+    with pytest.raises(ExecutorError, match=r"worker processes \(processes=\) are the CPU's"):
         evaluator_for(robot, backend="warp", device="cpu", processes=2)
+    with pytest.raises(ExecutorError, match=r"one batch: leave out --cluster$"):
+        evaluator_for(robot, backend="warp", device="cpu", cluster="tcp://127.0.0.1:1")
 
 
 def test_a_missing_extra_names_the_pip_command():

@@ -6,13 +6,13 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any, Protocol
+from typing import Any
 
 from app.analysis.axle_fit import walking_amplitude
 from app.analysis.ca_analysis import fit_axle
-from app.evaluation import Job
+from app.evaluation import Evaluator, Job
 from app.sim.metrics import RunMetrics
 from gait import GaitParams, Motion
 
@@ -22,17 +22,6 @@ K_RANGE = (-1.0, 1.0)  # steer.yaw_per_ca's range
 DURATION_S = 20.0
 WARMUP_S = 4.0
 TOLERANCE = 0.1  # stop when the slope is within 10 % of eq (13)'s
-
-
-class Evaluator(Protocol):
-    def evaluate(
-        self,
-        jobs: Sequence[Job],
-        *,
-        duration_s: float,
-        warmup_s: float = ...,
-        progress: Callable[[int, int], None] | None = ...,
-    ) -> list[RunMetrics]: ...
 
 
 class CalibrationError(RuntimeError):

@@ -81,10 +81,14 @@ def evaluator_for(
 
         backend = "warp" if cluster is None and not processes and cuda_present() else "cpu"
     if backend == "warp":
-        if cluster is not None or processes:
+        if cluster is not None:
             raise ExecutorError(
-                "--backend warp runs every job in this process's one batch: "
-                "leave out --cluster and --processes"
+                "--backend warp runs every job in this process's one batch: leave out --cluster"
+            )
+        if processes:  # no command has processes; a caller of this function does
+            raise ExecutorError(
+                "backend='warp' runs every job in this process's one batch: "
+                "worker processes (processes=) are the CPU's executors"
             )
         from app.evaluation._warp import WarpEvaluator  # the gpu extra, imported when used
 

@@ -18,7 +18,7 @@ from app.evaluation._measure import end_checks
 from app.robots.model import RobotModel
 from gait import feedback
 
-#: closed-loop runs of one walk step in lockstep in groups of up to this many (decision 0038)
+#: closed-loop runs of one walk step in lockstep in groups of up to this many (decision 0050)
 GROUP_RUNS = 128
 
 

@@ -40,7 +40,7 @@ class ParameterSet:
     As a document (`to_dict`, `from_dict`, docs/DESIGN.md §6):
 
         {"schema_version": 2, "name": "...", "robot": "artro", "created": "ISO time",
-         "project_version": "0.1.0",
+         "project_version": "0.2.0",
          "motion": {"a_r": 0, "a_p": 0.07, "a_y": 0, "ca": 0},
          "gait": {"engine": "behnke", "clock": {...}, "shift": {...}, ..., "leg": {...},
                   "steer": {...}, "ramp": {...}, "pfs": {...}}}

@@ -1,6 +1,6 @@
-"""A Dask cluster on this machine's loopback: a real `dask scheduler` and `dask worker`
-processes (one thread each), for the tests and `bench/bench_cluster.py` (docs/CLUSTER.md says
-how to start them on other machines)."""
+"""A Dask cluster on this machine's loopback, a test helper: a real `dask scheduler` and
+`dask worker` processes (one thread each), for the tests and `bench/bench_cluster.py`
+(docs/CLUSTER.md says how to start them on other machines)."""
 
 from __future__ import annotations
 
