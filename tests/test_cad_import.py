@@ -15,6 +15,7 @@ import pytest
 from app.params.presets import builtin_presets
 from app.robots import load_description, model_xml
 from app.robots.cad_import import import_robot
+from app.robots.cad_mapping import ImportRefused
 from app.robots.model import RobotModel
 from app.sim.headless import run
 from gait import JOINT_NAMES, Motion
@@ -273,3 +274,213 @@ def test_the_cli_imports_shows_the_mapping_and_refuses_in_one_sentence(tmp_path:
     assert refused.returncode == 2
     assert "r_hip_roll" in refused.stderr and "Traceback" not in refused.stderr
     assert not (tmp_path / "bad.yaml").exists()
+
+
+# --- a biped of another maker's layout ---------------------------------------------------------
+
+
+def op3_like() -> mujoco.MjSpec:
+    """A biped of OP3's layout made here (not its file): hip yaw through the roll/pitch
+    crossing, thigh 0.110 m, shank 0.110 m, 3.15 kg, arms and a head, box feet centred under
+    the ankles 30 mm down, knees without a range, axes turned as OP3 turns them, no meshes."""
+    spec = mujoco.MjSpec()
+    spec.compiler.degree = False
+    spec.modelname = "op3-like"
+    d = spec.default
+    d.joint.damping = [1.084, 0, 0]
+    d.joint.armature = 0.045
+    d.joint.frictionloss = 0.03
+    root = spec.worldbody.add_body(name="body_link", pos=[0, 0, 0.3])
+    root.add_freejoint()
+    _inertial(root, 1.349, [-0.015, 0, 0.066])
+    root.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.07, 0.07], pos=[-0.015, 0, 0.075])
+    pan = _link(root, "head_pan_link", [-0.001, 0, 0.1365], "head_pan", [0, 0, 1], 0.0118)
+    tilt = _link(pan, "head_tilt_link", [0.01, 0.019, 0.0285], "head_tilt", [0, -1, 0], 0.1363)
+    tilt.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, 0.03], pos=[0, -0.019, 0.03])
+    for side, s in (("l", 1.0), ("r", -1.0)):
+        sho = _link(
+            root,
+            f"{side}_sho_pitch_link",
+            [-0.001, s * 0.06, 0.111],
+            f"{side}_sho_pitch",
+            [0, s, 0],
+            0.0118,
+        )
+        roll = _link(
+            sho,
+            f"{side}_sho_roll_link",
+            [0.019, s * 0.0285, -0.01],
+            f"{side}_sho_roll",
+            [-1, 0, 0],
+            0.1776,
+        )
+        el = _link(
+            roll, f"{side}_el_link", [0, s * 0.0904, -0.0001], f"{side}_el", [1, 0, 0], 0.0413
+        )
+        el.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            size=[0.012, 0.03, 0],
+            pos=[-0.019, s * 0.05, 0],
+            quat=[0.7071, 0.7071, 0, 0],
+        )
+        yaw = _link(
+            root, f"{side}_hip_yaw_link", [0, s * 0.035, 0], f"{side}_hip_yaw", [0, 0, -1], 0.0118
+        )
+        hroll = _link(
+            yaw,
+            f"{side}_hip_roll_link",
+            [-0.024, 0, -0.0285],
+            f"{side}_hip_roll",
+            [-1, 0, 0],
+            0.1789,
+        )
+        pitch = _link(
+            hroll,
+            f"{side}_hip_pitch_link",
+            [0.0241, s * 0.019, 0],
+            f"{side}_hip_pitch",
+            [0, s, 0],
+            0.1154,
+        )
+        knee = _link(
+            pitch, f"{side}_knee_link", [0, 0, -0.11015], f"{side}_knee", [0, s, 0], 0.0402
+        )
+        ank = _link(
+            knee, f"{side}_ank_pitch_link", [0, 0, -0.11], f"{side}_ank_pitch", [0, -s, 0], 0.1789
+        )
+        foot = _link(
+            ank,
+            f"{side}_ank_roll_link",
+            [-0.0241, -s * 0.019, 0],
+            f"{side}_ank_roll",
+            [1, 0, 0],
+            0.0693,
+        )
+        foot.add_geom(
+            name=f"{side}_sole_box",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[0.0635, 0.028, 0.004],
+            pos=[0.0241, s * 0.019, -0.0265],
+            mass=0,
+        )
+    for joint in spec.joints:
+        if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+            act = spec.add_actuator(
+                name=f"{joint.name}_act", target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT
+            )
+            act.set_to_position(kp=21.1)
+            act.forcerange = [-5, 5]
+            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    return spec
+
+
+def _inertial(
+    body, mass, pos
+):
+    body.mass, body.ipos = mass, pos
+    body.inertia = [1e-4 + mass * 1e-3] * 3
+    body.explicitinertial = True
+
+
+def _link(
+    parent, name, pos, joint, axis, mass
+):
+    body = parent.add_body(name=name, pos=pos)
+    body.add_joint(name=joint, axis=axis)
+    _inertial(body, mass, [0, 0, -0.01])
+    return body
+
+
+OP3_SIGNS = {
+    "hip_yaw": -1,
+    "hip_roll": -1,
+    "hip_pitch": -1,
+    "knee": -1,
+    "ankle_pitch": 1,
+    "ankle_roll": 1,
+}
+OP3_HELD = [
+    "head_pan",
+    "head_tilt",
+    "l_sho_pitch",
+    "l_sho_roll",
+    "l_el",
+    "r_sho_pitch",
+    "r_sho_roll",
+    "r_el",
+]
+
+
+def op3_imported(tmp_path: Path, **options: object) -> RobotModel:
+    source = tmp_path / "op3.xml"
+    source.write_text(op3_like().to_xml(), encoding="utf-8")
+    result = import_robot(source, output=tmp_path / "op3.yaml", name="op3-like", **options)
+    return RobotModel.load(result.description)
+
+
+def test_a_biped_whose_geometry_cannot_tell_its_front_asks_for_forward(tmp_path: Path) -> None:
+    source = tmp_path / "op3.xml"
+    source.write_text(op3_like().to_xml(), encoding="utf-8")
+    with pytest.raises(ImportRefused, match="--forward"):
+        import_robot(source, output=tmp_path / "op3.yaml")
+
+
+def test_an_op3_like_biped_maps_its_legs_holds_its_arms_and_keeps_its_mass(tmp_path: Path) -> None:
+    robot = op3_imported(tmp_path, forward="+x", servo="XM430-W350", keep_actuators=True)
+    cad = robot.description.cad
+    assert cad is not None and cad.forward_from == "given"
+    for name in JOINT_NAMES:
+        side, _, joint = name.partition("_")
+        want = OP3_SIGNS[joint] * (1 if side == "l" else -1)  # OP3 mirrors every axis
+        assert cad.joints[name].sign == want, name
+        assert cad.joints[name].file_joint.replace("ank_", "ankle_") == name
+    assert list(cad.held) == OP3_HELD
+    geo = robot.description.geometry
+    assert (geo.thigh_m, geo.shank_m) == (pytest.approx(0.11015), pytest.approx(0.110))
+    assert geo.ankle_to_sole_m == pytest.approx(0.0305, abs=1e-3)
+    assert robot.total_mass_kg() == pytest.approx(float(op3_like().compile().body_subtreemass[1]))
+    assert robot.model.nu == 12 and robot.model.nq == 19  # the arms and head are rigid
+    kp = robot.model.actuator_gainprm[robot.actuator_ids, 0]
+    np.testing.assert_allclose(kp, 21.1)  # the file's own servos, kept
+
+
+def test_paper_angles_move_an_op3_like_sole_as_they_move_artros(tmp_path: Path) -> None:
+    robot, artro = op3_imported(tmp_path, forward="+x"), RobotModel.load("artro")
+    for i, name in enumerate(JOINT_NAMES):
+        angles = np.zeros(12)
+        angles[i] = -0.3 if name.endswith("knee") else 0.3
+        moved = [_sole_motion(r, angles, name[0]) for r in (robot, artro)]
+        for ours, theirs in zip(*moved, strict=True):
+            if np.linalg.norm(theirs) > 1e-6:
+                assert ours @ theirs > 0, (name, ours, theirs)
+
+
+def _sole_motion(robot: RobotModel, angles: np.ndarray, side: str) -> list[np.ndarray]:
+    """How the sole moves (m) and turns (rad) from the straight pose at `angles`."""
+    data = mujoco.MjData(robot.model)
+    out = []
+    for pose in (np.zeros(12), angles):
+        data.qpos[robot.qpos_adr] = pose
+        data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+        mujoco.mj_kinematics(robot.model, data)
+        out.append((data.site(f"{side}_sole").xpos.copy(), data.site(f"{side}_sole").xmat.copy()))
+    (p0, r0), (p1, r1) = out
+    turn = np.zeros(3)
+    quat = np.zeros(4)
+    mujoco.mju_mat2Quat(quat, (r1.reshape(3, 3) @ r0.reshape(3, 3).T).ravel())
+    mujoco.mju_quat2Vel(turn, quat, 1.0)
+    return [p1 - p0, turn]
+
+
+def test_an_op3_like_biped_stands_ten_seconds_on_its_own_servos(tmp_path: Path) -> None:
+    robot = op3_imported(tmp_path, forward="+x", servo="XM430-W350", keep_actuators=True)
+    model = robot.model
+    data = mujoco.MjData(model)
+    data.qpos[2] = robot.standing_height_m(np.zeros(12)) + 0.002
+    data.ctrl[:] = 0.0  # the straight pose, the paper's zero
+    start = float(data.qpos[2])
+    while data.time < 10.0:
+        mujoco.mj_step(model, data)
+    up = data.xmat[robot.trunk_id].reshape(3, 3)[:, 2]
+    assert up[2] > np.cos(np.radians(10)), up  # upright within 10°
+    assert data.qpos[2] > start - 0.02

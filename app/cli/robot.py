@@ -112,6 +112,12 @@ exit status 2, in one sentence naming the joint, for a file the gait cannot driv
         help="where package:// mesh paths resolve (repeatable)",
     )  # fmt: skip
     imp.add_argument("--imu-site", metavar="NAME", help="a site of the file for the IMU")
+    imp.add_argument(
+        "--forward",
+        choices=("+x", "-x", "+y", "-y", "+z", "-z"),
+        help="the axis of the file's root frame the toes point along, for a robot whose soles "
+        "are centred under its ankles and whose knees have no range",
+    )
 
 
 def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
@@ -187,12 +193,16 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     return 0
 
 
+FRONT_FROM = {"toes": "its toes", "knees": "its knees", "given": "--forward"}
+
+
 def print_mapping(desc: RobotDescription, out: TextIO) -> None:
     """An imported robot's mapping: each gait joint's joint in the file, sign, zero, axis error."""
     if desc.cad is None:
         return
     print(
-        f"  imported from {desc.cad.file} (forward told by the {desc.cad.forward_from})", file=out
+        f"  imported from {desc.cad.file} (its front told by {FRONT_FROM[desc.cad.forward_from]})",
+        file=out,
     )
     print("  gait joint      file joint                sign  zero rad  axis error", file=out)
     for row in mapping_rows(desc):
@@ -217,6 +227,7 @@ def import_command(args: argparse.Namespace, out: TextIO) -> int:
         keep_actuators=args.keep_actuators,
         package_dirs=tuple(args.package_dir),
         imu_site=args.imu_site,
+        forward=args.forward,
     )
     desc = imported.description
     if target is None:

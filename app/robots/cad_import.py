@@ -22,6 +22,7 @@ from app.robots.library import RobotError, parse_description
 from app.robots.servos import servo_table
 
 DEFAULT_SERVO = "MG996R"
+FORWARD_AXES = ("+x", "-x", "+y", "-y", "+z", "-z")
 #: the TDM-PWM wiring an imported robot gets: the built-in ArtRo's
 DEFAULT_TDM = {
     "OC1A": [f"l_{j}" for j in LEG_JOINTS[:5]],
@@ -50,9 +51,11 @@ def import_robot(
     keep_actuators: bool = False,
     package_dirs: tuple[str, ...] = (),
     imu_site: str | None = None,
+    forward: str | None = None,
 ) -> Imported:
     """Map the file at `path` and make its description (its `cad.file` relative to `output`'s
-    folder); ImportRefused / CadFileError / RobotError (ValueErrors) with the reason."""
+    folder; `forward`: the root frame's axis the toes point along, where the geometry cannot
+    tell); ImportRefused / CadFileError / RobotError (ValueErrors) with the reason."""
     if not path.is_file():
         raise CadFileError(f"no file {str(path)!r}")
     kind = "urdf" if path.suffix.lower() == ".urdf" else "mjcf"
@@ -67,7 +70,9 @@ def import_robot(
         raise CadFileError(
             f"{path}: MuJoCo cannot compile it: {' '.join(str(err).split())}"
         ) from None
-    mapping = map_model(model, model.body(root.name).id)
+    if forward is not None and forward not in FORWARD_AXES:
+        raise CadFileError(f"--forward {forward!r}: give one of {', '.join(FORWARD_AXES)}")
+    mapping = map_model(model, model.body(root.name).id, forward)
     table = servo_table()
     if servo not in table:
         raise RobotError(f"--servo: unknown servo {servo!r}; known: {', '.join(sorted(table))}")
@@ -90,7 +95,10 @@ def import_robot(
         update={"cad": resolved(description.cad, output.resolve().parent)}
     )
     if spec_of_servo.signal != "pwm":
-        notes.append(f"{servo} is a bus servo; it is simulated as a position servo")
+        notes.append(
+            f"{servo} is a bus servo: the simulation drives it with the position servo model of "
+            "its figures, its goals passing through the pulse model as a stand-in for the bus"
+        )
     return Imported(description, document, mapping, notes)
 
 
@@ -134,7 +142,7 @@ def _document(
         "name": name,
         "title": f"imported from {path.name}",
         "default_preset": "paper",
-        "supply_voltage_v": max(spec.voltages_v),
+        "supply_voltage_v": spec.voltages_v[len(spec.voltages_v) // 2],  # the middle rating
         "servo": servo,
         "geometry": {k: round(v, 6) for k, v in mapping.geometry.items()},
         "trunk": [

@@ -109,7 +109,7 @@ class Mapping:
     held: list[str]
     geometry: dict[str, float]
     link_masses_kg: dict[str, float]
-    forward_from: str  # what told the front: "toes" or "knees"
+    forward_from: str  # what told the front: "toes", "knees" or "given" (--forward)
     sites: dict[str, tuple[str, tuple[float, float, float]]]  # l_hip, l_ankle, ...: body, pos
     notes: list[str] = field(default_factory=list)
 
@@ -122,7 +122,7 @@ class _Leg:
     side: str = ""
 
 
-def map_model(model: mujoco.MjModel, root: int) -> Mapping:
+def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> Mapping:
     """The mapping of the compiled file `model` (its root body `root` welded where the file put
     it, every joint at its reference), or ImportRefused."""
     data = mujoco.MjData(model)
@@ -139,7 +139,7 @@ def map_model(model: mujoco.MjModel, root: int) -> Mapping:
     across = hips[0] - hips[1]
     across = unit(across - up * (across @ up))
     ankles = [_crossing(model, data, frame, leg, 4, 5, "ankle pitch", "ankle roll") for leg in legs]
-    forward, told_by = _forward(model, data, frame, legs, up, across, ankles, feet_points)
+    forward, told_by = _forward(model, data, frame, legs, up, across, ankles, feet_points, forward)
     left = np.cross(up, forward)
     if (hips[0] - hips[1]) @ left < 0:
         legs, hips, ankles = legs[::-1], hips[::-1], ankles[::-1]
@@ -291,10 +291,21 @@ def _crossing(model, data, frame, leg: _Leg, i: int, k: int, what_i: str, what_k
     return point
 
 
-def _forward(model, data, frame, legs, up, across, ankles, feet_points) -> tuple[Vec, str]:  # type: ignore[no-untyped-def]
-    """Forward, from the toes (the soles' centres ahead of the ankles) or else the knees (the
-    side a bending knee moves the ankle away from)."""
+def _forward(model, data, frame, legs, up, across, ankles, feet_points, given) -> tuple[Vec, str]:  # type: ignore[no-untyped-def]
+    """Forward: as `given` (an axis of the file's root frame, "+x" ... "-z"), else from the
+    toes (the soles' centres ahead of the ankles), else the knees (the side a bending knee moves
+    the ankle away from)."""
     candidate = np.cross(across, up)
+    if given is not None:
+        axis = np.zeros(3)
+        axis["xyz".index(given[1])] = 1.0 if given[0] == "+" else -1.0
+        if abs(axis @ candidate) < math.cos(math.radians(45)):
+            raise ImportRefused(
+                f"--forward {given}: that axis of the file's root frame is "
+                f"{math.degrees(math.acos(min(1.0, abs(axis @ candidate)))):.0f}° from the "
+                "robot's front-back line (at most 45°); give the axis the toes point along"
+            )
+        return candidate * np.sign(axis @ candidate), "given"
     ahead = [
         float((lowest(feet_points[id(leg)], up, SOLE_BAND_M) - a) @ candidate)
         for leg, a in zip(legs, ankles, strict=True)
@@ -317,7 +328,8 @@ def _forward(model, data, frame, legs, up, across, ankles, feet_points) -> tuple
     raise ImportRefused(
         f"cannot tell the robot's front from its back: the soles are centred under the ankles "
         f"(within {1000 * TOE_OFFSET_MIN_M:g} mm) and the knee {joint_name(model, knee)!r} bends "
-        f"both ways ({lo:.2f}..{hi:.2f} rad); give the knee its range (it bends one way)"
+        f"both ways ({lo:.2f}..{hi:.2f} rad); say where the toes point with --forward (an axis "
+        "of the file's root frame, e.g. --forward +x), or give the knee its range"
     )
 
 
@@ -404,7 +416,7 @@ def _foot(model, data, frame, leg: _Leg, to_trunk: Vec, points: Vec, ankle: Vec)
     body_rot = frame.rotation.T @ data.xmat[leg.foot].reshape(3, 3)  # foot axes in the root frame
     sole_pos = body_rot.T @ (centre_root - body_pos)
     sole_rot = body_rot.T @ to_trunk.T  # sole (trunk-aligned) axes in the foot body
-    plate, thickness = _plate(model, data, frame, leg.foot, to_trunk, height.min())
+    plate, thickness = _plate(model, data, frame, leg.foot, to_trunk, height.min(), hi - lo)
     return FootMap(
         body=_body(model, leg.foot),
         sole_pos_m=tuple(float(x) for x in sole_pos),  # type: ignore[arg-type]
@@ -416,9 +428,12 @@ def _foot(model, data, frame, leg: _Leg, to_trunk: Vec, points: Vec, ankle: Vec)
     )
 
 
-def _plate(model, data, frame, foot: int, to_trunk: Vec, lowest: float) -> tuple[str | None, float]:  # type: ignore[no-untyped-def]
-    """The foot's box geom whose bottom is the sole and whose axes are the trunk's, with its
-    thickness; (None, ADDED_PLATE_THICKNESS_M) where there is none."""
+def _plate(
+    model, data, frame, foot: int, to_trunk: Vec, lowest: float, outline: Vec
+) -> tuple[str | None, float]:  # type: ignore[no-untyped-def]
+    """The foot's named box geom that is the whole sole (its bottom the lowest, its axes the
+    trunk's, its size the sole's `outline`), with its thickness; (None,
+    ADDED_PLATE_THICKNESS_M) where there is none."""
     for b in subtree_of(model, foot):
         for g in range(model.ngeom):
             if model.geom_bodyid[g] != b or model.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX:
@@ -429,7 +444,9 @@ def _plate(model, data, frame, foot: int, to_trunk: Vec, lowest: float) -> tuple
             if not np.allclose(np.abs(axes), np.eye(3), atol=math.radians(1.0)):
                 continue
             bottom = (to_trunk @ frame.point(geom_points(model, data, g)).T)[2].min()
-            if abs(bottom - lowest) < 5e-4:
+            size = 2 * model.geom_size[g][:2]
+            named = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_GEOM, g)
+            if abs(bottom - lowest) < 5e-4 and np.allclose(size, outline[:2], atol=1e-3) and named:
                 return element_name(model, mujoco.mjtObj.mjOBJ_GEOM, g), 2 * float(
                     model.geom_size[g][2]
                 )

@@ -54,7 +54,7 @@ class CadSource(_Strict):
     package_dirs: tuple[Name, ...] = Field((), description="where package:// mesh paths resolve")
     root_body: Name
     trunk_quat: Quat = Field(description="the root body's frame in the trunk's (x fwd, z up)")
-    forward_from: Literal["toes", "knees"] = "toes"
+    forward_from: Literal["toes", "knees", "given"] = "toes"
     joints: dict[str, CadJoint]
     feet: dict[Literal["l", "r"], CadFoot]
     sites: dict[str, CadSite] = Field(description="l_hip, l_ankle, r_hip, r_ankle")

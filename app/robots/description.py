@@ -262,7 +262,7 @@ class RobotDescription(_Strict):
                     f"joints.{name}.servo: unknown servo {servo!r}; known: {sorted(table)}"
                 )
             spec = table[servo]
-            if spec.signal != "pwm":
+            if spec.signal != "pwm" and self.cad is None:  # an imported robot: docs/DESIGN.md §16
                 raise ValueError(
                     f"joints.{name}.servo: {servo} is a {spec.signal} servo; the TDM-PWM output "
                     f"of this robot (seed 000 §3) sends pulses, which {servo} does not take: "
