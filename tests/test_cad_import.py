@@ -374,17 +374,13 @@ def op3_like() -> mujoco.MjSpec:
     return spec
 
 
-def _inertial(
-    body, mass, pos
-):
+def _inertial(body, mass, pos):
     body.mass, body.ipos = mass, pos
     body.inertia = [1e-4 + mass * 1e-3] * 3
     body.explicitinertial = True
 
 
-def _link(
-    parent, name, pos, joint, axis, mass
-):
+def _link(parent, name, pos, joint, axis, mass):
     body = parent.add_body(name=name, pos=pos)
     body.add_joint(name=joint, axis=axis)
     _inertial(body, mass, [0, 0, -0.01])
@@ -484,3 +480,29 @@ def test_an_op3_like_biped_stands_ten_seconds_on_its_own_servos(tmp_path: Path) 
     up = data.xmat[robot.trunk_id].reshape(3, 3)[:, 2]
     assert up[2] > np.cos(np.radians(10)), up  # upright within 10°
     assert data.qpos[2] > start - 0.02
+
+
+# --- round trip through URDF ------------------------------------------------------------------
+
+
+def test_artro_exported_as_urdf_imports_back_to_its_lengths_masses_and_walk(tmp_path: Path) -> None:
+    source = tmp_path / "artro.urdf"
+    done = subprocess.run(
+        [sys.executable, "-m", "app.cli", "robot", "export-urdf", "artro", "-o", str(source)],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    result = import_robot(source, output=tmp_path / "artro-urdf.yaml", name="artro-urdf")
+    robot, builtin = RobotModel.load(result.description), RobotModel.load("artro")
+    for key, value in builtin.description.geometry.model_dump().items():
+        assert getattr(robot.description.geometry, key) == pytest.approx(value, abs=1e-3), key
+    assert robot.total_mass_kg() == pytest.approx(builtin.total_mass_kg(), rel=0.01)
+    angles = np.linspace(-0.4, 0.4, 12)
+    np.testing.assert_allclose(
+        site_positions(robot, angles), site_positions(builtin, angles), atol=1e-6
+    )
+    params = builtin_presets()["robust"].gait
+    ours = run(params, Motion(a_p=0.07), duration_s=10.0, warmup_s=3.0, robot=robot).metrics
+    theirs = run(params, Motion(a_p=0.07), duration_s=10.0, warmup_s=3.0).metrics
+    assert ours["fell"] == theirs["fell"] is False
+    assert ours["forward_cm_s"] == pytest.approx(theirs["forward_cm_s"], rel=0.05)

@@ -41,7 +41,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print("artro: interrupted", file=sys.stderr)
         return 130
     args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else argv))
-    from app.sim.mujoco_warnings import keep_warnings_out_of_the_folder
+    from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder
 
     keep_warnings_out_of_the_folder()  # no MUJOCO_LOG.TXT where a run blew up
     try:

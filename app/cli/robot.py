@@ -1,6 +1,7 @@
-"""`artro robot list|show|check|export-mjcf|import`: the built-in robots, a description with the
-figures that follow from it (eq (1) per joint, an imported robot's mapping), its checks, its
-MuJoCo model as MJCF, a URDF or MJCF biped imported (docs/DESIGN.md §7, §16)."""
+"""`artro robot list|show|check|export-mjcf|export-urdf|import`: the built-in robots, a
+description with the figures that follow from it (eq (1) per joint, an imported robot's
+mapping), its checks, its model as MJCF or URDF, a URDF or MJCF biped imported (docs/DESIGN.md
+§7, §16)."""
 
 from __future__ import annotations
 
@@ -24,6 +25,7 @@ from app.robots.swap import (
     suggest_servos,
     write_description,
 )
+from app.robots.urdf_export import model_urdf
 
 EXAMPLES = """examples:
   artro robot list
@@ -32,6 +34,7 @@ EXAMPLES = """examples:
   artro robot check my.yaml            then: artro serve --robot my.yaml
   artro robot check my.yaml --suggest -o my-servos.yaml   the lightest servos that carry it
   artro robot export-mjcf artro -o artro.xml
+  artro robot export-urdf artro -o artro.urdf
   artro robot import my_biped.urdf -o my.yaml   your CAD export, mapped by its geometry"""
 
 
@@ -84,6 +87,17 @@ def add_parser(sub: Any) -> None:
     )
     export.add_argument("robot", metavar="NAME|FILE")
     export.add_argument(
+        "-o", "--output", type=output_file, metavar="FILE", help="default: standard output"
+    )
+    urdf = action(
+        sub,
+        "export-urdf",
+        "write the robot as URDF (links with their masses, revolute joints, collision shapes)",
+        """examples:
+  artro robot export-urdf artro -o artro.urdf   then: artro robot import artro.urdf""",
+    )
+    urdf.add_argument("robot", metavar="NAME|FILE")
+    urdf.add_argument(
         "-o", "--output", type=output_file, metavar="FILE", help="default: standard output"
     )
     imp = action(
@@ -156,8 +170,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         if args.suggest:
             return suggest(desc, args.output, out, source=args.robot)
         return 0
-    if args.robot_command == "export-mjcf":
-        text = model_xml(desc)
+    if args.robot_command in ("export-mjcf", "export-urdf"):
+        text = model_xml(desc) if args.robot_command == "export-mjcf" else model_urdf(desc)
         if args.output:
             not_the_source(Path(args.output), args.robot, f"-o {args.output}", "e.g. -o my.xml")
             Path(args.output).write_text(text, encoding="utf-8")

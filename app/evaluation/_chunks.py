@@ -26,8 +26,8 @@ from app.evaluation._groups import lane_tasks
 from app.evaluation._lanes import BatchEvaluator
 from app.robots import parse_description
 from app.robots.model import RobotModel
+from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder
 from app.sim.metrics import RunMetrics, Trace
-from app.sim.mujoco_warnings import keep_warnings_out_of_the_folder
 from gait import feedback
 
 RUNS_PER_TASK = 8  # a task of 8 open-loop runs of 20 s is ~5 s of a core: the round trip < 1 %

@@ -20,6 +20,7 @@ from app.robots.model_parts import (
     add_sensors,
     joint_settings,
 )
+from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder
 
 # attaching the file's root with no prefix keeps its names, which the description maps by
 warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
@@ -162,6 +163,7 @@ def add_cad_robot(scene: mujoco.MjSpec, robot: RobotDescription) -> None:
         trunk.add_site(name="imu", pos=[0, 0, 0], size=[0.005, 0, 0])
     frame = trunk.add_frame(quat=list(cad.trunk_quat))
     root.pos, root.quat = [0.0, 0.0, 0.0], [1.0, 0.0, 0.0, 0.0]  # the trunk's origin is the root's
+    keep_warnings_out_of_the_folder()  # MuJoCo says a prefix-less attach may not save as XML
     with warnings.catch_warnings():  # the file's options give way to the scene's; no prefix
         warnings.simplefilter("ignore")
         frame.attach_body(root, "", "")
