@@ -256,11 +256,16 @@ def test_the_cli_imports_shows_the_mapping_and_refuses_in_one_sentence(tmp_path:
     )
     assert done.returncode == 0, done.stderr
     assert "j_thigh1_l" in done.stdout
+    picture = tmp_path / "good.png"
     shown = subprocess.run(
-        [*cli, "show", str(tmp_path / "good.yaml")], capture_output=True, text=True, check=False
+        [*cli, "show", str(tmp_path / "good.yaml"), "--png", str(picture)],
+        capture_output=True,
+        text=True,
+        check=False,
     )
     assert shown.returncode == 0, shown.stderr
     assert "l_hip_roll      j_thigh1_l" in shown.stdout
+    assert picture.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n" and picture.stat().st_size > 20_000
     spec = artro_spec()
     spec.joint("r_hip_roll").axis = [np.cos(0.2), 0.0, np.sin(0.2)]
     bad = tmp_path / "bad.xml"

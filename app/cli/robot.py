@@ -26,6 +26,7 @@ from app.robots.swap import (
     write_description,
 )
 from app.robots.urdf_export import model_urdf
+from app.study.robot_picture import draw_robot
 
 EXAMPLES = """examples:
   artro robot list
@@ -50,10 +51,17 @@ def add_parser(sub: Any) -> None:
         "a description and the figures that follow from it",
         """examples:
   artro robot show artro               mass, heights, servos, eq (1) per joint
-  artro robot show my.yaml --json      the same as one JSON object""",
+  artro robot show my.yaml --json      the same as one JSON object
+  artro robot show my.yaml --png my.png   drawn, with each joint's axis and name""",
     )
     show.add_argument("robot", metavar="NAME|FILE")
     show.add_argument("--json", action="store_true", help="print one JSON object")
+    show.add_argument(
+        "--png",
+        type=output_file,
+        metavar="FILE",
+        help="also draw the robot with each leg joint's axis and name (an import's mapping)",
+    )
     check = action(
         sub,
         "check",
@@ -178,7 +186,11 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         else:
             out.write(text)
         return 0
-    summary = RobotModel.load(desc).summary()
+    model = RobotModel.load(desc)
+    summary = model.summary()
+    if args.png:
+        draw_robot(model, Path(args.png))
+        print(f"drew {args.png}", file=sys.stderr if args.json else out)
     if args.json:
         print(json.dumps(summary, allow_nan=False), file=out)
         return 0

@@ -148,6 +148,20 @@ class RobotModel:
             upper_m=float(np.linalg.norm(knee - hip)), lower_m=float(np.linalg.norm(ankle - knee))
         )
 
+    def leg_axes(self) -> dict[str, tuple[NDArray[np.float64], NDArray[np.float64]]]:
+        """Each leg joint's anchor and axis (world, m), standing straight at the origin, with
+        the positive direction of its paper angle (`artro robot show --png`)."""
+        data = mujoco.MjData(self.model)
+        data.qpos[self.qpos_adr] = 0.0
+        data.qpos[:3] = (0.0, 0.0, self.standing_height_m(np.zeros(12)))
+        data.qpos[3:7] = (1.0, 0.0, 0.0, 0.0)
+        mujoco.mj_kinematics(self.model, data)
+        return {
+            name: (data.xanchor[j].copy(), data.xaxis[j].copy())
+            for name in JOINT_NAMES
+            for j in [self.model.joint(name).id]
+        }
+
     def total_mass_kg(self) -> float:
         """Mass of the whole robot (the trunk body's subtree), kg."""
         return float(self.model.body_subtreemass[self.trunk_id])
