@@ -204,7 +204,7 @@ def _add_sole(spec: mujoco.MjSpec, robot: RobotDescription, side: str) -> None:
     outline, the file's own foot geometry then off the floor) and the force sensor zones."""
     cad = robot.cad
     assert cad is not None
-    foot = cad.feet[side]  # type: ignore[index]
+    foot = cad.feet["l" if side == "l" else "r"]
     geo = robot.geometry
     body = spec.body(foot.body)
     quat = list(foot.sole_quat)

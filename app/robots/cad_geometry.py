@@ -46,7 +46,7 @@ def quat_of(matrix: Vec) -> tuple[float, float, float, float]:
     """The unit quaternion of the rotation whose matrix maps root coordinates to the trunk's."""
     quat = np.zeros(4)
     mujoco.mju_mat2Quat(quat, np.ascontiguousarray(matrix, dtype=np.float64).ravel())
-    return tuple(float(q) for q in quat)  # type: ignore[return-value]
+    return (float(quat[0]), float(quat[1]), float(quat[2]), float(quat[3]))
 
 
 def tree_children(model: mujoco.MjModel) -> dict[int, list[int]]:

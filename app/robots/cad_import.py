@@ -108,15 +108,15 @@ def _name_of(path: Path) -> str:
 
 
 def _document(
-    path,
-    output,
-    kind,
+    path: Path,
+    output: Path,
+    kind: str,
     mapping: Mapping,
-    name,
-    servo,
-    keep_actuators,
-    package_dirs,  # type: ignore[no-untyped-def]
-    imu_site,
+    name: str,
+    servo: str,
+    keep_actuators: bool,
+    package_dirs: tuple[str, ...],
+    imu_site: str | None,
     notes: list[str],
 ) -> dict[str, Any]:
     spec = servo_table()[servo]

@@ -162,7 +162,7 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
     ]
     _check_closed_chains(model, legs)
     _check_third_leg(model, data, frame, root, legs, up, soles, geometry)
-    sites = {}
+    sites: dict[str, tuple[str, tuple[float, float, float]]] = {}
     for leg, hip, ankle in zip(legs, hips, ankles, strict=True):
         for what, point, j in (("hip", hip, leg.joints[2]), ("ankle", ankle, leg.joints[4])):
             body = int(model.jnt_bodyid[j])
@@ -170,7 +170,7 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
             local = rot.T @ (point - frame.point(data.xpos[body]))
             sites[f"{leg.side}_{what}"] = (
                 _body(model, body),
-                tuple(float(x) for x in local),
+                (float(local[0]), float(local[1]), float(local[2])),
             )
     return Mapping(
         root_body=_body(model, root),
@@ -183,7 +183,7 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
         geometry=geometry,
         link_masses_kg=_link_masses(model, legs[0]),
         forward_from=told_by,
-        sites=sites,  # type: ignore[arg-type]
+        sites=sites,
     )
 
 
@@ -276,7 +276,16 @@ def _foot_points(model: mujoco.MjModel, data: mujoco.MjData, foot: int, frame: F
     return np.concatenate([frame.point(geom_points(model, data, g)) for g in geoms])
 
 
-def _crossing(model, data, frame, leg: _Leg, i: int, k: int, what_i: str, what_k: str) -> Vec:  # type: ignore[no-untyped-def]
+def _crossing(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    frame: Frame,
+    leg: _Leg,
+    i: int,
+    k: int,
+    what_i: str,
+    what_k: str,
+) -> Vec:
     """Where the axes of the leg's hinges `i` and `k` cross; ImportRefused if they pass apart."""
     p, u = axis_line(model, data, frame, leg.joints[i])
     q, v = axis_line(model, data, frame, leg.joints[k])
@@ -291,7 +300,17 @@ def _crossing(model, data, frame, leg: _Leg, i: int, k: int, what_i: str, what_k
     return point
 
 
-def _forward(model, data, frame, legs, up, across, ankles, feet_points, given) -> tuple[Vec, str]:  # type: ignore[no-untyped-def]
+def _forward(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    frame: Frame,
+    legs: list[_Leg],
+    up: Vec,
+    across: Vec,
+    ankles: list[Vec],
+    feet_points: dict[int, Vec],
+    given: str | None,
+) -> tuple[Vec, str]:
     """Forward: as `given` (an axis of the file's root frame, "+x" ... "-z"), else from the
     toes (the soles' centres ahead of the ankles), else the knees (the side a bending knee moves
     the ankle away from)."""
@@ -342,13 +361,13 @@ def _pitch(v: Vec) -> float:
 
 
 def _leg_joints(
-    model,
-    data,
-    frame,
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    frame: Frame,
     leg: _Leg,
     to_trunk: Vec,
     hip: Vec,
-    ankle: Vec,  # type: ignore[no-untyped-def]
+    ankle: Vec,
     lengths: dict[str, list[float]],
 ) -> dict[str, JointMap]:
     """Classify, sign and zero the leg's six hinges; ImportRefused naming a misplaced one."""
@@ -403,7 +422,15 @@ def _leg_joints(
     return found
 
 
-def _foot(model, data, frame, leg: _Leg, to_trunk: Vec, points: Vec, ankle: Vec) -> FootMap:  # type: ignore[no-untyped-def]
+def _foot(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    frame: Frame,
+    leg: _Leg,
+    to_trunk: Vec,
+    points: Vec,
+    ankle: Vec,
+) -> FootMap:
     """The sole of the leg's foot in the foot body: centre, axes (the trunk's in the zero pose),
     outline, and the box that is its plate if one is."""
     trunk_points = points @ to_trunk.T
@@ -419,7 +446,7 @@ def _foot(model, data, frame, leg: _Leg, to_trunk: Vec, points: Vec, ankle: Vec)
     plate, thickness = _plate(model, data, frame, leg.foot, to_trunk, height.min(), hi - lo)
     return FootMap(
         body=_body(model, leg.foot),
-        sole_pos_m=tuple(float(x) for x in sole_pos),  # type: ignore[arg-type]
+        sole_pos_m=(float(sole_pos[0]), float(sole_pos[1]), float(sole_pos[2])),
         sole_quat=quat_of(sole_rot),
         length_m=float(hi[0] - lo[0]),
         width_m=float(hi[1] - lo[1]),
@@ -429,8 +456,14 @@ def _foot(model, data, frame, leg: _Leg, to_trunk: Vec, points: Vec, ankle: Vec)
 
 
 def _plate(
-    model, data, frame, foot: int, to_trunk: Vec, lowest: float, outline: Vec
-) -> tuple[str | None, float]:  # type: ignore[no-untyped-def]
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    frame: Frame,
+    foot: int,
+    to_trunk: Vec,
+    lowest: float,
+    outline: Vec,
+) -> tuple[str | None, float]:
     """The foot's named box geom that is the whole sole (its bottom the lowest, its axes the
     trunk's, its size the sole's `outline`), with its thickness; (None,
     ADDED_PLATE_THICKNESS_M) where there is none."""
@@ -496,7 +529,16 @@ def _check_closed_chains(model: mujoco.MjModel, legs: list[_Leg]) -> None:
         )
 
 
-def _check_third_leg(model, data, frame, root, legs, up, soles, geometry) -> None:  # type: ignore[no-untyped-def]
+def _check_third_leg(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    frame: Frame,
+    root: int,
+    legs: list[_Leg],
+    up: Vec,
+    soles: list[Vec],
+    geometry: dict[str, float],
+) -> None:
     ends = {leg.end for leg in legs}
     children = tree_children(model)
     floor = float(np.mean([s @ up for s in soles]))
@@ -518,7 +560,17 @@ def _check_third_leg(model, data, frame, root, legs, up, soles, geometry) -> Non
 # --- what the description carries ------------------------------------------------------------
 
 
-def _geometry(model, data, frame, legs, to_trunk, hips, ankles, feet, lengths) -> dict[str, float]:  # type: ignore[no-untyped-def]
+def _geometry(
+    model: mujoco.MjModel,
+    data: mujoco.MjData,
+    frame: Frame,
+    legs: list[_Leg],
+    to_trunk: Vec,
+    hips: list[Vec],
+    ankles: list[Vec],
+    feet: dict[str, FootMap],
+    lengths: dict[str, list[float]],
+) -> dict[str, float]:
     hips_t = [to_trunk @ h for h in hips]
     yaw_t = [to_trunk @ frame.point(data.xanchor[leg.joints[0]]) for leg in legs]
     ankles_t = [to_trunk @ a for a in ankles]
