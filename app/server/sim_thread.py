@@ -41,9 +41,9 @@ from app.server.sensor_trace import SensorTrace, SensorView
 from app.server.sim_commands import (
     CommandQueue,
     DriveRefused,
-    PendingPushes,
     Pause,
     PauseForReplay,
+    PendingPushes,
     Push,
     Reanchor,
     RemoveGhost,
