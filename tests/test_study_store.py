@@ -20,6 +20,7 @@ from app.cli import main
 from app.study.study_files import StudyBusy, whole_write
 from app.study.study_store import StudyStore, open_storage
 from tests.server_harness import free_port, wait_for
+from tests.signal_support import ctrl_c_raises
 
 ROOT = Path(__file__).resolve().parent.parent
 #: a tune that opens its study before it simulates anything
@@ -49,22 +50,40 @@ def test_trials_come_back_from_the_store_alone(tmp_path, kind):
 
 
 def test_a_ctrl_c_during_a_write_acts_once_the_candidate_is_written_whole(tmp_path):
+    """Run as a background job (SIGINT ignored from the start) it failed: the test sets the
+    disposition it relies on."""
     where = tmp_path / "study.log"
     store = StudyStore(where, SETTINGS)
     reached = []
-    with pytest.raises(KeyboardInterrupt):
-        with whole_write():
-            os.kill(os.getpid(), signal.SIGINT)  # without the hold, KeyboardInterrupt is here
-            reached.append("after the signal")
-            fill(store)
-    store.close()
-    assert reached == ["after the signal"]
-    assert not Path(f"{where}.lock").exists()  # Optuna's journal lock is not left behind
-    with StudyStore(where, SETTINGS) as again:
-        assert [r["loss"] for r in again.recorded()[0]] == [1.5, 0.7]
-    with whole_write():  # a block without a signal ends as it would without the hold
-        pass
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with ctrl_c_raises():
+        with pytest.raises(KeyboardInterrupt):
+            with whole_write():
+                os.kill(os.getpid(), signal.SIGINT)  # without the hold, KeyboardInterrupt is here
+                reached.append("after the signal")
+                fill(store)
+        store.close()
+        assert reached == ["after the signal"]
+        assert not Path(f"{where}.lock").exists()  # Optuna's journal lock is not left behind
+        with StudyStore(where, SETTINGS) as again:
+            assert [r["loss"] for r in again.recorded()[0]] == [1.5, 0.7]
+        with whole_write():  # a block without a signal ends as it would without the hold
+            pass
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_write_where_ctrl_c_is_ignored_goes_on_and_leaves_it_ignored(tmp_path):
+    """A tune started as a background job (SIGINT ignored) is not ended by a SIGINT during a
+    write, and the hold puts the ignoring back."""
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with StudyStore(tmp_path / "study.log", SETTINGS) as store:
+            with whole_write():
+                os.kill(os.getpid(), signal.SIGINT)
+                fill(store)
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+            assert [r["loss"] for r in store.recorded()[0]] == [1.5, 0.7]
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 def refused(args: list[str], capsys) -> str:
