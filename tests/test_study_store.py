@@ -281,6 +281,55 @@ def test_a_journal_damaged_in_its_middle_is_said_so(tmp_path):
     assert aside.read_bytes() == b"".join([b"{not json\n", *lines[middle:]])
 
 
+#: whole JSON entries Optuna cannot apply (it stopped with a traceback: AssertionError "Should
+#: not reach.", KeyError 'study_name'), and what is said of each
+UNAPPLIABLE = {
+    "an unknown op_code": (
+        b'{"op_code": 99, "worker_id": "w"}\n',
+        "op_code 99, where Optuna's journal has the operations 0 to 10",
+    ),
+    "a study made without its name": (
+        b'{"op_code": 0, "worker_id": "w", "directions": [1]}\n',
+        "op_code 0 without study_name",
+    ),
+}
+
+
+@pytest.mark.parametrize("line", UNAPPLIABLE.values(), ids=UNAPPLIABLE.keys())
+@pytest.mark.parametrize("at", ["middle", "end"])
+def test_a_journal_line_optuna_cannot_apply_is_named_and_moved_aside(tmp_path, line, at):
+    """As a damaged line is: the journal keeps the entries before it, the line and what follows
+    go aside, and the message names the line and why Optuna cannot apply it."""
+    entry, why = line
+    journal = tmp_path / "s.log"
+    with StudyStore(journal, SETTINGS) as store:
+        fill(store)
+    lines = journal.read_bytes().splitlines(keepends=True)
+    where = len(lines) // 2 if at == "middle" else len(lines)
+    journal.write_bytes(b"".join([*lines[:where], entry, *lines[where:]]))
+    said = io.StringIO()
+    with StudyStore(journal, SETTINGS, log=said) as store:
+        kept = store.recorded()
+    named = f"an entry Optuna cannot apply ({why}) at line {where + 1}"
+    assert named in said.getvalue() and "Traceback" not in said.getvalue()
+    (aside,) = tmp_path.glob("s.log.damaged-*")
+    assert aside.read_bytes() == b"".join([entry, *lines[where:]])
+    assert journal.read_bytes().startswith(b"".join(lines[:where]))
+    if at == "end":
+        assert [r["loss"] for r in kept[0]] == [1.5, 0.7]
+
+
+def test_a_journal_whose_first_line_optuna_cannot_apply_is_refused(tmp_path, capsys):
+    journal = tmp_path / "s.log"
+    journal.write_bytes(UNAPPLIABLE["an unknown op_code"][0])
+    said = refused([*TUNE, "--study", str(journal)], capsys)
+    assert (
+        f"{journal} is not an Optuna journal (its first line is not a journal entry: op_code 99"
+        in said
+    )
+    assert journal.read_bytes() == UNAPPLIABLE["an unknown op_code"][0]  # nothing moved
+
+
 @pytest.mark.slow
 def test_a_tune_of_another_size_starts_its_own_study_in_the_same_file(tmp_path):
     """The README's quick start broke on a second tune: every tune wrote the study "artro-tune"
