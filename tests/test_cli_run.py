@@ -40,6 +40,22 @@ def test_walking_on_the_spot_for_30_s_stands_and_does_not_drift():
     assert m["sim_s"] == pytest.approx(30.0)
 
 
+@pytest.mark.parametrize("as_json", [True, False])
+def test_a_run_whose_robot_falls_exits_1_so_a_script_can_tell(as_json):
+    """It exited 0 whether the robot walked or fell: only the text said so."""
+    motion = ["--motion", "a_p=0.3,a_r=0.3", "--duration", "3", "--warmup", "1"]
+    out = artro("run", *motion, *(["--json"] if as_json else []))
+    assert out.returncode == 1, out.stderr
+    assert "artro run: fell at" in out.stderr and "Traceback" not in out.stderr
+    assert json.loads(out.stdout)["fell"] if as_json else "FELL after" in out.stdout
+
+
+def test_the_exit_status_of_a_fall_is_in_the_help():
+    out = artro("run", "--help")
+    assert out.returncode == 0
+    assert "exit status: 0 the robot walked the whole run, 1 it fell" in out.stdout
+
+
 def test_human_summary_and_param_file(tmp_path):
     pset = {"name": "slow", "motion": {"a_p": 0.05}, "gait": {"clock": {"freq_hz": 0.8}}}
     path = tmp_path / "slow.json"

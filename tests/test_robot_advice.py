@@ -107,7 +107,7 @@ def test_suggest_writes_a_robot_whose_servos_carry_it(weak, tmp_path):
 def test_a_run_that_falls_says_why_in_one_line_and_counts_torque_limit_frames(weak):
     out = artro("run", "--robot", str(weak), "--motion", "0,0.05,0", "--duration", "6",
                 "--warmup", "1", "--json")  # fmt: skip
-    assert out.returncode == 0, out.stderr
+    assert out.returncode == 1, out.stderr  # 1: it fell
     m = json.loads(out.stdout)
     assert m["fell"] and m["flags"]["torque_limit_frames"] > 0
     (line,) = [x for x in out.stderr.splitlines() if x.startswith("artro run: fell at")]

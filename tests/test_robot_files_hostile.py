@@ -52,6 +52,20 @@ def test_a_huge_file_is_refused_before_it_is_read(tmp_path):
         load_description(path)
 
 
+def test_a_description_over_the_limit_written_out_is_refused_wherever_it_comes_from(tmp_path):
+    """One limit on the description (issue 56, item 11): written out as it is handed on, not
+    only as the file it was read from, so that what one process accepts the next accepts too."""
+    from app.robots.library import description_json
+
+    doc = artro_doc()
+    doc["trunk"] += [{"name": f"{i:04d} " + "w" * 75, "mass_kg": 0.0} for i in range(2600)]
+    with pytest.raises(RobotError, match=r"the JSON sent is a robot description of [\d,]+ bytes "
+                       r"written out .*; a robot description is at most 256 KiB"):  # fmt: skip
+        parse_description(doc, "the JSON sent")
+    within = parse_description(artro_doc(), "artro.yaml")
+    assert len(description_json(within).encode()) < 4 * 1024  # the built-in: 2 KiB so
+
+
 @pytest.mark.parametrize(
     ("data", "said"),
     [

@@ -77,6 +77,36 @@ def test_a_bad_push_is_refused_and_changes_nothing(server, body):
     assert server.get("/api/state").json()["push"] is None
 
 
+def test_pushes_waiting_while_paused_are_bounded_as_one_push(server):
+    """60 pushes of 2 N·s sent while paused all acted in the next step, as one of 120 N·s (600
+    blew the physics up): what waits is now bounded by one push's cap, past it refused in words,
+    changing nothing; once a step lets them act, pushing works again."""
+    server.post("/api/sim/reset")
+    wait_for(lambda: server.get("/api/state").json()["push"] is None, "no push yet")
+    server.post("/api/sim/pause")
+    wait_for(lambda: server.get("/api/state").json()["paused"], "paused")
+    for impulse in (1.5, 0.5):  # up to the cap, together
+        assert server.post("/api/sim/push", json={"impulse_n_s": impulse}).status_code == 200
+    waiting = wait_for(lambda: (s := server.get("/api/state").json())["push"] and s, "taken")
+    refused = server.post("/api/sim/push", json={"impulse_n_s": 0.01})
+    assert refused.status_code == 409, refused.text
+    error = refused.json()["detail"][0]
+    assert error["type"] == "pushes_pending"
+    assert "2.00 N·s of pushes already wait for the next physics step" in error["msg"]
+    assert "at most 2 N·s may wait, so at most 0.00 N·s more now" in error["msg"]
+    assert "resume or step (POST /api/sim/resume or /api/sim/step)" in error["msg"]
+    assert server.get("/api/state").json()["push"] == waiting["push"]  # the refused one not in
+    assert waiting["push"]["impulse_n_s"] == pytest.approx(2.0)
+    frame = waiting["frame"]
+    server.post("/api/sim/step")
+    wait_for(lambda: server.get("/api/state").json()["frame"] > frame, "the step: they acted")
+    again = server.post("/api/sim/push", json={"impulse_n_s": 0.2})
+    assert again.status_code == 200, again.text
+    server.post("/api/sim/reset")
+    server.post("/api/sim/resume")
+    wait_for(lambda: not server.get("/api/state").json()["paused"], "running again")
+
+
 def test_a_fallen_robot_is_not_pushed_and_the_answer_says_to_reset(server):
     server.post("/api/sim/reset")
     wait_for(lambda: server.get("/api/state").json()["push"] is None, "no push yet")

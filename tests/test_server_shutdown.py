@@ -17,6 +17,7 @@ import httpx
 import pytest
 
 from tests.server_harness import free_port, wait_for
+from tests.signal_support import with_sigint_default
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -33,9 +34,9 @@ def serving_with_a_request_held(tmp_path: Path, *flags: str) -> Iterator[tuple]:
     """`artro serve FLAGS` as a process, answering, and a connection holding a PUT whose body
     stays half sent: (the process, its URL, that socket). Killed at the end if still running."""
     port = free_port()
-    server = subprocess.Popen(
-        [sys.executable, "-m", "app.cli", "serve", "--port", str(port), *flags, "--data-dir",
-         str(tmp_path)],
+    server = subprocess.Popen(  # Ctrl-C as from a terminal, though the suite runs in background
+        with_sigint_default([sys.executable, "-m", "app.cli", "serve", "--port", str(port),
+                             *flags, "--data-dir", str(tmp_path)]),
         cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
     )  # fmt: skip
     held = None

@@ -5,14 +5,17 @@ one undoable change. The waiting is on the job's state, with a deadline, never o
 
 from __future__ import annotations
 
+import json
 import os
 from pathlib import Path
 
 import optuna
 import pytest
+import yaml
 from optuna.storages import JournalStorage
 from optuna.storages.journal import JournalFileBackend
 
+from app.robots.library import MAX_DESCRIPTION_BYTES, read_description
 from app.study.study_files import WriterLock
 from tests.server_harness import client, running_server, wait_for
 from tests.test_tune_robot import robot_file
@@ -183,6 +186,36 @@ def test_the_robot_started_from_a_file_is_tuned_from_its_description(tmp_path):
         assert forward["target"] == pytest.approx(3.8 * 0.234 / 0.18)
         params = http.get("/api/params").json()
         assert (params["name"], params["robot"]) == ("tuned-big", "big")
+
+
+def test_a_robot_the_server_accepted_is_one_its_tune_accepts(tmp_path):
+    """Issue 56, item 11: a description within the limit was handed to the tune's child as a
+    JSON file over it (every default written out: 50 KiB of YAML became 281 KiB), and the child
+    refused it. The hand-off is the description written out as the one limit measures it."""
+    raw = yaml.safe_load(robot_file(tmp_path / "many.yaml", "many", 0.09, "MG996R").read_text())
+    raw["trunk"] += [{"name": f"washer {i}", "mass_kg": 0.0} for i in range(1600)]
+    robot = tmp_path / "many.yaml"
+    robot.write_text(yaml.safe_dump(raw, sort_keys=False), encoding="utf-8")
+    accepted = read_description(robot)
+    assert len(json.dumps(accepted.model_dump(mode="json"))) > MAX_DESCRIPTION_BYTES  # as before
+    with (
+        running_server(tmp_path / "data", robot=str(robot)) as (base_url, _app),
+        client(base_url) as http,
+    ):
+        job_id = http.post("/api/jobs/tune", json=LONG | {"robot": "many"}).json()["id"]
+
+        def started_or_ended():
+            now = http.get(f"/api/jobs/{job_id}").json()
+            return now if now["detail"].get("start") or now["status"] != "running" else None
+
+        started = wait_for(started_or_ended, "the child read the robot", attempts=TUNE_DEADLINE)
+        assert started["status"] == "running", started.get("error")
+        assert started["detail"]["start"] == "robust"
+        assert http.delete(f"/api/jobs/{job_id}").status_code == 200
+        wait_for(lambda: http.get(f"/api/jobs/{job_id}").json()["status"] != "running", "ended")
+    (handed,) = (tmp_path / "data" / "studies").glob("*.robot.yaml")
+    assert handed.stat().st_size <= MAX_DESCRIPTION_BYTES
+    assert read_description(handed) == accepted
 
 
 def test_a_gait_changed_while_the_tune_ran_is_kept_and_the_result_saved_not_loaded(tmp_path):

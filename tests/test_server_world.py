@@ -4,6 +4,8 @@ robustness job reports per case; the robot is named."""
 
 from __future__ import annotations
 
+import re
+
 import pytest
 
 from tests.server_harness import client, running_server, wait_for
@@ -87,3 +89,24 @@ def test_the_robustness_job_reports_every_case(server):
     assert server.get("/api/world/robustness").status_code == 404
     server.post("/api/params/undo")
     assert server.get("/api/state").json()["robustness_report"] is True
+
+
+def test_a_robustness_job_on_warp_is_cancelled_between_its_chunks(tmp_path):
+    """Issue 56, item 12: on MuJoCo Warp (its CPU device here) a robustness job went on to its
+    end after a DELETE (265 s): the batch reports progress only as its worlds end, and the job
+    looked at its cancel only there. The job now hands its cancel to the evaluation, which
+    every executor looks at between its chunks (a Warp batch between segments)."""
+    with (
+        running_server(tmp_path, backend="warp", device="cpu") as (base_url, app),
+        client(base_url) as http,
+    ):
+        job_id = http.post("/api/jobs/robustness", json={"samples": 4}).json()["id"]
+        # the DELETE waits up to 10 s for the job to end: while the job still imports Warp
+        # (seconds, on a busy machine) that wait is spent, so the client waits longer
+        assert http.delete(f"/api/jobs/{job_id}", timeout=60).status_code == 200
+        job = app.state.services.axle_fitter.jobs.get(job_id)
+        assert job.finished.wait(600), "the cancelled job did not end"
+        ended = http.get(f"/api/jobs/{job_id}").json()
+    assert ended["status"] == "cancelled" and ended["result"] is None, ended
+    said = f"cancelled (DELETE /api/jobs/{job_id}); nothing was applied"
+    assert re.fullmatch(re.escape(said) + r" \(cancelled after \d+ of 45 runs\)", ended["error"])

@@ -20,6 +20,7 @@ from app.cli import main
 from app.study.study_files import StudyBusy, whole_write
 from app.study.study_store import StudyStore, open_storage
 from tests.server_harness import free_port, wait_for
+from tests.signal_support import ctrl_c_raises
 
 ROOT = Path(__file__).resolve().parent.parent
 #: a tune that opens its study before it simulates anything
@@ -49,22 +50,40 @@ def test_trials_come_back_from_the_store_alone(tmp_path, kind):
 
 
 def test_a_ctrl_c_during_a_write_acts_once_the_candidate_is_written_whole(tmp_path):
+    """Run as a background job (SIGINT ignored from the start) it failed: the test sets the
+    disposition it relies on."""
     where = tmp_path / "study.log"
     store = StudyStore(where, SETTINGS)
     reached = []
-    with pytest.raises(KeyboardInterrupt):
-        with whole_write():
-            os.kill(os.getpid(), signal.SIGINT)  # without the hold, KeyboardInterrupt is here
-            reached.append("after the signal")
-            fill(store)
-    store.close()
-    assert reached == ["after the signal"]
-    assert not Path(f"{where}.lock").exists()  # Optuna's journal lock is not left behind
-    with StudyStore(where, SETTINGS) as again:
-        assert [r["loss"] for r in again.recorded()[0]] == [1.5, 0.7]
-    with whole_write():  # a block without a signal ends as it would without the hold
-        pass
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    with ctrl_c_raises():
+        with pytest.raises(KeyboardInterrupt):
+            with whole_write():
+                os.kill(os.getpid(), signal.SIGINT)  # without the hold, KeyboardInterrupt is here
+                reached.append("after the signal")
+                fill(store)
+        store.close()
+        assert reached == ["after the signal"]
+        assert not Path(f"{where}.lock").exists()  # Optuna's journal lock is not left behind
+        with StudyStore(where, SETTINGS) as again:
+            assert [r["loss"] for r in again.recorded()[0]] == [1.5, 0.7]
+        with whole_write():  # a block without a signal ends as it would without the hold
+            pass
+        assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_write_where_ctrl_c_is_ignored_goes_on_and_leaves_it_ignored(tmp_path):
+    """A tune started as a background job (SIGINT ignored) is not ended by a SIGINT during a
+    write, and the hold puts the ignoring back."""
+    before = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        with StudyStore(tmp_path / "study.log", SETTINGS) as store:
+            with whole_write():
+                os.kill(os.getpid(), signal.SIGINT)
+                fill(store)
+            assert signal.getsignal(signal.SIGINT) is signal.SIG_IGN
+            assert [r["loss"] for r in store.recorded()[0]] == [1.5, 0.7]
+    finally:
+        signal.signal(signal.SIGINT, before)
 
 
 def refused(args: list[str], capsys) -> str:
@@ -260,6 +279,55 @@ def test_a_journal_damaged_in_its_middle_is_said_so(tmp_path):
     assert journal.read_bytes().startswith(b"".join(lines[:middle]))  # then what it wrote
     (aside,) = tmp_path.glob("s.log.damaged-*")
     assert aside.read_bytes() == b"".join([b"{not json\n", *lines[middle:]])
+
+
+#: whole JSON entries Optuna cannot apply (it stopped with a traceback: AssertionError "Should
+#: not reach.", KeyError 'study_name'), and what is said of each
+UNAPPLIABLE = {
+    "an unknown op_code": (
+        b'{"op_code": 99, "worker_id": "w"}\n',
+        "op_code 99, where Optuna's journal has the operations 0 to 10",
+    ),
+    "a study made without its name": (
+        b'{"op_code": 0, "worker_id": "w", "directions": [1]}\n',
+        "op_code 0 without study_name",
+    ),
+}
+
+
+@pytest.mark.parametrize("line", UNAPPLIABLE.values(), ids=UNAPPLIABLE.keys())
+@pytest.mark.parametrize("at", ["middle", "end"])
+def test_a_journal_line_optuna_cannot_apply_is_named_and_moved_aside(tmp_path, line, at):
+    """As a damaged line is: the journal keeps the entries before it, the line and what follows
+    go aside, and the message names the line and why Optuna cannot apply it."""
+    entry, why = line
+    journal = tmp_path / "s.log"
+    with StudyStore(journal, SETTINGS) as store:
+        fill(store)
+    lines = journal.read_bytes().splitlines(keepends=True)
+    where = len(lines) // 2 if at == "middle" else len(lines)
+    journal.write_bytes(b"".join([*lines[:where], entry, *lines[where:]]))
+    said = io.StringIO()
+    with StudyStore(journal, SETTINGS, log=said) as store:
+        kept = store.recorded()
+    named = f"an entry Optuna cannot apply ({why}) at line {where + 1}"
+    assert named in said.getvalue() and "Traceback" not in said.getvalue()
+    (aside,) = tmp_path.glob("s.log.damaged-*")
+    assert aside.read_bytes() == b"".join([entry, *lines[where:]])
+    assert journal.read_bytes().startswith(b"".join(lines[:where]))
+    if at == "end":
+        assert [r["loss"] for r in kept[0]] == [1.5, 0.7]
+
+
+def test_a_journal_whose_first_line_optuna_cannot_apply_is_refused(tmp_path, capsys):
+    journal = tmp_path / "s.log"
+    journal.write_bytes(UNAPPLIABLE["an unknown op_code"][0])
+    said = refused([*TUNE, "--study", str(journal)], capsys)
+    assert (
+        f"{journal} is not an Optuna journal (its first line is not a journal entry: op_code 99"
+        in said
+    )
+    assert journal.read_bytes() == UNAPPLIABLE["an unknown op_code"][0]  # nothing moved
 
 
 @pytest.mark.slow

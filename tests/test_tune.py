@@ -20,6 +20,7 @@ from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, StudyStore, open_sto
 from app.study.tune import Tuner, dimensions
 from app.study.tune_loss import case_loss, curve_loss, meets_all_criteria, total_loss
 from gait import GaitParams
+from tests.signal_support import with_sigint_default
 
 ROOT = Path(__file__).resolve().parent.parent
 EVALUATOR = BatchEvaluator(threads=2)
@@ -166,7 +167,10 @@ def test_ctrl_c_ends_a_tune_in_a_sentence_and_the_study_resumes(tmp_path):
         "3", "--cases", "forward", "--study", str(study_file), "--out",
         str(tmp_path / "out.json"), "--threads", "2",
     ]  # fmt: skip
-    tuner = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    # Ctrl-C as from a terminal, though the suite runs as a background job (SIGINT ignored)
+    tuner = subprocess.Popen(
+        with_sigint_default(command), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
     for _ in range(3000):  # bounded: until a candidate is in the study
         try:
             if study_file.exists() and trials_in(study_file):

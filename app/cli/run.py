@@ -36,7 +36,13 @@ EXAMPLES = """examples:
   artro run --motion a_r=-0.1 --params tuned       step to the left, the tuned preset
   artro run --motion a_p=0.07,ca=0.1 --duration 60          curve walking
   artro run --motion a_p=0.07 --engine pfs --from-rest    seed 004's gait, from standing
-  artro run --motion 0,0.07,0              the older triple AR,AP,AY: forward"""
+  artro run --motion 0,0.07,0              the older triple AR,AP,AY: forward
+
+exit status: 0 the robot walked the whole run, 1 it fell (the metrics are printed all the same,
+with a line on what to try on stderr), 2 bad input"""
+
+#: the exit status of a run whose robot fell, so that a script can tell (2 is bad input)
+FELL_STATUS = 1
 
 
 def add_parser(sub: Any) -> None:
@@ -100,7 +106,7 @@ def command(args: argparse.Namespace) -> int:
     if args.json:
         named = {"robot": robot.name, "variation": args.vary.name}
         print(json.dumps({**m, **named}, allow_nan=False))
-        return 0
+        return exit_status(m)
     print(
         f"robot {robot.name!r}, parameter set {pset.name!r} ({gait.engine}), motion "
         f"a_r={motion.a_r} a_p={motion.a_p} a_y={motion.a_y} CA={motion.ca}"
@@ -123,7 +129,12 @@ def command(args: argparse.Namespace) -> int:
     flags = {k: v for k, v in m["flags"].items() if v}
     if flags:
         print(f"flags: {flags}")
-    return 0
+    return exit_status(m)
+
+
+def exit_status(metrics: dict[str, Any]) -> int:
+    """0 when the robot walked the whole run, FELL_STATUS when it fell."""
+    return FELL_STATUS if metrics["fell"] else 0
 
 
 def fall_advice(robot: RobotModel, pset: ParameterSet, stuck: Sequence[str], where: str) -> str:

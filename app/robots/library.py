@@ -16,8 +16,10 @@ from app.robots.cad_source import resolved
 from app.robots.description import RobotDescription
 
 BUILTIN_DEFAULT = "artro"
-#: a description is a page (the built-in artro.yaml is 4 KiB): checked before reading, so a
-#: 48 MB file is refused at once instead of parsed for minutes
+#: a description is a page (the built-in artro.yaml is 4 KiB). The one limit of a description,
+#: wherever it comes from: written out (`description_json`, as it is handed to a tune's child or
+#: a pool's workers), and as a file, checked before reading, so that a 48 MB file is refused at
+#: once instead of parsed for minutes. Written out, a description accepted is never over it.
 MAX_DESCRIPTION_BYTES = 256 * 1024
 #: the deepest a description nests (links > thigh > a part > box_m is 4)
 MAX_DEPTH = 8
@@ -87,11 +89,25 @@ def _line_of(node: yaml.Node | None, where: str) -> int | None:
 
 def parse_description(raw: object, source: str, text: str | None = None) -> RobotDescription:
     """Validate a document (parsed YAML or JSON, from the file `text` if given, for the lines);
-    RobotError naming each bad field."""
+    RobotError naming each bad field, or saying it is over MAX_DESCRIPTION_BYTES written out."""
     try:
-        return RobotDescription.model_validate(raw)
+        desc = RobotDescription.model_validate(raw)
     except ValidationError as err:
         raise RobotError(describe_errors(err, source, text)) from None
+    size = len(description_json(desc).encode())
+    if size > MAX_DESCRIPTION_BYTES:
+        raise RobotError(
+            f"{source} is a robot description of {size:,} bytes written out (as JSON, its "
+            f"defaults left out); a robot description is at most "
+            f"{MAX_DESCRIPTION_BYTES // 1024} KiB (the built-in artro is 2 KiB so)"
+        )
+    return desc
+
+
+def description_json(desc: RobotDescription) -> str:
+    """`desc` written out as one process hands it to another (a tune's child reads it as its
+    file): compact JSON, the defaults left out. MAX_DESCRIPTION_BYTES bounds it."""
+    return desc.model_dump_json(exclude_defaults=True)
 
 
 def read_description(path: Path) -> RobotDescription:

@@ -6,6 +6,8 @@ Nothing the client sent is echoed beyond a few hundred bytes: locations and mess
 
 from __future__ import annotations
 
+import errno
+import logging
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any
 
@@ -19,7 +21,15 @@ from starlette.routing import Match, Mount
 
 from app.server.body_rules import allowed_at, body_schema
 
+log = logging.getLogger(__name__)
+
 MAX_ITEMS = 10
+#: the errors of a disk with no room left: the device is full, or the user's quota is
+NO_SPACE_ERRNOS = frozenset({errno.ENOSPC, errno.EDQUOT})
+NO_SPACE = (
+    "no space left on the device where the server keeps its data: nothing was written; free "
+    "some space there (or start the server with another --data-dir), then try again"
+)
 #: a pattern of a path or query parameter -> the rule in words, said instead of the regex
 PATTERN_RULES: dict[str, str] = {}
 MAX_TEXT = 300
@@ -184,6 +194,17 @@ def install_handlers(app: FastAPI) -> None:
     async def value_error(_request: Request, exc: ValueError) -> JSONResponse:
         return error_response(422, str(exc), "value_error", loc=["body"])
 
+    @app.exception_handler(OSError)
+    async def os_error(request: Request, exc: OSError) -> JSONResponse:
+        """A full disk is no fault of the server's: 507 in words and one line in the log, the
+        connection kept (a 500 carried a traceback into the log and reset the connection).
+        Any other OSError is unexpected (below)."""
+        if exc.errno not in NO_SPACE_ERRNOS:
+            raise exc
+        where = f" ({exc.filename})" if exc.filename else ""
+        log.error("%s %s: no space left on the device%s", request.method, request.url.path, where)
+        return error_response(507, NO_SPACE, "no_space")
+
     @app.exception_handler(Exception)
     async def unexpected(_request: Request, exc: Exception) -> JSONResponse:
         """A fault of the server's, never of the request: the one shape, a 500, and the server
@@ -221,6 +242,7 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
         422: "invalid input; nothing changed",
         429: "another recording is being imported: try again when it is done (`Retry-After`)",
         503: "the firmware tool chain (avr-gcc) or the emulator (simavr) is not available",
+        507: "no space left on the device where the server keeps its data; nothing was written",
     }
     return {s: {"model": ErrorBody, "description": text[s]} for s in statuses}
 

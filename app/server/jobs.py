@@ -190,6 +190,8 @@ class Jobs:
         self._stopping.set()
         with self._lock:
             running = [job for job in self._jobs.values() if job.status == "running"]
+        for job in running:  # an evaluation looks at its job's cancel between its chunks
+            job.cancel.set()
         deadline = time.monotonic() + timeout_s
         for job in running:
             job.finished.wait(max(0.0, deadline - time.monotonic()))

@@ -12,9 +12,9 @@ from collections.abc import Callable
 from typing import Any
 
 from app.analysis.robustness import ROBUST_CASES, run_robust
-from app.evaluation import close_evaluator, evaluator_for
+from app.evaluation import Cancelled, close_evaluator, evaluator_for
 from app.robots.model import RobotModel
-from app.server.jobs import Job, Jobs, Progress
+from app.server.jobs import Job, JobCancelled, Jobs, Progress
 from app.server.param_store import ParameterStore, Snapshot
 from app.worlds.sampling import VariationRanges
 
@@ -70,6 +70,7 @@ class RobustnessRunner:
         robot = self.robot_now()
 
         def work(progress: Progress) -> dict[str, Any]:
+            job: Job = progress.job  # type: ignore[attr-defined]
             # one thread locally: the live simulation keeps the other core
             evaluator = evaluator_for(
                 robot,
@@ -88,7 +89,16 @@ class RobustnessRunner:
                     duration_s=DURATION_S,
                     warmup_s=WARMUP_S,
                     progress=lambda done, total: progress(done / total),
+                    # looked at between chunks by every executor: a Warp batch reports progress
+                    # only as its worlds end, and went on minutes after a DELETE
+                    cancel=job.cancel,
                 )
+            except Cancelled as stopped:  # said as any job says it, and how far it came
+                try:
+                    progress(None)  # JobCancelled: by DELETE, or the server stopped
+                except JobCancelled as said:
+                    raise JobCancelled(f"{said} ({stopped})") from None
+                raise
             finally:  # a Warp host's processes, a Dask client: each job's own
                 close_evaluator(evaluator)
             self._keep(snap, report)

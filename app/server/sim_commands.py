@@ -200,6 +200,51 @@ class Push:
         object.__setattr__(self, "direction_deg", (float(direction) + 180.0) % 360.0 - 180.0)
 
 
+#: the impulse that may wait for the physics step at once: pushes sent while paused (or within
+#: one frame) act together in the next step, and so add up; past a push's own cap they are refused
+PUSH_PENDING_MAX_N_S = PUSH_RANGE_N_S[1]
+
+
+class PushRefused(ValueError):
+    """A push refused because those waiting for the next physics step would add up past
+    PUSH_PENDING_MAX_N_S."""
+
+
+class PendingPushes:
+    """The impulse of the pushes sent that have not acted yet, bounded by PUSH_PENDING_MAX_N_S:
+    any thread adds one (`admit`), the simulation thread takes off those that acted or were
+    dropped (`settle`), under a lock."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._n_s = 0.0
+
+    @property
+    def n_s(self) -> float:
+        return self._n_s
+
+    def admit(self, push: Push) -> None:
+        """Count `push` as waiting; PushRefused, counting nothing, past PUSH_PENDING_MAX_N_S."""
+        with self._lock:
+            waiting = self._n_s
+            if waiting + push.impulse_n_s > PUSH_PENDING_MAX_N_S + 1e-9:
+                left = max(0.0, PUSH_PENDING_MAX_N_S - waiting)
+                raise PushRefused(
+                    f"{waiting:.2f} N·s of pushes already wait for the next physics step (the "
+                    f"simulation is paused, or they came within one frame) and act there as one "
+                    f"push: at most {PUSH_PENDING_MAX_N_S:g} N·s may wait, so at most "
+                    f"{left:.2f} N·s more now; resume or step (POST /api/sim/resume or "
+                    "/api/sim/step) and push again"
+                )
+            self._n_s = waiting + push.impulse_n_s
+
+    def settle(self, n_s: float) -> None:
+        """`n_s` of the pushes waiting acted, or were dropped (simulation thread)."""
+        if n_s:
+            with self._lock:
+                self._n_s = max(0.0, self._n_s - n_s)
+
+
 SimCommand = (
     Pause
     | Resume

@@ -43,6 +43,7 @@ from app.server.sim_commands import (
     DriveRefused,
     Pause,
     PauseForReplay,
+    PendingPushes,
     Push,
     Reanchor,
     RemoveGhost,
@@ -105,6 +106,8 @@ class SimThread:
         self.paths = PathTracker()
         self.sensors = SensorTrace(robot)  # this thread writes; others read bulletin.sensors
         self._last_push: PushMark | None = None
+        self.pending_pushes = PendingPushes()  # any thread admits; this thread settles
+        self._taken_push_n_s = 0.0  # pushes taken into the loop that have not stepped yet
         self.paths.set_gait(snap.motion.ca, snap.gait.clock.freq_hz)
         self.pacer = Pacer()
         self._ghost: Ghost | None = None  # the A/B ghost, this thread's alone
@@ -197,6 +200,12 @@ class SimThread:
     def send(self, command: SimCommand) -> None:
         """Queue a command for the next frame boundary; ValueError for anything else."""
         self._commands.put(command)
+
+    def push(self, push: Push) -> None:
+        """Queue `push`; PushRefused, nothing queued, where those already waiting for the next
+        physics step would add up past PUSH_PENDING_MAX_N_S (they all act in that step)."""
+        self.pending_pushes.admit(push)
+        self.send(push)
 
     def switch_drive(self, drive: Drive | str) -> None:
         """Make the pulses with the model or the emulated firmware from the next frame boundary.
@@ -356,7 +365,9 @@ class SimThread:
     def _push(self, push: Push) -> None:
         loop = self.live.loop
         if loop.fell:  # it fell after the request was answered: nothing steps to push
+            self.pending_pushes.settle(push.impulse_n_s)
             return
+        self._taken_push_n_s += push.impulse_n_s  # acts in the next physics step
         summed = loop.push_now(push.impulse_n_s, push.direction_deg)  # with one due, added
         x, y, yaw = loop.trunk_pose()
         world_deg = (math.degrees(yaw) + push.direction_deg + 180.0) % 360.0 - 180.0
@@ -423,6 +434,7 @@ class SimThread:
         live = self.live
         self._watch_sensors_if_asked()
         record, gait_arrived = live.step()
+        self._pushes_acted()
         if gait_arrived:
             self.bulletin.clear_load()  # the budget of the new gait, not of the way to it
         loop = live.loop
@@ -442,6 +454,12 @@ class SimThread:
         if record.index % SAMPLE_EVERY_FRAMES == 0:
             self.paths.add(loop.time_s, loop.trunk_pose(), loop.feet_distance_m())
         self._publish_poses()
+
+    def _pushes_acted(self) -> None:
+        """The pushes taken into the loop acted (a frame stepped) or were dropped (a reset):
+        they wait no longer."""
+        self.pending_pushes.settle(self._taken_push_n_s)
+        self._taken_push_n_s = 0.0
 
     def _blown_up(self, time_s: float, frames: int) -> None:
         """Reset after a blow-up; the second in a row within a second of a start pauses the
@@ -498,6 +516,7 @@ class SimThread:
         self.scope.clear()
         self.sensors.clear()
         self._last_push = None
+        self._pushes_acted()  # the loop stood up again has none due
         self._publish_poses()
 
     # --- publishing (this thread only) -----------------------------------------------------------

@@ -6,7 +6,6 @@ change (source "tune"). Cancelled, the child is stopped and nothing is loaded.""
 from __future__ import annotations
 
 import dataclasses
-import json
 import os
 import queue
 import subprocess
@@ -33,6 +32,7 @@ from app.analysis.robot_tune import (
 )
 from app.params.presets import PresetStore, builtin_presets, check_name
 from app.robots import builtin_robot_names
+from app.robots.library import description_json
 from app.robots.model import RobotModel
 from app.server.jobs import Job, Jobs, Progress, StaleVersion, on_robot
 from app.server.param_store import ParameterStore, Snapshot
@@ -119,10 +119,11 @@ class TuneRunner:
     def _command(self, model: RobotModel, study: Path, budget: TuneBudget) -> list[str]:
         if model.name in builtin_robot_names():
             robot = model.name
-        else:  # the robot the server was started with from a file: its description, as read
+        else:  # the robot the server was started with from a file: its description, written
+            # out as the limit on a description measures it, so never over it (issue 56, item 11)
             path = study.with_suffix(".robot.yaml")
             path.parent.mkdir(parents=True, exist_ok=True)
-            path.write_text(json.dumps(model.description.model_dump(mode="json")), "utf-8")
+            path.write_text(description_json(model.description), "utf-8")
             robot = str(path)
         cmd = [sys.executable, "-m", "app.cli", "tune", "--robot", robot,
                "--generations", str(budget.generations), "--popsize", str(budget.popsize),

@@ -169,10 +169,14 @@ def mend_journal(path: str | Path) -> str | None:
 
 def _mend(path: Path) -> str | None:
     data = path.read_bytes()
-    good = 0  # bytes of whole, readable entries from the start
+    good = 0  # bytes of whole entries Optuna applies, from the start
     entries = 0
+    replay = _Replay()
+    why = ""  # why the first line that is not such an entry is not
     for line in data.splitlines(keepends=True):
         if not line.endswith(b"\n") or not _is_entry(line):
+            break
+        if why := replay.refusal(line):
             break
         good += len(line)
         entries += 1
@@ -180,9 +184,9 @@ def _mend(path: Path) -> str | None:
         return None
     if entries == 0:
         raise ValueError(
-            f"{path} is not an Optuna journal (its first line is not a journal entry); allowed "
-            f"for --study: a journal file written by artro tune, a new file, or an RDB URL such "
-            f"as sqlite:///FILE"
+            f"{path} is not an Optuna journal (its first line is not a journal entry"
+            f"{f': {why}' if why else ''}); allowed for --study: a journal file written by artro "
+            f"tune, a new file, or an RDB URL such as sqlite:///FILE"
         )
     aside = path.with_name(f"{path.name}.damaged-{time.strftime('%Y%m%d-%H%M%S')}")
     aside.write_bytes(data[good:])
@@ -192,13 +196,15 @@ def _mend(path: Path) -> str | None:
         os.fsync(f.fileno())
     rest = data[good:].splitlines(keepends=True)
     later = sum(line.endswith(b"\n") and _is_entry(line) for line in rest[1:])
+    damaged = f"an entry Optuna cannot apply ({why})" if why else "a damaged entry"
     if not later:
+        cause = f"at line {entries + 1}" if why else "(a crash while writing?)"
         return (
-            f"the study journal {path} ended in a damaged entry (a crash while writing?): kept "
-            f"its {entries} whole entries, moved the last {len(data) - good} bytes to {aside}"
+            f"the study journal {path} ended in {damaged} {cause}: kept its {entries} whole "
+            f"entries, moved the last {len(data) - good} bytes to {aside}"
         )
     return (
-        f"the study journal {path} has a damaged entry at line {entries + 1}, with {later} "
+        f"the study journal {path} has {damaged} at line {entries + 1}, with {later} "
         f"whole entries after it (edited, or written by another program?): kept the "
         f"{entries} before it; it and everything after it ({len(data) - good} bytes) moved "
         f"to {aside}; the candidates recorded there are simulated again"
@@ -211,3 +217,31 @@ def _is_entry(line: bytes) -> bool:
     except (ValueError, UnicodeDecodeError):
         return False
     return isinstance(entry, dict) and "op_code" in entry
+
+
+class _Replay:
+    """The journal's entries applied as Optuna applies them when it opens the journal, one line
+    at a time, so that a line it cannot apply (an unknown op_code, a field missing) is named
+    instead of ending the tune in a traceback. Optuna's own replay (it has no public one), as
+    a reader that wrote none of the entries."""
+
+    def __init__(self) -> None:
+        from optuna.storages.journal._storage import JournalOperation, JournalStorageReplayResult
+
+        self._operations = {int(op) for op in JournalOperation}
+        self._result = JournalStorageReplayResult(f"artro-mend-{uuid.uuid4()}-")
+
+    def refusal(self, line: bytes) -> str:
+        """Apply the entry `line` (a JSON object with an op_code); why Optuna cannot, else ""."""
+        entry = json.loads(line)
+        op = entry["op_code"]
+        if isinstance(op, bool) or not isinstance(op, int) or op not in self._operations:
+            allowed = f"{min(self._operations)} to {max(self._operations)}"
+            return f"op_code {op!r}, where Optuna's journal has the operations {allowed}"
+        try:
+            self._result.apply_logs([entry])
+        except KeyError as exc:
+            return f"op_code {op} without {exc.args[0] if exc.args else 'a field it needs'}"
+        except Exception as exc:  # what else Optuna cannot apply: a bad value, a bad state
+            return f"op_code {op}: {exc or type(exc).__name__}"
+        return ""

@@ -77,9 +77,10 @@ def get_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     return _get(services, name).to_dict()
 
 
-@router.put("/presets/{name}", status_code=201, responses=responses(422))
+@router.put("/presets/{name}", status_code=201, responses=responses(422, 507))
 def save_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
-    """Save the parameters in use now under this name (not a built-in or reserved one)."""
+    """Save the parameters in use now under this name (not a built-in or reserved one); 507
+    when the disk is full (nothing is written)."""
     _not_the_diff(name)
     try:
         return services.presets.save(name, services.store.snapshot().parameter_set()).to_dict()

@@ -21,6 +21,7 @@ from app.server.sim_commands import (
     DriveRefused,
     Pause,
     Push,
+    PushRefused,
     Reset,
     Resume,
     SetSpeed,
@@ -142,7 +143,8 @@ class PushBody(BaseModel):
 def push(body: PushBody, services: ServicesDep) -> dict:
     """Push the robot's trunk: the impulse in one physics step, level, in the direction given
     relative to the robot. `GET /api/state` says the last push (`push`), the 3D view draws it;
-    409 while a replay is shown or the robot lies fallen."""
+    409 while a replay is shown, the robot lies fallen, or the pushes waiting for the next
+    physics step (sent while paused) would add up past 2 N·s: they act there as one push."""
     if services.replay.status()["active"]:
         raise ApiError(
             409,
@@ -157,7 +159,10 @@ def push(body: PushBody, services: ServicesDep) -> dict:
             "fallen",
             loc=["path"],
         )
-    services.sim.send(Push(body.impulse_n_s, body.direction_deg))
+    try:
+        services.sim.push(Push(body.impulse_n_s, body.direction_deg))
+    except PushRefused as exc:
+        raise ApiError(409, str(exc), "pushes_pending", loc=["body", "impulse_n_s"]) from exc
     return {
         "accepted": "push",
         "impulse_n_s": body.impulse_n_s,
