@@ -1,4 +1,4 @@
-"""MuJoCo's warnings stay out of the working folder (`app.sim.mujoco_warnings`): a blow-up in
+"""MuJoCo's warnings stay out of the working folder (`app.robots.mujoco_warnings`): a blow-up in
 `artro`'s process or a worker's writes no MUJOCO_LOG.TXT where the command runs."""
 
 from __future__ import annotations
@@ -10,7 +10,7 @@ import textwrap
 import mujoco
 
 from app.cli import main
-from app.sim.mujoco_warnings import log_warning
+from app.robots.mujoco_warnings import log_warning
 
 BLOW_UP = textwrap.dedent(
     """
@@ -43,7 +43,7 @@ def blow_up(tmp_path, install: str) -> subprocess.CompletedProcess:
 
 def test_a_blow_up_writes_no_log_file_into_the_working_folder(tmp_path):
     install = (
-        "from app.sim.mujoco_warnings import keep_warnings_out_of_the_folder\n"
+        "from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder\n"
         "keep_warnings_out_of_the_folder()"
     )
     done = blow_up(tmp_path, install)
