@@ -511,3 +511,41 @@ def test_artro_exported_as_urdf_imports_back_to_its_lengths_masses_and_walk(tmp_
     theirs = run(params, Motion(a_p=0.07), duration_s=10.0, warmup_s=3.0).metrics
     assert ours["fell"] == theirs["fell"] is False
     assert ours["forward_cm_s"] == pytest.approx(theirs["forward_cm_s"], rel=0.05)
+
+
+# --- meshes -----------------------------------------------------------------------------------
+
+
+def box_stl(half_m: float) -> bytes:
+    """A binary STL of a cube of half-size `half_m` (12 triangles)."""
+    corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half_m
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]  # fmt: skip
+    out = bytearray(80) + len(faces).to_bytes(4, "little")
+    for face in faces:
+        out += np.zeros(3, np.float32).tobytes()
+        out += corners[list(face)].astype(np.float32).tobytes() + b"\0\0"
+    return bytes(out)
+
+
+def test_a_mesh_is_found_through_package_dirs_and_a_missing_one_is_named(tmp_path: Path) -> None:
+    urdf = tmp_path / "robot.urdf"
+    done = subprocess.run(
+        [sys.executable, "-m", "app.cli", "robot", "export-urdf", "artro", "-o", str(urdf)],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    mesh = '<mesh filename="package://my_robot/meshes/lid.stl"/>'
+    lid = f'<collision name="lid"><origin xyz="0 0 0.09"/><geometry>{mesh}</geometry></collision>'
+    text = urdf.read_text(encoding="utf-8").replace("</inertial>", "</inertial>" + lid, 1)
+    urdf.write_text(text, encoding="utf-8")
+    with pytest.raises(ValueError, match=r"package://my_robot/meshes/lid\.stl.*--package-dir"):
+        import_robot(urdf, output=tmp_path / "robot.yaml")
+    (tmp_path / "ws" / "my_robot" / "meshes").mkdir(parents=True)
+    (tmp_path / "ws" / "my_robot" / "meshes" / "lid.stl").write_bytes(box_stl(0.02))
+    result = import_robot(
+        urdf, output=tmp_path / "robot.yaml", package_dirs=(str(tmp_path / "ws"),)
+    )
+    robot = RobotModel.load(result.description)
+    assert robot.model.nmesh == 1
+    assert robot.total_mass_kg() == pytest.approx(RobotModel.load("artro").total_mass_kg())
