@@ -17,8 +17,10 @@ EXAMPLES = """examples:
   artro bus --protocol feetech           Feetech STS3215s
   artro bus --robot micro --baud 57600   another robot, another rate
   artro bus --torque-on                  the servos hold the standing pose from the start
+  sudo artro bus --rt-priority 10        answers on time on a busy machine (SCHED_FIFO)
 then open the printed port (e.g. /dev/pts/7) with your program, dynamixel-sdk or scservo_sdk"""
 
+SWITCH_S = 0.0005  # Python's default 5 ms would hold an answer behind the simulation thread
 PROTOCOL_HELP = "dynamixel: XM430-W350, Protocol 2.0; feetech: STS3215 (default: dynamixel)"
 
 
@@ -49,6 +51,13 @@ def add_parser(sub: Any) -> None:
         help="the bus's rate, one the servos have (default: 1000000)",
     )
     p.add_argument(
+        "--rt-priority",
+        type=number(0, 99, integer=True, what="--rt-priority"),
+        default=0,
+        help="run the bus thread SCHED_FIFO at this priority, 1-99 (Linux, CAP_SYS_NICE): "
+        "answers on time on a busy machine (default: 0, the normal scheduler)",
+    )
+    p.add_argument(
         "--torque-on",
         action="store_true",
         help="servos start with the torque on, holding the standing pose (default: off, limp, "
@@ -64,8 +73,13 @@ def command(args: argparse.Namespace) -> int:
     from app.robots.model import RobotModel
 
     robot = RobotModel.load(args.robot)
+    sys.setswitchinterval(SWITCH_S)  # the bus thread gets the interpreter back soon to answer
     bus, sim, stop, threads = start_bus(
-        robot, protocol=args.protocol, baud=args.baud, torque_on=args.torque_on
+        robot,
+        protocol=args.protocol,
+        baud=args.baud,
+        torque_on=args.torque_on,
+        rt_priority=args.rt_priority,
     )
 
     def on_signal(_signum: int, _frame: Any) -> None:

@@ -115,15 +115,15 @@ class VirtualBus:
         done_us = answers_done_us(
             0, [len(a.data) for a in answers], [a.return_delay_us for a in answers], self.baud
         )
-        for answer, due_us in zip(answers, done_us, strict=True):
-            due_s = end_s + due_us * 1e-6
-            wait = due_s - time.monotonic()
-            if wait > 0:
-                time.sleep(wait)
-            else:
-                self.stats.late_max_us = max(self.stats.late_max_us, round(-wait * 1e6))
-            os.write(self._master, answer.data)
-            self.stats.answers += 1
+        # the answers of one instruction go out together when the last one's last byte would
+        # be through: never early, one wake-up however many servos answer
+        wait = end_s + done_us[-1] * 1e-6 - time.monotonic()
+        if wait > 0:
+            time.sleep(wait)
+        else:
+            self.stats.late_max_us = max(self.stats.late_max_us, round(-wait * 1e6))
+        os.write(self._master, b"".join(a.data for a in answers))
+        self.stats.answers += len(answers)
         self._line_free_s = end_s + done_us[-1] * 1e-6
 
     def serve(self, stop: threading.Event) -> None:
@@ -163,9 +163,12 @@ def start_bus(
     protocol: str = "dynamixel",
     baud: int = 1_000_000,
     torque_on: bool = False,
+    rt_priority: int = 0,
 ) -> tuple[VirtualBus, BusSimulation, threading.Event, list[threading.Thread]]:
     """The simulation and the bus on their threads, started; IDs 1..12 in the gait's joint
-    order; set the event to stop them. ValueError for a protocol or baud no servo has."""
+    order; set the event to stop them. `rt_priority` > 0: the bus thread runs SCHED_FIFO at it,
+    the simulation's one lower (neither spins; the simulation holding the interpreter's lock
+    must not wait behind other programs); OSError in a sentence where that is not permitted."""
     sim = BusSimulation(robot, torque_on=torque_on)
     bus = VirtualBus(
         protocol, baud, sim.handoff, float(robot.description.supply_voltage_v), list(range(1, 13))
@@ -180,4 +183,19 @@ def start_bus(
     ]
     for t in threads:
         t.start()
+    if rt_priority > 0:
+        try:
+            for thread, priority in zip(
+                threads, (max(1, rt_priority - 1), rt_priority), strict=True
+            ):
+                assert thread.native_id is not None
+                os.sched_setscheduler(thread.native_id, os.SCHED_FIFO, os.sched_param(priority))
+        except OSError as exc:
+            stop.set()
+            bus.close()
+            raise OSError(
+                f"--rt-priority {rt_priority}: the bus thread cannot run SCHED_FIFO here "
+                f"({exc.strerror}); it needs CAP_SYS_NICE (root, or an rtprio limit), or leave "
+                "the option out"
+            ) from None
     return bus, sim, stop, threads
