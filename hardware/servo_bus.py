@@ -231,7 +231,7 @@ class Parser:
         if not self.buffer:
             return None
         size, self.buffer = len(self.buffer), bytearray()
-        return Malformed(None, "noise", size)
+        return Malformed(None, "partial", size)
 
     def _skip_to_header(self, header: bytes) -> Malformed | None:
         at = self.buffer.find(header)

@@ -56,11 +56,15 @@ def test_dynamixel_servos_answer_raw_packets_and_count_the_malformed() -> None:
             assert read_bytes(fd, 1, timeout_s=0.3) == b""
             os.write(fd, dxl_packet(1, PING))  # the bus goes on
             assert read_bytes(fd, 14)[:5] == b"\xff\xff\xfd\x00\x01"
+            os.write(fd, dxl_packet(2, PING)[:6])  # half a packet, then the line falls quiet
+            assert read_bytes(fd, 1, timeout_s=0.3) == b""  # longer than the 50 ms a servo waits
+            os.write(fd, dxl_packet(2, PING))  # dropped: this one is whole again
+            assert read_bytes(fd, 14)[:5] == b"\xff\xff\xfd\x00\x02"
         finally:
             os.close(fd)
-    assert bus.summary["malformed"] == {"noise": 1, "crc": 1}
+    assert bus.summary["malformed"] == {"noise": 1, "crc": 1, "partial": 1}
     assert bus.summary["unanswered"] == 1
-    assert bus.summary["packets"] == 4
+    assert bus.summary["packets"] == 5
 
 
 def test_feetech_servos_answer_and_stay_silent_on_a_bad_checksum() -> None:

@@ -94,6 +94,9 @@ class BusSimulation:
         self.goal_rad = np.array(self.pose, dtype=np.float64)
         self.stats = SimStats()
         self.handoff = Handoff(self.measured())
+        self.timestep_s = float(self.model.opt.timestep)
+        self.anchor_s = 0.0  # monotonic time of step 0's start (`serve` sets it)
+        self._pending: deque[Goals] = deque()
 
     def _set_torque(self, on: NDArray[np.bool_]) -> None:
         act = self.robot.actuator_ids
@@ -119,33 +122,39 @@ class BusSimulation:
             self._set_torque(on)
         self.data.ctrl[self.robot.actuator_ids] = np.where(on, self.goal_rad, 0.0)
 
+    def advance(self, due_step: int) -> None:
+        """Step physics up to step `due_step` (since the start), each goal taken from the
+        handoff acting from the first step that starts at or after its `effect_s` (the steps'
+        times: `anchor_s` + step × timestep); then publish what the servos measure."""
+        self._pending.extend(self.handoff.take())
+        dt = self.timestep_s
+        pending = self._pending
+        while self.stats.steps < due_step:
+            step_start_s = self.anchor_s + self.stats.steps * dt
+            while pending and pending[0].effect_s <= step_start_s:
+                goals = pending.popleft()
+                self.stats.late_goals += goals.effect_s < step_start_s - dt
+                self._apply(goals)
+            mujoco.mj_step(self.model, self.data)
+            self.stats.steps += 1
+        self.handoff.measured = self.measured()
+
     def serve(self, stop: threading.Event) -> None:
-        """Step physics to the wall clock every `TICK_S`, each goal from the first step that
-        starts at or after its `effect_s`; publish what the servos measure after each tick."""
-        dt = float(self.model.opt.timestep)
-        anchor = time.monotonic() - self.data.time
-        pending: deque[Goals] = deque()
+        """Keep the physics at the wall clock, catching up every `TICK_S`; a debt over `LATE_S`
+        is dropped and counted."""
+        dt = self.timestep_s
+        self.anchor_s = time.monotonic() - self.stats.steps * dt
         while not stop.is_set():
-            now = time.monotonic()
-            pending.extend(self.handoff.take())
-            due = math.floor((now - anchor) / dt + 1e-9)
+            due = math.floor((time.monotonic() - self.anchor_s) / dt + 1e-9)
             lag = (due - self.stats.steps) * dt
             self.stats.lag_max_s = max(self.stats.lag_max_s, lag)
             if lag > LATE_S:  # too far behind: drop the debt, say so
                 self.stats.dropped_s += lag
                 self.stats.drops += 1
-                anchor += lag
+                self.anchor_s += lag
                 due = self.stats.steps
-            while self.stats.steps < due:
-                step_start_s = anchor + self.stats.steps * dt
-                while pending and pending[0].effect_s <= step_start_s:
-                    goals = pending.popleft()
-                    self.stats.late_goals += goals.effect_s < step_start_s - dt
-                    self._apply(goals)
-                mujoco.mj_step(self.model, self.data)
-                self.stats.steps += 1
-            self.handoff.measured = self.measured()
-            wake = anchor + (self.stats.steps * dt) + TICK_S
+            self.advance(due)
+            wake = self.anchor_s + self.stats.steps * dt + TICK_S
             stop.wait(max(0.0, wake - time.monotonic()))
 
     @property
