@@ -7,6 +7,8 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from hardware.servo_bus import (
     BROADCAST_ID,
@@ -216,3 +218,55 @@ def test_a_servo_refuses_what_it_cannot_be() -> None:
         BusServo("dynamixel", 1, 12345)
     with pytest.raises(ValueError, match="one protocol"):
         ServoBus([BusServo("dynamixel", 1, 1_000_000), BusServo("feetech", 2, 1_000_000)])
+
+
+def _valid_packets(protocol: str) -> list[bytes]:
+    if protocol == "dynamixel":
+        return [
+            dxl_packet(1, PING),
+            dxl_packet(2, READ, H("84000400")),
+            dxl_packet(3, WRITE, H("7400") + (1000).to_bytes(4, "little")),
+            dxl_sync_write(116, 4, {1: 100, 2: 200}),
+            dxl_packet(BROADCAST_ID, SYNC_READ, H("840004000102")),
+        ]
+    return [
+        sts_packet(1, PING),
+        sts_packet(2, READ, bytes([56, 2])),
+        sts_sync_write(42, 2, {1: 100, 2: 200}),
+        sts_packet(BROADCAST_ID, SYNC_READ, bytes([56, 2, 1, 2])),
+    ]
+
+
+@settings(max_examples=300, deadline=None)
+@given(
+    protocol=st.sampled_from(["dynamixel", "feetech"]),
+    noise=st.lists(st.binary(max_size=40), max_size=6),
+    flips=st.lists(st.tuples(st.integers(0, 400), st.integers(1, 255)), max_size=4),
+    cut=st.integers(0, 64),
+)
+def test_no_stream_of_bytes_breaks_the_parser_or_a_servo(
+    protocol: str, noise: list[bytes], flips: list[tuple[int, int]], cut: int
+) -> None:
+    """Valid packets among random bytes, with bytes flipped and pieces cut: every item is
+    handled, every answer is a whole packet, and the parser keeps no more than one packet's
+    worth; a valid packet after the mess is answered."""
+    valid = _valid_packets(protocol)
+    stream = bytearray()
+    for i, chunk in enumerate(noise):
+        stream += chunk + valid[i % len(valid)]
+    for at, mask in flips:
+        if stream:
+            stream[at % len(stream)] ^= mask
+    stream = stream[cut:]
+    bus = ServoBus(BusServo(protocol, i, 1_000_000) for i in (1, 2, 3))
+    parser = Parser(protocol)
+    for item in parser.feed(bytes(stream)):
+        for answer in bus.handle(item):
+            assert Parser(protocol).feed(answer.data)[0].servo_id == answer.servo_id
+    dropped = parser.drop()  # the line falls quiet: what is left is dropped
+    if dropped is not None:
+        bus.handle(dropped)
+    first = bus.servos[0].servo_id  # a WRITE the flips made valid may have renamed it
+    make = dxl_packet if protocol == "dynamixel" else sts_packet
+    (ping,) = parser.feed(make(first, PING))
+    assert [a.servo_id for a in bus.handle(ping)] == [first]

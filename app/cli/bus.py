@@ -107,6 +107,7 @@ def command(args: argparse.Namespace) -> int:
         "port": bus.port,
         "packets": bus.stats.packets,
         "answers": bus.stats.answers,
+        "answers_lost": bus.stats.answers_lost,
         "malformed": bus.stats.malformed,
         "unanswered": bus.stats.unanswered,
         "goal_writes": bus.stats.goal_writes,

@@ -43,13 +43,15 @@ def check_baud(protocol: str, baud: int) -> None:
 
 @dataclass
 class BusStats:
-    """What the bus saw: packets by instruction, malformed by reason, answers sent, how late
-    the latest answer went out against its modelled time (µs), goals handed over."""
+    """What the bus saw: packets, malformed by reason, answers sent (and lost to a client that
+    did not read), how late the latest answer went out against its modelled time (µs), goals
+    handed over."""
 
     packets: int = 0
     malformed: dict[str, int] = field(default_factory=dict)
     unanswered: int = 0
     answers: int = 0
+    answers_lost: int = 0
     goal_writes: int = 0
     late_max_us: int = 0
 
@@ -74,6 +76,7 @@ class VirtualBus:
         self._master, self._slave = os.openpty()
         tty.setraw(self._slave)  # bytes as they are: no echo, no line editing
         tty.setraw(self._master)
+        os.set_blocking(self._master, False)  # a client that never reads cannot stop the bus
         self.port = os.ttyname(self._slave)
 
     def _show_measured(self) -> None:
@@ -122,8 +125,11 @@ class VirtualBus:
             time.sleep(wait)
         else:
             self.stats.late_max_us = max(self.stats.late_max_us, round(-wait * 1e6))
-        os.write(self._master, b"".join(a.data for a in answers))
-        self.stats.answers += len(answers)
+        try:
+            os.write(self._master, b"".join(a.data for a in answers))
+            self.stats.answers += len(answers)
+        except BlockingIOError:  # a client that never reads: its answers are lost, counted
+            self.stats.answers_lost += len(answers)
         self._line_free_s = end_s + done_us[-1] * 1e-6
 
     def serve(self, stop: threading.Event) -> None:
