@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from app.firmware.virtual_bus import VirtualBus
+from app.firmware.virtual_bus import VirtualBus, start_bus
 from app.robots.model import RobotModel
 from app.sim.bus_drive import BusSimulation, Goals
 from gait import JOINT_NAMES
@@ -77,3 +77,8 @@ def test_the_bus_threads_sync_write_reaches_the_simulation_at_its_last_byte(
         assert sim.handoff.take() == []  # a PING changes no goal
     finally:
         bus.close()
+
+
+def test_a_real_time_priority_the_system_refuses_is_said_in_a_sentence(robot: RobotModel) -> None:
+    with pytest.raises(OSError, match=r"--rt-priority 1000: the bus thread cannot run SCHED_FIFO"):
+        start_bus(robot, rt_priority=1000)  # beyond SCHED_FIFO's 1..99: refused by the kernel

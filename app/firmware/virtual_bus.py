@@ -198,10 +198,12 @@ def start_bus(
                 os.sched_setscheduler(thread.native_id, os.SCHED_FIFO, os.sched_param(priority))
         except OSError as exc:
             stop.set()
+            for thread in threads:
+                thread.join()
             bus.close()
             raise OSError(
                 f"--rt-priority {rt_priority}: the bus thread cannot run SCHED_FIFO here "
-                f"({exc.strerror}); it needs CAP_SYS_NICE (root, or an rtprio limit), or leave "
-                "the option out"
+                f"({exc.strerror}); it needs a priority of 1 to 99 and CAP_SYS_NICE (root, or "
+                "an rtprio limit), or leave the option out"
             ) from None
     return bus, sim, stop, threads
