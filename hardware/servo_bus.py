@@ -742,6 +742,11 @@ class BusFrame:
     goal_steps: tuple[int, ...]
     goal_rad: tuple[float, ...]
 
+    def substep(self, timestep_us: int = 1000) -> int:
+        """The frame's first physics step (of `timestep_us`) starting at or after the goals
+        take effect: where the simulation switches every servo's set-point (§2's rule)."""
+        return -(-(self.effect_us - self.start_us) // timestep_us)
+
 
 def bus_frame(
     frame_index: int,

@@ -131,6 +131,8 @@ def test_a_sync_write_per_frame_takes_effect_when_its_last_byte_arrives() -> Non
     assert len(frame.packet) == 7 + 1 + 4 + 12 * 5 + 2
     assert (frame.start_us, frame.wire_us, frame.effect_us) == (60_000, 740, 60_740)
     assert frame.goal_steps == (2048,) * 12
+    assert frame.substep() == 1  # 740 µs in: the step starting at 1 ms
+    assert frame.substep(500) == 2 and frame.substep(740) == 1 and frame.substep(250) == 3
     sts = bus_frame(0, np.full(12, 0.1), protocol="feetech")
     assert len(sts.packet) == 4 + 3 + 12 * 3 + 1  # FF FF ID LEN, INST A S, 12 × 3, CHK
     assert sts.effect_us == wire_us(len(sts.packet), 1_000_000)
