@@ -51,6 +51,7 @@ def test_torque_off_is_limp_and_on_holds_the_goal(robot: RobotModel) -> None:
     sim = BusSimulation(robot, torque_on=False)
     act = robot.actuator_ids
     assert (sim.model.actuator_gainprm[act, 0] == 0).all()
+    assert (robot.model.actuator_gainprm[act, 0] > 0).all()  # the robot's own model untouched
     sim.handoff.put(_goals(0.0, np.array(sim.pose), on=True))
     sim.advance(1)
     assert (sim.model.actuator_gainprm[act, 0] > 0).all()

@@ -58,8 +58,8 @@ class BusStats:
 
 class VirtualBus:
     """The pty and its bus thread: `port` is the path a client opens; `serve(stop)` answers
-    until `stop` is set. Bytes are answered when the model says the last byte of each status
-    would be on the wire: instruction's wire time, then per servo return delay and wire time."""
+    until `stop` is set. An instruction's answers go out together when the model says the last
+    one's last byte would be through: its wire time, then per servo return delay and wire time."""
 
     def __init__(
         self, protocol: str, baud: int, handoff: Handoff, voltage_v: float, ids: list[int]
@@ -99,7 +99,7 @@ class VirtualBus:
 
     def handle(self, item: Packet | Malformed, arrived_s: float) -> None:
         """Answer one parsed item: it goes on the line when it arrived or the line fell quiet,
-        ends `wire_us` later; each status goes out when its last byte would be there."""
+        ends `wire_us` later; a goal changed acts from then; the answers follow (see above)."""
         self._show_measured()
         before = self._goals()
         answers = self.bus.handle(item)

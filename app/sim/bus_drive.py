@@ -5,6 +5,7 @@ the servos measure as one frozen value (docs/DESIGN.md §10)."""
 
 from __future__ import annotations
 
+import copy
 import math
 import threading
 import time
@@ -83,7 +84,7 @@ class BusSimulation:
 
     def __init__(self, robot: RobotModel, torque_on: bool = False) -> None:
         self.robot = robot
-        self.model = robot.model
+        self.model = copy.copy(robot.model)  # its own: the torque switch changes gains in it
         self.data = mujoco.MjData(self.model)
         self.pose = stand(robot, self.data, GaitParams(), Motion(), 0.0)
         act = robot.actuator_ids
