@@ -57,7 +57,7 @@ def test_dynamixel_servos_answer_raw_packets_and_count_the_malformed() -> None:
             os.write(fd, dxl_packet(1, PING))  # the bus goes on
             assert read_bytes(fd, 14)[:5] == b"\xff\xff\xfd\x00\x01"
             os.write(fd, dxl_packet(2, PING)[:6])  # half a packet, then the line falls quiet
-            assert read_bytes(fd, 1, timeout_s=0.3) == b""  # longer than the 50 ms a servo waits
+            assert read_bytes(fd, 1, timeout_s=1.0) == b""  # well past the 50 ms a servo waits
             os.write(fd, dxl_packet(2, PING))  # dropped: this one is whole again
             assert read_bytes(fd, 14)[:5] == b"\xff\xff\xfd\x00\x02"
         finally:
