@@ -1,7 +1,8 @@
 """ArtRo's servo hardware, seed 000 §2–3 (its TDM-PWM "servo drive") and eq (1), pure numpy
 (docs/DESIGN.md §5): joint angle -> servo pulse (servo) -> timer OCR ticks (timer) -> TDM-PWM
 frame of six lines and three shared select lines (tdm) -> wire edges and demultiplexed pulses
-(demux); eq (1) (torque); the servo set-up (setup)."""
+(demux); eq (1) (torque); the servo set-up (setup); bus servos' packets, tables and timing
+(servo_bus, docs/BUS.md)."""
 
 from hardware.demux import (
     DemuxResult,
