@@ -731,6 +731,35 @@ class ServoBus:
 
 
 @dataclass(frozen=True)
+class BusLink:
+    """The serial bus a robot's 12 servos sit on, IDs 1..12 in the gait's joint order."""
+
+    protocol: str = "dynamixel"
+    baud: int = 1_000_000  # what small bipeds on Dynamixel or Feetech buses run at
+
+    def __post_init__(self) -> None:
+        if self.protocol not in PROTOCOLS or self.baud <= 0:
+            raise ValueError(f"a bus is one of {PROTOCOLS} at a baud > 0, got {self!r}")
+
+
+def sync_write_substeps(
+    angles_rad: NDArray[np.float64], link: BusLink, timestep_us: int
+) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Frames (n, 12) of joint angles sent as a sync write each: the angle each servo's goal
+    stands for (4096 steps a turn) and the physics step of the frame at which it acts (the
+    packet's last byte received; its length varies with the byte stuffing of its values)."""
+    steps = angle_to_steps(angles_rad)
+    ids = range(1, steps.shape[-1] + 1)
+    substep = np.empty(steps.shape, dtype=np.int64)
+    address, size = TABLES[link.protocol].fields["goal_position"]
+    make = dxl_sync_write if link.protocol == "dynamixel" else sts_sync_write
+    for k, row in enumerate(steps.reshape(-1, steps.shape[-1])):
+        packet = make(address, size, dict(zip(ids, row.tolist(), strict=True)))
+        substep.reshape(-1, steps.shape[-1])[k] = -(-wire_us(len(packet), link.baud) // timestep_us)
+    return steps_to_angle(steps), substep
+
+
+@dataclass(frozen=True)
 class BusFrame:
     """One frame's sync write: its packet, when it starts and ends on the wire (µs from the
     run's start), each servo's goal in steps and the angle it stands for (rad)."""

@@ -4,6 +4,7 @@ moves as the built-in ArtRo; each refusal is made with a file built here with Mj
 
 from __future__ import annotations
 
+import dataclasses
 import subprocess
 import sys
 from pathlib import Path
@@ -12,13 +13,18 @@ import mujoco
 import numpy as np
 import pytest
 
+from app.evaluation import BatchEvaluator, Job
+from app.firmware.build import wiring
 from app.params.presets import builtin_presets
 from app.robots import load_description, model_xml
 from app.robots.cad_import import import_robot
 from app.robots.cad_mapping import ImportRefused
 from app.robots.model import RobotModel
 from app.sim.headless import run
-from gait import JOINT_NAMES, Motion
+from app.sim.metrics import MOTION_METRICS
+from app.sim.planning import _servo_setpoints
+from gait import JOINT_NAMES, GaitParams, Motion
+from hardware.servo_bus import BusLink
 
 #: Darwin-OP's way of naming the same joints (docs/DESIGN.md §16: names cannot be trusted)
 DARWIN = {
@@ -494,8 +500,10 @@ def test_artro_exported_as_urdf_imports_back_to_its_lengths_masses_and_walk(tmp_
     source = tmp_path / "artro.urdf"
     done = subprocess.run(
         [sys.executable, "-m", "app.cli", "robot", "export-urdf", "artro", "-o", str(source)],
-        capture_output=True, text=True, check=False,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
     result = import_robot(source, output=tmp_path / "artro-urdf.yaml", name="artro-urdf")
     robot, builtin = RobotModel.load(result.description), RobotModel.load("artro")
@@ -519,8 +527,20 @@ def test_artro_exported_as_urdf_imports_back_to_its_lengths_masses_and_walk(tmp_
 def box_stl(half_m: float) -> bytes:
     """A binary STL of a cube of half-size `half_m` (12 triangles)."""
     corners = np.array([[x, y, z] for x in (-1, 1) for y in (-1, 1) for z in (-1, 1)]) * half_m
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
-             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]  # fmt: skip
+    faces = [
+        (0, 1, 3),
+        (0, 3, 2),
+        (4, 6, 7),
+        (4, 7, 5),
+        (0, 4, 5),
+        (0, 5, 1),
+        (2, 3, 7),
+        (2, 7, 6),
+        (0, 2, 6),
+        (0, 6, 4),
+        (1, 5, 7),
+        (1, 7, 3),
+    ]
     out = bytearray(80) + len(faces).to_bytes(4, "little")
     for face in faces:
         out += np.zeros(3, np.float32).tobytes()
@@ -532,8 +552,10 @@ def test_a_mesh_is_found_through_package_dirs_and_a_missing_one_is_named(tmp_pat
     urdf = tmp_path / "robot.urdf"
     done = subprocess.run(
         [sys.executable, "-m", "app.cli", "robot", "export-urdf", "artro", "-o", str(urdf)],
-        capture_output=True, text=True, check=False,
-    )  # fmt: skip
+        capture_output=True,
+        text=True,
+        check=False,
+    )
     assert done.returncode == 0, done.stderr
     mesh = '<mesh filename="package://my_robot/meshes/lid.stl"/>'
     lid = f'<collision name="lid"><origin xyz="0 0 0.09"/><geometry>{mesh}</geometry></collision>'
@@ -549,3 +571,42 @@ def test_a_mesh_is_found_through_package_dirs_and_a_missing_one_is_named(tmp_pat
     robot = RobotModel.load(result.description)
     assert robot.model.nmesh == 1
     assert robot.total_mass_kg() == pytest.approx(RobotModel.load("artro").total_mass_kg())
+
+
+# --- a robot of bus servos: a sync write per frame, not TDM-PWM -------------------------------
+
+
+def test_a_bus_servo_robot_gets_its_goals_by_sync_write(tmp_path: Path) -> None:
+    robot = op3_imported(tmp_path, forward="+x", servo="XM430-W350")
+    hardware = robot.hardware()
+    assert hardware.bus == BusLink("dynamixel", 1_000_000)
+    angles = np.random.default_rng(3).uniform(-0.4, 0.4, (5, 12))
+    _ocr, _sat, setpoint, substep = _servo_setpoints(angles, hardware, 20, 0.001)
+    steps = setpoint / (2 * np.pi / 4096)
+    np.testing.assert_allclose(steps, np.round(steps), atol=1e-9)  # 4096 steps a turn
+    assert np.abs(setpoint - angles).max() <= np.pi / 4096 + 1e-12
+    # a sync write of 12 goals: 14 bytes of head, 5 a servo, a 2-byte CRC: 74 bytes (more
+    # where a value needs byte stuffing), 740 µs at 1 Mbit/s: every goal acts in step 1
+    assert (substep == 1).all()
+    slow = dataclasses.replace(hardware, bus=BusLink("dynamixel", 57_600))
+    _ocr, _sat, _set, substep = _servo_setpoints(angles, slow, 20, 0.001)
+    assert (substep == 13).all()  # 74 × 10 bits at 57 600 baud: 12.85 ms
+
+
+def test_a_bus_servo_robot_runs_the_same_in_the_lanes_as_in_artro_run(tmp_path: Path) -> None:
+    robot = op3_imported(tmp_path, forward="+x", servo="XM430-W350")
+    jobs = [Job(GaitParams(), Motion(a_p=0.05)), Job(GaitParams(), Motion(a_r=0.05))]
+    batch = BatchEvaluator(robot=robot, threads=2).evaluate(jobs, duration_s=3.0, warmup_s=1.0)
+    single = [
+        run(j.params, j.motion, duration_s=3.0, warmup_s=1.0, robot=robot).metrics for j in jobs
+    ]
+    compared = ("fell", *MOTION_METRICS, "sim_s")  # what the lanes measure, as test_batch
+    assert [{k: m[k] for k in compared} for m in batch] == [
+        {k: m[k] for k in compared} for m in single
+    ]
+
+
+def test_the_firmware_is_not_built_for_a_robot_of_bus_servos(tmp_path: Path) -> None:
+    robot = op3_imported(tmp_path, forward="+x", servo="XM430-W350")
+    with pytest.raises(ValueError, match=r"bus servos.*TDM-PWM pulses"):
+        wiring(robot)

@@ -255,8 +255,16 @@ def export_firmware_folder(
 
 def wiring(robot: RobotModel) -> dict[str, Any]:
     """What the firmware takes from a robot (`build_firmware`'s keywords): calibration, TDM map
-    leg geometry and sole force sensors."""
+    leg geometry and sole force sensors. ValueError for a robot of bus servos: the firmware
+    sends TDM-PWM pulses, which they do not take (docs/BUS.md)."""
     hardware = robot.hardware()
+    if hardware.bus is not None:
+        servo = robot.description.joint_servo("l_knee")
+        raise ValueError(
+            f"robot {robot.name!r} has bus servos ({servo}, {hardware.bus.protocol}): the "
+            "ATmega128 firmware drives TDM-PWM pulses, which they do not take; drive it from "
+            "the host over its bus (docs/BUS.md)"
+        )
     return {
         "calibration": hardware.calibration,
         "tdm": hardware.tdm,

@@ -19,6 +19,7 @@ from app.robots.cad_import import mapping_rows
 from app.robots.checks import eq1_torques, robot_warnings
 from gait import JOINT_NAMES, LegGeometry
 from hardware import ChannelMap, HardwareSetup, ServoCalibration, TdmConfig
+from hardware.servo_bus import BusLink
 
 
 @dataclass(frozen=True)
@@ -108,7 +109,19 @@ class RobotModel:
             max_rad=[hi for _, hi in limits],
         )
         channels = ChannelMap(assignments=self.description.channel_assignments())
-        return HardwareSetup(calibration=calibration, tdm=TdmConfig(channel_map=channels))
+        return HardwareSetup(
+            calibration=calibration, tdm=TdmConfig(channel_map=channels), bus=self.bus()
+        )
+
+    def bus(self) -> BusLink | None:
+        """The serial bus of a robot whose 12 servos are all bus servos of one protocol
+        (ROBOTIS: Dynamixel 2.0, Feetech: STS); None: TDM-PWM (docs/BUS.md)."""
+        makers = {self.description.joint_servo_spec(n).maker for n in JOINT_NAMES}
+        signals = {self.description.joint_servo_spec(n).signal for n in JOINT_NAMES}
+        protocol = {"ROBOTIS": "dynamixel", "Feetech": "feetech"}.get(next(iter(makers)))
+        if signals != {"bus"} or len(makers) != 1 or protocol is None:
+            return None
+        return BusLink(protocol=protocol)
 
     def summary(self) -> dict[str, Any]:
         """The description and the figures that follow from it (`artro robot show`,

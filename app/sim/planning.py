@@ -37,6 +37,7 @@ from hardware import (
     servo_frame_ocr,
     servo_guard_violations,
 )
+from hardware.servo_bus import sync_write_substeps
 
 FRAME_S = FRAME_TICKS * TICK_US * 1e-6  # 20 ms
 START_PHASE_RAD = -0.5 * math.pi  # lateral shift passes through zero: both feet on the ground
@@ -277,7 +278,10 @@ def _servo_setpoints(
     angles: NDArray[np.float64], hardware: HardwareSetup, steps_per_frame: int, timestep_s: float
 ) -> tuple[NDArray[np.int32], NDArray[np.bool_], NDArray[np.float64], NDArray[np.int64]]:
     """Joint angles (n, 12) -> pulses -> each servo's OCR, saturation, the set-point it decodes
-    and the physics step of the frame at which it takes effect."""
+    and the physics step of the frame at which it takes effect; on a robot of bus servos, the
+    frame's sync write instead (no pulse: OCR 0; docs/BUS.md)."""
+    if hardware.bus is not None:
+        return _bus_setpoints(angles, hardware, steps_per_frame, timestep_s)
     pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
     servo_ocr = pulse_us_to_ocr(pulse_us)  # what frame_ocr places; no slot idle
     fall_ticks = servo_falling_edge_ticks(servo_ocr, hardware.tdm)
@@ -286,6 +290,22 @@ def _servo_setpoints(
     setpoint = pulses_to_angles_rad(received_us, hardware.calibration)
     substep = falling_edge_substeps(fall_ticks, steps_per_frame, timestep_s)
     return servo_ocr, saturated, setpoint, substep
+
+
+def _bus_setpoints(
+    angles: NDArray[np.float64], hardware: HardwareSetup, steps_per_frame: int, timestep_s: float
+) -> tuple[NDArray[np.int32], NDArray[np.bool_], NDArray[np.float64], NDArray[np.int64]]:
+    """The sync write of each frame's goals: held to the calibration's limits (saturated
+    where they were), quantised to the bus's 4096 steps a turn, acting at the first physics
+    step after the packet's last byte."""
+    assert hardware.bus is not None
+    cal = hardware.calibration
+    lo, hi = np.asarray(cal.min_rad), np.asarray(cal.max_rad)
+    held = np.clip(angles, lo, hi)
+    setpoint, substep = sync_write_substeps(held, hardware.bus, round(timestep_s * 1e6))
+    saturated = held != angles
+    ocr = np.zeros(angles.shape, dtype=np.int32)
+    return ocr, saturated, setpoint, np.minimum(substep, steps_per_frame)
 
 
 def _through_servos(
