@@ -96,8 +96,9 @@ def import_robot(
     )
     if spec_of_servo.signal != "pwm":
         notes.append(
-            f"{servo} is a bus servo: the simulation drives it with the position servo model of "
-            "its figures, its goals passing through the pulse model as a stand-in for the bus"
+            f"{servo} is a bus servo: the simulation sends its goals as a sync write per frame "
+            "(4096 steps a turn, at 1 Mbit/s) and moves it by its figures; the ATmega128 "
+            "firmware, which sends pulses, is not built for it"
         )
     return Imported(description, document, mapping, notes)
 
