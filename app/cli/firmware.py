@@ -20,6 +20,7 @@ from app.cli.options import (
     number,
     output_file,
     output_folder,
+    set_named,
     starting_set,
     subcommand,
     variation,
@@ -29,6 +30,7 @@ from app.firmware.build import build_firmware, export_firmware_folder, wiring
 from app.firmware.closed_loop import run_closed_loop
 from app.firmware.conformance import check_firmware
 from app.firmware.emulator import Mcu
+from app.params.document import ParameterSet
 from app.robots.model import RobotModel
 from app.worlds.variations import NOMINAL
 from gait import GaitParams, Motion, feedback
@@ -161,9 +163,11 @@ def command(args: argparse.Namespace) -> int:
         folder = export_firmware_folder(doc, Path(args.output), **wiring(robot))
         build = build_firmware(doc, out_dir=folder, **wiring(robot))
         hex_file = build.hex.resolve().relative_to(folder.resolve())  # -o may be relative
+        named = set_named(ParameterSet.from_dict(doc))
         print(
-            f"{folder}: {hex_file} built; flash {build.flash_bytes} B, "
-            f"SRAM {build.sram_bytes} B (without the stack); `make -C {folder} flash` programs it"
+            f"{folder}: {hex_file} built from the parameter set {named}; "
+            f"flash {build.flash_bytes} B, SRAM {build.sram_bytes} B (without the stack); "
+            f"`make -C {folder} flash` programs it"
         )
         return 0
     if args.pty:

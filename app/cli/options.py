@@ -413,18 +413,40 @@ def check_timing(
         )
 
 
-def starting_set(robot: RobotModel, params: str | None) -> ParameterSet:
+def starting_set(robot: RobotModel, params: str | None, say: TextIO | None = None) -> ParameterSet:
     """The parameter set a command starts with: `params` (a file, or a built-in or saved
     preset's name: `resolve_set`), else the one the dashboard starts the robot in: its default
     preset (`robust` for ArtRo; the paper's values are `--params paper`), or the newest set
-    saved for it where that preset was tuned for another robot (`PresetStore.start_for`)."""
+    saved for it where that preset was tuned for another robot (`PresetStore.start_for`). A set
+    chosen so is named on `say` (standard error), with why it was chosen."""
     if params:
         return resolve_set(params, "--params").pset
     presets = builtin_presets()
     name = robot.description.default_preset
     if name not in presets:
         raise ValueError(f"robot {robot.name!r} names the preset {name!r}, which is not built in")
-    return PresetStore(default_data_dir(), presets).start_for(robot.name, name)
+    chosen = PresetStore(default_data_dir(), presets).start_for(robot.name, name)
+    default = presets[name]
+    why = (
+        f"{robot.name}'s default preset"
+        if (chosen.name, chosen.robot) == (default.name, default.robot)
+        else f"the newest set saved for {robot.name} (its default preset {name!r} was tuned "
+        f"for {default.robot})"
+    )
+    print(
+        f"no --params: the parameter set {set_named(chosen)}, {why}; --params NAME|FILE "
+        "chooses another",
+        file=say or sys.stderr,
+    )
+    return chosen
+
+
+def set_named(pset: ParameterSet) -> str:
+    """A parameter set as the commands name it: its name, the robot it was tuned for, when it
+    was made and by which version of artro (where the set says)."""
+    made = [f"made {pset.created}"] if pset.created else []
+    made += [f"artro {pset.project_version}"] if pset.project_version else []
+    return f"{pset.name or 'unnamed'!r} (robot {pset.robot}{''.join(', ' + m for m in made)})"
 
 
 def warn_if_other_robot(pset: ParameterSet, robot: RobotModel, out: TextIO = sys.stderr) -> None:
