@@ -117,3 +117,38 @@ def test_a_set_with_a_feedback_law_on_goes_to_the_robot_whole():
     assert sorted(sent) == list(range(len(values)))
     got = np.float32([sent[i] for i in range(len(values))])
     np.testing.assert_array_equal(got, np.float32(values))
+
+
+def test_a_dashboard_on_another_robot_is_refused_naming_both(tmp_path):
+    """Issue 56 item 3: with the dashboard on `micro`, `artro link --server` sent
+    `micro-robust` to a firmware built for ArtRo without a word. Now refused, naming both
+    robots, no SET_PARAMS sent and the servos switched off; `--robot micro` (a firmware built
+    for micro) takes it. One set of another robot (`--params`) is refused before a port opens."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    artro = str(Path(sys.executable).with_name("artro"))
+
+    def link(*extra: str) -> subprocess.CompletedProcess[str]:
+        return subprocess.run([artro, "link", "--dry-run", *extra], capture_output=True,
+                              text=True, timeout=120, cwd=tmp_path)  # fmt: skip
+
+    with running_server(tmp_path / "data", robot="micro") as (base_url, _app):
+        refused = link("--server", base_url)
+        taken = link("--server", base_url, "--robot", "micro")
+    assert refused.returncode == 2, refused.stderr
+    assert (
+        f"the dashboard at {base_url} simulates the robot 'micro', and its set 'micro-robust'"
+        in refused.stderr
+    ), refused.stderr
+    assert "the firmware on the port is built for 'artro' (--robot): nothing sent" in refused.stderr
+    sent = [line.split()[1] for line in refused.stdout.splitlines() if line.startswith("->")]
+    assert sent == ["PING", "TORQUE_OFF"], refused.stdout
+    assert taken.returncode == 0 and "sent micro-robust" in taken.stdout, taken.stderr
+    one = link("--params", "micro-robust")
+    assert one.returncode == 2 and "->" not in one.stdout, one.stdout
+    assert (
+        "the set 'micro-robust' is tuned for the robot 'micro'; the firmware on the port is "
+        "built for 'artro' (--robot)" in one.stderr
+    ), one.stderr
