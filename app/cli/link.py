@@ -150,10 +150,45 @@ def open_port(name: str, baud: int) -> SerialPort:
         ) from exc
 
 
+class PasswordHidden:
+    """A text stream that writes `out` with the password of `url` (http://USER:PASSWORD@HOST)
+    hidden as ***: nothing the link says shows it."""
+
+    def __init__(self, out: TextIO, url: str | None) -> None:
+        self.out = out
+        try:
+            userinfo = urlsplit(url or "").netloc.rpartition("@")[0]
+        except ValueError:  # an address that is no URL: check_server says so
+            userinfo = ""
+        user, colon, password = userinfo.partition(":")
+        self.secret = f"{userinfo}@" if colon and password else None
+        self.shown = f"{user}:***@"
+
+    def hide(self, text: str) -> str:
+        return text.replace(self.secret, self.shown) if self.secret else text
+
+    def write(self, text: str) -> int:
+        return self.out.write(self.hide(text))
+
+    def flush(self) -> None:
+        self.out.flush()
+
+
 def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    """The link (`link`), with a password in --server hidden in all it says, errors too."""
+    hidden = PasswordHidden(out or sys.stdout, getattr(args, "server", None))
+    try:
+        return link(args, hidden)  # type: ignore[arg-type]  # a TextIO to print to
+    except (ValueError, OSError, RuntimeError) as exc:
+        text = hidden.hide(str(exc))
+        if text == str(exc):
+            raise
+        raise LinkError(text) if isinstance(exc, RuntimeError) else ValueError(text) from None
+
+
+def link(args: argparse.Namespace, out: TextIO) -> int:
     import httpx  # ~0.5 s: only to follow a dashboard
 
-    out = out or sys.stdout
     if not args.dry_run and not args.port:
         raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")
     if args.dry_run and args.port:
