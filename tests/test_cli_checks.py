@@ -210,6 +210,15 @@ CASES |= {
         ["robot", "check", "artro", "--suggest", "-o", "-"],
         "- is not a file name here: leave the option out for its default",
     ),
+    # issue 56 item 18: an option a command does not take was said with artro's usage
+    "link: an unknown option, said with link's usage": (
+        ["link", "--dry-run", "--robots", "micro"],
+        "usage: artro link [-h]",
+    ),
+    "firmware build: an unknown option, said with its usage": (
+        ["firmware", "build", "--motion", "a_p=0.05"],
+        "artro firmware build: error: unrecognized arguments: --motion a_p=0.05",
+    ),
     "robot check: YAML into a .json": (
         ["robot", "check", "artro", "--suggest", "-o", "x.json"],
         "x.json: this writes a YAML description; give a file ending in .yaml or .yml",
