@@ -178,7 +178,8 @@ def robust(args: argparse.Namespace) -> int:
     n_runs = len(presets) * (args.samples + 1) * len(ROBUST_CASES)
     progress = progress_printer(
         f"bench robust: {n_runs} runs of {duration:g} s ({', '.join(p.name for p in presets)} "
-        f"on {args.samples} variations of {robot.name}, seed {args.seed}) ...",
+        f"on {args.samples} variation{'' if args.samples == 1 else 's'} of {robot.name}, "
+        f"seed {args.seed}) ...",
         sys.stderr,
         label="bench robust",
     )
