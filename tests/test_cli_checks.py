@@ -219,6 +219,23 @@ CASES |= {
         ["firmware", "build", "--motion", "a_p=0.05"],
         "artro firmware build: error: unrecognized arguments: --motion a_p=0.05",
     ),
+    # issue 56 item 18: a push after the run's end never acted, and the run seemed to bear it
+    "run: a push after the end": (
+        ["run", "--vary", "push_n_s=1,push_time_s=40"],
+        "--vary push_time_s=40 in a run of --duration 30: a push then comes after the run's end",
+    ),
+    "firmware run: a push after the last frame": (
+        ["firmware", "run", "--vary", "push_n_s=1,push_time_s=5"],
+        "in a run of 250 frames of 0.02 s: a push then comes after the run's end (5 s)",
+    ),
+    "bench: pushes drawn after the end": (
+        ["bench", "robust", "--range", "push_n_s=0:2", "--duration", "10"],
+        "--range push_time_s reaches 12 s (its default 6:12): a push then comes after the run's",
+    ),
+    "tune: pushes drawn after the end": (
+        ["tune", "--robust", "2", "--range", "push_n_s=1:2", "--range", "push_time_s=1:30"],
+        "allowed: --range push_time_s below 20 s, or longer runs",
+    ),
     "robot check: YAML into a .json": (
         ["robot", "check", "artro", "--suggest", "-o", "x.json"],
         "x.json: this writes a YAML description; give a file ending in .yaml or .yml",

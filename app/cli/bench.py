@@ -163,7 +163,7 @@ def robust(args: argparse.Namespace) -> int:
     warmup = 5.0 if args.warmup is None else args.warmup
     args.samples = ROBUST_SAMPLES if args.samples is None else args.samples
     args.seed = 0 if args.seed is None else args.seed
-    ranges = ranges_from(args.range)
+    ranges = ranges_from(args.range, duration)
     specs = preset_specs(args.presets, "tuned", duration, warmup)
     presets, notes = resolve_presets(specs)
     if not presets:

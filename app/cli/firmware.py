@@ -16,6 +16,7 @@ from app.cli.options import (
     action,
     add_motion_option,
     add_params_option,
+    check_pushed_variation,
     motion_number,
     number,
     output_file,
@@ -32,6 +33,7 @@ from app.firmware.conformance import check_firmware
 from app.firmware.emulator import Mcu
 from app.params.document import ParameterSet
 from app.robots.model import RobotModel
+from app.sim.planning import FRAME_S
 from app.worlds.variations import NOMINAL
 from gait import GaitParams, Motion, feedback
 
@@ -192,6 +194,7 @@ def command(args: argparse.Namespace) -> int:
             "with a feedback law on (gait.tilt, yaw_rate, damping or cop enabled)"
         )
     if closed:
+        check_pushed_variation(args.vary, frames * FRAME_S, f"{frames} frames of {FRAME_S:g} s")
         run = run_closed_loop(doc, frames, robot, args.vary)
         failures = run.failures()
         build = build_firmware(doc, **wiring(robot))  # the run's own build, from the cache

@@ -350,8 +350,9 @@ def add_range_option(parser: Any, purpose: str) -> None:
     )
 
 
-def ranges_from(texts: list[str]) -> VariationRanges:
-    """The `--range` options as ranges; ValueError for a field given twice (as `--vary`)."""
+def ranges_from(texts: list[str], duration_s: float | None = None) -> VariationRanges:
+    """The `--range` options as ranges; ValueError for a field given twice (as `--vary`), or
+    for pushes that may be drawn after the end of runs of `duration_s` (`check_push_time`)."""
     ranges, seen = VariationRanges(), set()
     for text in texts:
         name, low, high = parse_range(text)
@@ -359,7 +360,34 @@ def ranges_from(texts: list[str]) -> VariationRanges:
             raise ValueError(f"--range {name} given twice; give each field once")
         seen.add(name)
         ranges = ranges.with_range(name, low, high)
+    low, high = ranges.push_time_s
+    if duration_s is not None and ranges.push_n_s[1] > 0:
+        given = "" if "push_time_s" in seen else f" (its default {low:g}:{high:g})"
+        check_push_time(
+            high, duration_s, f"--range push_time_s reaches {high:g} s{given}", "--range"
+        )
     return ranges
+
+
+def check_push_time(push_time_s: float, duration_s: float, what: str, option: str) -> None:
+    """ValueError if a push at `push_time_s` comes at or after the end of a run of
+    `duration_s`: it would never act, and the run would be taken for one that withstood it."""
+    if push_time_s >= duration_s:
+        raise ValueError(
+            f"{what}: a push then comes after the run's end ({duration_s:g} s) and would never "
+            f"act; allowed: {option} push_time_s below {duration_s:g} s, or longer runs"
+        )
+
+
+def check_pushed_variation(variation: Variation, duration_s: float, runs: str) -> None:
+    """`check_push_time` for `--vary`'s push in a run of `duration_s` (`runs`: what sets it)."""
+    if variation.push_n_s > 0:
+        check_push_time(
+            variation.push_time_s,
+            duration_s,
+            f"--vary push_time_s={variation.push_time_s:g} in a run of {runs}",
+            "--vary",
+        )
 
 
 def add_params_option(

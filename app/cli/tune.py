@@ -342,7 +342,7 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
     check_timing(names, base.gait, args.duration, args.warmup)
     if args.range and not args.robust:
         raise ValueError("--range narrows the variations of --robust N: give --robust too")
-    ranges = ranges_from(args.range)
+    ranges = ranges_from(args.range, args.duration)
     backend = backend_of(args)
     local = (
         None if args.cluster is not None else evaluator_for(robot, threads=args.threads, **backend)
