@@ -186,6 +186,61 @@ CASES = {
         "/dev/full/a/e.jsonl is inside a file, not a folder",
     ),
 }
+# issue 56 item 8: a name the file system refuses (over 255 bytes) was an OSError traceback
+LONG = "a" * 300
+TOO_LONG = "has a name of 30"  # ... bytes (aaa...aaa); a name is at most 255 bytes
+CASES |= {
+    "a name too long: " + " ".join(a for a in args if LONG not in a): (args, TOO_LONG)
+    for args in (
+        ["robot", "check", "artro", "--suggest", "-o", f"{LONG}.yaml"],
+        ["firmware", "run", "--vcd", f"{LONG}.vcd"],
+        ["tune", "--events", LONG],
+        ["tune", "--study", f"{LONG}.log"],
+        ["bench", "robust", "--out", LONG],
+        ["calibrate-ca", "-o", f"{LONG}.json"],
+        ["firmware", "build", "-o", LONG],
+        ["robot", "export-mjcf", "artro", "-o", f"{LONG}.xml"],
+        ["serve", "--data-dir", LONG, "--port", "1"],
+        ["tune", "--base", "paper", "-o", f"x/{LONG}/y.json"],
+        ["tune", "--study", f"sqlite:///{LONG}.db"],
+    )
+}
+CASES |= {
+    "robot check: -o - (it wrote a file named -)": (
+        ["robot", "check", "artro", "--suggest", "-o", "-"],
+        "- is not a file name here: leave the option out for its default",
+    ),
+    # issue 56 item 18: an option a command does not take was said with artro's usage
+    "link: an unknown option, said with link's usage": (
+        ["link", "--dry-run", "--robots", "micro"],
+        "usage: artro link [-h]",
+    ),
+    "firmware build: an unknown option, said with its usage": (
+        ["firmware", "build", "--motion", "a_p=0.05"],
+        "artro firmware build: error: unrecognized arguments: --motion a_p=0.05",
+    ),
+    # issue 56 item 18: a push after the run's end never acted, and the run seemed to bear it
+    "run: a push after the end": (
+        ["run", "--vary", "push_n_s=1,push_time_s=40"],
+        "--vary push_time_s=40 in a run of --duration 30: a push then comes after the run's end",
+    ),
+    "firmware run: a push after the last frame": (
+        ["firmware", "run", "--vary", "push_n_s=1,push_time_s=5"],
+        "in a run of 250 frames of 0.02 s: a push then comes after the run's end (5 s)",
+    ),
+    "bench: pushes drawn after the end": (
+        ["bench", "robust", "--range", "push_n_s=0:2", "--duration", "10"],
+        "--range push_time_s reaches 12 s (its default 6:12): a push then comes after the run's",
+    ),
+    "tune: pushes drawn after the end": (
+        ["tune", "--robust", "2", "--range", "push_n_s=1:2", "--range", "push_time_s=1:30"],
+        "allowed: --range push_time_s below 20 s, or longer runs",
+    ),
+    "robot check: YAML into a .json": (
+        ["robot", "check", "artro", "--suggest", "-o", "x.json"],
+        "x.json: this writes a YAML description; give a file ending in .yaml or .yml",
+    ),
+}
 
 
 @pytest.mark.parametrize("case", list(CASES))
@@ -208,3 +263,29 @@ def test_a_tune_whose_events_cannot_be_written_says_so_before_the_work(tmp_path)
     assert out.returncode == 2, (out.stdout[-2000:], out.stderr[-2000:])
     assert "cannot write --events /dev/full: No space left on device" in out.stderr
     assert "Traceback" not in out.stderr and "tuned" not in out.stdout.split("\n")[-2]
+
+
+@pytest.mark.parametrize("mode", [0o644, 0o444])
+def test_suggest_writes_over_no_file_but_a_writable_description(tmp_path, mode):
+    """Issue 56 item 8: `--suggest -o notes.yaml` replaced an unrelated file (a read-only one
+    too, as root) without a word; now refused, the file as it was. A description written
+    before (a writable one) is replaced, and that said."""
+    notes = tmp_path / "notes.yaml"
+    notes.write_text("my notes\n", encoding="utf-8")
+    notes.chmod(mode)
+    cmd = [ARTRO, "robot", "check", "artro", "--suggest", "-o", str(notes)]
+    out = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert out.returncode == 2 and "Traceback" not in out.stderr, out.stderr
+    why = "is a read-only file" if mode == 0o444 else "exists and is not a robot description"
+    assert why in out.stderr and "give another file" in out.stderr, out.stderr
+    assert notes.read_text(encoding="utf-8") == "my notes\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.yaml"]
+
+
+def test_suggest_says_it_replaces_the_description_written_before(tmp_path):
+    cmd = [ARTRO, "robot", "check", "artro", "--suggest", "-o", "mine.yaml"]
+    first = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    again = subprocess.run(cmd, capture_output=True, text=True, timeout=300, cwd=tmp_path)
+    assert first.returncode == again.returncode == 0, (first.stderr, again.stderr)
+    assert "replacing" not in first.stdout
+    assert "wrote mine.yaml (1.650 kg, replacing the robot 'artro-suggested' there)" in again.stdout

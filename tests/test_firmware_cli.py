@@ -3,19 +3,24 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import os
 import re
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+import yaml
 
+from app.assets import builtin_robots_dir
 from app.cli.firmware import add_parser as add_firmware_parser
 from app.cli.firmware import command as cmd_firmware
 from app.firmware.build import export_firmware_folder, memory_use
 from app.firmware.closed_loop import LAW_TOLERANCE, ClosedLoopRun
 from app.firmware.conformance import ANGLE_TOLERANCE_RAD, Comparison
+from app.params.presets import PresetStore, builtin_presets
 from hardware.firmware.schema import complete_document
 from tests.firmware_support import preset
 
@@ -146,3 +151,36 @@ def test_what_differs_is_named_with_its_tolerance() -> None:
         "a plan was late and a frame repeated (the TDM's overrun flag)",
     ]
     assert ClosedLoopRun(Comparison()).failures() == []
+
+
+def test_a_firmware_of_a_set_it_chose_names_that_set(tmp_path: Path) -> None:
+    """Issue 56 item 1: without --params, `firmware build` and `firmware run` took a robot's
+    newest tune (a throwaway, in the case seen) and said nothing of it. Both name the set they
+    chose and why on standard error; `build` names its set, robot and version beside the
+    `make flash` line (also with --params)."""
+    raw = yaml.safe_load((builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8"))
+    (tmp_path / "mine.yaml").write_text(yaml.safe_dump(raw | {"name": "mine"}), encoding="utf-8")
+    store = PresetStore(tmp_path / "data", builtin_presets())
+    store.save("throwaway", dataclasses.replace(builtin_presets()["tuned"], robot="mine"))
+    env = {**os.environ, "ARTRO_DATA_DIR": str(tmp_path / "data")}
+    artro = Path(sys.executable).with_name("artro")
+    chosen = (
+        "no --params: the parameter set 'throwaway' (robot mine, made 20",
+        "the newest set saved for mine (its default preset 'robust' was tuned for artro)",
+    )
+    for action in (["build", "-o", "fw"], ["run", "--frames", "2", "--json"]):
+        said = subprocess.run(
+            [str(artro), "firmware", *action, "--robot", "mine.yaml"],
+            capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600,
+        )  # fmt: skip
+        assert said.returncode == 0, said.stderr
+        assert all(part in said.stderr for part in chosen), said.stderr
+    built = subprocess.run(
+        [str(artro), "firmware", "build", "--robot", "mine.yaml", "-o", "fw"],
+        capture_output=True, text=True, cwd=tmp_path, env=env, timeout=600, check=True,
+    ).stdout  # fmt: skip
+    assert re.search(
+        r"built from the parameter set 'throwaway' \(robot mine, made 20\S+, artro \S+\);.*"
+        r"`make -C fw flash` programs it",
+        built,
+    ), built

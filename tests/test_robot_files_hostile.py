@@ -15,7 +15,7 @@ import yaml
 
 from app.assets import builtin_robots_dir
 from app.robots import RobotError, build_model, load_description, parse_description
-from app.robots.library import MAX_DEPTH, MAX_DESCRIPTION_BYTES, read_description
+from app.robots.library import MAX_DEPTH, MAX_DESCRIPTION_BYTES, load_yaml, read_description
 from app.robots.model import RobotModel
 from app.server.robot_shelf import RobotShelf
 
@@ -83,6 +83,34 @@ def test_an_unreadable_file_is_named_with_what_is_wrong(tmp_path, data, said):
     message = refused_file(tmp_path, data)
     assert "my.yaml" in message and "<unicode string>" not in message, message
     assert said in message or re.search(said, message), message
+
+
+@pytest.mark.parametrize(
+    ("written", "said"),
+    [
+        ("1_650", "total_mass_kg: Input should be a valid number, got the text '1_650'"),
+        ("0:1.65", "total_mass_kg: Input should be a valid number, got the text '0:1.65'"),
+        ("1" * 5000, "line 11, column 16: malformed YAML: a number of 5000 digits; one has at"),
+    ],
+)
+def test_numbers_are_read_as_yaml_1_2_reads_them(tmp_path, written, said):
+    """Issue 56 item 18: YAML 1.1 read `1_650` as 1650 and `0:1.65` (base 60) as 1.65, where
+    YAML 1.2 and JSON read text; 5000 digits gave Python's advice (sys.set_int_max_str_digits).
+    Each is refused, naming the line; 1.65e0 is a number, and 017 is 17, not octal 15."""
+    line = "total_mass_kg: 1.65\n"
+    assert ARTRO_TEXT.splitlines(keepends=True)[10] == line  # line 11
+    message = refused_file(
+        tmp_path, ARTRO_TEXT.replace(line, f"total_mass_kg: {written}\n").encode()
+    )
+    assert said in message and "sys." not in message, message
+    (tmp_path / "e.yaml").write_text(ARTRO_TEXT.replace(line, "total_mass_kg: 1.65e0\n"))
+    assert load_description(tmp_path / "e.yaml").total_mass_kg == 1.65
+    assert load_yaml("a: 017\nb: 0o17\nc: 0x1F\nd: +5\n", "x") == {
+        "a": 17,
+        "b": 15,
+        "c": 31,
+        "d": 5,
+    }
 
 
 def test_a_key_given_twice_in_a_real_description_names_key_and_line(tmp_path):

@@ -4,7 +4,10 @@ the dashboard's set arrives whole, a change follows, the servos go off at the en
 from __future__ import annotations
 
 import struct
+import subprocess
+import sys
 import threading
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -16,6 +19,15 @@ from app.firmware.link import SerialLink, read_params
 from app.firmware.robot_link import LinkError, RobotLink, _plain, follow
 from hardware.firmware.schema import values_from_document
 from tests.server_harness import client, running_server
+
+ARTRO = str(Path(sys.executable).with_name("artro"))
+
+
+def dry_link(cwd: Path, *extra: str) -> subprocess.CompletedProcess[str]:
+    """`artro link --dry-run` with `extra`, a process of its own."""
+    return subprocess.run(
+        [ARTRO, "link", "--dry-run", *extra], capture_output=True, text=True, timeout=120, cwd=cwd
+    )
 
 
 def test_the_dashboards_set_and_its_change_reach_the_robot(robot_on_a_pty, tmp_path):
@@ -117,3 +129,48 @@ def test_a_set_with_a_feedback_law_on_goes_to_the_robot_whole():
     assert sorted(sent) == list(range(len(values)))
     got = np.float32([sent[i] for i in range(len(values))])
     np.testing.assert_array_equal(got, np.float32(values))
+
+
+def test_a_dashboard_on_another_robot_is_refused_naming_both(tmp_path):
+    """Issue 56 item 3: with the dashboard on `micro`, `artro link --server` sent
+    `micro-robust` to a firmware built for ArtRo without a word. Now refused, naming both
+    robots, no SET_PARAMS sent and the servos switched off; `--robot micro` (a firmware built
+    for micro) takes it. One set of another robot (`--params`) is refused before a port opens."""
+
+    def link(*extra: str) -> subprocess.CompletedProcess[str]:
+        return dry_link(tmp_path, *extra)
+
+    with running_server(tmp_path / "data", robot="micro") as (base_url, _app):
+        refused = link("--server", base_url)
+        taken = link("--server", base_url, "--robot", "micro")
+    assert refused.returncode == 2, refused.stderr
+    assert (
+        f"the dashboard at {base_url} simulates the robot 'micro', and its set 'micro-robust'"
+        in refused.stderr
+    ), refused.stderr
+    assert "the firmware on the port is built for 'artro' (--robot): nothing sent" in refused.stderr
+    sent = [line.split()[1] for line in refused.stdout.splitlines() if line.startswith("->")]
+    assert sent == ["PING", "TORQUE_OFF"], refused.stdout
+    assert taken.returncode == 0 and "sent micro-robust" in taken.stdout, taken.stderr
+    one = link("--params", "micro-robust")
+    assert one.returncode == 2 and "->" not in one.stdout, one.stdout
+    assert (
+        "the set 'micro-robust' is tuned for the robot 'micro'; the firmware on the port is "
+        "built for 'artro' (--robot)" in one.stderr
+    ), one.stderr
+
+
+def test_a_password_in_the_servers_address_is_never_printed(tmp_path):
+    """Issue 56 item 18: `--server http://me:s3cret@host` printed the password in what the link
+    said and in its errors; it is shown as ***."""
+    with running_server(tmp_path / "data") as (base_url, _app):
+        url = base_url.replace("http://", "http://me:s3cret@")
+        followed = dry_link(tmp_path, "--server", url)
+    gone = dry_link(tmp_path, "--server", url)  # the server has ended: no answer
+    malformed = dry_link(tmp_path, "--server", "http://me:s3cret@127.0.0.1:port")
+    shown = url.replace("s3cret", "***")
+    assert followed.returncode == 0 and f"would follow {shown}:" in followed.stdout, followed
+    assert gone.returncode == 2 and f"the dashboard at {shown} did not answer" in gone.stderr
+    assert malformed.returncode == 2 and "'http://me:***@127.0.0.1:port'" in malformed.stderr
+    for run in (followed, gone, malformed):
+        assert "s3cret" not in run.stdout + run.stderr, run

@@ -76,6 +76,8 @@ def test_the_report_says_what_was_measured_in_its_title(results):
     )
     assert md[0] == f"# {title}" and md[1] == ""
     assert render(results).splitlines()[0] == title
+    one = render({**results, "samples": 1}).splitlines()[0]  # issue 56 item 18: not "1 ...s"
+    assert "artro, 1 model variation (seed 1)" in one, one
 
 
 def test_every_figure_has_its_unit_and_turns_are_counter_clockwise_positive(results):

@@ -25,6 +25,7 @@ from app.evaluation import (
     Cancelled,
     ExecutorError,
     Job,
+    close_evaluator,
     evaluator_for,
     same_results,
 )
@@ -299,7 +300,40 @@ def test_auto_without_a_cuda_device_is_the_cpu_executor(robot):
 
     if wp.get_cuda_device_count() > 0:
         pytest.skip("this machine has a CUDA device")
-    assert isinstance(evaluator_for(robot, backend="auto"), BatchEvaluator)
+    said: list[str] = []
+    assert isinstance(evaluator_for(robot, backend="auto", notice=said.append), BatchEvaluator)
+    assert said == ["--backend auto: the CPU's executors: Warp finds no CUDA device (cuda)"]
+
+
+def test_auto_says_what_it_chose_and_why_and_honours_the_device(robot):
+    """Issue 56 item 14: `--backend auto` chose in silence, and ran the CPU's executors where
+    --device cpu asked for Warp's CPU device. With a CUDA device (a GPU machine) it names it."""
+    import warp as wp
+
+    said: list[str] = []
+    on_cpu = evaluator_for(robot, backend="auto", device="cpu", notice=said.append)
+    try:
+        assert isinstance(on_cpu, WarpEvaluator)
+    finally:
+        close_evaluator(on_cpu)
+    assert (
+        said[0] == "--backend auto: MuJoCo Warp on Warp's CPU device, as --device cpu asks (slow)"
+    )
+    elsewhere = evaluator_for(robot, backend="auto", processes=1, notice=said.append)
+    close_evaluator(elsewhere)
+    assert said[-1] == (
+        "--backend auto: the CPU's executors, as --processes asks (Warp runs in this process)"
+    )
+    if wp.get_cuda_device_count() > 0:  # the GPU machine
+        chosen = evaluator_for(robot, backend="auto", notice=said.append)
+        try:
+            assert isinstance(chosen, WarpEvaluator)
+        finally:
+            close_evaluator(chosen)
+        name = wp.get_device("cuda").name
+        assert said[-1] == (
+            f"--backend auto: MuJoCo Warp on cuda ({name}): the gpu extra and a CUDA device"
+        )
 
 
 def test_an_unknown_backend_or_device_says_what_is_allowed(robot):
@@ -330,10 +364,11 @@ def test_a_missing_extra_names_the_pip_command():
     )
     out = subprocess.run(
         [sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True
-    ).stdout
-    error, auto = out.strip().splitlines()
+    )
+    error, auto = out.stdout.strip().splitlines()
     assert "needs MuJoCo Warp" in error and 'pip install -e ".[gpu]"' in error
     assert auto == "BatchEvaluator"  # auto falls back to the CPU's executors without the extra
+    assert "--backend auto: the CPU's executors: MuJoCo Warp is not installed" in out.stderr
 
 
 def artro(*args: str) -> subprocess.CompletedProcess:

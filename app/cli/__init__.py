@@ -40,7 +40,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C while the commands load: a line, not a traceback
         print("artro: interrupted", file=sys.stderr)
         return 130
-    args = parser.parse_args(join_negative_values(sys.argv[1:] if argv is None else argv))
+    args, unknown = parser.parse_known_args(
+        join_negative_values(sys.argv[1:] if argv is None else argv)
+    )
+    if unknown:  # said by the command's own parser: its usage, not artro's
+        innermost(parser, args).error(f"unrecognized arguments: {' '.join(unknown)}")
     from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder
 
     keep_warnings_out_of_the_folder()  # no MUJOCO_LOG.TXT where a run blew up
@@ -55,3 +59,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:  # Ctrl-C: said in a line, not a traceback
         parser.exit(130, f"artro {args.command}: interrupted\n")
     return 1
+
+
+def innermost(parser: argparse.ArgumentParser, args: argparse.Namespace) -> argparse.ArgumentParser:
+    """The parser of the command (and action: `firmware build`) that `args` were parsed for."""
+    for act in parser._actions:
+        if isinstance(act, argparse._SubParsersAction):
+            chosen = act.choices.get(getattr(args, act.dest, None) or "")
+            if chosen is not None:
+                return innermost(chosen, args)
+    return parser

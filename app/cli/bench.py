@@ -163,7 +163,7 @@ def robust(args: argparse.Namespace) -> int:
     warmup = 5.0 if args.warmup is None else args.warmup
     args.samples = ROBUST_SAMPLES if args.samples is None else args.samples
     args.seed = 0 if args.seed is None else args.seed
-    ranges = ranges_from(args.range)
+    ranges = ranges_from(args.range, duration)
     specs = preset_specs(args.presets, "tuned", duration, warmup)
     presets, notes = resolve_presets(specs)
     if not presets:
@@ -178,7 +178,8 @@ def robust(args: argparse.Namespace) -> int:
     n_runs = len(presets) * (args.samples + 1) * len(ROBUST_CASES)
     progress = progress_printer(
         f"bench robust: {n_runs} runs of {duration:g} s ({', '.join(p.name for p in presets)} "
-        f"on {args.samples} variations of {robot.name}, seed {args.seed}) ...",
+        f"on {args.samples} variation{'' if args.samples == 1 else 's'} of {robot.name}, "
+        f"seed {args.seed}) ...",
         sys.stderr,
         label="bench robust",
     )

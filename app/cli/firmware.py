@@ -16,10 +16,12 @@ from app.cli.options import (
     action,
     add_motion_option,
     add_params_option,
+    check_pushed_variation,
     motion_number,
     number,
     output_file,
     output_folder,
+    set_named,
     starting_set,
     subcommand,
     variation,
@@ -29,7 +31,9 @@ from app.firmware.build import build_firmware, export_firmware_folder, wiring
 from app.firmware.closed_loop import run_closed_loop
 from app.firmware.conformance import check_firmware
 from app.firmware.emulator import Mcu
+from app.params.document import ParameterSet
 from app.robots.model import RobotModel
+from app.sim.planning import FRAME_S
 from app.worlds.variations import NOMINAL
 from gait import GaitParams, Motion, feedback
 
@@ -161,9 +165,11 @@ def command(args: argparse.Namespace) -> int:
         folder = export_firmware_folder(doc, Path(args.output), **wiring(robot))
         build = build_firmware(doc, out_dir=folder, **wiring(robot))
         hex_file = build.hex.resolve().relative_to(folder.resolve())  # -o may be relative
+        named = set_named(ParameterSet.from_dict(doc))
         print(
-            f"{folder}: {hex_file} built; flash {build.flash_bytes} B, "
-            f"SRAM {build.sram_bytes} B (without the stack); `make -C {folder} flash` programs it"
+            f"{folder}: {hex_file} built from the parameter set {named}; "
+            f"flash {build.flash_bytes} B, SRAM {build.sram_bytes} B (without the stack); "
+            f"`make -C {folder} flash` programs it"
         )
         return 0
     if args.pty:
@@ -188,6 +194,7 @@ def command(args: argparse.Namespace) -> int:
             "with a feedback law on (gait.tilt, yaw_rate, damping or cop enabled)"
         )
     if closed:
+        check_pushed_variation(args.vary, frames * FRAME_S, f"{frames} frames of {FRAME_S:g} s")
         run = run_closed_loop(doc, frames, robot, args.vary)
         failures = run.failures()
         build = build_firmware(doc, **wiring(robot))  # the run's own build, from the cache

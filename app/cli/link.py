@@ -16,6 +16,7 @@ from urllib.parse import urlsplit
 from app.cli.options import SETS_HELP, number, resolve_set, subcommand
 from app.firmware.link import SerialLink, SerialPort
 from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
+from app.robots import load_description
 
 DEFAULT_SERVER = "http://127.0.0.1:8000"
 STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
@@ -65,6 +66,13 @@ def add_parser(sub: Any) -> None:
         metavar="FILE|NAME",
         help=f"send this parameter set once instead of following: {SETS_HELP} "
         "(default: follow the dashboard)",
+    )
+    p.add_argument(
+        "--robot",
+        metavar="NAME|FILE",
+        default=None,
+        help="the robot the firmware on the port was built for (artro firmware build --robot); "
+        "a set tuned for another is refused (default: artro)",
     )
     p.add_argument("--dry-run", action="store_true", help="print the messages, open no port")
     p.add_argument(
@@ -142,10 +150,45 @@ def open_port(name: str, baud: int) -> SerialPort:
         ) from exc
 
 
+class PasswordHidden:
+    """A text stream that writes `out` with the password of `url` (http://USER:PASSWORD@HOST)
+    hidden as ***: nothing the link says shows it."""
+
+    def __init__(self, out: TextIO, url: str | None) -> None:
+        self.out = out
+        try:
+            userinfo = urlsplit(url or "").netloc.rpartition("@")[0]
+        except ValueError:  # an address that is no URL: check_server says so
+            userinfo = ""
+        user, colon, password = userinfo.partition(":")
+        self.secret = f"{userinfo}@" if colon and password else None
+        self.shown = f"{user}:***@"
+
+    def hide(self, text: str) -> str:
+        return text.replace(self.secret, self.shown) if self.secret else text
+
+    def write(self, text: str) -> int:
+        return self.out.write(self.hide(text))
+
+    def flush(self) -> None:
+        self.out.flush()
+
+
 def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    """The link (`link`), with a password in --server hidden in all it says, errors too."""
+    hidden = PasswordHidden(out or sys.stdout, getattr(args, "server", None))
+    try:
+        return link(args, hidden)  # type: ignore[arg-type]  # a TextIO to print to
+    except (ValueError, OSError, RuntimeError) as exc:
+        text = hidden.hide(str(exc))
+        if text == str(exc):
+            raise
+        raise LinkError(text) if isinstance(exc, RuntimeError) else ValueError(text) from None
+
+
+def link(args: argparse.Namespace, out: TextIO) -> int:
     import httpx  # ~0.5 s: only to follow a dashboard
 
-    out = out or sys.stdout
     if not args.dry_run and not args.port:
         raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")
     if args.dry_run and args.port:
@@ -163,9 +206,17 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
             file=out,
         )
     # the set and the dashboard first: a bad name, file or address is said before a port is opened
+    firmware_robot = load_description(getattr(args, "robot", None)).name
     one_set = resolve_set(args.params, "--params").pset if args.params else None
     if one_set is None:
         check_server(args.server)
+    elif one_set.robot != firmware_robot:
+        raise ValueError(
+            f"--params {args.params}: the set {one_set.name!r} is tuned for the robot "
+            f"{one_set.robot!r}; the firmware on the port is built for {firmware_robot!r} "
+            f"(--robot): give a set tuned for {firmware_robot}, or --robot {one_set.robot} if the "
+            "firmware was built for it"
+        )
     port = DryRunPort(out) if args.dry_run else open_port(args.port, args.baud)
     robot = RobotLink(SerialLink(port), dry_run=args.dry_run, log=lambda s: print(s, file=out))
     stop = threading.Event()
@@ -184,7 +235,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
             print(said, file=out)
             sensors = getattr(args, "sensors", True)
             dry = args.dry_run
-            follow(robot, args.server, stop, max_updates=0 if dry else None, sensors=sensors)
+            follow(robot, args.server, stop, max_updates=0 if dry else None, sensors=sensors,
+                   firmware_robot=firmware_robot)  # fmt: skip
     except KeyboardInterrupt:
         pass
     except LinkStopped as exc:

@@ -7,6 +7,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import math
+import os
 import re
 import sys
 from collections.abc import Callable, Sequence
@@ -16,7 +17,13 @@ from typing import Any, TextIO
 from app.cli._motion import MOTION_HELP, MOTION_METAVAR, MotionChoice, motion_arg
 from app.cli._sets import SETS_HELP, ChosenSet, preset_names, resolve_set, resolve_sets
 from app.params.document import ParameterSet
-from app.params.presets import PresetStore, builtin_presets, default_data_dir, not_a_file
+from app.params.presets import (
+    PresetStore,
+    builtin_presets,
+    default_data_dir,
+    name_too_long,
+    not_a_file,
+)
 from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, parse_range
 from app.worlds.variations import Variation, parse_variation
@@ -140,17 +147,63 @@ def nonempty(what: str) -> Callable[[str], str]:
 
 
 def output_file(text: str) -> str:
-    """An argparse type: a file to write, checked before the work: not empty, not a folder, not
-    a device or pipe (writing one through a renamed temporary file would replace it), in a
-    folder that is one."""
-    path = Path(text)
+    """An argparse type: a file to write, checked before the work (`output_problem`)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty file name; give the file to write")
-    if problem := not_a_file(path):
-        raise argparse.ArgumentTypeError(f"{text} {problem}; give the file to write")
-    if inside_a_file(path):
-        raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
+    if text == "-":
+        raise argparse.ArgumentTypeError(
+            "- is not a file name here: leave the option out for its default (standard output, "
+            "where that is the default), or write ./- for a file named -"
+        )
+    if problem := output_problem(Path(text)):
+        raise argparse.ArgumentTypeError(f"{text} {problem}")
     return text
+
+
+def output_file_of(suffixes: Sequence[str], what: str) -> Callable[[str], str]:
+    """An argparse type: an `output_file` whose name ends in one of `suffixes`, as what is
+    written there (`what`, e.g. "a YAML description") is."""
+
+    def parse(text: str) -> str:
+        output_file(text)
+        if Path(text).suffix.lower() not in suffixes:
+            raise argparse.ArgumentTypeError(
+                f"{text}: this writes {what}; give a file ending in {' or '.join(suffixes)}"
+            )
+        return text
+
+    return parse
+
+
+def output_problem(path: Path, *, folder: bool = False, devices: bool = False) -> str | None:
+    """Why nothing can be written at `path`, or None: the one check, before the work, of every
+    option that names a file (or with `folder` a folder) to write. A name the file system
+    refuses for its length; a folder where a file is meant, a file where a folder is; a device,
+    pipe or socket unless `devices` (a temporary file renamed over one would replace it); a
+    folder above that is a file; a read-only file (root would write over it); a place that
+    cannot be looked at."""
+    try:
+        if problem := name_too_long(path):
+            return problem
+        if folder and path.exists() and not path.is_dir():
+            return "is a file, not a folder"
+        if not folder and path.is_dir():
+            return "is a folder; give the file to write"
+        if not (folder or devices) and (problem := not_a_file(path)):
+            return f"{problem}; give the file to write"
+        if inside_a_file(path):
+            return "is inside a file, not a folder"
+        if not folder and path.is_file() and _read_only(path):
+            return "is a read-only file: give another file, or make it writable first"
+    except OSError as exc:  # a folder above that cannot be searched
+        return f"cannot be looked at ({exc.strerror or exc}); give a file in a folder of yours"
+    return None
+
+
+def _read_only(path: Path) -> bool:
+    """Whether `path` is not to be written: no write permission for anyone, or none for this
+    user (root may write anything, so the mode alone counts for it)."""
+    return not (path.stat().st_mode & 0o222) or not os.access(path, os.W_OK)
 
 
 def inside_a_file(path: Path) -> bool:
@@ -167,15 +220,12 @@ def host_name(text: str) -> str:
 
 
 def output_folder(text: str) -> Path:
-    """An argparse type: a folder to write into, checked before the work: not empty, not a
-    file, in a folder that is one."""
+    """An argparse type: a folder to write into, checked before the work (`output_problem`)."""
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty folder name; give the folder to write into")
     path = Path(text)
-    if path.exists() and not path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text} is a file, not a folder")
-    if inside_a_file(path):
-        raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
+    if problem := output_problem(path, folder=True):
+        raise argparse.ArgumentTypeError(f"{text} {problem}")
     return path
 
 
@@ -300,8 +350,9 @@ def add_range_option(parser: Any, purpose: str) -> None:
     )
 
 
-def ranges_from(texts: list[str]) -> VariationRanges:
-    """The `--range` options as ranges; ValueError for a field given twice (as `--vary`)."""
+def ranges_from(texts: list[str], duration_s: float | None = None) -> VariationRanges:
+    """The `--range` options as ranges; ValueError for a field given twice (as `--vary`), or
+    for pushes that may be drawn after the end of runs of `duration_s` (`check_push_time`)."""
     ranges, seen = VariationRanges(), set()
     for text in texts:
         name, low, high = parse_range(text)
@@ -309,7 +360,34 @@ def ranges_from(texts: list[str]) -> VariationRanges:
             raise ValueError(f"--range {name} given twice; give each field once")
         seen.add(name)
         ranges = ranges.with_range(name, low, high)
+    low, high = ranges.push_time_s
+    if duration_s is not None and ranges.push_n_s[1] > 0:
+        given = "" if "push_time_s" in seen else f" (its default {low:g}:{high:g})"
+        check_push_time(
+            high, duration_s, f"--range push_time_s reaches {high:g} s{given}", "--range"
+        )
     return ranges
+
+
+def check_push_time(push_time_s: float, duration_s: float, what: str, option: str) -> None:
+    """ValueError if a push at `push_time_s` comes at or after the end of a run of
+    `duration_s`: it would never act, and the run would be taken for one that withstood it."""
+    if push_time_s >= duration_s:
+        raise ValueError(
+            f"{what}: a push then comes after the run's end ({duration_s:g} s) and would never "
+            f"act; allowed: {option} push_time_s below {duration_s:g} s, or longer runs"
+        )
+
+
+def check_pushed_variation(variation: Variation, duration_s: float, runs: str) -> None:
+    """`check_push_time` for `--vary`'s push in a run of `duration_s` (`runs`: what sets it)."""
+    if variation.push_n_s > 0:
+        check_push_time(
+            variation.push_time_s,
+            duration_s,
+            f"--vary push_time_s={variation.push_time_s:g} in a run of {runs}",
+            "--vary",
+        )
 
 
 def add_params_option(
@@ -363,18 +441,40 @@ def check_timing(
         )
 
 
-def starting_set(robot: RobotModel, params: str | None) -> ParameterSet:
+def starting_set(robot: RobotModel, params: str | None, say: TextIO | None = None) -> ParameterSet:
     """The parameter set a command starts with: `params` (a file, or a built-in or saved
     preset's name: `resolve_set`), else the one the dashboard starts the robot in: its default
     preset (`robust` for ArtRo; the paper's values are `--params paper`), or the newest set
-    saved for it where that preset was tuned for another robot (`PresetStore.start_for`)."""
+    saved for it where that preset was tuned for another robot (`PresetStore.start_for`). A set
+    chosen so is named on `say` (standard error), with why it was chosen."""
     if params:
         return resolve_set(params, "--params").pset
     presets = builtin_presets()
     name = robot.description.default_preset
     if name not in presets:
         raise ValueError(f"robot {robot.name!r} names the preset {name!r}, which is not built in")
-    return PresetStore(default_data_dir(), presets).start_for(robot.name, name)
+    chosen = PresetStore(default_data_dir(), presets).start_for(robot.name, name)
+    default = presets[name]
+    why = (
+        f"{robot.name}'s default preset"
+        if (chosen.name, chosen.robot) == (default.name, default.robot)
+        else f"the newest set saved for {robot.name} (its default preset {name!r} was tuned "
+        f"for {default.robot})"
+    )
+    print(
+        f"no --params: the parameter set {set_named(chosen)}, {why}; --params NAME|FILE "
+        "chooses another",
+        file=say or sys.stderr,
+    )
+    return chosen
+
+
+def set_named(pset: ParameterSet) -> str:
+    """A parameter set as the commands name it: its name, the robot it was tuned for, when it
+    was made and by which version of artro (where the set says)."""
+    made = [f"made {pset.created}"] if pset.created else []
+    made += [f"artro {pset.project_version}"] if pset.project_version else []
+    return f"{pset.name or 'unnamed'!r} (robot {pset.robot}{''.join(', ' + m for m in made)})"
 
 
 def warn_if_other_robot(pset: ParameterSet, robot: RobotModel, out: TextIO = sys.stderr) -> None:

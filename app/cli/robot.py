@@ -12,7 +12,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any, TextIO
 
-from app.cli.options import action, output_file, subcommand
+from app.cli.options import action, output_file, output_file_of, subcommand
 from app.robots import builtin_robot_names, load_description, model_xml
 from app.robots.cad_import import import_robot, mapping_rows, write_import
 from app.robots.checks import JointTorque, eq1_torques, robot_warnings
@@ -81,7 +81,7 @@ def add_parser(sub: Any) -> None:
     check.add_argument(
         "-o",
         "--output",
-        type=output_file,
+        type=output_file_of((".yaml", ".yml"), "a YAML description"),
         metavar="FILE",
         help="with --suggest (default: NAME-suggested.yaml)",
     )
@@ -311,6 +311,21 @@ def not_the_source(target: Path, source: str, what: str, instead: str) -> None:
         )
 
 
+def earlier_description(target: Path) -> str:
+    """How the line that names the file written says what it replaced ("" for nothing there);
+    ValueError for a file there that is not a robot description (it would be lost)."""
+    if not target.exists():
+        return ""
+    try:
+        earlier = load_description(str(target))
+    except ValueError:
+        raise ValueError(
+            f"-o {target}: that file exists and is not a robot description; writing would "
+            "lose it: give another file, or remove it first"
+        ) from None
+    return f", replacing the robot {earlier.name!r} there"
+
+
 def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str = "") -> int:
     """`robot check --suggest`: the description with the servos that carry it, written (never
     over `source`, the file it was read from: its comments would be lost); with no servo to
@@ -322,6 +337,7 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str
     )
     if output is None and target.exists():
         raise ValueError(f"{target} exists: give -o {target} to write over it, or -o another file")
+    replacing = earlier_description(target)
     found = suggest_servos(desc, lambda r: {t.joint: t.required_nm for t in eq1_torques(r)})
     if not found.swaps:
         left = f"; none carries {', '.join(found.uncarried)}" if found.uncarried else ""
@@ -344,7 +360,7 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str
     if found.uncarried:
         print(f"  no servo of the table or the file carries {', '.join(found.uncarried)}", file=out)
     mass = robot.parts_mass_kg()
-    print(f"wrote {path} ({mass:.3f} kg); next: artro robot check {path}, then "
+    print(f"wrote {path} ({mass:.3f} kg{replacing}); next: artro robot check {path}, then "
           f"artro tune --robot {path}", file=out)  # fmt: skip
     if found.uncarried:
         print(UNCARRIED, file=out)

@@ -15,6 +15,7 @@ from app.cli.options import (
     add_motion_option,
     add_params_option,
     add_robot_option,
+    check_pushed_variation,
     check_timing,
     motion_number,
     number,
@@ -89,6 +90,7 @@ def command(args: argparse.Namespace) -> int:
         motion = dataclasses.replace(motion, ca=args.ca)
     gait = pset.gait if args.engine is None else dataclasses.replace(pset.gait, engine=args.engine)
     check_timing((), gait, args.duration, args.warmup)  # a whole cycle to measure
+    check_pushed_variation(args.vary, args.duration, f"--duration {args.duration:g}")
     start = Motion() if args.from_rest else None
     result = run(
         gait,

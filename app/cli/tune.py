@@ -34,10 +34,10 @@ from app.cli.options import (
     backend_of,
     check_timing,
     cluster_of,
-    inside_a_file,
     nonempty,
     number,
     output_file,
+    output_problem,
     ranges_from,
     resolve_set,
     study_location,
@@ -342,7 +342,7 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
     check_timing(names, base.gait, args.duration, args.warmup)
     if args.range and not args.robust:
         raise ValueError("--range narrows the variations of --robust N: give --robust too")
-    ranges = ranges_from(args.range)
+    ranges = ranges_from(args.range, args.duration)
     backend = backend_of(args)
     local = (
         None if args.cluster is not None else evaluator_for(robot, threads=args.threads, **backend)
@@ -392,11 +392,8 @@ def events_file(text: str) -> str:
         return text
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty file name; give the file to write, or -")
-    path = Path(text)
-    if path.is_dir():
-        raise argparse.ArgumentTypeError(f"{text} is a folder; give the file to write in it")
-    if inside_a_file(path):
-        raise argparse.ArgumentTypeError(f"{text} is inside a file, not a folder")
+    if problem := output_problem(Path(text), devices=True):
+        raise argparse.ArgumentTypeError(f"{text} {problem}")
     return text
 
 

@@ -71,15 +71,19 @@ def evaluator_for(
     `backend="warp"`: the runs of each call as the worlds of one MuJoCo Warp batch on `device`
     ("cuda", the default, or "cpu", Warp's slow CPU device; the `gpu` extra; `notice` hears,
     once per device and process, that the kernels compile: stderr by default); "auto": Warp
-    on "cuda" when a CUDA device and the extra are there, else the CPU's executors.
+    on `device` when the extra is there and, for "cuda" (its default), a CUDA device, else the
+    CPU's executors, the choice and why said to `notice` (`_warp.auto_choice`).
     ExecutorError for an unknown backend, Warp with a cluster or processes, a missing extra or
     no CUDA device (docs/GPU.md)."""
     if backend not in BACKENDS:
         raise ExecutorError(f"backend must be one of {', '.join(BACKENDS)}, got {backend!r}")
-    if backend == "auto":
-        from app.evaluation._warp import cuda_present
+    if backend == "auto":  # said, with why: a GPU run and a CPU one differ by a hundred times
+        from app.evaluation._warp import auto_choice
 
-        backend = "warp" if cluster is None and not processes and cuda_present() else "cpu"
+        elsewhere = "--cluster" if cluster is not None else "--processes" if processes else None
+        backend, device, why = auto_choice(device, elsewhere)
+        if notice is not None:
+            notice(f"--backend auto: {why}")
     if backend == "warp":
         if cluster is not None:
             raise ExecutorError(

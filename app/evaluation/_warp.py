@@ -67,13 +67,24 @@ def import_warp() -> tuple[Any, Any]:
     return wp, mjw
 
 
-def cuda_present() -> bool:
-    """True when the `gpu` extra is installed and Warp sees a CUDA device (`--backend auto`)."""
+def auto_choice(device: str | None, elsewhere: str | None = None) -> tuple[str, str, str]:
+    """What `--backend auto` runs on: (backend, device, why in words). Warp on `device` where
+    the gpu extra is installed and, for "cuda" (the default), Warp sees a CUDA device; else
+    the CPU's executors ("cpu", ""). `elsewhere`: what sends the runs out of this process (a
+    cluster, worker processes), where Warp cannot run."""
+    if elsewhere:
+        return "cpu", "", f"the CPU's executors, as {elsewhere} asks (Warp runs in this process)"
     try:
         wp, _mjw = import_warp()
     except ExecutorError:
-        return False
-    return wp.get_cuda_device_count() > 0
+        return "cpu", "", f"the CPU's executors: MuJoCo Warp is not installed ({GPU_EXTRA})"
+    if device == "cpu":
+        return "warp", "cpu", "MuJoCo Warp on Warp's CPU device, as --device cpu asks (slow)"
+    wanted = device or "cuda"
+    if wp.get_cuda_device_count() == 0:
+        return "cpu", "", f"the CPU's executors: Warp finds no CUDA device ({wanted})"
+    name = getattr(warp_device(wp, wanted), "name", "") or wanted
+    return "warp", wanted, f"MuJoCo Warp on {wanted} ({name}): the gpu extra and a CUDA device"
 
 
 def warp_device(wp: Any, device: str) -> Any:

@@ -17,7 +17,7 @@ from app.firmware import protocol as proto
 from app.firmware.link import SerialLink
 from app.firmware.protocol import LinkError  # the link's error, raised also by parse
 from app.firmware.robot_telemetry import SensorForwarder
-from app.params.document import ParameterSet
+from app.params.document import DEFAULT_ROBOT, ParameterSet
 from hardware.firmware.schema import FIRMWARE_ENGINE, schema_hash, values_from_document
 
 DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 % (config.h UART_BAUD)
@@ -386,6 +386,7 @@ def follow(
     *,
     max_updates: int | None = None,
     sensors: bool = True,
+    firmware_robot: str = DEFAULT_ROBOT,
 ) -> int:
     """Send the dashboard's set, then each new version until `stop` (or `max_updates` sets
     after the first). From the first set on (with `sensors`, not in a dry run) the robot
@@ -394,7 +395,9 @@ def follow(
     again: the robot walks on in the last set meanwhile. A robot that restarted is said and
     sent the set again (and started, and its stream asked for). LinkError for a robot gone (its port
     failed, or silent for KEEPALIVE_S and a PING unanswered) and for a server whose answer is
-    not a dashboard's parameter set. Returns how many sets were sent."""
+    not a dashboard's parameter set, and for a dashboard on another robot than
+    `firmware_robot`, the one the firmware was built for (`other_robot`): nothing is sent then.
+    Returns how many sets were sent."""
     import httpx  # ~0.5 s: only to follow a dashboard
 
     sent = 0
@@ -428,6 +431,7 @@ def follow(
                     lost = None
                     robot.log(f"the dashboard at {server} answers again")
                 if doc["version"] != last or restarted:
+                    other_robot(doc, server, firmware_robot)
                     last = doc["version"]
                     robot.send_set(_plain(doc, server), last)
                     if sent == 0 or restarted:
@@ -458,6 +462,22 @@ def _end_stream(robot: RobotLink) -> None:
         robot.end_stream()
     except (LinkError, OSError) as exc:
         robot.log(f"could not end the robot's sensor stream: {exc}")
+
+
+def other_robot(doc: dict[str, Any], server: str, firmware_robot: str) -> None:
+    """LinkError, naming both robots, if the dashboard's set `doc` is for another robot than
+    the firmware on the port (a set is tuned for one robot's legs and servos: `PUT
+    /api/params` warns of it, a robot would walk it as it may, or fall)."""
+    robot = doc.get("robot") or DEFAULT_ROBOT
+    if robot == firmware_robot:
+        return
+    raise LinkError(
+        f"the dashboard at {server} simulates the robot {robot!r}, and its set "
+        f"{doc.get('name') or 'dashboard'!r} (version {doc['version']}) is for it; the firmware "
+        f"on the port is built for {firmware_robot!r} (--robot): nothing sent. Switch the "
+        f"dashboard to {firmware_robot!r}, or give --robot {robot} if the firmware was built "
+        "for it"
+    )
 
 
 def _dashboard_set(response: Any, server: str) -> dict[str, Any]:

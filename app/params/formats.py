@@ -27,6 +27,7 @@ FORMATS = ("json", "yaml", "c")
 MEDIA_TYPES = {"json": "application/json", "yaml": "application/yaml", "c": "text/x-c"}
 MAX_IMPORT_BYTES = 64 * 1024
 MAX_DEPTH = 8  # a parameter set is 3 levels deep (document -> gait -> group)
+MAX_DIGITS = 40  # a number's digits at most: a parameter takes a few
 MAX_VALUES = 1000  # a parameter set has about 70 keys and values: refused before any work on more
 _YAML_SUFFIXES = (".yaml", ".yml")
 _OPTIONAL_KEYS = ("schema_version", "name", "robot", "created", "project_version")
@@ -142,6 +143,16 @@ class _StrictCYamlLoader(_StrictRules, getattr(yaml, "CSafeLoader", yaml.SafeLoa
 _LOADER = _StrictCYamlLoader if hasattr(yaml, "CSafeLoader") else _StrictYamlLoader
 
 
+def _yaml_whole_number(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
+    """A YAML integer as SafeLoader reads it, its digits counted first (`_check_digits`)."""
+    _check_digits(str(loader.construct_scalar(node)))
+    return int(yaml.SafeLoader.construct_yaml_int(loader, node))
+
+
+for _loader in (_StrictYamlLoader, _StrictCYamlLoader):
+    _loader.add_constructor("tag:yaml.org,2002:int", _yaml_whole_number)
+
+
 def _detect_format(text: str, content_type: str | None, filename: str | None) -> str:
     """'json' or 'yaml': a specific content type wins, then the file suffix, then the text."""
     media = (content_type or "").split(";")[0].strip().lower()
@@ -159,6 +170,22 @@ def _detect_format(text: str, content_type: str | None, filename: str | None) ->
 
 def _reject_constant(token: str) -> Any:
     raise ParameterImportError(f"{token} is not allowed in JSON: every number must be finite")
+
+
+def _whole_number(token: str) -> int:
+    """A JSON integer, its digits counted first (`_check_digits`)."""
+    _check_digits(token)
+    return int(token)
+
+
+def _check_digits(number: str) -> None:
+    """ParameterImportError for a number of more than MAX_DIGITS digits (Python refuses 4300,
+    naming a setting of its own; no parameter takes a number so long)."""
+    digits = len(number.lstrip("-+").replace("_", ""))
+    if digits > MAX_DIGITS:
+        raise ParameterImportError(
+            f"a whole number of {digits} digits; a parameter's number has at most {MAX_DIGITS}"
+        )
 
 
 def _json_pairs(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
@@ -185,7 +212,12 @@ def _load_json(text: str | bytes) -> Any:
                 f"not UTF-8 text (byte {exc.start}): JSON must be UTF-8"
             ) from None
     try:
-        return json.loads(text, parse_constant=_reject_constant, object_pairs_hook=_json_pairs)
+        return json.loads(
+            text,
+            parse_constant=_reject_constant,
+            parse_int=_whole_number,
+            object_pairs_hook=_json_pairs,
+        )
     except json.JSONDecodeError as exc:
         raise ParameterImportError(
             f"malformed JSON at line {exc.lineno}, column {exc.colno}: {exc.msg}"
@@ -197,7 +229,7 @@ def _load_json(text: str | bytes) -> Any:
         ) from exc
     except ParameterImportError:
         raise
-    except ValueError as exc:  # e.g. an integer with more digits than Python converts
+    except ValueError as exc:  # what else the JSON reader refuses
         raise ParameterImportError(f"malformed JSON: {exc}") from exc
 
 

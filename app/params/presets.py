@@ -139,10 +139,44 @@ def stamped(pset: ParameterSet, name: str) -> ParameterSet:
     )
 
 
+def name_too_long(path: Path) -> str | None:
+    """Why the file system would refuse `path` for its length, or None: a name (a part between
+    slashes) over the folder's NAME_MAX bytes (255 on most), or the whole over PATH_MAX (4096).
+    Looking at such a path raises OSError (File name too long), so this comes first."""
+    limit = _name_max(path)
+    for part in path.parts:
+        size = len(os.fsencode(part))
+        if size > limit:
+            shown = part if len(part) <= 24 else f"{part[:12]}...{part[-8:]}"
+            return f"has a name of {size} bytes ({shown}); a name is at most {limit} bytes"
+    whole = len(os.fsencode(str(path)))
+    limit = _pathconf("/", "PC_PATH_MAX", 4096)
+    if whole >= limit:
+        return f"is a path of {whole} bytes; a path is shorter than {limit} bytes"
+    return None
+
+
+def _name_max(path: Path) -> int:
+    """The longest name the nearest folder above `path` that exists takes, in bytes."""
+    for up in path.parents:
+        if (found := _pathconf(up, "PC_NAME_MAX", 0)) > 0:
+            return found
+    return 255
+
+
+def _pathconf(path: Path | str, name: str, default: int) -> int:
+    try:
+        return os.pathconf(path, name)
+    except (OSError, ValueError):  # nothing there (yet), a name too long, no such limit
+        return default
+
+
 def not_a_file(path: Path) -> str | None:
     """Why `path` cannot be read or written as a file, or None (a regular file, or nothing yet):
-    a folder, or a device, pipe or socket (one read never ends; a temporary file renamed over it
-    would replace it)."""
+    a name the file system refuses for its length, a folder, or a device, pipe or socket (one
+    read never ends; a temporary file renamed over it would replace it)."""
+    if problem := name_too_long(path):
+        return problem
     if path.is_dir():
         return "is a folder"
     if path.exists() and not path.is_file():

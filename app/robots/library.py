@@ -51,6 +51,8 @@ def describe_errors(err: ValidationError, source: str, text: str | None = None) 
     for e in errors[:MAX_LISTED_ERRORS]:
         where = ".".join(str(p) for p in e["loc"])
         msg = e["msg"].removeprefix("Value error, ")
+        if e["type"] in ("float_type", "int_type") and isinstance(e.get("input"), str):
+            msg += f", got the text {e['input']!r} (numbers are written as 1650, 1.65 or 1.65e3)"
         line = f"  {where}: {msg}" if where else f"  {msg}"
         named = where or ((m := _LEADING_FIELD.match(msg)) and m.group(1))
         at = _line_of(root, named) if named else None
@@ -145,7 +147,8 @@ def decoded(data: bytes, path: Path | str) -> str:
 
 class _DescriptionLoader(yaml.SafeLoader):
     """SafeLoader that refuses a key given twice (YAML would keep the last, silently) and reads
-    `5e-05` and `4.0e3` as numbers, as YAML 1.2 and JSON do (YAML 1.1 made them strings)."""
+    numbers as YAML 1.2 and JSON do: `5e-05` and `4.0e3` are numbers (YAML 1.1 made them
+    strings), `1_650` and `0:1.65` are not (YAML 1.1 made them 1650 and 1.65)."""
 
     def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
         seen: set[object] = set()
@@ -159,11 +162,44 @@ class _DescriptionLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep=deep)
 
 
+#: the digits of a number at most (Python refuses 4300, naming a setting of its own)
+MAX_DIGITS = 40
+_INT, _FLOAT = "tag:yaml.org,2002:int", "tag:yaml.org,2002:float"
+# numbers as YAML 1.2's core schema reads them, as JSON does: YAML 1.1's 1_650 (1650), 0:1.65
+# (sexagesimal, 1.65), 017 (octal, 15) and 0b11 are not numbers there, so not here either
+_DescriptionLoader.yaml_implicit_resolvers = {
+    first: [(tag, rx) for tag, rx in found if tag not in (_INT, _FLOAT)]
+    for first, found in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
 _DescriptionLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(r"^[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)[eE][-+]?[0-9]+$"),
+    _INT, re.compile(r"^(?:[-+]?[0-9]+|0o[0-7]+|0x[0-9a-fA-F]+)$"), list("-+0123456789")
+)
+_DescriptionLoader.add_implicit_resolver(
+    _FLOAT,
+    re.compile(
+        r"^(?:[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?"
+        r"|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
+    ),
     list("-+0123456789."),
 )
+
+
+def _construct_int(loader: yaml.SafeLoader, node: yaml.ScalarNode) -> int:
+    """A YAML 1.2 integer: decimal (017 is 17), 0o octal or 0x hexadecimal; ConstructorError
+    for one of more than MAX_DIGITS digits."""
+    text = str(loader.construct_scalar(node))
+    digits = len(text.lstrip("-+"))
+    if digits > MAX_DIGITS:
+        raise yaml.constructor.ConstructorError(
+            None, None, f"a number of {digits} digits; one has at most {MAX_DIGITS} here",
+            node.start_mark,
+        )  # fmt: skip
+    if text.startswith(("0o", "0x")):
+        return int(text[2:], 8 if text[1] == "o" else 16)
+    return int(text)
+
+
+_DescriptionLoader.add_constructor(_INT, _construct_int)
 
 
 def load_yaml(text: str, path: Path | str) -> object:

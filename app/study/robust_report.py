@@ -39,12 +39,18 @@ SIGNS = (
 )
 
 
+def model_variations(results: dict[str, Any]) -> str:
+    """How many variations the bench ran: 1 model variation, 8 model variations."""
+    count = results["samples"]
+    return f"{count} model variation{'' if count == 1 else 's'}"
+
+
 def title(results: dict[str, Any]) -> str:
     """What was measured on which robot: presets, variations, seed, run length."""
     names = ", ".join(r["preset"] for r in results["presets"])
     return (
-        f"bench robust: {names} on robot {results['robot']}, {results['samples']} model "
-        f"variations (seed {results['seed']}), {results['duration_s']:g} s runs "
+        f"bench robust: {names} on robot {results['robot']}, {model_variations(results)} "
+        f"(seed {results['seed']}), {results['duration_s']:g} s runs "
         f"({results['warmup_s']:g} s warm-up)"
     )
 
@@ -166,7 +172,7 @@ def robust_figure(results: dict[str, Any]) -> Figure:
     ax.set_xlabel("runs that pass, % (whiskers: 95 % interval)")
     ax.set_title(
         f"{', '.join(r['preset'] for r in reports)} on {results['robot']}: "
-        f"{results['samples']} model variations (seed {results['seed']}), "
+        f"{model_variations(results)} (seed {results['seed']}), "
         f"{results['duration_s']:g} s runs",
         fontsize=10,
     )

@@ -15,7 +15,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
-from app.params.presets import not_a_file
+from app.params.presets import name_too_long, not_a_file
 from app.study.study_files import WriterLease, WriterLock, mend_journal, whole_write
 
 if TYPE_CHECKING:
@@ -63,6 +63,8 @@ def check_location(where: str | Path) -> str:
 def _check_file(path: Path, text: str) -> None:
     """ValueError unless `path` is a regular file or nothing yet (a folder, a device such as
     /dev/full, a pipe: a study read from one never ends or keeps nothing)."""
+    if problem := name_too_long(path):
+        raise ValueError(f"{text} {problem}; {ALLOWED}")
     if problem := not_a_file(path):
         raise ValueError(f"{text} {problem}, not a study file; {ALLOWED}")
 
