@@ -1,0 +1,269 @@
+"""The dashboard's robot import (POST /api/robot/import, docs/DESIGN.md §16) on a live server:
+ArtRo exported as MJCF with renamed joints maps, goes on offer and switches as one undoable
+change; a zip with a mesh imports; each hostile or unreadable upload is refused in words, with
+nothing left on disk; an import past its deadline is stopped, in words."""
+
+from __future__ import annotations
+
+import io
+import struct
+import threading
+import warnings
+import zipfile
+from pathlib import Path
+
+import mujoco
+import pytest
+
+from app.robots import load_description, model_xml
+from app.server.robot_upload import MAX_UNPACKED_BYTES, MAX_UPLOAD_BYTES, MAX_ZIP_FILES
+from gait import JOINT_NAMES
+from tests.server_harness import client, running_server, wait_for
+
+UPLOAD = {"content-type": "application/octet-stream"}
+#: Darwin-OP's names for the joints: the import maps by geometry, never by name
+DARWIN = {"hip_yaw": "j_pelvis", "hip_roll": "j_thigh1", "hip_pitch": "j_thigh2",
+          "knee": "j_tibia", "ankle_pitch": "j_ankle1", "ankle_roll": "j_ankle2"}  # fmt: skip
+
+
+def artro_mjcf(renamed: bool = True, drop: str | None = None) -> str:
+    """The built-in ArtRo as a CAD export's MJCF: no sensors, joints renamed; `drop`: a joint
+    taken out (a leg the gait cannot drive)."""
+    spec = mujoco.MjSpec.from_string(model_xml(load_description("artro")))
+    for sensor in list(spec.sensors):
+        spec.delete(sensor)
+    if drop:
+        spec.delete(spec.actuator(drop))
+        spec.delete(spec.joint(drop))
+    if renamed:
+        for name in JOINT_NAMES:
+            if name == drop:
+                continue
+            side, _, joint = name.partition("_")
+            spec.joint(name).name = f"{DARWIN[joint]}_{side}"
+            spec.actuator(name).target = f"{DARWIN[joint]}_{side}"
+            spec.actuator(name).name = f"{DARWIN[joint]}_{side}_servo"
+    return spec.to_xml()
+
+
+def box_stl(half: float = 0.02) -> bytes:
+    """A binary STL of a cube: 12 triangles, wound outwards."""
+    corners = [(x, y, z) for x in (-half, half) for y in (-half, half) for z in (-half, half)]
+    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]  # fmt: skip
+    out = bytearray(b"box".ljust(80, b" ") + struct.pack("<I", len(faces)))
+    for face in faces:
+        out += struct.pack("<3f", 0, 0, 0)
+        for i in face:
+            out += struct.pack("<3f", *corners[i])
+        out += struct.pack("<H", 0)
+    return bytes(out)
+
+
+def with_mesh(xml: str, file: str = "meshes/shell.stl") -> str:
+    """`xml` with a visual mesh on the trunk read from `file`."""
+    xml = xml.replace(
+        "<worldbody>", f'<asset><mesh name="shell" file="{file}"/></asset>\n<worldbody>', 1
+    )
+    return xml.replace(
+        '<joint name="root" type="free"/>',
+        '<joint name="root" type="free"/><geom name="shell" type="mesh" mesh="shell" '
+        'contype="0" conaffinity="0" group="1" mass="0"/>',
+        1,
+    )
+
+
+def zipped(members: dict[str, bytes], links: tuple[str, ...] = ()) -> bytes:
+    buffer = io.BytesIO()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # a duplicate name, on purpose
+        with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
+            for name, data in members.items():
+                archive.writestr(name, data)
+            for name in links:
+                info = zipfile.ZipInfo(name)
+                info.external_attr = 0o120777 << 16  # a symbolic link, as `zip -y` stores one
+                archive.writestr(info, "../../etc/passwd")
+    return buffer.getvalue()
+
+
+@pytest.fixture(scope="module")
+def served(tmp_path_factory):
+    data = tmp_path_factory.mktemp("data")
+    with running_server(data) as (base_url, _app):
+        with client(base_url) as http:
+            http.timeout = 120
+            yield http, data
+
+
+def _post(http, body: bytes, filename: str, **params: str):
+    return http.post("/api/robot/import", params={"filename": filename, **params}, content=body,
+                     headers=UPLOAD)  # fmt: skip
+
+
+def _folders(data: Path) -> set[str]:
+    robots = data / "robots"
+    return {p.name for p in robots.iterdir()} if robots.exists() else set()
+
+
+def test_an_exported_artro_imports_maps_by_geometry_and_switches_as_one_undoable_change(served):
+    http, data = served
+    answer = _post(http, artro_mjcf().encode(), "darwin-legs.xml")
+    assert answer.status_code == 200, answer.text
+    body = answer.json()
+    assert body["robot"] == "darwin-legs" and body["file"] == "darwin-legs.xml"
+    rows = {row["joint"]: row for row in body["mapping"]}
+    assert set(rows) == set(JOINT_NAMES)
+    assert rows["l_knee"]["file_joint"] == "j_tibia_l" and rows["r_hip_yaw"]["sign"] in (1, -1)
+    assert all(row["axis_error_deg"] < 0.01 for row in rows.values())
+    assert body["total_mass_kg"] == pytest.approx(1.65, rel=0.01)
+    assert Path(body["written"]).is_file() and "darwin-legs" in _folders(data)
+    offered = http.get("/api/robots").json()
+    assert [r["name"] for r in offered["robots"]][-1] == "darwin-legs"
+    before = http.get("/api/params").json()
+    switched = http.put("/api/robot", json={"name": "darwin-legs"}).json()
+    assert switched["changed"] and switched["params"]["version"] == before["version"] + 1
+    assert http.get("/api/robot").json()["name"] == "darwin-legs"
+    undone = http.post("/api/params/undo").json()
+    assert undone["robot"] == "artro" and undone["name"] == before["name"]
+    # the same file again: a second robot of its own name, said in a note
+    again = _post(http, artro_mjcf().encode(), "darwin-legs.xml").json()
+    assert (
+        again["robot"] == "darwin-legs-2" and "darwin-legs is on offer already" in again["notes"][0]
+    )
+
+
+def test_a_zip_of_an_mjcf_with_its_mesh_in_a_folder_imports(served):
+    http, data = served
+    body = zipped({
+        "op/robot.xml": with_mesh(artro_mjcf(renamed=False)).encode(),
+        "op/meshes/shell.stl": box_stl(),
+        "__MACOSX/op/._robot.xml": b"\x00\x05\x16\x07 resource fork",
+    })  # fmt: skip
+    answer = _post(http, body, "op.zip", name="meshed")
+    assert answer.status_code == 200, answer.text
+    assert answer.json()["file"] == "op/robot.xml"
+    folder = data / "robots" / "meshed"
+    assert (folder / "op" / "meshes" / "shell.stl").read_bytes() == box_stl()
+    assert not (folder / "__MACOSX").exists()
+
+
+HOSTILE = {
+    "dotdot": (zipped({"robot.xml": b"<mujoco/>", "../evil.stl": b"x"}), "leaves the zip's folder"),
+    "absolute": (zipped({"/etc/robot.xml": b"<mujoco/>"}), "is an absolute name"),
+    "link": (zipped({"robot.xml": b"<mujoco/>"}, links=("meshes/a.stl",)), "is a link"),
+    "many": (
+        zipped({f"m{i}.stl": b"x" for i in range(MAX_ZIP_FILES + 1)}),
+        f"a robot's zip may hold {MAX_ZIP_FILES}",
+    ),
+    "bomb": (
+        zipped({"robot.xml": b"<mujoco/>", "big.stl": bytes(MAX_UNPACKED_BYTES + 1)}),
+        f"may unpack to {MAX_UNPACKED_BYTES}",
+    ),
+    "entity": (
+        b'<?xml version="1.0"?><!DOCTYPE robot [<!ENTITY x SYSTEM "file:///etc/passwd">]>'
+        b"<robot name='x'>&x;</robot>",
+        "has a DTD or an entity",
+    ),
+    "mesh outside": (
+        with_mesh(artro_mjcf(), "../../secret.stl").encode(),
+        "leaves the upload's folder",
+    ),
+    "mesh absolute": (with_mesh(artro_mjcf(), "/etc/passwd").encode(), "is an absolute name"),
+    "no xml": (b"solid box\nendsolid", "is no XML"),
+    "two robots": (
+        zipped({"a.urdf": b"<robot name='a'/>", "b.xml": b"<mujoco/>"}),
+        "holds 2 robot files (a.urdf, b.xml): zip one, or name it with file=",
+    ),
+    "no robot": (zipped({"notes.txt": b"hello"}), "holds no URDF (<robot>) or MJCF (<mujoco>)"),
+}
+
+
+@pytest.mark.parametrize("case", HOSTILE)
+def test_a_hostile_upload_is_refused_in_words_with_nothing_on_disk(served, case):
+    http, data = served
+    body, words = HOSTILE[case]
+    before = _folders(data)
+    suffix = ".zip" if body.startswith(b"PK") else ".xml"
+    answer = _post(http, body, f"robot{suffix}")
+    assert answer.status_code == 422, answer.text
+    assert answer.json()["detail"][0]["type"] == "upload_refused"
+    assert words in answer.json()["message"], answer.json()["message"]
+    assert _folders(data) == before
+
+
+def test_a_duplicate_member_and_a_bad_name_are_refused(served):
+    http, data = served
+    before = _folders(data)
+    buffer = io.BytesIO()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        with zipfile.ZipFile(buffer, "w") as archive:
+            archive.writestr("robot.xml", b"<mujoco/>")
+            archive.writestr("robot.xml", b"<robot/>")
+    answer = _post(http, buffer.getvalue(), "robot.zip")
+    assert answer.status_code == 422 and "is in it twice" in answer.json()["message"]
+    named = _post(http, b"<mujoco/>", "robot.stl")
+    assert named.status_code == 422 and "a .urdf or an MJCF .xml file" in named.json()["message"]
+    folder = _post(http, b"<mujoco/>", "../robot.xml")
+    assert folder.status_code == 422 and "with no folder in it" in folder.json()["message"]
+    assert _folders(data) == before
+
+
+def test_a_body_over_the_cap_is_refused_before_it_is_read(served):
+    http, _data = served
+    answer = _post(http, bytes(MAX_UPLOAD_BYTES + 1), "robot.zip")
+    assert answer.status_code == 413 and str(MAX_UPLOAD_BYTES) in answer.json()["message"]
+    form = http.post("/api/robot/import", params={"filename": "r.xml"}, content=b"<mujoco/>",
+                     headers={"content-type": "text/plain"})  # fmt: skip
+    assert form.status_code == 415 and "application/octet-stream" in form.json()["message"]
+
+
+def test_what_mujoco_cannot_read_or_the_gait_cannot_drive_is_refused_naming_it(served):
+    http, data = served
+    before = _folders(data)
+    empty = _post(http, b"<mujoco><worldbody/></mujoco>", "empty.xml")
+    assert empty.status_code == 422, empty.text
+    assert empty.json()["detail"][0]["type"] == "import_refused"
+    said = empty.json()["message"]
+    assert "has 0 bodies at its top" in said and str(data) not in said
+    legless = _post(http, artro_mjcf(renamed=False, drop="l_ankle_roll").encode(), "five.xml")
+    assert legless.status_code == 422, legless.text
+    said = legless.json()["message"]
+    assert "has 5 hinge joints" in said and "l_ankle_pitch" in said
+    missing = _post(http, with_mesh(artro_mjcf()).encode(), "meshless.xml")
+    assert missing.status_code == 422 and "meshes/shell.stl" in missing.json()["message"]
+    assert _folders(data) == before
+    names = [r["name"] for r in http.get("/api/robots").json()["robots"]]
+    assert not {"empty", "five", "meshless"} & set(names)
+
+
+def test_an_import_past_its_deadline_is_stopped_in_words(tmp_path):
+    with running_server(tmp_path, robot_import_timeout_s=0.01) as (base_url, _app):
+        with client(base_url) as http:
+            answer = _post(http, artro_mjcf().encode(), "slow.xml")
+            assert answer.status_code == 422, answer.text
+            assert answer.json()["detail"][0]["type"] == "import_timed_out"
+            assert "took longer than 0.01 s and was stopped" in answer.json()["message"]
+            assert _folders(tmp_path) == set()
+            assert http.delete("/api/robot/import").json() == {"cancelled": False}
+
+
+def test_an_import_cancelled_while_it_runs_keeps_nothing(tmp_path):
+    with running_server(tmp_path) as (base_url, app):
+        importer = app.state.services.importer
+        with client(base_url) as http:
+            http.timeout = 120
+            answers = []
+            thread = threading.Thread(
+                target=lambda: answers.append(_post(http, artro_mjcf().encode(), "gone.xml"))
+            )
+            thread.start()
+            wait_for(lambda: importer._child is not None, "the import's child runs")
+            assert http.delete("/api/robot/import").json() == {"cancelled": True}
+            thread.join(60)
+            answer = answers[0]
+            assert answer.status_code == 409, answer.text
+            assert "the import was cancelled; nothing was imported" in answer.json()["message"]
+            assert _folders(tmp_path) == set()
+            assert "gone" not in [r["name"] for r in http.get("/api/robots").json()["robots"]]
