@@ -6,85 +6,19 @@ nothing left on disk; an import past its deadline is stopped, in words."""
 from __future__ import annotations
 
 import io
-import struct
 import threading
 import warnings
 import zipfile
 from pathlib import Path
 
-import mujoco
 import pytest
 
-from app.robots import load_description, model_xml
 from app.server.robot_upload import MAX_UNPACKED_BYTES, MAX_UPLOAD_BYTES, MAX_ZIP_FILES
 from gait import JOINT_NAMES
+from tests.cad_support import artro_mjcf, box_stl, with_mesh, zipped
 from tests.server_harness import client, running_server, wait_for
 
 UPLOAD = {"content-type": "application/octet-stream"}
-#: Darwin-OP's names for the joints: the import maps by geometry, never by name
-DARWIN = {"hip_yaw": "j_pelvis", "hip_roll": "j_thigh1", "hip_pitch": "j_thigh2",
-          "knee": "j_tibia", "ankle_pitch": "j_ankle1", "ankle_roll": "j_ankle2"}  # fmt: skip
-
-
-def artro_mjcf(renamed: bool = True, drop: str | None = None) -> str:
-    """The built-in ArtRo as a CAD export's MJCF: no sensors, joints renamed; `drop`: a joint
-    taken out (a leg the gait cannot drive)."""
-    spec = mujoco.MjSpec.from_string(model_xml(load_description("artro")))
-    for sensor in list(spec.sensors):
-        spec.delete(sensor)
-    if drop:
-        spec.delete(spec.actuator(drop))
-        spec.delete(spec.joint(drop))
-    if renamed:
-        for name in JOINT_NAMES:
-            if name == drop:
-                continue
-            side, _, joint = name.partition("_")
-            spec.joint(name).name = f"{DARWIN[joint]}_{side}"
-            spec.actuator(name).target = f"{DARWIN[joint]}_{side}"
-            spec.actuator(name).name = f"{DARWIN[joint]}_{side}_servo"
-    return spec.to_xml()
-
-
-def box_stl(half: float = 0.02) -> bytes:
-    """A binary STL of a cube: 12 triangles, wound outwards."""
-    corners = [(x, y, z) for x in (-half, half) for y in (-half, half) for z in (-half, half)]
-    faces = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
-             (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]  # fmt: skip
-    out = bytearray(b"box".ljust(80, b" ") + struct.pack("<I", len(faces)))
-    for face in faces:
-        out += struct.pack("<3f", 0, 0, 0)
-        for i in face:
-            out += struct.pack("<3f", *corners[i])
-        out += struct.pack("<H", 0)
-    return bytes(out)
-
-
-def with_mesh(xml: str, file: str = "meshes/shell.stl") -> str:
-    """`xml` with a visual mesh on the trunk read from `file`."""
-    xml = xml.replace(
-        "<worldbody>", f'<asset><mesh name="shell" file="{file}"/></asset>\n<worldbody>', 1
-    )
-    return xml.replace(
-        '<joint name="root" type="free"/>',
-        '<joint name="root" type="free"/><geom name="shell" type="mesh" mesh="shell" '
-        'contype="0" conaffinity="0" group="1" mass="0"/>',
-        1,
-    )
-
-
-def zipped(members: dict[str, bytes], links: tuple[str, ...] = ()) -> bytes:
-    buffer = io.BytesIO()
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # a duplicate name, on purpose
-        with zipfile.ZipFile(buffer, "w", zipfile.ZIP_DEFLATED) as archive:
-            for name, data in members.items():
-                archive.writestr(name, data)
-            for name in links:
-                info = zipfile.ZipInfo(name)
-                info.external_attr = 0o120777 << 16  # a symbolic link, as `zip -y` stores one
-                archive.writestr(info, "../../etc/passwd")
-    return buffer.getvalue()
 
 
 @pytest.fixture(scope="module")
