@@ -11,6 +11,7 @@ import zipfile
 import mujoco
 
 from app.robots import load_description, model_xml
+from app.robots.urdf_export import model_urdf
 from gait import JOINT_NAMES
 
 #: Darwin-OP's names for the joints: the import maps by geometry, never by name
@@ -77,3 +78,11 @@ def zipped(members: dict[str, bytes], links: tuple[str, ...] = ()) -> bytes:
                 info.external_attr = 0o120777 << 16  # a symbolic link, as `zip -y` stores one
                 archive.writestr(info, "../../etc/passwd")
     return buffer.getvalue()
+
+
+def artro_urdf_with_mesh(mesh: str = "package://artro_description/meshes/shell.stl") -> str:
+    """The built-in ArtRo as URDF, a collision mesh on its trunk named `mesh` (ROS's way)."""
+    urdf = model_urdf(load_description("artro"))
+    end = urdf.index("</link>", urdf.index('<link name="trunk"'))
+    shell = f'<collision><geometry><mesh filename="{mesh}"/></geometry></collision>'
+    return urdf[:end] + shell + urdf[end:]

@@ -15,7 +15,7 @@ import pytest
 
 from app.server.robot_upload import MAX_UNPACKED_BYTES, MAX_UPLOAD_BYTES, MAX_ZIP_FILES
 from gait import JOINT_NAMES
-from tests.cad_support import artro_mjcf, box_stl, with_mesh, zipped
+from tests.cad_support import artro_mjcf, artro_urdf_with_mesh, box_stl, with_mesh, zipped
 from tests.server_harness import client, running_server, wait_for
 
 UPLOAD = {"content-type": "application/octet-stream"}
@@ -80,6 +80,18 @@ def test_a_zip_of_an_mjcf_with_its_mesh_in_a_folder_imports(served):
     folder = data / "robots" / "meshed"
     assert (folder / "op" / "meshes" / "shell.stl").read_bytes() == box_stl()
     assert not (folder / "__MACOSX").exists()
+
+
+def test_a_ros_package_zip_of_a_urdf_with_a_package_mesh_imports(served):
+    http, _data = served
+    body = zipped({
+        "artro_description/urdf/artro.urdf": artro_urdf_with_mesh().encode(),
+        "artro_description/meshes/shell.stl": box_stl(),
+    })  # fmt: skip
+    answer = _post(http, body, "artro_description.zip", name="rosy")
+    assert answer.status_code == 200, answer.text
+    assert answer.json()["file"] == "artro_description/urdf/artro.urdf"
+    assert answer.json()["total_mass_kg"] == pytest.approx(1.65, rel=0.01)
 
 
 HOSTILE = {
@@ -166,7 +178,9 @@ def test_what_mujoco_cannot_read_or_the_gait_cannot_drive_is_refused_naming_it(s
     said = legless.json()["message"]
     assert "has 5 hinge joints" in said and "l_ankle_pitch" in said
     missing = _post(http, with_mesh(artro_mjcf()).encode(), "meshless.xml")
-    assert missing.status_code == 422 and "meshes/shell.stl" in missing.json()["message"]
+    assert missing.status_code == 422, missing.text
+    said = missing.json()["message"]
+    assert "meshes/shell.stl" in said and "upload a .zip of the robot file with its meshes" in said
     assert _folders(data) == before
     names = [r["name"] for r in http.get("/api/robots").json()["robots"]]
     assert not {"empty", "five", "meshless"} & set(names)

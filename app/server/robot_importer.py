@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import shutil
 import signal
 import subprocess
@@ -137,6 +138,10 @@ class RobotImporter:
         ]
         if said:
             reason = said[-1].replace(folder + os.sep, "").replace(folder, ".")
+            if "mesh file(s) not found" in reason:  # the CLI's advice, in an upload's words
+                reason = re.sub(r" \(looked beside the file[^)]*\)", "", reason) + (
+                    ": upload a .zip of the robot file with its meshes, where the file names them"
+                )
         elif child.returncode < 0:
             reason = f"MuJoCo crashed on the file (signal {-child.returncode})"
         else:
