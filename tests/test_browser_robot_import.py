@@ -1,6 +1,6 @@
 """The robot import on the page (docs/DESIGN.md §16) in a real headless Chromium: a CAD file
 picked in the World panel is imported, its mapping shown as a table, the robot select gains it and
-the robot is switched to; Undo goes back; a file the gait cannot drive is refused in words."""
+the robot is switched to; Undo goes back; a file the gait cannot drive, dropped, is refused."""
 
 import re
 
@@ -13,7 +13,7 @@ from tests.cad_support import artro_mjcf
 from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 
-@pytest.mark.parametrize(("width", "height"), SIZES[:1])
+@pytest.mark.parametrize(("width", "height"), SIZES)
 def test_a_file_picked_is_imported_mapped_and_switched_to_and_undo_goes_back(
     tmp_path, width, height
 ):
@@ -31,11 +31,15 @@ def test_a_file_picked_is_imported_mapped_and_switched_to_and_undo_goes_back(
         message = page.locator("#robot-message")
         expect(badge).to_have_text("robot artro", timeout=30_000)
 
-        # a leg of five joints: refused, naming the joint, in the colour of an error
-        page.locator("#robot-import-file").set_input_files(files=[{
-            "name": "five.xml", "mimeType": "application/xml",
-            "buffer": artro_mjcf(renamed=False, drop="l_ankle_roll").encode(),
-        }])  # fmt: skip
+        # a leg of five joints, dropped on the box: refused, naming the joint, in an error's colour
+        page.locator("#robot-import").dispatch_event("drop", {"dataTransfer": page.evaluate_handle(
+            """text => {
+              const dropped = new DataTransfer();
+              dropped.items.add(new File([text], "five.xml", { type: "application/xml" }));
+              return dropped;
+            }""",
+            artro_mjcf(renamed=False, drop="l_ankle_roll"),
+        )})  # fmt: skip
         expect(message).to_contain_text("not imported", timeout=60_000)
         expect(message).to_contain_text("l_ankle_pitch")
         expect(message).to_have_class(re.compile(r"\berror\b"))
@@ -56,6 +60,14 @@ def test_a_file_picked_is_imported_mapped_and_switched_to_and_undo_goes_back(
         expect(select).to_have_value("darwin-legs")
         expect(badge).to_have_text("robot darwin-legs")
         assert http.get("/api/state").json()["robot"] == "darwin-legs"
+        lines = page.locator("#robot-import").evaluate(
+            """box => new Set([...box.children].filter((c) => !c.hidden).map((c) => {
+              const b = c.getBoundingClientRect();
+              return Math.round((b.top + b.bottom) / 2);
+            })).size"""
+        )
+        assert lines == 1, "the import's controls take one line"
+        page.add_style_tag(content=".topbar { visibility: hidden; }")  # sticky: not over the shot
         page.locator("#world-panel").screenshot(
             path=str(shot_path(f"robot-import-{width}.png", tmp_path))
         )

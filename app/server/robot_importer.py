@@ -25,6 +25,9 @@ from app.server.robot_upload import unpack, upload_name
 #: how long the child may take: OP3's meshes import in about 3 s, a 20 MB upload in under 30 s;
 #: a file that takes longer is refused rather than waited for (a setting: `ServerConfig`)
 IMPORT_TIMEOUT_S = 120.0
+#: the child's address space: a 50 MB upload of meshes compiles in well under 1 GB; a file that
+#: asks for more is refused rather than let press on the server's memory
+MAX_CHILD_MEMORY_BYTES = 4 * 1024**3
 #: the child: `artro robot import`'s functions, the notes as JSON on its last line (exit 2: why)
 CHILD = "from app.server.robot_importer import child_main; child_main()"
 
@@ -179,8 +182,11 @@ def _answer(model: RobotModel, source: Path, written: Path, notes: list[str]) ->
 def child_main() -> None:
     """The child's work: `artro robot import SOURCE -o TARGET` with the options, and the model
     built; the notes as JSON on stdout, or `error: WHY` on stderr and exit status 2."""
+    import resource
+
     from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder
 
+    resource.setrlimit(resource.RLIMIT_AS, (MAX_CHILD_MEMORY_BYTES, MAX_CHILD_MEMORY_BYTES))
     keep_warnings_out_of_the_folder()
     source, target, given = Path(sys.argv[1]), Path(sys.argv[2]), json.loads(sys.argv[3])
     options = ImportOptions(**given)
@@ -194,5 +200,9 @@ def child_main() -> None:
         RobotModel.load(target)  # built here too: a build that hangs hangs the child
     except (ValueError, OSError) as exc:
         print("error: " + " ".join(str(exc).split()), file=sys.stderr, flush=True)
+        sys.exit(2)
+    except MemoryError:
+        limit = MAX_CHILD_MEMORY_BYTES // 1024**3
+        print(f"error: the import needed more than {limit} GiB of memory", file=sys.stderr)
         sys.exit(2)
     print(json.dumps({"notes": imported.notes}), flush=True)

@@ -90,6 +90,12 @@ function initImport() {
     importFile(files[0]);
   });
   $("robot-import-cancel").addEventListener("click", () => api.del("/api/robot/import").catch(() => {}));
+  // a file dropped beside the box would open in the tab instead of the dashboard: it does nothing
+  for (const kind of ["dragover", "drop"]) {
+    document.addEventListener(kind, (e) => {
+      if (e.dataTransfer?.types?.includes("Files")) e.preventDefault();
+    });
+  }
 }
 
 function setImporting(on) {
