@@ -156,6 +156,15 @@ def test_a_duplicate_member_and_a_bad_name_are_refused(served):
     assert _folders(data) == before
 
 
+def test_an_unknown_servo_is_refused_naming_those_known(served):
+    http, data = served
+    before = _folders(data)
+    answer = _post(http, artro_mjcf().encode(), "robot.xml", servo="SG9000")
+    assert answer.status_code == 422 and answer.json()["detail"][0]["loc"] == ["query", "servo"]
+    assert "unknown servo 'SG9000'; known:" in answer.json()["message"]
+    assert "MG996R" in answer.json()["message"] and _folders(data) == before
+
+
 def test_a_body_over_the_cap_is_refused_before_it_is_read(served):
     http, _data = served
     answer = _post(http, bytes(MAX_UPLOAD_BYTES + 1), "robot.zip")
@@ -208,6 +217,8 @@ def test_an_import_cancelled_while_it_runs_keeps_nothing(tmp_path):
             )
             thread.start()
             wait_for(lambda: importer._child is not None, "the import's child runs")
+            second = _post(http, artro_mjcf().encode(), "second.xml")
+            assert second.status_code == 429 and "another robot is being imported" in second.text
             assert http.delete("/api/robot/import").json() == {"cancelled": True}
             thread.join(60)
             answer = answers[0]

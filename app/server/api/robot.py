@@ -8,6 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from starlette.concurrency import run_in_threadpool
 
 from app.robots import RobotDescription
+from app.robots.servos import servo_table
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
 from app.server.param_store import RobotBusy
@@ -143,6 +144,9 @@ async def import_robot_file(
     answer: its figures, the mapping (gait joint, file joint, sign, zero, axis error) and notes.
     Refused in words with nothing kept: a hostile or unreadable upload, a robot the gait cannot
     drive, a deadline passed (422); cancelled (409); while another import runs (429)."""
+    if servo not in (known := servo_table()):
+        msg = f"unknown servo {servo!r}; known: {', '.join(sorted(known))}"
+        raise ApiError(422, msg, "unknown_servo", loc=["query", "servo"])
     body = await request.body()
     options = ImportOptions(name, servo, keep_actuators, forward, file)
     try:
