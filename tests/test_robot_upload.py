@@ -36,6 +36,8 @@ def test_a_meshdir_and_a_file_that_leave_the_folder_together_are_refused(tmp_pat
            b"<worldbody/></mujoco>")  # fmt: skip
     said = _refused(tmp_path, zipped({"a/b/robot.xml": xml, "a/b/m.stl": b""}))
     assert "<mesh file='../a.stl'> leaves the upload's folder" in said
+    hidden = b'<mujoco><include file="parts.inc"/></mujoco>'
+    assert "includes .xml files only" in _refused(tmp_path, hidden, "r.xml")
     url = b'<robot name="r"><link name="l"><visual><geometry><mesh filename="http://x/a.stl"/>'
     url += b"</geometry></visual></link></robot>"
     assert "is named relative to the robot file" in _refused(tmp_path, url, "r.urdf")

@@ -78,13 +78,12 @@ def unpack(body: bytes, filename: str, folder: Path, chosen: str | None = None) 
     roots, includes = {}, set()
     for member, data in files.items():
         if member.lower().endswith(ROBOT_SUFFIXES):
-            root = _checked_xml(member, data, files)
-            if root is not None:
-                roots[member] = root.tag
-                includes |= {
-                    posixpath.normpath(posixpath.join(posixpath.dirname(member), e.get("file", "")))
-                    for e in root.iter("include")
-                }
+            root = _checked_xml(member, data)
+            roots[member] = root.tag
+            includes |= {
+                posixpath.normpath(posixpath.join(posixpath.dirname(member), e.get("file", "")))
+                for e in root.iter("include")
+            }
     robot = _robot_file(name, files, roots, includes, chosen)
     return _write(files, folder, robot)
 
@@ -166,8 +165,8 @@ def _member_name(info: zipfile.ZipInfo, name: str) -> str:
     return "/".join(parts)
 
 
-def _checked_xml(member: str, data: bytes, files: dict[str, bytes]) -> ElementTree.Element | None:
-    """The XML file's root, its file references checked; None for XML MuJoCo never reads."""
+def _checked_xml(member: str, data: bytes) -> ElementTree.Element:
+    """The XML file's root, its file references checked (each .xml or .urdf of an upload)."""
     try:
         data.decode("utf-8")  # what MuJoCo reads; a UTF-16 file could hide a DTD from the check
     except UnicodeDecodeError:
@@ -179,10 +178,14 @@ def _checked_xml(member: str, data: bytes, files: dict[str, bytes]) -> ElementTr
         )
     try:
         root = ElementTree.fromstring(data)
-    except ElementTree.ParseError as err:
-        if len(files) == 1:
-            raise UploadRefused(f"{member} is no XML: {err}") from None
-        return None  # a file of the zip MuJoCo will not read, unless the robot names it
+    except ElementTree.ParseError as err:  # MuJoCo might read it, unchecked: refused
+        raise UploadRefused(f"{member} is no XML: {err}") from None
+    for include in root.iter("include"):  # its references are checked only in a file read here
+        if not include.get("file", "").lower().endswith(".xml"):
+            raise UploadRefused(
+                f"{member}: <include file={include.get('file', '')!r:.80}>: an upload includes "
+                ".xml files only"
+            )
     base = posixpath.dirname(member)
     dirs = {""} | {v for e in root.iter() for k, v in e.attrib.items() if k in DIR_ATTRIBUTES}
     for element in root.iter():
