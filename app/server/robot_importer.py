@@ -22,11 +22,11 @@ from app.robots.model import RobotModel
 from app.server.robot_shelf import RobotShelf
 from app.server.robot_upload import unpack, upload_name
 
-#: how long the child may take: OP3's meshes import in about 3 s, a 20 MB upload in under 30 s;
-#: a file that takes longer is refused rather than waited for (a setting: `ServerConfig`)
+#: how long the child may take: ArtRo's export imports in about 3 s, the child's start included;
+#: a file taking 40 times that is refused rather than waited for (a setting: `ServerConfig`)
 IMPORT_TIMEOUT_S = 120.0
-#: the child's address space: a 50 MB upload of meshes compiles in well under 1 GB; a file that
-#: asks for more is refused rather than let press on the server's memory
+#: the child's address space: ArtRo's import takes 0.2 GB, so meshes have room; a file that asks
+#: for more is refused rather than let press on the server's memory
 MAX_CHILD_MEMORY_BYTES = 4 * 1024**3
 #: the child: `artro robot import`'s functions, the notes as JSON on its last line (exit 2: why)
 CHILD = "from app.server.robot_importer import child_main; child_main()"
