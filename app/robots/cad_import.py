@@ -83,7 +83,7 @@ def import_robot(
         output,
         kind,
         mapping,
-        name or _name_of(path),
+        name or name_of(path),
         servo,
         keep_actuators,
         package_dirs,
@@ -103,9 +103,10 @@ def import_robot(
     return Imported(description, document, mapping, notes)
 
 
-def _name_of(path: Path) -> str:
+def name_of(path: Path) -> str:
+    """A robot's name made from a file's: lower case letters, digits, '-' and '_', at most 40."""
     name = re.sub(r"[^a-z0-9_-]+", "-", path.stem.lower()).strip("-_") or "imported"
-    return name if name[0].isalpha() else f"r-{name}"[:40]
+    return (name if name[0].isalpha() else f"r-{name}")[:40].rstrip("-_")
 
 
 def _document(
@@ -222,5 +223,6 @@ __all__ = [
     "Imported",
     "import_robot",
     "mapping_rows",
+    "name_of",
     "write_import",
 ]

@@ -1,8 +1,8 @@
 """The request gate in front of the app, a pure ASGI middleware (docs/DESIGN.md §14):
 a Host allow-list against DNS rebinding; API and WebSocket requests from other sites refused
-(Origin, Sec-Fetch-Site); state-changing requests only as JSON (or YAML for the import);
-bodies counted, a 413 as soon as one is too large; a client gone mid-upload ends quietly.
-"""
+(Origin, Sec-Fetch-Site); state-changing requests only as JSON (or YAML for the import, bytes
+for a robot's upload); bodies counted, a 413 as soon as one is too large; a client gone
+mid-upload ends quietly."""
 
 from __future__ import annotations
 
@@ -21,6 +21,7 @@ from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.params.formats import MAX_IMPORT_BYTES
 from app.server.errors import error_content
+from app.server.robot_upload import MAX_UPLOAD_BYTES
 
 log = logging.getLogger(__name__)
 
@@ -28,11 +29,18 @@ SAFE_METHODS = frozenset({"GET", "HEAD", "OPTIONS"})
 JSON_TYPES = frozenset({"application/json"})
 YAML_TYPES = frozenset({"application/yaml", "application/x-yaml", "text/yaml"})
 IMPORT_PATH = "/api/import"
+#: a robot's file or zip, as bytes: no form a page of another site can send (no CORS-safe type)
+ROBOT_IMPORT_PATH = "/api/robot/import"
+UPLOAD_TYPES = frozenset({"application/octet-stream"})
 RECORDING_IMPORT_PATH = "/api/recording/import"
 MAX_BODY_BYTES = 16 * 1024  # a parameter set is about 4 KiB
 MAX_IMPORT_BODY_BYTES = MAX_IMPORT_BYTES
 MAX_RECORDING_BODY_BYTES = 16 * 1024 * 1024  # a 60 s recording file is about 2 MB
-BODY_LIMITS = {IMPORT_PATH: MAX_IMPORT_BODY_BYTES, RECORDING_IMPORT_PATH: MAX_RECORDING_BODY_BYTES}
+BODY_LIMITS = {
+    IMPORT_PATH: MAX_IMPORT_BODY_BYTES,
+    RECORDING_IMPORT_PATH: MAX_RECORDING_BODY_BYTES,
+    ROBOT_IMPORT_PATH: MAX_UPLOAD_BYTES,
+}
 GATED_PREFIXES = ("/api/", "/ws/")
 LOOPBACK_NAMES = frozenset({"localhost", "127.0.0.1", "::1"})
 WILDCARD_HOSTS = frozenset({"0.0.0.0", "::", ""})
@@ -128,6 +136,7 @@ class RequestGate:
         if scope["type"] == "http" and scope["method"] not in SAFE_METHODS:
             media = headers.get("content-type", "").split(";")[0].strip().lower()
             allowed = JSON_TYPES | (YAML_TYPES if path == IMPORT_PATH else frozenset())
+            allowed = UPLOAD_TYPES if path == ROBOT_IMPORT_PATH else allowed
             has_body = headers.get("content-length", "0") != "0" or "transfer-encoding" in headers
             if (media or has_body) and media not in allowed:
                 shown = media[:60] or "missing"

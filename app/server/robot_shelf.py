@@ -1,6 +1,7 @@
-"""The robots a running server can simulate: the built-in ones and the one it was started with,
-each built once and kept (a switch of robots, or an undo of one, is then a frame's work). The API
-switches only among these; no request names a file on the server's disk (docs/DESIGN.md §7)."""
+"""The robots a running server can simulate: the one it was started with, the built-in ones and
+those imported on the dashboard, each built once and kept (a switch of robots, or an undo of one,
+is then a frame's work). The API switches only among these; no request names a file on the
+server's disk (docs/DESIGN.md §7)."""
 
 from __future__ import annotations
 
@@ -21,11 +22,23 @@ class RobotShelf:
         not_a_builtin_impostor(started.description, "the robot started with")
         self.started = started
         self._built: dict[str, RobotModel] = {started.name: started}
+        self._added: list[str] = []  # imported on the dashboard (`RobotImporter`)
         self._lock = threading.Lock()
 
     def names(self) -> list[str]:
-        """The robots on offer: the one started with first, then the built-in ones."""
-        return [self.started.name, *(n for n in builtin_robot_names() if n != self.started.name)]
+        """The robots on offer: the one started with first, the built-in ones, those imported."""
+        builtins = (n for n in builtin_robot_names() if n != self.started.name)
+        return [self.started.name, *builtins, *self._added]
+
+    def add(self, robot: RobotModel) -> None:
+        """Offer `robot` (built from an imported file) from now on; ValueError if its name is
+        on offer already or is a built-in robot's."""
+        not_a_builtin_impostor(robot.description, "the robot imported")
+        with self._lock:
+            if robot.name in self.names():
+                raise ValueError(f"a robot named {robot.name!r} is on offer already")
+            self._built[robot.name] = robot
+            self._added = [*self._added, robot.name]
 
     def get(self, name: str) -> RobotModel:
         """The built model of `name` (built on first use); UnknownRobot for any other name."""

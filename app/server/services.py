@@ -17,6 +17,7 @@ from app.server.live_robot import Drive
 from app.server.param_store import ParameterStore, RobotBusy, Snapshot
 from app.server.replay import Replay
 from app.server.request_gate import served_hosts
+from app.server.robot_importer import IMPORT_TIMEOUT_S, RobotImporter
 from app.server.robot_sensors import RobotSensors
 from app.server.robot_shelf import RobotShelf
 from app.server.robustness_job import RobustnessRunner
@@ -39,6 +40,7 @@ class ServerConfig:
     wait_workers_s: float | None = None  # how long the job waits for a worker (default 60 s)
     backend: str = "cpu"  # the robustness job's: "warp" or "auto" for MuJoCo Warp (docs/GPU.md)
     device: str | None = None  # of the warp backend (default cuda)
+    robot_import_timeout_s: float = IMPORT_TIMEOUT_S  # a dashboard import's child, at most
 
 
 class Services:
@@ -47,6 +49,10 @@ class Services:
         builtins = builtin_presets()
         self.robots = RobotShelf(RobotModel.load(config.robot))
         started = self.robots.started
+        #: the dashboard's imports, each in its folder under the data folder's robots/
+        self.importer = RobotImporter(
+            self.robots, config.data_dir / "robots", config.robot_import_timeout_s
+        )
         self.presets = PresetStore(config.data_dir, builtins)
         if config.params_file:
             initial = load_parameter_set(config.params_file)
@@ -166,6 +172,7 @@ class Services:
             self.viewer.start()
 
     def stop(self) -> None:
+        self.importer.cancel()  # its child killed: no import outlives the server
         self.replay.leave()
         self.axle_fitter.jobs.stop()  # every job (a tune's child too): no simulation outlives us
         if self.viewer is not None:

@@ -1,15 +1,27 @@
 // The robot simulated, and a switch to another (GET /api/robots, PUT /api/robot): the robot starts
 // over, standing, in its own preset; the switch is a parameter version, so Undo takes it back.
-// Refused, said why, while a job or a replay runs or the firmware drives.
+// A URDF or MJCF (or a zip with its meshes) dropped or picked is imported (POST /api/robot/import),
+// its mapping shown, then switched to; refusals are said why, in words.
 
 import { api, formatDetail } from "./api.js";
-import { $, fmt, h, setMessage } from "./util.js";
+import { $, fmt, fmtSigned, h, setMessage } from "./util.js";
+
+/** The server's cap on an upload (app/server/robot_upload.py, MAX_UPLOAD_BYTES). */
+const MAX_UPLOAD_BYTES = 20 * 1024 * 1024;
+const FRONT_FROM = { toes: "its toes", knees: "its knees", given: "the front chosen" };
 
 let offered = [];
 let shown = null; // the robot the state last named
+let importing = false;
 
 export async function initRobot() {
   $("robot-select").addEventListener("change", (e) => switchTo(e.target.value));
+  initImport();
+  await refreshOffer();
+}
+
+/** The robots on offer, into the select (an import adds one). */
+async function refreshOffer() {
   const list = await api.get("/api/robots");
   offered = list.robots;
   $("robot-select").replaceChildren(
@@ -33,9 +45,10 @@ export function showRobot(name) {
   $("robot-figures").textContent = figures(robot);
 }
 
-async function switchTo(name) {
+async function switchTo(name, before = "") {
   const from = shown;
   const msg = $("robot-message");
+  const lead = before ? `${before}; ` : "";
   try {
     const done = await api.put("/api/robot", { name });
     const p = done.params;
@@ -43,13 +56,101 @@ async function switchTo(name) {
     setMessage(
       msg,
       done.changed
-        ? `now ${name}: it started over in its preset '${p.name}' (v${p.version}); Undo goes back to ${from}`
-        : `${name} is already simulated`,
+        ? `${lead}now ${name}: it started over in its preset '${p.name}' (v${p.version}); Undo goes back to ${from}`
+        : `${lead}${name} is already simulated`,
       "ok",
     );
     document.dispatchEvent(new CustomEvent("artro:params", { detail: p }));
   } catch (err) {
     $("robot-select").value = from;
-    setMessage(msg, `still ${from}: ${formatDetail(err.raw) || err.message}`, "error");
+    setMessage(msg, `${lead}still ${from}: ${formatDetail(err.raw) || err.message}`, "error");
   }
+}
+
+function initImport() {
+  const box = $("robot-import");
+  $("robot-import-file").addEventListener("change", (e) => {
+    const file = e.target.files[0];
+    e.target.value = ""; // the same file picked again is a new import
+    if (file) importFile(file);
+  });
+  box.addEventListener("dragover", (e) => {
+    e.preventDefault();
+    box.classList.add("dropping");
+  });
+  box.addEventListener("dragleave", () => box.classList.remove("dropping"));
+  box.addEventListener("drop", (e) => {
+    e.preventDefault();
+    box.classList.remove("dropping");
+    const files = [...(e.dataTransfer?.files || [])];
+    if (files.length !== 1) {
+      setMessage($("robot-message"), `drop one file (a .urdf, .xml or .zip), not ${files.length}`, "error");
+      return;
+    }
+    importFile(files[0]);
+  });
+  $("robot-import-cancel").addEventListener("click", () => api.del("/api/robot/import").catch(() => {}));
+  // a file dropped beside the box would open in the tab instead of the dashboard: it does nothing
+  for (const kind of ["dragover", "drop"]) {
+    document.addEventListener(kind, (e) => {
+      if (e.dataTransfer?.types?.includes("Files")) e.preventDefault();
+    });
+  }
+}
+
+function setImporting(on) {
+  importing = on;
+  $("robot-import-progress").hidden = !on;
+  $("robot-import-cancel").hidden = !on;
+  $("robot-import-file").disabled = on;
+}
+
+async function importFile(file) {
+  if (importing) return;
+  const msg = $("robot-message");
+  if (file.size > MAX_UPLOAD_BYTES) {
+    setMessage(msg, `not imported: ${file.name} has ${file.size} bytes; an upload may have ${MAX_UPLOAD_BYTES}`, "error");
+    return;
+  }
+  setImporting(true);
+  $("robot-mapping").hidden = true;
+  setMessage(msg, `importing ${file.name}: read by MuJoCo and mapped onto the gait by its geometry…`);
+  const query = new URLSearchParams({ filename: file.name });
+  if ($("robot-import-forward").value) query.set("forward", $("robot-import-forward").value);
+  let done;
+  try {
+    done = await api.postRaw(`/api/robot/import?${query}`, file, "application/octet-stream");
+  } catch (err) {
+    setMessage(msg, formatDetail(err.raw) || err.message, "error");
+    return;
+  } finally {
+    setImporting(false);
+  }
+  showMapping(done);
+  await refreshOffer();
+  await switchTo(done.robot, `imported ${file.name} as ${done.robot}`);
+}
+
+/** An import's mapping: each gait joint's joint in the file, sign, zero and axis error; notes. */
+function showMapping(done) {
+  $("robot-mapping-caption").textContent =
+    `${done.robot}: ${fmt(done.total_mass_kg, 2)} kg, legs ${fmt(100 * done.leg_m, 1)} cm, ` +
+    `from ${done.file}, its front told by ${FRONT_FROM[done.forward_from] || done.forward_from}`;
+  $("robot-mapping-table").tBodies[0].replaceChildren(
+    ...done.mapping.map((row) =>
+      h(
+        "tr",
+        {},
+        h("td", {}, row.joint),
+        h("td", { class: "file" }, row.file_joint),
+        h("td", { class: "num" }, row.sign > 0 ? "+1" : "−1"),
+        h("td", { class: "num" }, fmtSigned(row.zero_rad, 3)),
+        h("td", { class: "num" }, `${fmt(row.axis_error_deg, 2)}°`),
+      ),
+    ),
+  );
+  const notes = [...done.notes];
+  if (done.held.length) notes.push(`held rigid (no leg's): ${done.held.join(", ")}`);
+  $("robot-mapping-notes").replaceChildren(...notes.map((n) => h("li", {}, n)));
+  $("robot-mapping").hidden = false;
 }

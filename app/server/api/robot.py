@@ -1,17 +1,27 @@
 """The robot being simulated: its description, the figures that follow from it, the JSON Schema
-of a description, the robots on offer, and a switch to another (docs/DESIGN.md §7)."""
+of a description, the robots on offer, a switch to another, a URDF or MJCF imported (§7, §16)."""
 
-from typing import Any
+from typing import Annotated, Any, Literal
 
-from fastapi import APIRouter
+from fastapi import APIRouter, Query, Request
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.concurrency import run_in_threadpool
 
 from app.robots import RobotDescription
+from app.robots.servos import servo_table
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
 from app.server.param_store import RobotBusy
+from app.server.robot_importer import ImportBusy, ImportFailed, ImportOptions
 from app.server.robot_shelf import UnknownRobot
+from app.server.robot_upload import (
+    MAX_DEPTH,
+    MAX_NAME_BYTES,
+    MAX_UNPACKED_BYTES,
+    MAX_UPLOAD_BYTES,
+    MAX_ZIP_FILES,
+    UploadRefused,
+)
 
 router = APIRouter(
     prefix="/api", tags=["robot"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -72,3 +82,86 @@ def switch_robot(body: RobotBody, services: ServicesDep) -> dict[str, Any]:
             409, str(exc), "robot_busy", version=services.store.snapshot().version
         ) from exc
     return {"robot": body.name, "changed": changed, "params": snapshot.to_dict()}
+
+
+UPLOAD_BODY = {
+    "requestBody": {
+        "required": True,
+        "content": {
+            "application/octet-stream": {
+                "schema": {
+                    "type": "string",
+                    "format": "binary",
+                    "description": f"a .urdf, an MJCF .xml, or a .zip of one with its meshes; at "
+                    f"most {MAX_UPLOAD_BYTES} bytes, a zip of {MAX_ZIP_FILES} entries, "
+                    f"{MAX_UNPACKED_BYTES} bytes unpacked, {MAX_DEPTH} folders deep",
+                }
+            }
+        },
+    }
+}
+REFUSED = {"refused": 422, "timed_out": 422, "cancelled": 409}
+ROBOT_NAME = r"^[a-z][a-z0-9_-]{0,35}$"  # a description's name, room left for a '-2'
+PATTERN_RULES[ROBOT_NAME] = (
+    "a robot's name is a lower-case letter, then up to 35 lower-case letters, digits, '-' or '_'"
+)
+
+
+@router.post("/robot/import", openapi_extra=UPLOAD_BODY, responses=responses(409, 413, 422, 429))
+async def import_robot_file(
+    request: Request,
+    services: ServicesDep,
+    filename: Annotated[
+        str,
+        Query(
+            min_length=1,
+            max_length=MAX_NAME_BYTES,
+            description="the uploaded file's name, ending .urdf, .xml or .zip",
+        ),
+    ],
+    file: Annotated[
+        str | None,
+        Query(max_length=1024, description="the robot file within a zip holding several"),
+    ] = None,
+    name: Annotated[
+        str | None,
+        Query(
+            pattern=ROBOT_NAME,
+            description="the robot's name (default: from the file's)",
+        ),
+    ] = None,
+    servo: Annotated[
+        str, Query(max_length=64, description="every leg joint's servo (GET /api/servos)")
+    ] = "MG996R",
+    keep_actuators: bool = False,
+    forward: Annotated[
+        Literal["+x", "-x", "+y", "-y", "+z", "-z"] | None,
+        Query(description="the file's root axis the toes point along, where geometry cannot tell"),
+    ] = None,
+) -> dict[str, Any]:
+    """Import a URDF or MJCF biped as `artro robot import` does (docs/DESIGN.md §16), in a child
+    process with a deadline, and offer it (GET /api/robots); switch to it with PUT /api/robot. The
+    answer: its figures, the mapping (gait joint, file joint, sign, zero, axis error) and notes.
+    Refused in words with nothing kept: a hostile or unreadable upload, a robot the gait cannot
+    drive, a deadline passed (422); cancelled (409); while another import runs (429)."""
+    if servo not in (known := servo_table()):
+        msg = f"unknown servo {servo!r}; known: {', '.join(sorted(known))}"
+        raise ApiError(422, msg, "unknown_servo", loc=["query", "servo"])
+    body = await request.body()
+    options = ImportOptions(name, servo, keep_actuators, forward, file)
+    try:
+        return await run_in_threadpool(services.importer.run, body, filename, options)
+    except ImportBusy as exc:
+        raise ApiError(429, str(exc), "import_busy", headers={"Retry-After": "2"}) from exc
+    except UploadRefused as exc:
+        raise ApiError(422, f"not imported: {exc}", "upload_refused", loc=["body"]) from exc
+    except ImportFailed as exc:
+        raise ApiError(
+            REFUSED[exc.kind], f"not imported: {exc}", f"import_{exc.kind}", loc=["body"]
+        ) from exc
+
+
+@router.delete("/robot/import")
+def cancel_robot_import(services: ServicesDep) -> dict[str, Any]:
+    """Cancel the robot import that runs (its child stopped, nothing kept); whether one ran."""
+    return {"cancelled": services.importer.cancel()}
