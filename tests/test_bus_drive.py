@@ -5,11 +5,14 @@ measure is published after each advance; the bus thread's goals reach it through
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from app.assets import builtin_robots_dir
 from app.firmware.virtual_bus import VirtualBus, start_bus
+from app.robots import RobotError, load_description
 from app.robots.model import RobotModel
 from app.sim.bus_drive import BusSimulation, Goals
 from gait import JOINT_NAMES
@@ -83,3 +86,20 @@ def test_the_bus_threads_sync_write_reaches_the_simulation_at_its_last_byte(
 def test_a_real_time_priority_the_system_refuses_is_said_in_a_sentence(robot: RobotModel) -> None:
     with pytest.raises(OSError, match=r"--rt-priority 1000: the bus thread cannot run SCHED_FIFO"):
         start_bus(robot, rt_priority=1000)  # beyond SCHED_FIFO's 1..99: refused by the kernel
+
+
+def test_a_robot_may_give_its_servos_bus_ids_each_its_own(tmp_path: Path) -> None:
+    text = (builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8")
+    text = text.replace("name: artro", "name: busbot", 1)
+
+    def written(changed: str) -> Path:
+        path = tmp_path / "busbot.yaml"
+        path.write_text(changed, encoding="utf-8")
+        return path
+
+    assert load_description("artro").bus_ids() == list(range(1, 13))
+    renumbered = text.replace("l_hip_yaw: {}", "l_hip_yaw: {bus_id: 21}")
+    assert load_description(written(renumbered)).bus_ids() == [21, *range(2, 13)]
+    clash = text.replace("r_hip_yaw: {}", "r_hip_yaw: {bus_id: 4}")  # l_knee's by default
+    with pytest.raises(RobotError, match=r"joints\.r_hip_yaw\.bus_id: 4 is l_knee's ID"):
+        load_description(written(clash))

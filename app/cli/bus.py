@@ -13,7 +13,8 @@ from typing import Any
 from app.cli.options import add_robot_option, number, subcommand
 
 EXAMPLES = """examples:
-  artro bus                              Dynamixel XM430-W350s at 1 Mbaud, IDs 1-12
+  artro bus                              Dynamixel XM430-W350s at 1 Mbaud, IDs 1-12 (or
+                                         the robot's joints' bus_id)
   artro bus --protocol feetech           Feetech STS3215s
   artro bus --robot micro --baud 57600   another robot, another rate
   artro bus --torque-on                  the servos hold the standing pose from the start
@@ -34,7 +35,8 @@ def add_parser(sub: Any) -> None:
     )
     p.description = (
         "Open a pseudo-terminal on which the simulated robot's 12 leg servos answer as bus "
-        "servos do (IDs 1-12 in the gait's joint order: l_hip_yaw ... r_ankle_roll): PING, "
+        "servos do (IDs 1-12 in the gait's joint order, l_hip_yaw ... r_ankle_roll, unless "
+        "the robot's joints set bus_id): PING, "
         "READ, WRITE, SYNC_READ, SYNC_WRITE, their control table's goal and present position, "
         "velocity, load, voltage, temperature and torque enable; each answer after the "
         "servo's return delay and its bytes' time at the baud rate. The first line printed is "
@@ -90,7 +92,7 @@ def command(args: argparse.Namespace) -> int:
         print(bus.port, flush=True)
         print(
             f"artro bus: {robot.name}, {table.model} x12 ({args.protocol}) at {args.baud} baud, "
-            f"IDs 1-12 in joint order; Ctrl-C ends",
+            f"IDs {robot.description.bus_ids()} in joint order; Ctrl-C ends",
             file=sys.stderr,
             flush=True,
         )

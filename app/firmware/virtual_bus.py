@@ -171,14 +171,14 @@ def start_bus(
     torque_on: bool = False,
     rt_priority: int = 0,
 ) -> tuple[VirtualBus, BusSimulation, threading.Event, list[threading.Thread]]:
-    """The simulation and the bus on their threads, started; IDs 1..12 in the gait's joint
-    order; set the event to stop them. `rt_priority` > 0: the bus thread runs SCHED_FIFO at it,
-    the simulation's one lower (neither spins; the simulation holding the interpreter's lock
-    must not wait behind other programs); OSError in a sentence where that is not permitted."""
+    """The simulation and the bus on their threads, started; the servos' IDs the robot's
+    (`bus_ids`: 1..12 in the gait's joint order unless it says otherwise); set the event to
+    stop them. `rt_priority` > 0: the bus thread runs SCHED_FIFO at it, the simulation's one
+    lower (neither spins; the simulation holding the interpreter's lock must not wait behind
+    other programs); OSError in a sentence where that is not permitted."""
     sim = BusSimulation(robot, torque_on=torque_on)
-    bus = VirtualBus(
-        protocol, baud, sim.handoff, float(robot.description.supply_voltage_v), list(range(1, 13))
-    )
+    voltage_v = float(robot.description.supply_voltage_v)
+    bus = VirtualBus(protocol, baud, sim.handoff, voltage_v, robot.description.bus_ids())
     for servo, steps in zip(bus.bus.servos, angle_to_steps(sim.goal_rad).tolist(), strict=True):
         servo.set("goal_position", steps)
         servo.set("torque_enable", int(torque_on))

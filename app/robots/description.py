@@ -182,6 +182,13 @@ class Joint(_Strict):
     servo: Name | None = Field(None, description="a name of the servo table; default: `servo`")
     range_rad: tuple[Real, Real] = (-math.pi / 2, math.pi / 2)
     calibration: Calibration = Calibration()
+    bus_id: int | None = Field(
+        None,
+        ge=0,
+        le=252,
+        description="its servo's ID on a serial bus (`artro bus`, docs/BUS.md); default: 1-12 "
+        "in the gait's joint order",
+    )
 
     @field_validator("range_rad")
     @classmethod
@@ -288,6 +295,17 @@ class RobotDescription(_Strict):
                     f"joints.{name}.range_rad: {lo:.4f}..{hi:.4f} rad is beyond the {servo}'s "
                     f"travel of ±{half_travel:.4f} rad"
                 )
+        ids = self.bus_ids()
+        twice = sorted({i for i in ids if ids.count(i) > 1})
+        if twice:
+            named = [j for j, i in zip(JOINT_NAMES, ids, strict=True) if i == twice[0]]
+            given = [j for j in named if self.joints[j].bus_id is not None][-1]
+            other = next(j for j in named if j != given)
+            raise ValueError(
+                f"joints.{given}.bus_id: {twice[0]} is {other}'s ID on the bus too "
+                f"(unset, a joint's ID is its place in the gait's joint order, 1-12); each "
+                f"servo on a bus has an ID of its own"
+            )
         missing_mounts = [j for j in LEG_JOINTS if j not in self.servo_mounts]
         if missing_mounts and self.cad is None:  # an imported robot's servos are in its file
             raise ValueError(
@@ -381,6 +399,14 @@ class RobotDescription(_Strict):
                     f"{knee_rad:.4f} rad (the gait's shortest leg, eta_min = {eta_min:g}) to 0 "
                     f"(a straight leg)"
                 )
+
+    def bus_ids(self) -> list[int]:
+        """Each joint's servo ID on a serial bus, in the gait's joint order: its `bus_id`, else
+        its place in that order (1-12)."""
+        return [
+            i if (i := self.joints[name].bus_id) is not None else k
+            for k, name in enumerate(JOINT_NAMES, 1)
+        ]
 
     def _check_tdm(self) -> None:
         seen: dict[str, str] = {}
