@@ -60,7 +60,8 @@ def add_parser(sub: Any) -> None:
         "--png",
         type=output_file,
         metavar="FILE",
-        help="also draw the robot with each leg joint's axis and name (an import's mapping)",
+        help="also draw the robot with each leg joint's axis and name (an import's mapping; "
+        "default: no drawing)",
     )
     check = action(
         sub,
@@ -120,10 +121,10 @@ exit status 2, in one sentence naming the joint, for a file the gait cannot driv
     )
     imp.add_argument("file", metavar="FILE", help="a .urdf or an MJCF .xml")
     imp.add_argument(
-        "-o", "--output", type=output_file, metavar="DESC.yaml", help="default: NAME.yaml"
+        "-o", "--output", type=output_file, metavar="DESC.yaml", help="(default: NAME.yaml)"
     )
     imp.add_argument("--name", help="the robot's name (default: from the file's name)")
-    imp.add_argument("--servo", default="MG996R", help="every leg joint's servo (default MG996R)")
+    imp.add_argument("--servo", default="MG996R", help="every leg joint's servo (default: MG996R)")
     imp.add_argument(
         "--keep-actuators",
         action="store_true",
@@ -131,14 +132,19 @@ exit status 2, in one sentence naming the joint, for a file the gait cannot driv
     )
     imp.add_argument(
         "--package-dir", action="append", default=[], metavar="DIR",
-        help="where package:// mesh paths resolve (repeatable)",
+        help="where package:// mesh paths resolve (repeatable; default: beside the file)",
     )  # fmt: skip
-    imp.add_argument("--imu-site", metavar="NAME", help="a site of the file for the IMU")
+    imp.add_argument(
+        "--imu-site",
+        metavar="NAME",
+        help="a site of the file for the IMU (default: the trunk's origin, its axes the trunk's)",
+    )
     imp.add_argument(
         "--forward",
         choices=("+x", "-x", "+y", "-y", "+z", "-z"),
         help="the axis of the file's root frame the toes point along, for a robot whose soles "
-        "are centred under its ankles and whose knees have no range",
+        "are centred under its ankles and whose knees have no range (default: from the "
+        "geometry)",
     )
 
 
