@@ -77,5 +77,11 @@ def test_a_file_picked_is_imported_mapped_and_switched_to_and_undo_goes_back(
         expect(select).to_have_value("artro")
         assert http.get("/api/params").json()["robot"] == "artro"
         assert "darwin-legs" in [o.get_attribute("value") for o in select.locator("option").all()]
+        expect(page.locator("#robot-mapping")).to_be_hidden()  # artro is described, not imported
+
+        select.select_option("darwin-legs")  # the loaded robot's mapping, from GET /api/robot
+        expect(badge).to_have_text("robot darwin-legs", timeout=30_000)
+        expect(rows).to_have_count(12)
+        expect(rows.nth(3).locator("td").nth(1)).to_have_text("j_tibia_l")
         browser.close()
         assert errors == [], f"JavaScript errors on the page: {errors}"

@@ -13,6 +13,7 @@ const FRONT_FROM = { toes: "its toes", knees: "its knees", given: "the front cho
 let offered = [];
 let shown = null; // the robot the state last named
 let importing = false;
+let mappingOf = null; // the robot whose mapping the table shows
 
 export async function initRobot() {
   $("robot-select").addEventListener("change", (e) => switchTo(e.target.value));
@@ -43,6 +44,34 @@ export function showRobot(name) {
   $("robot-badge").title = robot ? `${robot.title}: ${figures(robot)}` : "the robot simulated";
   if (document.activeElement !== $("robot-select")) $("robot-select").value = name;
   $("robot-figures").textContent = figures(robot);
+  showLoadedMapping(name);
+}
+
+/** The loaded robot's mapping where it was imported from a file (GET /api/robot), else none. */
+async function showLoadedMapping(name) {
+  let summary;
+  try {
+    summary = await api.get("/api/robot");
+  } catch {
+    return; // the figures stay as they were; the next switch asks again
+  }
+  const cad = summary.description.cad;
+  if (summary.name !== name || shown !== name) return; // another switch came meanwhile
+  if (mappingOf === name && !$("robot-mapping").hidden) return; // the import's, with its notes
+  if (!cad) {
+    $("robot-mapping").hidden = true;
+    return;
+  }
+  showMapping({
+    robot: name,
+    total_mass_kg: summary.total_mass_kg,
+    leg_m: summary.derived.leg.upper_m + summary.derived.leg.lower_m,
+    file: cad.file.split("/").pop(),
+    forward_from: cad.forward_from,
+    mapping: Object.entries(summary.mapping).map(([joint, row]) => ({ joint, ...row })),
+    notes: [],
+    held: cad.held,
+  });
 }
 
 async function switchTo(name, before = "") {
@@ -133,6 +162,7 @@ async function importFile(file) {
 
 /** An import's mapping: each gait joint's joint in the file, sign, zero and axis error; notes. */
 function showMapping(done) {
+  mappingOf = done.robot;
   $("robot-mapping-caption").textContent =
     `${done.robot}: ${fmt(done.total_mass_kg, 2)} kg, legs ${fmt(100 * done.leg_m, 1)} cm, ` +
     `from ${done.file}, its front told by ${FRONT_FROM[done.forward_from] || done.forward_from}`;
