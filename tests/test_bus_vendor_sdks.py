@@ -25,6 +25,21 @@ STEP_RAD = 2 * math.pi / 4096
 MOVE_S = 10.0  # wall time the joint has to get there (real time; a loaded machine is slower)
 
 
+#: an SDK call that timed out is tried again this often: on a loaded 2-core machine the bus
+#: thread may miss the SDK's ~34 ms packet timeout, as a real bus may drop an answer; a
+#: builder's program retries (the round trip's figures are `bench/bench_servo_bus.py`'s)
+TRIES = 5
+
+
+def _tried(call: Callable[[], tuple], timeout: int) -> tuple:
+    """`call()` (an SDK call whose second item is its result) until it is not `timeout`."""
+    for _ in range(TRIES - 1):
+        answer = call()
+        if answer[1] != timeout:
+            return answer
+    return call()
+
+
 def _until(read: Callable[[], float], goal: float, tolerance: float) -> list[float]:
     """Read (each read waits for the servos' answers) until within `tolerance` of `goal` or
     `MOVE_S` passed; the readings."""
@@ -42,9 +57,13 @@ def test_dynamixel_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
         assert port.openPort() and port.setBaudRate(1_000_000)
         try:
             for servo_id in IDS:
-                model, result, error = packets.ping(port, servo_id)
+                model, result, error = _tried(
+                    lambda i=servo_id: packets.ping(port, i), dxl.COMM_RX_TIMEOUT
+                )
                 assert (model, result, error) == (1020, dxl.COMM_SUCCESS, 0), servo_id
-            voltage, result, _ = packets.read2ByteTxRx(port, 1, 144)
+            voltage, result, _ = _tried(
+                lambda: packets.read2ByteTxRx(port, 1, 144), dxl.COMM_RX_TIMEOUT
+            )
             supply_v = load_description("artro").supply_voltage_v
             assert result == dxl.COMM_SUCCESS and voltage == round(supply_v * 10)  # 0.1 V
             torque = dxl.GroupSyncWrite(port, packets, 64, 1)
@@ -56,7 +75,8 @@ def test_dynamixel_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
                 assert present.addParam(servo_id)
 
             def positions() -> dict[int, int]:
-                assert present.txRxPacket() == dxl.COMM_SUCCESS
+                result = _tried(lambda: (None, present.txRxPacket()), dxl.COMM_RX_TIMEOUT)[1]
+                assert result == dxl.COMM_SUCCESS
                 return {i: present.getData(i, 132, 4) for i in IDS}
 
             goals = positions()  # hold every joint where it is, the knee to its goal
@@ -77,7 +97,7 @@ def test_dynamixel_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
             port.writePort(list(bad))
             reply, result = packets.rxPacket(port, False)
             assert result == dxl.COMM_SUCCESS and reply[8] == 0x03  # error 3: CRC
-            assert packets.ping(port, 3)[1] == dxl.COMM_SUCCESS
+            assert _tried(lambda: packets.ping(port, 3), dxl.COMM_RX_TIMEOUT)[1] == dxl.COMM_SUCCESS
         finally:
             port.closePort()
     assert bus.summary["malformed"] == {"crc": 1}
@@ -91,7 +111,9 @@ def test_feetech_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
         assert port.openPort() and port.setBaudRate(1_000_000)
         try:
             for servo_id in IDS:
-                model, result, error = packets.ping(port, servo_id)
+                model, result, error = _tried(
+                    lambda i=servo_id: packets.ping(port, i), scs.COMM_RX_TIMEOUT
+                )
                 assert (model, result, error) == (777, scs.COMM_SUCCESS, 0), servo_id
             torque = scs.GroupSyncWrite(port, packets, 40, 1)
             for servo_id in IDS:
@@ -102,7 +124,8 @@ def test_feetech_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
                 assert present.addParam(servo_id)
 
             def positions() -> dict[int, int]:
-                assert present.txRxPacket() == scs.COMM_SUCCESS
+                result = _tried(lambda: (None, present.txRxPacket()), scs.COMM_RX_TIMEOUT)[1]
+                assert result == scs.COMM_SUCCESS
                 return {i: present.getData(i, 56, 2) for i in IDS}
 
             goals = positions()
@@ -120,7 +143,7 @@ def test_feetech_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
             bad = bytearray(sts_packet(3, 0x01))
             bad[-1] ^= 0xFF
             port.writePort(bad)  # an STS stays silent on a bad checksum; the bus goes on
-            assert packets.ping(port, 3)[1] == scs.COMM_SUCCESS
+            assert _tried(lambda: packets.ping(port, 3), scs.COMM_RX_TIMEOUT)[1] == scs.COMM_SUCCESS
         finally:
             port.closePort()
     assert bus.summary["malformed"] == {"checksum": 1}
