@@ -31,12 +31,14 @@ MOVE_S = 10.0  # wall time the joint has to get there (real time; a loaded machi
 TRIES = 5
 
 
-def _tried(call: Callable[[], tuple], timeout: int) -> tuple:
-    """`call()` (an SDK call whose second item is its result) until it is not `timeout`."""
+def _tried(call: Callable[[], tuple], timeout: int, port: object) -> tuple:
+    """`call()` (an SDK call whose second item is its result) until it is not `timeout`, the
+    port's input cleared before each new try (a late answer is not the next call's)."""
     for _ in range(TRIES - 1):
         answer = call()
         if answer[1] != timeout:
             return answer
+        port.clearPort()  # type: ignore[attr-defined]
     return call()
 
 
@@ -58,11 +60,11 @@ def test_dynamixel_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
         try:
             for servo_id in IDS:
                 model, result, error = _tried(
-                    lambda i=servo_id: packets.ping(port, i), dxl.COMM_RX_TIMEOUT
+                    lambda i=servo_id: packets.ping(port, i), dxl.COMM_RX_TIMEOUT, port
                 )
                 assert (model, result, error) == (1020, dxl.COMM_SUCCESS, 0), servo_id
             voltage, result, _ = _tried(
-                lambda: packets.read2ByteTxRx(port, 1, 144), dxl.COMM_RX_TIMEOUT
+                lambda: packets.read2ByteTxRx(port, 1, 144), dxl.COMM_RX_TIMEOUT, port
             )
             supply_v = load_description("artro").supply_voltage_v
             assert result == dxl.COMM_SUCCESS and voltage == round(supply_v * 10)  # 0.1 V
@@ -75,7 +77,7 @@ def test_dynamixel_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
                 assert present.addParam(servo_id)
 
             def positions() -> dict[int, int]:
-                result = _tried(lambda: (None, present.txRxPacket()), dxl.COMM_RX_TIMEOUT)[1]
+                result = _tried(lambda: (None, present.txRxPacket()), dxl.COMM_RX_TIMEOUT, port)[1]
                 assert result == dxl.COMM_SUCCESS
                 return {i: present.getData(i, 132, 4) for i in IDS}
 
@@ -97,7 +99,10 @@ def test_dynamixel_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
             port.writePort(list(bad))
             reply, result = packets.rxPacket(port, False)
             assert result == dxl.COMM_SUCCESS and reply[8] == 0x03  # error 3: CRC
-            assert _tried(lambda: packets.ping(port, 3), dxl.COMM_RX_TIMEOUT)[1] == dxl.COMM_SUCCESS
+            assert (
+                _tried(lambda: packets.ping(port, 3), dxl.COMM_RX_TIMEOUT, port)[1]
+                == dxl.COMM_SUCCESS
+            )
         finally:
             port.closePort()
     assert bus.summary["malformed"] == {"crc": 1}
@@ -112,7 +117,7 @@ def test_feetech_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
         try:
             for servo_id in IDS:
                 model, result, error = _tried(
-                    lambda i=servo_id: packets.ping(port, i), scs.COMM_RX_TIMEOUT
+                    lambda i=servo_id: packets.ping(port, i), scs.COMM_RX_TIMEOUT, port
                 )
                 assert (model, result, error) == (777, scs.COMM_SUCCESS, 0), servo_id
             torque = scs.GroupSyncWrite(port, packets, 40, 1)
@@ -124,7 +129,7 @@ def test_feetech_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
                 assert present.addParam(servo_id)
 
             def positions() -> dict[int, int]:
-                result = _tried(lambda: (None, present.txRxPacket()), scs.COMM_RX_TIMEOUT)[1]
+                result = _tried(lambda: (None, present.txRxPacket()), scs.COMM_RX_TIMEOUT, port)[1]
                 assert result == scs.COMM_SUCCESS
                 return {i: present.getData(i, 56, 2) for i in IDS}
 
@@ -143,7 +148,10 @@ def test_feetech_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
             bad = bytearray(sts_packet(3, 0x01))
             bad[-1] ^= 0xFF
             port.writePort(bad)  # an STS stays silent on a bad checksum; the bus goes on
-            assert _tried(lambda: packets.ping(port, 3), scs.COMM_RX_TIMEOUT)[1] == scs.COMM_SUCCESS
+            assert (
+                _tried(lambda: packets.ping(port, 3), scs.COMM_RX_TIMEOUT, port)[1]
+                == scs.COMM_SUCCESS
+            )
         finally:
             port.closePort()
     assert bus.summary["malformed"] == {"checksum": 1}
