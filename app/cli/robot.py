@@ -26,7 +26,6 @@ from app.robots.swap import (
     write_description,
 )
 from app.robots.urdf_export import model_urdf
-from app.study.robot_picture import draw_robot
 
 EXAMPLES = """examples:
   artro robot list
@@ -195,6 +194,8 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
     model = RobotModel.load(desc)
     summary = model.summary()
     if args.png:
+        from app.study.robot_picture import draw_robot  # matplotlib: only to draw
+
         draw_robot(model, Path(args.png))
         print(f"drew {args.png}", file=sys.stderr if args.json else out)
     if args.json:
