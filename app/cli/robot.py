@@ -164,7 +164,7 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         torques = eq1_torques(desc)  # once: the warnings and the advice
         warnings = robot_warnings(desc, torques=torques)
         print(
-            f"{desc.name}: valid; {robot.total_mass_kg():.3f} kg, legs "
+            f"{as_written(args.robot, desc.name)}: valid; {robot.total_mass_kg():.3f} kg, legs "
             f"{desc.geometry.thigh_m:g} + {desc.geometry.shank_m:g} m",
             file=out,
         )
@@ -227,6 +227,12 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
 
 
 FRONT_FROM = {"toes": "its toes", "knees": "its knees", "given": "--forward"}
+
+
+def as_written(given: str, name: str) -> str:
+    """The robot as the user named it: its name, or the file given and the name in it where
+    they differ (`other.yaml (robot my)`)."""
+    return name if given == name or Path(given).stem == name else f"{given} (robot {name})"
 
 
 def print_mapping(desc: RobotDescription, out: TextIO) -> None:
