@@ -95,4 +95,8 @@ def test_a_fall_no_servo_held_is_not_sent_to_stronger_servos(tmp_path):
     assert "stronger servos" not in head and "a gait tuned for this robot" in head
     assert "r_hip_roll" in note and f"artro robot check {path} --suggest" in note
     held = fall_advice(robot, builtin_presets()["robust"], ("r_hip_roll",), str(path))
-    assert held.startswith("stronger servos on ") and "apart from" not in held
+    assert held.startswith("stronger servos on r_hip_roll (") and "apart from" not in held
+    # a knee held the fall, eq (1) carries it: the knee is named, the short hip roll a note
+    knee = fall_advice(robot, builtin_presets()["robust"], ("l_knee",), str(path))
+    assert knee.startswith("stronger servos on l_knee (eq (1) carries them standing")
+    assert "no servo eq (1) finds short held: eq (1) finds r_hip_roll short" in knee

@@ -162,12 +162,15 @@ def fall_advice(
             part_advice(part, stuck, robot, variation, where) for part in cause.names
         )
     short = [t.joint for t in eq1_torques(robot.description) if t.margin < 0]
+    held_short = [j for j in stuck if j in short]  # held the fall, and short by eq (1)
+    held_carried = [j for j in stuck if j not in short]  # held it, though eq (1) carries them
     tries = []
-    if short and stuck:
-        joints = ", ".join(short[:4]) + (f" (+{len(short) - 4} more)" if len(short) > 4 else "")
+    if held_short:  # the servos that held the fall first, then eq (1)'s other short ones
+        named = held_short + [j for j in short if j not in held_short]
+        joints = ", ".join(named[:4]) + (f" (+{len(named) - 4} more)" if len(named) > 4 else "")
         tries.append(f"stronger servos on {joints} (artro robot check {where} --suggest)")
-    elif stuck:
-        tries.append(stronger_line(robot, stuck))
+    if held_carried:
+        tries.append(stronger_line(robot, held_carried))
     if pset.robot != robot.name:
         tries.append(f"a gait tuned for this robot (artro tune --robot {where})")
     else:
@@ -176,10 +179,11 @@ def fall_advice(
             f"--base {pset.name} with more --generations)"
         )
     text = " or ".join(tries)
-    if short and not stuck:
+    if short and not held_short:
+        which = "no servo's torque held" if not stuck else "no servo eq (1) finds short held"
         text += (
-            f" (apart from this fall, which no servo's torque held: eq (1) finds "
-            f"{', '.join(short[:4])} short, artro robot check {where} --suggest)"
+            f" (apart from this fall, which {which}: eq (1) finds {', '.join(short[:4])} short, "
+            f"artro robot check {where} --suggest)"
         )
     return text
 
