@@ -6,13 +6,16 @@ with it swapped in still adds up."""
 from __future__ import annotations
 
 import pytest
+import yaml
 
-from app.analysis.robustness import MIN_LIMIT_SHARE, servo_advice, torque_bound
+from app.analysis.robustness import MIN_LIMIT_SHARE, advised_robot, servo_advice, torque_bound
+from app.assets import builtin_robots_dir
 from app.robots.library import load_description
 from app.robots.model import RobotModel
-from app.robots.servos import servo_table
-from app.robots.swap import smallest_servo, with_servo, write_description
+from app.robots.servos import rating_at, servo_table
+from app.robots.swap import mirror, smallest_servo, with_servo, write_description
 from app.sim.headless import AT_LIMIT
+from app.study.robust_report import _servo_lines
 from gait import JOINT_NAMES
 
 ARTRO = load_description("artro")
@@ -99,11 +102,63 @@ def test_the_advice_names_the_servo_for_the_joints_at_their_limit():
             {"case": "on the spot", "torque": None},
         ]
     }
-    advice = servo_advice(report, STALL, 6.0)
-    assert advice["cases"] == ["sideways right"] and advice["joints"] == ["l_knee", "r_knee"]
-    assert advice["need_nm"] == pytest.approx(1.2 * MG996R_NM)
-    assert advice["servo"] == "DS3218"
-    assert servo_advice({"cases": report["cases"][1:]}, STALL, 6.0) is None
+    advice = servo_advice(report, ARTRO, STALL)
+    assert advice["cases"] == ["sideways right"]
+    (group,) = advice["groups"]
+    assert group["joints"] == ["l_knee", "r_knee"] and group["servo_now"] == "MG996R"
+    assert group["need_nm"] == pytest.approx(1.2 * MG996R_NM)
+    assert group["servo"] == "DS3218"
+    assert servo_advice({"cases": report["cases"][1:]}, ARTRO, STALL) is None
+
+
+def mixed_robot(tmp_path):
+    """ArtRo with MG995 servos and an MG90S on each hip yaw (issue 56's robot)."""
+    doc = yaml.safe_load((builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8"))
+    doc["name"], doc["servo"] = "mixed", "MG995"
+    doc.pop("total_mass_kg")
+    doc["joints"]["l_hip_yaw"], doc["joints"]["r_hip_yaw"] = {"servo": "MG90S"}, {"servo": "MG90S"}
+    path = tmp_path / "mixed.yaml"
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    return RobotModel.load(path)
+
+
+def test_the_advice_is_per_servo_each_with_its_own_torque_and_symmetric(tmp_path):
+    """Issue 56: `bench robust` said "eq (1) asks 1.18 N·m of l_hip_yaw, l_knee, r_knee (1.2 x
+    the 0.98 N·m they reached)" of an MG90S hip yaw (0.22 N·m) and MG995 knees (0.98), and its
+    robot file put a DS3218 on the left hip yaw only."""
+    robot = mixed_robot(tmp_path)
+    stall = robot.model.actuator_forcerange[robot.actuator_ids, 1].tolist()  # the model's own
+    at_limit = [JOINT_NAMES.index(j) for j in ("l_hip_yaw", "l_knee", "r_knee")]
+    failed = [run_with_peaks(at_limit, share=s) for s in (0.28, 0.30, 0.32)]
+    passed = [run_with_peaks(at_limit, share=s) for s in (0.10, 0.12, 0.14)]
+    bound = torque_bound(failed, passed, run_with_peaks(at_limit), stall)
+    assert bound["joints"] == ["l_hip_yaw", "l_knee", "r_knee"]
+    advice = servo_advice({"cases": [{"case": "forward", "torque": bound}]}, robot.description,
+                          stall)  # fmt: skip
+    yaw, knees = advice["groups"]
+    mg90s, mg995 = (rating_at(servo_table()[n], 6.0, n)[0] for n in ("MG90S", "MG995"))
+    assert yaw["joints"] == ["l_hip_yaw", "r_hip_yaw"] and yaw["servo_now"] == "MG90S"
+    assert yaw["stall_nm"] == pytest.approx(mg90s, abs=1e-6)
+    assert yaw["need_nm"] == pytest.approx(1.2 * mg90s, abs=1e-6)
+    assert knees["joints"] == ["l_knee", "r_knee"] and knees["servo_now"] == "MG995"
+    assert knees["need_nm"] == pytest.approx(1.2 * mg995, abs=1e-6)
+    for g in (yaw, knees):
+        assert g["servo_stall_nm"] >= g["need_nm"]
+    text = "\n".join(_servo_lines({"cases": [], "servo_advice": advice}))
+    assert f"of l_hip_yaw, r_hip_yaw (1.2 x the {mg90s:.2f} N·m their MG90S reached)" in text
+    assert f"of l_knee, r_knee (1.2 x the {mg995:.2f} N·m their MG995 reached)" in text
+    advised = advised_robot(robot.description, advice)
+    again = RobotModel.load(write_description(advised, tmp_path / "advised.yaml"))
+    assert again.name == "mixed-advised"
+    limits = dict(
+        zip(JOINT_NAMES, again.model.actuator_forcerange[again.actuator_ids, 1], strict=True)
+    )
+    for joint in JOINT_NAMES:  # both legs alike, each joint with its group's servo
+        assert again.description.joint_servo(joint) == again.description.joint_servo(mirror(joint))
+        group = next((g for g in advice["groups"] if joint in g["joints"]), None)
+        want = robot.description.joint_servo(joint) if group is None else group["servo"]
+        assert again.description.joint_servo(joint) == want, joint
+        assert limits[joint] >= (group["need_nm"] if group else 0.0) - 1e-9
 
 
 def test_the_swapped_robot_adds_up_and_carries_the_new_servos(tmp_path):

@@ -15,7 +15,8 @@ import numpy as np
 
 from app.analysis.cases import CA_PROBE, CASES
 from app.evaluation import Evaluator, Job
-from app.robots.swap import smallest_servo
+from app.robots.description import RobotDescription
+from app.robots.swap import derived, derived_name, lightest_servo, mirror, with_servo
 from app.sim.headless import AT_LIMIT
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import FIELDS, Variation
@@ -316,26 +317,55 @@ def torque_bound(
     return out
 
 
-def servo_advice(report: dict[str, Any], stall_nm: Sequence[float], voltage_v: float):
-    """The servo swap a preset's torque-bound cases ask for: the joints at their limit, eq (1)'s
-    torque for them ((1 + sf) x the stall torque they reached: what they were asked is at least
-    that) and the weakest servo of the table that gives it at `voltage_v`; None if no case is
-    torque-bound."""
+def servo_advice(report: dict[str, Any], robot: RobotDescription, stall_nm: Sequence[float]):
+    """The servo swaps a preset's torque-bound cases ask for, one per group of joints with the
+    same servo (a servo's figures are its own: an MG90S hip yaw and MG995 knees at their limits
+    are two swaps, never one): the joints at their limit and their mirror joints where both legs
+    have that servo (a robot built alike on both sides stays so), eq (1)'s torque for the group
+    ((1 + sf) x the stall torque its joints reached, `stall_nm` per joint: what they were asked
+    is at least that) and the lightest servo of the table or the robot's file that gives it at
+    its supply (None where none does); None if no case is torque-bound."""
     cases = [c for c in report["cases"] if c["torque"] and c["torque"]["bound"]]
     if not cases:
         return None
-    joints = sorted({j for c in cases for j in c["torque"]["joints"]}, key=JOINT_NAMES.index)
-    reached = max(stall_nm[JOINT_NAMES.index(j)] for j in joints)
-    need = (1.0 + SAFETY_FACTOR) * reached
-    choice = smallest_servo(need, voltage_v)
-    return {
-        "cases": [c["case"] for c in cases],
-        "joints": joints,
-        "stall_nm": reached,
-        "need_nm": need,
-        "servo": None if choice is None else choice.name,
-        "servo_stall_nm": None if choice is None else choice.stall_torque_nm,
-    }
+    bound = {j for c in cases for j in c["torque"]["joints"]}
+    bound |= {mirror(j) for j in bound if robot.joint_servo(mirror(j)) == robot.joint_servo(j)}
+    by_servo: dict[str, list[str]] = {}
+    for joint in JOINT_NAMES:  # the gait's order, left leg first
+        if joint in bound:
+            by_servo.setdefault(robot.joint_servo(joint), []).append(joint)
+    groups = []
+    for servo, joints in by_servo.items():
+        reached = max(stall_nm[JOINT_NAMES.index(j)] for j in joints)
+        need = (1.0 + SAFETY_FACTOR) * reached
+        choice = lightest_servo(need, robot.supply_voltage_v, servos=robot.servo_catalogue())
+        groups.append(
+            {
+                "joints": joints,
+                "servo_now": servo,
+                "stall_nm": reached,
+                "need_nm": need,
+                "servo": None if choice is None else choice.name,
+                "servo_stall_nm": None if choice is None else choice.stall_torque_nm,
+            }
+        )
+    return {"cases": [c["case"] for c in cases], "groups": groups}
+
+
+def advised_robot(robot: RobotDescription, advice: dict[str, Any]) -> RobotDescription | None:
+    """`robot` with the servos `servo_advice` names swapped in, group by group (a stated total
+    mass moved by each servo's difference), named `<name>-advised`; None where no group has a
+    servo that carries it."""
+    swapped = robot
+    for group in advice["groups"]:
+        if group["servo"] is not None:
+            swapped = with_servo(swapped, group["joints"], group["servo"])
+    if swapped is robot:
+        return None
+    changes = "; ".join(
+        f"{g['servo']} on {', '.join(g['joints'])}" for g in advice["groups"] if g["servo"]
+    )
+    return derived(swapped, derived_name(robot.name, "advised"), f"{robot.title}; {changes}")
 
 
 def run_robust(
@@ -377,7 +407,7 @@ def run_robust(
         for i, (name, _, source) in enumerate(presets)
     ]
     for report in reports:
-        report["servo_advice"] = servo_advice(report, stall, robot.description.supply_voltage_v)
+        report["servo_advice"] = servo_advice(report, robot.description, stall)
     return {
         "robot": evaluator.robot.name,
         "samples": samples,

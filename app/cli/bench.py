@@ -151,11 +151,11 @@ def preset_specs(text: str | None, default: str, duration_s: float, warmup_s: fl
 
 
 def robust(args: argparse.Namespace) -> int:
-    from app.analysis.robustness import ROBUST_CASES, run_robust
+    from app.analysis.robustness import ROBUST_CASES, advised_robot, run_robust
     from app.evaluation import close_evaluator, evaluator_for
     from app.evaluation.progress import progress_printer
     from app.robots.model import RobotModel
-    from app.robots.swap import with_servo, write_description
+    from app.robots.swap import write_description
     from app.study.robust_report import render, write_plot
     from app.study.walks import resolve_presets
 
@@ -203,9 +203,9 @@ def robust(args: argparse.Namespace) -> int:
     out.mkdir(parents=True, exist_ok=True)
     for report in results["presets"]:  # the robot with the servos the report advises
         advice = report["servo_advice"]
-        if advice is None or advice["servo"] is None:
+        swapped = None if advice is None else advised_robot(robot.description, advice)
+        if swapped is None:
             continue
-        swapped = with_servo(robot.description, advice["joints"], advice["servo"])
         path = write_description(swapped, out / f"{swapped.name}.yaml")
         advice["robot_file"] = str(path)
         advice["command"] = (

@@ -453,7 +453,11 @@ def starting_set(robot: RobotModel, params: str | None, say: TextIO | None = Non
     name = robot.description.default_preset
     if name not in presets:
         raise ValueError(f"robot {robot.name!r} names the preset {name!r}, which is not built in")
-    chosen = PresetStore(default_data_dir(), presets).start_for(robot.name, name)
+    from app.analysis.robot_start import start_set
+
+    chosen = start_set(
+        robot.description, PresetStore(default_data_dir(), presets).start_for(robot.name, name)
+    )
     default = presets[name]
     why = (
         f"{robot.name}'s default preset"
@@ -477,11 +481,19 @@ def set_named(pset: ParameterSet) -> str:
     return f"{pset.name or 'unnamed'!r} (robot {pset.robot}{''.join(', ' + m for m in made)})"
 
 
-def warn_if_other_robot(pset: ParameterSet, robot: RobotModel, out: TextIO = sys.stderr) -> None:
+def warn_if_other_robot(
+    pset: ParameterSet, robot: RobotModel, out: TextIO = sys.stderr, scaled: bool = False
+) -> None:
     if pset.robot != robot.name:
+        how = (
+            f", scaled to its legs (clock {pset.gait.clock.freq_hz:g} Hz, the yaw-rate loop's "
+            "axle and speed; as `artro tune` starts it)"
+            if scaled
+            else ""
+        )
         print(
             f"warning: parameter set {pset.name!r} was tuned for the robot {pset.robot!r}, "
-            f"not {robot.name!r}",
+            f"not {robot.name!r}{how}",
             file=out,
         )
 
@@ -490,5 +502,6 @@ def robot_and_set(args: argparse.Namespace) -> tuple[RobotModel, ParameterSet]:
     """The `--robot` and the `--params` a command starts with (a warning if they do not match)."""
     robot = RobotModel.load(args.robot)
     pset = starting_set(robot, args.params)
-    warn_if_other_robot(pset, robot)
+    scaled = not args.params and pset.gait != builtin_presets().get(pset.name, pset).gait
+    warn_if_other_robot(pset, robot, scaled=scaled)
     return robot, pset

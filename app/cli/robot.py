@@ -15,7 +15,7 @@ from typing import Any, TextIO
 from app.cli.options import action, output_file, output_file_of, subcommand
 from app.robots import builtin_robot_names, load_description, model_xml
 from app.robots.cad_import import import_robot, mapping_rows, write_import
-from app.robots.checks import JointTorque, eq1_torques, robot_warnings
+from app.robots.checks import JointTorque, eq1_torques, lighter_parts, robot_warnings
 from app.robots.description import RobotDescription
 from app.robots.model import RobotModel
 from app.robots.swap import (
@@ -181,7 +181,7 @@ def command(args: argparse.Namespace, out: TextIO | None = None) -> int:
         for line in servo_advice(desc, torques):
             print(f"  advice: {line}", file=out)
         if args.suggest:
-            return suggest(desc, args.output, out, source=args.robot)
+            return suggest(desc, args.output, out, source=args.robot, torques=torques)
         return 0
     if args.robot_command in ("export-mjcf", "export-urdf"):
         text = model_xml(desc) if args.robot_command == "export-mjcf" else model_urdf(desc)
@@ -308,6 +308,47 @@ def servo_advice(desc: RobotDescription, torques: Sequence[JointTorque]) -> list
     return lines
 
 
+def copied_trunk(desc: RobotDescription) -> str | None:
+    """The built-in robot whose trunk `desc` carries part for part (a copied file's), if any
+    but itself."""
+    for name in builtin_robot_names():
+        if name != desc.name and load_description(name).trunk == desc.trunk:
+            return name
+    return None
+
+
+def lighter_lines(desc: RobotDescription, torques: Sequence[JointTorque]) -> list[str]:
+    """The other way to carry a robot whose servos are short (`torques`: its eq (1)): how light
+    it would have to be to keep them, and whose trunk it carries where it is a built-in
+    robot's, copied."""
+    short = [t for t in torques if t.margin < 0]
+    if not short:
+        return []
+    servos = ", ".join(dict.fromkeys(t.servo for t in short))
+    trunk = sum(p.mass_kg for p in desc.trunk)
+    lines = []
+    if copied := copied_trunk(desc):
+        parts = ", ".join(f"{p.name} {p.mass_kg:.3f} kg" for p in desc.trunk if p.mass_kg)
+        lines.append(f"  its trunk is {copied}'s, as copied: {trunk:.3f} kg ({parts})")
+    found = lighter_parts(desc, torques)
+    if found is None:
+        lines.append(
+            f"  no lighter robot keeps its {servos}: with its parts but the servos at a "
+            "thousandth of their mass eq (1) still fails (shorter legs or stronger servos)"
+        )
+        return lines
+    scaled = "trunk's" if found.parts == "trunk" else "trunk's and links' (both legs)"
+    now = f"{found.now_kg:.3f} kg"
+    if found.parts != "trunk":
+        now += f": trunk {trunk:.3f} kg, links {found.now_kg - trunk:.3f} kg"
+    lines.append(
+        f"  or keep its {servos}: eq (1) holds on every joint with its {scaled} parts at "
+        f"{found.most_kg:.3f} kg or less (now {now}), the robot {found.robot_kg:.3f} kg "
+        f"instead of {desc.parts_mass_kg():.3f} kg"
+    )
+    return lines
+
+
 UNCARRIED = (
     "eq (1) still fails there (exit status 1): a lighter robot, shorter legs, or a stronger "
     "servo of your own in the file's `servos` would carry it"
@@ -339,7 +380,13 @@ def earlier_description(target: Path) -> str:
     return f", replacing the robot {earlier.name!r} there"
 
 
-def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str = "") -> int:
+def suggest(
+    desc: RobotDescription,
+    output: str | None,
+    out: TextIO,
+    source: str = "",
+    torques: Sequence[JointTorque] | None = None,
+) -> int:
     """`robot check --suggest`: the description with the servos that carry it, written (never
     over `source`, the file it was read from: its comments would be lost); with no servo to
     change, written only where `output` asks (the next command reads it). Exit status 1 when
@@ -352,10 +399,13 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str
         raise ValueError(f"{target} exists: give -o {target} to write over it, or -o another file")
     replacing = earlier_description(target)
     found = suggest_servos(desc, lambda r: {t.joint: t.required_nm for t in eq1_torques(r)})
+    lighter = lighter_lines(desc, eq1_torques(desc) if torques is None else torques)
     if not found.swaps:
         left = f"; none carries {', '.join(found.uncarried)}" if found.uncarried else ""
         if output is None:
             print(f"no servo to change{left}: nothing written", file=out)
+            for line in lighter:
+                print(line, file=out)
             if found.uncarried:
                 print(UNCARRIED, file=out)
             return 1 if found.uncarried else 0
@@ -372,6 +422,8 @@ def suggest(desc: RobotDescription, output: str | None, out: TextIO, source: str
         print(f"  {joint}: {old} -> {new} (eq (1) asks {need:.3f} N·m)", file=out)
     if found.uncarried:
         print(f"  no servo of the table or the file carries {', '.join(found.uncarried)}", file=out)
+    for line in lighter:
+        print(line, file=out)
     mass = robot.parts_mass_kg()
     print(f"wrote {path} ({mass:.3f} kg{replacing}); next: artro robot check {path}, then "
           f"artro tune --robot {path}", file=out)  # fmt: skip

@@ -28,8 +28,9 @@ from app.robots.checks import SAFETY_FACTOR, eq1_torques
 from app.robots.model import RobotModel
 from app.robots.servos import rating_at
 from app.robots.swap import ServoChoice, lightest_servo
+from app.sim.fall_cause import OVER_STIFF, FallCause, fall_cause
 from app.sim.headless import run
-from app.worlds.variations import NOMINAL
+from app.worlds.variations import NOMINAL, Variation
 from gait import ENGINES, Motion
 
 EXAMPLES = """examples:
@@ -103,8 +104,12 @@ def command(args: argparse.Namespace) -> int:
     )
     m = result.metrics
     if result.diagnosis:  # one line, on stderr also with --json
-        advice = fall_advice(robot, pset, result.stuck, args.robot or "artro")
-        print(f"artro run: {result.diagnosis}: try {advice}", file=sys.stderr)
+        cause = fall_cause(gait, motion, args.vary, m["fall_time_s"], robot=robot,
+                           duration_s=args.duration, warmup_s=args.warmup,
+                           start_motion=start)  # fmt: skip
+        said = f"; {cause.line()}" if cause else ""
+        advice = fall_advice(robot, pset, result.stuck, args.robot or "artro", cause, args.vary)
+        print(f"artro run: {result.diagnosis}{said}: try {advice}", file=sys.stderr)
     if args.json:
         named = {"robot": robot.name, "variation": args.vary.name}
         print(json.dumps({**m, **named}, allow_nan=False))
@@ -139,22 +144,35 @@ def exit_status(metrics: dict[str, Any]) -> int:
     return FELL_STATUS if metrics["fell"] else 0
 
 
-def fall_advice(robot: RobotModel, pset: ParameterSet, stuck: Sequence[str], where: str) -> str:
-    """What to try after a fall, never a command that would then say there is nothing to do:
-    `robot check --suggest` only where eq (1) finds a servo short (it swaps only those), a
-    tune only where the set in use was not tuned for this robot (`where`: its name or file)."""
-    short = [t.joint for t in eq1_torques(robot.description) if t.margin < 0]
-    tries = []
-    if short:
-        joints = ", ".join(short[:3])
-        tries.append(f"stronger servos on {joints} (artro robot check {where} --suggest)")
-    elif stuck:
-        stronger = stronger_servo(robot, stuck[0])
-        named = f"the {stronger.name} of the table, or " if stronger else ""
-        tries.append(
-            f"stronger servos on {', '.join(stuck[:3])} (eq (1) carries them standing, walking "
-            f"asks more: {named}a servo of your own in the file's `servos`)"
+def fall_advice(
+    robot: RobotModel,
+    pset: ParameterSet,
+    stuck: Sequence[str],
+    where: str,
+    cause: FallCause | None = None,
+    variation: Variation = NOMINAL,
+) -> str:
+    """What to try after a fall, by what the run shows: the part of the variation that felled
+    it (`cause`: a push, a sensor error, the servos' departures ...), else a servo held at its
+    torque (`stuck`, the joints the run shows), else the gait; never a command that would then
+    say there is nothing to do: `robot check --suggest` only where eq (1) finds a servo short
+    (it swaps only those), a tune only where the set in use was not tuned for this robot
+    (`where`: its name or file). A servo eq (1) finds short that did not hold the fall is a
+    note, not the fix."""
+    if cause is not None and cause.names:
+        return " or ".join(
+            part_advice(part, stuck, robot, variation, where) for part in cause.names
         )
+    short = [t.joint for t in eq1_torques(robot.description) if t.margin < 0]
+    held_short = [j for j in stuck if j in short]  # held the fall, and short by eq (1)
+    held_carried = [j for j in stuck if j not in short]  # held it, though eq (1) carries them
+    tries = []
+    if held_short:  # the servos that held the fall first, then eq (1)'s other short ones
+        named = held_short + [j for j in short if j not in held_short]
+        joints = ", ".join(named[:4]) + (f" (+{len(named) - 4} more)" if len(named) > 4 else "")
+        tries.append(f"stronger servos on {joints} (artro robot check {where} --suggest)")
+    if held_carried:
+        tries.append(stronger_line(robot, held_carried))
     if pset.robot != robot.name:
         tries.append(f"a gait tuned for this robot (artro tune --robot {where})")
     else:
@@ -162,7 +180,47 @@ def fall_advice(robot: RobotModel, pset: ParameterSet, stuck: Sequence[str], whe
             f"a smaller motion, or a longer tune of {pset.name!r} (artro tune --robot {where} "
             f"--base {pset.name} with more --generations)"
         )
-    return " or ".join(tries)
+    text = " or ".join(tries)
+    if short and not held_short:
+        which = "no servo's torque held" if not stuck else "no servo eq (1) finds short held"
+        text += (
+            f" (apart from this fall, which {which}: eq (1) finds {', '.join(short[:4])} short, "
+            f"artro robot check {where} --suggest)"
+        )
+    return text
+
+
+def stronger_line(robot: RobotModel, stuck: Sequence[str]) -> str:
+    stronger = stronger_servo(robot, stuck[0])
+    named = f"the {stronger.name} of the table, or " if stronger else ""
+    return (
+        f"stronger servos on {', '.join(stuck[:3])} (eq (1) carries them standing, walking "
+        f"asks more: {named}a servo of your own in the file's `servos`)"
+    )
+
+
+def part_advice(
+    part: str, stuck: Sequence[str], robot: RobotModel, variation: Variation, where: str
+) -> str:
+    """What to try where `part` of the variation felled the run."""
+    tune = f"artro tune --robot {where} --robust 8"
+    if part == "push":
+        return (
+            f"a gait tuned on such pushes ({tune} --range push_n_s=0:{variation.push_n_s:g}), "
+            "or no push that strong"
+        )
+    if part == "sensor error":
+        return "a calibrated IMU (the laws act on what it reads), or the set with its laws off"
+    if part == "servos":
+        if stuck and variation.torque_scale < 1.0:
+            return stronger_line(robot, stuck)
+        if variation.kp_scale > OVER_STIFF:
+            return (
+                f"servos no stiffer than the servo rule's (kp {variation.kp_scale:g} x its), "
+                f"or a gait tuned on them ({tune} --range kp_scale=1:{variation.kp_scale:g})"
+            )
+        return f"servos nearer the model's (their play, delay, calibration), or {tune}"
+    return f"a gait tuned on such worlds ({tune})"
 
 
 def stronger_servo(robot: RobotModel, joint: str) -> ServoChoice | None:

@@ -4,6 +4,7 @@ weak gets a warning with the numbers (docs/DESIGN.md §7 says how the load is co
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 from dataclasses import dataclass
 
@@ -72,30 +73,42 @@ def _gravity_torques(
     return out
 
 
+def _walking_poses(robot: RobotDescription, gaits: Sequence[GaitParams]) -> np.ndarray:
+    """Every pose (poses x 12 joint angles) of each paper case in each of `gaits`, PHASES a
+    cycle."""
+    geometry = LegGeometry(upper_m=robot.geometry.thigh_m, lower_m=robot.geometry.shank_m)
+    phases = np.linspace(-np.pi, np.pi, PHASES, endpoint=False)
+    return np.concatenate(
+        [
+            np.asarray(joint_angles_with_flags(gait, motion, phases, geometry).values)
+            for gait in gaits
+            for motion in GAIT_CASES
+        ]
+    )
+
+
+def _loads(robot: RobotDescription, model: mujoco.MjModel, poses: np.ndarray) -> np.ndarray:
+    """Each joint's static load (the larger of swing and stance) at each of `poses`, N·m."""
+    data = mujoco.MjData(model)
+    qpos_adr = [int(model.joint(n).qposadr[0]) for n in JOINT_NAMES]
+    half_foot = (robot.geometry.foot_length_m / 2, robot.geometry.foot_width_m / 2)
+    out = np.empty((len(poses), len(JOINT_NAMES)))
+    for k, pose in enumerate(poses):
+        data.qpos[:] = model.qpos0
+        data.qpos[qpos_adr] = pose
+        mujoco.mj_kinematics(model, data)
+        mujoco.mj_comPos(model, data)
+        out[k] = _gravity_torques(model, data, half_foot)
+    return out
+
+
 def eq1_torques(robot: RobotDescription, params: GaitParams | None = None) -> list[JointTorque]:
     """Eq (1) on every joint of `robot` for the gait `params` (default: the worse of the gaits
     the robot is checked for, the paper's and its default preset's: `walked_gaits`)."""
     gaits = [params] if params is not None else [g for _, g in robot.walked_gaits()]
     model = build_model(robot)
-    data = mujoco.MjData(model)
-    geometry = LegGeometry(upper_m=robot.geometry.thigh_m, lower_m=robot.geometry.shank_m)
-    qpos_adr = [int(model.joint(n).qposadr[0]) for n in JOINT_NAMES]
-    half_foot = (robot.geometry.foot_length_m / 2, robot.geometry.foot_width_m / 2)
-
-    def load_at(pose: np.ndarray) -> np.ndarray:
-        data.qpos[:] = model.qpos0
-        data.qpos[qpos_adr] = pose
-        mujoco.mj_kinematics(model, data)
-        mujoco.mj_comPos(model, data)
-        return _gravity_torques(model, data, half_foot)
-
-    standing = load_at(np.zeros(len(JOINT_NAMES)))
-    phases = np.linspace(-np.pi, np.pi, PHASES, endpoint=False)
-    walking = np.zeros(len(JOINT_NAMES))
-    for gait in gaits:
-        for motion in GAIT_CASES:
-            for pose in joint_angles_with_flags(gait, motion, phases, geometry).values:
-                walking = np.maximum(walking, load_at(pose))
+    standing = _loads(robot, model, np.zeros((1, len(JOINT_NAMES))))[0]
+    walking = np.maximum(_loads(robot, model, _walking_poses(robot, gaits)).max(axis=0), 0.0)
     settings = joint_settings(robot)
     out = []
     for i, name in enumerate(JOINT_NAMES):
@@ -113,6 +126,89 @@ def eq1_torques(robot: RobotDescription, params: GaitParams | None = None) -> li
             )
         )
     return out
+
+
+@dataclass(frozen=True)
+class Lighter:
+    """`lighter_parts`' answer: which parts are scaled ("trunk", or "trunk and links": every
+    part but the servos), their mass now and at most, kg, and the robot's mass then."""
+
+    parts: str
+    now_kg: float
+    most_kg: float
+    robot_kg: float
+
+
+def parts_mass(robot: RobotDescription, links: bool) -> float:
+    """The mass of the trunk's parts (and with `links` the links' parts of both legs), kg."""
+    trunk = sum(p.mass_kg for p in robot.trunk)
+    return trunk + (2 * sum(p.mass_kg for ps in robot.links.values() for p in ps) if links else 0)
+
+
+def with_parts_mass(robot: RobotDescription, kg: float, links: bool) -> RobotDescription:
+    """`robot` with its trunk's parts (and with `links` its links' too) scaled alike to `kg`
+    in all (`parts_mass`); a stated total mass moved with them."""
+    now = parts_mass(robot, links)
+    scale = kg / now
+    data = robot.model_dump(mode="json")
+    for part in data["trunk"]:
+        part["mass_kg"] *= scale
+    for parts in data["links"].values() if links else ():
+        for part in parts:
+            part["mass_kg"] *= scale
+    if robot.total_mass_kg is not None:
+        data["total_mass_kg"] = robot.total_mass_kg + kg - now
+    return RobotDescription.model_validate(data)
+
+
+def _carried(
+    robot: RobotDescription, kg: float, links: bool, poses: np.ndarray, stall: np.ndarray
+) -> bool:
+    """Whether eq (1) holds at `poses` on every joint (`stall`) with the parts at `kg`."""
+    r = with_parts_mass(robot, kg, links)
+    need = (1 + SAFETY_FACTOR) * _loads(r, build_model(r), poses).max(axis=0)
+    return bool((need <= stall).all())
+
+
+def lighter_parts(robot: RobotDescription, torques: Sequence[JointTorque]) -> Lighter | None:
+    """How light the robot would have to be for eq (1) to hold on every joint with the servos
+    it has (`torques`: its `eq1_torques`): its trunk's parts scaled alike (the upper body, the
+    boards, the battery), or where a trunk of no mass is not enough, every part but the servos,
+    to the gram below; None where none is short or where the servos' own mass alone leaves a
+    joint short. The search takes the worst poses; the answer is checked on every pose."""
+    if all(t.margin >= 0 for t in torques):
+        return None
+    stall = np.array([t.stall_torque_nm for t in torques])
+    gaits = [g for _, g in robot.walked_gaits()]
+    every = np.concatenate([np.zeros((1, len(JOINT_NAMES))), _walking_poses(robot, gaits)])
+
+    def worst(r: RobotDescription) -> np.ndarray:
+        return every[np.unique(_loads(r, build_model(r), every).argmax(axis=0))]
+
+    for links in (False, True):
+        now = parts_mass(robot, links)
+        least = now / 1000 if links else 0.0  # a foot weighs something (MuJoCo's bodies do)
+        poses = np.concatenate([worst(robot), worst(with_parts_mass(robot, least, links))])
+
+        if not _carried(robot, least, links, poses, stall):
+            continue  # short at the worst poses with none of these parts' mass: at every pose
+        low, high = least, now  # carried at low, not at high (a joint is short now)
+        for _ in range(4):  # the worst poses move a little with the mass: check on all
+            while high - low > 0.0005:
+                middle = (low + high) / 2
+                low, high = (
+                    (middle, high)
+                    if _carried(robot, middle, links, poses, stall)
+                    else (low, middle)
+                )
+            grams = math.floor(low * 1000) / 1000
+            found = with_parts_mass(robot, grams, links)
+            if all(t.margin >= 0 for t in eq1_torques(found)):
+                what = "trunk and links" if links else "trunk"
+                return Lighter(what, now, grams, found.parts_mass_kg())
+            poses = np.concatenate([poses, worst(found)])
+            low, high = least, grams
+    return None
 
 
 def robot_warnings(

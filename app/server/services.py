@@ -7,6 +7,7 @@ import threading
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from app.analysis.robot_start import start_set
 from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
@@ -122,7 +123,8 @@ class Services:
     def default_preset(self, robot: RobotModel) -> ParameterSet:
         """The set `robot` starts in: the preset it names (built in), or the newest saved one
         tuned for it where that was tuned for another robot (`PresetStore.start_for`)."""
-        return self.presets.start_for(robot.name, robot.description.default_preset)
+        chosen = self.presets.start_for(robot.name, robot.description.default_preset)
+        return start_set(robot.description, chosen)  # another robot's: scaled to these legs
 
     def switch_robot(self, name: str) -> tuple[Snapshot, bool]:
         """Simulate the robot `name` from the next frame, standing at the start in its default

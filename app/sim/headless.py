@@ -47,26 +47,42 @@ def fall_side(quat: np.ndarray) -> tuple[str, float]:
     return side, math.degrees(math.acos(max(-1.0, min(1.0, up[2]))))
 
 
-def stuck_joints(at_limit: np.ndarray) -> tuple[str, ...]:
-    """The joints whose servos sat at their torque limit in some of the frames `at_limit`
-    (frames x 12), most frames first."""
+#: a servo held the fall at its torque when in the last LAST_S it sat at its limit for at least
+#: this many frames and HELD_TIMES times as many as its share of the frames before would give
+#: (the knees sit there at each step of a walk: that is no cause)
+HELD_FRAMES, HELD_TIMES = 5, 2.0
+
+
+def stuck_joints(at_limit: np.ndarray, before: np.ndarray | None = None) -> tuple[str, ...]:
+    """The joints whose servos sat at their torque limit in the frames `at_limit` (frames x
+    12), most frames first; with `before` (each joint's share of the frames before those at
+    its limit) only those that sat there for HELD_FRAMES and HELD_TIMES their usual share."""
     counts = at_limit.sum(axis=0)
-    return tuple(JOINT_NAMES[i] for i in np.argsort(-counts, kind="stable") if counts[i])
+    held = counts > 0
+    if before is not None:
+        usual = np.asarray(before) * len(at_limit)
+        held = (counts >= HELD_FRAMES) & (counts >= HELD_TIMES * usual)
+    return tuple(JOINT_NAMES[i] for i in np.argsort(-counts, kind="stable") if held[i])
 
 
-def diagnose(time_s: float, quat: np.ndarray, at_limit: np.ndarray) -> str:
+def diagnose(
+    time_s: float, quat: np.ndarray, at_limit: np.ndarray, before: np.ndarray | None = None
+) -> str:
     """One line on a fall: when, toward which side, and which servos sat at their torque limit
-    in the frames of the last second (`at_limit`: frames x 12). What to try depends on the
-    robot and the gait: the command's (`app/cli/run.py` `fall_advice`)."""
+    in the frames of the last second (`at_limit`: frames x 12; with `before`, as
+    `stuck_joints` takes it, only those held there beyond their usual share). What to try
+    depends on the robot and the gait: the command's (`app/cli/run.py` `fall_advice`)."""
     side, tilt = fall_side(quat)
     counts = dict(zip(JOINT_NAMES, at_limit.sum(axis=0), strict=True))
-    stuck = [f"{joint} {int(counts[joint])}" for joint in stuck_joints(at_limit)]
+    stuck = [f"{joint} {int(counts[joint])}" for joint in stuck_joints(at_limit, before)]
     head = f"fell at {time_s:.2f} s toward its {side} ({tilt:.0f}° from upright)"
     if not stuck:
-        return f"{head}; no servo at its torque limit in the last {LAST_S:g} s"
+        usual = "" if before is None else " beyond a walk's usual share"
+        return f"{head}; no servo at its torque limit{usual} in the last {LAST_S:g} s"
+    beyond = "" if before is None else " beyond a walk's usual share"
     return (
-        f"{head}; servos at their torque limit in the last {LAST_S:g} s ({len(at_limit)} "
-        f"frames): {', '.join(stuck[:4])}"
+        f"{head}; servos at their torque limit{beyond} in the last {LAST_S:g} s "
+        f"({len(at_limit)} frames): {', '.join(stuck[:4])}"
     )
 
 
@@ -139,7 +155,10 @@ def run(
     names = [sim.model.actuator(int(i)).name for i in actuators]
     diagnosis, stuck = None, ()
     if sim.fell and not sim.blew_up:
-        diagnosis = diagnose(sim.time_s, sim.data.qpos[3:7], np.array(recent))
-        stuck = stuck_joints(np.array(recent))
+        last = np.array(recent)
+        earlier = len(trace.t_s) - len(last)
+        before = (at_limit_frames - last.sum(axis=0)) / max(1, earlier)
+        diagnosis = diagnose(sim.time_s, sim.data.qpos[3:7], last, before)
+        stuck = stuck_joints(last, before)
     torques = dict(zip(names, map(float, required), strict=True))
     return RunResult(metrics, trace, torques, diagnosis, stuck)

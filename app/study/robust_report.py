@@ -119,21 +119,19 @@ def _servo_lines(report: dict[str, Any]) -> list[str]:
                 f"frames; {t['at_stall_runs']} of {t['failing_runs']} reached their stall torque"
             )
     advice = report.get("servo_advice")
-    if advice:
-        joints = ", ".join(advice["joints"])
-        if advice["servo"] is None:
-            lines.append(
-                f"servos: eq (1) asks {advice['need_nm']:.2f} N·m of {joints}; no servo of "
-                "models/servos.yaml gives that at this supply"
-            )
+    for group in advice["groups"] if advice else []:
+        joints = ", ".join(group["joints"])
+        asks = (
+            f"servos: eq (1) asks {group['need_nm']:.2f} N·m of {joints} (1.2 x the "
+            f"{group['stall_nm']:.2f} N·m their {group['servo_now']} reached)"
+        )
+        if group["servo"] is None:
+            lines.append(f"{asks}; no servo of models/servos.yaml or the robot's file gives that "
+                         "at this supply")  # fmt: skip
         else:
-            lines.append(
-                f"servos: eq (1) asks {advice['need_nm']:.2f} N·m of {joints} (1.2 x the "
-                f"{advice['stall_nm']:.2f} N·m they reached); {advice['servo']} gives "
-                f"{advice['servo_stall_nm']:.2f} N·m"
-            )
-            if "command" in advice:
-                lines.append(f"  with it: {advice['command']}")
+            lines.append(f"{asks}; {group['servo']} gives {group['servo_stall_nm']:.2f} N·m")
+    if advice and "command" in advice:
+        lines.append(f"  with them: {advice['command']}")
     return lines
 
 
