@@ -113,3 +113,15 @@ def test_the_built_in_robots_state_their_parts_exactly():
         desc = parse_description(doc, doc["name"])
         assert desc.total_mass_kg == pytest.approx(desc.parts_mass_kg(), abs=5e-4)
         assert not any(w.startswith("total_mass_kg") for w in robot_warnings(desc))
+
+
+def test_robot_check_names_the_robot_as_the_user_wrote_it(tmp_path):
+    doc = stated(ARTRO, None)
+    doc["name"] = "my"
+    path = tmp_path / "other.yaml"  # a file named otherwise than the robot in it
+    path.write_text(yaml.safe_dump(doc), encoding="utf-8")
+    out = subprocess.run(
+        [ARTRO_CMD, "robot", "check", str(path)], capture_output=True, text=True, timeout=300
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith(f"{path} (robot my): valid; 1.650 kg"), out.stdout
