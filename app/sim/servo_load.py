@@ -1,7 +1,7 @@
 """The servo load budget: per joint, torque and speed against the servo's limits, and eq (1).
 Sampled once per 20 ms frame (docs/DESIGN.md §5): peak and RMS |torque| against the stall torque,
 peak speed against the no-load speed, saturated frames, eq (1)'s (1 + sf) x peak |tau|, and where
-the servo in place gives less, the lightest servo of the table (or the robot's file) that gives it."""
+the servo in place gives less, the lightest servo of the table (or the robot's own) that does."""
 
 from __future__ import annotations
 

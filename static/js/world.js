@@ -8,7 +8,7 @@
 
 import { api, formatDetail, poll } from "./api.js";
 import { showRobot } from "./robot.js";
-import { $, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
+import { $, aboutLeft, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
 
 const FIELDS = [
   ["friction", "floor friction", 2, ""],
@@ -36,6 +36,7 @@ const SLIDER_KEYS = new Set(FIELDS.map(([key]) => key));
 const CIRCULAR = new Set(["tilt_direction_deg", "imu_tilt_direction_deg", "push_direction_deg"]);
 const EXTREME = 0.1; // a value in the outer tenth of its default range, away from nominal, is marked
 let job = null;
+let cancelling = false; // asked to stop: its progress line no longer shown
 let ranges = {}; // the default ranges of `artro bench robust`, per field
 let liveWorld = "nominal"; // the world the state last named
 let reportTitle = ""; // the title of the report drawn ("" none)
@@ -166,6 +167,7 @@ async function startRobustness() {
   }
   try {
     job = await api.post("/api/jobs/robustness", { samples });
+    cancelling = false;
     $("robust-progress").hidden = false;
     $("robust-cancel").hidden = false;
     $("robust-start").disabled = true;
@@ -179,6 +181,7 @@ async function cancelRobustness() {
   if (!job) return;
   try {
     await api.del(`/api/jobs/${job.id}`); // it ends at its next run: followJob sees it
+    cancelling = true;
     setMessage($("robust-message"), "cancelling …");
   } catch (err) {
     setMessage($("robust-message"), formatDetail(err.raw) || err.message, "error");
@@ -188,7 +191,13 @@ async function cancelRobustness() {
 async function followJob() {
   const now = await api.get(`/api/jobs/${job.id}`);
   $("robust-progress").value = now.progress;
-  if (now.status === "running") return;
+  if (now.status === "running") {
+    const d = now.detail;
+    if (d?.runs_total && !cancelling) {
+      setMessage($("robust-message"), `walking the variations: ${d.runs} of ${d.runs_total} runs walked · ${aboutLeft(d.left_s)}`);
+    }
+    return;
+  }
   job = null;
   $("robust-progress").hidden = true;
   $("robust-start").disabled = false;
