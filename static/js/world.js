@@ -32,6 +32,46 @@ const FIELDS = [
   ["fsr_gain", "force sensor gain ×", 2, ""],
 ];
 const NOMINAL = { friction: 0.7, tilt_direction_deg: 0, fsr_gain: 1 };
+/** What a failure may depend on (app/analysis/robustness.py `features`) in the sliders' words and
+ *  units: the sliders' own, and those no slider shows (issue 56, item 15). */
+const FEATURES = {
+  ...Object.fromEntries(FIELDS.map(([key, label, , unit]) => [key, [label, unit.split(" ")[0]]])),
+  tilt_forward_deg: ["floor tilt, downhill ahead", "°"],
+  tilt_sideways_deg: ["floor tilt, sideways", "°"],
+  calibration_max_deg: ["largest joint calibration error", "°"],
+  push_n_s: ["push", "N·s"],
+  push_time_s: ["push at", "s"],
+  push_direction_deg: ["push towards", "°"],
+};
+
+/** "latency (ms)", "trunk mass ×": a parameter as the World panel names it. */
+export function featureLabel(key) {
+  const [label, unit] = FEATURES[key] ?? [key, ""];
+  return unit ? `${label} (${unit})` : label;
+}
+
+/** A case's "failures depend on" cell: the parameter in the panel's words, and whether the sample
+ *  is large enough to trust the correlation (the server's `trusted`), with the numbers. */
+function dependsOn(d) {
+  if (!d) return [h("span", { class: "dim small" }, ""), ""];
+  const label = featureLabel(d.parameter);
+  const [, unit] = FEATURES[d.parameter] ?? [d.parameter, ""];
+  const pct = (x) => `${Math.round(100 * x)} %`;
+  const median = `${Number(d.median.toPrecision(3))}${unit && unit !== "×" ? ` ${unit}` : ""}`;
+  const why =
+    `failures depend most on ${label}: r ${d.r >= 0 ? "+" : ""}${d.r.toFixed(2)} over ${d.samples} ` +
+    `variations, ${d.failing} failing; ${pct(d.fail_below)} fail at or below ${median}, ` +
+    `${pct(d.fail_above)} above`;
+  if (d.trusted) return [h("span", { class: "dim small" }, label), why];
+  const doubt =
+    `. Too small a sample to trust: a correlation this strong comes by chance with p ` +
+    `${d.p_value.toFixed(2)} among the ${d.compared} parameters compared; it is trusted from ` +
+    `p < 0.05 with at least 5 variations failing and 5 passing. Run more variations.`;
+  return [
+    h("span", { class: "dim small robust-doubt" }, `${label}? `, h("em", {}, "too few to trust")),
+    why + doubt,
+  ];
+}
 const SLIDER_KEYS = new Set(FIELDS.map(([key]) => key));
 const CIRCULAR = new Set(["tilt_direction_deg", "imu_tilt_direction_deg", "push_direction_deg"]);
 const EXTREME = 0.1; // a value in the outer tenth of its default range, away from nominal, is marked
@@ -241,7 +281,12 @@ function variationTerms(text) {
       const nominal = key.startsWith("cal.") ? 0 : nominalOf(key);
       extreme = (v > nominal && v >= hi - edge) || (v < nominal && v <= lo + edge);
     }
-    const title = range ? `default range ${range[0]} to ${range[1]}` : "";
+    const [label, unit] = FEATURES[key] ?? (key.startsWith("cal.") ? [`${key.slice(4)} calibration`, "°"] : [key, ""]);
+    const units = unit && unit !== "×" ? ` ${unit}` : "";
+    const span = range ? `its default range ${range[0]} to ${range[1]}${units}` : "";
+    const title = !range ? label : extreme
+      ? `${label}: ${value}${units}, in the outer tenth of ${span}, on the far side from the nominal model: the likeliest cause of this variation's failures`
+      : `${label}: ${value}${units} (${span})`;
     return h("span", { class: extreme ? "term extreme" : "term", title },
       `${key}=${value}${i < text.split(",").length - 1 ? "," : ""} `);
   });
@@ -262,13 +307,14 @@ export function drawReport(result) {
       const [lo, hi] = c.interval;
       const pct = (x) => `${(100 * x).toFixed(1)}%`;
       const level = c.share >= 0.9 ? "ok" : c.share >= 0.6 ? "warn" : "bad";
-      return h("div", { class: "robust-row", title: c.depends_on ? `failures depend on ${c.depends_on.parameter} (r ${c.depends_on.r.toFixed(2)})` : "" },
+      const [depends, why] = dependsOn(c.depends_on);
+      return h("div", { class: "robust-row", title: why },
         h("span", { class: "robust-case" }, c.case),
         h("span", { class: "robust-track" },
           h("span", { class: `robust-bar ${level}`, style: `width:${pct(c.share)}` }),
           h("span", { class: "robust-ci", style: `left:${pct(lo)};width:${pct(hi - lo)}` })),
         h("span", { class: "robust-share" }, `${(100 * c.share).toFixed(0)} %`),
-        h("span", { class: "dim small" }, c.depends_on ? c.depends_on.parameter : ""));
+        depends);
     }),
   );
   $("robust-worst").replaceChildren(
@@ -278,6 +324,8 @@ export function drawReport(result) {
         ` fails ${w.failed_cases}: ${w.failed.join(", ")} `,
         h("code", { class: "small dim robust-variation" }, ...variationTerms(w.variation)))),
   );
+  // the highlighted values, explained once under the list (issue 56, item 15)
+  $("robust-legend").hidden = !$("robust-worst").querySelector(".term.extreme");
 }
 
 async function watch(worst) {
