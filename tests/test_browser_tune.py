@@ -34,7 +34,9 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         expect(page.locator("#tune-progress-row")).to_be_visible()
         expect(page.locator("#tune-start")).to_be_disabled()
         expect(status).to_contain_text("/80 · best loss", timeout=TUNE_MS)
-        expect(status).to_contain_text("generation 1/20 · run ", timeout=TUNE_MS)  # runs walked
+        expect(status).to_contain_text("generation 1 of 20 · run ", timeout=TUNE_MS)  # runs walked
+        # and the time the whole tune has left (issue 56, item 13)
+        expect(status).to_contain_text(re.compile(r" · ~\d+\s(s|min|h\s\d+\smin)\sleft$"))
         expect(status).to_have_attribute("title", re.compile("from 'robust'"))
         assert page.locator("#tune-progress").evaluate("el => el.value") > 0
         page.locator("#world-panel").screenshot(

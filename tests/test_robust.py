@@ -107,6 +107,22 @@ def test_failures_are_traced_to_the_parameter_they_depend_on():
     assert found["parameter"] == "tilt_forward_deg"
 
 
+def test_a_correlation_is_trusted_only_with_a_sample_large_enough():
+    """Issue 56, item 15: the largest of some twenty correlations on a few variations is often
+    chance; the report says so (`trusted`), with the sample it rests on."""
+    variations = sample(VariationRanges(), 60, seed=3)
+    found = dependence(variations, [v.latency_ms > 40 for v in variations])
+    assert found["trusted"] and found["p_value"] < 0.05 and found["samples"] == 60
+    assert found["compared"] >= 15 and found["failing"] == sum(
+        v.latency_ms > 40 for v in variations
+    )
+    few = variations[:24]  # the dashboard's default: failures that depend on nothing
+    chance = dependence(few, [i % 5 == 0 for i in range(24)])
+    assert chance is not None and not chance["trusted"] and chance["p_value"] >= 0.05
+    one = dependence(few, [v.latency_ms == max(w.latency_ms for w in few) for v in few])
+    assert one["failing"] == 1 and not one["trusted"]  # one failure: nothing to correlate
+
+
 def small_report(seed: int) -> dict:
     evaluator = BatchEvaluator(RobotModel.load(), threads=2)
     return run_robust(

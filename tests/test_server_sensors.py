@@ -53,6 +53,8 @@ def test_a_push_reaches_the_robot_and_the_state_says_so(server):
     assert push["impulse_n_s"] == 0.2 and push["sim_time_s"] >= frame * 0.02
     yaw_deg = np.degrees(state["trunk"]["yaw_rad"])
     assert abs((push["direction_deg"] - yaw_deg - 90.0 + 180.0) % 360.0 - 180.0) < 5.0
+    # and as it was given, from where the robot faced (the fall notice names it so: issue 56, 17)
+    assert push["toward_deg"] == pytest.approx(90.0, abs=1e-6)
     server.post("/api/sim/reset")
     wait_for(lambda: server.get("/api/state").json()["push"] is None, "a reset forgets it")
 

@@ -99,6 +99,8 @@ def test_a_tune_reports_progress_refuses_a_second_and_cancels_with_nothing_loade
         running = wait_for(scored, "a candidate scored", attempts=TUNE_DEADLINE)
         assert running["status"] == "running" and 0 < running["progress"] < 1
         assert running["detail"]["budget"] == 80 and running["detail"]["best_loss"] > 0
+        # how long the whole tune has left, at the pace of its runs (issue 56, item 13)
+        assert running["detail"]["generations"] == 20 and running["detail"]["left_s"] > 0
         pid = running["detail"]["pid"]
         cancelled = http.delete(f"/api/jobs/{job_id}")
         assert cancelled.status_code == 200, cancelled.text

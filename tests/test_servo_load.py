@@ -65,6 +65,27 @@ def test_levels(margin, expected):
     assert level(margin) == expected
 
 
+def test_a_servo_short_of_eq1_is_named_with_the_lightest_that_meets_it():
+    """Issue 56, item 17: the budget says which servo would meet eq (1), as `robot check
+    --suggest` chooses one (the lightest of models/servos.yaml at the robot's supply)."""
+    loop = FrameLoop(params=GaitParams(), motion=Motion(a_p=0.07))
+    meter = ServoLoadMeter(loop.robot)
+    assert meter.servos == ["MG996R"] * 12  # ArtRo's servo on every joint
+    knee = list(JOINT_NAMES).index("l_knee")
+    choice = meter.eq1_servo(knee, 1.22)  # the `robust` knees' need (1.2 x 1.02 N·m)
+    assert choice is not None and choice.name == "DS3218" and choice.mass_kg == 0.06
+    assert meter.eq1_servo(knee, 50.0) is None  # no hobby servo of the table gives 50 N·m
+    for _ in range(50):
+        loop.step_frame()
+        meter.add(loop.data, np.zeros(12, bool))
+    report = meter.report()
+    assert report.supply_voltage_v == 6.0
+    for j in report.joints:
+        assert j.servo == "MG996R"
+        assert j.eq1_met == (j.required_torque_nm <= j.stall_torque_nm)
+        assert (j.eq1_servo is None) == j.eq1_met  # every need here is within the table
+
+
 def test_the_route_reports_the_live_gait(http):
     report = http.get("/api/servos/load").json()
     assert [j["joint"] for j in report["joints"]] == list(JOINT_NAMES)
@@ -72,3 +93,6 @@ def test_the_route_reports_the_live_gait(http):
     for j in report["joints"]:
         assert j["level"] in ("ok", "warn", "critical")
         assert j["stall_torque_nm"] == pytest.approx(11 * 0.0980665)
+        assert j["servo"] == "MG996R" and isinstance(j["eq1_met"], bool)
+        assert j["eq1_met"] or j["eq1_servo"]["stall_torque_nm"] >= j["required_torque_nm"]
+    assert report["supply_voltage_v"] == 6.0

@@ -400,7 +400,7 @@ def test_progress_through_a_pipe_is_a_line_per_tenth_not_one_huge_line(tmp_path)
     lines = stream.getvalue().splitlines()
     assert "\r" not in stream.getvalue()
     for generation in (1, 2):
-        mine = [line for line in lines if line.startswith(f"generation {generation}: ")]
+        mine = [line for line in lines if line.startswith(f"generation {generation} of 2: ")]
         assert 2 <= len(mine) <= 11, lines
         total = SETTINGS["popsize"] * len(tuner.runs)
         assert mine[-1].split(": ")[1].startswith(f"{total}/{total} runs"), mine

@@ -166,18 +166,35 @@ def features(v: Variation) -> dict[str, float]:
     return out
 
 
+def trust_p(r: float, n: int, compared: int) -> float:
+    """How likely an |r| this large is by chance among `compared` parameters of n samples: the
+    Fisher z test's two-sided p, times `compared` (Bonferroni: the largest of them was picked)."""
+    if n <= 3:
+        return 1.0
+    z = math.atanh(min(abs(r), 0.999999)) * math.sqrt(n - 3)
+    return min(1.0, compared * math.erfc(z / math.sqrt(2)))
+
+
+TRUST_P = 0.05  # a correlation trusted: less likely than this by chance, the search counted
+TRUST_EACH = 5  # ... and at least this many variations failing and as many passing
+
+
 def dependence(variations: Sequence[Variation], failed: Sequence[bool]) -> dict[str, Any] | None:
     """The parameter most correlated with failing (point-biserial r), and the failure shares
-    below and above its median; None when all pass or all fail."""
+    below and above its median; None when all pass or all fail. `trusted` says whether the sample
+    is large enough to trust it (issue 56, item 15): `p_value` (`trust_p`) under TRUST_P and at
+    least TRUST_EACH variations failing and passing."""
     y = np.array(failed, dtype=float)
     if y.min() == y.max():
         return None
     table = [features(v) for v in variations]
     best: dict[str, Any] | None = None
+    compared = 0
     for name in table[0]:
         x = np.array([row[name] for row in table])
         if x.std() == 0:
             continue
+        compared += 1
         r = float(np.corrcoef(x, y)[0, 1])
         if best is None or abs(r) > abs(best["r"]):
             median = float(np.median(x))
@@ -188,6 +205,12 @@ def dependence(variations: Sequence[Variation], failed: Sequence[bool]) -> dict[
                 "fail_below": float(y[x <= median].mean()),
                 "fail_above": float(y[x > median].mean()) if (x > median).any() else 0.0,
             }
+    if best is not None:
+        n, failing = len(y), int(y.sum())
+        p_value = trust_p(best["r"], n, compared)
+        trusted = p_value < TRUST_P and min(failing, n - failing) >= TRUST_EACH
+        best |= {"samples": n, "failing": failing, "compared": compared, "p_value": p_value,
+                 "trusted": trusted}  # fmt: skip
     return best
 
 

@@ -45,6 +45,21 @@ class ProgressLine:
             self.stream.flush()
 
 
+def time_left_s(elapsed_s: float, done: int, total: int) -> float | None:
+    """What is left of `total` at the pace of the `done` in `elapsed_s` (None before the first)."""
+    return elapsed_s / done * max(total - done, 0) if done > 0 else None
+
+
+def about(seconds: float | None) -> str:
+    """A time left for a person: "~40 s", "~12 min", "~2 h 5 min"; "~?" before it is known."""
+    if seconds is None:
+        return "~?"
+    if seconds < 90:
+        return f"~{seconds:.0f} s"
+    minutes = round(seconds / 60)
+    return f"~{minutes} min" if minutes < 120 else f"~{minutes // 60} h {minutes % 60} min"
+
+
 def bar(done: int, total: int, width: int = 30) -> str:
     """`[#####.....]`: done of total as a bar of `width` cells."""
     filled = int(width * done / max(total, 1))

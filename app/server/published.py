@@ -45,6 +45,9 @@ class PushMark:
     x_m: float
     y_m: float
     z_m: float
+    #: as the Push control gives it: counter-clockwise from where the robot faced (0 forward,
+    #: 90 to its left), over -180 to 180 (the fall notice names the push by it: issue 56, item 17)
+    toward_deg: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ from typing import Any
 
 from app.analysis.robustness import ROBUST_CASES, run_robust
 from app.evaluation import Cancelled, close_evaluator, evaluator_for
+from app.evaluation.progress import time_left_s
 from app.robots.model import RobotModel
 from app.server.jobs import Job, JobCancelled, Jobs, Progress
 from app.server.param_store import ParameterStore, Snapshot
@@ -71,6 +72,16 @@ class RobustnessRunner:
 
         def work(progress: Progress) -> dict[str, Any]:
             job: Job = progress.job  # type: ignore[attr-defined]
+            started = time.monotonic()
+            job.detail = {"runs": 0, "runs_total": runs_of(samples), "left_s": None}
+
+            def report(done: int, total: int) -> None:
+                """The runs walked of all and the time left at their pace (issue 56, item 13),
+                a new dict each time: a reader never sees one change."""
+                left = time_left_s(time.monotonic() - started, done, total)
+                job.detail = {"runs": done, "runs_total": total, "left_s": left}
+                progress(done / total)
+
             # one thread locally: the live simulation keeps the other core
             evaluator = evaluator_for(
                 robot,
@@ -88,7 +99,7 @@ class RobustnessRunner:
                     ranges=VariationRanges(),
                     duration_s=DURATION_S,
                     warmup_s=WARMUP_S,
-                    progress=lambda done, total: progress(done / total),
+                    progress=report,
                     # looked at between chunks by every executor: a Warp batch reports progress
                     # only as its worlds end, and went on minutes after a DELETE
                     cancel=job.cancel,

@@ -376,7 +376,9 @@ class SimThread:
         if summed is not None:  # the mark shows what acts: the two pushes' sum
             impulse = math.hypot(*summed)
             acting_deg = math.degrees(math.atan2(summed[1], summed[0]))
-        self._last_push = PushMark(loop.time_s, impulse, acting_deg, x, y, z)
+        toward_deg = (acting_deg - math.degrees(yaw)) % 360.0  # as given: -180 < it <= 180
+        toward_deg = toward_deg - 360.0 if toward_deg > 180.0 else toward_deg
+        self._last_push = PushMark(loop.time_s, impulse, acting_deg, x, y, z, toward_deg)
         self.recorder.event("push", impulse_n_s=push.impulse_n_s, direction_deg=world_deg)
         self._publish_status()
 

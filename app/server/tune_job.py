@@ -260,7 +260,7 @@ def _follow(detail: dict[str, Any], event: dict[str, Any], generations: int) -> 
         return min(1.0, detail["trials"] / max(1, detail["budget"]))
     elif kind == RUNS and event.get("total"):
         detail |= {"generation": event.get("generation", 0) + 1, "runs": event.get("done", 0),
-                   "runs_total": event["total"]}  # fmt: skip
+                   "runs_total": event["total"], "left_s": event.get("left_s")}  # fmt: skip
         done = event.get("generation", 0) + event.get("done", 0) / event["total"]
         return min(1.0, done / max(1, generations))
     return None

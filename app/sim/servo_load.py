@@ -1,7 +1,7 @@
 """The servo load budget: per joint, torque and speed against the servo's limits, and eq (1).
-
 Sampled once per 20 ms frame (docs/DESIGN.md §5): peak and RMS |torque| against the stall torque,
-peak speed against the no-load speed, saturated frames, eq (1)'s (1 + sf) x peak |tau|."""
+peak speed against the no-load speed, saturated frames, eq (1)'s (1 + sf) x peak |tau|, and where
+the servo in place gives less, the lightest servo of the table (or the robot's own) that does."""
 
 from __future__ import annotations
 
@@ -12,6 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
+from app.robots.swap import ServoChoice, lightest_servo
 from gait import JOINT_NAMES
 from hardware import SAFETY_FACTOR, required_torque_from_loads
 
@@ -50,6 +51,12 @@ class JointLoad:
     no_load_speed_rad_s: float
     speed_margin: float  # 1 - peak speed / no-load speed
     saturated_frames: int
+    servo: str  # the servo in place (the robot's description)
+    #: the lightest servo of the table (or the robot's file) whose stall torque at the robot's
+    #: supply is at least eq (1)'s required torque, where the one in place gives less (None where
+    #: it meets eq (1), or where no servo of the table does: `eq1_met` tells the two apart)
+    eq1_servo: ServoChoice | None
+    eq1_met: bool  # stall torque >= eq (1)'s required torque: the margin is not below sf
     torque_level: str  # "ok", "warn" or "critical" for the torque margin (`level`)
     speed_level: str  # the same for the speed margin
     level: str  # the worse of the two
@@ -60,6 +67,7 @@ class ServoLoadReport:
     frames: int  # frames measured since the meter was last cleared
     safety_factor: float
     joints: tuple[JointLoad, ...]
+    supply_voltage_v: float  # the robot's supply, at which the servos' figures are taken
 
 
 def level(margin: float) -> str:
@@ -74,6 +82,7 @@ class ServoLoadMeter:
     def __init__(self, robot: RobotModel) -> None:
         self.robot = robot
         self.limits = ServoLimits.of(robot)
+        self.servos = [robot.description.joint_servo(j) for j in JOINT_NAMES]
         self.clear()
 
     def clear(self) -> None:
@@ -93,6 +102,14 @@ class ServoLoadMeter:
         self._saturated += saturated_servos.astype(np.int64)
         self.frames += 1
 
+    def eq1_servo(self, i: int, required_nm: float) -> ServoChoice | None:
+        """The lightest servo of joint i's kind (PWM or bus) that gives `required_nm` at the
+        robot's supply (None: none does), as `artro robot check --suggest` chooses one."""
+        desc = self.robot.description
+        catalogue = desc.servo_catalogue()
+        signal = catalogue[self.servos[i]].signal
+        return lightest_servo(required_nm, desc.supply_voltage_v, signal, servos=catalogue)
+
     @property
     def peak_torque_nm(self) -> NDArray[np.float64]:
         return self._peak.copy()
@@ -104,6 +121,7 @@ class ServoLoadMeter:
         required = required_torque_from_loads(self._peak[None, :], SAFETY_FACTOR)
         torque_margin = 1.0 - required / lim.stall_torque_nm
         speed_margin = 1.0 - self._speed / lim.no_load_speed_rad_s
+        met = required <= lim.stall_torque_nm
         rows = tuple(
             JointLoad(
                 joint=name,
@@ -116,10 +134,15 @@ class ServoLoadMeter:
                 no_load_speed_rad_s=float(lim.no_load_speed_rad_s[i]),
                 speed_margin=float(speed_margin[i]),
                 saturated_frames=int(self._saturated[i]),
+                servo=self.servos[i],
+                eq1_servo=None if met[i] else self.eq1_servo(i, float(required[i])),
+                eq1_met=bool(met[i]),
                 torque_level=level(float(torque_margin[i])),
                 speed_level=level(float(speed_margin[i])),
                 level=level(min(float(torque_margin[i]), float(speed_margin[i]))),
             )
             for i, name in enumerate(JOINT_NAMES)
         )
-        return ServoLoadReport(self.frames, SAFETY_FACTOR, rows)
+        return ServoLoadReport(
+            self.frames, SAFETY_FACTOR, rows, self.robot.description.supply_voltage_v
+        )

@@ -24,9 +24,14 @@ def _depends(case: dict[str, Any]) -> str:
     d = case["depends_on"]
     if d is None:
         return "-"
+    doubt = (
+        f"; {d['samples']} variations, {d['failing']} failing: too small a sample to trust"
+        if d.get("trusted") is False  # (a report of before issue 56, item 15, does not say)
+        else ""
+    )
     return (
         f"{d['parameter']} (r {d['r']:+.2f}; fails {d['fail_below']:.0%} at <= {d['median']:.3g}, "
-        f"{d['fail_above']:.0%} above)"
+        f"{d['fail_above']:.0%} above{doubt})"
     )
 
 

@@ -27,7 +27,7 @@ from app.analysis.robot_start import walks
 from app.analysis.robot_tune import RUNS, TRIAL, EventWriter
 from app.analysis.robustness import ROBUST_CASES, pass_margin_loss, passes
 from app.evaluation import BatchEvaluator, Evaluator, Job
-from app.evaluation.progress import ProgressLine, bar
+from app.evaluation.progress import ProgressLine, about, bar, time_left_s
 from app.params.document import ParameterSet
 from app.study.study_store import StudyStore
 from app.study.tune_loss import (
@@ -183,6 +183,9 @@ class Tuner:
         #: a TRIAL event per candidate scored (replayed too), RUNS as a generation's runs end
         self.events = EventWriter(None)
         self.budget = 0  # candidates `run` may score: generations x popsize
+        self.generations = 0  # the generations `run` was asked for (0: `evaluate` alone)
+        self._walked = 0  # runs simulated by this `run` before the generation in hand
+        self._since = time.monotonic()  # when this `run` began (what the time left is paced on)
 
     def variations(self, generation: int) -> list[Variation]:
         """The generation's worlds: every candidate walks the same ones (common random numbers),
@@ -218,15 +221,19 @@ class Tuner:
         line = None if progress is None else ProgressLine(progress)
 
         def report(n_done: int, total: int) -> None:
-            self.events(RUNS, generation=self.generation, done=n_done, total=total)
+            left = self.time_left_s(n_done, total, per)
+            self.events(RUNS, generation=self.generation, generations=self.generations,
+                        done=n_done, total=total, left_s=left)  # fmt: skip
             if line is not None:
                 best = "-" if self.best is None else f"{self.best[0]:.3f}"
                 shown = bar(n_done, total) + " " if line.live else ""
+                of = f" of {self.generations}" if self.generations else ""
                 line.update(
                     n_done,
                     total,
-                    f"generation {self.generation + 1}: {shown}{n_done}/{total} runs, "
-                    f"{time.monotonic() - started:.0f} s, best loss {best}",
+                    f"generation {self.generation + 1}{of}: {shown}{n_done}/{total} runs, "
+                    f"{time.monotonic() - started:.0f} s, {about(left)} left in all, "
+                    f"best loss {best}",
                 )
 
         def on_result(index: int, metrics: dict[str, Any]) -> None:
@@ -247,8 +254,17 @@ class Tuner:
             progress=report,
             on_result=on_result,
         )
+        self._walked += len(jobs)
         assert all(o is not None for o in out)
         return out  # type: ignore[return-value]
+
+    def time_left_s(self, done: int, total: int, per: int) -> float | None:
+        """The time left of the whole `run` (this generation's `total` runs, `done` of them
+        walked, and `per` runs for each candidate of the generations after it) at the pace of
+        the runs this `run` has walked so far; None before the first run ends."""
+        walked = self._walked + done
+        after = max(self.generations - self.generation - 1, 0) * self.es.popsize * per
+        return time_left_s(time.monotonic() - self._since, walked, walked + total - done + after)
 
     def score(self, runs: list[dict[str, Any]]) -> tuple[float, dict[str, Any]]:
         """A candidate's loss from its runs (every judged run on the nominal model, then each
@@ -311,6 +327,7 @@ class Tuner:
         interrupted part way) are simulated, and the search carries on."""
         self.events = events or EventWriter(None)
         self.budget = generations * self.es.popsize
+        self.generations, self._walked, self._since = generations, 0, time.monotonic()
         recorded = store.recorded()
         if (held := max(recorded, default=-1) + 1) > generations:
             raise ValueError(

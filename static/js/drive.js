@@ -14,10 +14,10 @@ export function initDrive() {
     const drive = select.value;
     switching = true;
     select.disabled = true;
-    note(drive === "firmware" ? "building and booting the firmware…" : "");
+    note(drive === "firmware" ? "building and booting the firmware…" : "", "info");
     try {
       await api.put("/api/sim/drive", { drive });
-      note(drive === "firmware" ? "the firmware drives the servos; the robot started over" : "");
+      note(drive === "firmware" ? "the firmware drives the servos; the robot started over" : "", "info");
     } catch (err) {
       note(`pulses not switched: ${err.message}`);
     } finally {

@@ -39,9 +39,12 @@ async function control(action) {
   }
 }
 
-export function note(text) {
+/** A note under the header for NOTE_MS: an error's colours unless `kind` is "info" (what was done,
+ *  such as the firmware now driving the servos: issue 56, item 17). */
+export function note(text, kind = "error") {
   $("status-note").textContent = text;
   $("status-note").hidden = !text;
+  $("status-note").className = `status-note ${kind}`;
   clearTimeout(noteTimer);
   if (text) noteTimer = setTimeout(() => note(""), NOTE_MS);
 }

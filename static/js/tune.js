@@ -1,12 +1,12 @@
 // "Tune for this robot" (POST /api/jobs/tune): `artro tune --robot`'s recipe on the robot shown,
 // in the background, its size set here (generations x candidates, s per run); a progress bar with
-// the trials scored and the best loss so far; Cancel (DELETE /api/jobs/{id}: nothing loaded).
+// the trials scored, the best loss so far, the generation of how many and the time left; Cancel (DELETE /api/jobs/{id}: nothing loaded).
 // Done, the preset tuned-ROBOT is loaded as one undoable change and its figures are shown.
 
 import { api, formatDetail } from "./api.js";
 import { refreshParams } from "./params.js";
 import { refreshPresets } from "./presets.js";
-import { $, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
+import { $, aboutLeft, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
 
 let job = null; // the tune followed, while it runs
 let asking = false; // a read of it in flight
@@ -65,8 +65,10 @@ function show(now) {
   $("tune-progress").value = now.progress;
   const best = d.best_loss == null ? "—" : fmt(d.best_loss, 3);
   // a candidate is scored once all its runs are walked: the generation's runs show it moving
-  const runs = d.runs_total ? ` · generation ${d.generation}/${d.generations} · run ${d.runs}/${d.runs_total}` : "";
-  $("tune-status").textContent = `trials ${d.trials ?? 0}/${d.budget ?? "?"} · best loss ${best}${runs}`;
+  const runs = d.runs_total ? ` · generation ${d.generation} of ${d.generations} · run ${d.runs}/${d.runs_total}` : "";
+  // the time left of the whole tune, at the pace of its runs so far (app/study/tune.py)
+  const left = d.runs_total ? ` · ${aboutLeft(d.left_s).replaceAll(" ", "\u00a0")}` : ""; // one piece
+  $("tune-status").textContent = `trials ${d.trials ?? 0}/${d.budget ?? "?"} · best loss ${best}${runs}${left}`;
   $("tune-status").title = d.start ? `from '${d.start}' (its clock scaled to ${d.robot}'s legs); study ${d.study}` : "";
 }
 

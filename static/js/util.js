@@ -26,6 +26,15 @@ export function fmt(x, digits = 2) {
   return Number(x).toFixed(digits);
 }
 
+/** A job's time left in words, as the CLI says it (app/evaluation/progress.py `about`):
+ *  "~40 s left", "~12 min left", "~2 h 5 min left"; "time left: ~?" before it is known. */
+export function aboutLeft(seconds) {
+  if (seconds == null || !Number.isFinite(seconds)) return "time left: ~?";
+  if (seconds < 90) return `~${Math.round(seconds)} s left`;
+  const minutes = Math.round(seconds / 60);
+  return minutes < 120 ? `~${minutes} min left` : `~${Math.floor(minutes / 60)} h ${minutes % 60} min left`;
+}
+
 /** Signed with an explicit + so direction hints read well: "+0.070". */
 export function fmtSigned(x, digits = 3) {
   if (x == null || Number.isNaN(x)) return "—";

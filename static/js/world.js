@@ -8,7 +8,7 @@
 
 import { api, formatDetail, poll } from "./api.js";
 import { showRobot } from "./robot.js";
-import { $, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
+import { $, aboutLeft, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
 
 const FIELDS = [
   ["friction", "floor friction", 2, ""],
@@ -32,10 +32,51 @@ const FIELDS = [
   ["fsr_gain", "force sensor gain ×", 2, ""],
 ];
 const NOMINAL = { friction: 0.7, tilt_direction_deg: 0, fsr_gain: 1 };
+/** What a failure may depend on (app/analysis/robustness.py `features`) in the sliders' words and
+ *  units: the sliders' own, and those no slider shows (issue 56, item 15). */
+const FEATURES = {
+  ...Object.fromEntries(FIELDS.map(([key, label, , unit]) => [key, [label, unit.split(" ")[0]]])),
+  tilt_forward_deg: ["floor tilt, downhill ahead", "°"],
+  tilt_sideways_deg: ["floor tilt, sideways", "°"],
+  calibration_max_deg: ["largest joint calibration error", "°"],
+  push_n_s: ["push", "N·s"],
+  push_time_s: ["push at", "s"],
+  push_direction_deg: ["push towards", "°"],
+};
+
+/** "latency (ms)", "trunk mass ×": a parameter as the World panel names it. */
+export function featureLabel(key) {
+  const [label, unit] = FEATURES[key] ?? [key, ""];
+  return unit ? `${label} (${unit})` : label;
+}
+
+/** A case's "failures depend on" cell: the parameter in the panel's words, and whether the sample
+ *  is large enough to trust the correlation (the server's `trusted`), with the numbers. */
+function dependsOn(d) {
+  if (!d) return [h("span", { class: "dim small" }, ""), ""];
+  const label = featureLabel(d.parameter);
+  const [, unit] = FEATURES[d.parameter] ?? [d.parameter, ""];
+  const pct = (x) => `${Math.round(100 * x)} %`;
+  const median = `${Number(d.median.toPrecision(3))}${unit && unit !== "×" ? ` ${unit}` : ""}`;
+  const why =
+    `failures depend most on ${label}: r ${d.r >= 0 ? "+" : ""}${d.r.toFixed(2)} over ${d.samples} ` +
+    `variations, ${d.failing} failing; ${pct(d.fail_below)} fail at or below ${median}, ` +
+    `${pct(d.fail_above)} above`;
+  if (d.trusted) return [h("span", { class: "dim small" }, label), why];
+  const doubt =
+    `. Too small a sample to trust: a correlation this strong comes by chance with p ` +
+    `${d.p_value.toFixed(2)} among the ${d.compared} parameters compared; it is trusted from ` +
+    `p < 0.05 with at least 5 variations failing and 5 passing. Run more variations.`;
+  return [
+    h("span", { class: "dim small robust-doubt" }, `${label}? `, h("em", {}, "too few to trust")),
+    why + doubt,
+  ];
+}
 const SLIDER_KEYS = new Set(FIELDS.map(([key]) => key));
 const CIRCULAR = new Set(["tilt_direction_deg", "imu_tilt_direction_deg", "push_direction_deg"]);
 const EXTREME = 0.1; // a value in the outer tenth of its default range, away from nominal, is marked
 let job = null;
+let cancelling = false; // asked to stop: its progress line no longer shown
 let ranges = {}; // the default ranges of `artro bench robust`, per field
 let liveWorld = "nominal"; // the world the state last named
 let reportTitle = ""; // the title of the report drawn ("" none)
@@ -166,6 +207,7 @@ async function startRobustness() {
   }
   try {
     job = await api.post("/api/jobs/robustness", { samples });
+    cancelling = false;
     $("robust-progress").hidden = false;
     $("robust-cancel").hidden = false;
     $("robust-start").disabled = true;
@@ -179,6 +221,7 @@ async function cancelRobustness() {
   if (!job) return;
   try {
     await api.del(`/api/jobs/${job.id}`); // it ends at its next run: followJob sees it
+    cancelling = true;
     setMessage($("robust-message"), "cancelling …");
   } catch (err) {
     setMessage($("robust-message"), formatDetail(err.raw) || err.message, "error");
@@ -188,7 +231,13 @@ async function cancelRobustness() {
 async function followJob() {
   const now = await api.get(`/api/jobs/${job.id}`);
   $("robust-progress").value = now.progress;
-  if (now.status === "running") return;
+  if (now.status === "running") {
+    const d = now.detail;
+    if (d?.runs_total && !cancelling) {
+      setMessage($("robust-message"), `walking the variations: ${d.runs} of ${d.runs_total} runs walked · ${aboutLeft(d.left_s)}`);
+    }
+    return;
+  }
   job = null;
   $("robust-progress").hidden = true;
   $("robust-start").disabled = false;
@@ -232,7 +281,12 @@ function variationTerms(text) {
       const nominal = key.startsWith("cal.") ? 0 : nominalOf(key);
       extreme = (v > nominal && v >= hi - edge) || (v < nominal && v <= lo + edge);
     }
-    const title = range ? `default range ${range[0]} to ${range[1]}` : "";
+    const [label, unit] = FEATURES[key] ?? (key.startsWith("cal.") ? [`${key.slice(4)} calibration`, "°"] : [key, ""]);
+    const units = unit && unit !== "×" ? ` ${unit}` : "";
+    const span = range ? `its default range ${range[0]} to ${range[1]}${units}` : "";
+    const title = !range ? label : extreme
+      ? `${label}: ${value}${units}, in the outer tenth of ${span}, on the far side from the nominal model: the likeliest cause of this variation's failures`
+      : `${label}: ${value}${units} (${span})`;
     return h("span", { class: extreme ? "term extreme" : "term", title },
       `${key}=${value}${i < text.split(",").length - 1 ? "," : ""} `);
   });
@@ -253,13 +307,14 @@ export function drawReport(result) {
       const [lo, hi] = c.interval;
       const pct = (x) => `${(100 * x).toFixed(1)}%`;
       const level = c.share >= 0.9 ? "ok" : c.share >= 0.6 ? "warn" : "bad";
-      return h("div", { class: "robust-row", title: c.depends_on ? `failures depend on ${c.depends_on.parameter} (r ${c.depends_on.r.toFixed(2)})` : "" },
+      const [depends, why] = dependsOn(c.depends_on);
+      return h("div", { class: "robust-row", title: why },
         h("span", { class: "robust-case" }, c.case),
         h("span", { class: "robust-track" },
           h("span", { class: `robust-bar ${level}`, style: `width:${pct(c.share)}` }),
           h("span", { class: "robust-ci", style: `left:${pct(lo)};width:${pct(hi - lo)}` })),
         h("span", { class: "robust-share" }, `${(100 * c.share).toFixed(0)} %`),
-        h("span", { class: "dim small" }, c.depends_on ? c.depends_on.parameter : ""));
+        depends);
     }),
   );
   $("robust-worst").replaceChildren(
@@ -269,6 +324,8 @@ export function drawReport(result) {
         ` fails ${w.failed_cases}: ${w.failed.join(", ")} `,
         h("code", { class: "small dim robust-variation" }, ...variationTerms(w.variation)))),
   );
+  // the highlighted values, explained once under the list (issue 56, item 15)
+  $("robust-legend").hidden = !$("robust-worst").querySelector(".term.extreme");
 }
 
 async function watch(worst) {

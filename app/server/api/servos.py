@@ -18,5 +18,7 @@ def servo_load(services: ServicesDep) -> dict[str, Any]:
     """Per joint since the last reset or parameter change, sampled once per 20 ms frame: peak
     and RMS torque against the stall torque, eq (1)'s required torque (1 + sf) peak |tau| and its
     margin, peak speed against the no-load speed, frames with a saturated pulse, and a level
-    (ok, warn below 30 % margin, critical below 10 %)."""
+    (ok, warn below 30 % margin, critical below 10 %); each joint's servo, whether it meets
+    eq (1) (`eq1_met`) and, where it does not, the lightest servo of the table (or the robot's
+    file) that would at the robot's supply (`eq1_servo`: name, stall torque, mass)."""
     return asdict(services.sim.servo_load())
