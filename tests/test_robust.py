@@ -168,8 +168,9 @@ def test_artro_bench_robust_json_and_files(tmp_path):
         [sys.executable, "-m", "app.cli", *shlex.split(worst[0]["command"])[1:], "--json"],
         capture_output=True, text=True, cwd=ROOT,
     )  # fmt: skip
-    assert again.returncode == 0, again.stderr[-2000:]
-    assert json.loads(again.stdout)["variation"] == worst[0]["variation"]
+    rerun = json.loads(again.stdout)
+    assert rerun["variation"] == worst[0]["variation"]
+    assert again.returncode == (1 if rerun["fell"] else 0), again.stderr[-2000:]  # a fall: 1
     progress = [line for line in out.stderr.splitlines() if "/27 runs, " in line]
     assert "\r" not in out.stderr and 2 <= len(progress) <= 11  # a pipe: a line per tenth
     assert progress[-1].startswith("bench robust: 27/27 runs, ")
