@@ -43,7 +43,7 @@ def test_a_run_stops_rolling_out_after_the_call_it_fell_in_and_measures_the_same
     warm start; a run that falls stops after its call. Metrics and traces equal those of one
     call over the whole run, to the bit."""
     from app.evaluation import _lanes as batch
-    from tests.evaluation_support import assert_same_traces
+    from tests.testing.evaluation_support import assert_same_traces
 
     falls = Job(
         GaitParams.from_dict({"shift": {"amp_base": 0.4, "amp_lateral": 2.0}}),

@@ -13,8 +13,8 @@ import pytest
 from PIL import Image
 from playwright.sync_api import FrameLocator, Page, expect, sync_playwright
 
-from tests.browser_support import BOTH_SIZES, LARGE, SMALL, shot_path, wait_until
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
+from tests.testing.browser_support import BOTH_SIZES, LARGE, SMALL, shot_path, wait_until
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")

@@ -10,7 +10,7 @@ import pytest
 import viser
 from playwright.sync_api import expect, sync_playwright
 
-from tests.server_harness import free_port, running_server
+from tests.testing.server_harness import free_port, running_server
 
 CHROMIUM = shutil.which("chromium") or "/usr/bin/chromium"
 ARGS = ["--no-sandbox", "--disable-gpu", "--no-first-run", "--disable-background-networking"]

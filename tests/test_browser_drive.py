@@ -5,7 +5,7 @@ import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 
 @pytest.mark.slow

@@ -12,7 +12,8 @@ import numpy as np
 import pytest
 from playwright.sync_api import Page, expect, sync_playwright
 
-from tests.browser_support import (
+from tests.test_server_gait_ramp import largest_step
+from tests.testing.browser_support import (
     BOTH_SIZES,
     CUT_OFF,
     HEADER_AT_ITS_FULLEST,
@@ -22,8 +23,7 @@ from tests.browser_support import (
     open_page,
     shot_path,
 )
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
-from tests.test_server_gait_ramp import largest_step
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
 
 ERROR = re.compile(r"\berror\b")
 OK = re.compile(r"\bok\b")

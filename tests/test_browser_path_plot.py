@@ -10,8 +10,8 @@ import pytest
 from PIL import Image, ImageDraw, ImageFilter
 from playwright.sync_api import sync_playwright
 
-from tests.browser_support import SIZE_IDS, SIZES, open_page, rgb
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, client, running_server, wait_for
+from tests.testing.browser_support import SIZE_IDS, SIZES, open_page, rgb
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, client, running_server, wait_for
 
 MAX_POINTS = 2000  # GET /api/path thins the actual path to this many points (path_tracker.py)
 NEAR_PX = 3  # a trace pixel this close to the walked path is on it (line width, antialiasing)

@@ -13,8 +13,8 @@ import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from tests.browser_support import SIZE_IDS, SIZES, open_page, rgb, shot_path, wait_until
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
+from tests.testing.browser_support import SIZE_IDS, SIZES, open_page, rgb, shot_path, wait_until
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 ROBOT_PITCH = (165, 216, 255)  # "robot: pitch" (#a5d8ff)
 

@@ -9,8 +9,8 @@ import httpx
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from tests.browser_support import SHOTS, SIZE_IDS, SIZES, rgb, wait_until
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
+from tests.testing.browser_support import SHOTS, SIZE_IDS, SIZES, rgb, wait_until
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 #: where to keep the screenshots to look at (unset: none kept)
 

@@ -8,9 +8,9 @@ import re
 import pytest
 from playwright.sync_api import expect
 
-from tests.browser_support import SMALL, shot_path
-from tests.server_harness import CHROMIUM  # noqa: F401 (marks the module `browser`)
 from tests.test_browser_world import opened_page
+from tests.testing.browser_support import SMALL, shot_path
+from tests.testing.server_harness import CHROMIUM  # noqa: F401 (marks the module `browser`)
 
 TUNE_MS = 120_000  # the deadline of a tiny tune (about 10 s alone)
 

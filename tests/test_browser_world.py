@@ -11,8 +11,8 @@ from playwright.sync_api import expect, sync_playwright
 
 from app.worlds.variations import NOMINAL
 from gait import JOINT_NAMES
-from tests.browser_support import BOTH_SIZES, SMALL, shot_path
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
+from tests.testing.browser_support import BOTH_SIZES, SMALL, shot_path
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server
 
 SIZES = [(1600, 1000), (1280, 720)]
 

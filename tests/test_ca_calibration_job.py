@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.server_harness import client, running_server
+from tests.testing.server_harness import client, running_server
 
 pytestmark = pytest.mark.slow
 

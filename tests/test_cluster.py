@@ -17,8 +17,8 @@ from app.evaluation._chunks import VersionMismatch, evaluate_chunk
 from app.evaluation._dask import ClusterError, ClusterEvaluator
 from app.robots.model import RobotModel
 from app.sim.metrics import Trace
-from tests.cluster_support import LoopbackCluster
-from tests.evaluation_support import assert_same_traces, varied_jobs
+from tests.testing.cluster_support import LoopbackCluster
+from tests.testing.evaluation_support import assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow
 ROBOT = RobotModel.load()

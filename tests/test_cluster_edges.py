@@ -19,7 +19,7 @@ import pytest
 from app.cli import main
 from app.evaluation._dask import CONNECT_TIMEOUT_S, ClusterEvaluator
 from app.robots.model import RobotModel
-from tests.cluster_support import LoopbackCluster
+from tests.testing.cluster_support import LoopbackCluster
 
 ROOT = Path(__file__).resolve().parent.parent
 ROBOT = RobotModel.load()
@@ -178,7 +178,7 @@ def test_a_worker_that_comes_while_waited_on_is_taken():
 def test_the_dashboards_robustness_job_waits_for_a_worker_as_long_as_serve_was_told(tmp_path):
     """`artro serve --cluster ... --wait-workers S`: the robustness job on a scheduler with no
     worker fails after S seconds saying so, the server well (issue 33: serve had no option)."""
-    from tests.server_harness import client, running_server, wait_for
+    from tests.testing.server_harness import client, running_server, wait_for
 
     with LoopbackCluster(workers=0) as cluster:
         address = cluster.address

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 from app.firmware.build import BuildError, build_firmware
-from tests.firmware_support import preset
+from tests.testing.firmware_support import preset
 
 
 def test_builds_of_one_set_at_once_all_succeed(tmp_path: Path, monkeypatch) -> None:

@@ -17,7 +17,7 @@ from app.firmware.build import export_firmware_folder, memory_use
 from app.firmware.closed_loop import LAW_TOLERANCE, ClosedLoopRun
 from app.firmware.conformance import ANGLE_TOLERANCE_RAD, Comparison
 from hardware.firmware.schema import complete_document
-from tests.firmware_support import preset
+from tests.testing.firmware_support import preset
 
 
 def parse(argv: list[str]) -> argparse.Namespace:

@@ -25,7 +25,7 @@ from app.firmware.link import EmulatedLink
 from app.firmware.sensor_feed import GYRO_ZERO_RATE_COUNTS, RawSample, at_rest, sample_of
 from app.worlds.variations import Variation
 from hardware.firmware.schema import complete_document
-from tests.firmware_support import preset
+from tests.testing.firmware_support import preset
 
 #: every sensor error of the variation ranges at once (docs/DESIGN.md §8)
 SENSOR_ERRORS = Variation(

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from app.firmware.conformance import ANGLE_TOLERANCE_RAD, model_frames, run_comparison
 from hardware.firmware.schema import param_specs
-from tests.firmware_support import emulator, frames_for_cycles, preset
+from tests.testing.firmware_support import emulator, frames_for_cycles, preset
 
 CYCLES = 5
 

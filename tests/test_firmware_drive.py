@@ -19,8 +19,8 @@ from app.server.sim_commands import Reset
 from app.sim.frame_loop import FrameLoop, PinFrame
 from gait import GaitParams, Motion
 from hardware import TICK_US, US_PER_DEG
-from tests.firmware_support import preset
-from tests.server_harness import running_server, wait_for
+from tests.testing.firmware_support import preset
+from tests.testing.server_harness import running_server, wait_for
 
 ONE_TICK_RAD = math.radians(TICK_US / US_PER_DEG)
 

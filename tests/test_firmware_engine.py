@@ -11,7 +11,7 @@ from app.firmware.build import SOURCE_DIR, build_firmware, generated_headers
 from app.firmware.conformance import model_frames, run_comparison
 from hardware.firmware import HEADER_NAME
 from hardware.firmware.schema import param_specs, values_from_document
-from tests.firmware_support import emulator, frames_for_cycles, preset
+from tests.testing.firmware_support import emulator, frames_for_cycles, preset
 
 
 def test_the_firmware_turns_with_the_steering_term_as_the_model_does() -> None:

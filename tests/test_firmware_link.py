@@ -12,7 +12,7 @@ from app.firmware.link import SerialLink
 from app.firmware.protocol import Ack, Info, Msg, Params
 from app.firmware.pty_bridge import PtyBridge
 from hardware.firmware.schema import param_specs, schema_hash
-from tests.firmware_support import emulator, preset
+from tests.testing.firmware_support import emulator, preset
 
 
 def test_pyserial_talks_to_the_emulated_robot_through_a_pty() -> None:

@@ -22,7 +22,7 @@ from app.sim.planning import START_PHASE_RAD
 from gait import GaitParams, Motion, joint_angles
 from hardware import ServoCalibration, angles_to_pulses_us, pulse_us_to_ocr
 from hardware.firmware.schema import param_specs, schema_hash, values_from_document
-from tests.firmware_support import emulator, preset
+from tests.testing.firmware_support import emulator, preset
 
 SPECS = {spec.dotted: spec for spec in param_specs()}
 

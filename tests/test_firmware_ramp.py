@@ -9,7 +9,7 @@ from app.firmware import protocol as proto
 from app.firmware.conformance import model_frames
 from app.firmware.pulses import FirmwarePulses
 from hardware.firmware.schema import values_from_document
-from tests.firmware_support import preset
+from tests.testing.firmware_support import preset
 
 
 @pytest.mark.parametrize("ramp", [True, False], ids=["ramped", "ramp-off"])

@@ -17,7 +17,7 @@ from app.server.sim_thread import SimThread
 from app.sim.frame_loop import FrameLoop
 from app.worlds.variations import Variation
 from gait import GaitParams, Motion
-from tests.server_harness import wait_for
+from tests.testing.server_harness import wait_for
 
 
 def walking(preset: str = "tuned", a_p: float = 0.07) -> FrameLoop:

@@ -16,7 +16,7 @@ from app.robots.model import RobotModel
 from app.sim.metrics import Trace
 from app.worlds.variations import parse_variation
 from gait import Motion
-from tests.evaluation_support import CLOSED, assert_same_traces, varied_jobs
+from tests.testing.evaluation_support import CLOSED, assert_same_traces, varied_jobs
 
 pytestmark = pytest.mark.slow
 ROBOT = RobotModel.load()

@@ -22,7 +22,7 @@ from app.server.sim_thread import SimThread
 from app.sim.frame_loop import FrameLoop
 from gait import Motion
 from hardware import HardwareSetup, frame_edges
-from tests.server_harness import wait_for
+from tests.testing.server_harness import wait_for
 
 
 @pytest.fixture(scope="module")

@@ -15,7 +15,7 @@ from app.firmware import protocol as proto
 from app.firmware.link import SerialLink, read_params
 from app.firmware.robot_link import LinkError, RobotLink, _plain, follow
 from hardware.firmware.schema import values_from_document
-from tests.server_harness import client, running_server
+from tests.testing.server_harness import client, running_server
 
 
 def test_the_dashboards_set_and_its_change_reach_the_robot(robot_on_a_pty, tmp_path):

@@ -17,8 +17,8 @@ import serial
 
 from app.firmware import protocol as proto
 from app.firmware.link import SerialLink
-from tests.firmware_support import preset
-from tests.server_harness import running_server, wait_for
+from tests.testing.firmware_support import preset
+from tests.testing.server_harness import running_server, wait_for
 
 ARTRO = Path(sys.executable).with_name("artro")
 

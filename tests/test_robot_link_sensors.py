@@ -27,8 +27,8 @@ from app.firmware.sensor_feed import (
 )
 from gait.attitude import accel_tilt
 from hardware.firmware.schema import values_from_document
-from tests.firmware_support import emulator, preset, served_on_a_pty
-from tests.server_harness import client, running_server, wait_for
+from tests.testing.firmware_support import emulator, preset, served_on_a_pty
+from tests.testing.server_harness import client, running_server, wait_for
 
 PITCH_RAD, ROLL_RAD = 0.12, -0.07  # the trunk as the emulated IMU sees it, still
 
@@ -157,7 +157,7 @@ def test_a_dashboard_gone_away_costs_the_link_nothing(robot_with_sensors, tmp_pa
 
 def test_frames_wait_for_a_dashboard_that_does_not_answer_and_put_never_blocks():
     """A forwarder to a port where nothing listens keeps the newest 5 s and says so once."""
-    from tests.server_harness import free_port
+    from tests.testing.server_harness import free_port
 
     log = Log()
     forwarder = SensorForwarder(f"http://127.0.0.1:{free_port()}", log)

@@ -10,7 +10,7 @@ from websockets.sync.client import connect
 from app.params.document import ParameterSet
 from gait import Motion, joint_angles
 from hardware import ChannelMap, ServoCalibration, angles_to_pulses_us, pulse_us_to_ocr
-from tests.server_harness import wait_for
+from tests.testing.server_harness import wait_for
 
 PATCH_HEADERS = {"content-type": "application/json"}
 

@@ -13,7 +13,7 @@ import pytest
 
 from app.server.emulated_controller import EmulatedController
 from app.server.sim_commands import DriveRefused, SwitchDrive
-from tests.server_harness import client, wait_for
+from tests.testing.server_harness import client, wait_for
 
 
 def handed_over(sim, command):

@@ -9,7 +9,7 @@ import pytest
 
 from app.params.presets import builtin_presets
 from app.server.gait_ramp import GAIT_RAMP_S, blend
-from tests.server_harness import client, running_server, wait_for
+from tests.testing.server_harness import client, running_server, wait_for
 
 FRAME_S = 0.02
 RAMP_FRAMES = round(GAIT_RAMP_S / FRAME_S)

@@ -9,7 +9,7 @@ import pytest
 
 from app.server.jobs import StaleVersion, only_onto
 from app.server.param_store import ParameterStore
-from tests.server_harness import client, running_server
+from tests.testing.server_harness import client, running_server
 
 
 def _finish(server, job_id: str, timeout_s: float = 600.0) -> dict:

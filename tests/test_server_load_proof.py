@@ -8,7 +8,7 @@ import time
 import pytest
 from websockets.sync.client import connect
 
-from tests.server_harness import client, running_server
+from tests.testing.server_harness import client, running_server
 
 JSON = {"content-type": "application/json"}
 

@@ -2,7 +2,7 @@
 axle marked stale once the gait changes (issue 9)."""
 
 from gait import GaitParams
-from tests.server_harness import wait_for
+from tests.testing.server_harness import wait_for
 
 
 def test_clear_forgets_the_path_and_restarts_the_prediction(http):

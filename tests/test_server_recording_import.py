@@ -9,7 +9,7 @@ import json
 
 import pytest
 
-from tests.server_harness import wait_for
+from tests.testing.server_harness import wait_for
 
 HEADERS = {"content-type": "application/json"}
 
@@ -17,7 +17,7 @@ HEADERS = {"content-type": "application/json"}
 @pytest.fixture(scope="module")
 def exported(server):
     """A real export of the session so far (at least a second of frames)."""
-    from tests.server_harness import client
+    from tests.testing.server_harness import client
 
     with client(server[0]) as http:
         wait_for(lambda: http.get("/api/recording").json()["frames"] > 50, "frames recorded")

@@ -10,7 +10,7 @@ from urllib.parse import urlsplit
 
 import pytest
 
-from tests.server_harness import wait_for
+from tests.testing.server_harness import wait_for
 
 
 def test_resume_and_step_are_refused_while_a_replay_is_shown(http):

@@ -17,7 +17,7 @@ from app.robots.model import RobotModel
 from app.server.api.sensors import MAX_POSTED_FRAMES
 from app.server.request_gate import MAX_BODY_BYTES
 from app.server.robot_sensors import COLUMNS, WINDOW_FRAMES
-from tests.server_harness import client, running_server
+from tests.testing.server_harness import client, running_server
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.server_harness import client, running_server
+from tests.testing.server_harness import client, running_server
 
 CONFIG = Path(__file__).with_name("schemathesis.toml")
 SCHEMATHESIS = Path(sys.executable).with_name("schemathesis")

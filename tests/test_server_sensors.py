@@ -10,7 +10,7 @@ import pytest
 
 from app.robots.model import RobotModel
 from app.server.sensor_trace import COLUMNS
-from tests.server_harness import client, running_server, wait_for
+from tests.testing.server_harness import client, running_server, wait_for
 
 
 @pytest.fixture(scope="module")

@@ -16,7 +16,7 @@ from pathlib import Path
 import httpx
 import pytest
 
-from tests.server_harness import free_port, wait_for
+from tests.testing.server_harness import free_port, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 

@@ -120,7 +120,7 @@ def test_the_queue_keeps_the_order_wakes_the_thread_and_takes_only_commands() ->
 def test_published_poses_name_the_model_they_are_poses_of(sim_thread):
     """The 3D view draws poses only on the model they are of: for a refresh after a switch of
     robots it drew the new robot's bodies in the last robot's poses (the thread audit)."""
-    from tests.server_harness import wait_for
+    from tests.testing.server_harness import wait_for
 
     sim, store = sim_thread
     sim.publish_poses = True

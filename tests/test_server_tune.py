@@ -14,8 +14,8 @@ from optuna.storages import JournalStorage
 from optuna.storages.journal import JournalFileBackend
 
 from app.study.study_files import WriterLock
-from tests.server_harness import client, running_server, wait_for
 from tests.test_tune_robot import robot_file
+from tests.testing.server_harness import client, running_server, wait_for
 
 pytestmark = pytest.mark.slow
 

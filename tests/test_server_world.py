@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from tests.server_harness import client, running_server, wait_for
+from tests.testing.server_harness import client, running_server, wait_for
 
 
 @pytest.fixture(scope="module")

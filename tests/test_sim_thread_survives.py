@@ -10,7 +10,7 @@ import dataclasses
 
 from app.server.sim_commands import Pause, Push, Reset, Resume, SetWorld, Step
 from app.worlds.variations import NOMINAL, Variation
-from tests.server_harness import wait_for
+from tests.testing.server_harness import wait_for
 
 
 def forced(**values: float) -> Variation:

@@ -19,7 +19,7 @@ import pytest
 from app.cli import main
 from app.study.study_files import StudyBusy, whole_write
 from app.study.study_store import StudyStore, open_storage
-from tests.server_harness import free_port, wait_for
+from tests.testing.server_harness import free_port, wait_for
 
 ROOT = Path(__file__).resolve().parent.parent
 #: a tune that opens its study before it simulates anything

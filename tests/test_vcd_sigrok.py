@@ -24,7 +24,7 @@ from hardware import (
     frame_ocr,
     ocr_to_pulse_us,
 )
-from tests.firmware_support import preset
+from tests.testing.firmware_support import preset
 
 _ANNOTATION = re.compile(r"^(\d+)-(\d+) pwm-1: (?:([\d.]+)%|([\d.]+) (ms|μs))$")
 _TO_US = {"ms": 1000.0, "μs": 1.0}

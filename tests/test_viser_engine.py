@@ -8,7 +8,7 @@ import socket
 import httpx
 
 from app.robots.model import RobotModel
-from tests.server_harness import client, running_server
+from tests.testing.server_harness import client, running_server
 
 
 def test_the_view_shows_the_active_engines_folders(tmp_path):

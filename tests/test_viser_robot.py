@@ -9,7 +9,7 @@ import logging
 import numpy as np
 from playwright.sync_api import sync_playwright
 
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, client, running_server, wait_for
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, client, running_server, wait_for
 
 
 def test_the_view_draws_the_robot_switched_to_and_a_push(tmp_path, caplog):

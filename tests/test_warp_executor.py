@@ -35,7 +35,7 @@ from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import parse_variation, varied_robot
 from gait import GaitParams, Motion, feedback
-from tests.evaluation_support import assert_same_traces
+from tests.testing.evaluation_support import assert_same_traces
 
 DURATION_S, WARMUP_S = 2.5, 1.0
 FORWARD, TURN, CURVE = Motion(a_p=0.07), Motion(a_y=0.2), Motion(a_p=0.07, ca=0.1)

@@ -36,7 +36,7 @@ from app.robots.model import RobotModel
 from app.sim.metrics import Trace
 from app.worlds.variations import parse_variation
 from gait import GaitParams, Motion
-from tests.evaluation_support import assert_same_traces
+from tests.testing.evaluation_support import assert_same_traces
 
 FRAMES, STEPS = 60, 20  # 1.2 s runs where no Warp steps them
 _ROBUST = builtin_presets()["robust"].gait
