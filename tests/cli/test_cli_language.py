@@ -224,7 +224,8 @@ def test_every_option_that_takes_a_value_shows_its_default_in_help():
     objects = [(c, o) for c, o, text in found if "Variation(" in text or " object at " in text]
     assert objects == []  # a default that is no plain value is said in words
     shown = {(c, o): text for c, o, text in found}
-    # without --base the start's recipe (tests/test_tune_robot.py), with it the earlier defaults
+    # without --base the start's recipe (tests/study/test_tune_robot.py), with it the earlier
+    # defaults
     assert (
         "(default: 10 without --base, the start's recipe; 30 with it)"
         in shown[("artro tune", "--generations")]

@@ -21,7 +21,7 @@ from app.study.study_files import StudyBusy, whole_write
 from app.study.study_store import StudyStore, open_storage
 from tests.testing.server_harness import free_port, wait_for
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 #: a tune that opens its study before it simulates anything
 TUNE = ["tune", "--tune", "swing.v", "--cases", "forward", "--generations", "1", "--popsize", "2",
         "--duration", "2", "--warmup", "0.5", "--threads", "1"]  # fmt: skip

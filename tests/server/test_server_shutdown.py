@@ -18,7 +18,7 @@ import pytest
 
 from tests.testing.server_harness import free_port, wait_for
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def healthy(base_url: str) -> bool:

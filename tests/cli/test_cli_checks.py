@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 ARTRO = shutil.which("artro", path=str(Path(sys.executable).parent)) or "artro"
-ROBOT_FILE = Path(__file__).resolve().parent.parent / "models" / "robots" / "micro.yaml"
+ROBOT_FILE = Path(__file__).resolve().parents[2] / "models" / "robots" / "micro.yaml"
 
 CASES = {
     "tune: duration within the warm-up": (

@@ -14,13 +14,13 @@ from optuna.storages import JournalStorage
 from optuna.storages.journal import JournalFileBackend
 
 from app.study.study_files import WriterLock
-from tests.test_tune_robot import robot_file
+from tests.study.test_tune_robot import robot_file
 from tests.testing.server_harness import client, running_server, wait_for
 
 pytestmark = pytest.mark.slow
 
 #: the recipe's fields, the sizes cut: forward and its CA pair, one whole cycle of the slowest
-#: clock after a 0.5 s warm-up (as tests/test_tune_robot.py)
+#: clock after a 0.5 s warm-up (as tests/study/test_tune_robot.py)
 TINY = {"generations": 1, "popsize": 2, "duration_s": 5.6, "warmup_s": 0.5, "cases": ["forward"]}
 #: long enough to be cancelled while it runs
 LONG = TINY | {"generations": 20, "popsize": 4}

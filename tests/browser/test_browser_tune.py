@@ -8,7 +8,7 @@ import re
 import pytest
 from playwright.sync_api import expect
 
-from tests.test_browser_world import opened_page
+from tests.browser.test_browser_world import opened_page
 from tests.testing.browser_support import SMALL, shot_path
 from tests.testing.server_harness import CHROMIUM  # noqa: F401 (marks the module `browser`)
 

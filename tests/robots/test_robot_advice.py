@@ -163,7 +163,7 @@ def test_the_side_of_a_fall_is_the_trunks_own(axis, angle, side):
 def test_check_and_suggest_offer_the_files_own_servo_without_a_total_mass(tmp_path):
     """A builder's own servo in the file (lighter and stronger than the table's that carry the
     weak joints) is the one named and swapped in; with no total_mass_kg, the parts' sum."""
-    from tests.test_robot_servos_own import MEASURED
+    from tests.robots.test_robot_servos_own import MEASURED
 
     doc = yaml.safe_load((builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8"))
     doc["name"], doc["servo"], doc["supply_voltage_v"] = "weak-own", "SG90", 4.8

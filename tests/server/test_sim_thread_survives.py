@@ -1,8 +1,9 @@
 """The simulation thread outlives what it is sent (docs/DESIGN.md §10): a world that cannot be
 simulated is dropped, said so, and the robot walks on; physics that blows up at every start
 pauses the robot with one line naming the world instead of resetting every frame. The worlds
-and pushes here are forced past their checks (which refuse them, tests/test_variations.py), as a
-bug elsewhere could: the thread must not depend on every caller being right."""
+and pushes here are forced past their checks (which refuse them,
+tests/worlds/test_variations.py), as a bug elsewhere could: the thread must not depend on every
+caller being right."""
 
 from __future__ import annotations
 

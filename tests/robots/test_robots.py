@@ -32,7 +32,7 @@ from app.robots.servos import KGF_CM_TO_NM
 from gait import ARTRO_LEG, JOINT_NAMES, GaitParams, Motion, joint_angles_with_flags
 from hardware import ChannelMap
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 
 
 def artro_doc() -> dict:

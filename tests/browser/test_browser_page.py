@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from playwright.sync_api import Page, expect, sync_playwright
 
-from tests.test_server_gait_ramp import largest_step
+from tests.server.test_server_gait_ramp import largest_step
 from tests.testing.browser_support import (
     BOTH_SIZES,
     CUT_OFF,

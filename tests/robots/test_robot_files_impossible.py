@@ -16,7 +16,7 @@ from app.robots import RobotError, load_description, parse_description
 from app.robots.library import MAX_LISTED_ERRORS
 from app.robots.model import RobotModel
 from app.robots.swap import derived_name
-from tests.test_robot_servos_own import MEASURED
+from tests.robots.test_robot_servos_own import MEASURED
 
 ARTRO_TEXT = (builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8")
 

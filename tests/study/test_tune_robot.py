@@ -32,7 +32,7 @@ from app.params.presets import builtin_presets
 from app.robots.library import read_description
 from app.study.tune import tunable_fields
 
-ROOT = Path(__file__).resolve().parents[1]
+ROOT = Path(__file__).resolve().parents[2]
 #: the recipe's fields kept, the sizes cut: one generation of two candidates walking forward
 #: (and the CA pair at its speed) for 6 s, one whole cycle of the slowest clock (0.2 Hz) after
 #: a 0.5 s warm-up

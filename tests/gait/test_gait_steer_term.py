@@ -25,8 +25,8 @@ def with_k(params: GaitParams, k: float, k_back: float = 0.0) -> GaitParams:
 
 def test_k_zero_is_the_gait_before_the_steering_term() -> None:
     """The joint angles of the paper and the symmetric form, as computed before `steer` existed
-    (tests/data/behnke_golden.npz, written by the gait of commit d9dc00b), to a few ULP: the file
-    was written by another numpy build (see GOLDEN_ATOL_RAD)."""
+    (tests/gait/data/behnke_golden.npz, written by the gait of commit d9dc00b), to a few ULP: the
+    file was written by another numpy build (see GOLDEN_ATOL_RAD)."""
     gold = np.load(GOLDEN)
     phi = gold["phi"]
     forms = {"paper": GaitParams(), "symmetric": GaitParams(leg=LegParams(paper_signs=False))}

@@ -19,7 +19,7 @@ from app.sim.headless import run
 from app.worlds.variations import NOMINAL, parse_variation
 from gait import Motion
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 TUNED = builtin_presets()["tuned"].gait
 FORWARD = Motion(a_p=0.07)
 ROBOT = RobotModel.load()

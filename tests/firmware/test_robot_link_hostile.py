@@ -30,11 +30,11 @@ from app.firmware.protocol import Info, LinkError, Msg
 from app.firmware.pty_bridge import PtyBridge
 from app.firmware.robot_link import DEFAULT_BAUD, PortLost, RobotLink, RobotRestarted, follow
 from hardware.firmware.schema import param_specs, schema_hash
-from tests.test_robot_link_exits import Lines, link_process
+from tests.firmware.test_robot_link_exits import Lines, link_process
 from tests.testing.firmware_support import emulator, preset
 from tests.testing.server_harness import running_server, wait_for
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 Answer = Callable[[proto.Message], bytes]
 
 

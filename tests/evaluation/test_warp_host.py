@@ -3,7 +3,7 @@
 plans; two spawned workers plan and measure to the bit of the calling process; a Warp batch over
 them gives the same metrics and traces; its shared memory is gone after a call, a cancelled call
 and a failed one; a killed worker is a clear error and the next call starts new ones. The Warp
-tests run on Warp's CPU device (the gpu extra, as tests/test_warp_executor.py): two small
+tests run on Warp's CPU device (the gpu extra, as tests/evaluation/test_warp_executor.py): two small
 batches and a cancelled one."""
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ from app.study.tune import Tuner, dimensions
 from app.study.tune_loss import case_loss, curve_loss, meets_all_criteria, total_loss
 from gait import GaitParams
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 EVALUATOR = BatchEvaluator(threads=2)
 # a deliberately poor start: a slow clock and almost no foot clearance
 POOR = ParameterSet(

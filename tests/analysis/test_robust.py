@@ -28,7 +28,7 @@ from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import Variation, parse_variation
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 CASE = {c.name: c for c in ROBUST_CASES}
 NOMINAL_FORWARD = {"fell": False, "forward_cm_s": 3.0, "lateral_cm_s": 0.0, "turn_deg_s": -0.4}
 

@@ -21,7 +21,7 @@ from app.evaluation._dask import CONNECT_TIMEOUT_S, ClusterEvaluator
 from app.robots.model import RobotModel
 from tests.testing.cluster_support import LoopbackCluster
 
-ROOT = Path(__file__).resolve().parent.parent
+ROOT = Path(__file__).resolve().parents[2]
 ROBOT = RobotModel.load()
 #: a tune that reaches its cluster before it simulates anything
 TUNE = ["tune", "--tune", "swing.v", "--cases", "forward", "--generations", "1", "--popsize", "2",
