@@ -30,7 +30,7 @@ from app.robots.model import RobotModel
 from app.worlds.sampling import VariationRanges, sample
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the tests' loopback cluster
-from tests.cluster_support import LoopbackCluster
+from tests.testing.cluster_support import LoopbackCluster
 
 GOAL = 0.85
 

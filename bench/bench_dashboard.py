@@ -37,7 +37,7 @@ import httpx
 import results
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the tests' shared harness
-from tests.server_harness import CHROMIUM, CHROMIUM_ARGS, free_port
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, free_port
 
 
 def cpu_seconds(pid: int) -> float:

@@ -3,16 +3,16 @@ import pytest
 from app.params.document import ParameterSet
 from app.server.param_store import ParameterStore
 from app.server.sim_thread import SimThread
-from tests.firmware_support import emulator, preset, served_on_a_pty
-from tests.server_harness import client, running_server
+from tests.testing.firmware_support import emulator, preset, served_on_a_pty
+from tests.testing.server_harness import client, running_server
 
 
 @pytest.hookimpl(tryfirst=True)  # before pytest-xdist reads the groups
 def pytest_collection_modifyitems(items):
     """`scripts/test.sh` runs the tests of the modules that open Chromium (they import
-    `CHROMIUM` from tests/server_harness.py; marked `browser` here) alone, and the rest on every
-    core (`-n auto --dist loadgroup`), a module's tests on one worker (its module fixtures are
-    made once)."""
+    `CHROMIUM` from tests/testing/server_harness.py; marked `browser` here) alone, and the rest on
+    every core (`-n auto --dist loadgroup`), a module's tests on one worker (its module fixtures
+    are made once)."""
     for item in items:
         module = item.module
         if hasattr(module, "CHROMIUM"):

@@ -187,7 +187,7 @@ def test_no_code_cites_a_file_outside_the_repository() -> None:
         f"{p.relative_to(ROOT)}:{n}"
         for p in [
             *SOURCES,
-            *(ROOT / "tests").glob("*.py"),
+            *(ROOT / "tests").rglob("*.py"),
             *(ROOT / "bench").glob("*.py"),
             *(ROOT / "static").rglob("*.js"),
         ]

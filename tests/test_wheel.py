@@ -19,7 +19,7 @@ import httpx
 import pytest
 import tomllib
 
-from tests.server_harness import free_port
+from tests.testing.server_harness import free_port
 
 ROOT = Path(__file__).resolve().parent.parent
 pytestmark = pytest.mark.slow

@@ -108,7 +108,7 @@ def per_world_fields(models: Sequence[mujoco.MjModel]) -> dict[str, np.ndarray]:
     friction loss, gravity). MuJoCo Warp holds a field per world when its leading dimension is
     `*` (kernels read row `worldid % rows`). A field that differs but has no per-world form (a
     count, a type, a solver setting) raises ExecutorError naming it: no variation of today
-    changes one (`tests/test_warp_executor.py`).
+    changes one (`tests/evaluation/test_warp_executor.py`).
 
     Putting every distinct model on the device to compare takes ~50 ms a model (a 900-variation
     study: 45 s), so two are put: the first world's and the one differing from it in the most

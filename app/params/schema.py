@@ -20,7 +20,8 @@ from gait.params import (
     group_class,
 )
 
-EngineName = Literal["behnke", "pfs"]  # gait.params.ENGINES; tests/test_schema_engine.py checks
+#: gait.params.ENGINES; tests/params/test_schema_engine.py checks
+EngineName = Literal["behnke", "pfs"]
 ENGINE_DOC: str = GaitParams.__dataclass_fields__["engine"].metadata["doc"]
 
 #: Folder titles for user interfaces, in display order.
