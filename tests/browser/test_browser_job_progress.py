@@ -9,9 +9,9 @@ import re
 import pytest
 from playwright.sync_api import expect
 
+from tests.browser.test_browser_world import opened_page
 from tests.testing.browser_support import LARGE, shot_path
 from tests.testing.server_harness import CHROMIUM  # noqa: F401 (marks the module `browser`)
-from tests.browser.test_browser_world import opened_page
 
 #: "walking the variations: 3 of 45 runs walked · ~2 min left" (4 variations and the nominal
 #: model, each walking the nine cases)

@@ -8,9 +8,9 @@ from __future__ import annotations
 import pytest
 from playwright.sync_api import expect
 
+from tests.browser.test_browser_world import opened_page
 from tests.testing.browser_support import LARGE, shot_path
 from tests.testing.server_harness import CHROMIUM  # noqa: F401 (marks the module `browser`)
-from tests.browser.test_browser_world import opened_page
 
 LABEL = "key => import('./js/world.js').then((m) => m.featureLabel(key))"
 
