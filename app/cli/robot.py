@@ -85,29 +85,26 @@ def add_parser(sub: Any) -> None:
         metavar="FILE",
         help="with --suggest (default: NAME-suggested.yaml)",
     )
-    export = action(
-        sub,
-        "export-mjcf",
-        "write the generated MuJoCo model as MJCF",
-        """examples:
+    for kind, what, example in (
+        (
+            "mjcf",
+            "write the generated MuJoCo model as MJCF",
+            """examples:
   artro robot export-mjcf artro -o artro.xml    then: python -m mujoco.viewer --mjcf artro.xml
   artro robot export-mjcf my.yaml | less""",
-    )
-    export.add_argument("robot", metavar="NAME|FILE")
-    export.add_argument(
-        "-o", "--output", type=output_file, metavar="FILE", help="default: standard output"
-    )
-    urdf = action(
-        sub,
-        "export-urdf",
-        "write the robot as URDF (links with their masses, revolute joints, collision shapes)",
-        """examples:
+        ),
+        (
+            "urdf",
+            "write the robot as URDF (links with their masses, revolute joints, collision shapes)",
+            """examples:
   artro robot export-urdf artro -o artro.urdf   then: artro robot import artro.urdf""",
-    )
-    urdf.add_argument("robot", metavar="NAME|FILE")
-    urdf.add_argument(
-        "-o", "--output", type=output_file, metavar="FILE", help="default: standard output"
-    )
+        ),
+    ):
+        export = action(sub, f"export-{kind}", what, example)
+        export.add_argument("robot", metavar="NAME|FILE")
+        export.add_argument(
+            "-o", "--output", type=output_file, metavar="FILE", help="default: standard output"
+        )
     imp = action(
         sub,
         "import",
@@ -130,9 +127,12 @@ exit status 2, in one sentence naming the joint, for a file the gait cannot driv
         help="keep the file's position actuators (gains, force limits) and joint settings",
     )
     imp.add_argument(
-        "--package-dir", action="append", default=[], metavar="DIR",
+        "--package-dir",
+        action="append",
+        default=[],
+        metavar="DIR",
         help="where package:// mesh paths resolve (repeatable; default: beside the file)",
-    )  # fmt: skip
+    )
     imp.add_argument(
         "--imu-site",
         metavar="NAME",
@@ -425,8 +425,11 @@ def suggest(
     for line in lighter:
         print(line, file=out)
     mass = robot.parts_mass_kg()
-    print(f"wrote {path} ({mass:.3f} kg{replacing}); next: artro robot check {path}, then "
-          f"artro tune --robot {path}", file=out)  # fmt: skip
+    print(
+        f"wrote {path} ({mass:.3f} kg{replacing}); next: artro robot check {path}, then "
+        f"artro tune --robot {path}",
+        file=out,
+    )
     if found.uncarried:
         print(UNCARRIED, file=out)
     return 1 if found.uncarried else 0

@@ -496,15 +496,18 @@ def test_an_op3_like_biped_stands_ten_seconds_on_its_own_servos(tmp_path: Path) 
 # --- round trip through URDF ------------------------------------------------------------------
 
 
+def exported_urdf(path: Path) -> None:
+    """`artro robot export-urdf artro -o PATH`, as a user runs it."""
+    done = subprocess.run(
+        [sys.executable, "-m", "app.cli", "robot", "export-urdf", "artro", "-o", str(path)],
+        capture_output=True, text=True, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+
+
 def test_artro_exported_as_urdf_imports_back_to_its_lengths_masses_and_walk(tmp_path: Path) -> None:
     source = tmp_path / "artro.urdf"
-    done = subprocess.run(
-        [sys.executable, "-m", "app.cli", "robot", "export-urdf", "artro", "-o", str(source)],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr
+    exported_urdf(source)
     result = import_robot(source, output=tmp_path / "artro-urdf.yaml", name="artro-urdf")
     robot, builtin = RobotModel.load(result.description), RobotModel.load("artro")
     for key, value in builtin.description.geometry.model_dump().items():
@@ -550,13 +553,7 @@ def box_stl(half_m: float) -> bytes:
 
 def test_a_mesh_is_found_through_package_dirs_and_a_missing_one_is_named(tmp_path: Path) -> None:
     urdf = tmp_path / "robot.urdf"
-    done = subprocess.run(
-        [sys.executable, "-m", "app.cli", "robot", "export-urdf", "artro", "-o", str(urdf)],
-        capture_output=True,
-        text=True,
-        check=False,
-    )
-    assert done.returncode == 0, done.stderr
+    exported_urdf(urdf)
     mesh = '<mesh filename="package://my_robot/meshes/lid.stl"/>'
     lid = f'<collision name="lid"><origin xyz="0 0 0.09"/><geometry>{mesh}</geometry></collision>'
     text = urdf.read_text(encoding="utf-8").replace("</inertial>", "</inertial>" + lid, 1)
