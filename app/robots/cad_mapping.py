@@ -16,7 +16,6 @@ from app.robots.cad_geometry import (
     Frame,
     Vec,
     axis_line,
-    chain_path,
     closest,
     collides,
     element_name,
@@ -25,8 +24,18 @@ from app.robots.cad_geometry import (
     lowest,
     quat_of,
     subtree_of,
-    tree_children,
     unit,
+)
+from app.robots.cad_legs import (
+    ImportRefused,
+    Leg,
+    body_name,
+    check_closed_chains,
+    check_mirror,
+    check_third_leg,
+    find_legs,
+    foot_points,
+    link_masses,
 )
 from app.robots.description import LEG_JOINTS
 
@@ -37,9 +46,6 @@ AXIS_TOLERANCE_DEG = 5.0
 #: crossing) may pass this far apart: a CAD export places them to a tenth of a millimetre, and
 #: 2 mm moves the foot by less than the servos' play does
 AXES_MEET_TOLERANCE_M = 0.002
-#: the two legs are mirror images when each length agrees within 3 mm or 3 %, the larger
-MIRROR_TOLERANCE_M = 0.003
-MIRROR_TOLERANCE_FRACTION = 0.03
 #: the sole's centre this far ahead of (or behind) the ankle tells where the toes are
 TOE_OFFSET_MIN_M = 0.003
 #: a knee bends one way when one end of its range is this many times the other's magnitude
@@ -48,8 +54,7 @@ KNEE_BEND_RATIO = 1.5
 SOLE_BAND_M = 0.01
 #: the thickness of a sole plate added under a foot whose lowest geometry is no aligned box
 ADDED_PLATE_THICKNESS_M = 0.002
-#: a third chain whose end comes this close (as a share of the leg) to the soles' level is a leg
-THIRD_LEG_FRACTION = 0.1
+
 
 #: what each joint's axis must be along, in the studio's trunk frame (x forward, y left, z up),
 #: on the left leg; the right leg's roll and yaw axes are reversed (docs/DESIGN.md §3)
@@ -63,10 +68,6 @@ EXPECTED_AXIS = {
 }
 MIRRORED = {"hip_yaw", "hip_roll", "ankle_roll"}
 AXIS_WORD = {0: "forward", 1: "sideways", 2: "vertical"}
-
-
-class ImportRefused(ValueError):
-    """A file the gait cannot drive: the message names the joint (or body) and the number."""
 
 
 @dataclass(frozen=True)
@@ -114,14 +115,6 @@ class Mapping:
     notes: list[str] = field(default_factory=list)
 
 
-@dataclass
-class _Leg:
-    end: int  # the chain's last body
-    joints: list[int]  # hinge ids, trunk first
-    foot: int = -1  # the body of the last hinge
-    side: str = ""
-
-
 def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> Mapping:
     """The mapping of the compiled file `model` (its root body `root` welded where the file put
     it, every joint at its reference), or ImportRefused."""
@@ -129,8 +122,8 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
     mujoco.mj_kinematics(model, data)
     mujoco.mj_comPos(model, data)
     frame = Frame(data.xpos[root].copy(), data.xmat[root].reshape(3, 3).copy())
-    legs = _find_legs(model, data, root, frame)
-    feet_points = {id(leg): _foot_points(model, data, leg.foot, frame) for leg in legs}
+    legs = find_legs(model, data, root, frame)
+    feet_points = {id(leg): foot_points(model, data, leg.foot, frame) for leg in legs}
     com = frame.point(data.subtree_com[root])
     hips = [_crossing(model, data, frame, leg, 1, 2, "hip roll", "hip pitch") for leg in legs]
     down0 = unit(np.mean([feet_points[id(leg)].mean(axis=0) for leg in legs], axis=0) - com)
@@ -152,7 +145,7 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
         found = _leg_joints(model, data, frame, leg, to_trunk, hip, ankle, lengths)
         joints |= found
         feet[leg.side] = _foot(model, data, frame, leg, to_trunk, feet_points[id(leg)], ankle)
-    _check_mirror(lengths, hips, to_trunk)
+    check_mirror(lengths, hips, to_trunk)
     geometry = _geometry(model, data, frame, legs, to_trunk, hips, ankles, feet, lengths)
     in_legs = {int(j) for leg in legs for j in leg.joints}
     held = [
@@ -160,8 +153,8 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
         for j in range(model.njnt)
         if j not in in_legs and model.jnt_type[j] != mujoco.mjtJoint.mjJNT_FREE
     ]
-    _check_closed_chains(model, legs)
-    _check_third_leg(model, data, frame, root, legs, up, soles, geometry)
+    check_closed_chains(model, legs)
+    check_third_leg(model, data, frame, root, legs, up, soles, geometry)
     sites: dict[str, tuple[str, tuple[float, float, float]]] = {}
     for leg, hip, ankle in zip(legs, hips, ankles, strict=True):
         for what, point, j in (("hip", hip, leg.joints[2]), ("ankle", ankle, leg.joints[4])):
@@ -169,11 +162,11 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
             rot = frame.rotation.T @ data.xmat[body].reshape(3, 3)
             local = rot.T @ (point - frame.point(data.xpos[body]))
             sites[f"{leg.side}_{what}"] = (
-                _body(model, body),
+                body_name(model, body),
                 (float(local[0]), float(local[1]), float(local[2])),
             )
     return Mapping(
-        root_body=_body(model, root),
+        root_body=body_name(model, root),
         trunk_quat=quat_of(to_trunk),
         joints={
             name: joints[name] for side in "lr" for name in (f"{side}_{j}" for j in LEG_JOINTS)
@@ -181,106 +174,17 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
         feet=feet,
         held=held,
         geometry=geometry,
-        link_masses_kg=_link_masses(model, legs[0]),
+        link_masses_kg=link_masses(model, legs[0]),
         forward_from=told_by,
         sites=sites,
     )
-
-
-def _body(model: mujoco.MjModel, b: int) -> str:
-    return element_name(model, mujoco.mjtObj.mjOBJ_BODY, b)
-
-
-_named = element_name
-
-
-# --- the legs ---------------------------------------------------------------------------------
-
-
-def _find_legs(model: mujoco.MjModel, data: mujoco.MjData, root: int, frame: Frame) -> list[_Leg]:
-    """The two chains whose ends lie farthest, together, from the centre of mass: the legs."""
-    children = tree_children(model)
-    subtree = {root}
-    stack = [root]
-    while stack:
-        b = stack.pop()
-        subtree.update(children[b])
-        stack.extend(children[b])
-    ends = [b for b in subtree if b != root and not children[b]]
-    if len(ends) < 2:
-        raise ImportRefused(
-            f"the robot has {len(ends)} limb end(s) below its root body; a biped has two legs"
-        )
-    com = frame.point(data.subtree_com[root])
-    where = {b: frame.point(data.xpos[b]) for b in ends}
-    best, pair = -1.0, (ends[0], ends[1])
-    for i, a in enumerate(ends):
-        for b in ends[i + 1 :]:
-            if _branch(model, root, a, b) is None:
-                continue
-            reach = float(np.linalg.norm((where[a] + where[b]) / 2 - com))
-            if reach > best:
-                best, pair = reach, (a, b)
-    legs = []
-    branch = _branch(model, root, *pair)
-    for end in pair:
-        bodies = chain_path(model, branch if branch is not None else root, end)
-        hinges = []
-        for body in bodies:
-            for j in range(
-                model.body_jntadr[body], model.body_jntadr[body] + model.body_jntnum[body]
-            ):
-                if model.jnt_type[j] != mujoco.mjtJoint.mjJNT_HINGE:
-                    kind = {1: "ball", 2: "slide", 0: "free"}.get(int(model.jnt_type[j]), "other")
-                    raise ImportRefused(
-                        f"joint {joint_name(model, j)!r} in the leg ending at body "
-                        f"{_body(model, end)!r} is a {kind} joint; "
-                        "the gait drives hinges (a servo each)"
-                    )
-                hinges.append(j)
-        if len(hinges) != len(LEG_JOINTS):
-            names = ", ".join(joint_name(model, j) for j in hinges) or "none"
-            raise ImportRefused(
-                f"the leg ending at body {_body(model, end)!r} has "
-                f"{len(hinges)} hinge joints ({names}); the gait drives {len(LEG_JOINTS)} a leg: "
-                "hip yaw, hip roll, hip pitch, knee, ankle pitch, ankle roll"
-            )
-        legs.append(_Leg(end=end, joints=hinges, foot=int(model.jnt_bodyid[hinges[-1]])))
-    return legs
-
-
-def _branch(model: mujoco.MjModel, root: int, a: int, b: int) -> int | None:
-    """The body where the chains to `a` and `b` part (None: one lies on the other's chain)."""
-    path_a, path_b = [root, *chain_path(model, root, a)], [root, *chain_path(model, root, b)]
-    common = 0
-    while common < min(len(path_a), len(path_b)) and path_a[common] == path_b[common]:
-        common += 1
-    if common in (len(path_a), len(path_b)):
-        return None
-    return path_a[common - 1]
-
-
-def _foot_points(model: mujoco.MjModel, data: mujoco.MjData, foot: int, frame: Frame) -> Vec:
-    """The foot's collision geometry as points in the root frame; ImportRefused if it has none."""
-    geoms = [
-        g
-        for b in subtree_of(model, foot)
-        for g in range(model.ngeom)
-        if model.geom_bodyid[g] == b and collides(model, g)
-    ]
-    if not geoms:
-        raise ImportRefused(
-            f"the foot body {_body(model, foot)!r} has no collision "
-            "geometry: nothing for the robot to stand on (give the foot a collision geom)"
-        )
-    return np.concatenate([frame.point(geom_points(model, data, g)) for g in geoms])
 
 
 def _crossing(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     frame: Frame,
-    leg: _Leg,
+    leg: Leg,
     i: int,
     k: int,
     what_i: str,
@@ -304,7 +208,7 @@ def _forward(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     frame: Frame,
-    legs: list[_Leg],
+    legs: list[Leg],
     up: Vec,
     across: Vec,
     ankles: list[Vec],
@@ -364,7 +268,7 @@ def _leg_joints(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     frame: Frame,
-    leg: _Leg,
+    leg: Leg,
     to_trunk: Vec,
     hip: Vec,
     ankle: Vec,
@@ -426,7 +330,7 @@ def _foot(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     frame: Frame,
-    leg: _Leg,
+    leg: Leg,
     to_trunk: Vec,
     points: Vec,
     ankle: Vec,
@@ -445,7 +349,7 @@ def _foot(
     sole_rot = body_rot.T @ to_trunk.T  # sole (trunk-aligned) axes in the foot body
     plate, thickness = _plate(model, data, frame, leg.foot, to_trunk, height.min(), hi - lo)
     return FootMap(
-        body=_body(model, leg.foot),
+        body=body_name(model, leg.foot),
         sole_pos_m=(float(sole_pos[0]), float(sole_pos[1]), float(sole_pos[2])),
         sole_quat=quat_of(sole_rot),
         length_m=float(hi[0] - lo[0]),
@@ -489,82 +393,11 @@ def _plate(
 # --- checks across the legs -------------------------------------------------------------------
 
 
-def _check_mirror(lengths: dict[str, list[float]], hips: list[Vec], to_trunk: Vec) -> None:
-    for what, (a, b) in lengths.items():
-        allowed = max(MIRROR_TOLERANCE_M, MIRROR_TOLERANCE_FRACTION * max(a, b))
-        if abs(a - b) > allowed:
-            raise ImportRefused(
-                f"the legs are no mirror images: the left {what} is {1000 * a:.1f} mm, the right "
-                f"{1000 * b:.1f} mm (at most {1000 * allowed:.1f} mm apart); the gait walks both "
-                "legs with one geometry"
-            )
-    left, right = to_trunk @ hips[0], to_trunk @ hips[1]
-    for axis in (0, 2):
-        gap = abs(float(left[axis] - right[axis]))
-        if gap > MIRROR_TOLERANCE_M:
-            raise ImportRefused(
-                f"the legs are no mirror images: the hips lie {1000 * gap:.1f} mm apart "
-                f"{'forward' if axis == 0 else 'in height'} (at most "
-                f"{1000 * MIRROR_TOLERANCE_M:g} mm)"
-            )
-
-
-def _check_closed_chains(model: mujoco.MjModel, legs: list[_Leg]) -> None:
-    leg_bodies = {
-        b for leg in legs for b in subtree_of(model, int(model.jnt_bodyid[leg.joints[0]]))
-    }
-    for e in range(model.neq):
-        obj = mujoco.mjtObj.mjOBJ_JOINT if model.eq_type[e] == mujoco.mjtEq.mjEQ_JOINT else None
-        ids = {int(model.eq_obj1id[e]), int(model.eq_obj2id[e])}
-        bodies = {int(model.jnt_bodyid[i]) for i in ids if i >= 0} if obj else ids
-        if bodies & leg_bodies:
-            raise ImportRefused(
-                f"equality constraint {_named(model, mujoco.mjtObj.mjOBJ_EQUALITY, e)!r} closes a "
-                "chain through a leg; the gait drives open chains, a servo on each hinge"
-            )
-    for t in range(model.ntendon):
-        raise ImportRefused(
-            f"tendon {element_name(model, mujoco.mjtObj.mjOBJ_TENDON, t)!r}: the gait drives open "
-            "chains, a servo on each hinge (remove tendons and linkages from the file)"
-        )
-
-
-def _check_third_leg(
-    model: mujoco.MjModel,
-    data: mujoco.MjData,
-    frame: Frame,
-    root: int,
-    legs: list[_Leg],
-    up: Vec,
-    soles: list[Vec],
-    geometry: dict[str, float],
-) -> None:
-    ends = {leg.end for leg in legs}
-    children = tree_children(model)
-    floor = float(np.mean([s @ up for s in soles]))
-    leg_m = geometry["thigh_m"] + geometry["shank_m"]
-    for b in subtree_of(model, root):
-        if b in ends or children[b]:
-            continue
-        geoms = [g for g in range(model.ngeom) if model.geom_bodyid[g] == b and collides(model, g)]
-        if not geoms:
-            continue
-        low = min(float((frame.point(geom_points(model, data, g)) @ up).min()) for g in geoms)
-        if low - floor < THIRD_LEG_FRACTION * leg_m:
-            raise ImportRefused(
-                f"body {_body(model, b)!r} reaches down to "
-                f"{1000 * (low - floor):.0f} mm above the soles: a third leg; the gait walks two"
-            )
-
-
-# --- what the description carries ------------------------------------------------------------
-
-
 def _geometry(
     model: mujoco.MjModel,
     data: mujoco.MjData,
     frame: Frame,
-    legs: list[_Leg],
+    legs: list[Leg],
     to_trunk: Vec,
     hips: list[Vec],
     ankles: list[Vec],
@@ -592,18 +425,3 @@ def _geometry(
         "foot_width_m": float(np.mean([f.width_m for f in feet.values()])),
         "foot_thickness_m": float(np.mean([f.thickness_m for f in feet.values()])),
     }
-
-
-def _link_masses(model: mujoco.MjModel, leg: _Leg) -> dict[str, float]:
-    """Each link's mass on one leg (what each hinge moves that the next one does not) and the
-    trunk's (the rest)."""
-    links = ("hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot")
-    bodies = [int(model.jnt_bodyid[j]) for j in leg.joints]
-    masses = {}
-    for k, link in enumerate(links):
-        moved = set(subtree_of(model, bodies[k]))
-        below = set(subtree_of(model, bodies[k + 1])) if k + 1 < len(bodies) else set()
-        masses[link] = float(sum(model.body_mass[b] for b in moved - below))
-    root = int(model.body_rootid[bodies[0]])
-    masses["trunk"] = float(model.body_subtreemass[root]) - 2 * sum(masses[link] for link in links)
-    return masses
