@@ -76,10 +76,11 @@ from hardware.bus_timing import (
 
 @dataclass(frozen=True)
 class BusLink:
-    """The serial bus a robot's 12 servos sit on, IDs 1..12 in the gait's joint order."""
+    """The serial bus a robot's 12 servos sit on, their IDs in the gait's joint order."""
 
     protocol: str = "dynamixel"
     baud: int = 1_000_000  # what small bipeds on Dynamixel or Feetech buses run at
+    ids: tuple[int, ...] = tuple(range(1, 13))
 
     def __post_init__(self) -> None:
         if self.protocol not in PROTOCOLS or self.baud <= 0:
@@ -93,7 +94,7 @@ def sync_write_substeps(
     stands for (4096 steps a turn) and the physics step of the frame at which it acts (the
     packet's last byte received; its length varies with the byte stuffing of its values)."""
     steps = angle_to_steps(angles_rad)
-    ids = range(1, steps.shape[-1] + 1)
+    ids = link.ids
     substep = np.empty(steps.shape, dtype=np.int64)
     address, size = TABLES[link.protocol].fields["goal_position"]
     make = dxl_sync_write if link.protocol == "dynamixel" else sts_sync_write

@@ -121,7 +121,7 @@ class RobotModel:
         protocol = {"ROBOTIS": "dynamixel", "Feetech": "feetech"}.get(next(iter(makers)))
         if signals != {"bus"} or len(makers) != 1 or protocol is None:
             return None
-        return BusLink(protocol=protocol)
+        return BusLink(protocol=protocol, ids=tuple(self.description.bus_ids()))
 
     def summary(self) -> dict[str, Any]:
         """The description and the figures that follow from it (`artro robot show`,

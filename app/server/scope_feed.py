@@ -18,6 +18,7 @@ import numpy as np
 from app.server.scope_frames import frame_message
 from app.sim.frame_loop import FrameRecord
 from hardware import TdmConfig
+from hardware.servo_bus import BusLink
 
 HISTORY_FRAMES = 250  # 5 s of frames for GET /api/scope
 CLIENT_QUEUE_FRAMES = 10
@@ -28,11 +29,12 @@ class _Frame:
     record: FrameRecord
     params_version: int
     tdm: TdmConfig  # the robot's wiring when it was published (a switch of robots changes it)
+    bus: BusLink | None = None  # its bus, for a robot of bus servos
     text: str | None = None  # the JSON message, made once (a race makes it twice, both equal)
 
     def json(self) -> str:
         if self.text is None:
-            message = frame_message(self.record, self.tdm, self.params_version)
+            message = frame_message(self.record, self.tdm, self.params_version, self.bus)
             self.text = json.dumps(message, default=_json_default)
         return self.text
 
@@ -44,8 +46,9 @@ class ScopeClient:
 
 
 class ScopeFeed:
-    def __init__(self, tdm: TdmConfig) -> None:
+    def __init__(self, tdm: TdmConfig, bus: BusLink | None = None) -> None:
         self.tdm = tdm
+        self.bus = bus  # set with `tdm` by the simulation thread when the robot changes
         self._history: deque[_Frame] = deque(maxlen=HISTORY_FRAMES)
         self._recent: tuple[int, int, bytes] = (-1, 0, b"")  # (published, n, the JSON answer)
         self._clients: frozenset[ScopeClient] = frozenset()  # replaced on the event loop
@@ -60,7 +63,7 @@ class ScopeFeed:
     # --- simulation thread ----------------------------------------------------------------------
 
     def publish(self, record: FrameRecord, params_version: int) -> None:
-        frame = _Frame(record, params_version, self.tdm)
+        frame = _Frame(record, params_version, self.tdm, self.bus)
         with self._lock:
             self._history.append(frame)
             self.published += 1

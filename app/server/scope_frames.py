@@ -24,11 +24,16 @@ from hardware import (
     frame_edges,
     guard_violations,
 )
+from hardware.servo_bus import BusLink, bus_frame
 
 
-def frame_message(record: FrameRecord, tdm: TdmConfig, params_version: int) -> dict[str, Any]:
+def frame_message(
+    record: FrameRecord, tdm: TdmConfig, params_version: int, bus: BusLink | None = None
+) -> dict[str, Any]:
     """One scope frame: frame_to_dict plus frame number, time, phase, the version of the
-    parameters that produced it, and each slot's angle."""
+    parameters that produced it, and each slot's angle; for a robot of bus servos, the frame's
+    sync write (`bus`: its packet, bytes, time on the wire, the step its goals act at, each
+    servo's goal)."""
     data = frame_to_dict(record.ocr, tdm, saturated=record.saturated_servos, edges=record.pin_edges)
     angles = zip(SERVO_NAMES, record.setpoint.tolist(), strict=True)
     degrees = {name: math.degrees(a) for name, a in angles}
@@ -42,6 +47,29 @@ def frame_message(record: FrameRecord, tdm: TdmConfig, params_version: int) -> d
         "params_version": params_version,
         "source": "model" if record.pin_edges is None else "firmware",  # who made the pulses
         **data,
+        **({"bus": bus_message(record, bus)} if bus is not None else {}),
+    }
+
+
+def bus_message(record: FrameRecord, bus: BusLink) -> dict[str, Any]:
+    """The frame's sync write of its goals (docs/BUS.md): protocol, baud, the packet (hex), its
+    bytes and time on the wire, the frame's physics step its goals act at, each servo's goal."""
+    sent = bus_frame(
+        record.index, record.setpoint, protocol=bus.protocol, baud=bus.baud, ids=bus.ids
+    )
+    return {
+        "protocol": bus.protocol,
+        "baud": bus.baud,
+        "packet": sent.packet.hex(" "),
+        "bytes": len(sent.packet),
+        "wire_us": sent.wire_us,
+        "step": sent.substep(),
+        "goals": [
+            {"servo": name, "id": servo_id, "steps": steps, "deg": math.degrees(rad)}
+            for name, servo_id, steps, rad in zip(
+                SERVO_NAMES, bus.ids, sent.goal_steps, sent.goal_rad, strict=True
+            )
+        ],
     }
 
 

@@ -102,7 +102,7 @@ class SimThread:
             report=self.errors.append,
         )
         self.recorder.keep_params(snap.version, snap.parameter_set().to_dict())
-        self.scope = ScopeFeed(self.live.hardware.tdm)
+        self.scope = ScopeFeed(self.live.hardware.tdm, self.live.hardware.bus)
         self.paths = PathTracker()
         self.sensors = SensorTrace(robot)  # this thread writes; others read bulletin.sensors
         self._last_push: PushMark | None = None
@@ -428,6 +428,7 @@ class SimThread:
         self.bulletin.measure_load_of(self.live.loop.robot)
         self.sensors.measure(self.live.loop.robot)
         self.scope.tdm = self.live.hardware.tdm
+        self.scope.bus = self.live.hardware.bus
         self.recorder.restart(self.live.model_name)
         self.recorder.event("robot", robot=robot.name)
         self._reset()

@@ -27,6 +27,7 @@ from gait import (
 )
 from hardware import (
     FRAME_TICKS,
+    OCR_IDLE,
     SLOT_TICKS,
     TICK_US,
     HardwareSetup,
@@ -279,7 +280,7 @@ def _servo_setpoints(
 ) -> tuple[NDArray[np.int32], NDArray[np.bool_], NDArray[np.float64], NDArray[np.int64]]:
     """Joint angles (n, 12) -> pulses -> each servo's OCR, saturation, the set-point it decodes
     and the physics step of the frame at which it takes effect; on a robot of bus servos, the
-    frame's sync write instead (no pulse: OCR 0; docs/BUS.md)."""
+    frame's sync write instead (no pulse: idle OCR; docs/BUS.md)."""
     if hardware.bus is not None:
         return _bus_setpoints(angles, hardware, steps_per_frame, timestep_s)
     pulse_us, saturated = angles_to_pulses_us(angles, hardware.calibration)
@@ -304,7 +305,7 @@ def _bus_setpoints(
     held = np.clip(angles, lo, hi)
     setpoint, substep = sync_write_substeps(held, hardware.bus, round(timestep_s * 1e6))
     saturated = held != angles
-    ocr = np.zeros(angles.shape, dtype=np.int32)
+    ocr = np.full(angles.shape, OCR_IDLE, dtype=np.int32)  # no pulse: the TDM lines stay low
     return ocr, saturated, setpoint, np.minimum(substep, steps_per_frame)
 
 

@@ -6,6 +6,7 @@
 // laying the page out for the readout each time kept Chromium's renderer at ~70 % of a core, and
 // a busy machine then ran the page's state poll seconds late (issue 33).
 
+import { showBus } from "./scope-bus.js";
 import { api } from "./api.js";
 import { RollBuffer } from "./roll.js";
 import { CyclePlot } from "./cycle-plot.js";
@@ -278,6 +279,7 @@ function showFrameInfo(frame) {
   }
   infoShownAt = performance.now();
   updateFrameInfo(frame);
+  showBus(frame);
 }
 
 function placeholder(ctx, w, hgt, text) {

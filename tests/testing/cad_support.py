@@ -1,5 +1,6 @@
 """What the robot import's tests share: the built-in ArtRo exported as a CAD file's MJCF (its
-joints renamed as Darwin-OP names them), a cube as a binary STL, a mesh added, a zip made."""
+joints renamed as Darwin-OP names them), an OP3-like biped made with MjSpec, a cube as a binary
+STL, a mesh added, a zip made."""
 
 from __future__ import annotations
 
@@ -86,3 +87,111 @@ def artro_urdf_with_mesh(mesh: str = "package://artro_description/meshes/shell.s
     end = urdf.index("</link>", urdf.index('<link name="trunk"'))
     shell = f'<collision><geometry><mesh filename="{mesh}"/></geometry></collision>'
     return urdf[:end] + shell + urdf[end:]
+
+
+def op3_like() -> mujoco.MjSpec:
+    """A biped of OP3's layout made here (not its file): hip yaw through the roll/pitch
+    crossing, thigh 0.110 m, shank 0.110 m, 3.15 kg, arms and a head, box feet centred under
+    the ankles 30 mm down, knees without a range, axes turned as OP3 turns them, no meshes."""
+    spec = mujoco.MjSpec()
+    spec.compiler.degree = False
+    spec.modelname = "op3-like"
+    d = spec.default
+    d.joint.damping = [1.084, 0, 0]
+    d.joint.armature = 0.045
+    d.joint.frictionloss = 0.03
+    root = spec.worldbody.add_body(name="body_link", pos=[0, 0, 0.3])
+    root.add_freejoint()
+    _inertial(root, 1.349, [-0.015, 0, 0.066])
+    root.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.05, 0.07, 0.07], pos=[-0.015, 0, 0.075])
+    pan = _link(root, "head_pan_link", [-0.001, 0, 0.1365], "head_pan", [0, 0, 1], 0.0118)
+    tilt = _link(pan, "head_tilt_link", [0.01, 0.019, 0.0285], "head_tilt", [0, -1, 0], 0.1363)
+    tilt.add_geom(type=mujoco.mjtGeom.mjGEOM_BOX, size=[0.03, 0.03, 0.03], pos=[0, -0.019, 0.03])
+    for side, s in (("l", 1.0), ("r", -1.0)):
+        sho = _link(
+            root,
+            f"{side}_sho_pitch_link",
+            [-0.001, s * 0.06, 0.111],
+            f"{side}_sho_pitch",
+            [0, s, 0],
+            0.0118,
+        )
+        roll = _link(
+            sho,
+            f"{side}_sho_roll_link",
+            [0.019, s * 0.0285, -0.01],
+            f"{side}_sho_roll",
+            [-1, 0, 0],
+            0.1776,
+        )
+        el = _link(
+            roll, f"{side}_el_link", [0, s * 0.0904, -0.0001], f"{side}_el", [1, 0, 0], 0.0413
+        )
+        el.add_geom(
+            type=mujoco.mjtGeom.mjGEOM_CAPSULE,
+            size=[0.012, 0.03, 0],
+            pos=[-0.019, s * 0.05, 0],
+            quat=[0.7071, 0.7071, 0, 0],
+        )
+        yaw = _link(
+            root, f"{side}_hip_yaw_link", [0, s * 0.035, 0], f"{side}_hip_yaw", [0, 0, -1], 0.0118
+        )
+        hroll = _link(
+            yaw,
+            f"{side}_hip_roll_link",
+            [-0.024, 0, -0.0285],
+            f"{side}_hip_roll",
+            [-1, 0, 0],
+            0.1789,
+        )
+        pitch = _link(
+            hroll,
+            f"{side}_hip_pitch_link",
+            [0.0241, s * 0.019, 0],
+            f"{side}_hip_pitch",
+            [0, s, 0],
+            0.1154,
+        )
+        knee = _link(
+            pitch, f"{side}_knee_link", [0, 0, -0.11015], f"{side}_knee", [0, s, 0], 0.0402
+        )
+        ank = _link(
+            knee, f"{side}_ank_pitch_link", [0, 0, -0.11], f"{side}_ank_pitch", [0, -s, 0], 0.1789
+        )
+        foot = _link(
+            ank,
+            f"{side}_ank_roll_link",
+            [-0.0241, -s * 0.019, 0],
+            f"{side}_ank_roll",
+            [1, 0, 0],
+            0.0693,
+        )
+        foot.add_geom(
+            name=f"{side}_sole_box",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            size=[0.0635, 0.028, 0.004],
+            pos=[0.0241, s * 0.019, -0.0265],
+            mass=0,
+        )
+    for joint in spec.joints:
+        if joint.type == mujoco.mjtJoint.mjJNT_HINGE:
+            act = spec.add_actuator(
+                name=f"{joint.name}_act", target=joint.name, trntype=mujoco.mjtTrn.mjTRN_JOINT
+            )
+            act.set_to_position(kp=21.1)
+            act.forcerange = [-5, 5]
+            act.forcelimited = mujoco.mjtLimited.mjLIMITED_TRUE
+    return spec
+
+
+def _inertial(body, mass, pos):
+    body.mass, body.ipos = mass, pos
+    body.inertia = [1e-4 + mass * 1e-3] * 3
+    body.explicitinertial = True
+
+
+def _link(parent, name, pos, joint, axis, mass):
+    body = parent.add_body(name=name, pos=pos)
+    body.add_joint(name=joint, axis=axis)
+    _inertial(body, mass, [0, 0, -0.01])
+    return body
