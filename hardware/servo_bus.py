@@ -94,13 +94,11 @@ def sync_write_substeps(
     stands for (4096 steps a turn) and the physics step of the frame at which it acts (the
     packet's last byte received; its length varies with the byte stuffing of its values)."""
     steps = angle_to_steps(angles_rad)
-    ids = link.ids
     substep = np.empty(steps.shape, dtype=np.int64)
-    address, size = TABLES[link.protocol].fields["goal_position"]
-    make = dxl_sync_write if link.protocol == "dynamixel" else sts_sync_write
-    for k, row in enumerate(steps.reshape(-1, steps.shape[-1])):
-        packet = make(address, size, dict(zip(ids, row.tolist(), strict=True)))
-        substep.reshape(-1, steps.shape[-1])[k] = -(-wire_us(len(packet), link.baud) // timestep_us)
+    rows, ends = steps.reshape(-1, steps.shape[-1]), substep.reshape(-1, steps.shape[-1])
+    for k, row in enumerate(steps_to_angle(rows)):  # angles that quantise to the same steps
+        sent = bus_frame(0, row, protocol=link.protocol, baud=link.baud, ids=link.ids)
+        ends[k] = sent.substep(timestep_us)
     return steps_to_angle(steps), substep
 
 

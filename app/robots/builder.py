@@ -15,9 +15,8 @@ from app.robots.description import LEG_JOINTS, Part, RobotDescription
 from app.robots.model_parts import (
     BODY_GROUP,
     FLOOR_GROUP,
-    FSR_CORNERS,
-    FSR_ZONE_M,
     add_actuator,
+    add_fsr_zones,
     add_sensors,
     collide,
     joint_settings,
@@ -310,14 +309,6 @@ def _add_foot(foot: mujoco.MjsBody, robot: RobotDescription, side: str) -> None:
     )
     collide(plate, robot, BODY_GROUP)
     foot.add_site(name=f"{side}_sole", pos=[0, 0, -geo.ankle_to_sole_m], size=[0.006, 0, 0])
-    # the four force sensors under the sole, one per corner quadrant (docs/DESIGN.md §15): each
-    # reads what a MuJoCo touch sensor on its site would, once per frame (`app.sim.sensors`)
-    # a zone reaches past the plate's edge, so the contacts at its corners lie inside it
-    half_x, half_y = geo.foot_length_m / 4 + FSR_ZONE_M, geo.foot_width_m / 4 + FSR_ZONE_M
-    for corner, (sx, sy) in FSR_CORNERS.items():
-        foot.add_site(
-            name=f"{side}_fsr_{corner}",
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            pos=[sx * half_x, sy * half_y, -geo.ankle_to_sole_m],
-            size=[half_x, half_y, FSR_ZONE_M],
-        )
+    add_fsr_zones(
+        foot, side, [0.0, 0.0, -geo.ankle_to_sole_m], (geo.foot_length_m, geo.foot_width_m)
+    )

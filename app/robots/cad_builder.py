@@ -15,9 +15,10 @@ from app.robots.description import LEG_JOINTS, RobotDescription
 from app.robots.model_parts import (
     BODY_GROUP,
     FSR_CORNERS,
-    FSR_ZONE_M,
     add_actuator,
+    add_fsr_zones,
     add_sensors,
+    collide,
     joint_settings,
 )
 from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder
@@ -226,23 +227,8 @@ def _add_sole(spec: mujoco.MjSpec, robot: RobotDescription, side: str) -> None:
             quat=quat,
             mass=0.0,
         )
-        plate.contype = plate.conaffinity = 1
-        plate.group = BODY_GROUP
-        plate.friction = [
-            robot.contact.friction,
-            robot.contact.torsional_friction,
-            robot.contact.rolling_friction,
-        ]
-        plate.condim = robot.contact.condim
-    half_x, half_y = geo.foot_length_m / 4 + FSR_ZONE_M, geo.foot_width_m / 4 + FSR_ZONE_M
-    for corner, (sx, sy) in FSR_CORNERS.items():
-        body.add_site(
-            name=f"{side}_fsr_{corner}",
-            type=mujoco.mjtGeom.mjGEOM_BOX,
-            pos=list(at + rot @ [sx * half_x, sy * half_y, 0.0]),
-            quat=quat,
-            size=[half_x, half_y, FSR_ZONE_M],
-        )
+        collide(plate, robot, BODY_GROUP)
+    add_fsr_zones(body, side, list(at), (geo.foot_length_m, geo.foot_width_m), rot, quat)
 
 
 def _subtree_geoms(body: mujoco.MjsBody) -> list[mujoco.MjsGeom]:

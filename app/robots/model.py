@@ -14,9 +14,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.robots import RobotDescription, build_model, joint_settings, load_description
-from app.robots.builder import FSR_CORNERS
 from app.robots.cad_import import mapping_rows
 from app.robots.checks import eq1_torques, robot_warnings
+from app.robots.model_parts import FSR_CORNERS
 from gait import JOINT_NAMES, LegGeometry
 from hardware import ChannelMap, HardwareSetup, ServoCalibration, TdmConfig
 from hardware.servo_bus import BusLink

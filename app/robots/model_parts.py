@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 
 import mujoco
+import numpy as np
 
 from app.robots.description import LEG_JOINTS, RobotDescription
 from app.robots.servos import ServoSettings, servo_settings
@@ -17,6 +18,34 @@ FLOOR_GROUP, BODY_GROUP = 0, 1
 #: the force sensors under each sole: front/back, left/right, as signs of the sole's x and y
 FSR_CORNERS = {"fl": (1, 1), "fr": (1, -1), "bl": (-1, 1), "br": (-1, -1)}
 FSR_ZONE_M = 0.003  # a sensor's zone: its half height about the sole plane, its margin
+
+
+def add_fsr_zones(
+    foot: mujoco.MjsBody,
+    side: str,
+    sole_m: list[float],
+    plate_m: tuple[float, float],
+    sole_rot: np.ndarray | None = None,
+    sole_quat: list[float] | None = None,
+) -> None:
+    """The four force sensors under a sole (docs/DESIGN.md §15), each a box site over its corner
+    quadrant of the `plate_m` (length, width) plate whose centre is `sole_m` in the foot body,
+    the sole's axes `sole_rot` (default the body's): each reads what a MuJoCo touch sensor on its
+    site would, once per frame (`app.sim.sensors`); a zone reaches past the plate's edge, so the
+    contacts at its corners lie inside it."""
+    half_x, half_y = plate_m[0] / 4 + FSR_ZONE_M, plate_m[1] / 4 + FSR_ZONE_M
+    for corner, (sx, sy) in FSR_CORNERS.items():
+        offset = [sx * half_x, sy * half_y, 0.0]
+        if sole_rot is not None:
+            offset = list(sole_rot @ offset)
+        site = foot.add_site(
+            name=f"{side}_fsr_{corner}",
+            type=mujoco.mjtGeom.mjGEOM_BOX,
+            pos=[a + b for a, b in zip(sole_m, offset, strict=True)],
+            size=[half_x, half_y, FSR_ZONE_M],
+        )
+        if sole_quat is not None:
+            site.quat = sole_quat
 
 
 def joint_settings(robot: RobotDescription) -> dict[str, ServoSettings]:

@@ -42,7 +42,7 @@ def rest_accelerometers(model: mujoco.MjModel, data: mujoco.MjData) -> None:
 class SensorReading:
     """What the robot's sensors report for one frame: the IMU in its own axes (x forward, y
     left, z up when level) and each sole's four forces, left foot first, corners as
-    `app.robots.builder.FSR_CORNERS` (front-left, front-right, back-left, back-right)."""
+    `app.robots.model_parts.FSR_CORNERS` (front-left, front-right, back-left, back-right)."""
 
     gyro_rad_s: NDArray[np.float64]  # (3,)
     accel_m_s2: NDArray[np.float64]  # (3,) specific force: +g up at rest

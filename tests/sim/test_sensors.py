@@ -14,8 +14,8 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from app.robots import build_spec
-from app.robots.builder import FSR_CORNERS
 from app.robots.model import RobotModel
+from app.robots.model_parts import FSR_CORNERS
 from app.sim.force_sensors import fsr_forces
 from app.sim.frame_loop import FrameLoop, stand
 from app.sim.planning import START_PHASE_RAD
