@@ -18,8 +18,9 @@ from app.evaluation import Evaluator, Job
 from app.robots.description import RobotDescription
 from app.robots.swap import derived, derived_name, lightest_servo, mirror, with_servo
 from app.sim.headless import AT_LIMIT
+from app.worlds.fitted import fitted_ranges, fitted_variation
 from app.worlds.sampling import VariationRanges, sample
-from app.worlds.variations import FIELDS, Variation
+from app.worlds.variations import FIELDS, NOMINAL, Variation
 from gait import JOINT_NAMES, GaitParams, Motion
 from hardware import SAFETY_FACTOR
 
@@ -214,9 +215,12 @@ def dependence(variations: Sequence[Variation], failed: Sequence[bool]) -> dict[
     return best
 
 
-def jobs_for(gait: GaitParams, variations: Sequence[Variation]) -> list[Job]:
-    """The nominal runs of every case, then every variation's, case by case."""
-    nominal = [Job(gait, c.motion) for c in ROBUST_CASES]
+def jobs_for(
+    gait: GaitParams, variations: Sequence[Variation], base: Variation = NOMINAL
+) -> list[Job]:
+    """The nominal runs of every case (on a fitted robot: its fit, `base`), then every
+    variation's, case by case."""
+    nominal = [Job(gait, c.motion, variation=base) for c in ROBUST_CASES]
     return nominal + [Job(gait, c.motion, variation=v) for v in variations for c in ROBUST_CASES]
 
 
@@ -408,10 +412,12 @@ def run_robust(
     the threads or workers stay busy); the report as a JSON-ready dict, the same to the bit for a
     seed. `robot_arg` is the robot as the worst runs' `artro run --robot` gets it (default its
     name; the description's path for a robot from a file)."""
-    variations = sample(ranges, samples, seed)
+    base = fitted_variation(evaluator.robot)  # a fitted robot: ranges centred on its fit
+    drawn = fitted_ranges(evaluator.robot, ranges)
+    variations = sample(drawn, samples, seed)
     all_jobs: list[Job] = []
     for _, gait, _ in presets:
-        all_jobs += jobs_for(gait, variations)
+        all_jobs += jobs_for(gait, variations, base)
     metrics = evaluator.evaluate(
         all_jobs, duration_s=duration_s, warmup_s=warmup_s, progress=progress, cancel=cancel
     )
@@ -437,7 +443,8 @@ def run_robust(
         "seed": seed,
         "duration_s": duration_s,
         "warmup_s": warmup_s,
-        "ranges": {f: list(getattr(ranges, f)) for f in FIELDS},
+        "ranges": {f: list(getattr(drawn, f)) for f in FIELDS},
+        "fitted": base.to_text() if evaluator.robot.description.fitted else None,
         "pass_rule": PASS_RULE,
         "presets": reports,
     }

@@ -179,7 +179,13 @@ def robust(args: argparse.Namespace) -> int:
     progress = progress_printer(
         f"bench robust: {n_runs} runs of {duration:g} s ({', '.join(p.name for p in presets)} "
         f"on {args.samples} variation{'' if args.samples == 1 else 's'} of {robot.name}, "
-        f"seed {args.seed}) ...",
+        f"seed {args.seed}) ..."
+        + (
+            f"\n{robot.name} is fitted to a recording: the nominal runs walk its fit, the "
+            "variations are drawn about it, narrowed to its uncertainty (docs/FIT.md)"
+            if robot.description.fitted
+            else ""
+        ),
         sys.stderr,
         label="bench robust",
     )

@@ -10,13 +10,22 @@ import signal
 import stat
 import sys
 import threading
+from pathlib import Path
 from typing import Any, TextIO
 from urllib.parse import urlsplit
 
-from app.cli.options import SETS_HELP, number, resolve_set, subcommand
+from app.cli.options import (
+    SETS_HELP,
+    number,
+    output_file_of,
+    resolve_set,
+    starting_set,
+    subcommand,
+)
 from app.firmware.link import SerialLink, SerialPort
 from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
 from app.robots import load_description
+from app.robots.model import RobotModel
 
 DEFAULT_SERVER = "http://127.0.0.1:8000"
 STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
@@ -80,6 +89,21 @@ def add_parser(sub: Any) -> None:
         dest="sensors",
         action="store_false",
         help="do not ask for the robot's sensors (the Sensors panel shows the simulation only)",
+    )
+    p.add_argument(
+        "--script",
+        choices=["identify"],
+        default=None,
+        help="play a fixed routine on the robot instead of following: identify, ~60 s of "
+        "standing, weight shifts, steps and short walks, every law off (docs/FIT.md); with "
+        "--record; the set: --params or the robot's default (default: none)",
+    )
+    p.add_argument(
+        "--record",
+        type=output_file_of((".json",), "a JSON recording"),
+        default=None,
+        metavar="REC.json",
+        help="write the routine's recording here, for `artro fit` (default: none)",
     )
 
 
@@ -193,6 +217,11 @@ def link(args: argparse.Namespace, out: TextIO) -> int:
         raise ValueError("--port is needed (e.g. /dev/ttyUSB0), or --dry-run to print the messages")
     if args.dry_run and args.port:
         raise ValueError(f"--dry-run opens no port: leave --port {args.port} out, or --dry-run")
+    script = getattr(args, "script", None)
+    if (script is None) != (getattr(args, "record", None) is None):
+        raise ValueError("--script and --record go together: --script identify --record REC.json")
+    if script is not None and (args.server or args.dry_run):
+        raise ValueError("--script plays a routine on the robot: leave out --server and --dry-run")
     if args.params and args.server:
         raise ValueError(
             f"--params sends one set and follows no dashboard: leave --server {args.server} out"
@@ -208,6 +237,8 @@ def link(args: argparse.Namespace, out: TextIO) -> int:
     # the set and the dashboard first: a bad name, file or address is said before a port is opened
     firmware_robot = load_description(getattr(args, "robot", None)).name
     one_set = resolve_set(args.params, "--params").pset if args.params else None
+    if script is not None and one_set is None:
+        one_set = starting_set(RobotModel.load(getattr(args, "robot", None)), None, out)
     if one_set is None:
         check_server(args.server)
     elif one_set.robot != firmware_robot:
@@ -223,7 +254,9 @@ def link(args: argparse.Namespace, out: TextIO) -> int:
     previous = _stop_on_signals()
     try:
         robot.hello()
-        if one_set is not None:
+        if script is not None and one_set is not None:
+            record_to(robot, one_set, args, stop, out)
+        elif one_set is not None:
             robot.send_set(one_set.to_dict())
             robot.start()
         else:
@@ -246,6 +279,19 @@ def link(args: argparse.Namespace, out: TextIO) -> int:
     finally:
         servos_off = _switch_off(robot, stop, previous, out)
     return 0 if servos_off else 2  # a stop asked for, but the servos may still be on
+
+
+def record_to(robot: RobotLink, pset: Any, args: argparse.Namespace, stop: threading.Event,
+              out: TextIO) -> None:  # fmt: skip
+    """Play the identify routine and write its recording (docs/FIT.md)."""
+    from app.analysis import identify_record
+    from app.firmware.identify_link import record_identify
+
+    model = RobotModel.load(getattr(args, "robot", None))
+    recording = record_identify(robot, model, pset, stop, lambda s: print(s, file=out))
+    identify_record.write(recording, Path(args.record))
+    print(f"recorded {len(recording.frames.frame)} frames: {args.record} (artro fit "
+          f"{args.record} --robot {model.name})", file=out)  # fmt: skip
 
 
 def _switch_off(

@@ -10,6 +10,7 @@ import sys
 from collections.abc import Sequence
 from typing import Any
 
+from app.cli.identify import add_script_options, check_script, record_script
 from app.cli.options import (
     MAX_DURATION_S,
     add_motion_option,
@@ -19,6 +20,7 @@ from app.cli.options import (
     check_timing,
     motion_number,
     number,
+    output_file_of,
     robot_and_set,
     subcommand,
     variation,
@@ -30,6 +32,7 @@ from app.robots.servos import rating_at
 from app.robots.swap import ServoChoice, lightest_servo
 from app.sim.fall_cause import OVER_STIFF, FallCause, fall_cause
 from app.sim.headless import run
+from app.worlds.fitted import fitted_variation
 from app.worlds.variations import NOMINAL, Variation
 from gait import ENGINES, Motion
 
@@ -39,6 +42,8 @@ EXAMPLES = """examples:
   artro run --motion a_p=0.07,ca=0.1 --duration 60          curve walking
   artro run --motion a_p=0.07 --engine pfs --from-rest    seed 004's gait, from standing
   artro run --motion 0,0.07,0              the older triple AR,AP,AY: forward
+  artro run --script identify --record rec.json --vary latency_ms=20,kp_scale=0.9
+                                           a recording to fit (artro fit rec.json)
 
 exit status: 0 the robot walked the whole run, 1 it fell (the metrics are printed all the same,
 with a line on what to try on stderr), 2 bad input"""
@@ -73,17 +78,27 @@ def add_parser(sub: Any) -> None:
     r.add_argument(
         "--vary",
         type=variation,
-        default=NOMINAL,
+        default=None,
         metavar="KEY=VALUE,...",
         help="walk a varied model, e.g. friction=0.4,latency_ms=40,tilt_deg=2,cal.l_knee=1.2 "
         "(docs/DESIGN.md §8; `artro bench robust` names its worst variations so) "
-        "(default: none, the nominal model)",
+        "(default: none, the nominal model; a fitted robot's fit, docs/FIT.md)",
     )
     r.add_argument("--json", action="store_true", help="print the metrics as one JSON object")
+    add_script_options(r, output_file_of((".json",), "a JSON recording"))
+    r.set_defaults(parser_error=r.error)
 
 
 def command(args: argparse.Namespace) -> int:
+    check_script(args, args.parser_error)
     robot, pset = robot_and_set(args)
+    if args.vary is None:
+        args.vary = fitted_variation(robot)  # a fitted robot walks its fit (docs/FIT.md)
+    if robot.description.fitted is not None and args.vary == fitted_variation(robot):
+        print(f"{robot.name} is fitted to {robot.description.fitted.recording}: walking its fit "
+              f"({args.vary.name}); --vary replaces it", file=sys.stderr)  # fmt: skip
+    if args.script is not None:
+        return record_script(args, robot, pset)
     motion = pset.motion
     if args.motion is not None:
         motion = args.motion.applied(motion, args.ca)

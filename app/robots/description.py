@@ -16,6 +16,7 @@ from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, mode
 
 from app.assets import builtin_presets_dir
 from app.robots.cad_source import CadSource
+from app.robots.fitted import Fitted
 from app.robots.servos import ServoName, ServoSpec, rating_at, servo_table
 from gait import JOINT_NAMES, GaitParams, LegGeometry, Motion, joint_angles_with_flags
 from gait.leg_interface import knee_triangle
@@ -241,6 +242,9 @@ class RobotDescription(_Strict):
         None,
         description="imported from a URDF or MJCF file (`artro robot import`): the model "
         "is the file's, mapped onto the gait; its links' masses are the file's",
+    )
+    fitted: Fitted | None = Field(
+        None, description="the variation a fit to its recording found (`artro fit`)"
     )
 
     @model_validator(mode="after")

@@ -277,7 +277,8 @@ def load_description(robot: str | Path | RobotDescription | None = None) -> Robo
 def not_a_builtin_impostor(desc: RobotDescription, source: str) -> RobotDescription:
     """`desc`, unless it takes a built-in robot's name without being that robot (its presets,
     `tuned-NAME` and studies would then mix with the built-in's); RobotError then."""
-    if desc.name in builtin_robot_names() and desc != _builtin(desc.name):
+    plain = desc.model_copy(update={"fitted": None})  # a fitted robot is still that robot
+    if desc.name in builtin_robot_names() and plain != _builtin(desc.name):
         raise RobotError(
             f"{source} is named {desc.name!r} like a built-in robot it is not; give it a name of "
             "its own (name: in the description)"

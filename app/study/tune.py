@@ -35,6 +35,7 @@ from app.study.tune_loss import (
     meets_all_criteria,
     total_loss,
 )
+from app.worlds.fitted import fitted_ranges, fitted_variation
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import Variation
 from gait import GaitParams, Motion
@@ -143,6 +144,9 @@ class Tuner:
         self.runs = judged_runs(cases)
         self.dims = dimensions(names)
         self.evaluator = evaluator or BatchEvaluator()
+        #: a robot fitted to its recording walks its fit; robust worlds are drawn about it
+        self.fitted = fitted_variation(self.evaluator.robot)
+        self.ranges = fitted_ranges(self.evaluator.robot, self.ranges)
         self.duration_s, self.warmup_s = duration_s, warmup_s
         self.weights = weights = weights or LossWeights()
         start = base.gait.flat()
@@ -211,7 +215,7 @@ class Tuner:
             job
             for p in sets
             for job in (
-                *(Job(p, m) for _n, m in self.runs),
+                *(Job(p, m, variation=self.fitted) for _n, m in self.runs),
                 *(Job(p, m, variation=v) for v in worlds for _n, m in varied),
             )
         ]
