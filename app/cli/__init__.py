@@ -12,7 +12,19 @@ from collections.abc import Sequence
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from app.cli import bench, bus, calibrate_ca, export, firmware, link, robot, run, serve, tune
+    from app.cli import (
+        bench,
+        bus,
+        calibrate_ca,
+        drive,
+        export,
+        firmware,
+        link,
+        robot,
+        run,
+        serve,
+        tune,
+    )
     from app.cli.options import use_help_formatter
     from app.params.document import project_version
 
@@ -26,7 +38,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--version", action="version", version=f"artro-gait-studio {project_version()}"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for command in (serve, run, export, calibrate_ca, bench, tune, firmware, link, robot, bus):
+    for command in (
+        serve, run, export, calibrate_ca, bench, tune, firmware, link, robot, bus, drive,
+    ):  # fmt: skip
         command.add_parser(sub)
     use_help_formatter(parser)  # the action parsers too (firmware run, robot check, ...)
     return parser

@@ -1,5 +1,5 @@
 """`artro bus` as a subprocess for the tests: started, its port read from its first line, ended
-with a signal and its closing JSON line read back."""
+with a signal and its closing JSON line read back; a robot of bus servos written to a folder."""
 
 from __future__ import annotations
 
@@ -13,6 +13,7 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
 
 START_S = 60.0  # loading MuJoCo and the robot on a busy machine
@@ -62,3 +63,17 @@ def read_bytes(fd: int, n: int, timeout_s: float = 2.0) -> bytes:
             break
         got += os.read(fd, n - len(got))
     return got
+
+
+def bus_robot_file(folder: Path) -> Path:
+    """A robot of bus servos in `folder`: the built-in ArtRo exported as a CAD file's MJCF and
+    imported with Dynamixel XM430-W350s (`artro robot import --servo`), its description's
+    path; it walks the paper's gait in `artro run`."""
+    from app.robots.cad_import import import_robot, write_import
+    from tests.testing.cad_support import artro_mjcf
+
+    source, target = folder / "artro-cad.xml", folder / "artro-bus.yaml"
+    source.write_text(artro_mjcf(), encoding="utf-8")
+    imported = import_robot(source, output=target, name="artro-bus", servo="XM430-W350")
+    write_import(imported, target, "tests.testing.bus_support")
+    return target
