@@ -152,8 +152,9 @@ def drive(
         timeout_s=options.timeout_s,
     )  # fmt: skip
     missing = bus.missing()
-    present = bus.sync_read("present_position") if not missing else {}
-    missing += [i for i in options.ids if i not in present and i not in missing]
+    if not missing:  # each answered a PING: each must give its position too
+        present = bus.sync_read("present_position")
+        missing = [i for i in options.ids if i not in present]
     if missing:
         named = ", ".join(f"ID {i} ({joint_of(options.ids, i)})" for i in missing)
         raise ServoMissing(
