@@ -73,12 +73,16 @@ def test_against_the_virtual_bus_the_robot_walks_as_artro_run_walks_it(
         m = sim.handoff.measured
         trace.append(m.time_s, m.trunk, np.zeros(3), 0.0)
 
+    # lost_after 50 (1 s): the virtual bus shares this process and a loaded machine, and a
+    # stall of its thread is no lost servo
     with serial.Serial(bus.port, 1_000_000, timeout=0.015) as port:
         report = drive(
-            port, robot, PAPER, FORWARD, DriveOptions(duration_s=walk_s), threading.Event(),
-            on_frame,
+            port, robot, PAPER, FORWARD, DriveOptions(duration_s=walk_s, lost_after=50),
+            threading.Event(), on_frame,
         )  # fmt: skip
     assert report.ended == "duration" and report.torque_off
+    if sim.stats.drops:  # the machine starved the simulation thread: not the same physics
+        pytest.skip(f"the simulation fell {sim.stats.dropped_s:.2f} s behind real time")
     assert report.frames == 1000 and report.settle_frames == 50
     a = trace.arrays()
     t = a["t"] - a["t"][0]  # from the first walking frame, as `artro run` counts
