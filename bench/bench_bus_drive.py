@@ -3,8 +3,9 @@
     python bench/bench_bus_drive.py [--seconds 20] [--repeats 3] [--rate-hz 100] [--rt-seconds 10]
 
 Two cases. **walk**: the ArtRo imported with Dynamixel XM430-W350s (tests/testing/bus_support.py)
-on the virtual bus in this process (torque on, the factory's 500 µs return delay), driven by
-`drive()` for `--seconds` of the paper's gait at a_p = 0.07 after 1 s of settling; per repeat the
+on the virtual bus in this process (torque on, the factory's 500 µs return delay; its threads
+SCHED_FIFO 10 where permitted), driven by `artro drive` (its own process) for `--seconds` of the
+paper's gait at a_p = 0.07 after 1 s of settling; per repeat the
 simulated trunk's forward speed over whole cycles after 5 s against `artro run --from-rest`'s
 (the ratio; goal within 5 %), frames late, the sync write + sync read round trip at 50 Hz.
 **round trip**: `artro bus` as its own process, our `BusClient` at `--rate-hz` a SYNC_WRITE of 12
@@ -23,7 +24,6 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -34,62 +34,47 @@ import serial
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))  # the tests' bus robot
 from app.firmware.bus_client import BusClient
-from app.firmware.host_drive import DriveOptions, drive
 from app.firmware.virtual_bus import start_bus
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.sim.headless import run
-from app.sim.metrics import Trace, mean_body_velocity, whole_cycles
 from gait import Motion
 from hardware.servo_bus import steps_to_angle
-from tests.testing.bus_support import bus_robot_file
+from tests.testing.bus_support import bus_robot_file, drive_and_measure
 
 PAPER = builtin_presets()["paper"].gait
 FORWARD = Motion(a_p=0.07)
 WARMUP_S = 5.0
 IDS = list(range(1, 13))
-#: sync reads a servo may miss in a row (1 s): the virtual bus shares this process and the
-#: machine, and a stall of its thread is no lost servo (`artro drive` ends after 5 by default)
+#: sync reads a servo may miss in a row (1 s): the virtual bus shares the machine, and a stall
+#: of its thread is no lost servo (`artro drive` ends after 5 by default)
 LOST = 50
+RT_PRIORITY = 10  # the virtual bus's threads SCHED_FIFO where permitted (`artro bus --rt-priority`)
 
 
-def walk_case(robot: RobotModel, seconds: float) -> dict[str, Any]:
-    """One drive of `seconds` against the virtual bus in this process: its figures."""
+def walk_case(robot: RobotModel, robot_file: Path, seconds: float) -> dict[str, Any]:
+    """`artro drive` for `seconds` against the virtual bus in this process: its figures."""
     interval = sys.getswitchinterval()
     sys.setswitchinterval(0.0005)  # as `artro bus` runs
-    bus, sim, stop, threads = start_bus(robot, torque_on=True)
-    trace = Trace()
-
-    def on_frame(_k: int) -> None:
-        m = sim.handoff.measured
-        trace.append(m.time_s, m.trunk, np.zeros(3), 0.0)
-
     try:
-        with serial.Serial(bus.port, 1_000_000, timeout=0.015) as port:
-            report = drive(
-                port, robot, PAPER, FORWARD, DriveOptions(duration_s=seconds, lost_after=LOST),
-                threading.Event(), on_frame,
-            )  # fmt: skip
+        bus, sim, stop, threads = start_bus(robot, torque_on=True, rt_priority=RT_PRIORITY)
+    except OSError:  # not permitted here: the normal scheduler
+        bus, sim, stop, threads = start_bus(robot, torque_on=True)
+    args = ["--robot", str(robot_file), "--params", "paper", "--motion", "a_p=0.07"]
+    try:
+        walk = drive_and_measure(
+            sim, bus.port, [*args, "--lost-after", str(LOST)], seconds, WARMUP_S,
+            PAPER.clock.freq_hz,
+        )  # fmt: skip
     finally:
         stop.set()
         for thread in threads:
             thread.join()
         bus.close()
         sys.setswitchinterval(interval)
-    a = trace.arrays()
-    forward = None
-    if report.ended == "duration":
-        t = a["t"] - a["t"][0]
-        window = whole_cycles(t, WARMUP_S, PAPER.clock.freq_hz)
-        forward = (
-            100
-            * mean_body_velocity(
-                t[window], a["x"][window], a["y"][window], a["yaw"][window], PAPER.clock.freq_hz
-            )[0]
-        )
     return {
-        "forward_cm_s": forward,
-        "drive": report.summary(),
+        "forward_cm_s": walk.forward_cm_s,
+        "drive": walk.summary,
         "sim_real_time_factor": sim.real_time_factor,
         "sim_lag_max_ms": sim.stats.lag_max_s * 1e3,
         "sim_late_goals": sim.stats.late_goals,
@@ -160,7 +145,7 @@ def main() -> None:
                   start_motion=Motion(), robot=robot).metrics  # fmt: skip
         walks = []
         for k in range(args.repeats):
-            walk = walk_case(robot, args.seconds)
+            walk = walk_case(robot, robot_file, args.seconds)
             d = walk["drive"]
             if walk["forward_cm_s"] is None:
                 print(f"walk {k + 1}: ended early ({d['ended']}): {d}")
