@@ -4,7 +4,8 @@
 
 Two cases. **walk**: the ArtRo imported with Dynamixel XM430-W350s (tests/testing/bus_support.py)
 on the virtual bus in this process (torque on, the factory's 500 µs return delay; its threads
-SCHED_FIFO 10 where permitted), driven by `artro drive` (its own process) for `--seconds` of the
+SCHED_FIFO 10 where permitted), driven by `artro drive` (its own process, `--rt-priority 10`
+where permitted) for `--seconds` of the
 paper's gait at a_p = 0.07 after 1 s of settling; per repeat the
 simulated trunk's forward speed over whole cycles after 5 s against `artro run --from-rest`'s
 (the ratio; goal within 5 %), frames late, the sync write + sync read round trip at 50 Hz.
@@ -40,7 +41,7 @@ from app.robots.model import RobotModel
 from app.sim.headless import run
 from gait import Motion
 from hardware.servo_bus import steps_to_angle
-from tests.testing.bus_support import bus_robot_file, drive_and_measure
+from tests.testing.bus_support import RT_PRIORITY, bus_robot_file, drive_and_measure, rt_permitted
 
 PAPER = builtin_presets()["paper"].gait
 FORWARD = Motion(a_p=0.07)
@@ -49,17 +50,14 @@ IDS = list(range(1, 13))
 #: sync reads a servo may miss in a row (1 s): the virtual bus shares the machine, and a stall
 #: of its thread is no lost servo (`artro drive` ends after 5 by default)
 LOST = 50
-RT_PRIORITY = 10  # the virtual bus's threads SCHED_FIFO where permitted (`artro bus --rt-priority`)
 
 
 def walk_case(robot: RobotModel, robot_file: Path, seconds: float) -> dict[str, Any]:
     """`artro drive` for `seconds` against the virtual bus in this process: its figures."""
     interval = sys.getswitchinterval()
     sys.setswitchinterval(0.0005)  # as `artro bus` runs
-    try:
-        bus, sim, stop, threads = start_bus(robot, torque_on=True, rt_priority=RT_PRIORITY)
-    except OSError:  # not permitted here: the normal scheduler
-        bus, sim, stop, threads = start_bus(robot, torque_on=True)
+    priority = RT_PRIORITY if rt_permitted() else 0
+    bus, sim, stop, threads = start_bus(robot, torque_on=True, rt_priority=priority)
     args = ["--robot", str(robot_file), "--params", "paper", "--motion", "a_p=0.07"]
     try:
         walk = drive_and_measure(
@@ -79,6 +77,7 @@ def walk_case(robot: RobotModel, robot_file: Path, seconds: float) -> dict[str, 
         "sim_lag_max_ms": sim.stats.lag_max_s * 1e3,
         "sim_late_goals": sim.stats.late_goals,
         "sim_kept_real_time": sim.stats.drops == 0,  # no debt dropped: the same physics
+        "rt_priority": priority,
         "load_average_1min": os.getloadavg()[0],
     }
 

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import signal
 import sys
 import threading
@@ -27,6 +28,7 @@ EXAMPLES = """examples:
   artro drive --bus /dev/pts/7 --robot op3.yaml --params paper --motion a_p=0.07 --duration 30
   artro drive --bus /dev/ttyUSB0 --protocol feetech --baud 1000000 --robot my.yaml
   artro drive --bus /dev/ttyUSB0 --ids 11,12,13,14,15,16,21,22,23,24,25,26 --no-read
+  sudo artro drive --bus /dev/ttyUSB0 --robot my.yaml --rt-priority 10   frames on time
 
 exit status: 0 the walk ended (its time, Ctrl-C or SIGTERM), 1 a servo was lost or the port
 failed (the torque switched off, the servo named), 2 bad input or a servo missing at the start;
@@ -51,6 +53,19 @@ def servo_ids(text: str) -> tuple[int, ...]:
             f"joint in the gait's order (l_hip_yaw ... r_ankle_roll); got {text!r}"
         )
     return ids
+
+
+def real_time(priority: int) -> None:
+    """This process SCHED_FIFO at `priority` (its loop sleeps between frames, never spins);
+    OSError in a sentence where the system does not permit it."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (OSError, AttributeError) as exc:
+        why = getattr(exc, "strerror", None) or "not on this system"
+        raise OSError(
+            f"--rt-priority {priority}: the frame loop cannot run SCHED_FIFO here ({why}); it "
+            "needs Linux and CAP_SYS_NICE (root, or an rtprio limit), or leave the option out"
+        ) from None
 
 
 def add_parser(sub: Any) -> None:
@@ -124,6 +139,13 @@ def add_parser(sub: Any) -> None:
         "drive ends (default: 5)",
     )
     p.add_argument(
+        "--rt-priority",
+        type=number(0, 99, integer=True, what="--rt-priority"),
+        default=0,
+        help="run the frame loop SCHED_FIFO at this priority, 1-99 (Linux, CAP_SYS_NICE): "
+        "frames on time on a busy machine (default: 0, the normal scheduler)",
+    )
+    p.add_argument(
         "--no-read",
         action="store_true",
         help="send the goals only, no sync read of the present positions: faster, but a lost "
@@ -151,6 +173,8 @@ def command(args: argparse.Namespace) -> int:
         timeout_s=args.timeout_ms / 1000,
         lost_after=args.lost_after,
     )
+    if args.rt_priority > 0:
+        real_time(args.rt_priority)
     port = open_port(args.bus, args.baud)
     stop = threading.Event()
 
@@ -167,6 +191,7 @@ def command(args: argparse.Namespace) -> int:
         file=sys.stderr,
         flush=True,
     )
+
     def on_frame(k: int) -> None:
         if k == 0:
             print("artro drive: walking", file=sys.stderr, flush=True)

@@ -34,6 +34,7 @@ def _drive(*args: str, timeout_s: float = 60.0) -> subprocess.CompletedProcess[s
         (["--bus", "/dev/null", "--timeout-ms", "20"], "--timeout-ms must be a whole number"),
         (["--bus", "/dev/null", "--duration", "0"], "--duration must be > 0"),
         (["--bus", "/dev/null", "--protocol", "can"], "invalid choice: 'can'"),
+        (["--bus", "/dev/null", "--rt-priority", "100"], "--rt-priority must be a whole number"),
         ([], "the following arguments are required: --bus"),
         (["--bus", "/"], "the port / is not a serial device (a folder)"),
     ],

@@ -10,6 +10,7 @@ import select
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -95,13 +96,37 @@ class DrivenWalk:
     returncode: int
 
 
+RT_PRIORITY = 10  # SCHED_FIFO for the real-time parts where the machine permits it
+
+
+def rt_permitted(priority: int = RT_PRIORITY) -> bool:
+    """Whether a thread of this process may run SCHED_FIFO at `priority` (tried on a thread that
+    then ends)."""
+    permitted: list[bool] = []
+
+    def probe() -> None:
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+            permitted.append(True)
+        except (OSError, AttributeError):
+            permitted.append(False)
+
+    thread = threading.Thread(target=probe)
+    thread.start()
+    thread.join()
+    return permitted[0]
+
+
 def drive_and_measure(
     sim: BusSimulation, port: str, args: list[str], walk_s: float, warmup_s: float, freq_hz: float
 ) -> DrivenWalk:
-    """Run `artro drive --bus PORT ARGS --duration WALK_S` (its own process, as a user runs it)
-    against the virtual bus whose simulation `sim` is in this process; the trunk is sampled as
-    the simulation publishes it, from the drive's first walking frame on (its "walking" line)."""
+    """Run `artro drive --bus PORT ARGS --duration WALK_S` (its own process, as a user runs it;
+    `--rt-priority` where permitted) against the virtual bus whose simulation `sim` is in this
+    process; the trunk is sampled as the simulation publishes it, from the drive's first walking
+    frame on (its "walking" line)."""
     command = [sys.executable, "-m", "app.cli", "drive", "--bus", port, *args]
+    if rt_permitted():
+        command += ["--rt-priority", str(RT_PRIORITY)]
     drive = subprocess.Popen(
         [*command, "--duration", f"{walk_s:g}"],
         stdout=subprocess.PIPE,
