@@ -47,6 +47,7 @@ PAPER = builtin_presets()["paper"].gait
 FORWARD = Motion(a_p=0.07)
 WARMUP_S = 5.0
 IDS = list(range(1, 13))
+STARVED_MS = 100.0  # a frame this late: the machine held the drive back (as the walk test)
 #: sync reads a servo may miss in a row (1 s): the virtual bus shares the machine, and a stall
 #: of its thread is no lost servo (`artro drive` ends after 5 by default)
 LOST = 50
@@ -169,15 +170,20 @@ def main() -> None:
         f"{trip['load_average_1min']:.1f}"
     )
     ratios = [w["speed_ratio"] for w in walks] or [math.nan]
-    kept = [w["speed_ratio"] for w in walks if w["sim_kept_real_time"]] or [math.nan]
+    kept = [  # both real-time parts kept their time: the simulation, the host's frames
+        w["speed_ratio"]
+        for w in walks
+        if w["sim_kept_real_time"] and w["drive"]["late_max_ms"] <= STARVED_MS
+    ] or [math.nan]
     headline = {
         "walk: repeats that walked their whole time": len(walks),
-        "walk: repeats whose simulation kept real time": len(kept) - math.isnan(kept[0]),
+        "walk: repeats that kept real time (simulation, frames ≤ 100 ms late)": len(kept)
+        - math.isnan(kept[0]),
         "walk: speed ratio to artro run, median (goal 1 ± 0.05)": float(np.median(ratios)),
         "walk: speed ratio, lowest": min(ratios),
         "walk: speed ratio, highest": max(ratios),
-        "walk: speed ratio where the simulation kept real time, lowest": min(kept),
-        "walk: speed ratio where the simulation kept real time, highest": max(kept),
+        "walk: speed ratio where real time was kept, lowest": min(kept),
+        "walk: speed ratio where real time was kept, highest": max(kept),
         "walk: frames late, most of a repeat": max(
             (w["drive"]["late_frames"] for w in walks), default=math.nan
         ),
