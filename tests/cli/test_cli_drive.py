@@ -19,6 +19,8 @@ from hardware.servo_bus import READ, dxl_packet, dxl_status
 from tests.testing.bus_support import START_S, artro_bus, read_bytes
 
 DRIVE = [sys.executable, "-m", "app.cli", "drive"]
+#: `artro bus` runs at the normal scheduler on a shared machine: a stall of it is no lost servo
+PATIENT = ["--lost-after", "50"]
 
 
 def _drive(*args: str, timeout_s: float = 60.0) -> subprocess.CompletedProcess[str]:
@@ -82,7 +84,7 @@ def test_sigterm_switches_the_torque_off_and_says_what_was_driven() -> None:
     with artro_bus("--torque-on") as bus:
         assert _torque(bus.port) == [1] * 12
         drive = subprocess.Popen(
-            [*DRIVE, "--bus", bus.port, "--params", "paper", "--motion", "a_p=0.05"],
+            [*DRIVE, "--bus", bus.port, "--params", "paper", "--motion", "a_p=0.05", *PATIENT],
             stdout=subprocess.PIPE,
             stderr=subprocess.PIPE,
             text=True,
@@ -109,7 +111,7 @@ def test_a_feetech_bus_is_driven_for_its_duration() -> None:
     with artro_bus("--protocol", "feetech", "--torque-on") as bus:
         done = _drive(
             "--bus", bus.port, "--protocol", "feetech", "--params", "paper",
-            "--duration", "1", "--settle", "0.2",
+            "--duration", "1", "--settle", "0.2", *PATIENT,
         )  # fmt: skip
         assert done.returncode == 0, done.stderr
         summary = json.loads(done.stdout.strip().splitlines()[-1])
