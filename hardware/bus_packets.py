@@ -88,6 +88,13 @@ def dxl_sync_write(address: int, size: int, values: dict[int, int]) -> bytes:
     return dxl_packet(BROADCAST_ID, SYNC_WRITE, params)
 
 
+def dxl_sync_read(address: int, size: int, ids: list[int]) -> bytes:
+    """SYNC_READ of `size` bytes at `address` from each of `ids`, to the broadcast ID; each
+    servo answers in the order of `ids`."""
+    params = address.to_bytes(2, "little") + size.to_bytes(2, "little") + bytes(ids)
+    return dxl_packet(BROADCAST_ID, SYNC_READ, params)
+
+
 # --- Feetech STS ----------------------------------------------------------------------------
 
 STS_HEADER = b"\xff\xff"
@@ -119,6 +126,11 @@ def sts_sync_write(address: int, size: int, values: dict[int, int]) -> bytes:
     for servo_id, value in values.items():
         params += bytes([servo_id]) + (value & ((1 << 8 * size) - 1)).to_bytes(size, "little")
     return sts_packet(BROADCAST_ID, SYNC_WRITE, params)
+
+
+def sts_sync_read(address: int, size: int, ids: list[int]) -> bytes:
+    """SYNC_READ (0x82) of `size` bytes at `address` from each of `ids`, in their order."""
+    return sts_packet(BROADCAST_ID, SYNC_READ, bytes([address, size, *ids]))
 
 
 def _check_byte(value: int, what: str) -> None:

@@ -16,6 +16,7 @@ def build_parser() -> argparse.ArgumentParser:
         bench,
         bus,
         calibrate_ca,
+        drive,
         export,
         firmware,
         fit,
@@ -38,7 +39,9 @@ def build_parser() -> argparse.ArgumentParser:
         "--version", action="version", version=f"artro-gait-studio {project_version()}"
     )
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
-    for command in (serve, run, export, calibrate_ca, bench, tune, fit, firmware, link, robot, bus):
+    for command in (
+        serve, run, export, calibrate_ca, bench, tune, fit, firmware, link, robot, bus, drive,
+    ):  # fmt: skip
         command.add_parser(sub)
     use_help_formatter(parser)  # the action parsers too (firmware run, robot check, ...)
     return parser

@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
-from app.sim.frame_loop import stand
+from app.sim.frame_loop import stand, trunk_yaw
 from gait import GaitParams, Motion
 
 TICK_S = 0.002  # the simulation catches up with the wall clock this often
@@ -37,12 +37,14 @@ class Goals:
 @dataclass(frozen=True)
 class Measured:
     """What the simulation last published: sim time (s), and per joint position (rad),
-    velocity (rad/s), load (fraction of stall torque)."""
+    velocity (rad/s), load (fraction of stall torque); the trunk's x, y (m) and yaw (rad) in
+    the world (docs/DESIGN.md §3), what a run's metrics are taken from."""
 
     time_s: float
     position_rad: tuple[float, ...]
     velocity_rad_s: tuple[float, ...]
     load: tuple[float, ...]
+    trunk: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
 class Handoff:
@@ -113,6 +115,7 @@ class BusSimulation:
             position_rad=tuple(d.qpos[r.qpos_adr].tolist()),
             velocity_rad_s=tuple(d.qvel[r.dof_adr].tolist()),
             load=tuple((force / self._stall_nm).tolist()),
+            trunk=(float(d.qpos[0]), float(d.qpos[1]), trunk_yaw(d.qpos[3:7])),
         )
 
     def _apply(self, goals: Goals) -> None:

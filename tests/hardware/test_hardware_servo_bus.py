@@ -33,9 +33,11 @@ from hardware.servo_bus import (
     crc16,
     dxl_packet,
     dxl_status,
+    dxl_sync_read,
     dxl_sync_write,
     steps_to_angle,
     sts_packet,
+    sts_sync_read,
     sts_sync_write,
     wire_us,
 )
@@ -56,6 +58,7 @@ def test_dynamixel_packets_are_the_e_manuals_examples() -> None:
     assert dxl_packet(BROADCAST_ID, SYNC_READ, H("840004000102")) == H(
         "ffff fd00 fe09 0082 8400 0400 0102 cefa"
     )
+    assert dxl_sync_read(132, 4, [1, 2]) == H("ffff fd00 fe09 0082 8400 0400 0102 cefa")
     assert crc16(H("fffffd0001030001")) == 0x4E19
 
 
@@ -79,6 +82,8 @@ def test_feetech_packets_carry_the_inverted_sum() -> None:
     assert sts_sync_write(42, 2, {1: 2048, 2: 1000}) == H("ffff") + body + bytes(
         [~sum(body) & 0xFF]
     )
+    # SYNC_READ of the present position (56, 2 bytes) from IDs 1, 2: ~(FE+06+82+38+02+01+02)
+    assert sts_sync_read(56, 2, [1, 2]) == H("ffff fe06 8238 0201 023c")
 
 
 def test_the_parser_splits_skips_noise_and_names_a_bad_crc() -> None:

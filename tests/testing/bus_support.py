@@ -1,5 +1,6 @@
 """`artro bus` as a subprocess for the tests: started, its port read from its first line, ended
-with a signal and its closing JSON line read back."""
+with a signal and its closing JSON line read back; a robot of bus servos written to a folder;
+`artro drive` run against a virtual bus in this process, the simulated trunk's speed measured."""
 
 from __future__ import annotations
 
@@ -9,11 +10,18 @@ import select
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Any
+
+import numpy as np
+
+from app.sim.bus_drive import BusSimulation
+from app.sim.metrics import Trace, mean_body_velocity, whole_cycles
 
 START_S = 60.0  # loading MuJoCo and the robot on a busy machine
 
@@ -62,3 +70,95 @@ def read_bytes(fd: int, n: int, timeout_s: float = 2.0) -> bytes:
             break
         got += os.read(fd, n - len(got))
     return got
+
+
+def bus_robot_file(folder: Path) -> Path:
+    """A robot of bus servos in `folder`: the built-in ArtRo exported as a CAD file's MJCF and
+    imported with Dynamixel XM430-W350s (`artro robot import --servo`), its description's
+    path; it walks the paper's gait in `artro run`."""
+    from app.robots.cad_import import import_robot, write_import
+    from tests.testing.cad_support import artro_mjcf
+
+    source, target = folder / "artro-cad.xml", folder / "artro-bus.yaml"
+    source.write_text(artro_mjcf(), encoding="utf-8")
+    imported = import_robot(source, output=target, name="artro-bus", servo="XM430-W350")
+    write_import(imported, target, "tests.testing.bus_support")
+    return target
+
+
+@dataclass
+class DrivenWalk:
+    """`artro drive`'s walk as the simulation saw it: the trunk's forward speed (cm/s) over whole
+    cycles after the warm-up, the drive's closing JSON line, its exit status."""
+
+    forward_cm_s: float | None
+    summary: dict[str, Any]
+    returncode: int
+
+
+RT_PRIORITY = 10  # SCHED_FIFO for the real-time parts where the machine permits it
+
+
+def rt_permitted(priority: int = RT_PRIORITY) -> bool:
+    """Whether a thread of this process may run SCHED_FIFO at `priority` (tried on a thread that
+    then ends)."""
+    permitted: list[bool] = []
+
+    def probe() -> None:
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+            permitted.append(True)
+        except (OSError, AttributeError):
+            permitted.append(False)
+
+    thread = threading.Thread(target=probe)
+    thread.start()
+    thread.join()
+    return permitted[0]
+
+
+def drive_and_measure(
+    sim: BusSimulation, port: str, args: list[str], walk_s: float, warmup_s: float, freq_hz: float
+) -> DrivenWalk:
+    """Run `artro drive --bus PORT ARGS --duration WALK_S` (its own process, as a user runs it;
+    `--rt-priority` where permitted) against the virtual bus whose simulation `sim` is in this
+    process; the trunk is sampled as the simulation publishes it, from the drive's first walking
+    frame on (its "walking" line)."""
+    command = [sys.executable, "-m", "app.cli", "drive", "--bus", port, *args]
+    if rt_permitted():
+        command += ["--rt-priority", str(RT_PRIORITY)]
+    drive = subprocess.Popen(
+        [*command, "--duration", f"{walk_s:g}"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert drive.stderr is not None
+    said: list[str] = []
+    while not said or said[-1] != "artro drive: walking":
+        ready, _, _ = select.select([drive.stderr], [], [], START_S)
+        line = drive.stderr.readline() if ready else ""
+        if not line:
+            drive.kill()
+            raise AssertionError(f"artro drive did not start walking: {said}")
+        said.append(line.strip())
+    start_s = sim.handoff.measured.time_s  # frame 0 has just gone out
+    trace = Trace()
+    while True:  # a sample per frame or so: each carries the simulated time it was taken at
+        m = sim.handoff.measured
+        if m.time_s <= start_s + walk_s and (not trace.t_s or m.time_s > trace.t_s[-1]):
+            trace.append(m.time_s - start_s, m.trunk, np.zeros(3), 0.0)
+        try:
+            drive.wait(timeout=0.01)
+            break
+        except subprocess.TimeoutExpired:
+            continue
+    out, err = drive.communicate(timeout=30)
+    summary = json.loads(out.strip().splitlines()[-1]) if out.strip() else {"stderr": err}
+    forward = None
+    if summary.get("ended") == "duration":
+        a = trace.arrays()
+        window = whole_cycles(a["t"], warmup_s, freq_hz)
+        t, x, y, yaw = (a[k][window] for k in ("t", "x", "y", "yaw"))
+        forward = 100 * mean_body_velocity(t, x, y, yaw, freq_hz)[0]
+    return DrivenWalk(forward, summary, drive.returncode)
