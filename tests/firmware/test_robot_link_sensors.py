@@ -7,7 +7,6 @@ costs the link nothing."""
 
 from __future__ import annotations
 
-import math
 import threading
 
 import numpy as np
@@ -20,28 +19,19 @@ from app.firmware.robot_link import RobotLink, _plain, follow
 from app.firmware.robot_telemetry import SensorForwarder, frame_json
 from app.firmware.sensor_feed import (
     GYRO_ZERO_RATE_COUNTS,
-    ONE_G_COUNTS,
-    RawSample,
     decoded,
     sample_of,
 )
 from gait.attitude import accel_tilt
 from hardware.firmware.schema import values_from_document
-from tests.testing.firmware_support import emulator, preset, served_on_a_pty
+from tests.testing.firmware_support import (
+    PITCH_RAD,
+    emulator,
+    preset,
+    served_on_a_pty,
+    tilted,
+)
 from tests.testing.server_harness import client, running_server, wait_for
-
-PITCH_RAD, ROLL_RAD = 0.12, -0.07  # the trunk as the emulated IMU sees it, still
-
-
-def tilted() -> RawSample:
-    """Still, leaning forward and to the right: the accelerometer's share of 1 g on each axis."""
-    g = ONE_G_COUNTS
-    accel = (
-        round(-g * math.sin(PITCH_RAD)),
-        round(g * math.cos(PITCH_RAD) * math.sin(ROLL_RAD)),
-        round(g * math.cos(PITCH_RAD) * math.cos(ROLL_RAD)),
-    )
-    return RawSample(accel, GYRO_ZERO_RATE_COUNTS, (300, 200, 300, 200, 0, 0, 0, 0))  # type: ignore[arg-type]
 
 
 @pytest.fixture

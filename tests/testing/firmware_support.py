@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import copy
 import json
+import math
 import threading
 from collections.abc import Iterator
 from typing import Any
@@ -13,6 +14,7 @@ from app.assets import builtin_presets_dir
 from app.firmware.build import build_firmware
 from app.firmware.emulator import Mcu
 from app.firmware.pty_bridge import PtyBridge
+from app.firmware.sensor_feed import GYRO_ZERO_RATE_COUNTS, ONE_G_COUNTS, RawSample
 
 
 def preset(name: str, **motion: float) -> dict[str, Any]:
@@ -46,3 +48,17 @@ def served_on_a_pty(mcu: Mcu) -> Iterator[str]:
         stop.set()
         thread.join()
         bridge.close()
+
+
+PITCH_RAD, ROLL_RAD = 0.12, -0.07  # the trunk as the emulated IMU sees it, still
+
+
+def tilted() -> RawSample:
+    """Still, leaning forward and to the right: the accelerometer's share of 1 g on each axis."""
+    g = ONE_G_COUNTS
+    accel = (
+        round(-g * math.sin(PITCH_RAD)),
+        round(g * math.cos(PITCH_RAD) * math.sin(ROLL_RAD)),
+        round(g * math.cos(PITCH_RAD) * math.cos(ROLL_RAD)),
+    )
+    return RawSample(accel, GYRO_ZERO_RATE_COUNTS, (300, 200, 300, 200, 0, 0, 0, 0))  # type: ignore[arg-type]
