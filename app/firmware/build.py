@@ -34,6 +34,13 @@ SOURCE_DIR = FIRMWARE_DIR / "src"
 MAKEFILE = FIRMWARE_DIR / "Makefile"
 HARNESS_SOURCE = Path(__file__).resolve().parent / "harness.c"
 TOOLS = ("avr-gcc", "avr-objcopy", "avr-size", "make")
+#: the boards the firmware builds for (the Makefile's BOARD, docs/BOARDS.md), the first the default
+BOARDS = ("artro-atmega128", "mega2560-pca9685")
+DEFAULT_BOARD = BOARDS[0]
+#: flash and SRAM of each board's MCU, bytes
+BOARD_MEMORY = {"artro-atmega128": (128 * 1024, 4 * 1024), "mega2560-pca9685": (256 * 1024, 8 * 1024)}
+#: the MCU simavr emulates for each board
+BOARD_MCU = {"artro-atmega128": "atmega128", "mega2560-pca9685": "atmega2560"}
 
 
 class BuildError(RuntimeError):
@@ -51,6 +58,7 @@ class FirmwareBuild:
     sram_bytes: int  # .data + .bss + .noinit, without the stack
     flash_size: int = 128 * 1024
     sram_size: int = 4 * 1024
+    board: str = DEFAULT_BOARD
 
 
 def cache_dir() -> Path:
@@ -148,6 +156,7 @@ def build_firmware(
     fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
     out_dir: Path | None = None,
     defines: dict[str, str] | None = None,
+    board: str = DEFAULT_BOARD,
 ) -> FirmwareBuild:
     """Generate the headers for `doc`, compile, link; cached unless `out_dir` is given.
 
@@ -159,10 +168,12 @@ def build_firmware(
             fsr_positions_m: its sole force sensors (`RobotModel.fsr_positions_m`).
         out_dir: build here (gen/, build/) instead of the cache.
         defines: extra -D options, e.g. {"ARTRO_BOOT_STATE": "1"}.
+        board: one of BOARDS (docs/BOARDS.md).
 
     Raises:
         BuildError: a tool is missing or the compile failed.
     """
+    check_board(board)
     if missing := missing_tools():
         raise BuildError(f"missing tools: {', '.join(missing)} (install gcc-avr, avr-libc, make)")
     headers = generated_headers(
@@ -170,7 +181,10 @@ def build_firmware(
     )
     extra = " ".join(f"-D{k}={v}" for k, v in sorted((defines or {}).items()))
     if out_dir is None:
-        key = _digest({**source_files(), **headers, "cflags": extra})
+        parts = {**source_files(), **headers, "cflags": extra}
+        if board != DEFAULT_BOARD:  # the ATmega128's cache keys stay as they were
+            parts["board"] = board
+        key = _digest(parts)
         out_dir = cache_dir() / "firmware" / key
     out_dir = Path(out_dir).resolve()
     elf, hexfile = out_dir / "build" / "artro.elf", out_dir / "build" / "artro.hex"
@@ -189,6 +203,7 @@ def build_firmware(
                     f"GEN={gen}",
                     f"BUILD={tmp}",
                     f"EXTRA_CFLAGS={extra}",
+                    f"BOARD={board}",
                 ],
                 out_dir,
             )
@@ -197,7 +212,15 @@ def build_firmware(
                 os.replace(Path(tmp) / name, out_dir / "build" / name)  # atomic for other runs
     flash, sram = memory_use(elf)
     _write_whole(out_dir / "build" / "size.json", json.dumps({"flash": flash, "sram": sram}))
-    return FirmwareBuild(out_dir, elf, hexfile, flash, sram)
+    flash_size, sram_size = BOARD_MEMORY[board]
+    return FirmwareBuild(out_dir, elf, hexfile, flash, sram, flash_size, sram_size, board)
+
+
+def check_board(board: str) -> str:
+    """`board` if the firmware builds for it; ValueError saying which it builds for."""
+    if board not in BOARDS:
+        raise ValueError(f"board {board!r}: the firmware builds for {', '.join(BOARDS)}")
+    return board
 
 
 def harness_library() -> Path:

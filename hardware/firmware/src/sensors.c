@@ -1,7 +1,8 @@
 /* sensors.c -- the MPU-6050 on the TWI bus and the foot force sensors on the ADC
- * (docs/DESIGN.md §15). Both run from their interrupts: the TWI interrupt walks one transaction
+ * (docs/DESIGN.md §15). Both run from their interrupts: the TWI master (twi.c) walks one burst
  * (START, SLA+W, register, repeated START, SLA+R, 14 bytes, STOP), the ADC interrupt one sweep of
- * the eight channels; neither touches a timer, so no TDM edge moves.
+ * the eight channels; neither touches a timer, so no TDM edge moves. No other transaction runs
+ * between the burst's start (slot SENSE_SLOT) and its take (slot COMPUTE_SLOT).
  */
 #include "sensors.h"
 
@@ -12,6 +13,7 @@
 
 #include "artro_schema.h"
 #include "config.h"
+#include "twi.h"
 
 /* MPU-6050 registers */
 #define REG_CONFIG 0x1Au       /* DLPF_CFG */
@@ -21,131 +23,25 @@
 #define REG_PWR_MGMT_1 0x6Bu
 #define IMU_BURST 14u
 
-/* TWI status codes (TWSR & 0xF8), master modes */
-#define TW_START_SENT 0x08u
-#define TW_REP_START_SENT 0x10u
-#define TW_SLA_W_ACK 0x18u
-#define TW_SLA_W_NACK 0x20u
-#define TW_DATA_W_ACK 0x28u
-#define TW_DATA_W_NACK 0x30u
-#define TW_SLA_R_ACK 0x40u
-#define TW_SLA_R_NACK 0x48u
-#define TW_DATA_R_ACK 0x50u
-#define TW_DATA_R_NACK 0x58u
-
-enum { TWI_OK = 0, TWI_NACK = 1, TWI_SHORT = 2, TWI_BUSY = 0xFF };
-enum { STEP_START, STEP_SLA_W, STEP_REG, STEP_VALUE, STEP_RESTART, STEP_SLA_R, STEP_DATA };
-
-#define TWCR_GO (_BV(TWINT) | _BV(TWEN) | _BV(TWIE))
-
 sensor_raw_t g_sensor_raw;
 int16_t g_gyro_offset[3];
 uint8_t g_sensor_status;
 uint8_t g_imu_failures;
 
-static volatile uint8_t s_step, s_result = TWI_OK, s_count;
-static uint8_t s_reg, s_value, s_write;
 static volatile uint8_t s_burst[IMU_BURST];
 static volatile uint8_t s_adc_channel = FSR_CHANNELS; /* FSR_CHANNELS: the sweep is done */
 static volatile uint16_t s_adc[FSR_CHANNELS];
 static uint8_t s_imu_present;
+static uint8_t s_imu_reading; /* the transaction on the bus is this IMU burst */
 
-static void twi_finish(uint8_t result)
+static uint8_t imu_write(uint8_t reg, uint8_t value)
 {
-    TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN); /* STOP; the interrupt is off until the next */
-    s_result = result;
+    return twi_blocking(IMU_TWI_ADDRESS, reg, &value, 1, 0, 0);
 }
 
-ISR(TWI_vect)
+static uint8_t imu_read_blocking(void)
 {
-    const uint8_t status = TWSR & 0xF8u;
-    switch (s_step) {
-    case STEP_START:
-        if (status != TW_START_SENT)
-            break;
-        TWDR = (uint8_t)(IMU_TWI_ADDRESS << 1);
-        s_step = STEP_SLA_W;
-        TWCR = TWCR_GO;
-        return;
-    case STEP_SLA_W:
-        if (status != TW_SLA_W_ACK)
-            break;
-        TWDR = s_reg;
-        s_step = STEP_REG;
-        TWCR = TWCR_GO;
-        return;
-    case STEP_REG:
-        if (status != TW_DATA_W_ACK)
-            break;
-        if (s_write) {
-            TWDR = s_value;
-            s_step = STEP_VALUE;
-            TWCR = TWCR_GO;
-        } else {
-            s_step = STEP_RESTART;
-            TWCR = TWCR_GO | _BV(TWSTA);
-        }
-        return;
-    case STEP_VALUE:
-        if (status != TW_DATA_W_ACK)
-            break;
-        twi_finish(TWI_OK);
-        return;
-    case STEP_RESTART:
-        if (status != TW_REP_START_SENT)
-            break;
-        TWDR = (uint8_t)((IMU_TWI_ADDRESS << 1) | 1u);
-        s_step = STEP_SLA_R;
-        TWCR = TWCR_GO;
-        return;
-    case STEP_SLA_R:
-        if (status != TW_SLA_R_ACK)
-            break;
-        s_count = 0;
-        s_step = STEP_DATA;
-        TWCR = TWCR_GO | _BV(TWEA); /* acknowledge every byte but the last */
-        return;
-    case STEP_DATA: {
-        uint8_t n = s_count;
-        if (n < IMU_BURST - 1u ? status != TW_DATA_R_ACK : status != TW_DATA_R_NACK)
-            break;
-        s_burst[n++] = TWDR;
-        s_count = n;
-        if (n == IMU_BURST) {
-            twi_finish(TWI_OK);
-            return;
-        }
-        TWCR = n < IMU_BURST - 1u ? (uint8_t)(TWCR_GO | _BV(TWEA)) : TWCR_GO;
-        return;
-    }
-    }
-    /* anything else: the part did not answer, or the burst ended early (a bus error, a lost
-     * arbitration, a NACK where data should come) */
-    const uint8_t nack = status == TW_SLA_W_NACK || status == TW_SLA_R_NACK
-        || status == TW_DATA_W_NACK;
-    twi_finish(nack ? TWI_NACK : TWI_SHORT);
-}
-
-static void twi_begin(uint8_t reg, uint8_t value, uint8_t write)
-{
-    s_reg = reg;
-    s_value = value;
-    s_write = write;
-    s_step = STEP_START;
-    s_result = TWI_BUSY;
-    TWCR = TWCR_GO | _BV(TWSTA);
-}
-
-/* A whole transaction at boot, waited for (about 0.1 ms; given up after 2 ms). */
-static uint8_t twi_blocking(uint8_t reg, uint8_t value, uint8_t write)
-{
-    twi_begin(reg, value, write);
-    for (uint8_t i = 0; i < 200u && s_result == TWI_BUSY; i++)
-        _delay_us(10);
-    if (s_result == TWI_BUSY) {
-        twi_finish(TWI_SHORT);
-    }
-    return s_result;
+    return twi_blocking(IMU_TWI_ADDRESS, REG_ACCEL_XOUT_H, 0, 0, s_burst, IMU_BURST);
 }
 
 ISR(ADC_vect)
@@ -169,16 +65,14 @@ static void decode_burst(sensor_raw_t *raw)
 
 void sensors_boot(void)
 {
-    TWSR = 0; /* prescaler 1 */
-    TWBR = TWI_TWBR;
-    TWCR = _BV(TWEN);
+    twi_init();
     ADMUX = _BV(REFS0);
     ADCSRA = _BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0); /* clk / 128 */
 
-    s_imu_present = twi_blocking(REG_PWR_MGMT_1, 0x01u, 1) == TWI_OK /* wake, PLL on gyro x */
-        && twi_blocking(REG_CONFIG, IMU_DLPF_CFG, 1) == TWI_OK
-        && twi_blocking(REG_GYRO_CONFIG, 0x00u, 1) == TWI_OK
-        && twi_blocking(REG_ACCEL_CONFIG, 0x00u, 1) == TWI_OK;
+    s_imu_present = imu_write(REG_PWR_MGMT_1, 0x01u) == TWI_OK /* wake, PLL on gyro x */
+        && imu_write(REG_CONFIG, IMU_DLPF_CFG) == TWI_OK
+        && imu_write(REG_GYRO_CONFIG, 0x00u) == TWI_OK
+        && imu_write(REG_ACCEL_CONFIG, 0x00u) == TWI_OK;
     if (!s_imu_present)
         return;
     /* held still: the mean gyro reading is its offset */
@@ -187,7 +81,7 @@ void sensors_boot(void)
     sensor_raw_t raw;
     for (uint8_t k = 0; k < CALIBRATION_SAMPLES; k++) {
         _delay_ms(CALIBRATION_SPACING_MS);
-        if (twi_blocking(REG_ACCEL_XOUT_H, 0, 0) != TWI_OK)
+        if (imu_read_blocking() != TWI_OK)
             continue;
         decode_burst(&raw);
         for (uint8_t i = 0; i < 3; i++)
@@ -208,8 +102,9 @@ void sensors_boot(void)
 
 void sensors_start(void)
 {
-    if (s_imu_present && s_result != TWI_BUSY)
-        twi_begin(REG_ACCEL_XOUT_H, 0, 0);
+    if (s_imu_present)
+        s_imu_reading = twi_begin(IMU_TWI_ADDRESS, REG_ACCEL_XOUT_H, 0, 0, s_burst, IMU_BURST)
+            == TWI_OK; /* refused while another part's transaction runs: this read fails */
     if (s_adc_channel >= FSR_CHANNELS) {
         s_adc_channel = 0;
         ADMUX = _BV(REFS0);
@@ -222,9 +117,10 @@ void sensors_take(sensor_reading_t *out)
     uint8_t status = s_imu_present ? SENSE_IMU_PRESENT : 0u, result, adc_done;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {
-        result = s_result;
+        result = s_imu_reading ? twi_result() : TWI_SHORT;
         if (result == TWI_BUSY) /* not done in time: given up, the bus freed for the next */
             twi_finish(TWI_SHORT);
+        s_imu_reading = 0;
         adc_done = s_adc_channel >= FSR_CHANNELS;
         if (adc_done)
             for (uint8_t i = 0; i < FSR_CHANNELS; i++)
