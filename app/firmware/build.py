@@ -33,6 +33,8 @@ FIRMWARE_DIR = Path(firmware_package.__file__).resolve().parent
 SOURCE_DIR = FIRMWARE_DIR / "src"
 MAKEFILE = FIRMWARE_DIR / "Makefile"
 HARNESS_SOURCE = Path(__file__).resolve().parent / "harness.c"
+#: compiled with it: the Mega board's I2C bus (the PCA9685 part, the monitor)
+HARNESS_SOURCES = (HARNESS_SOURCE, HARNESS_SOURCE.with_name("harness_i2c.c"))
 TOOLS = ("avr-gcc", "avr-objcopy", "avr-size", "make")
 #: the boards the firmware builds for (the Makefile's BOARD, docs/BOARDS.md), the first the default
 BOARDS = ("artro-atmega128", "mega2560-pca9685")
@@ -227,14 +229,14 @@ def harness_library() -> Path:
     """The simavr harness as a shared library, compiled on first use."""
     if missing := missing_tools(("cc",)):
         raise BuildError(f"missing tools: {', '.join(missing)}")
-    source = HARNESS_SOURCE.read_bytes()
-    target = cache_dir() / "mcu" / f"libartro_mcu-{_digest({'harness.c': source})}.so"
+    sources = {path.name: path.read_bytes() for path in HARNESS_SOURCES}
+    target = cache_dir() / "mcu" / f"libartro_mcu-{_digest(sources)}.so"
     if target.exists():
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
         out = Path(tmp) / target.name
-        command = ["cc", "-shared", "-fPIC", "-O2", "-o", str(out), str(HARNESS_SOURCE)]
+        command = ["cc", "-shared", "-fPIC", "-O2", "-o", str(out), *map(str, HARNESS_SOURCES)]
         _run([*command, "-lsimavr", "-lelf"], Path(tmp))
         os.replace(out, target)
     return target
