@@ -11,12 +11,14 @@ import shutil
 import subprocess
 import tempfile
 import threading
+import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import hardware.firmware as firmware_package
+from app.robots.description import Board
 from app.robots.model import RobotModel
 from gait import ARTRO_LEG, LegGeometry
 from hardware import ChannelMap, ServoCalibration, TdmConfig
@@ -37,7 +39,7 @@ HARNESS_SOURCE = Path(__file__).resolve().parent / "harness.c"
 HARNESS_SOURCES = (HARNESS_SOURCE, HARNESS_SOURCE.with_name("harness_i2c.c"))
 TOOLS = ("avr-gcc", "avr-objcopy", "avr-size", "make")
 #: the boards the firmware builds for (the Makefile's BOARD, docs/BOARDS.md), the first the default
-BOARDS = ("artro-atmega128", "mega2560-pca9685")
+BOARDS: tuple[str, ...] = typing.get_args(Board)
 DEFAULT_BOARD = BOARDS[0]
 #: flash and SRAM of each board's MCU, bytes
 BOARD_MEMORY = {"artro-atmega128": (128 * 1024, 4 * 1024), "mega2560-pca9685": (256 * 1024, 8 * 1024)}
@@ -250,6 +252,7 @@ def export_firmware_folder(
     tdm: TdmConfig | None = None,
     geometry: LegGeometry = ARTRO_LEG,
     fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
+    board: str = DEFAULT_BOARD,
 ) -> Path:
     """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
     programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
@@ -266,6 +269,8 @@ def export_firmware_folder(
     (out / "src").mkdir(parents=True, exist_ok=True)
     (out / "gen").mkdir(exist_ok=True)
     for name, data in source_files().items():
+        if name == "Makefile":  # its BOARD the folder's board (a `make BOARD=...` still rules)
+            data = f"BOARD ?= {check_board(board)}\n".encode() + data
         (out / name).write_bytes(data)
     for doc_name in ("PROTOCOL.md", "README.md"):
         shutil.copyfile(FIRMWARE_DIR / doc_name, out / doc_name)
