@@ -1,0 +1,113 @@
+"""The Mega 2560 + PCA9685 board (docs/BOARDS.md): its build, the PCA9685 the firmware sets up on
+the emulated I2C bus, a closed-loop walk whose every pulse is the model's within one PCA9685
+step, the bus traffic per frame, and the .hex as avrdude would upload it."""
+
+from __future__ import annotations
+
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from app.firmware.build import BOARD_MEMORY, build_firmware, wiring
+from app.firmware.emulator import FRAME_CYCLES, Mcu
+from app.firmware.i2c import BUS_HZ, IMU_ADDRESS, PCA9685_ADDRESS
+from app.firmware.mega import MEGA, STEP_S, channel_pulses, run_mega_closed_loop
+from app.firmware.sensor_feed import at_rest, sample_of
+from app.robots.model import RobotModel
+from tests.testing.firmware_support import preset
+
+#: 4096 steps of 122 / 25 MHz in 16 MHz cycles: 319 815.68
+PERIOD_CYCLES = 4096 * 122 * 16 / 25
+#: a frame's bus: the PCA9685 write (SLA+W, LED0_ON_L, 48 bytes) and the IMU burst (SLA+W,
+#: ACCEL_XOUT_H, SLA+R, 14 bytes), 9 clocks a byte, START/STOP/repeated START one each
+FRAME_BUS_S = (9 * 50 + 2 + 9 * 17 + 3) / BUS_HZ  # 1.52 ms
+
+
+@pytest.fixture(scope="module")
+def robot() -> RobotModel:
+    return RobotModel.load()
+
+
+@pytest.fixture(scope="module")
+def doc(robot: RobotModel) -> dict:
+    return preset(robot.description.default_preset)  # ArtRo's robust: laws on, closed loop
+
+
+def test_both_boards_build_and_the_mega_fits_its_memory(robot: RobotModel, doc: dict) -> None:
+    mega = build_firmware(doc, board=MEGA, **wiring(robot))
+    default = build_firmware(doc, **wiring(robot))
+    assert (mega.flash_size, mega.sram_size) == BOARD_MEMORY[MEGA] == (256 * 1024, 8 * 1024)
+    assert 0 < mega.flash_bytes < mega.flash_size and 0 < mega.sram_bytes < mega.sram_size
+    arch = {b.board: subprocess.run(["avr-objdump", "-f", str(b.elf)], capture_output=True,
+                                    text=True, check=True).stdout for b in (mega, default)}  # fmt: skip
+    assert "architecture: avr:6" in arch[MEGA]  # the ATmega2560's core
+    assert "architecture: avr:51" in arch["artro-atmega128"]
+    # the default is the ATmega128, its build as it was keyed before boards
+    assert build_firmware(doc, board="artro-atmega128", **wiring(robot)).elf == default.elf
+    with pytest.raises(ValueError, match="builds for artro-atmega128, mega2560-pca9685"):
+        build_firmware(doc, board="uno", **wiring(robot))
+
+
+def test_the_firmware_sets_the_pca9685_up_as_the_datasheet_says(robot: RobotModel, doc: dict) -> None:
+    build = build_firmware(doc, board=MEGA, **wiring(robot))
+    with Mcu(build.elf, sensors=sample_of(at_rest()), board=MEGA) as mcu:
+        assert mcu.i2c is not None
+        boot = mcu.i2c.take_transactions()
+        mcu.run_to_frame(4)
+        bus, periods = mcu.i2c.take_transactions(), mcu.i2c.take_periods()
+        mode1, mode2, prescale = (mcu.i2c.register(r) for r in (0x00, 0x01, 0xFE))
+    # sleep (SLEEP | AI), PRESCALE while asleep, wake (AI), all channels full OFF: then frame 0
+    pca = boot.select(boot.address == PCA9685_ADDRESS)
+    assert list(pca.register[:4]) == [0x00, 0xFE, 0x00, 0x06] and list(pca.bytes[:4]) == [3, 3, 3, 50]
+    assert (mode1, mode2, prescale) == (0x20, 0x04, 121)  # awake, auto-increment; totem pole
+    assert set(periods.prescale) == {121}
+    gaps = np.diff(periods.start_cycle.astype(np.int64))
+    assert set(gaps) <= {int(PERIOD_CYCLES), int(PERIOD_CYCLES) + 1}  # its own 25 MHz clock
+    assert abs(gaps.mean() - PERIOD_CYCLES) < 1.0
+    assert periods.step_s()[0] == pytest.approx(4.88e-6)
+    assert bus.acked.all() and set(bus.address) == {PCA9685_ADDRESS, IMU_ADDRESS}
+
+
+def test_a_closed_loop_walk_puts_every_pulse_within_one_step(robot: RobotModel, doc: dict) -> None:
+    run = run_mega_closed_loop(doc, 150, robot)
+    assert run.failures() == []
+    assert run.periods >= 149 and run.pulses == 12 * run.periods
+    assert run.pulse_error_max_s <= STEP_S / 2 + 2 / 16e6  # rounding to a step, edges to a cycle
+    assert run.step_mismatches == 0  # every pulse is the firmware's OFF value of the model's OCR
+    assert run.frames_never_output == [] and not run.overrun and not run.fell
+    # each frame: the PCA9685 write at its start, then the IMU burst in slot 3
+    assert all(t == [(PCA9685_ADDRESS, 0x06, 50), (IMU_ADDRESS, 0x3B, 17)] for t in run.transactions)
+    assert max(run.bus_s) == pytest.approx(FRAME_BUS_S) and FRAME_BUS_S < 0.1 * 0.020
+    assert run.write_before_read and run.imu_stale_frames == []
+    assert run.busy_max < 0.6  # the CPU awake for less than 60 % of any frame
+
+
+@pytest.mark.slow
+def test_a_frame_shows_twice_where_the_periods_slip_past_the_frames(robot: RobotModel, doc: dict) -> None:
+    """19.988 ms periods against 20 ms frames: every ~1660 frames a period starts before that
+    frame's write ends and repeats the last frame's pulses; no frame is lost."""
+    run = run_mega_closed_loop(doc, 1800, robot)
+    assert run.failures() == []
+    assert 1 <= len(run.repeated_frames) <= 2 and run.frames_never_output == []
+    assert run.periods == 1800 - 1 + len(run.repeated_frames) or run.periods >= 1799
+
+
+def test_the_hex_read_back_boots_in_simavr_as_the_elf_does(robot: RobotModel, doc: dict, tmp_path: Path) -> None:
+    """What `artro firmware flash` uploads: the .hex, turned back into an image simavr boots."""
+    build = build_firmware(doc, board=MEGA, **wiring(robot))
+    image = tmp_path / "from_hex.elf"
+    subprocess.run(["avr-objcopy", "-I", "ihex", "-O", "elf32-avr", "--rename-section",
+                    ".sec1=.text", str(build.hex), str(image)], check=True)  # fmt: skip
+    widths = []
+    for elf in (build.elf, image):
+        with Mcu(elf, sensors=sample_of(at_rest()), board=MEGA) as mcu:
+            mcu.run_to_frame(6)
+            assert mcu.i2c is not None
+            edges = mcu.i2c.take_edges()
+            widths.append([w for _, w in channel_pulses(*edges)])
+    assert all(len(w) >= 4 for w in widths[0])
+    for from_elf, from_hex in zip(*widths, strict=True):
+        assert np.array_equal(from_elf, from_hex)
+    assert FRAME_CYCLES == 320_000
