@@ -1,7 +1,7 @@
 """`artro firmware build|run|flash`: a firmware folder for a parameter set and a board, the
 firmware emulated on simavr and compared with the Python model pin for pin -- with a feedback law
 on, closed loop through its emulated sensors on the simulated robot (docs/DESIGN.md §15) -- or
-served on a pseudo-terminal (docs/DESIGN.md §5); the Mega's programmed by avrdude (docs/BOARDS.md)."""
+served on a pseudo-terminal (docs/DESIGN.md §5); a board programmed by avrdude (docs/BOARDS.md)."""
 
 from __future__ import annotations
 
@@ -13,6 +13,13 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from app.cli.firmware_flash import (
+    add_board_option,
+    add_flash_parser,
+    board_of,
+    flash,
+    upload_command,
+)
 from app.cli.options import (
     action,
     add_motion_option,
@@ -28,7 +35,6 @@ from app.cli.options import (
     variation,
     warn_if_other_robot,
 )
-from app.cli.firmware_flash import add_board_option, add_flash_parser, board_of, flash, upload_command
 from app.firmware.build import DEFAULT_BOARD, build_firmware, export_firmware_folder, wiring
 from app.firmware.closed_loop import run_closed_loop
 from app.firmware.conformance import check_firmware

@@ -27,7 +27,9 @@ _AFTER_PORT = {"artro-atmega128": (), "mega2560-pca9685": ("-b", "115200", "-D")
 
 def board_name(text: str) -> str:
     if text not in BOARDS:
-        raise argparse.ArgumentTypeError(f"--board must be one of {', '.join(BOARDS)}, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"--board must be one of {', '.join(BOARDS)}, got {text!r}"
+        )
     return text
 
 
@@ -54,7 +56,9 @@ def upload_command(hex_file: Path | str, port: str, board: str = "mega2560-pca96
 def hex_file(text: str) -> str:
     path = Path(text)
     if path.suffix.lower() != ".hex" or not path.is_file():
-        raise argparse.ArgumentTypeError(f"--hex must be an Intel HEX file (.hex) that exists, got {text!r}")
+        raise argparse.ArgumentTypeError(
+            f"--hex must be an Intel HEX file (.hex) that exists, got {text!r}"
+        )
     return text
 
 
@@ -89,8 +93,10 @@ def flash(args: argparse.Namespace, doc: dict[str, Any], robot: RobotModel, boar
                            "scripts/setup.sh installs it)")  # fmt: skip
     port = Path(args.port)
     if board != DEFAULT_BOARD and not (port.exists() and stat.S_ISCHR(port.stat().st_mode)):
-        raise ValueError(f"--port {args.port}: no serial port there; give the Mega's port "
-                         "(/dev/ttyACM0, /dev/ttyUSB0: `ls /dev/tty*` with the board plugged in)")  # fmt: skip
+        raise ValueError(
+            f"--port {args.port}: no serial port there; give the Mega's port (/dev/ttyACM0, "
+            "/dev/ttyUSB0: `ls /dev/tty*` with the board plugged in)"
+        )
     hex_path = Path(args.hex) if args.hex else build_firmware(doc, board=board, **wiring(robot)).hex
     command = upload_command(hex_path, args.port, board)
     print(shlex.join(command), flush=True)

@@ -42,7 +42,10 @@ TOOLS = ("avr-gcc", "avr-objcopy", "avr-size", "make")
 BOARDS: tuple[str, ...] = typing.get_args(Board)
 DEFAULT_BOARD = BOARDS[0]
 #: flash and SRAM of each board's MCU, bytes
-BOARD_MEMORY = {"artro-atmega128": (128 * 1024, 4 * 1024), "mega2560-pca9685": (256 * 1024, 8 * 1024)}
+BOARD_MEMORY = {
+    "artro-atmega128": (128 * 1024, 4 * 1024),
+    "mega2560-pca9685": (256 * 1024, 8 * 1024),
+}
 #: the MCU simavr emulates for each board
 BOARD_MCU = {"artro-atmega128": "atmega128", "mega2560-pca9685": "atmega2560"}
 

@@ -66,7 +66,11 @@ def _library() -> ctypes.CDLL:
         u64p = ctypes.POINTER(ctypes.c_uint64)
         lib.artro_mcu_new.restype = p
         lib.artro_mcu_new.argtypes = [
-            ctypes.c_char_p, ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_int
+            ctypes.c_char_p,
+            ctypes.c_char_p,
+            ctypes.c_int,
+            ctypes.c_char_p,
+            ctypes.c_int,
         ]
         lib.artro_mcu_free.argtypes = [p]
         lib.artro_mcu_run_until.argtypes = [p, u64]

@@ -98,7 +98,11 @@ class I2cBus:
         n = 1 << 16
         parts = []
         while True:
-            cycles, lines, levels = np.empty(n, np.uint64), np.empty(n, np.uint8), np.empty(n, np.uint8)
+            cycles, lines, levels = (
+                np.empty(n, np.uint64),
+                np.empty(n, np.uint8),
+                np.empty(n, np.uint8),
+            )
             got = self._lib.artro_pca_take_edges(
                 self._bus, _ptr(cycles, ctypes.c_uint64), _ptr(lines, ctypes.c_uint8),
                 _ptr(levels, ctypes.c_uint8), n,
@@ -116,7 +120,9 @@ class I2cBus:
             self._bus, _ptr(starts, ctypes.c_uint64), _ptr(prescale, ctypes.c_uint8),
             _ptr(on, ctypes.c_uint16), _ptr(off, ctypes.c_uint16), n,
         )  # fmt: skip
-        return PcaPeriods(starts[:got].copy(), prescale[:got].copy(), on[:got].copy(), off[:got].copy())
+        return PcaPeriods(
+            starts[:got].copy(), prescale[:got].copy(), on[:got].copy(), off[:got].copy()
+        )
 
     def take_transactions(self) -> Transactions:
         n = 4096

@@ -22,7 +22,7 @@ from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop, PinFrame
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams, Motion
-from hardware import frame_edges, frame_ocr
+from hardware import frame_edges, frame_ocr, servo_frame_ocr
 from hardware.firmware.schema import values_from_document
 
 MEGA = "mega2560-pca9685"
@@ -39,8 +39,15 @@ def pca_steps(servo_ocr: NDArray[np.integer]) -> NDArray[np.int64]:
     return (np.asarray(servo_ocr, np.int64) + 1) * 6715 + 32768 >> 16
 
 
-def channel_pulses(cycles: NDArray[np.uint64], lines: NDArray[np.uint8], levels: NDArray[np.uint8],
-                   channels: int = 12) -> list[tuple[NDArray[np.int64], NDArray[np.int64]]]:  # fmt: skip
+Pulses = list[tuple[NDArray[np.int64], NDArray[np.int64]]]
+
+
+def channel_pulses(
+    cycles: NDArray[np.uint64],
+    lines: NDArray[np.uint8],
+    levels: NDArray[np.uint8],
+    channels: int = 12,
+) -> Pulses:
     """Per channel, (rise cycle, high cycles) of each whole pulse in the edges."""
     out = []
     for n in range(channels):
@@ -65,8 +72,10 @@ class MegaRun:
     repeated_frames: list[int] = field(default_factory=list)  # carried by two periods
     bus_s: list[float] = field(default_factory=list)  # per frame, at 400 kHz
     bus_bytes: list[int] = field(default_factory=list)  # per frame
-    transactions: list[list[tuple[int, int, int]]] = field(default_factory=list)  # (addr, reg, bytes)
-    write_before_read: bool = True  # each frame's PCA9685 write ended (at 400 kHz) before the IMU read
+    #: per frame, each transaction's (address, first register, bytes)
+    transactions: list[list[tuple[int, int, int]]] = field(default_factory=list)
+    #: each frame's PCA9685 write ended (at 400 kHz) before its IMU read began
+    write_before_read: bool = True
     busy_max: float = 0.0  # the largest share of a frame the CPU was awake
     overrun: bool = False
     refused_writes: bool = False  # a PCA9685 write found the bus taken
@@ -89,7 +98,9 @@ class MegaRun:
         if self.refused_writes:
             said.append("a PCA9685 write found the bus taken")
         if not self.write_before_read:
-            said.append("a frame's PCA9685 write would still run at 400 kHz when the IMU read starts")
+            said.append(
+                "a frame's PCA9685 write would still run at 400 kHz when the IMU read starts"
+            )
         return said
 
     def summary(self) -> dict[str, Any]:
@@ -162,13 +173,16 @@ def run_mega_closed_loop(
             high = np.full((len(periods.start_cycle), 12), -1, np.int64)
             for n, (rise, width) in enumerate(channel_pulses(cycles, lines, levels)):
                 where = np.searchsorted(periods.start_cycle.astype(np.int64), rise)
-                ok = (where < len(high)) & (periods.start_cycle[np.minimum(where, len(high) - 1)] == rise)
+                ok = (where < len(high)) & (
+                    periods.start_cycle[np.minimum(where, len(high) - 1)] == rise
+                )
                 high[where[ok], n] = width[ok]
             pulses += [(int(s), high[i]) for i, s in enumerate(periods.start_cycle)]
             # the simulated servos: the last period begun in this frame, in the TDM layout
             in_frame = [h for s, h in pulses if mcu.frame_start(k) <= s < mcu.frame_start(k + 1)]
             width_us = in_frame[-1] / (F_CPU_HZ / 1e6) if in_frame else None
-            ocr = frame_ocr(width_us, tdm) if width_us is not None and (width_us > 0).all() else plan_ocr(plan, tdm)
+            pulsed = width_us is not None and bool((width_us > 0).all())
+            ocr = frame_ocr(width_us, tdm) if pulsed else plan_ocr(plan, tdm)
             pins = PinFrame(plan.phase_rad, ocr, frame_edges(ocr, tdm), np.zeros(12, bool), False,
                             Motion(**doc["motion"]))  # fmt: skip
             record = loop.step_pins(pins)
@@ -178,15 +192,13 @@ def run_mega_closed_loop(
     run.frames = frames
     docs = [document_from_values(values_from_document(doc)) for _ in range(frames + 1)]
     model, _ = model_closed_loop(docs, used, offset, hardware, robot)
-    model_ocr = model.ocr[..., cmap.channel_index, cmap.slot_index].astype(np.int64)  # (frames+1, 12)
+    model_ocr = model.ocr[..., cmap.channel_index, cmap.slot_index].astype(np.int64)
     _compare(run, pulses, writes, model_ocr, frames)
     return run
 
 
 def plan_ocr(plan: Any, tdm: Any) -> NDArray[np.int32]:
     """The firmware's own OCR of the frame in the TDM layout (before the PCA9685 has a pulse)."""
-    from hardware import servo_frame_ocr
-
     return servo_frame_ocr(plan.servo_ocr.astype(np.int32), tdm)
 
 
@@ -198,8 +210,8 @@ def _count_bus(mcu: Mcu, got: Transactions, run: MegaRun, writes: list[tuple[int
             run.bus_s.append(0.0), run.bus_bytes.append(0), run.transactions.append([])
         run.bus_s[k] += float(mine.bus_s().sum())
         run.bus_bytes[k] += int(mine.bytes.sum())
-        run.transactions[k] += [(int(a), int(r), int(b)) for a, r, b in
-                                zip(mine.address, mine.register, mine.bytes, strict=True)]  # fmt: skip
+        said = zip(mine.address, mine.register, mine.bytes, strict=True)
+        run.transactions[k] += [(int(a), int(r), int(b)) for a, r, b in said]
         pca = np.flatnonzero((mine.address == PCA9685_ADDRESS) & (mine.register == LED0_ON_L))
         imu = np.flatnonzero(mine.address == IMU_ADDRESS)
         for i in pca:
@@ -209,8 +221,13 @@ def _count_bus(mcu: Mcu, got: Transactions, run: MegaRun, writes: list[tuple[int
                 run.write_before_read = False
 
 
-def _compare(run: MegaRun, pulses: list[tuple[int, NDArray[np.int64]]],
-             writes: list[tuple[int, int]], model_ocr: NDArray[np.int64], frames: int) -> None:  # fmt: skip
+def _compare(
+    run: MegaRun,
+    pulses: list[tuple[int, NDArray[np.int64]]],
+    writes: list[tuple[int, int]],
+    model_ocr: NDArray[np.int64],
+    frames: int,
+) -> None:
     stops = np.array([s for s, _ in writes], np.int64)
     carried: dict[int, int] = {}
     for start, high in pulses:

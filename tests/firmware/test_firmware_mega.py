@@ -40,8 +40,12 @@ def test_both_boards_build_and_the_mega_fits_its_memory(robot: RobotModel, doc: 
     default = build_firmware(doc, **wiring(robot))
     assert (mega.flash_size, mega.sram_size) == BOARD_MEMORY[MEGA] == (256 * 1024, 8 * 1024)
     assert 0 < mega.flash_bytes < mega.flash_size and 0 < mega.sram_bytes < mega.sram_size
-    arch = {b.board: subprocess.run(["avr-objdump", "-f", str(b.elf)], capture_output=True,
-                                    text=True, check=True).stdout for b in (mega, default)}  # fmt: skip
+    arch = {
+        b.board: subprocess.run(
+            ["avr-objdump", "-f", str(b.elf)], capture_output=True, text=True, check=True
+        ).stdout
+        for b in (mega, default)
+    }
     assert "architecture: avr:6" in arch[MEGA]  # the ATmega2560's core
     assert "architecture: avr:51" in arch["artro-atmega128"]
     # the default is the ATmega128, its build as it was keyed before boards
@@ -50,7 +54,9 @@ def test_both_boards_build_and_the_mega_fits_its_memory(robot: RobotModel, doc: 
         build_firmware(doc, board="uno", **wiring(robot))
 
 
-def test_the_firmware_sets_the_pca9685_up_as_the_datasheet_says(robot: RobotModel, doc: dict) -> None:
+def test_the_firmware_sets_the_pca9685_up_as_the_datasheet_says(
+    robot: RobotModel, doc: dict
+) -> None:
     build = build_firmware(doc, board=MEGA, **wiring(robot))
     with Mcu(build.elf, sensors=sample_of(at_rest()), board=MEGA) as mcu:
         assert mcu.i2c is not None
@@ -60,7 +66,12 @@ def test_the_firmware_sets_the_pca9685_up_as_the_datasheet_says(robot: RobotMode
         mode1, mode2, prescale = (mcu.i2c.register(r) for r in (0x00, 0x01, 0xFE))
     # sleep (SLEEP | AI), PRESCALE while asleep, wake (AI), all channels full OFF: then frame 0
     pca = boot.select(boot.address == PCA9685_ADDRESS)
-    assert list(pca.register[:4]) == [0x00, 0xFE, 0x00, 0x06] and list(pca.bytes[:4]) == [3, 3, 3, 50]
+    assert list(pca.register[:4]) == [0x00, 0xFE, 0x00, 0x06] and list(pca.bytes[:4]) == [
+        3,
+        3,
+        3,
+        50,
+    ]
     assert (mode1, mode2, prescale) == (0x20, 0x04, 121)  # awake, auto-increment; totem pole
     assert set(periods.prescale) == {121}
     gaps = np.diff(periods.start_cycle.astype(np.int64))
@@ -78,14 +89,18 @@ def test_a_closed_loop_walk_puts_every_pulse_within_one_step(robot: RobotModel, 
     assert run.step_mismatches == 0  # every pulse is the firmware's OFF value of the model's OCR
     assert run.frames_never_output == [] and not run.overrun and not run.fell
     # each frame: the PCA9685 write at its start, then the IMU burst in slot 3
-    assert all(t == [(PCA9685_ADDRESS, 0x06, 50), (IMU_ADDRESS, 0x3B, 17)] for t in run.transactions)
+    assert all(
+        t == [(PCA9685_ADDRESS, 0x06, 50), (IMU_ADDRESS, 0x3B, 17)] for t in run.transactions
+    )
     assert max(run.bus_s) == pytest.approx(FRAME_BUS_S) and FRAME_BUS_S < 0.1 * 0.020
     assert run.write_before_read and run.imu_stale_frames == []
     assert run.busy_max < 0.6  # the CPU awake for less than 60 % of any frame
 
 
 @pytest.mark.slow
-def test_a_frame_shows_twice_where_the_periods_slip_past_the_frames(robot: RobotModel, doc: dict) -> None:
+def test_a_frame_shows_twice_where_the_periods_slip_past_the_frames(
+    robot: RobotModel, doc: dict
+) -> None:
     """19.988 ms periods against 20 ms frames: every ~1660 frames a period starts before that
     frame's write ends and repeats the last frame's pulses; no frame is lost."""
     run = run_mega_closed_loop(doc, 1800, robot)
@@ -94,7 +109,9 @@ def test_a_frame_shows_twice_where_the_periods_slip_past_the_frames(robot: Robot
     assert run.periods == 1800 - 1 + len(run.repeated_frames) or run.periods >= 1799
 
 
-def test_the_hex_read_back_boots_in_simavr_as_the_elf_does(robot: RobotModel, doc: dict, tmp_path: Path) -> None:
+def test_the_hex_read_back_boots_in_simavr_as_the_elf_does(
+    robot: RobotModel, doc: dict, tmp_path: Path
+) -> None:
     """What `artro firmware flash` uploads: the .hex, turned back into an image simavr boots."""
     build = build_firmware(doc, board=MEGA, **wiring(robot))
     image = tmp_path / "from_hex.elf"
