@@ -175,14 +175,17 @@ def _run_mega(args: argparse.Namespace, doc: dict[str, Any], robot: RobotModel) 
     """The Mega build closed loop, every PCA9685 pulse against the model (docs/BOARDS.md)."""
     from app.firmware.mega import run_mega_closed_loop
 
-    given = [f"--{name}" for name in ("vcd", "pty") if getattr(args, name)]
-    if given or not args.vary.is_nominal:
+    given = "--pty" if args.pty else "--vary" if not args.vary.is_nominal else None
+    if given:
         raise ValueError(
-            f"{', '.join(given) or '--vary'}: not for the mega2560-pca9685 board yet; its run "
-            "takes --params, --motion, --ca, --frames and --json"
+            f"{given}: not for the mega2560-pca9685 board yet; its run takes --params, "
+            "--motion, --ca, --frames, --vcd and --json"
         )
-    summary = run_mega_closed_loop(doc, FRAMES if args.frames is None else args.frames, robot)
-    summary = {**summary.summary(), "robot": robot.name}
+    frames = FRAMES if args.frames is None else args.frames
+    run = run_mega_closed_loop(doc, frames, robot, trace=bool(args.vcd))
+    if args.vcd:
+        Path(args.vcd).write_text(run.vcd, encoding="ascii")
+    summary = {**run.summary(), "robot": robot.name}
     if args.json:
         print(json.dumps(summary))
     else:
@@ -207,7 +210,7 @@ def command(args: argparse.Namespace) -> int:
         hex_file = build.hex.resolve().relative_to(folder.resolve())  # -o may be relative
         named = set_named(ParameterSet.from_dict(doc))
         print(
-            f"{folder}: {hex_file} built for {board} from the parameter set {named}; "
+            f"{folder}: {hex_file} built from the parameter set {named}; for the {board}: "
             f"flash {build.flash_bytes} B of {build.flash_size}, SRAM {build.sram_bytes} B of "
             f"{build.sram_size} (without the stack); `make -C {folder} flash` programs it"
         )

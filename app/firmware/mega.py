@@ -18,6 +18,7 @@ from app.firmware.closed_loop import document_from_values, gyro_offset, model_cl
 from app.firmware.emulator import FRAME_CYCLES, Mcu, read_active_plan
 from app.firmware.i2c import F_CPU_HZ, IMU_ADDRESS, PCA9685_ADDRESS, Transactions
 from app.firmware.sensor_feed import at_rest, raw_of, sample_of
+from app.firmware.vcd_mega import mega_vcd_text
 from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop, PinFrame
 from app.worlds.variations import NOMINAL, Variation
@@ -85,6 +86,8 @@ class MegaRun:
     sram_bytes: int = 0
     flash_size: int = 0
     sram_size: int = 0
+    #: with `trace`: the VCD of the run (app.firmware.vcd_mega)
+    vcd: str = ""
 
     def failures(self) -> list[str]:
         said = []
@@ -130,9 +133,12 @@ def _frame_of(mcu: Mcu, cycle: int) -> int:
 def run_mega_closed_loop(
     doc: dict[str, Any], frames: int, robot: RobotModel | None = None,
     variation: Variation = NOMINAL,
+    *,
+    trace: bool = False,
 ) -> MegaRun:  # fmt: skip
     """Walk the simulated `robot` for `frames` frames with the Mega build for `doc`, then compare
-    every PCA9685 pulse with the model fed the counts the firmware read."""
+    every PCA9685 pulse with the model fed the counts the firmware read; `trace`: keep the
+    PCA9685's edges and the transactions as VCD text (`MegaRun.vcd`)."""
     robot = robot or RobotModel.load()
     hardware = robot.hardware()
     tdm = hardware.tdm
@@ -146,6 +152,7 @@ def run_mega_closed_loop(
     raw = at_rest()
     used, writes = [], []  # samples the firmware read; (stop cycle, frame) of each PCA write
     pulses: list[tuple[int, NDArray[np.int64]]] = []  # (period start cycle, high cycles (12,))
+    traced: list[tuple[tuple[NDArray, NDArray, NDArray], Transactions]] = []
     with Mcu(build.elf, sensors=sample_of(raw), board=MEGA) as mcu:
         assert mcu.i2c is not None
         offset = gyro_offset(mcu)
@@ -167,8 +174,11 @@ def run_mega_closed_loop(
             now = mcu.busy_cycles
             run.busy_max = max(run.busy_max, (now - busy) / FRAME_CYCLES)
             busy = now
-            _count_bus(mcu, mcu.i2c.take_transactions(), run, writes)
+            bus = mcu.i2c.take_transactions()
+            _count_bus(mcu, bus, run, writes)
             cycles, lines, levels = mcu.i2c.take_edges()
+            if trace:
+                traced.append(((cycles, lines, levels), bus))
             periods = mcu.i2c.take_periods()
             high = np.full((len(periods.start_cycle), 12), -1, np.int64)
             for n, (rise, width) in enumerate(channel_pulses(cycles, lines, levels)):
@@ -189,6 +199,11 @@ def run_mega_closed_loop(
             run.fell |= loop.fell
             raw = raw_of(record.reading)
             mcu.set_sensors(sample_of(raw))
+        if trace:
+            pwm = tuple(np.concatenate([t[0][i] for t in traced]) for i in range(3))
+            bus = Transactions(*(np.concatenate([getattr(t[1], f) for t in traced])
+                                 for f in Transactions.__dataclass_fields__))  # fmt: skip
+            run.vcd = mega_vcd_text(pwm, bus, mcu.t0_cycle, comment=f"{frames} frames")  # type: ignore[arg-type]
     run.frames = frames
     docs = [document_from_values(values_from_document(doc)) for _ in range(frames + 1)]
     model, _ = model_closed_loop(docs, used, offset, hardware, robot)

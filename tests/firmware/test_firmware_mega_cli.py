@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import re
 import shlex
 import subprocess
 from pathlib import Path
@@ -29,7 +30,7 @@ def test_build_for_the_mega_writes_its_hex_and_the_upload_command(tmp_path: Path
     args = parse(["firmware", "build", "--board", "mega2560-pca9685", "-o", str(folder)])
     assert cmd_firmware(args) == 0
     out = capsys.readouterr().out
-    assert "built for mega2560-pca9685" in out and "of 262144" in out and "of 8192" in out
+    assert "for the mega2560-pca9685: flash" in out and "of 262144" in out and "of 8192" in out
     (line,) = [ln for ln in out.splitlines() if ln.startswith("upload through the Mega")]
     command = shlex.split(line.split(": ", 1)[1])
     hex_file = (folder / "build" / "artro.hex").resolve()
@@ -66,6 +67,36 @@ def test_run_on_the_mega_compares_every_pulse(capsys) -> None:
     assert summary["pulse_error_max_us"] <= summary["step_us"]
     with pytest.raises(ValueError, match="not for the mega2560-pca9685 board yet"):
         cmd_firmware(parse(["firmware", "run", "--board", "mega2560-pca9685", "--pty"]))
+
+
+def test_the_megas_vcd_carries_its_channels_and_its_bus(tmp_path: Path, capsys) -> None:
+    """`--vcd`: PWM0..PWM11 and a line per part on the bus, high while its transaction runs."""
+    vcd = tmp_path / "mega.vcd"
+    args = parse(["firmware", "run", "--board", "mega2560-pca9685", "--frames", "12", "--json",
+                  "--vcd", str(vcd)])  # fmt: skip
+    assert cmd_firmware(args) == 0
+    capsys.readouterr()
+    text = vcd.read_text(encoding="ascii")
+    names = dict(re.findall(r"^\$var wire 1 (\S) (\S+) \$end$", text, re.MULTILINE))
+    code = {name: c for c, name in names.items()}
+    assert list(code) == [f"PWM{n}" for n in range(12)] + ["I2C_PCA9685", "I2C_MPU6050"]
+    rises: dict[str, list[int]] = {}
+    widths: dict[str, list[int]] = {}
+    time = 0
+    for line in text.split("$enddefinitions $end")[1].splitlines():
+        if line.startswith("#"):
+            time = int(line[1:])
+        elif line[:1] in "01" and len(line) == 2 and time > 0:
+            name = names[line[1]]
+            if line[0] == "1":
+                rises.setdefault(name, []).append(time)
+            elif rises.get(name):
+                widths.setdefault(name, []).append(time - rises[name][-1])
+    # a write to the PCA9685 and a read of the IMU in each frame; servo pulses of 0.6-2.4 ms
+    assert len(rises["I2C_PCA9685"]) in (11, 12) and len(rises["I2C_MPU6050"]) in (11, 12)
+    for n in range(12):
+        assert len(widths[f"PWM{n}"]) >= 10
+        assert all(6_000 <= w <= 24_000 for w in widths[f"PWM{n}"])  # 100 ns units
 
 
 def test_flash_runs_avrdude_and_says_when_no_board_answers(tmp_path: Path, capsys) -> None:
