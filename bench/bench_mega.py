@@ -36,7 +36,8 @@ def main() -> None:
     print(
         f"{frames} frames ({args.seconds:g} s): {run.pulses} pulses in {run.periods} PCA9685 "
         f"periods, the largest off the model by {summary['pulse_error_max_us']:.2f} us (one step "
-        f"{STEP_S * 1e6:.2f} us), {run.step_mismatches} off the model's step; frames repeated "
+        f"{STEP_S * 1e6:.2f} us), {run.step_mismatches} off the model's step, "
+        f"{run.output_mismatches} off the firmware's own; frames repeated "
         f"{run.repeated_frames}; worst frame's I2C {summary['i2c_bus_ms_per_frame_max']:.2f} ms "
         f"of 20 ({100 * summary['i2c_margin']:.1f} % margin); CPU busiest frame "
         f"{100 * run.busy_max:.1f} %; overrun {run.overrun}; flash {run.flash_bytes} B of "
@@ -48,6 +49,7 @@ def main() -> None:
         "largest pulse error (us)": summary["pulse_error_max_us"],
         "one PCA9685 step (us)": STEP_S * 1e6,
         "pulses off the model's step": run.step_mismatches,
+        "pulses off the firmware's own step": run.output_mismatches,
         "worst frame on the I2C bus (ms)": summary["i2c_bus_ms_per_frame_max"],
         "I2C margin in the frame (%)": 100 * summary["i2c_margin"],
         "CPU busiest frame (%)": 100 * run.busy_max,

@@ -69,6 +69,8 @@ class MegaRun:
     pulses: int = 0  # channel pulses compared
     pulse_error_max_s: float = 0.0  # |PCA9685 pulse - model pulse|, the largest
     step_mismatches: int = 0  # pulses not the model's OFF steps exactly
+    #: pulses not the OFF steps of the firmware's own OCR: the output stage's exactness (0)
+    output_mismatches: int = 0
     frames_never_output: list[int] = field(default_factory=list)
     repeated_frames: list[int] = field(default_factory=list)  # carried by two periods
     bus_s: list[float] = field(default_factory=list)  # per frame, at 400 kHz
@@ -94,6 +96,8 @@ class MegaRun:
         if self.pulse_error_max_s > STEP_S:
             said.append(f"a pulse differs from the model by {self.pulse_error_max_s * 1e6:.2f} us "
                         f"(more than one PCA9685 step, {STEP_S * 1e6:.2f} us)")  # fmt: skip
+        if self.output_mismatches:
+            said.append(f"{self.output_mismatches} pulses are not the firmware's own OFF steps")
         if self.frames_never_output:
             said.append(f"frames never on the PCA9685: {self.frames_never_output[:5]}")
         if self.overrun:
@@ -112,6 +116,7 @@ class MegaRun:
             "board": MEGA, "frames": self.frames, "periods": self.periods, "pulses": self.pulses,
             "pulse_error_max_us": self.pulse_error_max_s * 1e6, "step_us": STEP_S * 1e6,
             "step_mismatches": self.step_mismatches,
+            "output_mismatches": self.output_mismatches,
             "repeated_frames": self.repeated_frames,
             "i2c_bus_ms_per_frame_max": worst * 1e3,
             "i2c_bus_share_max": worst / FRAME_S, "i2c_margin": 1.0 - worst / FRAME_S,
@@ -152,6 +157,7 @@ def run_mega_closed_loop(
     raw = at_rest()
     used, writes = [], []  # samples the firmware read; (stop cycle, frame) of each PCA write
     pulses: list[tuple[int, NDArray[np.int64]]] = []  # (period start cycle, high cycles (12,))
+    own_ocr: list[NDArray[np.int64]] = []  # the firmware's servo OCR, per frame
     traced: list[tuple[tuple[NDArray, NDArray, NDArray], Transactions]] = []
     with Mcu(build.elf, sensors=sample_of(raw), board=MEGA) as mcu:
         assert mcu.i2c is not None
@@ -163,6 +169,7 @@ def run_mega_closed_loop(
             served = raw
             mcu.run_to_frame(k, _PLAN_TICK)
             plan = read_active_plan(mcu)
+            own_ocr.append(plan.servo_ocr)
             mcu.run_to_frame(k + 1, _PLAN_TICK)
             flags = mcu.read_symbol("g_tdm_flags")[0]
             run.overrun |= bool(flags & _TDM_OVERRUN)
@@ -208,7 +215,7 @@ def run_mega_closed_loop(
     docs = [document_from_values(values_from_document(doc)) for _ in range(frames + 1)]
     model, _ = model_closed_loop(docs, used, offset, hardware, robot)
     model_ocr = model.ocr[..., cmap.channel_index, cmap.slot_index].astype(np.int64)
-    _compare(run, pulses, writes, model_ocr, frames)
+    _compare(run, pulses, writes, model_ocr, np.array(own_ocr, np.int64), frames)
     return run
 
 
@@ -241,6 +248,7 @@ def _compare(
     pulses: list[tuple[int, NDArray[np.int64]]],
     writes: list[tuple[int, int]],
     model_ocr: NDArray[np.int64],
+    own_ocr: NDArray[np.int64],
     frames: int,
 ) -> None:
     stops = np.array([s for s, _ in writes], np.int64)
@@ -259,6 +267,8 @@ def _compare(
         run.pulse_error_max_s = max(run.pulse_error_max_s, float(np.max(np.abs(got_s - want_s))))
         want_steps_s = pca_steps(want_ocr) * STEP_S
         run.step_mismatches += int(np.sum(np.abs(got_s - want_steps_s) > 1.5 / F_CPU_HZ))
+        own_steps_s = pca_steps(own_ocr[frame]) * STEP_S
+        run.output_mismatches += int(np.sum(np.abs(got_s - own_steps_s) > 1.5 / F_CPU_HZ))
         run.periods += 1
         run.pulses += len(high)
     run.frames_never_output = [k for k in range(frames - 1) if k not in carried]
