@@ -129,3 +129,50 @@ def test_the_hex_read_back_boots_in_simavr_as_the_elf_does(
     for from_elf, from_hex in zip(*widths, strict=True):
         assert np.array_equal(from_elf, from_hex)
     assert FRAME_CYCLES == 320_000
+
+
+PART_PROGRAM = r"""
+#include <avr/interrupt.h>
+#include <avr/io.h>
+#include "twi.h"
+static void w(uint8_t reg, const uint8_t *d, uint8_t n) { twi_blocking(0x40, reg, d, n, 0, 0); }
+int main(void)
+{
+    static const uint8_t wake[1] = {0x01}, pre[1] = {50}, led0[4] = {0x11, 0x22, 0x33, 0x44};
+    static const uint8_t ai[1] = {0x21}, all_off[2] = {0x00, 0x01};
+    sei();
+    twi_init();
+    w(0x00, wake, 1);      /* awake, no auto-increment */
+    w(0xFE, pre, 1);       /* refused: the oscillator runs */
+    w(0x06, led0, 4);      /* no auto-increment: every byte into LED0_ON_L */
+    w(0x00, ai, 1);        /* auto-increment */
+    w(0xFC, all_off, 2);   /* ALL_LED_OFF = 256: every channel's OFF */
+    TCCR1B = _BV(CS10);    /* the harness waits for a timer */
+    for (;;) {}
+}
+"""
+
+
+def test_the_pca9685_part_keeps_the_datasheets_rules(tmp_path: Path) -> None:
+    """Beyond what the firmware uses: PRE_SCALE refused while awake, no auto-increment without AI,
+    ALL_LED_OFF into every channel, the period at another PRESCALE (30, the power-on value)."""
+    source = tmp_path / "part.c"
+    source.write_text(PART_PROGRAM, encoding="ascii")
+    src = Path(__file__).resolve().parents[2] / "hardware" / "firmware" / "src"
+    elf = tmp_path / "part.elf"
+    subprocess.run(["avr-gcc", "-mmcu=atmega2560", "-DF_CPU=16000000UL", "-Os", f"-I{src}",
+                    str(source), str(src / "twi.c"), "-o", str(elf)], check=True)  # fmt: skip
+    with Mcu(elf, board=MEGA) as mcu:
+        assert mcu.i2c is not None
+        mcu.run_until(mcu.cycle + 16_000 * 30)
+        registers = [mcu.i2c.register(r) for r in (0x00, 0xFE, 0x06, 0x07, 0x08, 0x09, 0x44)]
+        periods = mcu.i2c.take_periods()
+        cycles, lines, levels = mcu.i2c.take_edges()
+    assert registers == [0x21, 30, 0x44, 0x00, 0x00, 0x01, 0x00]
+    assert set(periods.prescale) == {30}
+    assert set(np.diff(periods.start_cycle.astype(np.int64))) <= {81264, 81265}  # 4096 * 31 steps
+    step_cycles = 31 * 16 / 25
+    widths = channel_pulses(cycles, lines, levels, channels=16)
+    assert np.allclose(widths[0][1], (256 - 0x44) * step_cycles, atol=1)  # ON = 0x44, OFF = 256
+    for n in range(1, 16):
+        assert np.allclose(widths[n][1], 256 * step_cycles, atol=1) and len(widths[n][1]) >= 5
