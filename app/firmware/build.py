@@ -189,7 +189,7 @@ def build_firmware(
     extra = " ".join(f"-D{k}={v}" for k, v in sorted((defines or {}).items()))
     if out_dir is None:
         parts = {**source_files(), **headers, "cflags": extra}
-        if board != DEFAULT_BOARD:  # the ATmega128's cache keys stay as they were
+        if board != DEFAULT_BOARD:  # the ATmega128's key: its sources, headers and flags alone
             parts["board"] = board
         key = _digest(parts)
         out_dir = cache_dir() / "firmware" / key
