@@ -29,6 +29,7 @@ command -v avr-gcc >/dev/null 2>&1 || debs="$debs gcc-avr avr-libc"
 [ -f /usr/include/simavr/sim_avr.h ] || debs="$debs simavr libsimavr-dev libelf-dev"
 command -v cc >/dev/null 2>&1 || debs="$debs gcc"     # compiles the simavr harness
 command -v make >/dev/null 2>&1 || debs="$debs make"  # the firmware Makefile
+command -v avrdude >/dev/null 2>&1 || debs="$debs avrdude"  # `artro firmware flash`
 if [ "${1:-}" = "--test" ]; then
   command -v chromium >/dev/null 2>&1 || debs="$debs chromium"
   command -v sigrok-cli >/dev/null 2>&1 || debs="$debs sigrok-cli"

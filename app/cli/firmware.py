@@ -1,17 +1,25 @@
-"""`artro firmware build|run`: a firmware folder for a parameter set, and the firmware emulated
-on simavr and compared with the Python model pin for pin -- with a feedback law on, closed loop
-through its emulated sensors on the simulated robot (docs/DESIGN.md §15) -- or served on a
-pseudo-terminal (docs/DESIGN.md §5)."""
+"""`artro firmware build|run|flash`: a firmware folder for a parameter set and a board, the
+firmware emulated on simavr and compared with the Python model pin for pin -- with a feedback law
+on, closed loop through its emulated sensors on the simulated robot (docs/DESIGN.md §15) -- or
+served on a pseudo-terminal (docs/DESIGN.md §5); a board programmed by avrdude (docs/BOARDS.md)."""
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
 import json
+import shlex
 import sys
 from pathlib import Path
 from typing import Any
 
+from app.cli.firmware_flash import (
+    add_board_option,
+    add_flash_parser,
+    board_of,
+    flash,
+    upload_command,
+)
 from app.cli.options import (
     action,
     add_motion_option,
@@ -27,7 +35,7 @@ from app.cli.options import (
     variation,
     warn_if_other_robot,
 )
-from app.firmware.build import build_firmware, export_firmware_folder, wiring
+from app.firmware.build import DEFAULT_BOARD, build_firmware, export_firmware_folder, wiring
 from app.firmware.closed_loop import run_closed_loop
 from app.firmware.conformance import check_firmware
 from app.firmware.emulator import Mcu
@@ -48,14 +56,16 @@ EXAMPLES = """examples:
                                            an open-loop set: its output lines as VCD
   artro firmware run --vary imu_tilt_bias_deg=1,gyro_noise_deg_s=0.1
                                            the laws on the MCU against a varied robot
-  artro firmware run --pty                 the emulated robot on a serial pseudo-terminal"""
+  artro firmware run --pty                 the emulated robot on a serial pseudo-terminal
+  artro firmware build --board mega2560-pca9685 -o mega_fw   an Arduino Mega and a PCA9685
+  artro firmware flash --port /dev/ttyACM0 --board mega2560-pca9685   build it and upload it"""
 
 
 def add_parser(sub: Any) -> None:
     fw = subcommand(
         sub,
         "firmware",
-        "the ATmega128 firmware: build it, run it emulated against the model",
+        "the firmware: build it, run it emulated against the model, flash it",
         command,
         EXAMPLES,
     )
@@ -79,6 +89,7 @@ def add_parser(sub: Any) -> None:
         help="the firmware folder",
     )
     build.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
+    add_board_option(build)
     run = action(
         sub,
         "run",
@@ -101,6 +112,7 @@ def add_parser(sub: Any) -> None:
         help=f"20 ms frames, {MIN_FRAMES} to {MAX_FRAMES} (default {FRAMES})",
     )
     run.add_argument("--robot", metavar="NAME|FILE", help="the robot (default: artro)")
+    add_board_option(run)
     run.add_argument(
         "--vcd",
         type=output_file,
@@ -123,6 +135,7 @@ def add_parser(sub: Any) -> None:
         help="instead: serve the emulated robot's UART on a pseudo-terminal in real time until "
         "Ctrl-C (57600 baud, PROTOCOL.md)",
     )
+    add_flash_parser(sub)
 
 
 def _document(args: argparse.Namespace, robot: RobotModel) -> dict[str, Any]:
@@ -158,20 +171,55 @@ def _serve_pty(doc: dict[str, Any], robot: RobotModel) -> int:
     return 0
 
 
+def _run_mega(args: argparse.Namespace, doc: dict[str, Any], robot: RobotModel) -> int:
+    """The Mega build closed loop, every PCA9685 pulse against the model (docs/BOARDS.md)."""
+    from app.firmware.mega import run_mega_closed_loop
+
+    given = "--pty" if args.pty else "--vary" if not args.vary.is_nominal else None
+    if given:
+        raise ValueError(
+            f"{given}: not for the mega2560-pca9685 board yet; its run takes --params, "
+            "--motion, --ca, --frames, --vcd and --json"
+        )
+    frames = FRAMES if args.frames is None else args.frames
+    run = run_mega_closed_loop(doc, frames, robot, trace=bool(args.vcd))
+    if args.vcd:
+        Path(args.vcd).write_text(run.vcd, encoding="ascii")
+    summary = {**run.summary(), "robot": robot.name}
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        for key, value in summary.items():
+            if key != "failures":
+                print(f"{key:26s} {value}")
+    for failure in summary["failures"]:
+        print(f"artro firmware run: the firmware differs from its model: {failure}",
+              file=sys.stderr)  # fmt: skip
+    return 1 if summary["failures"] else 0
+
+
 def command(args: argparse.Namespace) -> int:
     robot = RobotModel.load(getattr(args, "robot", None))
     doc = _document(args, robot)
+    board = board_of(args, robot)
+    if args.firmware_command == "flash":
+        return flash(args, doc, robot, board)
     if args.firmware_command == "build":
-        folder = export_firmware_folder(doc, Path(args.output), **wiring(robot))
-        build = build_firmware(doc, out_dir=folder, **wiring(robot))
+        folder = export_firmware_folder(doc, Path(args.output), board=board, **wiring(robot))
+        build = build_firmware(doc, out_dir=folder, board=board, **wiring(robot))
         hex_file = build.hex.resolve().relative_to(folder.resolve())  # -o may be relative
         named = set_named(ParameterSet.from_dict(doc))
         print(
-            f"{folder}: {hex_file} built from the parameter set {named}; "
-            f"flash {build.flash_bytes} B, SRAM {build.sram_bytes} B (without the stack); "
-            f"`make -C {folder} flash` programs it"
+            f"{folder}: {hex_file} built from the parameter set {named}; for the {board}: "
+            f"flash {build.flash_bytes} B of {build.flash_size}, SRAM {build.sram_bytes} B of "
+            f"{build.sram_size} (without the stack); `make -C {folder} flash` programs it"
         )
+        if board != DEFAULT_BOARD:
+            command = shlex.join(upload_command(build.hex.resolve(), "PORT"))
+            print(f"upload through the Mega's bootloader: {command}")
         return 0
+    if board != DEFAULT_BOARD:
+        return _run_mega(args, doc, robot)
     if args.pty:
         given = [
             f"--{name}" for name in COMPARISON_ONLY if getattr(args, name) not in (None, False)

@@ -11,12 +11,14 @@ import shutil
 import subprocess
 import tempfile
 import threading
+import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import hardware.firmware as firmware_package
+from app.robots.description import Board
 from app.robots.model import RobotModel
 from gait import ARTRO_LEG, LegGeometry
 from hardware import ChannelMap, ServoCalibration, TdmConfig
@@ -33,7 +35,19 @@ FIRMWARE_DIR = Path(firmware_package.__file__).resolve().parent
 SOURCE_DIR = FIRMWARE_DIR / "src"
 MAKEFILE = FIRMWARE_DIR / "Makefile"
 HARNESS_SOURCE = Path(__file__).resolve().parent / "harness.c"
+#: compiled with it: the Mega board's I2C bus (the PCA9685 part, the monitor)
+HARNESS_SOURCES = (HARNESS_SOURCE, HARNESS_SOURCE.with_name("harness_i2c.c"))
 TOOLS = ("avr-gcc", "avr-objcopy", "avr-size", "make")
+#: the boards the firmware builds for (the Makefile's BOARD, docs/BOARDS.md), the first the default
+BOARDS: tuple[str, ...] = typing.get_args(Board)
+DEFAULT_BOARD = BOARDS[0]
+#: flash and SRAM of each board's MCU, bytes
+BOARD_MEMORY = {
+    "artro-atmega128": (128 * 1024, 4 * 1024),
+    "mega2560-pca9685": (256 * 1024, 8 * 1024),
+}
+#: the MCU simavr emulates for each board
+BOARD_MCU = {"artro-atmega128": "atmega128", "mega2560-pca9685": "atmega2560"}
 
 
 class BuildError(RuntimeError):
@@ -51,6 +65,7 @@ class FirmwareBuild:
     sram_bytes: int  # .data + .bss + .noinit, without the stack
     flash_size: int = 128 * 1024
     sram_size: int = 4 * 1024
+    board: str = DEFAULT_BOARD
 
 
 def cache_dir() -> Path:
@@ -148,6 +163,7 @@ def build_firmware(
     fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
     out_dir: Path | None = None,
     defines: dict[str, str] | None = None,
+    board: str = DEFAULT_BOARD,
 ) -> FirmwareBuild:
     """Generate the headers for `doc`, compile, link; cached unless `out_dir` is given.
 
@@ -159,10 +175,12 @@ def build_firmware(
             fsr_positions_m: its sole force sensors (`RobotModel.fsr_positions_m`).
         out_dir: build here (gen/, build/) instead of the cache.
         defines: extra -D options, e.g. {"ARTRO_BOOT_STATE": "1"}.
+        board: one of BOARDS (docs/BOARDS.md).
 
     Raises:
         BuildError: a tool is missing or the compile failed.
     """
+    check_board(board)
     if missing := missing_tools():
         raise BuildError(f"missing tools: {', '.join(missing)} (install gcc-avr, avr-libc, make)")
     headers = generated_headers(
@@ -170,7 +188,10 @@ def build_firmware(
     )
     extra = " ".join(f"-D{k}={v}" for k, v in sorted((defines or {}).items()))
     if out_dir is None:
-        key = _digest({**source_files(), **headers, "cflags": extra})
+        parts = {**source_files(), **headers, "cflags": extra}
+        if board != DEFAULT_BOARD:  # the ATmega128's key: its sources, headers and flags alone
+            parts["board"] = board
+        key = _digest(parts)
         out_dir = cache_dir() / "firmware" / key
     out_dir = Path(out_dir).resolve()
     elf, hexfile = out_dir / "build" / "artro.elf", out_dir / "build" / "artro.hex"
@@ -189,6 +210,7 @@ def build_firmware(
                     f"GEN={gen}",
                     f"BUILD={tmp}",
                     f"EXTRA_CFLAGS={extra}",
+                    f"BOARD={board}",
                 ],
                 out_dir,
             )
@@ -197,21 +219,29 @@ def build_firmware(
                 os.replace(Path(tmp) / name, out_dir / "build" / name)  # atomic for other runs
     flash, sram = memory_use(elf)
     _write_whole(out_dir / "build" / "size.json", json.dumps({"flash": flash, "sram": sram}))
-    return FirmwareBuild(out_dir, elf, hexfile, flash, sram)
+    flash_size, sram_size = BOARD_MEMORY[board]
+    return FirmwareBuild(out_dir, elf, hexfile, flash, sram, flash_size, sram_size, board)
+
+
+def check_board(board: str) -> str:
+    """`board` if the firmware builds for it; ValueError saying which it builds for."""
+    if board not in BOARDS:
+        raise ValueError(f"board {board!r}: the firmware builds for {', '.join(BOARDS)}")
+    return board
 
 
 def harness_library() -> Path:
     """The simavr harness as a shared library, compiled on first use."""
     if missing := missing_tools(("cc",)):
         raise BuildError(f"missing tools: {', '.join(missing)}")
-    source = HARNESS_SOURCE.read_bytes()
-    target = cache_dir() / "mcu" / f"libartro_mcu-{_digest({'harness.c': source})}.so"
+    sources = {path.name: path.read_bytes() for path in HARNESS_SOURCES}
+    target = cache_dir() / "mcu" / f"libartro_mcu-{_digest(sources)}.so"
     if target.exists():
         return target
     target.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=target.parent) as tmp:
         out = Path(tmp) / target.name
-        command = ["cc", "-shared", "-fPIC", "-O2", "-o", str(out), str(HARNESS_SOURCE)]
+        command = ["cc", "-shared", "-fPIC", "-O2", "-o", str(out), *map(str, HARNESS_SOURCES)]
         _run([*command, "-lsimavr", "-lelf"], Path(tmp))
         os.replace(out, target)
     return target
@@ -225,6 +255,7 @@ def export_firmware_folder(
     tdm: TdmConfig | None = None,
     geometry: LegGeometry = ARTRO_LEG,
     fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
+    board: str = DEFAULT_BOARD,
 ) -> Path:
     """A self-contained firmware folder for one parameter set: `make` builds it, `make flash`
     programs the robot (avrdude). Contents: src/ (the C sources), gen/ (the two generated
@@ -241,6 +272,8 @@ def export_firmware_folder(
     (out / "src").mkdir(parents=True, exist_ok=True)
     (out / "gen").mkdir(exist_ok=True)
     for name, data in source_files().items():
+        if name == "Makefile":  # its BOARD the folder's board (a `make BOARD=...` still rules)
+            data = f"BOARD ?= {check_board(board)}\n".encode() + data
         (out / name).write_bytes(data)
     for doc_name in ("PROTOCOL.md", "README.md"):
         shutil.copyfile(FIRMWARE_DIR / doc_name, out / doc_name)

@@ -16,7 +16,8 @@ from typing import NamedTuple
 import numpy as np
 from numpy.typing import NDArray
 
-from app.firmware.build import harness_library
+from app.firmware.build import BOARD_MCU, DEFAULT_BOARD, check_board, harness_library
+from app.firmware.i2c import I2cBus, declare_i2c
 from app.firmware.sensor_feed import SensorSample
 from hardware import CHANNELS, FRAME_TICKS, PRESCALER, SELECT_LINES
 
@@ -64,7 +65,13 @@ def _library() -> ctypes.CDLL:
         u8p = ctypes.POINTER(ctypes.c_uint8)
         u64p = ctypes.POINTER(ctypes.c_uint64)
         lib.artro_mcu_new.restype = p
-        lib.artro_mcu_new.argtypes = [ctypes.c_char_p, ctypes.c_int, ctypes.c_char_p, ctypes.c_int]
+        lib.artro_mcu_new.argtypes = [
+            ctypes.c_char_p,
+            ctypes.c_char_p,
+            ctypes.c_int,
+            ctypes.c_char_p,
+            ctypes.c_int,
+        ]
         lib.artro_mcu_free.argtypes = [p]
         lib.artro_mcu_run_until.argtypes = [p, u64]
         lib.artro_mcu_run_until.restype = ctypes.c_int
@@ -95,6 +102,9 @@ def _library() -> ctypes.CDLL:
         lib.artro_mcu_profile.argtypes = [p, ctypes.c_uint32, ctypes.c_uint32]
         lib.artro_mcu_profile_take.argtypes = [p, u64p]
         lib.artro_mcu_profile_take.restype = u64
+        lib.artro_mcu_attach_pca9685.argtypes = [p]
+        lib.artro_mcu_attach_pca9685.restype = p
+        declare_i2c(lib)
         _lib = lib
     return _lib
 
@@ -113,7 +123,8 @@ def elf_symbols(elf: Path) -> dict[str, tuple[int, int]]:
 
 
 class Mcu:
-    """One emulated ATmega128 running the ArtRo firmware."""
+    """One emulated MCU running the ArtRo firmware: ArtRo's ATmega128, or the Mega board's
+    ATmega2560 with a PCA9685 on its TWI (`i2c`, docs/BOARDS.md)."""
 
     def __init__(
         self,
@@ -122,6 +133,7 @@ class Mcu:
         fix_mode14: bool = True,
         fix_ocr_high_byte: bool = True,
         sensors: SensorSample | None = None,
+        board: str = DEFAULT_BOARD,
     ) -> None:
         """Load `elf` and run until the firmware has started its timers (frame 0 begins).
 
@@ -133,20 +145,30 @@ class Mcu:
                 before the firmware runs. False shows the emulator's bug: OCR writes ignored.
             fix_ocr_high_byte: make simavr take a 16-bit OCR write whose low byte is unchanged
                 (it drops it). False shows that bug: some pulses off by multiples of 256 ticks.
+            board: the board the ELF was built for (`build_firmware`'s); the Mega's gets its
+                PCA9685 and the bus monitor (`self.i2c`) before it boots.
         """
+        self.board = check_board(board)
         self.elf = Path(elf)
         self._lib = _library()
         error = ctypes.create_string_buffer(256)
         fixes = (1 if fix_mode14 else 0) | (2 if fix_ocr_high_byte else 0)
-        handle = self._lib.artro_mcu_new(str(self.elf).encode(), fixes, error, 256)
+        mcu = BOARD_MCU[board].encode()
+        handle = self._lib.artro_mcu_new(str(self.elf).encode(), mcu, fixes, error, 256)
         if not handle:
             raise EmulatorError(error.value.decode() or "simavr could not load the firmware")
         self._h = ctypes.c_void_p(handle)
         self.symbols = elf_symbols(self.elf)
         self.has_sensors = sensors is not None
+        self.i2c: I2cBus | None = None
+        if board != DEFAULT_BOARD:
+            bus = self._lib.artro_mcu_attach_pca9685(self._h)
+            if not bus:
+                raise EmulatorError(f"simavr's {BOARD_MCU[board]} core has no TWI for the PCA9685")
+            self.i2c = I2cBus(self._lib, bus)
         if sensors is not None:
             if self._lib.artro_mcu_attach_sensors(self._h) != 0:
-                raise EmulatorError("simavr's atmega128 core has no TWI to attach the IMU to")
+                raise EmulatorError(f"simavr's {BOARD_MCU[board]} core has no TWI for the IMU")
             self.set_sensors(sensors)
         self.t0_cycle = self._wait_for_timers()
         self.timer3_lag_cycles = self._lib.artro_mcu_timer_start(self._h, 3) - self.t0_cycle

@@ -1,4 +1,5 @@
-/* harness.c -- the ArtRo firmware on simavr's ATmega128 core, as a small C library for Python.
+/* harness.c -- the ArtRo firmware on simavr's ATmega128 core (or the Mega board's ATmega2560,
+ * with the I2C bus of harness_i2c.c: docs/BOARDS.md), as a small C library for Python.
  *
  * Loads the firmware ELF into simavr, records every level change of the six TDM lines
  * (OC1A/B/C = PB5/6/7, OC3A/B/C = PE3/4/5) and the three select lines (PC0..2) with its CPU
@@ -55,6 +56,14 @@
 #define PROFILE_SLEEP 9
 #define PROFILE_BINS 10
 #define F_CPU_HZ 16000000u
+#define PCA9685_ADDRESS 0x40u
+
+/* harness_i2c.c: the PCA9685 and the bus monitor */
+struct i2c_bus;
+struct i2c_bus *i2c_bus_new(avr_t *avr, avr_irq_t *input, uint8_t address);
+void i2c_bus_free(struct i2c_bus *bus);
+void i2c_bus_on_twi(struct avr_irq_t *irq, uint32_t value, void *param);
+void i2c_bus_on_reply(struct avr_irq_t *irq, uint32_t value, void *param);
 
 typedef struct {
     uint64_t cycle;
@@ -112,7 +121,9 @@ struct harness {
     uint64_t slept_cycles;
     ocr_wrap_t ocr[NUM_OCR];
     imu_t imu;
-    int imu_attached;
+    int imu_attached, bus_connected;
+    int one_timer; /* not the ATmega128: no Timer3 to wait for */
+    struct i2c_bus *i2c; /* harness_i2c.c's bus, once attached */
     uint32_t adc_conversions;
     /* profile: cycles by the main loop's part marker (a byte of SRAM), in interrupts, asleep;
      * and the cycle at which a flag byte last went from 0 to non-zero */
@@ -291,7 +302,7 @@ static void on_twi(struct avr_irq_t *irq, uint32_t value, void *param)
         imu->selected = 0;
         imu->index = 0;
         imu->sla_w_sent = !(v.u.twi.addr & 1u);
-        if ((v.u.twi.addr & 0xFEu) != IMU_ADDRESS_BYTE)
+        if ((v.u.twi.addr & 0xFEu) != IMU_ADDRESS_BYTE || !h->imu_attached)
             return;
         if (!(v.u.twi.addr & 1u)) { /* SLA+W: a new transaction */
             imu->transactions++;
@@ -352,11 +363,13 @@ static void on_adc_trigger(struct avr_irq_t *irq, uint32_t value, void *param)
     ((harness_t *)param)->adc_conversions++;
 }
 
-/* Put the MPU-6050 on the TWI bus and connect the ADC inputs; 0 on success. */
-int artro_mcu_attach_sensors(harness_t *h)
+/* Connect the harness to the MCU's TWI (once): the SLA+W status fix, then what answers. */
+static int bus_connect(harness_t *h)
 {
     static const char *names[2] = {"8>imu.out", "32<imu.in"};
     imu_t *imu = &h->imu;
+    if (h->bus_connected)
+        return 0;
     for (avr_io_t *io = h->avr->io_port; io; io = io->next)
         if (io->kind && strcmp(io->kind, "twi") == 0)
             imu->twi = (avr_twi_t *)io;
@@ -368,12 +381,38 @@ int artro_mcu_attach_sensors(harness_t *h)
     avr_connect_irq(avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_OUTPUT), imu->irq + TWI_IRQ_OUTPUT);
     avr_irq_register_notify(
         avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_STATUS), on_twi_status, imu);
+    h->bus_connected = 1;
+    return 0;
+}
+
+/* Put the MPU-6050 on the TWI bus and connect the ADC inputs; 0 on success. */
+int artro_mcu_attach_sensors(harness_t *h)
+{
+    imu_t *imu = &h->imu;
+    if (bus_connect(h) != 0)
+        return -1;
     imu->reg[0x75] = 0x68u; /* WHO_AM_I */
     imu->short_after = -1;
     avr_irq_register_notify(
         avr_io_getirq(h->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_OUT_TRIGGER), on_adc_trigger, h);
     h->imu_attached = 1;
     return 0;
+}
+
+/* Put a PCA9685 (address 0x40) and the bus monitor on the TWI bus; the bus (for the
+ * artro_pca_* and artro_i2c_* calls of harness_i2c.c), NULL if there is no TWI. */
+struct i2c_bus *artro_mcu_attach_pca9685(harness_t *h)
+{
+    if (h->i2c)
+        return h->i2c;
+    if (bus_connect(h) != 0)
+        return NULL;
+    h->i2c = i2c_bus_new(h->avr, h->imu.irq + TWI_IRQ_INPUT, PCA9685_ADDRESS);
+    if (!h->i2c)
+        return NULL;
+    avr_irq_register_notify(h->imu.irq + TWI_IRQ_OUTPUT, i2c_bus_on_twi, h->i2c);
+    avr_irq_register_notify(h->imu.irq + TWI_IRQ_INPUT, i2c_bus_on_reply, h->i2c);
+    return h->i2c;
 }
 
 /* The IMU's 14 data registers from 0x3B (accel x, y, z, temperature, gyro x, y, z; big-endian). */
@@ -412,7 +451,8 @@ void artro_mcu_sensor_counts(harness_t *h, uint32_t *out5)
     out5[4] = h->adc_conversions;
 }
 
-harness_t *artro_mcu_new(const char *elf_path, int fixes, char *error, int error_len)
+harness_t *artro_mcu_new(const char *elf_path, const char *mcu, int fixes, char *error,
+                         int error_len)
 {
     avr_global_logger_set(quiet_logger);
     elf_firmware_t firmware;
@@ -424,13 +464,14 @@ harness_t *artro_mcu_new(const char *elf_path, int fixes, char *error, int error
     harness_t *h = calloc(1, sizeof *h);
     if (!h)
         return NULL;
-    h->avr = avr_make_mcu_by_name("atmega128");
+    h->avr = avr_make_mcu_by_name(mcu);
     if (!h->avr) {
-        snprintf(error, error_len, "simavr has no atmega128 core");
+        snprintf(error, error_len, "simavr has no %s core", mcu);
         free(h);
         return NULL;
     }
     h->avr->custom.data = h; /* for the sleep hook */
+    h->one_timer = strcmp(mcu, "atmega128") != 0;
     avr_init(h->avr);
     h->avr->log = LOG_ERROR;
     h->avr->sleep = no_sleep;
@@ -487,6 +528,7 @@ void artro_mcu_free(harness_t *h)
     if (!h)
         return;
     avr_terminate(h->avr);
+    i2c_bus_free(h->i2c);
     free(h->edges);
     free(h->out);
     free(h->in);
@@ -499,6 +541,8 @@ static void note_timer_start(harness_t *h)
     for (int i = 0; i < 2; i++)
         if (h->timer_start[i] < 0 && timers[i]->tov_cycles)
             h->timer_start[i] = (int64_t)timers[i]->tov_base;
+    if (h->one_timer && h->timer_start[0] >= 0) /* the Mega's frame clock: Timer1 alone */
+        h->timer_start[1] = h->timer_start[0];
 }
 
 /* Run until the cycle counter reaches `cycle`. Returns simavr's CPU state (cpu_Done and

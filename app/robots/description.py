@@ -26,6 +26,9 @@ from hardware.timer import SLOTS_USED
 
 LegJoint = Literal["hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"]
 LEG_JOINTS: tuple[str, ...] = LegJoint.__args__  # type: ignore[attr-defined]
+#: the boards the firmware is built for (docs/BOARDS.md): ArtRo's ATmega128 with TDM-PWM, or an
+#: Arduino Mega 2560 writing the pulses to a PCA9685 on I2C
+Board = Literal["artro-atmega128", "mega2560-pca9685"]
 LINKS = ("trunk", "hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot")
 #: a stated total_mass_kg is a kitchen scale's reading; the parts are datasheet and estimated
 #: masses: they agree within 2 % of the parts or 5 g, whichever is larger (docs/DESIGN.md §7)
@@ -238,6 +241,11 @@ class RobotDescription(_Strict):
         description="TDM-PWM line -> the servos on its demultiplexer outputs, slot 0 first"
     )
     contact: Contact = Contact()
+    board: Board = Field(
+        "artro-atmega128",
+        description="the controller the firmware is built for (`artro firmware`, docs/BOARDS.md): "
+        "artro-atmega128 (TDM-PWM) or mega2560-pca9685 (an Arduino Mega 2560 and a PCA9685)",
+    )
     cad: CadSource | None = Field(
         None,
         description="imported from a URDF or MJCF file (`artro robot import`): the model "

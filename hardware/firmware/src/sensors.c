@@ -1,7 +1,9 @@
 /* sensors.c -- the MPU-6050 on the TWI bus and the foot force sensors on the ADC
  * (docs/DESIGN.md §15). Both run from their interrupts: the TWI interrupt walks one transaction
  * (START, SLA+W, register, repeated START, SLA+R, 14 bytes, STOP), the ADC interrupt one sweep of
- * the eight channels; neither touches a timer, so no TDM edge moves.
+ * the eight channels; neither touches a timer, so no TDM edge moves. On a board whose TWI others
+ * share (ARTRO_SHARED_TWI: the Mega's PCA9685, docs/BOARDS.md) the bursts go through twi.c, and
+ * no other transaction runs between a burst's start (slot SENSE_SLOT) and its take.
  */
 #include "sensors.h"
 
@@ -21,6 +23,42 @@
 #define REG_PWR_MGMT_1 0x6Bu
 #define IMU_BURST 14u
 
+sensor_raw_t g_sensor_raw;
+int16_t g_gyro_offset[3];
+uint8_t g_sensor_status;
+uint8_t g_imu_failures;
+
+#ifdef ARTRO_SHARED_TWI
+#include "twi.h"
+
+static volatile uint8_t s_burst[IMU_BURST];
+static uint8_t s_imu_reading; /* the transaction on the bus is this frame's IMU burst */
+
+/* A register write (`write`) or the burst, waited for: the ATmega128's twi_blocking below. */
+static uint8_t imu_blocking(uint8_t reg, uint8_t value, uint8_t write)
+{
+    static uint8_t s_value;
+    s_value = value;
+    return write ? twi_blocking(IMU_TWI_ADDRESS, reg, &s_value, 1, 0, 0)
+                 : twi_blocking(IMU_TWI_ADDRESS, reg, 0, 0, s_burst, IMU_BURST);
+}
+
+static void imu_start(void)
+{
+    s_imu_reading = twi_begin(IMU_TWI_ADDRESS, REG_ACCEL_XOUT_H, 0, 0, s_burst, IMU_BURST)
+        == TWI_OK; /* refused while another part's transaction runs: this read fails */
+}
+
+/* The burst's result (interrupts off); a burst still running is given up. */
+static uint8_t imu_result(void)
+{
+    uint8_t result = s_imu_reading ? twi_result() : TWI_SHORT;
+    if (result == TWI_BUSY)
+        twi_finish(TWI_SHORT);
+    s_imu_reading = 0;
+    return result;
+}
+#else
 /* TWI status codes (TWSR & 0xF8), master modes */
 #define TW_START_SENT 0x08u
 #define TW_REP_START_SENT 0x10u
@@ -38,18 +76,15 @@ enum { STEP_START, STEP_SLA_W, STEP_REG, STEP_VALUE, STEP_RESTART, STEP_SLA_R, S
 
 #define TWCR_GO (_BV(TWINT) | _BV(TWEN) | _BV(TWIE))
 
-sensor_raw_t g_sensor_raw;
-int16_t g_gyro_offset[3];
-uint8_t g_sensor_status;
-uint8_t g_imu_failures;
-
 static volatile uint8_t s_step, s_result = TWI_OK, s_count;
 static uint8_t s_reg, s_value, s_write;
 static volatile uint8_t s_burst[IMU_BURST];
+#endif
 static volatile uint8_t s_adc_channel = FSR_CHANNELS; /* FSR_CHANNELS: the sweep is done */
 static volatile uint16_t s_adc[FSR_CHANNELS];
 static uint8_t s_imu_present;
 
+#ifndef ARTRO_SHARED_TWI
 static void twi_finish(uint8_t result)
 {
     TWCR = _BV(TWINT) | _BV(TWSTO) | _BV(TWEN); /* STOP; the interrupt is off until the next */
@@ -148,6 +183,23 @@ static uint8_t twi_blocking(uint8_t reg, uint8_t value, uint8_t write)
     return s_result;
 }
 
+#define imu_blocking twi_blocking
+
+static void imu_start(void)
+{
+    if (s_result != TWI_BUSY)
+        twi_begin(REG_ACCEL_XOUT_H, 0, 0);
+}
+
+static uint8_t imu_result(void)
+{
+    uint8_t result = s_result;
+    if (result == TWI_BUSY) /* not done in time: given up, the bus freed for the next */
+        twi_finish(TWI_SHORT);
+    return result;
+}
+#endif
+
 ISR(ADC_vect)
 {
     uint8_t ch = s_adc_channel;
@@ -169,16 +221,20 @@ static void decode_burst(sensor_raw_t *raw)
 
 void sensors_boot(void)
 {
+#ifdef ARTRO_SHARED_TWI
+    twi_init();
+#else
     TWSR = 0; /* prescaler 1 */
     TWBR = TWI_TWBR;
     TWCR = _BV(TWEN);
+#endif
     ADMUX = _BV(REFS0);
     ADCSRA = _BV(ADEN) | _BV(ADIE) | _BV(ADPS2) | _BV(ADPS1) | _BV(ADPS0); /* clk / 128 */
 
-    s_imu_present = twi_blocking(REG_PWR_MGMT_1, 0x01u, 1) == TWI_OK /* wake, PLL on gyro x */
-        && twi_blocking(REG_CONFIG, IMU_DLPF_CFG, 1) == TWI_OK
-        && twi_blocking(REG_GYRO_CONFIG, 0x00u, 1) == TWI_OK
-        && twi_blocking(REG_ACCEL_CONFIG, 0x00u, 1) == TWI_OK;
+    s_imu_present = imu_blocking(REG_PWR_MGMT_1, 0x01u, 1) == TWI_OK /* wake, PLL on gyro x */
+        && imu_blocking(REG_CONFIG, IMU_DLPF_CFG, 1) == TWI_OK
+        && imu_blocking(REG_GYRO_CONFIG, 0x00u, 1) == TWI_OK
+        && imu_blocking(REG_ACCEL_CONFIG, 0x00u, 1) == TWI_OK;
     if (!s_imu_present)
         return;
     /* held still: the mean gyro reading is its offset */
@@ -187,7 +243,7 @@ void sensors_boot(void)
     sensor_raw_t raw;
     for (uint8_t k = 0; k < CALIBRATION_SAMPLES; k++) {
         _delay_ms(CALIBRATION_SPACING_MS);
-        if (twi_blocking(REG_ACCEL_XOUT_H, 0, 0) != TWI_OK)
+        if (imu_blocking(REG_ACCEL_XOUT_H, 0, 0) != TWI_OK)
             continue;
         decode_burst(&raw);
         for (uint8_t i = 0; i < 3; i++)
@@ -208,8 +264,8 @@ void sensors_boot(void)
 
 void sensors_start(void)
 {
-    if (s_imu_present && s_result != TWI_BUSY)
-        twi_begin(REG_ACCEL_XOUT_H, 0, 0);
+    if (s_imu_present)
+        imu_start();
     if (s_adc_channel >= FSR_CHANNELS) {
         s_adc_channel = 0;
         ADMUX = _BV(REFS0);
@@ -222,9 +278,7 @@ void sensors_take(sensor_reading_t *out)
     uint8_t status = s_imu_present ? SENSE_IMU_PRESENT : 0u, result, adc_done;
     ATOMIC_BLOCK(ATOMIC_RESTORESTATE)
     {
-        result = s_result;
-        if (result == TWI_BUSY) /* not done in time: given up, the bus freed for the next */
-            twi_finish(TWI_SHORT);
+        result = imu_result();
         adc_done = s_adc_channel >= FSR_CHANNELS;
         if (adc_done)
             for (uint8_t i = 0; i < FSR_CHANNELS; i++)
