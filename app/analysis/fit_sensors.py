@@ -103,17 +103,22 @@ class Cycles:
     bins: int = 24
     skip_frames: int = 50
 
-    def fold(self, x: NDArray[np.float64]) -> NDArray[np.float64]:
-        """(n, k) per frame -> (segments × bins, k) bin means (a bin no frame fell in: 0)."""
+    def fold(
+        self, x: NDArray[np.float64], positions: NDArray[np.int64] | None = None
+    ) -> NDArray[np.float64]:
+        """(n, k) rows at the routine's frames `positions` (default 0..n-1) -> (segments ×
+        bins, k) bin means (a bin no row fell in: 0)."""
+        at = np.arange(len(x)) if positions is None else positions
+        cycle = np.mod((at + 1) * self.freq_hz * 0.02, 1.0)
+        which = np.minimum((cycle * self.bins).astype(int), self.bins - 1)
         out = []
         start = 0
-        cycle = np.mod((np.arange(len(x)) + 1) * self.freq_hz * 0.02, 1.0)
-        which = np.minimum((cycle * self.bins).astype(int), self.bins - 1)
         for length in self.lengths:
-            cut = slice(start + min(self.skip_frames, length // 2), start + length)
+            first = start + min(self.skip_frames, length // 2)
+            rows = (at >= first) & (at < start + length)
             sums = np.zeros((self.bins, x.shape[1]))
-            np.add.at(sums, which[cut], x[cut])
-            counts = np.bincount(which[cut], minlength=self.bins)[:, None]
+            np.add.at(sums, which[rows], x[rows])
+            counts = np.bincount(which[rows], minlength=self.bins)[:, None]
             out.append(sums / np.maximum(counts, 1))
             start += length
         return np.concatenate(out)
@@ -131,7 +136,8 @@ def residuals(
     cycles: Cycles | None = None,
 ) -> dict[str, NDArray[np.float64]]:
     """Each channel's residual (recorded − replayed), in units of its `SCALES`: per frame (n, k),
-    or folded onto the gait's cycle (`cycles`: segments × bins, k, units SCALES × FOLDED)."""
+    or folded onto the gait's cycle (`cycles`: segments × bins, k, units SCALES × FOLDED). The
+    replay's rows are the recording's frames (`Traces.at`)."""
     read = as_read(replay, errors)
     mine = {
         "gyro": recorded.gyro,
@@ -141,8 +147,9 @@ def residuals(
     }
     if cycles is None:
         return {c: (mine[c] - read[c]) / SCALES[c] for c in channels(recorded, present)}
+    at = recorded.positions
     return {
-        c: (cycles.fold(mine[c]) - cycles.fold(read[c])) / (SCALES[c] * FOLDED)
+        c: (cycles.fold(mine[c], at) - cycles.fold(read[c], at)) / (SCALES[c] * FOLDED)
         for c in channels(recorded, present)
     }
 

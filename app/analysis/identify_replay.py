@@ -21,7 +21,9 @@ class Traces:
     """Per frame (n frames): commanded set-points (n, 12) rad, gyro (n, 3) rad/s and
     accelerometer (n, 3) m/s² in the IMU's axes, foot forces (n, 8) N (left then right, front-
     left, front-right, back-left, back-right), the joints' angles (n, 12) rad, the trunk's x, y
-    (m) and yaw (rad) (n, 3); `fell_frame` the frame the robot fell in (None: it stood)."""
+    (m) and yaw (rad) (n, 3); `fell_frame` the frame the robot fell in (None: it stood);
+    `index` each row's frame in the routine (None: every frame, in order; a recording from the
+    link may lack some, docs/FIT.md)."""
 
     commanded: NDArray[np.float64]
     gyro: NDArray[np.float64]
@@ -30,10 +32,24 @@ class Traces:
     joints: NDArray[np.float64]
     pose: NDArray[np.float64]
     fell_frame: int | None = None
+    index: NDArray[np.int64] | None = None
 
     @property
     def frames(self) -> int:
         return len(self.gyro)
+
+    @property
+    def positions(self) -> NDArray[np.int64]:
+        """Each row's frame in the routine."""
+        return np.arange(self.frames) if self.index is None else self.index
+
+    def at(self, rows: NDArray[np.int64]) -> Traces:
+        """The rows `rows` (positions into these traces), their frames kept in `index`."""
+        cut = [getattr(self, f)[rows] for f in CHANNELS]
+        return Traces(*cut, fell_frame=self.fell_frame, index=self.positions[rows])
+
+
+CHANNELS = ("commanded", "gyro", "accel", "fsr", "joints", "pose")
 
 
 def play(

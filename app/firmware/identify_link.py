@@ -122,7 +122,8 @@ def _recording(
     clock: FrameClock, robot: RobotModel, gait, first: int, lengths: list[int]
 ) -> Recording:  # type: ignore[no-untyped-def]
     """The frames from `first` on as a recording: each SENSORS tagged with the frame its
-    reading corrected, i.e. the reading after the frame before it (PROTOCOL.md)."""
+    reading corrected, i.e. the reading after the frame before it (PROTOCOL.md). A SENSORS the
+    firmware dropped (its transmit queue full) is a frame the recording lacks."""
     n = sum(lengths)
     numbers = [f for f in range(first, first + n) if f + 1 in clock.frames]
     rows = [clock.frames[f + 1] for f in numbers]
@@ -136,6 +137,7 @@ def _recording(
         fsr=np.array([np.ravel(r.fsr_n) for r in readings]).reshape(-1, 8),
         joints=model.commanded[kept],
         pose=np.zeros((len(kept), 3)),
+        index=kept,
     )
     return identify_record.to_recording(
         traces,
@@ -147,4 +149,5 @@ def _recording(
         frame_numbers=np.asarray(numbers, dtype=np.int64),
         flags=np.array([s.status for s in rows], dtype=np.int64),
         lengths=lengths,
+        first_frame=first,
     )

@@ -12,6 +12,8 @@ from app.firmware.emulator import Mcu
 from app.firmware.link import SLOT_CYCLES
 
 SLOT_S = 0.0025
+#: bytes held for a reader that lags (~11 s of the line at 57600 baud)
+PENDING_MAX = 65536
 
 
 class PtyBridge:
@@ -25,6 +27,9 @@ class PtyBridge:
         os.set_blocking(self._master, False)
         self.port = os.ttyname(self._slave)
         self.bytes_in = self.bytes_out = 0
+        #: what the MCU sent that the pty could not take yet (its buffer full while the reader
+        #: lagged): sent first at the next step, as a USB adapter's buffer would hold it
+        self._pending = b""
 
     def step(self) -> None:
         """One TDM slot: host bytes in, 2.5 ms of MCU time, MCU bytes out."""
@@ -37,9 +42,14 @@ class PtyBridge:
             self.bytes_in += len(data)
         self.mcu.run_until(self.mcu.cycle + SLOT_CYCLES)
         _, out = self.mcu.take_uart()
-        if out:
-            os.write(self._master, out)
-            self.bytes_out += len(out)
+        self._pending = (self._pending + out)[-PENDING_MAX:]  # no reader at all: the newest kept
+        if self._pending:
+            try:
+                sent = os.write(self._master, self._pending)
+            except (BlockingIOError, OSError):
+                sent = 0
+            self._pending = self._pending[sent:]
+            self.bytes_out += sent
         self.mcu.take_edges()  # not kept: a long session would pile them up
 
     def serve(self, stop: threading.Event, max_seconds: float | None = None) -> None:

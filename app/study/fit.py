@@ -110,23 +110,22 @@ def _score(
     """The loss at the physics point `values` over the routine's first `segments` (all: None),
     the IMU's errors fitted there (those in `imu`)."""
     w = _WORKER
-    replay = _replay(values, segments)
-    recorded = sliced(w["recorded"], replay.frames)
+    recorded = within(w["recorded"], sum(w["lengths"][:segments]))
+    replay = aligned(_replay(values, segments), recorded)
     errors = _imu_fit(replay, recorded, imu, w["fixed"])
     cycles = fit_sensors.Cycles(tuple(w["lengths"][:segments]), w["params"].clock.freq_hz)
     parts = fit_sensors.residuals(replay, errors, recorded, w["present"], cycles)
     return fit_sensors.soft_l1(parts), fit_space.imu_values(errors)
 
 
-def sliced(traces: Traces, frames: int) -> Traces:
-    """The first `frames` of `traces`."""
-    cut = [
-        getattr(traces, f)[:frames] for f in ("commanded", "gyro", "accel", "fsr", "joints", "pose")
-    ]
-    fell = (
-        traces.fell_frame if traces.fell_frame is not None and traces.fell_frame < frames else None
-    )
-    return Traces(*cut, fell_frame=fell)
+def within(traces: Traces, frames: int) -> Traces:
+    """The rows of `traces` in the routine's first `frames` frames."""
+    return traces.at(np.flatnonzero(traces.positions < frames))
+
+
+def aligned(replay: Traces, recorded: Traces) -> Traces:
+    """The replay's rows at the recording's frames (a recording may lack some)."""
+    return replay.at(recorded.positions)
 
 
 def _imu_fit(replay: Traces, recorded: Traces, imu: tuple[str, ...], fixed: Variation):
@@ -186,8 +185,10 @@ def fit(
         nominal = {d.name: d.nominal for d in physics}
         held = fit_space.truth_values(fixed)
         nominal = {k: held.get(k, v) for k, v in nominal.items()}
-        ((loss0, _imu0),) = run_all(_score, [(nominal, imu)])
-        best, best_loss, evaluations, sigma_now = dict(nominal), loss0, 1, 0.0
+        # the nominal model's loss (the IMU's errors as held too), and at nominal physics with
+        # the IMU's errors fitted: where the search starts
+        (loss0, _), (start_loss, _) = run_all(_score, [(nominal, ()), (nominal, imu)])
+        best, best_loss, evaluations, sigma_now = dict(nominal), start_loss, 2, 0.0
         standing = [d for d in physics if d.name in STANDING]
         walking = [d for d in physics if d.name not in STANDING]
         weight = lengths[0] / sum(lengths)  # a standing replay's share of a whole one
@@ -222,7 +223,7 @@ def fit(
             evaluations += done
         else:
             ((best_loss, _),) = run_all(_score, [(best, imu)])
-        replays = run_all(_replay, [(nominal,), (best,)])
+        replays = [aligned(r, recorded) for r in run_all(_replay, [(nominal,), (best,)])]
         values = dict(best)
         errors = _imu_fit(replays[1], recorded, imu, fixed)
         values |= {k: v for k, v in fit_space.imu_values(errors).items() if k in imu}
@@ -345,7 +346,7 @@ def _uncertainty(
                     },
                 )
             )
-    replays = run_all(_replay, points) if points else []
+    replays = [aligned(r, recorded) for r in run_all(_replay, points)] if points else []
     columns = []
     for i, d in enumerate(physics):
         plus, minus = at(values, replays[2 * i]), at(values, replays[2 * i + 1])
@@ -415,7 +416,7 @@ def _judged(
         )
     physics_values = {k: v for k, v in values.items() if k in fit_space.PHYSICS}
     errors = fit_space.imu_errors({k: v for k, v in values.items() if k in fit_space.IMU}, fixed)
-    variation = NOMINAL
+    variation = fixed  # not converged: the nominal, with what the builder held
     if converged:
         physical = fit_space.physics_variation(physics_values, fixed)
         variation = fit_space.with_imu(physical, errors)

