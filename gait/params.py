@@ -16,6 +16,7 @@ from gait.feedback_params import (
     CopParams,
     DampingParams,
     TiltParams,
+    TimingParams,
     YawRateParams,
 )
 from gait.motion_params import RampParams, SteerParams
@@ -251,6 +252,7 @@ class GaitParams:
     yaw_rate: YawRateParams = field(default_factory=YawRateParams)
     damping: DampingParams = field(default_factory=DampingParams)
     cop: CopParams = field(default_factory=CopParams)
+    timing: TimingParams = field(default_factory=TimingParams)
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
@@ -292,6 +294,7 @@ _GROUP_CLASSES = {
     "yaw_rate": YawRateParams,
     "damping": DampingParams,
     "cop": CopParams,
+    "timing": TimingParams,
 }
 GROUP_KEYS.update({cls.__name__: key for key, cls in _GROUP_CLASSES.items()})  # for errors
 #: Every parameter group, in schema order (the fields of GaitParams but `engine`).
@@ -299,7 +302,7 @@ GROUP_NAMES: tuple[str, ...] = tuple(_GROUP_CLASSES)
 #: Groups every engine uses.
 #: the balance feedback on top of either engine (docs/DESIGN.md §15): the laws, each with its
 #: switch, and the attitude estimate they share
-LAW_GROUPS = ("tilt", "yaw_rate", "damping", "cop")
+LAW_GROUPS = ("tilt", "yaw_rate", "damping", "cop", "timing")
 FEEDBACK_GROUPS = ("attitude", *LAW_GROUPS)
 COMMON_GROUPS = ("clock", "steer", "ramp", *FEEDBACK_GROUPS)
 _ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg"), "pfs": ("pfs",)}

@@ -41,6 +41,7 @@ GROUP_TITLES = {
     "yaw_rate": "Feedback: yaw rate",
     "damping": "Feedback: gyro damping",
     "cop": "Feedback: centre of pressure",
+    "timing": "Feedback: step timing",
 }
 
 # forbid unknown fields, NaN and inf, and take no strings for numbers
