@@ -153,7 +153,11 @@ class TimingParams:
     enabled: bool = _switch("time the steps by the trunk's roll", default=False)
     swing_rad: float = _param(
         0.0, -0.3, 0.3, step=0.001, unit="rad", eq="",
-        doc="expected roll swing: its amplitude, roll = ... + swing cos(phi_Trunk + phase)",
+        doc="expected roll swing on the spot: roll = ... + swing cos(phi_Trunk + phase)",
+    )  # fmt: skip
+    swing_per_a_r: float = _param(
+        0.0, -2.0, 2.0, step=0.01, unit="1", eq="",
+        doc="expected roll swing's growth per unit |a_r| (side steps sway wider)",
     )  # fmt: skip
     swing_phase_rad: float = _param(
         0.0, -3.14, 3.14, step=0.01, unit="rad", eq="",

@@ -19,7 +19,7 @@ from gait.feedback_params import (
     TimingParams,
     YawRateParams,
 )
-from gait.motion_params import RampParams, SteerParams
+from gait.motion_params import LateralParams, RampParams, SteerParams
 from gait.pfs_params import PfsParams
 from gait.schema_fields import GROUP_KEYS
 from gait.schema_fields import check_ranges as _check_ranges
@@ -244,6 +244,7 @@ class GaitParams:
     load: LoadParams = field(default_factory=LoadParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     leg: LegParams = field(default_factory=LegParams)
+    lateral: LateralParams = field(default_factory=LateralParams)
     steer: SteerParams = field(default_factory=SteerParams)
     ramp: RampParams = field(default_factory=RampParams)
     pfs: PfsParams = field(default_factory=PfsParams)
@@ -286,6 +287,7 @@ _GROUP_CLASSES = {
     "load": LoadParams,
     "balance": BalanceParams,
     "leg": LegParams,
+    "lateral": LateralParams,
     "steer": SteerParams,
     "ramp": RampParams,
     "pfs": PfsParams,
@@ -305,7 +307,7 @@ GROUP_NAMES: tuple[str, ...] = tuple(_GROUP_CLASSES)
 LAW_GROUPS = ("tilt", "yaw_rate", "damping", "cop", "timing")
 FEEDBACK_GROUPS = ("attitude", *LAW_GROUPS)
 COMMON_GROUPS = ("clock", "steer", "ramp", *FEEDBACK_GROUPS)
-_ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg"), "pfs": ("pfs",)}
+_ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg", "lateral"), "pfs": ("pfs",)}
 
 
 def engine_groups(engine: str) -> tuple[str, ...]:

@@ -18,10 +18,12 @@ def expected_roll(
     timing: TimingParams, a_r: ArrayLike, phase_rad: ArrayLike
 ) -> NDArray[np.float32]:
     """The trunk roll (right > 0) the gait is expected to have at phi_Trunk `phase_rad`
-    walking a_r: offset + roll_per_a_r a_r + swing cos(phi_Trunk + swing phase), in float32."""
-    phase = np.asarray(phase_rad, dtype=F32)
-    swing = F32(timing.swing_rad) * np.cos(phase + F32(timing.swing_phase_rad))
-    still = F32(timing.roll_offset_rad) + F32(timing.roll_per_a_r) * np.asarray(a_r, dtype=F32)
+    walking a_r: offset + roll_per_a_r a_r + (swing + swing_per_a_r |a_r|) cos(phi_Trunk +
+    swing phase), in float32."""
+    phase, side = np.asarray(phase_rad, dtype=F32), np.asarray(a_r, dtype=F32)
+    amplitude = F32(timing.swing_rad) + F32(timing.swing_per_a_r) * np.abs(side)
+    swing = amplitude * np.cos(phase + F32(timing.swing_phase_rad))
+    still = F32(timing.roll_offset_rad) + F32(timing.roll_per_a_r) * side
     return (still + swing).astype(F32)
 
 

@@ -33,6 +33,7 @@ GROUP_TITLES = {
     "load": "Loading",
     "balance": "Balancing",
     "leg": "Leg",
+    "lateral": "Lateral support",
     "steer": "Steering (CA)",
     "ramp": "Motion ramp",
     "pfs": "PFS oscillators",

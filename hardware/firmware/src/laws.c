@@ -204,7 +204,9 @@ static void cop_loop(law_state_t *s, law_output_t *out, const float fsr[2][4])
  * out over the support foot (slower), < 0 falls toward the swing foot (faster); clamped */
 static void timing(law_state_t *s, law_output_t *out, float phase)
 {
-    const float swing = P(TIMING_SWING_RAD) * cosf(phase + P(TIMING_SWING_PHASE_RAD));
+    const float side = fabsf(g_motion[RAMP_A_R]);
+    const float amplitude = P(TIMING_SWING_RAD) + P(TIMING_SWING_PER_A_R) * side;
+    const float swing = amplitude * cosf(phase + P(TIMING_SWING_PHASE_RAD));
     const float still = P(TIMING_ROLL_OFFSET_RAD) + P(TIMING_ROLL_PER_A_R) * g_motion[RAMP_A_R];
     const float deviation = s->roll - (still + swing);
     const float filtered = s->timing_error
