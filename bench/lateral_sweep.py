@@ -17,7 +17,7 @@ import argparse
 
 import results
 
-from app.analysis.robustness import ROBUST_CASES, passes
+from app.analysis.robustness import MAX_TURN_DEG_S, PASS_SHARE, ROBUST_CASES, passes
 from app.evaluation import BatchEvaluator, Job
 from app.robots.model import RobotModel
 from app.study.walks import resolve_presets
@@ -58,13 +58,20 @@ def main() -> None:
         for k, case in enumerate(cases):
             runs = varied[k :: len(cases)]
             ok = sum(passes(case, m, nominal[k]) for m in runs)
+            goal = abs(nominal[k]["lateral_cm_s"])
+            way = 1.0 if nominal[k]["lateral_cm_s"] > 0 else -1.0
+            walked = [m for m in runs if not m["fell"]]
             row[case.name] = {
                 "pass_share": ok / len(runs), "falls": sum(m["fell"] for m in runs),
                 "nominal_cm_s": nominal[k].get("lateral_cm_s"),
+                # why the others failed: too slow sideways, or turning on the way
+                "slow": sum(m["lateral_cm_s"] * way < PASS_SHARE * goal for m in walked),
+                "turning": sum(abs(m["turn_deg_s"]) > MAX_TURN_DEG_S for m in walked),
             }  # fmt: skip
         figures[name] = row
         text = "  ".join(
-            f"{c}: {r['pass_share']:.0%} ({r['falls']} falls, nominal {r['nominal_cm_s']:+.2f})"
+            f"{c}: {r['pass_share']:.0%} ({r['falls']} falls, {r['slow']} slow, "
+            f"{r['turning']} turning; nominal {r['nominal_cm_s']:+.2f} cm/s)"
             for c, r in row.items()
         )
         print(f"{name}: {text}")
