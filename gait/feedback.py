@@ -14,6 +14,7 @@ from numpy.typing import NDArray
 from gait.attitude import accel_tilt, complementary_step, starts_attitude
 from gait.feedback_params import TiltParams, YawRateParams
 from gait.params import LAW_GROUPS, GaitParams, Motion
+from gait.timing import timing_step
 
 F32 = np.float32
 #: joint indices in `gait.JOINT_NAMES` order, per leg (left, right)
@@ -63,6 +64,7 @@ class State:
     yaw_integral: np.float32 = field(default_factory=F32)
     cop_integral: NDArray[np.float32] = field(default_factory=lambda: _zeros(2))
     cop_last: NDArray[np.float32] = field(default_factory=lambda: _zeros(2))
+    timing_error: np.float32 = field(default_factory=F32)
 
 
 @dataclass(frozen=True)
@@ -76,6 +78,7 @@ class Output:
     cop_rad: NDArray[np.float32]  # (2,) the support foot's ankle pitch and roll (outward)
     support: int  # the support foot (0 left, 1 right), -1: neither carries min_load_n
     attitude_rad: NDArray[np.float32] = field(default_factory=lambda: _zeros(2))  # estimate
+    freq_delta_hz: np.float32 = field(default_factory=F32)  # added to the clock's frequency
 
 
 def _zeros(n: int) -> NDArray[np.float32]:
@@ -151,6 +154,7 @@ class States:
     yaw_integral: NDArray[np.float32]  # (K,)
     cop_integral: NDArray[np.float32]  # (K, 2)
     cop_last: NDArray[np.float32]  # (K, 2)
+    timing_error: NDArray[np.float32]  # (K,)
 
     @classmethod
     def of(cls, states: Sequence[State]) -> States:
@@ -192,11 +196,12 @@ class Outputs:
     cop_rad: NDArray[np.float32]  # (K, 2)
     support: NDArray[np.int64]  # (K,)
     attitude_rad: NDArray[np.float32]  # (K, 2)
+    freq_delta_hz: NDArray[np.float32]  # (K,)
 
     def run(self, k: int) -> Output:
         return Output(
             self.joint_delta_rad[k], self.a_y_delta[k], self.tilt_rad[k], self.damping_rad[k],
-            self.cop_rad[k], int(self.support[k]), self.attitude_rad[k],
+            self.cop_rad[k], int(self.support[k]), self.attitude_rad[k], self.freq_delta_hz[k],
         )  # fmt: skip
 
 
@@ -214,6 +219,8 @@ def step(
     motion: Motion,
     fsr_positions_m: NDArray[np.float32],
     dt_s: float,
+    *,
+    phase_rad: float | None = None,
 ) -> tuple[State, Output]:
     """One frame of every law that is on, for one run: `step_many` of a single run (the one
     implementation; its docstring says what each law does)."""
@@ -226,6 +233,7 @@ def step(
         motion,
         fsr_positions_m,
         dt_s,
+        phase_rad=phase_rad,
     )
     return states.run(0), outs.run(0)
 
@@ -239,6 +247,8 @@ def step_many(
     motion: Motion,
     fsr_positions_m: NDArray[np.float32],
     dt_s: float,
+    *,
+    phase_rad: float | NDArray[np.floating] | None = None,
 ) -> tuple[States, Outputs]:
     """One frame of every law that is on (the feedback groups of `laws`) for K runs at once,
     each from its own reading -- the gyro (K, 3), the accelerometer (K, 3), the soles' forces
@@ -255,7 +265,10 @@ def step_many(
     right). Yaw rate: the
     error of the gyro's rate against `commanded_turn_rate`, low-passed, PI, clamped, on a_y
     (a_y > 0 turns clockwise). Damping: ankles and hips against the trunk's pitch and roll
-    rates. CoP: the support foot's ankle pitch and roll against its centre of pressure (PID)."""
+    rates. CoP: the support foot's ankle pitch and roll against its centre of pressure (PID).
+    Timing: the clock's frequency against the roll's deviation from its expected swing at
+    `phase_rad` (phi_Trunk of the frame planned next, one or (K,); `gait.timing`), waiting for
+    the attitude estimate as the tilt trim does."""
     gyro, accel = np.asarray(gyro_rad_s, dtype=F32), np.asarray(accel_m_s2, dtype=F32)
     runs = len(gyro)
     was = state.started
@@ -329,5 +342,14 @@ def step_many(
         rows, foot = np.flatnonzero(support >= 0), support[support >= 0]
         delta[rows, np.array(ANKLE_PITCH)[foot]] += cop_out[rows, 0]
         delta[rows, np.array(ANKLE_ROLL)[foot]] += cop_out[rows, 1]
-    outs = Outputs(delta, a_y_delta, tilt, damping, cop_out, support, attitude)
+    freq_delta = np.zeros(runs, dtype=F32)
+    if laws.timing.enabled:
+        if phase_rad is None:
+            raise ValueError("the timing law reads the gait's phase: give phase_rad")
+        error, change = timing_step(
+            laws.timing, state.timing_error, roll, motion.a_r, phase_rad, laws.clock.freq_hz, dt_s
+        )
+        freq_delta = np.where(started, change, F32(0.0)).astype(F32)
+        new["timing_error"] = np.where(started, error, state.timing_error).astype(F32)
+    outs = Outputs(delta, a_y_delta, tilt, damping, cop_out, support, attitude, freq_delta)
     return States(**{**state.__dict__, **new}), outs

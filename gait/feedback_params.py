@@ -140,3 +140,54 @@ class CopParams:
 
     def __post_init__(self) -> None:
         _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class TimingParams:
+    """Step-timing feedback (NimbRo's lateral stabiliser, Allgeuer and Behnke 2016;
+    docs/SENSORS.md): the gait's frequency changed by the filtered trunk roll's deviation from
+    the expected roll swing of the gait, faster when the trunk falls toward the swing foot,
+    slower when it leans out over the support foot. The expected swing is measured on the
+    nominal walk (`bench/timing_reference.py`), as the tilt trim's expected tilt is."""
+
+    enabled: bool = _switch("time the steps by the trunk's roll", default=False)
+    swing_rad: float = _param(
+        0.0, -0.3, 0.3, step=0.001, unit="rad", eq="",
+        doc="expected roll swing on the spot: roll = ... + swing cos(phi_Trunk + phase)",
+    )  # fmt: skip
+    swing_per_a_r: float = _param(
+        0.0, -2.0, 2.0, step=0.01, unit="1", eq="",
+        doc="expected roll swing's growth per unit |a_r| (side steps sway wider)",
+    )  # fmt: skip
+    swing_phase_rad: float = _param(
+        0.0, -3.14, 3.14, step=0.01, unit="rad", eq="",
+        doc="expected roll swing: its phase against phi_Trunk",
+    )  # fmt: skip
+    roll_offset_rad: float = _param(
+        0.0, -0.2, 0.2, step=0.001, unit="rad", eq="", doc="expected roll on the spot (right > 0)"
+    )
+    roll_per_a_r: float = _param(
+        0.0, -2.0, 2.0, step=0.01, unit="1", eq="", doc="expected roll per unit a_r"
+    )
+    filter_s: float = _param(
+        0.05, 0.02, 1.0, step=0.01, unit="s", eq="",
+        doc="low-pass time constant of the roll deviation (short: a step lasts ~0.7 s)",
+    )  # fmt: skip
+    deadband_rad: float = _param(
+        0.02, 0.0, 0.2, step=0.001, unit="rad", eq="", doc="deviations within this are left alone"
+    )
+    speed_up_hz_per_rad: float = _param(
+        5.0, 0.0, 50.0, step=0.1, unit="Hz/rad", eq="",
+        doc="faster by this per rad the trunk falls toward the swing foot",
+    )  # fmt: skip
+    slow_down_hz_per_rad: float = _param(
+        10.0, 0.0, 50.0, step=0.1, unit="Hz/rad", eq="",
+        doc="slower by this per rad the trunk leans out over the support foot",
+    )  # fmt: skip
+    clamp_share: float = _param(
+        0.3, 0.0, 0.5, step=0.01, unit="1", eq="",
+        doc="largest change, a share of clock.freq_hz (the clock never stops or runs back)",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)

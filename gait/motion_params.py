@@ -70,3 +70,24 @@ class RampParams:
 
     def __post_init__(self) -> None:
         _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class LateralParams:
+    """Lateral support on the support leg (docs/SENSORS.md, decision 0061): a PWM hobby servo has
+    one stiffness (its proportional band is fixed in the servo), so where OP3 stiffens the
+    support hip roll this leans it instead -- the support leg's roll (the foot kept level, as
+    eq (39)) by `support_roll_rad` plus `sway_per_a_r` |a_r|, weighted by how much that leg
+    carries (sin phi_Leg, > 0 while it supports). 0 and 0: the gait as before, to the bit."""
+
+    support_roll_rad: float = _param(
+        0.0, -0.1, 0.1, step=0.002, unit="rad", eq="",
+        doc="support leg's roll lean (outward > 0): pre-loads the hip roll against its sag",
+    )  # fmt: skip
+    sway_per_a_r: float = _param(
+        0.0, -1.0, 1.0, step=0.01, unit="1", eq="",
+        doc="more support lean per unit |a_r|: side steps load the hip roll most",
+    )  # fmt: skip
+
+    def __post_init__(self) -> None:
+        _check_ranges(self)

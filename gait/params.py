@@ -16,9 +16,10 @@ from gait.feedback_params import (
     CopParams,
     DampingParams,
     TiltParams,
+    TimingParams,
     YawRateParams,
 )
-from gait.motion_params import RampParams, SteerParams
+from gait.motion_params import LateralParams, RampParams, SteerParams
 from gait.pfs_params import PfsParams
 from gait.schema_fields import GROUP_KEYS
 from gait.schema_fields import check_ranges as _check_ranges
@@ -243,6 +244,7 @@ class GaitParams:
     load: LoadParams = field(default_factory=LoadParams)
     balance: BalanceParams = field(default_factory=BalanceParams)
     leg: LegParams = field(default_factory=LegParams)
+    lateral: LateralParams = field(default_factory=LateralParams)
     steer: SteerParams = field(default_factory=SteerParams)
     ramp: RampParams = field(default_factory=RampParams)
     pfs: PfsParams = field(default_factory=PfsParams)
@@ -251,6 +253,7 @@ class GaitParams:
     yaw_rate: YawRateParams = field(default_factory=YawRateParams)
     damping: DampingParams = field(default_factory=DampingParams)
     cop: CopParams = field(default_factory=CopParams)
+    timing: TimingParams = field(default_factory=TimingParams)
 
     def __post_init__(self) -> None:
         if self.engine not in ENGINES:
@@ -284,6 +287,7 @@ _GROUP_CLASSES = {
     "load": LoadParams,
     "balance": BalanceParams,
     "leg": LegParams,
+    "lateral": LateralParams,
     "steer": SteerParams,
     "ramp": RampParams,
     "pfs": PfsParams,
@@ -292,6 +296,7 @@ _GROUP_CLASSES = {
     "yaw_rate": YawRateParams,
     "damping": DampingParams,
     "cop": CopParams,
+    "timing": TimingParams,
 }
 GROUP_KEYS.update({cls.__name__: key for key, cls in _GROUP_CLASSES.items()})  # for errors
 #: Every parameter group, in schema order (the fields of GaitParams but `engine`).
@@ -299,10 +304,10 @@ GROUP_NAMES: tuple[str, ...] = tuple(_GROUP_CLASSES)
 #: Groups every engine uses.
 #: the balance feedback on top of either engine (docs/DESIGN.md §15): the laws, each with its
 #: switch, and the attitude estimate they share
-LAW_GROUPS = ("tilt", "yaw_rate", "damping", "cop")
+LAW_GROUPS = ("tilt", "yaw_rate", "damping", "cop", "timing")
 FEEDBACK_GROUPS = ("attitude", *LAW_GROUPS)
 COMMON_GROUPS = ("clock", "steer", "ramp", *FEEDBACK_GROUPS)
-_ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg"), "pfs": ("pfs",)}
+_ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg", "lateral"), "pfs": ("pfs",)}
 
 
 def engine_groups(engine: str) -> tuple[str, ...]:

@@ -137,6 +137,11 @@ def leg_parameters_with_flags(
         yaw_term = a_y if paper_signs else abs(a_y)
         leg_roll += bl.leg_roll_offset + i_s * a_r + abs(a_r) + bl.leg_roll_yaw * yaw_term  # (39)
 
+    lat = params.lateral
+    if lat.support_roll_rad or lat.sway_per_a_r:  # none: not a bit changes
+        lean = lat.support_roll_rad + lat.sway_per_a_r * abs(a_r)
+        leg_roll += lean * np.maximum(np.sin(phi_leg), 0.0)  # the support leg (decision 0061)
+
     gamma_clamped = gamma < -1.0
     gamma = np.minimum(np.maximum(gamma, -1.0), 0.0)  # eq (45), the leg interface's range
     values = np.empty((*phi_leg.shape, 6))  # eqs (40)-(45), in `LegParameters` order

@@ -147,7 +147,7 @@ def test_bench_batch_measures_both_goals_against_a_ceiling_of_the_same_runs(tmp_
         assert kind["walks"] == 2 and 0 <= kind["falls"] <= 2
     closed = doc["figures"]["closed_loop"]  # the closed loop's cost against the open loop
     assert closed["laws"] == {
-        "every law": ["tilt", "yaw_rate", "damping", "cop"],
+        "every law": ["tilt", "yaw_rate", "damping", "cop", "timing"],
         "robust's laws": ["tilt", "yaw_rate", "damping"],  # the shipped preset's (no CoP)
     }
     for name in closed["laws"]:

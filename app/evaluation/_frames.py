@@ -121,7 +121,7 @@ class ClosedLoops:
         if any(j.motion != job.motion for j in jobs):  # each its own, never ramped
             self.motion = MotionOfRuns.of([j.motion for j in jobs])
         self.motion_now = self.motion if job.start_motion is None else job.start_motion
-        self.phase = starts[0].phase
+        self.phase: float | np.ndarray = starts[0].phase  # each run's (K,) once timing acts
         self.step_rad = 2.0 * math.pi * job.params.clock.freq_hz * FRAME_S
         self.control = np.stack([np.broadcast_to(s.ctrl, (steps, len(s.ctrl))) for s in starts])
         # the servos' columns of the control: written in place when they are all of it, in order
@@ -143,8 +143,9 @@ class ClosedLoops:
         else:
             fsr = np.zeros((len(gyro), 2, 4))
         self.law_state, out = feedback.step_many(
-            params, self.law_state, gyro, accel, fsr, self.motion_now, self.positions, FRAME_S
-        )
+            params, self.law_state, gyro, accel, fsr, self.motion_now, self.positions, FRAME_S,
+            phase_rad=self.phase,
+        )  # fmt: skip
         plan = plan_frame_of_runs(
             params, self.motion, self.robot.hardware(), self.phase, self.steps,
             self.timestep_s, motion_now=self.motion_now, frame0=frame,
@@ -156,7 +157,11 @@ class ClosedLoops:
             self.control[:, :, act] = self._servos
         self.sent = plan.setpoint
         self.motion_now = plan.motion
-        next_phase = plan.phase + self.step_rad
+        if params.timing.enabled:  # each run's clock at its own rate (gait/timing.py)
+            freq = params.clock.freq_hz + out.freq_delta_hz.astype(np.float64)
+            next_phase = plan.phase + 2.0 * math.pi * freq * FRAME_S
+        else:
+            next_phase = plan.phase + self.step_rad
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # as FrameLoop, in floats
         return self.control
 
@@ -165,6 +170,8 @@ class ClosedLoops:
         self.sensors.keep(runs)
         self.path.keep(runs)
         self.law_state = self.law_state.take(runs)
+        if np.ndim(self.phase):
+            self.phase = self.phase[runs]
         if isinstance(self.motion, MotionOfRuns):
             self.motion = self.motion_now = self.motion.take(runs)
         self.rows, self.sent, self.control = self.rows[runs], self.sent[runs], self.control[runs]

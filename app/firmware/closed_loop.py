@@ -31,7 +31,7 @@ from hardware.firmware.schema import param_specs, values_from_document
 #: law outputs, firmware (float32, avr-libc's functions) against the model (numpy float32):
 #: well below a tenth of a Timer tick's angle
 LAW_TOLERANCE = 2e-5
-_LAW_OUTPUT = struct.Struct("<12ff2f2fb2f")  # laws.h law_output_t (avr-gcc packs it)
+_LAW_OUTPUT = struct.Struct("<12ff2f2fb2ff")  # laws.h law_output_t (avr-gcc packs it)
 _TDM_OVERRUN = 0x01  # tdm.h
 #: the planning window of frame k+1 in frame k: from the guard of slot 3 to that of slot 7
 PLAN_REQUEST_TICK, PLAN_LATCH_TICK = 19_900, 39_900
@@ -47,6 +47,7 @@ class LawFrame:
     cop_rad: NDArray[np.float32]
     support: int
     attitude_rad: NDArray[np.float32]
+    freq_delta_hz: float = 0.0
 
 
 def read_law_output(mcu: Mcu) -> LawFrame:
@@ -54,7 +55,7 @@ def read_law_output(mcu: Mcu) -> LawFrame:
     f32 = np.float32
     return LawFrame(
         np.array(v[:12], f32), v[12], np.array(v[13:15], f32), np.array(v[15:17], f32), v[17],
-        np.array(v[18:20], f32),
+        np.array(v[18:20], f32), v[20],
     )  # fmt: skip
 
 
@@ -93,7 +94,9 @@ def model_closed_loop(
         motion = Motion(**docs[k]["motion"])
         if k > 0:
             reading = decoded(samples[k - 1], offset)
-            state, out = feedback.step(params, state, reading, motion_now, positions, FRAME_S)
+            state, out = feedback.step(
+                params, state, reading, motion_now, positions, FRAME_S, phase_rad=phase
+            )
         correct = feedback.any_law_on(params) and out is not None
         plan = plan_frames(
             params,
@@ -109,7 +112,8 @@ def model_closed_loop(
             a_y_delta=float(out.a_y_delta) if correct else 0.0,
         )
         motion_now = plan.motions[0]
-        phase = float(pi_cut(phase + 2.0 * math.pi * params.clock.freq_hz * FRAME_S))
+        freq = params.clock.freq_hz + (float(out.freq_delta_hz) if correct else 0.0)  # type: ignore[union-attr]
+        phase = float(pi_cut(phase + 2.0 * math.pi * freq * FRAME_S))
         phases.append(plan.phase[0])
         angles.append(plan.angles[0])
         ocrs.append(plan.ocr[0])
@@ -189,6 +193,7 @@ def _law_error(got: LawFrame, want: feedback.Output) -> float:
         (got.tilt_rad, want.tilt_rad),
         (got.cop_rad, want.cop_rad),
         (got.attitude_rad, want.attitude_rad),
+        ([got.freq_delta_hz], [want.freq_delta_hz]),
     ]
     error = max(float(np.max(np.abs(np.float64(a) - np.float64(b)))) for a, b in pairs)
     return error if got.support == want.support else math.inf

@@ -33,6 +33,7 @@ GROUP_TITLES = {
     "load": "Loading",
     "balance": "Balancing",
     "leg": "Leg",
+    "lateral": "Lateral support",
     "steer": "Steering (CA)",
     "ramp": "Motion ramp",
     "pfs": "PFS oscillators",
@@ -41,6 +42,7 @@ GROUP_TITLES = {
     "yaw_rate": "Feedback: yaw rate",
     "damping": "Feedback: gyro damping",
     "cop": "Feedback: centre of pressure",
+    "timing": "Feedback: step timing",
 }
 
 # forbid unknown fields, NaN and inf, and take no strings for numbers

@@ -23,7 +23,7 @@ COLUMNS = (
     "pitch_est_deg", "roll_est_deg", "pitch_true_deg", "roll_true_deg",
     "gyro_x_deg_s", "gyro_y_deg_s", "gyro_z_deg_s",
     "tilt_pitch_deg", "tilt_roll_deg", "a_y_delta", "damping_ankle_deg", "damping_hip_deg",
-    "cop_pitch_deg", "cop_roll_deg",
+    "cop_pitch_deg", "cop_roll_deg", "timing_freq_hz",
     "cop_l_x_mm", "cop_l_y_mm", "cop_r_x_mm", "cop_r_y_mm", "load_l_n", "load_r_n",
 )  # fmt: skip
 
@@ -94,7 +94,7 @@ class SensorTrace:
                 float(gyro[0]), float(gyro[1]), float(gyro[2]),
                 float(tilt[0]), float(tilt[1]), float(out.a_y_delta),
                 float(damping[ANKLE_PITCH[0]]), float(damping[HIP_PITCH[0]]),
-                float(cop_out[0]), float(cop_out[1]),
+                float(cop_out[0]), float(cop_out[1]), float(out.freq_delta_hz),
                 float(cop[0, 0]), float(cop[0, 1]), float(cop[1, 0]), float(cop[1, 1]),
                 float(reading.fsr_n[0].sum()), float(reading.fsr_n[1].sum()),
             )

@@ -299,6 +299,7 @@ class FrameLoop:
             self.motion_now,
             self.fsr_positions_m,
             FRAME_S,
+            phase_rad=self.phase,
         )
         return reading, out
 
@@ -338,8 +339,9 @@ class FrameLoop:
             a_y_delta=0.0 if correction is None else float(correction.a_y_delta),
         )
 
-    def _step_planned(self, plan: FramePlan) -> FrameRecord:
-        """The plan's next frame through the servos and the physics."""
+    def _step_planned(self, plan: FramePlan, freq_delta_hz: float = 0.0) -> FrameRecord:
+        """The plan's next frame through the servos and the physics; the clock then advances at
+        the gait's frequency plus `freq_delta_hz` (the timing law's)."""
         k = plan.next_index
         plan.next_index += 1
         self._apply_frame(plan.substep[k], plan.setpoint[k])
@@ -357,7 +359,8 @@ class FrameLoop:
         )
         self.motion_now = plan.motions[k]
         self.frame_index += 1
-        next_phase = float(plan.phase[k]) + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S
+        freq = self.params.clock.freq_hz + freq_delta_hz  # + 0.0: the same bits
+        next_phase = float(plan.phase[k]) + 2.0 * math.pi * freq * FRAME_S
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # piCut, in floats
         self._check_state()
         return record
@@ -366,7 +369,7 @@ class FrameLoop:
         """Sensors -> laws -> a plan of this one frame with their corrections -> physics."""
         reading, out = self._read_and_step_laws()
         self._plan = self._plan_from_here(1, out)
-        record = self._step_planned(self._plan)
+        record = self._step_planned(self._plan, float(out.freq_delta_hz))
         self._plan = None  # the next frame is planned after the next reading
         return dataclasses.replace(record, reading=reading, feedback=out)
 

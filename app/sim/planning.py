@@ -191,7 +191,7 @@ class FrameOfRuns(NamedTuple):
     runs' gait got (before the laws' a_y), and each servo's set-point (K, 12) and the physics
     step of the frame at which it takes effect (K, 12)."""
 
-    phase: float
+    phase: float | NDArray[np.float64]
     motion: Motion | MotionOfRuns
     setpoint: NDArray[np.float64]
     substep: NDArray[np.int64]
@@ -223,7 +223,7 @@ def plan_frame_of_runs(
     params: GaitParams,
     motion: Motion | MotionOfRuns,
     hardware: HardwareSetup,
-    phase0: float,
+    phase0: float | NDArray[np.float64],
     steps_per_frame: int,
     timestep_s: float,
     *,
@@ -237,8 +237,15 @@ def plan_frame_of_runs(
     corrections (joint_delta_rad (K, 12), a_y_delta (K,)). They walk one `Motion` (its ramp
     from `motion_now`) or each its own (`MotionOfRuns`, which does not ramp: `motion_now` is
     `motion`). Each run's set-points and steps have the bits of `plan_frames(..., n_frames=1)`
-    with its corrections (a test holds them equal): the gait is elementwise along the runs."""
-    phase = pi_cut(phase0 + 2.0 * math.pi * params.clock.freq_hz * FRAME_S * np.arange(1))
+    with its corrections (a test holds them equal): the gait is elementwise along the runs.
+    `phase0` may be each run's own (K,), as the timing law makes them (`FrameOfRuns.phase`
+    then is too)."""
+    if np.ndim(phase0) and np.all(phase0 == phase0[0]):  # type: ignore[index]
+        phase0 = float(phase0[0])  # type: ignore[index]
+    own_phase = np.ndim(phase0) > 0
+    phase = pi_cut(
+        np.asarray(phase0) + 2.0 * math.pi * params.clock.freq_hz * FRAME_S * np.arange(1)
+    )
     if isinstance(motion, MotionOfRuns):
         if motion_now is not motion:
             raise ValueError("the runs' own motions do not ramp: motion_now must be motion")
@@ -253,7 +260,7 @@ def plan_frame_of_runs(
     moved = np.minimum(np.maximum(walking.a_y + delta, low), high)
     a_y = np.where(delta == 0.0, walking.a_y, moved)
     runs = len(delta)
-    if isinstance(walking, Motion) and np.all(a_y == a_y[0]):  # one gait for all
+    if not own_phase and isinstance(walking, Motion) and np.all(a_y == a_y[0]):  # one gait
         walked = walking if a_y[0] == walking.a_y else with_a_y_delta(walking, delta[0])
         one = joint_angles_with_flags(params, walked, phase, geometry, startup=startup)
         angles = np.repeat(one.values, runs, axis=0)
@@ -265,14 +272,15 @@ def plan_frame_of_runs(
             own = MotionOfRuns(*shared, a_y, np.full(runs, walking.ca))
         # the gait reads a motion's four fields; a motion of runs holds them per run
         out = joint_angles_with_flags(
-            params, own.along_legs(), np.repeat(phase, runs), geometry, startup=startup,  # type: ignore[arg-type]
+            params, own.along_legs(), phase if own_phase else np.repeat(phase, runs), geometry,
+            startup=startup,  # type: ignore[arg-type]
         )  # fmt: skip
         angles = out.values
     angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
     _ocr, _saturated, setpoint, substep = _servo_setpoints(
         angles, hardware, steps_per_frame, timestep_s
     )
-    return FrameOfRuns(float(phase[0]), walking, setpoint, substep)
+    return FrameOfRuns(phase if own_phase else float(phase[0]), walking, setpoint, substep)
 
 
 def _servo_setpoints(

@@ -17,6 +17,7 @@ const LAWS = [
   ["yaw_rate", "yaw rate"],
   ["damping", "gyro damping"],
   ["cop", "CoP"],
+  ["timing", "step timing"],
 ];
 const PLOTS = {
   attitude: {
@@ -48,6 +49,7 @@ const PLOTS = {
       ["damping_ankle_deg", "damping, left ankle pitch", "#e64dff", undefined],
       ["cop_pitch_deg", "CoP pitch", "#fcc419", undefined],
       ["cop_roll_deg", "CoP roll", "#fcc419", [4, 4]],
+      ["timing_freq_hz", "step timing: Hz ×10", "#ff6b6b", undefined, 10],
     ],
   },
 };

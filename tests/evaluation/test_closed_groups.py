@@ -5,6 +5,7 @@ the lanes cut the jobs into groups of one walk; a cancel stops a group between f
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 import threading
 
@@ -125,13 +126,16 @@ def test_the_laws_of_many_runs_equal_each_run_stepped_alone():
         if frame < 2:
             accel[0] *= 0.1  # no estimate yet for run 0
         fsr = (np.abs(rng.normal(size=(3, 2, 4))) * [[[3.0]], [[0.0]], [[0.2]]]).astype(np.float32)
+        phase = rng.uniform(-np.pi, np.pi, size=3)  # each run's own (the timing law's)
         states, outs = feedback.step_many(
-            EVERY_LAW, states, gyro, accel, fsr, motions, positions, 0.02
+            EVERY_LAW, states, gyro, accel, fsr, motions, positions, 0.02, phase_rad=phase
         )
         for k in range(3):
             motion = Motion(*(float(field[k]) for field in motions))
             reading = feedback.Reading(gyro[k], accel[k], fsr[k])
-            alone[k], want = feedback.step(EVERY_LAW, alone[k], reading, motion, positions, 0.02)
+            alone[k], want = feedback.step(
+                EVERY_LAW, alone[k], reading, motion, positions, 0.02, phase_rad=float(phase[k])
+            )
             got = outs.run(k)
             assert all(
                 bits(getattr(got, f.name)) == bits(getattr(want, f.name))
@@ -238,20 +242,24 @@ def test_a_frame_of_runs_is_each_runs_one_frame_plan():
     delta = (rng.normal(size=(4, 12)) * 0.02).astype(np.float32)
     a_y_delta = np.array([0.0, 0.05, -0.3, 0.0], dtype=np.float32)  # -0.3 beyond a_y's range
     each = [Motion(a_p=0.07), Motion(a_r=0.05), Motion(a_p=-0.05, ca=0.1), Motion(a_y=-0.25)]
-    for motion in (Motion(a_p=0.07, ca=-0.1), MotionOfRuns.of(each)):
+    own_phases = np.array([1.3, -0.4, 3.0, 1.3])  # each run's clock (the timing law's)
+    for motion, phase0 in itertools.product(
+        (Motion(a_p=0.07, ca=-0.1), MotionOfRuns.of(each)), (1.3, own_phases)
+    ):
         runs = plan_frame_of_runs(
-            ROBUST, motion, hardware, 1.3, steps, timestep_s, motion_now=motion, frame0=7,
+            ROBUST, motion, hardware, phase0, steps, timestep_s, motion_now=motion, frame0=7,
             geometry=ROBOT.geometry, joint_delta_rad=delta, a_y_delta=a_y_delta,
         )  # fmt: skip
         for k in range(4):
             own = motion if isinstance(motion, Motion) else each[k]
+            phase = float(np.broadcast_to(phase0, 4)[k])
             one = plan_frames(
-                ROBUST, own, hardware, 1.3, 1, steps, timestep_s, frame0=7,
+                ROBUST, own, hardware, phase, 1, steps, timestep_s, frame0=7,
                 geometry=ROBOT.geometry, joint_delta_rad=delta[k], a_y_delta=float(a_y_delta[k]),
             )  # fmt: skip
             for name in ("setpoint", "substep"):
                 assert bits(getattr(runs, name)[k]) == bits(getattr(one, name)[0]), (k, name)
-            assert bits(runs.phase) == bits(one.phase[0])
+            assert bits(np.broadcast_to(runs.phase, 4)[k]) == bits(one.phase[0])
     with pytest.raises(ValueError, match="do not ramp"):
         plan_frame_of_runs(
             ROBUST, MotionOfRuns.of(each), hardware, 1.3, steps, timestep_s, motion_now=Motion(),

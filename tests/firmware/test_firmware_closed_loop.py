@@ -129,6 +129,29 @@ def test_the_roll_share_scales_the_hips_roll_trim_in_the_firmware_as_in_the_mode
     assert rolls[0.5] == pytest.approx(0.5 * rolls[1.0], abs=LAW_TOLERANCE)
 
 
+def test_the_timing_law_moves_the_firmwares_clock_as_it_moves_the_models() -> None:
+    """A 3° lean to the right against an expected roll swing: the timing law slows the clock
+    while the right foot carries (leaning out over it) and speeds it up while the left does,
+    firmware and model alike, pin for pin; the steps then fall elsewhere than open loop."""
+    leaning = dataclasses.replace(
+        leaning_forward(0.0),
+        accel=(0, round(math.sin(1.5 * LEAN) * 16384), round(math.cos(1.5 * LEAN) * 16384)),
+    )
+    doc = closed_loop_set(("timing",))
+    doc["gait"]["timing"].update(swing_rad=0.02, swing_phase_rad=0.5, roll_per_a_r=0.3)
+    timed = run_closed_loop(doc, 80, samples=[leaning] * 80)
+    assert_conforms(timed)
+    changes = np.array([law.freq_delta_hz for law in timed.laws])
+    assert changes.min() < -0.05 and changes.max() > 0.05
+    limit = doc["gait"]["timing"]["clamp_share"] * doc["gait"]["clock"]["freq_hz"]
+    assert np.abs(changes).max() <= limit + 1e-6
+    doc["gait"]["timing"]["enabled"] = False
+    doc["gait"]["tilt"].update(enabled=True, ki_per_s=0.0, kp=0.0)  # a law on, acting on nothing
+    steady = run_closed_loop(doc, 80, samples=[leaning] * 80)
+    assert_conforms(steady)
+    assert np.any(timed.ocr[-1] != steady.ocr[-1])
+
+
 def test_a_first_reading_in_free_fall_starts_no_attitude_in_the_firmware_nor_the_model() -> None:
     """A robot dropped onto the floor reads ~0 g: neither the firmware nor its model starts
     the attitude from it (it would start at a roll of 180°) nor trims; the readings at 1 g
@@ -204,6 +227,16 @@ def next_read_frame(mcu: Mcu) -> int:
     return frame if tick < READ_TICK else frame + 1
 
 
+def clear_of_read(mcu: Mcu) -> None:
+    """Past the current frame's read and plan when a reply ended within them: a fault set
+    while a burst is on the bus would cut that burst, not the next (how many cycles the main
+    loop takes moves the reply's end by hundreds of ticks)."""
+    cycles = mcu.cycle - mcu.t0_cycle
+    frame, tick = cycles // FRAME_CYCLES, cycles % FRAME_CYCLES // CYCLES_PER_TICK
+    if READ_TICK <= tick < AFTER_PLANNING_TICK:
+        mcu.run_to_frame(frame, AFTER_PLANNING_TICK)
+
+
 def test_the_sensors_message_reports_what_the_firmware_read() -> None:
     """SENSORS (PROTOCOL.md): the raw counts read, the calibration, and a failed read's flags."""
     build = build_firmware(closed_loop_set(("tilt",), a_p=0.05))
@@ -215,9 +248,11 @@ def test_the_sensors_message_reports_what_the_firmware_read() -> None:
         mcu.set_sensors(sample_of(raw))
         mcu.run_to_frame(3, AFTER_PLANNING_TICK)
         (good,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+        clear_of_read(mcu)
         mcu.imu_fault(nack=1)
         mcu.run_to_frame(next_read_frame(mcu), AFTER_PLANNING_TICK)
         (nacked,) = link.request(proto.command(proto.Msg.GET_SENSORS))
+        clear_of_read(mcu)
         mcu.imu_fault(short_after=3)
         mcu.run_to_frame(next_read_frame(mcu), AFTER_PLANNING_TICK)
         (short,) = link.request(proto.command(proto.Msg.GET_SENSORS))

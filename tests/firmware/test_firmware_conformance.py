@@ -40,6 +40,13 @@ def test_paper_preset_walking_forward_two_cycles() -> None:
     check(preset("paper", a_p=0.07), cycles=2)
 
 
+def test_the_support_lean_is_pin_exact_stepping_sideways() -> None:
+    """Lateral support (decision 0061): the support leg's roll leaned, more with |a_r|."""
+    doc = preset("tuned", a_r=-0.1)
+    doc["gait"]["lateral"] = {"support_roll_rad": 0.03, "sway_per_a_r": 0.2}
+    check(doc, cycles=2)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "motion",

@@ -88,10 +88,11 @@ def test_a_setting_can_name_the_engine() -> None:
 
 
 def test_engine_groups_list_what_each_engine_reads() -> None:
-    feedback = ("attitude", "tilt", "yaw_rate", "damping", "cop")  # on top of either engine
+    feedback = ("attitude", "tilt", "yaw_rate", "damping", "cop", "timing")  # either engine
     assert engine_groups("pfs") == ("clock", "steer", "ramp", "pfs", *feedback)
     assert engine_groups("behnke") == (
-        "clock", "shift", "short", "swing", "load", "balance", "leg", "steer", "ramp", *feedback,
+        "clock", "shift", "short", "swing", "load", "balance", "leg", "lateral", "steer", "ramp",
+        *feedback,
     )  # fmt: skip
     with pytest.raises(ValueError, match="allowed"):
         engine_groups("walk")

@@ -18,7 +18,13 @@ from app.sim.frame_loop import FrameLoop
 from app.sim.headless import run
 from app.worlds.variations import NOMINAL, Variation, parse_variation
 from gait import GaitParams, Motion
-from gait.feedback_params import CopParams, DampingParams, TiltParams, YawRateParams
+from gait.feedback_params import (
+    CopParams,
+    DampingParams,
+    TiltParams,
+    TimingParams,
+    YawRateParams,
+)
 
 ROBOT = RobotModel.load()
 TUNED = builtin_presets()["tuned"].gait
@@ -202,6 +208,9 @@ LOOPS = [
     (closed(damping=DampingParams(enabled=True)), Motion(),
      "push_n_s=0.3,push_time_s=1.51,push_direction_deg=200,kp_scale=0.9"),
     (TUNED, Motion(a_p=0.07), "push_n_s=0.15,push_time_s=2.0,push_direction_deg=90"),
+    # the clock at the timing law's rate (decision 0061)
+    (closed(timing=TimingParams(enabled=True, swing_rad=0.07, swing_phase_rad=0.5)),
+     Motion(a_r=0.1), "imu_delay_ms=10,tilt_deg=1.0"),
 ]  # fmt: skip
 
 

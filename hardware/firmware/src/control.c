@@ -48,7 +48,8 @@ uint8_t control_poll(void)
     sensors_take(&reading); /* started in slot SENSE_SLOT of this frame */
     g_main_part = PART_LAWS;
     /* on the motion of frame F; the laws rest while the robot does not walk */
-    laws_step(&reading, g_sensor_status & SENSE_IMU_PRESENT, s_state == RUN_WALK);
+    laws_step(&reading, g_sensor_status & SENSE_IMU_PRESENT, s_state == RUN_WALK,
+              current->next_phase_acc);
     g_law_frame = frame + 1u;
     g_main_part = PART_PLAN;
     ramp_step(frame + 1u);

@@ -168,6 +168,14 @@ static void leg_parameters(float phi_leg, float i_s, float ca_scale, const frame
         leg[LEG_ROLL] += P(BALANCE_LEG_ROLL_OFFSET) + i_s * a_r + fabsf(a_r)
             + P(BALANCE_LEG_ROLL_YAW) * yaw_term;                          /* eq (39) */
     }
+
+    /* lateral support (decision 0061): the support leg's roll leaned, weighted by sin(phi_Leg) */
+    if (P(LATERAL_SUPPORT_ROLL_RAD) != 0.0f || P(LATERAL_SWAY_PER_A_R) != 0.0f) {
+        const float lean = P(LATERAL_SUPPORT_ROLL_RAD) + P(LATERAL_SWAY_PER_A_R) * fabsf(a_r);
+        const float share = sinf(phi_leg);
+        if (share > 0.0f)
+            leg[LEG_ROLL] += lean * share;
+    }
 }
 
 /* Leg interface, eqs (2)-(9): leg parameters -> the six joint angles of one leg.

@@ -23,12 +23,13 @@ law_state_t g_law_state;
 law_output_t g_law_output;
 uint32_t g_law_frame;
 
-enum { LAW_TILT = 1, LAW_YAW_RATE = 2, LAW_DAMPING = 4, LAW_COP = 8 };
+enum { LAW_TILT = 1, LAW_YAW_RATE = 2, LAW_DAMPING = 4, LAW_COP = 8, LAW_TIMING = 16 };
 
 static uint8_t laws_switched_on(void)
 {
     return (SWITCH(TILT_ENABLED) ? LAW_TILT : 0) | (SWITCH(YAW_RATE_ENABLED) ? LAW_YAW_RATE : 0)
-         | (SWITCH(DAMPING_ENABLED) ? LAW_DAMPING : 0) | (SWITCH(COP_ENABLED) ? LAW_COP : 0);
+         | (SWITCH(DAMPING_ENABLED) ? LAW_DAMPING : 0) | (SWITCH(COP_ENABLED) ? LAW_COP : 0)
+         | (SWITCH(TIMING_ENABLED) ? LAW_TIMING : 0);
 }
 
 uint8_t laws_any_on(void)
@@ -44,6 +45,7 @@ static void laws_restart(law_state_t *s)
     s->yaw_error = s->yaw_integral = 0.0f;
     s->cop_integral[0] = s->cop_integral[1] = 0.0f;
     s->cop_last[0] = s->cop_last[1] = 0.0f;
+    s->timing_error = 0.0f;
 }
 
 static float clampf(float x, float limit)
@@ -197,7 +199,27 @@ static void cop_loop(law_state_t *s, law_output_t *out, const float fsr[2][4])
     out->joint_delta[ANKLE_ROLL[foot]] += out->cop[1];
 }
 
-void laws_step(const sensor_reading_t *reading, uint8_t imu_present, uint8_t walking)
+/* gait/timing.py timing_step: the roll's deviation from its expected swing at the phase planned
+ * next, low-passed, past the dead band, times minus the support weight cos(phi_Trunk): > 0 leans
+ * out over the support foot (slower), < 0 falls toward the swing foot (faster); clamped */
+static void timing(law_state_t *s, law_output_t *out, float phase)
+{
+    const float side = fabsf(g_motion[RAMP_A_R]);
+    const float amplitude = P(TIMING_SWING_RAD) + P(TIMING_SWING_PER_A_R) * side;
+    const float swing = amplitude * cosf(phase + P(TIMING_SWING_PHASE_RAD));
+    const float still = P(TIMING_ROLL_OFFSET_RAD) + P(TIMING_ROLL_PER_A_R) * g_motion[RAMP_A_R];
+    const float deviation = s->roll - (still + swing);
+    const float filtered = s->timing_error
+        + (deviation - s->timing_error) * (FRAME_DT_S / (P(TIMING_FILTER_S) + FRAME_DT_S));
+    const float outward = -cosf(phase) * dead_band(filtered, P(TIMING_DEADBAND_RAD));
+    const float gain = outward > 0.0f ? P(TIMING_SLOW_DOWN_HZ_PER_RAD)
+                                      : P(TIMING_SPEED_UP_HZ_PER_RAD);
+    out->freq_delta_hz = clampf(-gain * outward, P(TIMING_CLAMP_SHARE) * P(CLOCK_FREQ_HZ));
+    s->timing_error = filtered;
+}
+
+void laws_step(const sensor_reading_t *reading, uint8_t imu_present, uint8_t walking,
+               int32_t phase_acc)
 {
     law_state_t *s = &g_law_state;
     law_output_t *out = &g_law_output;
@@ -218,9 +240,16 @@ void laws_step(const sensor_reading_t *reading, uint8_t imu_present, uint8_t wal
             yaw_rate(s, out, reading->gyro_rad_s[2]);
         if (on & LAW_DAMPING)
             damping(out, reading->gyro_rad_s);
+        if ((on & LAW_TIMING) && s->started)
+            timing(s, out, gait_phase_rad(phase_acc));
     }
     if (on & LAW_COP)
         cop_loop(s, out, reading->fsr_n);
+}
+
+float laws_freq_hz(float freq_hz)
+{
+    return laws_any_on() ? freq_hz + g_law_output.freq_delta_hz : freq_hz;
 }
 
 float laws_a_y(float ramped_a_y)

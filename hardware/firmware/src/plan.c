@@ -1,7 +1,8 @@
 /* plan.c -- walking clock, gait, servo model and TDM table of one frame (docs/DESIGN.md §5).
  *
  * Walking clock (eqs 10-11): phi_Trunk advances by 2*pi*f*20 ms per frame, the step of the
- * frequency in force when the frame was planned (as the simulation's frame loop does), kept in
+ * frequency in force when the frame was planned (as the simulation's frame loop does; plus the
+ * timing law's change, laws.c), kept in
  * [-pi, pi) by the int32 wrap-around of the phase accumulator.
  */
 #include "plan.h"
@@ -34,7 +35,7 @@ void plan_compute(plan_t *plan, uint32_t frame, int32_t phase_acc, uint8_t state
     plan->frame = frame;
     plan->phase_acc = phase_acc;
     plan->next_phase_acc = state == RUN_WALK
-        ? (int32_t)((uint32_t)phase_acc + gait_phase_step(P(CLOCK_FREQ_HZ)))
+        ? (int32_t)((uint32_t)phase_acc + gait_phase_step(laws_freq_hz(P(CLOCK_FREQ_HZ))))
         : phase_acc;
     plan->state = state;
     plan->flags = gait.gamma_clamped ? PLAN_GAMMA_CLAMPED : 0u;
