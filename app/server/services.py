@@ -12,18 +12,18 @@ from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.robots.model import RobotModel
-from app.server.axle_fitter import AxleFitter
-from app.server.ca_calibrator import CaCalibrator
-from app.server.live_robot import Drive
+from app.server.feeds.robot_sensors import RobotSensors
+from app.server.http.request_gate import served_hosts
+from app.server.jobs.axle_fitter import AxleFitter
+from app.server.jobs.ca_calibrator import CaCalibrator
+from app.server.jobs.robot_importer import IMPORT_TIMEOUT_S, RobotImporter
+from app.server.jobs.robustness_job import RobustnessRunner
+from app.server.jobs.tune_job import TuneRunner
 from app.server.param_store import ParameterStore, RobotBusy, Snapshot
-from app.server.replay import Replay
-from app.server.request_gate import served_hosts
-from app.server.robot_importer import IMPORT_TIMEOUT_S, RobotImporter
-from app.server.robot_sensors import RobotSensors
+from app.server.recording.replay import Replay
 from app.server.robot_shelf import RobotShelf
-from app.server.robustness_job import RobustnessRunner
-from app.server.sim_thread import SimThread
-from app.server.tune_job import TuneRunner
+from app.server.sim.live_robot import Drive
+from app.server.sim.sim_thread import SimThread
 
 
 @dataclass(frozen=True)
@@ -34,7 +34,9 @@ class ServerConfig:
     params_file: Path | None = None
     data_dir: Path = field(default_factory=default_data_dir)
     viewer: bool = True  # start the viser 3D view
-    allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/request_gate.py)
+    allowed_hosts: tuple[
+        str, ...
+    ] = ()  # more Host names to answer to (app/server/http/request_gate.py)
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
@@ -87,8 +89,10 @@ class Services:
         self.tuner = TuneRunner(self.axle_fitter.jobs, self.store, self.presets, robot_now)
         self.viewer = None
         if config.viewer:
-            from app.server.viser_gate import gate_viser
-            from app.server.viser_view import Viewer  # viser is only loaded when the view is wanted
+            from app.server.view.viser_gate import gate_viser
+            from app.server.view.viser_view import (
+                Viewer,  # viser is only loaded when the view is wanted
+            )
 
             self.viewer = Viewer(
                 store=self.store,

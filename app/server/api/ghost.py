@@ -12,9 +12,9 @@ from pydantic import BaseModel, ConfigDict, Field
 from app.params.presets import PresetError, PresetNotFound, diff
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.api.presets import NAME_SCHEMA_PATTERN
-from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.services import Services
-from app.server.sim_commands import RemoveGhost, SetGhost
+from app.server.sim.sim_commands import RemoveGhost, SetGhost
 
 router = APIRouter(
     prefix="/api", tags=["ghost"], responses=GATE_RESPONSES, route_class=StrictJsonRoute

@@ -8,13 +8,13 @@ from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.axle_fitter import KIND
-from app.server.ca_calibrator import KIND as CALIBRATE
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import KEEP_JOBS, Job, JobBusy, RobotChanged, StaleVersion
-from app.server.robustness_job import KIND as ROBUSTNESS
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.jobs.axle_fitter import KIND
+from app.server.jobs.ca_calibrator import KIND as CALIBRATE
+from app.server.jobs.registry import KEEP_JOBS, Job, JobBusy, RobotChanged, StaleVersion
+from app.server.jobs.robustness_job import KIND as ROBUSTNESS
+from app.server.jobs.tune_job import KIND as TUNE
 from app.server.services import Services
-from app.server.tune_job import KIND as TUNE
 
 router = APIRouter(
     prefix="/api/jobs", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute

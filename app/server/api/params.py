@@ -11,7 +11,7 @@ from fastapi import APIRouter, Header, Response
 from app.params.document import ParameterSet
 from app.params.schema import ParamsBody, ParamsPatchBody, schema_description
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.param_store import Check, NothingToUndo, RobotBusy, Snapshot
 from app.server.services import Services
 

@@ -6,8 +6,8 @@ from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, responses
-from app.server.sim_commands import Reanchor
+from app.server.http.errors import GATE_RESPONSES, responses
+from app.server.sim.sim_commands import Reanchor
 
 router = APIRouter(
     prefix="/api/path", tags=["paths"], responses=GATE_RESPONSES, route_class=StrictJsonRoute

@@ -18,8 +18,8 @@ from app.params.formats import (
 from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
 from app.params.schema import ImportBody, ImportBodyV1, inline_schema
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
-from app.server.request_gate import JSON_TYPES, YAML_TYPES
+from app.server.http.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
+from app.server.http.request_gate import JSON_TYPES, YAML_TYPES
 from app.server.services import Services
 
 router = APIRouter(

@@ -15,9 +15,9 @@ from starlette.concurrency import run_in_threadpool
 from app.firmware.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.recorder import RECORD_FRAMES, Recording
-from app.server.recording_file import (
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.recording.recorder import RECORD_FRAMES, Recording
+from app.server.recording.recording_file import (
     EVENT_KINDS,
     INT32_MAX,
     KEYS,
@@ -28,7 +28,7 @@ from app.server.recording_file import (
     RecordingError,
     recording_from_json,
 )
-from app.server.replay import NothingRecorded, OtherRobot
+from app.server.recording.replay import NothingRecorded, OtherRobot
 from app.server.services import Services
 from hardware import CHANNELS, OCR_MAX, SLOTS_PER_FRAME, frame_edges
 

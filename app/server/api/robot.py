@@ -10,11 +10,8 @@ from starlette.concurrency import run_in_threadpool
 from app.robots import RobotDescription
 from app.robots.servos import servo_table
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
-from app.server.param_store import RobotBusy
-from app.server.robot_importer import ImportBusy, ImportFailed, ImportOptions
-from app.server.robot_shelf import UnknownRobot
-from app.server.robot_upload import (
+from app.server.http.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
+from app.server.http.robot_upload import (
     MAX_DEPTH,
     MAX_NAME_BYTES,
     MAX_UNPACKED_BYTES,
@@ -22,6 +19,9 @@ from app.server.robot_upload import (
     MAX_ZIP_FILES,
     UploadRefused,
 )
+from app.server.jobs.robot_importer import ImportBusy, ImportFailed, ImportOptions
+from app.server.param_store import RobotBusy
+from app.server.robot_shelf import UnknownRobot
 
 router = APIRouter(
     prefix="/api", tags=["robot"], responses=GATE_RESPONSES, route_class=StrictJsonRoute

@@ -8,8 +8,8 @@ from fastapi import APIRouter, Query, Response, WebSocket, WebSocketDisconnect
 from starlette.concurrency import run_in_threadpool
 
 from app.server.api.deps import ServicesDep, WsServicesDep
-from app.server.errors import GATE_RESPONSES, responses
-from app.server.scope_feed import HISTORY_FRAMES
+from app.server.feeds.scope_feed import HISTORY_FRAMES
+from app.server.http.errors import GATE_RESPONSES, responses
 
 router = APIRouter(tags=["scope"], responses=GATE_RESPONSES)
 INLINE_FORMAT_FRAMES = 2  # about 0.3 ms each
@@ -36,7 +36,7 @@ async def recent_frames(
 ) -> Response:
     """The last N TDM-PWM frames: per channel the slots (servo, OCR ticks, pulse us, degrees),
     the edges of the six TDM lines and three select lines, and flags. Each frame is serialised
-    once for every client (app/server/scope_feed.py): with at most a few new frames to format
+    once for every client (app/server/feeds/scope_feed.py): with at most a few new frames to format
     this answers on the event loop, else in the thread pool."""
     feed = services.sim.scope
     if feed.unformatted(frames) <= INLINE_FORMAT_FRAMES:

@@ -10,9 +10,9 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.firmware import protocol as proto
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, responses
-from app.server.robot_sensors import WINDOW_FRAMES, RobotFrame
-from app.server.sensor_trace import COLUMNS
+from app.server.feeds.robot_sensors import WINDOW_FRAMES, RobotFrame
+from app.server.http.errors import GATE_RESPONSES, responses
+from app.server.recording.sensor_trace import COLUMNS
 
 router = APIRouter(
     prefix="/api/sensors", tags=["sensors"], responses=GATE_RESPONSES, route_class=StrictJsonRoute

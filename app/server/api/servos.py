@@ -6,7 +6,7 @@ from typing import Any
 from fastapi import APIRouter
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES
+from app.server.http.errors import GATE_RESPONSES
 
 router = APIRouter(
     prefix="/api/servos", tags=["servos"], responses=GATE_RESPONSES, route_class=StrictJsonRoute

@@ -10,12 +10,12 @@ from app.firmware.build import BuildError
 from app.firmware.emulator import EmulatorError
 from app.params.document import project_version
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.live_robot import Drive
-from app.server.pacing import SPEED_RANGE
-from app.server.replay import RUNS_LIVE, Replaying
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.recording.replay import RUNS_LIVE, Replaying
 from app.server.services import Services
-from app.server.sim_commands import (
+from app.server.sim.live_robot import Drive
+from app.server.sim.pacing import SPEED_RANGE
+from app.server.sim.sim_commands import (
     PUSH_RANGE_N_S,
     Control,
     DriveRefused,

@@ -9,10 +9,10 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 from app.analysis.cases import CASES
 from app.analysis.robot_start import START_RECIPE
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import JobBusy, RobotChanged
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.jobs.registry import JobBusy, RobotChanged
+from app.server.jobs.tune_job import TuneBudget, WrongRobot, cases_of
 from app.server.robot_shelf import UnknownRobot
-from app.server.tune_job import TuneBudget, WrongRobot, cases_of
 
 router = APIRouter(
     prefix="/api", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute

@@ -8,9 +8,9 @@ from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import JobBusy, RobotChanged
-from app.server.sim_commands import SetWorld
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.jobs.registry import JobBusy, RobotChanged
+from app.server.sim.sim_commands import SetWorld
 from app.worlds.sampling import VariationRanges
 from app.worlds.variations import FIELDS, NOMINAL, parse_variation
 

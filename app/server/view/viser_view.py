@@ -19,24 +19,24 @@ import viser
 from app.analysis.axle_fit import NOT_APPLIED
 from app.firmware.emulator import FRAME_CYCLES
 from app.params.schema import schema_description
-from app.server.live_robot import Drive
 from app.server.param_store import NothingToUndo, RobotBusy, Snapshot
-from app.server.replay import Replaying
-from app.server.sim_commands import Reanchor, RemoveGhost, Reset, SetGhost, SetSpeed, control
-from app.server.viser_ghost import GhostDrawing
+from app.server.recording.replay import Replaying
+from app.server.sim.live_robot import Drive
+from app.server.sim.sim_commands import Reanchor, RemoveGhost, Reset, SetGhost, SetSpeed, control
+from app.server.view.viser_ghost import GhostDrawing
 from gait.params import ENGINES
 
 if TYPE_CHECKING:
     import mujoco
 
     from app.params.presets import PresetStore
-    from app.server.axle_fitter import AxleFitter
-    from app.server.ca_calibrator import CaCalibrator
+    from app.server.jobs.axle_fitter import AxleFitter
+    from app.server.jobs.ca_calibrator import CaCalibrator
     from app.server.param_store import ParameterStore
-    from app.server.path_tracker import PathTracker
-    from app.server.published import PushMark
-    from app.server.replay import Replay
-    from app.server.sim_thread import SimThread
+    from app.server.recording.replay import Replay
+    from app.server.sim.path_tracker import PathTracker
+    from app.server.sim.published import PushMark
+    from app.server.sim.sim_thread import SimThread
 
 log = logging.getLogger(__name__)
 

@@ -18,12 +18,16 @@ from collections.abc import Callable
 import mujoco
 
 from app.robots.model import RobotModel
-from app.server.ghost import Ghost, GhostStatus
-from app.server.live_robot import Drive, LiveRobot, model_name
-from app.server.pacing import Pacer
+from app.server.feeds.scope_feed import ScopeFeed
 from app.server.param_store import ParameterStore, Snapshot
-from app.server.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
-from app.server.published import (
+from app.server.recording.recorder import Recorder
+from app.server.recording.sensor_trace import SensorTrace, SensorView
+from app.server.robot_shelf import RobotShelf
+from app.server.sim.ghost import Ghost, GhostStatus
+from app.server.sim.live_robot import Drive, LiveRobot, model_name
+from app.server.sim.pacing import Pacer
+from app.server.sim.path_tracker import SAMPLE_EVERY_FRAMES, PathTracker
+from app.server.sim.published import (
     GHOST_PUBLISH_FRAMES,
     SENSORS_PUBLISH_FRAMES,
     SENSORS_WATCHED_S,
@@ -34,11 +38,7 @@ from app.server.published import (
     SimStatus,
     TrunkPose,
 )
-from app.server.recorder import Recorder
-from app.server.robot_shelf import RobotShelf
-from app.server.scope_feed import ScopeFeed
-from app.server.sensor_trace import SensorTrace, SensorView
-from app.server.sim_commands import (
+from app.server.sim.sim_commands import (
     CommandQueue,
     DriveRefused,
     Pause,
