@@ -36,14 +36,14 @@ class VersionGhost(BaseModel):
 
 
 def _state(services: Services) -> dict[str, Any]:
-    status = services.sim.ghost_status()
+    status = services.ghost_status()
     versions = [
         {"version": s.version, "name": s.name, "source": s.source}
         for s in services.store.versions()
     ]
     if status is None:
         return {"enabled": False, "versions": versions}
-    live = services.store.snapshot().parameter_set()
+    live = services.snapshot().parameter_set()
     ghost_set = dataclasses.replace(live, gait=status.params)
     delta = status.delta()
     return {
@@ -97,12 +97,12 @@ def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[s
                 "not_found", loc=["body", "version"],
             )  # fmt: skip
         pset, source = found[body.version].parameter_set(), f"version {body.version}"
-    services.sim.send(SetGhost(pset.gait, source))
+    services.send(SetGhost(pset.gait, source))
     return {"accepted": "ghost", "source": source, "warnings": services.robot_warnings(pset)}
 
 
 @router.delete("/ghost")
 def delete_ghost(services: ServicesDep) -> dict[str, Any]:
     """No ghost."""
-    services.sim.send(RemoveGhost())
+    services.send(RemoveGhost())
     return {"accepted": "ghost", "source": None}

@@ -45,10 +45,10 @@ def start_axle_fit(
     0, +0.1 at the current a_p, 20 s each) in the background, then predict with it, if neither
     the parameters nor the axle changed meanwhile. Answers at once with the job (`from_version`:
     the version it fits); `GET /api/jobs/{id}` gives its progress and, when done, the fit."""
-    snap = services.store.snapshot()
+    snap = services.snapshot()
     try:
         job = services.axle_fitter.start(
-            snap.gait, snap.motion, services.sim.paths, params_version=snap.version
+            snap.gait, snap.motion, services.paths, params_version=snap.version
         )
     except JobBusy as exc:
         raise ApiError(409, str(exc), "job_running", loc=["job", exc.job.id]) from exc
@@ -80,7 +80,7 @@ def start_ca_calibration(
 def _job(job_id: str, services: Services) -> Job:
     if job_id in (KIND, CALIBRATE, TUNE, ROBUSTNESS):  # these start jobs (POST), not one
         raise StarletteHTTPException(405)
-    job = services.axle_fitter.jobs.get(job_id)
+    job = services.jobs.get(job_id)
     if job is None:
         raise ApiError(
             404, f"no job {job_id[:64]!r} (the running and the latest {KEEP_JOBS} are kept)",
@@ -102,7 +102,7 @@ def cancel_job(job_id: JobId, services: ServicesDep) -> dict[str, Any]:
     """Cancel a running job: it stops at its next simulated walk and applies nothing (status
     cancelled). 409 if it has already finished."""
     job = _job(job_id, services)
-    if not services.axle_fitter.jobs.cancel(job):
+    if not services.jobs.cancel(job):
         raise ApiError(
             409, f"job {job.id} has already finished ({job.status}): nothing to cancel",
             "job_finished", loc=["path", "job_id"],
@@ -123,7 +123,7 @@ def apply_job(job_id: JobId, body: ApplyBody, services: ServicesDep) -> dict[str
         applied = applier(body.version)
     except StaleVersion as exc:
         job.applier = applier  # still kept
-        current = services.store.snapshot().version
+        current = services.snapshot().version
         raise ApiError(
             409, str(exc), "version_conflict", loc=["body", "version"], version=current
         ) from exc

@@ -82,7 +82,7 @@ def versions_check(body_version: int | None, if_match: str | None) -> Check:
 @router.get("/params", responses={200: {"headers": ETAG_HEADER}})
 def get_params(services: ServicesDep, response: Response) -> dict[str, Any]:
     """The parameters in use, with their version (also the `ETag`)."""
-    return _tagged(response, services.store.snapshot())
+    return _tagged(response, services.snapshot())
 
 
 @router.put("/params", responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}})
@@ -153,10 +153,10 @@ def _history(
     try:
         snapshot = move("http", check=check)
     except NothingToUndo as exc:
-        current = services.store.snapshot()
+        current = services.snapshot()
         raise ApiError(409, str(exc), "nothing_to_" + step, version=current.version) from exc
     except RobotBusy as exc:  # the step would change robots while something runs on this one
-        current = services.store.snapshot()
+        current = services.snapshot()
         raise ApiError(409, str(exc), "robot_busy", version=current.version) from exc
     reverted = {"version": replaced[0].version, "source": replaced[0].source}
     return _tagged(response, snapshot) | {"reverted": reverted}

@@ -25,22 +25,22 @@ class AnchorBody(BaseModel):
 def get_path(services: ServicesDep) -> dict[str, Any]:
     """Actual and predicted paths as [t, x, y, yaw] rows, with V, b, turn radius and rates;
     `axle_stale` when b is a fitted b_eff of another gait than the one in use."""
-    view = services.sim.paths.view()
-    gait = services.store.snapshot().gait
+    view = services.paths.view()
+    gait = services.snapshot().gait
     return view | {"axle_stale": services.axle_fitter.stale(view["axle_source"], gait)}
 
 
 @router.post("/clear")
 def clear(services: ServicesDep) -> dict[str, Any]:
     """Forget the path walked so far; the prediction starts again at the robot's next pose."""
-    services.sim.paths.clear()
+    services.paths.clear()
     return {"accepted": "clear"}
 
 
 @router.post("/anchor", responses=responses(422))
 def reanchor(services: ServicesDep, body: AnchorBody | None = None) -> dict[str, Any]:
     """Start the prediction again at the robot's current pose."""
-    services.sim.send(Reanchor(None if body is None else body.speed_m_s))
+    services.send(Reanchor(None if body is None else body.speed_m_s))
     return {"accepted": "reanchor"}
 
 
@@ -54,5 +54,5 @@ class AxleBody(BaseModel):
 @router.put("/axle", responses=responses(422))
 def set_axle(services: ServicesDep, body: AxleBody) -> dict[str, Any]:
     """Predict with this axle b (m), or with the measured distance between the feet (null)."""
-    services.sim.paths.set_axle(body.axle_m, "manual")
+    services.paths.set_axle(body.axle_m, "manual")
     return {"axle_m": body.axle_m, "axle_source": "feet" if body.axle_m is None else "manual"}

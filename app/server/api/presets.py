@@ -48,7 +48,7 @@ def _not_the_diff(name: str) -> None:
 
 def _get(services: Services, name: str) -> ParameterSet:
     if name == CURRENT:
-        return services.store.snapshot().parameter_set()
+        return services.snapshot().parameter_set()
     try:
         return services.presets.get(name)
     except PresetNotFound as exc:
@@ -83,7 +83,7 @@ def save_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     when the disk is full (nothing is written)."""
     _not_the_diff(name)
     try:
-        return services.presets.save(name, services.store.snapshot().parameter_set()).to_dict()
+        return services.presets.save(name, services.snapshot().parameter_set()).to_dict()
     except PresetError as exc:
         raise ApiError(422, str(exc), "invalid_preset", loc=["path"]) from exc
 
@@ -112,7 +112,7 @@ def load_preset(
     another robot than the one simulated."""
     pset = _get(services, name)
     if keep_motion:
-        pset = dataclasses.replace(pset, motion=services.store.snapshot().motion)
+        pset = dataclasses.replace(pset, motion=services.snapshot().motion)
     loaded = services.store.replace(pset, "preset").to_dict()
     return loaded | {"warnings": services.robot_warnings(pset)}
 
@@ -135,7 +135,7 @@ def export(
 ) -> Response:
     """The parameters in use as a file: JSON, YAML, or a C header for the ATmega128 firmware."""
     text, media_type, filename = export_text(
-        services.store.snapshot().parameter_set(), format, hardware=services.sim.hardware
+        services.snapshot().parameter_set(), format, hardware=services.hardware
     )
     headers = {"Content-Disposition": f'attachment; filename="{filename}"'}
     return Response(text, media_type=media_type, headers=headers)

@@ -49,12 +49,12 @@ class ReplayBody(BaseModel):
 
 
 def _summary(services: Services) -> dict[str, Any]:
-    return services.sim.recorder.summary() | {"replay": services.replay.status()}
+    return services.recorder.summary() | {"replay": services.replay_status()}
 
 
 def _shown(services: Services) -> Recording:
     """The recording in replay, else the session so far."""
-    return services.replay.recording or services.sim.recorder.recording()
+    return services.replay.recording or services.recorder.recording()
 
 
 @router.get("")
@@ -72,21 +72,21 @@ def replay(body: ReplayBody, services: ServicesDep) -> dict[str, Any]:
         raise ApiError(409, str(exc), "nothing_recorded", loc=["body"]) from exc
     except IndexError as exc:  # no frame there: as GET /api/recording/frame/{index}
         raise ApiError(404, str(exc), "not_found", loc=["body", "index"]) from exc
-    return services.replay.status()
+    return services.replay_status()
 
 
 @router.post("/live")
 def back_to_live(services: ServicesDep) -> dict[str, Any]:
     """Leave the replay; the simulation resumes if it ran before."""
     services.replay.leave()
-    return services.replay.status()
+    return services.replay_status()
 
 
 @router.get("/frame/{index}", responses=responses(404, 422))
 def recorded_frame(index: int, services: ServicesDep) -> dict[str, Any]:
     """The scope frame at `index` of the replay (or of the session so far)."""
     try:
-        return services.replay.frame_message(index, services.sim.hardware.tdm)
+        return services.replay.frame_message(index, services.hardware.tdm)
     except IndexError as exc:
         raise ApiError(404, str(exc), "not_found", loc=["path", "index"]) from exc
 
@@ -119,7 +119,7 @@ def export_vcd(services: ServicesDep) -> Response:
     rec = _shown(services)
     if not len(rec):
         raise ApiError(409, "nothing recorded yet", "nothing_recorded", loc=["path"])
-    tdm = services.sim.hardware.tdm
+    tdm = services.hardware.tdm
     edges = edges_of_frames([frame_edges(ocr, tdm) for ocr in rec.ocr])
     first, last = int(rec.frame[0]), int(rec.frame[-1])
     text = vcd_text(edges, 0, comment=f"recorded frames {first}..{last}, {rec.model}")
@@ -211,7 +211,7 @@ async def import_recording(request: Request, services: ServicesDep) -> dict[str,
             "import_busy", headers={"Retry-After": "2"},
         )  # fmt: skip
     try:
-        body, nq = await request.body(), services.sim.model.nq
+        body, nq = await request.body(), services.model.nq
         try:  # megabytes of JSON: parsed and checked off the event loop
             rec = await run_in_threadpool(lambda: recording_from_json(load_json_strict(body), nq))
         except RecordingError as exc:
@@ -229,4 +229,4 @@ async def import_recording(request: Request, services: ServicesDep) -> dict[str,
         raise ApiError(409, str(exc), "other_robot", loc=["body", "model"]) from exc
     except NothingRecorded as exc:
         raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=["body"]) from exc
-    return services.replay.status()
+    return services.replay_status()

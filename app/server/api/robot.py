@@ -78,9 +78,7 @@ def switch_robot(body: RobotBody, services: ServicesDep) -> dict[str, Any]:
     except UnknownRobot as exc:
         raise ApiError(404, str(exc), "unknown_robot", loc=["body", "name"]) from exc
     except RobotBusy as exc:
-        raise ApiError(
-            409, str(exc), "robot_busy", version=services.store.snapshot().version
-        ) from exc
+        raise ApiError(409, str(exc), "robot_busy", version=services.snapshot().version) from exc
     return {"robot": body.name, "changed": changed, "params": snapshot.to_dict()}
 
 

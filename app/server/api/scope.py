@@ -38,7 +38,7 @@ async def recent_frames(
     the edges of the six TDM lines and three select lines, and flags. Each frame is serialised
     once for every client (app/server/feeds/scope_feed.py): with at most a few new frames to format
     this answers on the event loop, else in the thread pool."""
-    feed = services.sim.scope
+    feed = services.scope
     if feed.unformatted(frames) <= INLINE_FORMAT_FRAMES:
         body = feed.recent_json(frames)
     else:
@@ -50,7 +50,7 @@ async def recent_frames(
 async def live_frames(websocket: WebSocket, services: WsServicesDep) -> None:
     """One JSON message per 20 ms simulated frame. A client that reads too slowly loses frames."""
     await websocket.accept()
-    hub = services.sim.scope
+    hub = services.scope
     client = hub.connect()
     receiver = asyncio.create_task(_drain(websocket))
     try:

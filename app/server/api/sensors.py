@@ -94,7 +94,7 @@ def sensors(services: ServicesDep) -> dict[str, Any]:
     same units (`t_s` its own clock: frame × 20 ms) with its last frame's status, or null when
     none arrived in the last 2 s."""
     robot = services.robot_sensors.view()
-    view = services.sim.sensor_view()
+    view = services.sensor_view()
     if view is None:
         empty = {"columns": {name: [] for name in COLUMNS}, "sole_mm": None, "fsr_mm": []}
         return empty | {"robot": robot}

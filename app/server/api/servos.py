@@ -21,4 +21,4 @@ def servo_load(services: ServicesDep) -> dict[str, Any]:
     (ok, warn below 30 % margin, critical below 10 %); each joint's servo, whether it meets
     eq (1) (`eq1_met`) and, where it does not, the lightest servo of the table (or the robot's
     file) that would at the robot's supply (`eq1_servo`: name, stall torque, mass)."""
-    return asdict(services.sim.servo_load())
+    return asdict(services.servo_load())

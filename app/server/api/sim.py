@@ -47,10 +47,10 @@ class DriveBody(BaseModel):
 @router.get("/api/health")
 def health(services: ServicesDep) -> dict[str, Any]:
     return {
-        "status": "ok" if services.sim.alive else "simulation stopped",
+        "status": "ok" if services.running else "simulation stopped",
         "version": project_version(),
         # the port the 3D view is on: viser takes the next free one when the asked one is taken
-        "viser_port": services.viewer.server.get_port() if services.viewer is not None else None,
+        "viser_port": services.viser_port,
     }
 
 
@@ -60,12 +60,12 @@ def state(services: ServicesDep) -> dict[str, Any]:
     the latest tune job's id and status (null: none ran) and `robustness_report` whether a
     report of the gait in use is kept (`GET /api/world/robustness`), so a page asks for
     neither when there is none."""
-    sim, snap, tune = services.sim, services.store.snapshot(), services.tuner.latest
-    return sim.status().to_dict() | {
+    snap, tune, scope = services.snapshot(), services.tuner.latest, services.scope
+    return services.sim_status().to_dict() | {
         "params_version": snap.version,
-        "scope": {"clients": sim.scope.client_count, "dropped": sim.scope.dropped},
-        "running": sim.alive,
-        "replay": services.replay.status(),
+        "scope": {"clients": scope.client_count, "dropped": scope.dropped},
+        "running": services.running,
+        "replay": services.replay_status(),
         "tune": None if tune is None else {"id": tune.id, "status": tune.status},
         "robustness_report": services.robustness.last_report(snap) is not None,
     }
@@ -102,7 +102,7 @@ for _command, _doc in (
 
 @router.put("/api/sim/speed", responses=responses(422))
 def set_speed(body: SpeedBody, services: ServicesDep) -> dict:
-    services.sim.send(SetSpeed(body.speed))
+    services.send(SetSpeed(body.speed))
     return {"accepted": "speed", "speed": body.speed}
 
 
@@ -112,7 +112,7 @@ def set_drive(body: DriveBody, services: ServicesDep) -> dict:
     a cold cache) and boots at its start phase, so the robot starts over; back to the model, it
     walks on. `GET /api/state` says which drive is on (`drive`, `firmware`)."""
     try:
-        services.sim.switch_drive(body.drive)
+        services.switch_drive(body.drive)
     except DriveRefused as exc:
         status = 503 if exc.reason == "drive_failed" else 409
         raise ApiError(status, str(exc), exc.reason, loc=["body", "drive"]) from exc
@@ -145,14 +145,14 @@ def push(body: PushBody, services: ServicesDep) -> dict:
     relative to the robot. `GET /api/state` says the last push (`push`), the 3D view draws it;
     409 while a replay is shown, the robot lies fallen, or the pushes waiting for the next
     physics step (sent while paused) would add up past 2 N·s: they act there as one push."""
-    if services.replay.status()["active"]:
+    if services.replay_status()["active"]:
         raise ApiError(
             409,
             "a replay is shown: go back to live first (POST /api/recording/live)",
             "replaying",
             loc=["path"],
         )
-    if services.sim.status().fell:
+    if services.sim_status().fell:
         raise ApiError(
             409,
             "the robot has fallen and the simulation stopped: reset first (POST /api/sim/reset)",
@@ -160,7 +160,7 @@ def push(body: PushBody, services: ServicesDep) -> dict:
             loc=["path"],
         )
     try:
-        services.sim.push(Push(body.impulse_n_s, body.direction_deg))
+        services.push(Push(body.impulse_n_s, body.direction_deg))
     except PushRefused as exc:
         raise ApiError(409, str(exc), "pushes_pending", loc=["body", "impulse_n_s"]) from exc
     return {

@@ -35,7 +35,7 @@ class RobustnessBody(BaseModel):
 
 
 def _world(services: Any) -> dict[str, Any]:
-    name = services.sim.status().world
+    name = services.sim_status().world
     variation = NOMINAL if name == "nominal" else parse_variation(name)
     return {
         "variation": name,
@@ -59,14 +59,14 @@ def put_world(body: WorldBody, services: ServicesDep) -> dict[str, Any]:
         variation = parse_variation(body.variation) if body.variation.strip() else NOMINAL
     except (ValueError, TypeError) as exc:
         raise ApiError(422, str(exc), "invalid_variation", loc=["body", "variation"]) from exc
-    services.sim.send(SetWorld(variation))
+    services.send(SetWorld(variation))
     return {"variation": variation.name}
 
 
 @router.delete("/world")
 def reset_world(services: ServicesDep) -> dict[str, Any]:
     """Back to the nominal model."""
-    services.sim.send(SetWorld(NOMINAL))
+    services.send(SetWorld(NOMINAL))
     return {"variation": NOMINAL.name}
 
 
@@ -75,7 +75,7 @@ def last_robustness(services: ServicesDep) -> dict[str, Any]:
     """The last finished robustness report of the gait in use on the robot in use (kept for the
     last 16 gaits while the server runs), with `finished_at` (Unix s) and `params_version`;
     404 if none was run on it."""
-    report = services.robustness.last_report(services.store.snapshot())
+    report = services.robustness.last_report(services.snapshot())
     if report is None:
         raise ApiError(404, "no robustness report of this gait yet: run one", "no_report")
     return report

@@ -61,7 +61,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         services = Services(config)
-        services.sim.scope.attach_loop(asyncio.get_running_loop())
+        services.scope.attach_loop(asyncio.get_running_loop())
         services.start()
         app.state.services = services
         try:
