@@ -10,6 +10,7 @@ from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.params.presets import PresetError, PresetNotFound, diff
+from app.server.api.answers import ANSWER, GhostAccepted, GhostState
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.api.presets import NAME_SCHEMA_PATTERN
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
@@ -65,14 +66,14 @@ def _state(services: Services) -> dict[str, Any]:
     }
 
 
-@router.get("/ghost")
+@router.get("/ghost", response_model=GhostState, **ANSWER)
 def get_ghost(services: ServicesDep) -> dict[str, Any]:
     """The ghost's source, phase lock, its parameter differences from the live set, and speed,
     turn rate and gyro RMS of both robots over the last 10 s (with ghost - live)."""
     return _state(services)
 
 
-@router.put("/ghost", responses=responses(404, 422))
+@router.put("/ghost", response_model=GhostAccepted, responses=responses(404, 422), **ANSWER)
 def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[str, Any]:
     """Let a preset or an earlier version walk beside the live robot, phase-locked, with the live
     motion vector and CA. It replaces any ghost there was. `warnings` says if the set was tuned
@@ -101,7 +102,7 @@ def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[s
     return {"accepted": "ghost", "source": source, "warnings": services.robot_warnings(pset)}
 
 
-@router.delete("/ghost")
+@router.delete("/ghost", response_model=GhostAccepted, **ANSWER)
 def delete_ghost(services: ServicesDep) -> dict[str, Any]:
     """No ghost."""
     services.send(RemoveGhost())

@@ -14,6 +14,8 @@ from starlette.concurrency import run_in_threadpool
 
 from app.firmware.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
+from app.server.api.answers import ANSWER, ReplayStatus
+from app.server.api.answers_data import RecordedFrame, RecordingFile, RecordingSummary
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.recording.recorder import RECORD_FRAMES, Recording
@@ -57,13 +59,13 @@ def _shown(services: Services) -> Recording:
     return services.replay.recording or services.recorder.recording()
 
 
-@router.get("")
+@router.get("", response_model=RecordingSummary, **ANSWER)
 def get_recording(services: ServicesDep) -> dict[str, Any]:
     """What the ring buffer holds (frames, session times, the last 50 events) and the replay."""
     return _summary(services)
 
 
-@router.post("/replay", responses=responses(404, 409, 422))
+@router.post("/replay", response_model=ReplayStatus, responses=responses(404, 409, 422), **ANSWER)
 def replay(body: ReplayBody, services: ServicesDep) -> dict[str, Any]:
     """Replay (the live simulation pauses) at `index`, or move there while replaying."""
     try:
@@ -75,14 +77,14 @@ def replay(body: ReplayBody, services: ServicesDep) -> dict[str, Any]:
     return services.replay_status()
 
 
-@router.post("/live")
+@router.post("/live", response_model=ReplayStatus, **ANSWER)
 def back_to_live(services: ServicesDep) -> dict[str, Any]:
     """Leave the replay; the simulation resumes if it ran before."""
     services.replay.leave()
     return services.replay_status()
 
 
-@router.get("/frame/{index}", responses=responses(404, 422))
+@router.get("/frame/{index}", response_model=RecordedFrame, responses=responses(404, 422), **ANSWER)
 def recorded_frame(index: int, services: ServicesDep) -> dict[str, Any]:
     """The scope frame at `index` of the replay (or of the session so far)."""
     try:
@@ -97,7 +99,7 @@ def _download(text: str, suffix: str, media_type: str) -> Response:
     return Response(text, media_type=media_type, headers=headers)
 
 
-@router.get("/export", responses=responses(409))
+@router.get("/export", response_model=RecordingFile, responses=responses(409))
 def export(services: ServicesDep) -> Response:
     """The recording (the replay's, or the session so far) as one JSON file: per frame the
     poses (qpos), the OCR table, phase, times and parameter version; the events; the parameter
@@ -201,7 +203,13 @@ assert set(
 ) == set(KEYS)
 
 
-@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(409, 413, 422, 429))
+@router.post(
+    "/import",
+    response_model=ReplayStatus,
+    openapi_extra=IMPORT_BODY,
+    responses=responses(409, 413, 422, 429),
+    **ANSWER,
+)
 async def import_recording(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Load a recording file (from export) and replay it from its first frame; one import at
     a time (429 while another is read: each is seconds of parsing beside the simulation)."""

@@ -7,6 +7,7 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query, Response, WebSocket, WebSocketDisconnect
 from starlette.concurrency import run_in_threadpool
 
+from app.server.api.answers_data import ScopeFrames
 from app.server.api.deps import ServicesDep, WsServicesDep
 from app.server.feeds.scope_feed import HISTORY_FRAMES
 from app.server.http.errors import GATE_RESPONSES, responses
@@ -29,7 +30,7 @@ FRAMES_RESPONSE: dict[int | str, dict[str, Any]] = {
 }
 
 
-@router.get("/api/scope", responses=FRAMES_RESPONSE | responses(422))
+@router.get("/api/scope", response_model=ScopeFrames, responses=FRAMES_RESPONSE | responses(422))
 async def recent_frames(
     services: ServicesDep,
     frames: Annotated[int, Query(ge=1, le=HISTORY_FRAMES, description="how many")] = 1,

@@ -9,6 +9,8 @@ from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.firmware import protocol as proto
+from app.server.api.answers import ANSWER
+from app.server.api.answers_data import FramesTaken, Sensors
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.feeds.robot_sensors import WINDOW_FRAMES, RobotFrame
 from app.server.http.errors import GATE_RESPONSES, responses
@@ -84,7 +86,7 @@ class RobotFramesBody(BaseModel):
     )
 
 
-@router.get("")
+@router.get("", response_model=Sensors, **ANSWER)
 def sensors(services: ServicesDep) -> dict[str, Any]:
     """The last 5 s, one value per 20 ms frame in each column (oldest first; null where a sole
     carries nothing): the estimated attitude against the simulator's true one (for the eye
@@ -101,7 +103,7 @@ def sensors(services: ServicesDep) -> dict[str, Any]:
     return view.to_dict() | {"robot": robot}
 
 
-@router.post("/robot", responses=responses(422))
+@router.post("/robot", response_model=FramesTaken, responses=responses(422), **ANSWER)
 def post_robot_frames(services: ServicesDep, body: RobotFramesBody) -> dict[str, Any]:
     """A linked robot's SENSORS frames, decoded (what `artro link` forwards every 150 ms): kept
     for 5 s beside the simulation's sensors, each sole's centre of pressure placed on the

@@ -5,15 +5,17 @@ from typing import Any
 
 from fastapi import APIRouter
 
+from app.server.api.answers import ANSWER
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.http.errors import GATE_RESPONSES
+from app.sim.servo_load import ServoLoadReport
 
 router = APIRouter(
     prefix="/api/servos", tags=["servos"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
 )
 
 
-@router.get("/load")
+@router.get("/load", response_model=ServoLoadReport, **ANSWER)
 def servo_load(services: ServicesDep) -> dict[str, Any]:
     """Per joint since the last reset or parameter change, sampled once per 20 ms frame: peak
     and RMS torque against the stall torque, eq (1)'s required torque (1 + sf) peak |tau| and its

@@ -9,6 +9,15 @@ from pydantic import BaseModel, ConfigDict, Field
 from app.firmware.build import BuildError
 from app.firmware.emulator import EmulatorError
 from app.params.document import project_version
+from app.server.api.answers import (
+    ANSWER,
+    Accepted,
+    DriveAccepted,
+    Health,
+    PushAccepted,
+    SpeedAccepted,
+    State,
+)
 from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.recording.replay import RUNS_LIVE, Replaying
@@ -44,7 +53,7 @@ class DriveBody(BaseModel):
     )
 
 
-@router.get("/api/health")
+@router.get("/api/health", response_model=Health, **ANSWER)
 def health(services: ServicesDep) -> dict[str, Any]:
     return {
         "status": "ok" if services.running else "simulation stopped",
@@ -54,7 +63,7 @@ def health(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-@router.get("/api/state")
+@router.get("/api/state", response_model=State, **ANSWER)
 def state(services: ServicesDep) -> dict[str, Any]:
     """Sim time, real-time factor, fell, trunk pose, parameter version and more; `tune` is
     the latest tune job's id and status (null: none ran) and `robustness_report` whether a
@@ -94,19 +103,23 @@ for _command, _doc in (
         f"/api/sim/{_command.name}",
         _control(_command, _doc),
         methods=["POST"],
+        response_model=Accepted,
+        response_model_exclude_unset=True,
         name=f"sim_{_command.name}",
         summary=f"{_command.name.title()}",
         responses=responses(409) if isinstance(_command, RUNS_LIVE) else None,
     )
 
 
-@router.put("/api/sim/speed", responses=responses(422))
+@router.put("/api/sim/speed", response_model=SpeedAccepted, responses=responses(422), **ANSWER)
 def set_speed(body: SpeedBody, services: ServicesDep) -> dict:
     services.send(SetSpeed(body.speed))
     return {"accepted": "speed", "speed": body.speed}
 
 
-@router.put("/api/sim/drive", responses=responses(409, 422, 503))
+@router.put(
+    "/api/sim/drive", response_model=DriveAccepted, responses=responses(409, 422, 503), **ANSWER
+)
 def set_drive(body: DriveBody, services: ServicesDep) -> dict:
     """Switch who makes the servo pulses. The firmware is built for the current set (seconds on
     a cold cache) and boots at its start phase, so the robot starts over; back to the model, it
@@ -139,7 +152,7 @@ class PushBody(BaseModel):
     )
 
 
-@router.post("/api/sim/push", responses=responses(409, 422))
+@router.post("/api/sim/push", response_model=PushAccepted, responses=responses(409, 422), **ANSWER)
 def push(body: PushBody, services: ServicesDep) -> dict:
     """Push the robot's trunk: the impulse in one physics step, level, in the direction given
     relative to the robot. `GET /api/state` says the last push (`push`), the 3D view draws it;

@@ -7,9 +7,11 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.server.api.answers import ANSWER, RobustnessReport, World, WorldName
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs.registry import JobBusy, RobotChanged
+from app.server.jobs.results import RobustnessJob
 from app.server.sim.sim_commands import SetWorld
 from app.worlds.sampling import VariationRanges
 from app.worlds.variations import FIELDS, NOMINAL, parse_variation
@@ -44,14 +46,14 @@ def _world(services: Any) -> dict[str, Any]:
     }
 
 
-@router.get("/world")
+@router.get("/world", response_model=World, **ANSWER)
 def get_world(services: ServicesDep) -> dict[str, Any]:
     """The variation the live robot walks in (`nominal` when none), each field's value and the
     default ranges of `artro bench robust`."""
     return _world(services)
 
 
-@router.put("/world", responses=responses(422))
+@router.put("/world", response_model=WorldName, responses=responses(422), **ANSWER)
 def put_world(body: WorldBody, services: ServicesDep) -> dict[str, Any]:
     """Walk on in another world from the next frame on (friction, masses, servo, latency, play,
     tilt, calibration); the robot is not reset. A bad text changes nothing (422)."""
@@ -63,14 +65,16 @@ def put_world(body: WorldBody, services: ServicesDep) -> dict[str, Any]:
     return {"variation": variation.name}
 
 
-@router.delete("/world")
+@router.delete("/world", response_model=WorldName, **ANSWER)
 def reset_world(services: ServicesDep) -> dict[str, Any]:
     """Back to the nominal model."""
     services.send(SetWorld(NOMINAL))
     return {"variation": NOMINAL.name}
 
 
-@router.get("/world/robustness", responses=responses(404))
+@router.get(
+    "/world/robustness", response_model=RobustnessReport, responses=responses(404), **ANSWER
+)
 def last_robustness(services: ServicesDep) -> dict[str, Any]:
     """The last finished robustness report of the gait in use on the robot in use (kept for the
     last 16 gaits while the server runs), with `finished_at` (Unix s) and `params_version`;
@@ -81,7 +85,13 @@ def last_robustness(services: ServicesDep) -> dict[str, Any]:
     return report
 
 
-@router.post("/jobs/robustness", status_code=202, responses=responses(409, 422))
+@router.post(
+    "/jobs/robustness",
+    status_code=202,
+    response_model=RobustnessJob,
+    responses=responses(409, 422),
+    **ANSWER,
+)
 def start_robustness(
     services: ServicesDep,
     response: Response,
