@@ -132,11 +132,13 @@ class Anchor(Answer):
 
 
 class Axle(Answer):
-    axle_m: float
+    axle_m: float | None = Field(description="set by hand; null: the distance between the feet")
+    axle_source: str = Field(description="feet or manual")
+
+
+class PathView(Answer):
+    axle_m: float = Field(description="the axle b the prediction uses")
     axle_source: str = Field(description="feet, fitted or manual")
-
-
-class PathView(Axle):
     actual: list[list[float]] = Field(description="rows of (t_s, x_m, y_m, yaw_rad)")
     predicted: list[list[float]]
     anchor: Anchor | None
