@@ -30,7 +30,7 @@ GOAL = 0.98
 SERVER = """
 import sys, uvicorn
 from pathlib import Path
-from app.server.app import create_app
+from app.server.http.app import create_app
 from app.server.services import ServerConfig
 port, data = int(sys.argv[1]), Path(sys.argv[2])
 app = create_app(ServerConfig(port=port, data_dir=data, viewer=False))

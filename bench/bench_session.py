@@ -17,8 +17,8 @@ import time
 import results
 
 from app.params.presets import builtin_presets
-from app.server.ghost import Ghost
-from app.server.recorder import Recorder
+from app.server.recording.recorder import Recorder
+from app.server.sim.ghost import Ghost
 from app.sim.frame_loop import FrameLoop
 from app.sim.planning import FRAME_S
 from gait import Motion

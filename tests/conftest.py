@@ -2,7 +2,7 @@ import pytest
 
 from app.params.document import ParameterSet
 from app.server.param_store import ParameterStore
-from app.server.sim_thread import SimThread
+from app.server.sim.sim_thread import SimThread
 from tests.testing.firmware_support import emulator, preset, served_on_a_pty
 from tests.testing.server_harness import client, running_server
 

@@ -1,8 +1,8 @@
 """A starting gait for any robot of ArtRo's structure and the recipe that tunes it to walk
 (docs/DESIGN.md §12; issue 32 item 4): the nearest preset (`nearest_preset`), the scaling rule
 (`scaled_gait`), the recipe (`START_RECIPE`). Shared by `artro tune` and the dashboard's "Tune
-for this robot" job (`app/server/tune_job.py`, which runs the command: `app.server` may not import
-`app.study`)."""
+for this robot" job (`app/server/jobs/tune_job.py`, which runs the command: `app.server` may not
+import `app.study`)."""
 
 from __future__ import annotations
 

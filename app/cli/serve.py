@@ -90,7 +90,7 @@ def serve(args: argparse.Namespace) -> int:
 
     from app.firmware.build import missing_tools
     from app.params.presets import default_data_dir
-    from app.server.app import UVICORN_OPTIONS, create_app
+    from app.server.http.app import UVICORN_OPTIONS, create_app
     from app.server.robot_shelf import RobotShelf
     from app.server.services import ServerConfig
 
@@ -136,7 +136,7 @@ def serve(args: argparse.Namespace) -> int:
 def banner(args: argparse.Namespace) -> str:
     """The line that says where the page, the 3D view (none with --no-viewer) and the API's docs
     are; a 3D view's port that is taken is said by the server once it knows the next."""
-    from app.server.viser_view import viser_url
+    from app.server.view.viser_view import viser_url
 
     url = viser_url(args.host, args.port)
     if args.no_viewer:

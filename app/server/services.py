@@ -6,24 +6,34 @@ import sys
 import threading
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
+
+import mujoco
 
 from app.analysis.robot_start import start_set
 from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets, default_data_dir
 from app.robots.model import RobotModel
-from app.server.axle_fitter import AxleFitter
-from app.server.ca_calibrator import CaCalibrator
-from app.server.live_robot import Drive
+from app.server.feeds.robot_sensors import RobotSensors
+from app.server.http.request_gate import served_hosts
+from app.server.jobs.axle_fitter import AxleFitter
+from app.server.jobs.ca_calibrator import CaCalibrator
+from app.server.jobs.registry import Jobs
+from app.server.jobs.robot_importer import IMPORT_TIMEOUT_S, RobotImporter
+from app.server.jobs.robustness_job import RobustnessRunner
+from app.server.jobs.tune_job import TuneRunner
 from app.server.param_store import ParameterStore, RobotBusy, Snapshot
-from app.server.replay import Replay
-from app.server.request_gate import served_hosts
-from app.server.robot_importer import IMPORT_TIMEOUT_S, RobotImporter
-from app.server.robot_sensors import RobotSensors
+from app.server.recording.replay import Replay
+from app.server.recording.sensor_trace import SensorView
 from app.server.robot_shelf import RobotShelf
-from app.server.robustness_job import RobustnessRunner
-from app.server.sim_thread import SimThread
-from app.server.tune_job import TuneRunner
+from app.server.sim.ghost import GhostStatus
+from app.server.sim.live_robot import Drive
+from app.server.sim.published import SimStatus
+from app.server.sim.sim_commands import Push, SimCommand
+from app.server.sim.sim_thread import SimThread
+from app.sim.servo_load import ServoLoadReport
+from hardware import HardwareSetup
 
 
 @dataclass(frozen=True)
@@ -34,7 +44,9 @@ class ServerConfig:
     params_file: Path | None = None
     data_dir: Path = field(default_factory=default_data_dir)
     viewer: bool = True  # start the viser 3D view
-    allowed_hosts: tuple[str, ...] = ()  # more Host names to answer to (app/server/request_gate.py)
+    allowed_hosts: tuple[
+        str, ...
+    ] = ()  # more Host names to answer to (app/server/http/request_gate.py)
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
@@ -68,27 +80,29 @@ class Services:
         self.importing = threading.Lock()
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
-        # their jobs: GET /api/jobs/{id}
-        # each job walks the robot of the version it starts from
+        self.paths, self.scope, self.recorder = self.sim.paths, self.sim.scope, self.sim.recorder
+        #: the one job registry (GET /api/jobs/{id}), handed to every kind of job: a new kind is
+        #: added by giving it this registry; each job walks the robot of the version it starts from
+        self.jobs = Jobs()
+        self.jobs.robot_in_use = self.store.settled_robot
         robot_now = self._robot_now
-        self.axle_fitter = AxleFitter(store=self.store, robot_now=robot_now)
-        self.axle_fitter.jobs.robot_in_use = self.store.settled_robot
-        self.ca_calibrator = CaCalibrator(
-            self.axle_fitter.jobs, self.store, self.sim.paths, robot_now
-        )
+        self.axle_fitter = AxleFitter(jobs=self.jobs, store=self.store, robot_now=robot_now)
+        self.ca_calibrator = CaCalibrator(self.jobs, self.store, self.paths, robot_now)
         self.robustness = RobustnessRunner(
-            self.axle_fitter.jobs,
+            self.jobs,
             self.store,
             robot_now,
             config.cluster,
             backend={"backend": config.backend, "device": config.device},
             wait_workers_s=config.wait_workers_s,
         )
-        self.tuner = TuneRunner(self.axle_fitter.jobs, self.store, self.presets, robot_now)
+        self.tuner = TuneRunner(self.jobs, self.store, self.presets, robot_now)
         self.viewer = None
         if config.viewer:
-            from app.server.viser_gate import gate_viser
-            from app.server.viser_view import Viewer  # viser is only loaded when the view is wanted
+            from app.server.view.viser_gate import gate_viser
+            from app.server.view.viser_view import (
+                Viewer,  # viser is only loaded when the view is wanted
+            )
 
             self.viewer = Viewer(
                 store=self.store,
@@ -111,6 +125,60 @@ class Services:
                     file=sys.stderr,
                     flush=True,
                 )
+
+    # --- what the routers use: the simulation thread's parts stay behind these ------------------
+
+    def snapshot(self) -> Snapshot:
+        """The parameter store's current version."""
+        return self.store.snapshot()
+
+    def send(self, command: SimCommand) -> None:
+        """A command for the simulation thread's next frame boundary (`SimThread.send`)."""
+        self.sim.send(command)
+
+    def push(self, push: Push) -> None:
+        """Push the live robot (`SimThread.push`: PushRefused where too many wait)."""
+        self.sim.push(push)
+
+    def switch_drive(self, drive: str) -> None:
+        """Switch who makes the pulses (`SimThread.switch_drive`, its errors)."""
+        self.sim.switch_drive(drive)
+
+    def sim_status(self) -> SimStatus:
+        """What the simulation thread published last."""
+        return self.sim.status()
+
+    def ghost_status(self) -> GhostStatus | None:
+        return self.sim.ghost_status()
+
+    def servo_load(self) -> ServoLoadReport:
+        return self.sim.servo_load()
+
+    def sensor_view(self) -> SensorView | None:
+        return self.sim.sensor_view()
+
+    def replay_status(self) -> dict[str, Any]:
+        return self.replay.status()
+
+    @property
+    def running(self) -> bool:
+        """Whether the simulation thread runs."""
+        return self.sim.alive
+
+    @property
+    def hardware(self) -> HardwareSetup:
+        """The simulated robot's hardware (replaced whole on a switch of robots)."""
+        return self.sim.hardware
+
+    @property
+    def model(self) -> mujoco.MjModel:
+        """The simulated robot's compiled model (replaced whole on a switch of robots)."""
+        return self.sim.model
+
+    @property
+    def viser_port(self) -> int | None:
+        """The port the 3D view is on (viser takes the next free one), None without it."""
+        return None if self.viewer is None else self.viewer.server.get_port()
 
     @property
     def robot(self) -> RobotModel:
@@ -142,7 +210,7 @@ class Services:
         firmware drive is on the robot in use. A firmware booting meanwhile is refused when
         handed over (`LiveRobot.take_drive`); a job's result applies only on its own robot."""
         change = f"changing the robot from {current.robot!r} to {robot!r}"
-        if running := self.axle_fitter.jobs.running():
+        if running := self.jobs.running():
             jobs = ", ".join(f"{job.kind} {job.id}" for job in running)
             cancel = " or ".join(f"DELETE /api/jobs/{job.id}" for job in running)
             raise RobotBusy(
@@ -176,7 +244,7 @@ class Services:
     def stop(self) -> None:
         self.importer.cancel()  # its child killed: no import outlives the server
         self.replay.leave()
-        self.axle_fitter.jobs.stop()  # every job (a tune's child too): no simulation outlives us
+        self.jobs.stop()  # every job (a tune's child too): no simulation outlives us
         if self.viewer is not None:
             self.viewer.stop()
         self.sim.stop()

@@ -10,7 +10,7 @@ const NAME_RE = /^(?=.{1,64}$)[A-Za-z0-9][A-Za-z0-9_-]*(\.[A-Za-z0-9_-]+)*$/;
 const NAME_RULE =
   "a preset name is 1 to 64 characters: letters, digits, '_', '.' and '-', starting with a " +
   "letter or digit, without '..' and not ending in '.'";
-const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over this (app/server/gait_ramp.py)
+const GAIT_RAMP_S = 2; // a new set of gait constants reaches the servos over this (app/server/sim/gait_ramp.py)
 let drive = "model";
 let engine = null;
 let inUse = null; // the name of the set in use: its row is marked
@@ -89,7 +89,7 @@ function row(p) {
   );
 }
 
-/** How a newly loaded gait reaches the servos (app/server/sim_thread.py). */
+/** How a newly loaded gait reaches the servos (app/server/sim/sim_thread.py). */
 function arrival(before, p) {
   if (drive === "firmware") return "the firmware takes the new constants at once";
   if (before && p.gait?.engine !== before) return `the ${p.gait.engine} engine starts up`;

@@ -6,7 +6,7 @@
 import { api, formatDetail } from "./api.js";
 import { $, fmt, fmtSigned, h, setMessage } from "./util.js";
 
-/** The server's cap on an upload (app/server/robot_upload.py, MAX_UPLOAD_BYTES). */
+/** The server's cap on an upload (app/server/http/robot_upload.py, MAX_UPLOAD_BYTES). */
 const MAX_UPLOAD_BYTES = 20 * 1024 * 1024;
 const FRONT_FROM = { toes: "its toes", knees: "its knees", given: "the front chosen" };
 

@@ -8,7 +8,7 @@ import { $, fmt } from "./util.js";
 
 let lastVersion = null;
 let speedBusyUntil = 0; // don't overwrite the speed select right after the user changed it
-const RTF_WINDOW_S = 2; // the server's real-time-factor window (app/server/pacing.py)
+const RTF_WINDOW_S = 2; // the server's real-time-factor window (app/server/sim/pacing.py)
 const NOTE_MS = 8000; // a status note goes away after this long
 let noteTimer = null;
 

@@ -7,8 +7,8 @@ import pytest
 from app.analysis.axle_fit import fit_effective_axle, walking_amplitude
 from app.params.formats import load_parameter_set
 from app.params.presets import BUILTIN_DIR
-from app.server.axle_fitter import AxleFitter
-from app.server.path_tracker import PathTracker
+from app.server.jobs.axle_fitter import AxleFitter
+from app.server.sim.path_tracker import PathTracker
 from gait import Motion
 
 TUNED = load_parameter_set(BUILTIN_DIR / "tuned.json").gait

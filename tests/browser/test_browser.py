@@ -544,7 +544,7 @@ def test_the_servo_load_budget_lists_every_servo_coloured_by_margin(dashboard):
 
 
 def ghost_pixels(png: bytes) -> int:
-    """Light blue of the translucent ghost over the white floor (app/server/viser_ghost.py);
+    """Light blue of the translucent ghost over the white floor (app/server/view/viser_ghost.py);
     the saturated blue of the path line and the dark robot do not count."""
     img = np.asarray(Image.open(io.BytesIO(png)).convert("RGB")).astype(int)
     r, b = img[..., 0], img[..., 2]

@@ -13,9 +13,9 @@ import pytest
 from app.firmware.pulses import FirmwarePulses
 from app.params.document import ParameterSet
 from app.robots.model import RobotModel
-from app.server.emulated_controller import EmulatedController
 from app.server.param_store import ParameterStore
-from app.server.sim_commands import Reset
+from app.server.sim.emulated_controller import EmulatedController
+from app.server.sim.sim_commands import Reset
 from app.sim.frame_loop import FrameLoop, PinFrame
 from gait import GaitParams, Motion
 from hardware import TICK_US, US_PER_DEG

@@ -41,7 +41,7 @@ def test_pyserial_talks_to_the_emulated_robot_through_a_pty() -> None:
 def test_firmware_drive_frames_equal_the_model_and_follow_a_new_set() -> None:
     from app.firmware.conformance import model_frames
     from app.firmware.pulses import FirmwarePulses
-    from app.server.emulated_controller import BUSY_BUDGET_CYCLES
+    from app.server.sim.emulated_controller import BUSY_BUDGET_CYCLES
 
     old, new = preset("paper", a_p=0.07), preset("tuned", a_r=-0.05)
     drive = FirmwarePulses(old)

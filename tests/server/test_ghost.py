@@ -10,10 +10,10 @@ import httpx
 import numpy as np
 
 from app.params.presets import builtin_presets
-from app.server.ghost import BESIDE_M, Ghost
 from app.server.param_store import ParameterStore
-from app.server.sim_commands import RemoveGhost, Reset, SetGhost
-from app.server.sim_thread import SimThread
+from app.server.sim.ghost import BESIDE_M, Ghost
+from app.server.sim.sim_commands import RemoveGhost, Reset, SetGhost
+from app.server.sim.sim_thread import SimThread
 from app.sim.frame_loop import FrameLoop
 from app.worlds.variations import Variation
 from gait import GaitParams, Motion

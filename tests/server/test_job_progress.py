@@ -15,7 +15,7 @@ import pytest
 
 from app.analysis.robot_tune import RUNS, read_event
 from app.evaluation.progress import about, time_left_s
-from app.server.robustness_job import runs_of
+from app.server.jobs.robustness_job import runs_of
 from tests.testing.server_harness import client, running_server, wait_for
 
 ROOT = Path(__file__).resolve().parents[2]

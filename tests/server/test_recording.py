@@ -15,10 +15,10 @@ from app.firmware.emulator import Edges
 from app.firmware.vcd import VCD_NAMES, edges_of_frames, vcd_text
 from app.params.presets import builtin_presets
 from app.server.param_store import ParameterStore
-from app.server.recorder import Recorder
-from app.server.recording_file import recording_from_json
-from app.server.replay import Replay
-from app.server.sim_thread import SimThread
+from app.server.recording.recorder import Recorder
+from app.server.recording.recording_file import recording_from_json
+from app.server.recording.replay import Replay
+from app.server.sim.sim_thread import SimThread
 from app.sim.frame_loop import FrameLoop
 from gait import Motion
 from hardware import HardwareSetup, frame_edges
@@ -123,7 +123,7 @@ def test_a_replay_entered_just_after_a_pause_leaves_the_simulation_paused() -> N
     """The replay decides whether to resume on leaving from the simulation thread's own answer
     to its pause, which comes after every command sent before it; the published status, up to a
     frame old, said "running" just after a pause and the replay's leaving resumed it."""
-    from app.server.sim_commands import Pause, Resume
+    from app.server.sim.sim_commands import Pause, Resume
 
     store = ParameterStore(builtin_presets()["tuned"])
     sim = SimThread(store)

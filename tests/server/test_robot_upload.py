@@ -1,12 +1,12 @@
-"""A robot upload's checks (`app/server/robot_upload.py`) without a server: what a zip may hold,
-which file is the robot, file references that leave the folder however they are combined, and
+"""A robot upload's checks (`app/server/http/robot_upload.py`) without a server: what a zip may
+hold, which file is the robot, file references that leave the folder however they are combined, and
 nothing written on a refusal."""
 
 from __future__ import annotations
 
 import pytest
 
-from app.server.robot_upload import UploadRefused, unpack
+from app.server.http.robot_upload import UploadRefused, unpack
 from tests.testing.cad_support import zipped
 
 MJCF = b"<mujoco><worldbody/></mujoco>"

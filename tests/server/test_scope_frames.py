@@ -1,4 +1,4 @@
-"""The web oscilloscope's JSON of a frame (app.server.scope_frames): exact contents."""
+"""The web oscilloscope's JSON of a frame (app.server.feeds.scope_frames): exact contents."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ import json
 
 import numpy as np
 
-from app.server.scope_frames import frame_to_dict
+from app.server.feeds.scope_frames import frame_to_dict
 from hardware import SERVO_NAMES, TdmConfig, frame_ocr
 
 CONFIG = TdmConfig()
@@ -54,7 +54,7 @@ def test_a_frame_published_before_a_switch_of_robots_keeps_its_wiring() -> None:
     """The feed formats a frame when it is first asked for; the simulation thread swaps the
     feed's wiring when the robot changes. A frame of the old robot was then named with the
     new robot's channel map; it keeps the one it was published under."""
-    from app.server.scope_feed import ScopeFeed
+    from app.server.feeds.scope_feed import ScopeFeed
     from app.sim.frame_loop import FrameLoop
     from hardware import ChannelMap
 

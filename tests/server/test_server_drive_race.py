@@ -11,8 +11,8 @@ import threading
 import httpx
 import pytest
 
-from app.server.emulated_controller import EmulatedController
-from app.server.sim_commands import DriveRefused, SwitchDrive
+from app.server.sim.emulated_controller import EmulatedController
+from app.server.sim.sim_commands import DriveRefused, SwitchDrive
 from tests.testing.server_harness import client, wait_for
 
 

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from app.params.presets import builtin_presets
-from app.server.gait_ramp import GAIT_RAMP_S, blend
+from app.server.sim.gait_ramp import GAIT_RAMP_S, blend
 from tests.testing.server_harness import client, running_server, wait_for
 
 FRAME_S = 0.02

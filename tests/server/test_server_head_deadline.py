@@ -10,7 +10,7 @@ import httpx
 import pytest
 from websockets.sync.client import connect
 
-from app.server import http_protocol
+from app.server.http import http_protocol
 
 DEADLINE_S = 0.5
 

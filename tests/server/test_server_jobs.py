@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.server.jobs import StaleVersion, only_onto
+from app.server.jobs.registry import StaleVersion, only_onto
 from app.server.param_store import ParameterStore
 from tests.testing.server_harness import client, running_server
 
@@ -123,7 +123,7 @@ def test_a_job_registered_as_the_robot_changed_lets_itself_go():
     reading the robot once the switch has landed, refuses to walk the old one (two of 60 tries
     of a concurrent switch and start had both accepted)."""
     from app.params.document import ParameterSet
-    from app.server.jobs import Jobs, RobotChanged
+    from app.server.jobs.registry import Jobs, RobotChanged
 
     store = ParameterStore(ParameterSet(), robot="artro")
     jobs = Jobs()
@@ -142,7 +142,7 @@ def test_a_running_job_is_never_forgotten_for_newer_ones():
     dropped as the oldest, and a second tune then started beside it (the hostile probe)."""
     import threading
 
-    from app.server.jobs import KEEP_JOBS, JobBusy, Jobs
+    from app.server.jobs.registry import KEEP_JOBS, JobBusy, Jobs
 
     jobs = Jobs()
     release = threading.Event()

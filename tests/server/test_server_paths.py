@@ -48,7 +48,7 @@ def test_a_fitted_axle_is_stale_once_the_gait_changes(server, http):
 
 
 def test_stale_only_applies_to_a_fitted_axle():
-    from app.server.axle_fitter import AxleFitter
+    from app.server.jobs.axle_fitter import AxleFitter
 
     fitter = AxleFitter()
     assert not fitter.stale("fitted", GaitParams())  # nothing fitted yet

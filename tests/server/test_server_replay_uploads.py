@@ -49,7 +49,9 @@ class Records(logging.Handler):
 def server_log():
     """Every record of uvicorn's error log and of the request gate (debug on) during the test."""
     handler = Records()
-    loggers = [logging.getLogger(name) for name in ("uvicorn.error", "app.server.request_gate")]
+    loggers = [
+        logging.getLogger(name) for name in ("uvicorn.error", "app.server.http.request_gate")
+    ]
     levels = [logger.level for logger in loggers]
     for logger in loggers:
         logger.addHandler(handler)

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pytest
 
-from app.server.robot_upload import MAX_UNPACKED_BYTES, MAX_UPLOAD_BYTES, MAX_ZIP_FILES
+from app.server.http.robot_upload import MAX_UNPACKED_BYTES, MAX_UPLOAD_BYTES, MAX_ZIP_FILES
 from gait import JOINT_NAMES
 from tests.testing.cad_support import artro_mjcf, artro_urdf_with_mesh, box_stl, with_mesh, zipped
 from tests.testing.server_harness import client, running_server, wait_for

@@ -15,8 +15,8 @@ import pytest
 from app.firmware.robot_telemetry import POST_FRAMES
 from app.robots.model import RobotModel
 from app.server.api.sensors import MAX_POSTED_FRAMES
-from app.server.request_gate import MAX_BODY_BYTES
-from app.server.robot_sensors import COLUMNS, WINDOW_FRAMES
+from app.server.feeds.robot_sensors import COLUMNS, WINDOW_FRAMES
+from app.server.http.request_gate import MAX_BODY_BYTES
 from tests.testing.server_harness import client, running_server
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from app.robots.model import RobotModel
-from app.server.sensor_trace import COLUMNS
+from app.server.recording.sensor_trace import COLUMNS
 from tests.testing.server_harness import client, running_server, wait_for
 
 

@@ -7,8 +7,8 @@ import threading
 
 import pytest
 
-from app.server.pacing import BEHIND_SHOWN_S, MAX_CATCHUP_FRAMES, Pacer
-from app.server.sim_commands import (
+from app.server.sim.pacing import BEHIND_SHOWN_S, MAX_CATCHUP_FRAMES, Pacer
+from app.server.sim.sim_commands import (
     CONTROLS,
     CommandQueue,
     Pause,

@@ -247,9 +247,9 @@ def test_a_tune_whose_candidates_all_fell_is_saved_not_loaded(tmp_path):
     in every walking case ("the lowest loss kept")."""
     from app.params.presets import PresetStore, builtin_presets
     from app.robots.model import RobotModel
-    from app.server.jobs import Jobs
+    from app.server.jobs.registry import Jobs
+    from app.server.jobs.tune_job import TuneRunner
     from app.server.param_store import ParameterStore
-    from app.server.tune_job import TuneRunner
 
     presets = PresetStore(tmp_path, builtin_presets())
     store = ParameterStore(builtin_presets()["robust"])

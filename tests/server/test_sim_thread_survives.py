@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 
-from app.server.sim_commands import Pause, Push, Reset, Resume, SetWorld, Step
+from app.server.sim.sim_commands import Pause, Push, Reset, Resume, SetWorld, Step
 from app.worlds.variations import NOMINAL, Variation
 from tests.testing.server_harness import wait_for
 

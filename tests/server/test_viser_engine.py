@@ -16,19 +16,19 @@ def test_the_view_shows_the_active_engines_folders(tmp_path):
         viewer = app.state.services.viewer
 
         def shown() -> set[str]:
-            return {f.label for f, _engines in viewer._folders if f.visible}
+            return {f.label for f, _engines in viewer.parameters.folders if f.visible}
 
         behnke = shown()
         assert {"Swinging", "Balancing", "Steering (CA)"} <= behnke
         assert "PFS oscillators" not in behnke
-        assert viewer._engine.value == "behnke"
+        assert viewer.parameters.engine.value == "behnke"
         changed = http.patch("/api/params", json={"gait": {"engine": "pfs"}})
         assert changed.status_code == 200
         pfs = shown()
         assert "Swinging" not in pfs and {"PFS oscillators", "Steering (CA)", "Clock"} <= pfs
-        assert viewer._engine.value == "pfs"
+        assert viewer.parameters.engine.value == "pfs"
         http.post("/api/params/undo")  # the switch is a change like any other
-        assert shown() == behnke and viewer._engine.value == "behnke"
+        assert shown() == behnke and viewer.parameters.engine.value == "behnke"
 
 
 def test_a_taken_port_moves_the_view_on_and_the_health_names_the_port_in_use(tmp_path, capfd):

@@ -14,7 +14,7 @@ from typing import Any
 import httpx
 import uvicorn
 
-from app.server.app import UVICORN_OPTIONS, create_app
+from app.server.http.app import UVICORN_OPTIONS, create_app
 from app.server.services import ServerConfig
 
 #: Debian's Chromium, driven by Playwright through `executable_path` (never Playwright's download)

@@ -10,11 +10,12 @@ from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.params.presets import PresetError, PresetNotFound, diff
+from app.server.api.answers import ANSWER, GhostAccepted, GhostState
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
 from app.server.api.presets import NAME_SCHEMA_PATTERN
-from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.services import Services
-from app.server.sim_commands import RemoveGhost, SetGhost
+from app.server.sim.sim_commands import RemoveGhost, SetGhost
 
 router = APIRouter(
     prefix="/api", tags=["ghost"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -36,14 +37,14 @@ class VersionGhost(BaseModel):
 
 
 def _state(services: Services) -> dict[str, Any]:
-    status = services.sim.ghost_status()
+    status = services.ghost_status()
     versions = [
         {"version": s.version, "name": s.name, "source": s.source}
         for s in services.store.versions()
     ]
     if status is None:
         return {"enabled": False, "versions": versions}
-    live = services.store.snapshot().parameter_set()
+    live = services.snapshot().parameter_set()
     ghost_set = dataclasses.replace(live, gait=status.params)
     delta = status.delta()
     return {
@@ -65,14 +66,14 @@ def _state(services: Services) -> dict[str, Any]:
     }
 
 
-@router.get("/ghost")
+@router.get("/ghost", response_model=GhostState, **ANSWER)
 def get_ghost(services: ServicesDep) -> dict[str, Any]:
     """The ghost's source, phase lock, its parameter differences from the live set, and speed,
     turn rate and gyro RMS of both robots over the last 10 s (with ghost - live)."""
     return _state(services)
 
 
-@router.put("/ghost", responses=responses(404, 422))
+@router.put("/ghost", response_model=GhostAccepted, responses=responses(404, 422), **ANSWER)
 def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[str, Any]:
     """Let a preset or an earlier version walk beside the live robot, phase-locked, with the live
     motion vector and CA. It replaces any ghost there was. `warnings` says if the set was tuned
@@ -97,12 +98,12 @@ def put_ghost(body: PresetGhost | VersionGhost, services: ServicesDep) -> dict[s
                 "not_found", loc=["body", "version"],
             )  # fmt: skip
         pset, source = found[body.version].parameter_set(), f"version {body.version}"
-    services.sim.send(SetGhost(pset.gait, source))
+    services.send(SetGhost(pset.gait, source))
     return {"accepted": "ghost", "source": source, "warnings": services.robot_warnings(pset)}
 
 
-@router.delete("/ghost")
+@router.delete("/ghost", response_model=GhostAccepted, **ANSWER)
 def delete_ghost(services: ServicesDep) -> dict[str, Any]:
     """No ghost."""
-    services.sim.send(RemoveGhost())
+    services.send(RemoveGhost())
     return {"accepted": "ghost", "source": None}

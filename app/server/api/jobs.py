@@ -7,14 +7,16 @@ from fastapi import APIRouter, Path, Response
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
+from app.server.api.answers import ANSWER
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.axle_fitter import KIND
-from app.server.ca_calibrator import KIND as CALIBRATE
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import KEEP_JOBS, Job, JobBusy, RobotChanged, StaleVersion
-from app.server.robustness_job import KIND as ROBUSTNESS
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.jobs.axle_fitter import KIND
+from app.server.jobs.ca_calibrator import KIND as CALIBRATE
+from app.server.jobs.registry import KEEP_JOBS, Job, JobBusy, RobotChanged, StaleVersion
+from app.server.jobs.results import AxleFitJob, CaCalibrationJob, JobAnswer
+from app.server.jobs.robustness_job import KIND as ROBUSTNESS
+from app.server.jobs.tune_job import KIND as TUNE
 from app.server.services import Services
-from app.server.tune_job import KIND as TUNE
 
 router = APIRouter(
     prefix="/api/jobs", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -37,7 +39,13 @@ class ApplyBody(BaseModel):
     )
 
 
-@router.post("/axle-fit", status_code=202, responses=responses(409, 422))
+@router.post(
+    "/axle-fit",
+    status_code=202,
+    response_model=AxleFitJob,
+    responses=responses(409, 422),
+    **ANSWER,
+)
 def start_axle_fit(
     services: ServicesDep, response: Response, body: StartBody | None = None
 ) -> dict[str, Any]:
@@ -45,10 +53,10 @@ def start_axle_fit(
     0, +0.1 at the current a_p, 20 s each) in the background, then predict with it, if neither
     the parameters nor the axle changed meanwhile. Answers at once with the job (`from_version`:
     the version it fits); `GET /api/jobs/{id}` gives its progress and, when done, the fit."""
-    snap = services.store.snapshot()
+    snap = services.snapshot()
     try:
         job = services.axle_fitter.start(
-            snap.gait, snap.motion, services.sim.paths, params_version=snap.version
+            snap.gait, snap.motion, services.paths, params_version=snap.version
         )
     except JobBusy as exc:
         raise ApiError(409, str(exc), "job_running", loc=["job", exc.job.id]) from exc
@@ -58,7 +66,13 @@ def start_axle_fit(
     return job.to_dict()
 
 
-@router.post("/calibrate-ca", status_code=202, responses=responses(409, 422))
+@router.post(
+    "/calibrate-ca",
+    status_code=202,
+    response_model=CaCalibrationJob,
+    responses=responses(409, 422),
+    **ANSWER,
+)
 def start_ca_calibration(
     services: ServicesDep, response: Response, body: StartBody | None = None
 ) -> dict[str, Any]:
@@ -80,7 +94,7 @@ def start_ca_calibration(
 def _job(job_id: str, services: Services) -> Job:
     if job_id in (KIND, CALIBRATE, TUNE, ROBUSTNESS):  # these start jobs (POST), not one
         raise StarletteHTTPException(405)
-    job = services.axle_fitter.jobs.get(job_id)
+    job = services.jobs.get(job_id)
     if job is None:
         raise ApiError(
             404, f"no job {job_id[:64]!r} (the running and the latest {KEEP_JOBS} are kept)",
@@ -90,19 +104,19 @@ def _job(job_id: str, services: Services) -> Job:
     return job
 
 
-@router.get("/{job_id}", responses=responses(404, 422))
+@router.get("/{job_id}", response_model=JobAnswer, responses=responses(404, 422), **ANSWER)
 def get_job(job_id: JobId, services: ServicesDep) -> dict[str, Any]:
     """A job: status (running, done, failed, cancelled), progress 0..1, the version it works on
     (`from_version`), and its result or error."""
     return _job(job_id, services).to_dict()
 
 
-@router.delete("/{job_id}", responses=responses(404, 409, 422))
+@router.delete("/{job_id}", response_model=JobAnswer, responses=responses(404, 409, 422), **ANSWER)
 def cancel_job(job_id: JobId, services: ServicesDep) -> dict[str, Any]:
     """Cancel a running job: it stops at its next simulated walk and applies nothing (status
     cancelled). 409 if it has already finished."""
     job = _job(job_id, services)
-    if not services.axle_fitter.jobs.cancel(job):
+    if not services.jobs.cancel(job):
         raise ApiError(
             409, f"job {job.id} has already finished ({job.status}): nothing to cancel",
             "job_finished", loc=["path", "job_id"],
@@ -110,7 +124,9 @@ def cancel_job(job_id: JobId, services: ServicesDep) -> dict[str, Any]:
     return job.to_dict()
 
 
-@router.post("/{job_id}/apply", responses=responses(404, 409, 422))
+@router.post(
+    "/{job_id}/apply", response_model=JobAnswer, responses=responses(404, 409, 422), **ANSWER
+)
 def apply_job(job_id: JobId, body: ApplyBody, services: ServicesDep) -> dict[str, Any]:
     """Apply the result a finished job kept because the parameters (or the axle) changed while
     it ran, onto the version in use, named in the body (409 if that is no longer the one)."""
@@ -123,7 +139,7 @@ def apply_job(job_id: JobId, body: ApplyBody, services: ServicesDep) -> dict[str
         applied = applier(body.version)
     except StaleVersion as exc:
         job.applier = applier  # still kept
-        current = services.store.snapshot().version
+        current = services.snapshot().version
         raise ApiError(
             409, str(exc), "version_conflict", loc=["body", "version"], version=current
         ) from exc

@@ -10,8 +10,9 @@ from fastapi import APIRouter, Header, Response
 
 from app.params.document import ParameterSet
 from app.params.schema import ParamsBody, ParamsPatchBody, schema_description
+from app.server.api.answers import ANSWER, Params, SchemaGroup
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, ApiError, responses
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.param_store import Check, NothingToUndo, RobotBusy, Snapshot
 from app.server.services import Services
 
@@ -79,13 +80,18 @@ def versions_check(body_version: int | None, if_match: str | None) -> Check:
     return check
 
 
-@router.get("/params", responses={200: {"headers": ETAG_HEADER}})
+@router.get("/params", response_model=Params, responses={200: {"headers": ETAG_HEADER}}, **ANSWER)
 def get_params(services: ServicesDep, response: Response) -> dict[str, Any]:
     """The parameters in use, with their version (also the `ETag`)."""
-    return _tagged(response, services.store.snapshot())
+    return _tagged(response, services.snapshot())
 
 
-@router.put("/params", responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}})
+@router.put(
+    "/params",
+    response_model=Params,
+    responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}},
+    **ANSWER,
+)
 def put_params(
     body: ParamsBody, services: ServicesDep, response: Response, if_match: IfMatch = None
 ) -> dict[str, Any]:
@@ -109,7 +115,12 @@ def pset_patch(pset: ParameterSet) -> dict[str, Any]:
     return {"motion": pset.to_dict()["motion"], "gait": pset.gait.to_dict()}
 
 
-@router.patch("/params", responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}})
+@router.patch(
+    "/params",
+    response_model=Params,
+    responses=responses(409, 412, 422) | {200: {"headers": ETAG_HEADER}},
+    **ANSWER,
+)
 def patch_params(
     body: ParamsPatchBody,
     services: ServicesDep,
@@ -124,13 +135,13 @@ def patch_params(
     return _tagged(response, snapshot)
 
 
-@router.post("/params/undo", responses=responses(409, 412, 422))
+@router.post("/params/undo", response_model=Params, responses=responses(409, 412, 422), **ANSWER)
 def undo(services: ServicesDep, response: Response, if_match: IfMatch = None) -> dict[str, Any]:
     """Undo the latest change of the one shared history, whoever made it (see redo)."""
     return _history("undo", services, response, if_match)
 
 
-@router.post("/params/redo", responses=responses(409, 412, 422))
+@router.post("/params/redo", response_model=Params, responses=responses(409, 412, 422), **ANSWER)
 def redo(services: ServicesDep, response: Response, if_match: IfMatch = None) -> dict[str, Any]:
     """Redo the latest undone change. Undo and redo act on the one shared history; `reverted`
     says whose change (version, source) was replaced. To undo only your own latest change, send
@@ -153,16 +164,16 @@ def _history(
     try:
         snapshot = move("http", check=check)
     except NothingToUndo as exc:
-        current = services.store.snapshot()
+        current = services.snapshot()
         raise ApiError(409, str(exc), "nothing_to_" + step, version=current.version) from exc
     except RobotBusy as exc:  # the step would change robots while something runs on this one
-        current = services.store.snapshot()
+        current = services.snapshot()
         raise ApiError(409, str(exc), "robot_busy", version=current.version) from exc
     reverted = {"version": replaced[0].version, "source": replaced[0].source}
     return _tagged(response, snapshot) | {"reverted": reverted}
 
 
-@router.get("/schema")
+@router.get("/schema", response_model=list[SchemaGroup], **ANSWER)
 def schema() -> list[dict[str, Any]]:
     """Every parameter group and field: label, default, range, step, unit, equation, meaning."""
     return schema_description()

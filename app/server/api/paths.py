@@ -5,9 +5,10 @@ from typing import Any
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.server.api.answers import ANSWER, Accepted, Axle, PathView
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, responses
-from app.server.sim_commands import Reanchor
+from app.server.http.errors import GATE_RESPONSES, responses
+from app.server.sim.sim_commands import Reanchor
 
 router = APIRouter(
     prefix="/api/path", tags=["paths"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -21,26 +22,26 @@ class AnchorBody(BaseModel):
     )
 
 
-@router.get("")
+@router.get("", response_model=PathView, **ANSWER)
 def get_path(services: ServicesDep) -> dict[str, Any]:
     """Actual and predicted paths as [t, x, y, yaw] rows, with V, b, turn radius and rates;
     `axle_stale` when b is a fitted b_eff of another gait than the one in use."""
-    view = services.sim.paths.view()
-    gait = services.store.snapshot().gait
+    view = services.paths.view()
+    gait = services.snapshot().gait
     return view | {"axle_stale": services.axle_fitter.stale(view["axle_source"], gait)}
 
 
-@router.post("/clear")
+@router.post("/clear", response_model=Accepted, **ANSWER)
 def clear(services: ServicesDep) -> dict[str, Any]:
     """Forget the path walked so far; the prediction starts again at the robot's next pose."""
-    services.sim.paths.clear()
+    services.paths.clear()
     return {"accepted": "clear"}
 
 
-@router.post("/anchor", responses=responses(422))
+@router.post("/anchor", response_model=Accepted, responses=responses(422), **ANSWER)
 def reanchor(services: ServicesDep, body: AnchorBody | None = None) -> dict[str, Any]:
     """Start the prediction again at the robot's current pose."""
-    services.sim.send(Reanchor(None if body is None else body.speed_m_s))
+    services.send(Reanchor(None if body is None else body.speed_m_s))
     return {"accepted": "reanchor"}
 
 
@@ -51,8 +52,8 @@ class AxleBody(BaseModel):
     )
 
 
-@router.put("/axle", responses=responses(422))
+@router.put("/axle", response_model=Axle, responses=responses(422), **ANSWER)
 def set_axle(services: ServicesDep, body: AxleBody) -> dict[str, Any]:
     """Predict with this axle b (m), or with the measured distance between the feet (null)."""
-    services.sim.paths.set_axle(body.axle_m, "manual")
+    services.paths.set_axle(body.axle_m, "manual")
     return {"axle_m": body.axle_m, "axle_source": "feet" if body.axle_m is None else "manual"}

@@ -17,9 +17,17 @@ from app.params.formats import (
 )
 from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
 from app.params.schema import ImportBody, ImportBodyV1, inline_schema
+from app.server.api.answers import (
+    ANSWER,
+    Deleted,
+    ParameterDocument,
+    Params,
+    PresetDiff,
+    PresetList,
+)
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
-from app.server.request_gate import JSON_TYPES, YAML_TYPES
+from app.server.http.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
+from app.server.http.request_gate import JSON_TYPES, YAML_TYPES
 from app.server.services import Services
 
 router = APIRouter(
@@ -48,7 +56,7 @@ def _not_the_diff(name: str) -> None:
 
 def _get(services: Services, name: str) -> ParameterSet:
     if name == CURRENT:
-        return services.store.snapshot().parameter_set()
+        return services.snapshot().parameter_set()
     try:
         return services.presets.get(name)
     except PresetNotFound as exc:
@@ -57,7 +65,7 @@ def _get(services: Services, name: str) -> ParameterSet:
         raise ApiError(422, str(exc), "invalid_preset", loc=["path"]) from exc
 
 
-@router.get("/presets")
+@router.get("/presets", response_model=PresetList, **ANSWER)
 def list_presets(services: ServicesDep) -> dict[str, Any]:
     infos = services.presets.list()
     return {
@@ -66,29 +74,37 @@ def list_presets(services: ServicesDep) -> dict[str, Any]:
     }
 
 
-@router.get("/presets/diff", responses=responses(404, 422))
+@router.get("/presets/diff", response_model=PresetDiff, responses=responses(404, 422), **ANSWER)
 def diff_presets(services: ServicesDep, a: Other, b: Other = CURRENT) -> dict[str, Any]:
     """Every field in which two parameter sets differ ("diff" is not a preset name)."""
     return {"a": a, "b": b, "differences": diff(_get(services, a), _get(services, b))}
 
 
-@router.get("/presets/{name}", responses=responses(404, 422))
+@router.get(
+    "/presets/{name}", response_model=ParameterDocument, responses=responses(404, 422), **ANSWER
+)
 def get_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     return _get(services, name).to_dict()
 
 
-@router.put("/presets/{name}", status_code=201, responses=responses(422, 507))
+@router.put(
+    "/presets/{name}",
+    status_code=201,
+    response_model=ParameterDocument,
+    responses=responses(422, 507),
+    **ANSWER,
+)
 def save_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     """Save the parameters in use now under this name (not a built-in or reserved one); 507
     when the disk is full (nothing is written)."""
     _not_the_diff(name)
     try:
-        return services.presets.save(name, services.store.snapshot().parameter_set()).to_dict()
+        return services.presets.save(name, services.snapshot().parameter_set()).to_dict()
     except PresetError as exc:
         raise ApiError(422, str(exc), "invalid_preset", loc=["path"]) from exc
 
 
-@router.delete("/presets/{name}", responses=responses(404, 422))
+@router.delete("/presets/{name}", response_model=Deleted, responses=responses(404, 422), **ANSWER)
 def delete_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     _not_the_diff(name)
     try:
@@ -100,7 +116,7 @@ def delete_preset(name: Name, services: ServicesDep) -> dict[str, Any]:
     return {"deleted": name}
 
 
-@router.post("/presets/{name}/load", responses=responses(404, 422))
+@router.post("/presets/{name}/load", response_model=Params, responses=responses(404, 422), **ANSWER)
 def load_preset(
     name: Name,
     services: ServicesDep,
@@ -112,7 +128,7 @@ def load_preset(
     another robot than the one simulated."""
     pset = _get(services, name)
     if keep_motion:
-        pset = dataclasses.replace(pset, motion=services.store.snapshot().motion)
+        pset = dataclasses.replace(pset, motion=services.snapshot().motion)
     loaded = services.store.replace(pset, "preset").to_dict()
     return loaded | {"warnings": services.robot_warnings(pset)}
 
@@ -135,7 +151,7 @@ def export(
 ) -> Response:
     """The parameters in use as a file: JSON, YAML, or a C header for the ATmega128 firmware."""
     text, media_type, filename = export_text(
-        services.store.snapshot().parameter_set(), format, hardware=services.sim.hardware
+        services.snapshot().parameter_set(), format, hardware=services.hardware
     )
     headers = {"Content-Disposition": f'attachment; filename="{filename}"'}
     return Response(text, media_type=media_type, headers=headers)
@@ -152,7 +168,13 @@ IMPORT_BODY = {
 }
 
 
-@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(413, 422))
+@router.post(
+    "/import",
+    response_model=Params,
+    openapi_extra=IMPORT_BODY,
+    responses=responses(413, 422),
+    **ANSWER,
+)
 async def import_params(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Upload a JSON or YAML parameter set (at most 64 KiB) and make it the one in use."""
     raw = bytearray()

@@ -14,10 +14,12 @@ from starlette.concurrency import run_in_threadpool
 
 from app.firmware.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
+from app.server.api.answers import ANSWER, ReplayStatus
+from app.server.api.answers_data import RecordedFrame, RecordingFile, RecordingSummary
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.recorder import RECORD_FRAMES, Recording
-from app.server.recording_file import (
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.recording.recorder import RECORD_FRAMES, Recording
+from app.server.recording.recording_file import (
     EVENT_KINDS,
     INT32_MAX,
     KEYS,
@@ -28,7 +30,7 @@ from app.server.recording_file import (
     RecordingError,
     recording_from_json,
 )
-from app.server.replay import NothingRecorded, OtherRobot
+from app.server.recording.replay import NothingRecorded, OtherRobot
 from app.server.services import Services
 from hardware import CHANNELS, OCR_MAX, SLOTS_PER_FRAME, frame_edges
 
@@ -49,21 +51,21 @@ class ReplayBody(BaseModel):
 
 
 def _summary(services: Services) -> dict[str, Any]:
-    return services.sim.recorder.summary() | {"replay": services.replay.status()}
+    return services.recorder.summary() | {"replay": services.replay_status()}
 
 
 def _shown(services: Services) -> Recording:
     """The recording in replay, else the session so far."""
-    return services.replay.recording or services.sim.recorder.recording()
+    return services.replay.recording or services.recorder.recording()
 
 
-@router.get("")
+@router.get("", response_model=RecordingSummary, **ANSWER)
 def get_recording(services: ServicesDep) -> dict[str, Any]:
     """What the ring buffer holds (frames, session times, the last 50 events) and the replay."""
     return _summary(services)
 
 
-@router.post("/replay", responses=responses(404, 409, 422))
+@router.post("/replay", response_model=ReplayStatus, responses=responses(404, 409, 422), **ANSWER)
 def replay(body: ReplayBody, services: ServicesDep) -> dict[str, Any]:
     """Replay (the live simulation pauses) at `index`, or move there while replaying."""
     try:
@@ -72,21 +74,21 @@ def replay(body: ReplayBody, services: ServicesDep) -> dict[str, Any]:
         raise ApiError(409, str(exc), "nothing_recorded", loc=["body"]) from exc
     except IndexError as exc:  # no frame there: as GET /api/recording/frame/{index}
         raise ApiError(404, str(exc), "not_found", loc=["body", "index"]) from exc
-    return services.replay.status()
+    return services.replay_status()
 
 
-@router.post("/live")
+@router.post("/live", response_model=ReplayStatus, **ANSWER)
 def back_to_live(services: ServicesDep) -> dict[str, Any]:
     """Leave the replay; the simulation resumes if it ran before."""
     services.replay.leave()
-    return services.replay.status()
+    return services.replay_status()
 
 
-@router.get("/frame/{index}", responses=responses(404, 422))
+@router.get("/frame/{index}", response_model=RecordedFrame, responses=responses(404, 422), **ANSWER)
 def recorded_frame(index: int, services: ServicesDep) -> dict[str, Any]:
     """The scope frame at `index` of the replay (or of the session so far)."""
     try:
-        return services.replay.frame_message(index, services.sim.hardware.tdm)
+        return services.replay.frame_message(index, services.hardware.tdm)
     except IndexError as exc:
         raise ApiError(404, str(exc), "not_found", loc=["path", "index"]) from exc
 
@@ -97,7 +99,7 @@ def _download(text: str, suffix: str, media_type: str) -> Response:
     return Response(text, media_type=media_type, headers=headers)
 
 
-@router.get("/export", responses=responses(409))
+@router.get("/export", response_model=RecordingFile, responses=responses(409))
 def export(services: ServicesDep) -> Response:
     """The recording (the replay's, or the session so far) as one JSON file: per frame the
     poses (qpos), the OCR table, phase, times and parameter version; the events; the parameter
@@ -119,7 +121,7 @@ def export_vcd(services: ServicesDep) -> Response:
     rec = _shown(services)
     if not len(rec):
         raise ApiError(409, "nothing recorded yet", "nothing_recorded", loc=["path"])
-    tdm = services.sim.hardware.tdm
+    tdm = services.hardware.tdm
     edges = edges_of_frames([frame_edges(ocr, tdm) for ocr in rec.ocr])
     first, last = int(rec.frame[0]), int(rec.frame[-1])
     text = vcd_text(edges, 0, comment=f"recorded frames {first}..{last}, {rec.model}")
@@ -201,7 +203,13 @@ assert set(
 ) == set(KEYS)
 
 
-@router.post("/import", openapi_extra=IMPORT_BODY, responses=responses(409, 413, 422, 429))
+@router.post(
+    "/import",
+    response_model=ReplayStatus,
+    openapi_extra=IMPORT_BODY,
+    responses=responses(409, 413, 422, 429),
+    **ANSWER,
+)
 async def import_recording(request: Request, services: ServicesDep) -> dict[str, Any]:
     """Load a recording file (from export) and replay it from its first frame; one import at
     a time (429 while another is read: each is seconds of parsing beside the simulation)."""
@@ -211,7 +219,7 @@ async def import_recording(request: Request, services: ServicesDep) -> dict[str,
             "import_busy", headers={"Retry-After": "2"},
         )  # fmt: skip
     try:
-        body, nq = await request.body(), services.sim.model.nq
+        body, nq = await request.body(), services.model.nq
         try:  # megabytes of JSON: parsed and checked off the event loop
             rec = await run_in_threadpool(lambda: recording_from_json(load_json_strict(body), nq))
         except RecordingError as exc:
@@ -229,4 +237,4 @@ async def import_recording(request: Request, services: ServicesDep) -> dict[str,
         raise ApiError(409, str(exc), "other_robot", loc=["body", "model"]) from exc
     except NothingRecorded as exc:
         raise ApiError(422, f"not a recording: {exc}", "invalid_recording", loc=["body"]) from exc
-    return services.replay.status()
+    return services.replay_status()

@@ -9,12 +9,17 @@ from starlette.concurrency import run_in_threadpool
 
 from app.robots import RobotDescription
 from app.robots.servos import servo_table
+from app.server.api.answers import ANSWER
+from app.server.api.answers_data import (
+    Cancelled,
+    RobotImported,
+    RobotList,
+    RobotSummary,
+    RobotSwitched,
+)
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
-from app.server.param_store import RobotBusy
-from app.server.robot_importer import ImportBusy, ImportFailed, ImportOptions
-from app.server.robot_shelf import UnknownRobot
-from app.server.robot_upload import (
+from app.server.http.errors import GATE_RESPONSES, PATTERN_RULES, ApiError, responses
+from app.server.http.robot_upload import (
     MAX_DEPTH,
     MAX_NAME_BYTES,
     MAX_UNPACKED_BYTES,
@@ -22,6 +27,9 @@ from app.server.robot_upload import (
     MAX_ZIP_FILES,
     UploadRefused,
 )
+from app.server.jobs.robot_importer import ImportBusy, ImportFailed, ImportOptions
+from app.server.param_store import RobotBusy
+from app.server.robot_shelf import UnknownRobot
 
 router = APIRouter(
     prefix="/api", tags=["robot"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -33,7 +41,7 @@ class RobotBody(BaseModel):
     name: str = Field(max_length=64, description="a robot of GET /api/robots")
 
 
-@router.get("/robot")
+@router.get("/robot", response_model=RobotSummary, **ANSWER)
 async def robot(services: ServicesDep) -> dict[str, Any]:
     """The loaded robot's description and derived figures: total and link masses, leg lengths,
     each joint's servo settings (force range, kp, damping, armature, friction loss) and eq (1)'s
@@ -41,13 +49,13 @@ async def robot(services: ServicesDep) -> dict[str, Any]:
     return await run_in_threadpool(lambda: services.robot.summary())  # its lock off the loop
 
 
-@router.get("/robot/schema")
+@router.get("/robot/schema", response_model=dict[str, Any])
 def robot_schema() -> dict[str, Any]:
     """The JSON Schema of a robot description (`models/robots/artro.yaml` is one)."""
     return RobotDescription.model_json_schema()
 
 
-@router.get("/robots")
+@router.get("/robots", response_model=RobotList, **ANSWER)
 def robots(services: ServicesDep) -> dict[str, Any]:
     """The robots this server can simulate (the one it was started with and the built-in
     ones): name, title, total mass, leg lengths, default preset; and which is loaded."""
@@ -66,7 +74,7 @@ def robots(services: ServicesDep) -> dict[str, Any]:
     return {"loaded": services.robot.name, "robots": offered}
 
 
-@router.put("/robot", responses=responses(404, 409, 422))
+@router.put("/robot", response_model=RobotSwitched, responses=responses(404, 409, 422), **ANSWER)
 def switch_robot(body: RobotBody, services: ServicesDep) -> dict[str, Any]:
     """Simulate another robot from the next frame: the robot starts over, standing, in its
     default preset, in the same world. A new parameter version: undo (POST /api/params/undo)
@@ -78,9 +86,7 @@ def switch_robot(body: RobotBody, services: ServicesDep) -> dict[str, Any]:
     except UnknownRobot as exc:
         raise ApiError(404, str(exc), "unknown_robot", loc=["body", "name"]) from exc
     except RobotBusy as exc:
-        raise ApiError(
-            409, str(exc), "robot_busy", version=services.store.snapshot().version
-        ) from exc
+        raise ApiError(409, str(exc), "robot_busy", version=services.snapshot().version) from exc
     return {"robot": body.name, "changed": changed, "params": snapshot.to_dict()}
 
 
@@ -107,7 +113,13 @@ PATTERN_RULES[ROBOT_NAME] = (
 )
 
 
-@router.post("/robot/import", openapi_extra=UPLOAD_BODY, responses=responses(409, 413, 422, 429))
+@router.post(
+    "/robot/import",
+    response_model=RobotImported,
+    openapi_extra=UPLOAD_BODY,
+    responses=responses(409, 413, 422, 429),
+    **ANSWER,
+)
 async def import_robot_file(
     request: Request,
     services: ServicesDep,
@@ -161,7 +173,7 @@ async def import_robot_file(
         ) from exc
 
 
-@router.delete("/robot/import")
+@router.delete("/robot/import", response_model=Cancelled, **ANSWER)
 def cancel_robot_import(services: ServicesDep) -> dict[str, Any]:
     """Cancel the robot import that runs (its child stopped, nothing kept); whether one ran."""
     return {"cancelled": services.importer.cancel()}

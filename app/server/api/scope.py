@@ -7,9 +7,10 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Query, Response, WebSocket, WebSocketDisconnect
 from starlette.concurrency import run_in_threadpool
 
+from app.server.api.answers_data import ScopeFrames
 from app.server.api.deps import ServicesDep, WsServicesDep
-from app.server.errors import GATE_RESPONSES, responses
-from app.server.scope_feed import HISTORY_FRAMES
+from app.server.feeds.scope_feed import HISTORY_FRAMES
+from app.server.http.errors import GATE_RESPONSES, responses
 
 router = APIRouter(tags=["scope"], responses=GATE_RESPONSES)
 INLINE_FORMAT_FRAMES = 2  # about 0.3 ms each
@@ -29,16 +30,16 @@ FRAMES_RESPONSE: dict[int | str, dict[str, Any]] = {
 }
 
 
-@router.get("/api/scope", responses=FRAMES_RESPONSE | responses(422))
+@router.get("/api/scope", response_model=ScopeFrames, responses=FRAMES_RESPONSE | responses(422))
 async def recent_frames(
     services: ServicesDep,
     frames: Annotated[int, Query(ge=1, le=HISTORY_FRAMES, description="how many")] = 1,
 ) -> Response:
     """The last N TDM-PWM frames: per channel the slots (servo, OCR ticks, pulse us, degrees),
     the edges of the six TDM lines and three select lines, and flags. Each frame is serialised
-    once for every client (app/server/scope_feed.py): with at most a few new frames to format
+    once for every client (app/server/feeds/scope_feed.py): with at most a few new frames to format
     this answers on the event loop, else in the thread pool."""
-    feed = services.sim.scope
+    feed = services.scope
     if feed.unformatted(frames) <= INLINE_FORMAT_FRAMES:
         body = feed.recent_json(frames)
     else:
@@ -50,7 +51,7 @@ async def recent_frames(
 async def live_frames(websocket: WebSocket, services: WsServicesDep) -> None:
     """One JSON message per 20 ms simulated frame. A client that reads too slowly loses frames."""
     await websocket.accept()
-    hub = services.sim.scope
+    hub = services.scope
     client = hub.connect()
     receiver = asyncio.create_task(_drain(websocket))
     try:

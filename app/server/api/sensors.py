@@ -9,10 +9,12 @@ from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.firmware import protocol as proto
+from app.server.api.answers import ANSWER
+from app.server.api.answers_data import FramesTaken, Sensors
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, responses
-from app.server.robot_sensors import WINDOW_FRAMES, RobotFrame
-from app.server.sensor_trace import COLUMNS
+from app.server.feeds.robot_sensors import WINDOW_FRAMES, RobotFrame
+from app.server.http.errors import GATE_RESPONSES, responses
+from app.server.recording.sensor_trace import COLUMNS
 
 router = APIRouter(
     prefix="/api/sensors", tags=["sensors"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -84,7 +86,7 @@ class RobotFramesBody(BaseModel):
     )
 
 
-@router.get("")
+@router.get("", response_model=Sensors, **ANSWER)
 def sensors(services: ServicesDep) -> dict[str, Any]:
     """The last 5 s, one value per 20 ms frame in each column (oldest first; null where a sole
     carries nothing): the estimated attitude against the simulator's true one (for the eye
@@ -94,14 +96,14 @@ def sensors(services: ServicesDep) -> dict[str, Any]:
     same units (`t_s` its own clock: frame × 20 ms) with its last frame's status, or null when
     none arrived in the last 2 s."""
     robot = services.robot_sensors.view()
-    view = services.sim.sensor_view()
+    view = services.sensor_view()
     if view is None:
         empty = {"columns": {name: [] for name in COLUMNS}, "sole_mm": None, "fsr_mm": []}
         return empty | {"robot": robot}
     return view.to_dict() | {"robot": robot}
 
 
-@router.post("/robot", responses=responses(422))
+@router.post("/robot", response_model=FramesTaken, responses=responses(422), **ANSWER)
 def post_robot_frames(services: ServicesDep, body: RobotFramesBody) -> dict[str, Any]:
     """A linked robot's SENSORS frames, decoded (what `artro link` forwards every 150 ms): kept
     for 5 s beside the simulation's sensors, each sole's centre of pressure placed on the

@@ -9,13 +9,22 @@ from pydantic import BaseModel, ConfigDict, Field
 from app.firmware.build import BuildError
 from app.firmware.emulator import EmulatorError
 from app.params.document import project_version
+from app.server.api.answers import (
+    ANSWER,
+    Accepted,
+    DriveAccepted,
+    Health,
+    PushAccepted,
+    SpeedAccepted,
+    State,
+)
 from app.server.api.deps import ServicesDep, StrictJsonRoute
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.live_robot import Drive
-from app.server.pacing import SPEED_RANGE
-from app.server.replay import RUNS_LIVE, Replaying
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.recording.replay import RUNS_LIVE, Replaying
 from app.server.services import Services
-from app.server.sim_commands import (
+from app.server.sim.live_robot import Drive
+from app.server.sim.pacing import SPEED_RANGE
+from app.server.sim.sim_commands import (
     PUSH_RANGE_N_S,
     Control,
     DriveRefused,
@@ -44,28 +53,28 @@ class DriveBody(BaseModel):
     )
 
 
-@router.get("/api/health")
+@router.get("/api/health", response_model=Health, **ANSWER)
 def health(services: ServicesDep) -> dict[str, Any]:
     return {
-        "status": "ok" if services.sim.alive else "simulation stopped",
+        "status": "ok" if services.running else "simulation stopped",
         "version": project_version(),
         # the port the 3D view is on: viser takes the next free one when the asked one is taken
-        "viser_port": services.viewer.server.get_port() if services.viewer is not None else None,
+        "viser_port": services.viser_port,
     }
 
 
-@router.get("/api/state")
+@router.get("/api/state", response_model=State, **ANSWER)
 def state(services: ServicesDep) -> dict[str, Any]:
     """Sim time, real-time factor, fell, trunk pose, parameter version and more; `tune` is
     the latest tune job's id and status (null: none ran) and `robustness_report` whether a
     report of the gait in use is kept (`GET /api/world/robustness`), so a page asks for
     neither when there is none."""
-    sim, snap, tune = services.sim, services.store.snapshot(), services.tuner.latest
-    return sim.status().to_dict() | {
+    snap, tune, scope = services.snapshot(), services.tuner.latest, services.scope
+    return services.sim_status().to_dict() | {
         "params_version": snap.version,
-        "scope": {"clients": sim.scope.client_count, "dropped": sim.scope.dropped},
-        "running": sim.alive,
-        "replay": services.replay.status(),
+        "scope": {"clients": scope.client_count, "dropped": scope.dropped},
+        "running": services.running,
+        "replay": services.replay_status(),
         "tune": None if tune is None else {"id": tune.id, "status": tune.status},
         "robustness_report": services.robustness.last_report(snap) is not None,
     }
@@ -94,25 +103,29 @@ for _command, _doc in (
         f"/api/sim/{_command.name}",
         _control(_command, _doc),
         methods=["POST"],
+        response_model=Accepted,
+        response_model_exclude_unset=True,
         name=f"sim_{_command.name}",
         summary=f"{_command.name.title()}",
         responses=responses(409) if isinstance(_command, RUNS_LIVE) else None,
     )
 
 
-@router.put("/api/sim/speed", responses=responses(422))
+@router.put("/api/sim/speed", response_model=SpeedAccepted, responses=responses(422), **ANSWER)
 def set_speed(body: SpeedBody, services: ServicesDep) -> dict:
-    services.sim.send(SetSpeed(body.speed))
+    services.send(SetSpeed(body.speed))
     return {"accepted": "speed", "speed": body.speed}
 
 
-@router.put("/api/sim/drive", responses=responses(409, 422, 503))
+@router.put(
+    "/api/sim/drive", response_model=DriveAccepted, responses=responses(409, 422, 503), **ANSWER
+)
 def set_drive(body: DriveBody, services: ServicesDep) -> dict:
     """Switch who makes the servo pulses. The firmware is built for the current set (seconds on
     a cold cache) and boots at its start phase, so the robot starts over; back to the model, it
     walks on. `GET /api/state` says which drive is on (`drive`, `firmware`)."""
     try:
-        services.sim.switch_drive(body.drive)
+        services.switch_drive(body.drive)
     except DriveRefused as exc:
         status = 503 if exc.reason == "drive_failed" else 409
         raise ApiError(status, str(exc), exc.reason, loc=["body", "drive"]) from exc
@@ -139,20 +152,20 @@ class PushBody(BaseModel):
     )
 
 
-@router.post("/api/sim/push", responses=responses(409, 422))
+@router.post("/api/sim/push", response_model=PushAccepted, responses=responses(409, 422), **ANSWER)
 def push(body: PushBody, services: ServicesDep) -> dict:
     """Push the robot's trunk: the impulse in one physics step, level, in the direction given
     relative to the robot. `GET /api/state` says the last push (`push`), the 3D view draws it;
     409 while a replay is shown, the robot lies fallen, or the pushes waiting for the next
     physics step (sent while paused) would add up past 2 N·s: they act there as one push."""
-    if services.replay.status()["active"]:
+    if services.replay_status()["active"]:
         raise ApiError(
             409,
             "a replay is shown: go back to live first (POST /api/recording/live)",
             "replaying",
             loc=["path"],
         )
-    if services.sim.status().fell:
+    if services.sim_status().fell:
         raise ApiError(
             409,
             "the robot has fallen and the simulation stopped: reset first (POST /api/sim/reset)",
@@ -160,7 +173,7 @@ def push(body: PushBody, services: ServicesDep) -> dict:
             loc=["path"],
         )
     try:
-        services.sim.push(Push(body.impulse_n_s, body.direction_deg))
+        services.push(Push(body.impulse_n_s, body.direction_deg))
     except PushRefused as exc:
         raise ApiError(409, str(exc), "pushes_pending", loc=["body", "impulse_n_s"]) from exc
     return {

@@ -8,11 +8,13 @@ from pydantic import BaseModel, ConfigDict, Field, field_validator
 
 from app.analysis.cases import CASES
 from app.analysis.robot_start import START_RECIPE
+from app.server.api.answers import ANSWER
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import JobBusy, RobotChanged
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.jobs.registry import JobBusy, RobotChanged
+from app.server.jobs.results import TuneJob
+from app.server.jobs.tune_job import TuneBudget, WrongRobot, cases_of
 from app.server.robot_shelf import UnknownRobot
-from app.server.tune_job import TuneBudget, WrongRobot, cases_of
 
 router = APIRouter(
     prefix="/api", tags=["jobs"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -47,7 +49,13 @@ class TuneBody(BaseModel):
         return cases
 
 
-@router.post("/jobs/tune", status_code=202, responses=responses(404, 409, 422))
+@router.post(
+    "/jobs/tune",
+    status_code=202,
+    response_model=TuneJob,
+    responses=responses(404, 409, 422),
+    **ANSWER,
+)
 def start_tune(
     services: ServicesDep,
     response: Response,
@@ -89,7 +97,7 @@ def start_tune(
     return job.to_dict()
 
 
-@router.get("/tune", responses=responses(404))
+@router.get("/tune", response_model=TuneJob, responses=responses(404), **ANSWER)
 def latest_tune(services: ServicesDep) -> dict[str, Any]:
     """The latest tune job started since the server started (running or not), for a page that
     was reloaded meanwhile; 404 if none was."""

@@ -7,10 +7,12 @@ from typing import Annotated, Any
 from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
 
+from app.server.api.answers import ANSWER, RobustnessReport, World, WorldName
 from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
-from app.server.errors import GATE_RESPONSES, ApiError, responses
-from app.server.jobs import JobBusy, RobotChanged
-from app.server.sim_commands import SetWorld
+from app.server.http.errors import GATE_RESPONSES, ApiError, responses
+from app.server.jobs.registry import JobBusy, RobotChanged
+from app.server.jobs.results import RobustnessJob
+from app.server.sim.sim_commands import SetWorld
 from app.worlds.sampling import VariationRanges
 from app.worlds.variations import FIELDS, NOMINAL, parse_variation
 
@@ -35,7 +37,7 @@ class RobustnessBody(BaseModel):
 
 
 def _world(services: Any) -> dict[str, Any]:
-    name = services.sim.status().world
+    name = services.sim_status().world
     variation = NOMINAL if name == "nominal" else parse_variation(name)
     return {
         "variation": name,
@@ -44,14 +46,14 @@ def _world(services: Any) -> dict[str, Any]:
     }
 
 
-@router.get("/world")
+@router.get("/world", response_model=World, **ANSWER)
 def get_world(services: ServicesDep) -> dict[str, Any]:
     """The variation the live robot walks in (`nominal` when none), each field's value and the
     default ranges of `artro bench robust`."""
     return _world(services)
 
 
-@router.put("/world", responses=responses(422))
+@router.put("/world", response_model=WorldName, responses=responses(422), **ANSWER)
 def put_world(body: WorldBody, services: ServicesDep) -> dict[str, Any]:
     """Walk on in another world from the next frame on (friction, masses, servo, latency, play,
     tilt, calibration); the robot is not reset. A bad text changes nothing (422)."""
@@ -59,29 +61,37 @@ def put_world(body: WorldBody, services: ServicesDep) -> dict[str, Any]:
         variation = parse_variation(body.variation) if body.variation.strip() else NOMINAL
     except (ValueError, TypeError) as exc:
         raise ApiError(422, str(exc), "invalid_variation", loc=["body", "variation"]) from exc
-    services.sim.send(SetWorld(variation))
+    services.send(SetWorld(variation))
     return {"variation": variation.name}
 
 
-@router.delete("/world")
+@router.delete("/world", response_model=WorldName, **ANSWER)
 def reset_world(services: ServicesDep) -> dict[str, Any]:
     """Back to the nominal model."""
-    services.sim.send(SetWorld(NOMINAL))
+    services.send(SetWorld(NOMINAL))
     return {"variation": NOMINAL.name}
 
 
-@router.get("/world/robustness", responses=responses(404))
+@router.get(
+    "/world/robustness", response_model=RobustnessReport, responses=responses(404), **ANSWER
+)
 def last_robustness(services: ServicesDep) -> dict[str, Any]:
     """The last finished robustness report of the gait in use on the robot in use (kept for the
     last 16 gaits while the server runs), with `finished_at` (Unix s) and `params_version`;
     404 if none was run on it."""
-    report = services.robustness.last_report(services.store.snapshot())
+    report = services.robustness.last_report(services.snapshot())
     if report is None:
         raise ApiError(404, "no robustness report of this gait yet: run one", "no_report")
     return report
 
 
-@router.post("/jobs/robustness", status_code=202, responses=responses(409, 422))
+@router.post(
+    "/jobs/robustness",
+    status_code=202,
+    response_model=RobustnessJob,
+    responses=responses(409, 422),
+    **ANSWER,
+)
 def start_robustness(
     services: ServicesDep,
     response: Response,

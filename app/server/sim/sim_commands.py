@@ -11,8 +11,8 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from typing import ClassVar
 
-from app.server.emulated_controller import EmulatedController
-from app.server.pacing import SPEED_RANGE
+from app.server.sim.emulated_controller import EmulatedController
+from app.server.sim.pacing import SPEED_RANGE
 from app.worlds.variations import Variation
 from gait import GaitParams
 

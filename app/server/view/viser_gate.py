@@ -1,4 +1,4 @@
-"""The request gate of app/server/request_gate.py for the viser port (docs/DESIGN.md §14).
+"""The request gate of app/server/http/request_gate.py for the viser port (docs/DESIGN.md §14).
 
 viser 1.1 has no origin option: its WebsockServer runs our check as the first connect callback,
 where the handshake's Host and Origin are known and nothing has been sent or received yet; a foreign
@@ -9,7 +9,7 @@ from __future__ import annotations
 import logging
 from typing import Any
 
-from app.server.request_gate import host_allowed, same_origin
+from app.server.http.request_gate import host_allowed, same_origin
 
 log = logging.getLogger(__name__)
 

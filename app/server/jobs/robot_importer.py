@@ -19,8 +19,8 @@ from typing import Any
 
 from app.robots.cad_import import DEFAULT_SERVO, import_robot, mapping_rows, name_of, write_import
 from app.robots.model import RobotModel
+from app.server.http.robot_upload import unpack, upload_name
 from app.server.robot_shelf import RobotShelf
-from app.server.robot_upload import unpack, upload_name
 
 #: how long the child may take: ArtRo's export imports in about 3 s, the child's start included;
 #: a file taking 40 times that is refused rather than waited for (a setting: `ServerConfig`)
@@ -29,7 +29,7 @@ IMPORT_TIMEOUT_S = 120.0
 #: for more is refused rather than let press on the server's memory
 MAX_CHILD_MEMORY_BYTES = 4 * 1024**3
 #: the child: `artro robot import`'s functions, the notes as JSON on its last line (exit 2: why)
-CHILD = "from app.server.robot_importer import child_main; child_main()"
+CHILD = "from app.server.jobs.robot_importer import child_main; child_main()"
 
 
 class ImportBusy(RuntimeError):

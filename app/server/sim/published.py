@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
-from app.server.emulated_controller import FirmwareStatus
-from app.server.ghost import GhostStatus
-from app.server.live_robot import Drive
-from app.server.sensor_trace import SensorView
+from app.server.recording.sensor_trace import SensorView
+from app.server.sim.emulated_controller import FirmwareStatus
+from app.server.sim.ghost import GhostStatus
+from app.server.sim.live_robot import Drive
 from app.sim.servo_load import ServoLoadMeter, ServoLoadReport
 
 LOAD_PUBLISH_FRAMES = 25  # the servo load budget is published twice a second

@@ -34,9 +34,9 @@ from app.server.api import (
     tune,
     world,
 )
-from app.server.errors import install_handlers
-from app.server.http_protocol import HeadDeadlineProtocol
-from app.server.request_gate import GATED_PREFIXES, RequestGate, served_hosts
+from app.server.http.errors import install_handlers
+from app.server.http.http_protocol import HeadDeadlineProtocol
+from app.server.http.request_gate import GATED_PREFIXES, RequestGate, served_hosts
 from app.server.services import ServerConfig, Services
 
 VENDOR = "/vendor"  # third-party files served with the page (static/vendor/)
@@ -61,7 +61,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
         services = Services(config)
-        services.sim.scope.attach_loop(asyncio.get_running_loop())
+        services.scope.attach_loop(asyncio.get_running_loop())
         services.start()
         app.state.services = services
         try:

@@ -12,7 +12,7 @@ import numpy as np
 
 from app.params.document import ParameterSet
 from app.params.formats import every_problem
-from app.server.recorder import (
+from app.server.recording.recorder import (
     FORMAT,
     FORMAT_VERSION,
     MAX_EVENTS,
@@ -20,7 +20,7 @@ from app.server.recorder import (
     RECORD_FRAMES,
     Recording,
 )
-from app.server.sim_commands import PUSH_RANGE_N_S
+from app.server.sim.sim_commands import PUSH_RANGE_N_S
 from app.sim.planning import FRAME_S
 from gait import JOINT_NAMES, Motion
 from gait.params import replace_checked

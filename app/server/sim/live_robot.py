@@ -13,11 +13,11 @@ import mujoco
 
 from app.firmware.emulator import EmulatorError
 from app.robots.model import RobotModel
-from app.server.emulated_controller import EmulatedController, FirmwareStatus
-from app.server.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.param_store import Snapshot
-from app.server.recorder import Recorder
-from app.server.sim_commands import DriveRefused, SwitchDrive
+from app.server.recording.recorder import Recorder
+from app.server.sim.emulated_controller import EmulatedController, FirmwareStatus
+from app.server.sim.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
+from app.server.sim.sim_commands import DriveRefused, SwitchDrive
 from app.sim.frame_loop import FrameLoop, FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
 from hardware import HardwareSetup

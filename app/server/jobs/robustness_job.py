@@ -15,7 +15,7 @@ from app.analysis.robustness import ROBUST_CASES, run_robust
 from app.evaluation import Cancelled, close_evaluator, evaluator_for
 from app.evaluation.progress import time_left_s
 from app.robots.model import RobotModel
-from app.server.jobs import Job, JobCancelled, Jobs, Progress
+from app.server.jobs.registry import Job, JobCancelled, Jobs, Progress
 from app.server.param_store import ParameterStore, Snapshot
 from app.worlds.sampling import VariationRanges
 

@@ -13,7 +13,7 @@ import time
 from collections import OrderedDict
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 KEEP_JOBS = 20
 
@@ -69,13 +69,14 @@ class StaleVersion(RuntimeError):
 
 
 HIDDEN = frozenset({"value", "finished", "cancel", "applier"})
+JobStatus = Literal["running", "done", "failed", "cancelled"]
 
 
 @dataclass
 class Job:
     id: str
     kind: str
-    status: str = "running"  # running | done | failed | cancelled
+    status: JobStatus = "running"
     progress: float = 0.0  # 0..1
     result: dict[str, Any] | None = None
     error: str | None = None

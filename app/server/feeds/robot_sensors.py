@@ -14,12 +14,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from app.server.sensor_trace import WINDOW_FRAMES
+from app.server.recording.sensor_trace import WINDOW_FRAMES
 from app.sim.planning import FRAME_S
 from app.sim.sensors import SensorReading
 
 FRESH_S = 2.0  # frames older than this: no robot linked
-#: the columns of the robot's view, named as the simulation's (app/server/sensor_trace.py)
+#: the columns of the robot's view, named as the simulation's (app/server/recording/sensor_trace.py)
 COLUMNS = (
     "t_s", "frame",
     "pitch_est_deg", "roll_est_deg",

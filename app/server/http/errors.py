@@ -19,7 +19,7 @@ from pydantic.errors import PydanticUserError
 from starlette.exceptions import HTTPException as StarletteHTTPException
 from starlette.routing import Match, Mount
 
-from app.server.body_rules import allowed_at, body_schema
+from app.server.http.body_rules import allowed_at, body_schema
 
 log = logging.getLogger(__name__)
 
@@ -247,5 +247,5 @@ def responses(*statuses: int) -> dict[int | str, dict[str, Any]]:
     return {s: {"model": ErrorBody, "description": text[s]} for s in statuses}
 
 
-#: What any route may answer because of the request gate (app/server/request_gate.py).
+#: What any route may answer because of the request gate (app/server/http/request_gate.py).
 GATE_RESPONSES = responses(400, 403, 413, 415)

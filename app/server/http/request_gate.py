@@ -20,8 +20,8 @@ from starlette.requests import ClientDisconnect
 from starlette.types import ASGIApp, Message, Receive, Scope, Send
 
 from app.params.formats import MAX_IMPORT_BYTES
-from app.server.errors import error_content
-from app.server.robot_upload import MAX_UPLOAD_BYTES
+from app.server.http.errors import error_content
+from app.server.http.robot_upload import MAX_UPLOAD_BYTES
 
 log = logging.getLogger(__name__)
 

@@ -1,5 +1,5 @@
-"""The server's axle fit, a background job (app/server/jobs.py): one at a time; the path tracker
-then predicts with b_eff if it applies and nothing changed meanwhile (§14). The page (`POST
+"""The server's axle fit, a background job (app/server/jobs/registry.py): one at a time; the path
+tracker then predicts with b_eff if it applies and nothing changed meanwhile (§14). The page (`POST
 /api/jobs/axle-fit`) and the viser button (`fit`, from its own thread) start the same job."""
 
 from __future__ import annotations
@@ -10,9 +10,9 @@ from typing import Any
 from app.analysis.axle_fit import AxleFitResult, fit_effective_axle
 from app.evaluation import BatchEvaluator
 from app.robots.model import RobotModel
-from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict, on_robot
+from app.server.jobs.registry import Job, Jobs, Progress, StaleVersion, conflict, on_robot
 from app.server.param_store import ParameterStore
-from app.server.path_tracker import PathTracker
+from app.server.sim.path_tracker import PathTracker
 from gait import GaitParams, Motion
 
 KIND = "axle-fit"

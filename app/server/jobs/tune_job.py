@@ -34,7 +34,7 @@ from app.params.presets import PresetStore, builtin_presets, check_name
 from app.robots import builtin_robot_names
 from app.robots.library import description_json
 from app.robots.model import RobotModel
-from app.server.jobs import Job, Jobs, Progress, StaleVersion, on_robot
+from app.server.jobs.registry import Job, Jobs, Progress, StaleVersion, on_robot
 from app.server.param_store import ParameterStore, Snapshot
 from gait.params import describe_fields, group_class
 

@@ -1,7 +1,7 @@
-"""The dashboard's "Calibrate CA", a background job (app/server/jobs.py): fits the steering term's
-K for the current gait walking forward and backward (`app.analysis.ca_calibration`), applies both
-as one undoable change onto the version it fitted, and lets the predicted path use the fitted
-b_eff (docs/DESIGN.md §4, §14)."""
+"""The dashboard's "Calibrate CA", a background job (app/server/jobs/registry.py): fits the
+steering term's K for the current gait walking forward and backward
+(`app.analysis.ca_calibration`), applies both as one undoable change onto the version it fitted,
+and lets the predicted path use the fitted b_eff (docs/DESIGN.md §4, §14)."""
 
 from __future__ import annotations
 
@@ -13,9 +13,9 @@ from app.analysis.axle_fit import walking_amplitude
 from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
 from app.evaluation import BatchEvaluator
 from app.robots.model import RobotModel
-from app.server.jobs import Job, Jobs, Progress, StaleVersion, conflict, only_onto
+from app.server.jobs.registry import Job, Jobs, Progress, StaleVersion, conflict, only_onto
 from app.server.param_store import ParameterStore
-from app.server.path_tracker import PathTracker
+from app.server.sim.path_tracker import PathTracker
 
 KIND = "calibrate-ca"
 SOURCE = "calibration"  # the store's source of the change it makes

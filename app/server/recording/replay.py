@@ -14,11 +14,11 @@ from typing import Any
 import mujoco
 import numpy as np
 
-from app.server.live_robot import model_name
-from app.server.recorder import Recorder, Recording
-from app.server.scope_frames import frame_to_dict
-from app.server.sim_commands import Control, PauseForReplay, Resume, Step
-from app.server.sim_thread import SimThread
+from app.server.feeds.scope_frames import frame_to_dict
+from app.server.recording.recorder import Recorder, Recording
+from app.server.sim.live_robot import model_name
+from app.server.sim.sim_commands import Control, PauseForReplay, Resume, Step
+from app.server.sim.sim_thread import SimThread
 from hardware import TdmConfig
 
 
