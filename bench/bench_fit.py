@@ -8,7 +8,7 @@ paper's forward a_p 0.07, sideways a_r 0.1, turning a_y 0.2). Seconds per fit ar
 
     python bench/bench_fit.py [--robots 10] [--budget 160] [--workers 2] [--seed 1]
 
-Writes bench/results/bench_fit.json, or --json PATH.
+Writes its JSON document into bench/results/ (or --json PATH).
 """
 
 from __future__ import annotations
@@ -106,8 +106,11 @@ def main() -> None:
         }
         cases.append(case)
         told = sum(f["within"] for f in fields.values())
-        print(f"robot {i}: {seconds:.0f} s, {told}/{len(fields)} within, converged "
-              f"{result.converged}; speeds hidden {hidden} fitted {fitted}", flush=True)  # fmt: skip
+        print(
+            f"robot {i}: {seconds:.0f} s, {told}/{len(fields)} within, converged "
+            f"{result.converged}; speeds hidden {hidden} fitted {fitted}",
+            flush=True,
+        )
     per_field = {}
     for k in dims:
         rows = [c["fields"][k] for c in cases if k in c["fields"]]

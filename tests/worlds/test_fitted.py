@@ -60,7 +60,7 @@ def test_ranges_are_centred_on_what_was_told(fitted_robot):
 def test_a_broken_fit_is_named(tmp_path):
     path = tmp_path / "bad.yaml"
     write_fitted(load_description("artro"), FIT.model_copy(update={"variation": "kp=2"}), path)
-    with pytest.raises(ValueError, match="fitted.variation: unknown variation field 'kp'"):
+    with pytest.raises(ValueError, match=r"fitted\.variation: unknown variation field 'kp'"):
         fitted_variation(RobotModel.load(path))
 
 
