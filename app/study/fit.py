@@ -1,8 +1,6 @@
-"""Fit the model to a recording (docs/FIT.md): CMA-ES over the physics fields, each point the
-routine replayed on worker processes with the IMU's errors fitted in closed form; then each
-field's uncertainty from the loss's curvature (Gauss-Newton on finite differences, the
-residuals' autocorrelation counted), which fields the recording cannot tell apart, and the
-residual against the sensors' noise."""
+"""Fit the model to a recording (docs/FIT.md): CMA-ES over the physics fields in two stages
+(standing, then the walks), each point the routine replayed on worker processes with the IMU's
+errors fitted in closed form; what was found and how sure: `app.study.fit_result`."""
 
 from __future__ import annotations
 
@@ -10,11 +8,9 @@ import math
 import threading
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
-from numpy.typing import NDArray
 
 from app.analysis import fit_sensors
 from app.analysis.identify_record import Recording, traces_of
@@ -22,17 +18,12 @@ from app.analysis.identify_replay import Traces, play
 from app.analysis.identify_routine import ROUTINES
 from app.robots.model import RobotModel
 from app.study import fit_space
+from app.study.fit_result import Fit, judged, uncertainty
 from app.study.fit_space import Dim
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams
 
-#: two coordinates correlated beyond this in the fit's covariance: the recording cannot tell
-#: them apart (one moves the traces as the other does)
-CORRELATED = 0.9
-#: a fit that lowers the nominal's loss by less than this share did not find a better model
-MIN_GAIN = 0.02
-#: CMA-ES has converged when its step (in the unit box) is below this; it stops at TOL_X
-CONVERGED_SIGMA = 0.05
+#: CMA-ES stops when its step (in the unit box) is below this
 TOL_X = 0.002
 #: the fields the routine's first segment (standing still) tells alone: searched first, on it
 #: alone (a replay a tenth as long), then held while the walks fit the others (docs/FIT.md)
@@ -44,31 +35,6 @@ STANDING_SHARE = 0.15
 
 class FitCancelled(RuntimeError):
     """The fit was cancelled; nothing was written."""
-
-
-@dataclass
-class Fit:
-    """What `fit` found (docs/FIT.md): each coordinate's value and σ, what was identified."""
-
-    values: dict[str, float]
-    sigma: dict[str, float]
-    identified: dict[str, bool]
-    correlated: list[tuple[str, str, float]]
-    flat: list[str]
-    loss_nominal: float
-    loss_fit: float
-    rms_nominal: dict[str, float]
-    rms_fit: dict[str, float]
-    converged: bool
-    why_not: str
-    evaluations: int
-    variation: Variation
-    replay_nominal: Traces = field(repr=False)
-    replay_fit: Traces = field(repr=False)
-
-    def noise_ratio(self) -> dict[str, float]:
-        """Each channel's rms residual after the fit over the noise its sensor carries."""
-        return {c: v / fit_sensors.NOISE[c] for c, v in self.rms_fit.items()}
 
 
 # --- the work a process does: one replay at a point --------------------------------------------
@@ -230,13 +196,17 @@ def fit(
         cycles = fit_sensors.Cycles(
             tuple(lengths), GaitParams.from_dict(recording.params).clock.freq_hz
         )
-        sigma, corr = _uncertainty(
-            cycles, physics, imu_dims, values, replays[1], recorded, present, fixed, run_all
+
+        def replays_at(points: list[dict[str, float]]) -> list[Traces]:
+            return [aligned(r, recorded) for r in run_all(_replay, [(p,) for p in points])]
+
+        sigma, corr = uncertainty(
+            cycles, physics, imu_dims, values, replays[1], recorded, present, fixed, replays_at
         )
     finally:
         if pool is not None:
             pool.shutdown(cancel_futures=True)
-    return _judged(
+    return judged(
         physics + imu_dims,
         values,
         sigma,
@@ -307,136 +277,3 @@ def told(
     if progress is None:
         return None
     return lambda done, loss: progress(min(total, before + done * weight), total, loss)
-
-
-def _vector(parts: dict[str, NDArray[np.float64]]) -> NDArray[np.float64]:
-    return np.concatenate([e.reshape(-1) for e in parts.values()])
-
-
-def _uncertainty(
-    cycles: fit_sensors.Cycles,
-    physics: list[Dim],
-    imu_dims: list[Dim],
-    values: dict[str, float],
-    replay: Traces,
-    recorded: Traces,
-    present: bool,
-    fixed: Variation,
-    run_all: Callable[..., list[Any]],
-) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """σ of each coordinate and their correlations: J from central differences (the physics
-    replayed at ±step, the IMU's errors turned at ±step), cov = s²·τ·(JᵀJ)⁻¹ with s² the
-    residuals' variance and τ = (1 + ρ)/(1 − ρ) from their lag-one autocorrelation ρ (a
-    recording's frames are not independent draws)."""
-
-    def at(v: dict[str, float], rep: Traces) -> NDArray[np.float64]:
-        errors = fit_space.imu_errors({k: x for k, x in v.items() if k in fit_space.IMU}, fixed)
-        return _vector(fit_sensors.residuals(rep, errors, recorded, present, cycles))
-
-    dims = physics + imu_dims
-    base = at(values, replay)
-    points = []
-    for d in physics:
-        for sign in (1, -1):
-            points.append(
-                (
-                    {
-                        **{p.name: values[p.name] for p in physics},
-                        d.name: values[d.name] + sign * d.step,
-                    },
-                )
-            )
-    replays = [aligned(r, recorded) for r in run_all(_replay, points)] if points else []
-    columns = []
-    for i, d in enumerate(physics):
-        plus, minus = at(values, replays[2 * i]), at(values, replays[2 * i + 1])
-        columns.append((plus - minus) / (2 * d.step))
-    for d in imu_dims:
-        plus = at({**values, d.name: values[d.name] + d.step}, replay)
-        minus = at({**values, d.name: values[d.name] - d.step}, replay)
-        columns.append((plus - minus) / (2 * d.step))
-    jac = np.stack(columns, 1) if columns else np.zeros((len(base), 0))
-    n, p = jac.shape
-    s2 = float(base @ base) / max(1, n - p)
-    rho = float(np.clip(np.corrcoef(base[:-1], base[1:])[0, 1], 0.0, 0.99)) if n > 2 else 0.0
-    tau = (1 + rho) / (1 - rho)
-    info = jac.T @ jac
-    cov = np.linalg.pinv(info) * s2 * tau if p else np.zeros((0, 0))
-    sigma = np.sqrt(np.clip(np.diag(cov), 0.0, None))
-    scale = np.where(sigma > 0, sigma, 1.0)
-    corr = cov / np.outer(scale, scale)
-    return sigma, corr if len(dims) else np.zeros((0, 0))
-
-
-def _judged(
-    dims: list[Dim],
-    values: dict[str, float],
-    sigma: NDArray[np.float64],
-    corr: NDArray[np.float64],
-    replays: list[Traces],
-    recorded: Traces,
-    present: bool,
-    fixed: Variation,
-    loss0: float,
-    best_loss: float,
-    evaluations: int,
-    sigma_now: float,
-) -> Fit:
-    names = [d.name for d in dims]
-    sig = dict(zip(names, map(float, sigma), strict=True))
-    correlated = [
-        (names[i], names[j], float(corr[i, j]))
-        for i in range(len(names))
-        for j in range(i + 1, len(names))
-        if abs(corr[i, j]) > CORRELATED
-    ]
-    flat = [d.name for d in dims if sig[d.name] > (d.high - d.low) / 2]
-    tangled = {n for a, b, _ in correlated for n in (a, b)}
-    identified = {
-        d.name: 2 * sig[d.name] <= d.tolerance and d.name not in tangled and d.name not in flat
-        for d in dims
-    }
-    gain = 1 - best_loss / loss0 if loss0 > 0 else 0.0
-    converged, why = True, ""
-    if gain < MIN_GAIN and loss0 > 1e-3:
-        converged, why = (
-            False,
-            (
-                f"the fit lowered the nominal's loss by {100 * gain:.1f} %, "
-                f"less than {100 * MIN_GAIN:g} %"
-            ),
-        )
-    elif sigma_now > CONVERGED_SIGMA:
-        converged, why = (
-            False,
-            (
-                f"CMA-ES's step is still {sigma_now:.2f} of the range after "
-                f"{evaluations} replays: give it a larger --budget"
-            ),
-        )
-    physics_values = {k: v for k, v in values.items() if k in fit_space.PHYSICS}
-    errors = fit_space.imu_errors({k: v for k, v in values.items() if k in fit_space.IMU}, fixed)
-    variation = fixed  # not converged: the nominal, with what the builder held
-    if converged:
-        physical = fit_space.physics_variation(physics_values, fixed)
-        variation = fit_space.with_imu(physical, errors)
-    nominal_errors = fit_space.imu_errors({}, fixed)
-    rms0 = fit_sensors.rms(fit_sensors.residuals(replays[0], nominal_errors, recorded, present))
-    rms1 = fit_sensors.rms(fit_sensors.residuals(replays[1], errors, recorded, present))
-    return Fit(
-        values,
-        sig,
-        identified,
-        correlated,
-        flat,
-        loss0,
-        best_loss,
-        rms0,
-        rms1,
-        converged,
-        why,
-        evaluations,
-        variation,
-        replays[0],
-        replays[1],
-    )

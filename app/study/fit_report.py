@@ -13,7 +13,7 @@ from app.analysis.identify_record import Recording
 from app.robots.fitted import Fitted, write_fitted
 from app.robots.model import RobotModel
 from app.study import fit_space
-from app.study.fit import Fit
+from app.study.fit_result import Fit
 from app.worlds.variations import parse_variation
 
 UNITS = {
