@@ -25,7 +25,7 @@ from app.cli.options import (
     study_location,
     subcommand,
 )
-from app.study.tune import DEFAULT_NAMES, tunable_fields
+from app.study.tune_space import DEFAULT_NAMES, tunable_fields
 
 EXAMPLES = """examples:
   artro tune --robot my.yaml       the start for my.yaml, tuned to walk; saved as tuned-my

@@ -11,21 +11,14 @@ import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any, TextIO
 
 import numpy as np
 
-from app.analysis.cases import (
-    CASES,
-    CURVES,
-    JUDGED_RUNS,
-    curve_run_names,
-    steering,
-)
+from app.analysis.cases import CURVES, curve_run_names, steering
 from app.analysis.robot_start import walks
 from app.analysis.robot_tune import RUNS, TRIAL, EventWriter
-from app.analysis.robustness import ROBUST_CASES, pass_margin_loss
+from app.analysis.robustness import ROBUST_CASES
 from app.evaluation import BatchEvaluator, Evaluator, Job
 from app.evaluation.progress import ProgressLine, about, bar, time_left_s
 from app.params.document import ParameterSet
@@ -37,83 +30,14 @@ from app.study.tune_families import (
     families_term,
     family_scores,
     torque_penalty,
+    world_losses,
 )
-from app.study.tune_loss import (
-    LossWeights,
-    meets_all_criteria,
-    total_loss,
-)
+from app.study.tune_loss import LossWeights, meets_all_criteria, total_loss
+from app.study.tune_space import DEFAULT_NAMES, dimensions, judged_runs, with_values
 from app.worlds.fitted import fitted_ranges, fitted_variation
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import Variation
 from gait import JOINT_NAMES, GaitParams, Motion
-from gait.params import FEEDBACK_GROUPS, describe_fields, group_class, merge
-
-DEFAULT_NAMES = (
-    "clock.freq_hz",
-    "shift.amp_base",
-    "short.amp_base",
-    "short.amp_speed",
-    "swing.v",
-    "swing.o",
-    "balance.foot_pitch_offset",
-    "balance.leg_roll_offset",
-)
-
-
-@dataclass(frozen=True)
-class Dimension:
-    name: str  # dotted, e.g. "swing.v"
-    low: float
-    high: float
-
-    def to_value(self, u: float) -> float:
-        return self.low + float(np.clip(u, 0.0, 1.0)) * (self.high - self.low)
-
-    def to_unit(self, value: float) -> float:
-        return (value - self.low) / (self.high - self.low)
-
-
-TUNABLE_GROUPS = ("clock", "shift", "short", "swing", "load", "balance", "leg", *FEEDBACK_GROUPS)
-
-
-def tunable_fields() -> dict[str, list[str]]:
-    """What `--tune` accepts: each group -> its numeric fields (switches are not tuned)."""
-    return {
-        group: [f for f, _d, m in describe_fields(group_class(group)) if m.get("unit") != "bool"]
-        for group in TUNABLE_GROUPS
-    }
-
-
-def dimensions(names: Sequence[str]) -> list[Dimension]:
-    """The tunable parameters with their schema ranges; ValueError names what is allowed."""
-    tunable = [f"{g}.{f}" for g, fs in tunable_fields().items() for f in fs]
-    if not names:
-        raise ValueError(f"nothing to tune: name at least one of {tunable}")
-    twice = sorted({n for n in names if list(names).count(n) > 1})
-    if twice:
-        raise ValueError(f"each parameter to tune once: {', '.join(twice)} named twice")
-    out = []
-    for name in names:
-        group, _, field = name.partition(".")
-        try:
-            fields = {f: meta for f, _d, meta in describe_fields(group_class(group))}
-        except KeyError:
-            fields = {}
-        meta = fields.get(field)
-        if meta is None or meta.get("unit") == "bool":
-            raise ValueError(f"{name!r} is not a tunable number; choose from {tunable}")
-        out.append(Dimension(name, meta["min"], meta["max"]))
-    return out
-
-
-def with_values(base: GaitParams, dims: Sequence[Dimension], unit: np.ndarray) -> GaitParams:
-    """`base` with each dimension set from its normalised coordinate."""
-    patch: dict[str, dict[str, float]] = {}
-    for dim, u in zip(dims, unit, strict=True):
-        group, _, field = dim.name.partition(".")
-        patch.setdefault(group, {})[field] = round(dim.to_value(u), 6)
-    return merge(base, patch)
 
 
 class Tuner:
@@ -303,13 +227,7 @@ class Tuner:
         cases = [next(c for c in ROBUST_CASES if c.motion == m) for _n, m in judged]
         names = [name for name, _m in judged]
         worlds = [runs[k : k + len(judged)] for k in range(n, len(runs), len(judged))]
-        varied = [
-            sum(
-                pass_margin_loss(c, m, home[name])
-                for c, name, m in zip(cases, names, world, strict=True)
-            )
-            for world in worlds
-        ]
+        varied = world_losses(cases, names, worlds, home)
         families = family_scores(cases, names, worlds, home)
         term = families_term(families)
         torque = torque_penalty(list(home.values()), self.stall_nm)
@@ -478,18 +396,3 @@ class Tuner:
 
             return max(passing, key=gain)
         return min(passing, key=lambda e: e[0])
-
-
-def judged_runs(cases: Sequence[str] | None) -> tuple[tuple[str, Motion], ...]:
-    """JUDGED_RUNS, or only the named cases and the curve pairs walking at their a_p."""
-    if not cases:
-        return JUDGED_RUNS
-    known = [c.name for c in CASES]
-    unknown = [c for c in cases if c not in known]
-    if unknown:
-        raise ValueError(f"unknown cases {unknown}; allowed: {', '.join(known)}")
-    twice = sorted({c for c in cases if list(cases).count(c) > 1})
-    if twice:
-        raise ValueError(f"each case once: {', '.join(twice)} named twice")
-    curves = {n for p in CURVES if p.straight in cases for n in curve_run_names(p)}
-    return tuple((n, m) for n, m in JUDGED_RUNS if n in cases or n in curves)

@@ -69,6 +69,20 @@ def family_scores(
     return out
 
 
+def world_losses(
+    cases: Sequence[RobustCase],
+    names: Sequence[str],
+    worlds: Sequence[Sequence[dict[str, Any]]],
+    home: dict[str, dict[str, Any]],
+) -> list[float]:
+    """Each world's pass-margin losses summed over its runs (as `family_scores` takes them):
+    the store's "losses", and before decision 0062 the robust term's worst quarter."""
+    return [
+        sum(pass_margin_loss(c, m, home[n]) for c, n, m in zip(cases, names, world, strict=True))
+        for world in worlds
+    ]
+
+
 def families_term(families: dict[str, dict[str, Any]]) -> float:
     """The robust term: the worst family's objective plus MEAN_SHARE of their mean (0 for none)."""
     objectives = [f["objective"] for f in families.values()]
