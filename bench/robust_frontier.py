@@ -31,7 +31,7 @@ from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets, stamped, write_parameter_set
 from app.study.study_store import open_storage
-from app.study.tune import dimensions, with_values
+from app.study.tune_space import dimensions, with_values
 
 PASS_GOAL = 0.9
 PAPER_TOLERANCE = 0.25

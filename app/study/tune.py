@@ -11,101 +11,33 @@ import math
 import sys
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
 from typing import Any, TextIO
 
 import numpy as np
 
-from app.analysis.cases import (
-    CASES,
-    CURVES,
-    JUDGED_RUNS,
-    curve_run_names,
-    steering,
-)
+from app.analysis.cases import CURVES, curve_run_names, steering
 from app.analysis.robot_start import walks
 from app.analysis.robot_tune import RUNS, TRIAL, EventWriter
-from app.analysis.robustness import ROBUST_CASES, pass_margin_loss, passes
+from app.analysis.robustness import ROBUST_CASES
 from app.evaluation import BatchEvaluator, Evaluator, Job
 from app.evaluation.progress import ProgressLine, about, bar, time_left_s
 from app.params.document import ParameterSet
+from app.robots.model_parts import joint_settings
 from app.study.study_store import StudyStore
-from app.study.tune_loss import (
-    LossWeights,
-    meets_all_criteria,
-    total_loss,
+from app.study.tune_families import (
+    cvar25,
+    describe_families,
+    families_term,
+    family_scores,
+    torque_penalty,
+    world_losses,
 )
+from app.study.tune_loss import LossWeights, meets_all_criteria, total_loss
+from app.study.tune_space import DEFAULT_NAMES, dimensions, judged_runs, with_values
 from app.worlds.fitted import fitted_ranges, fitted_variation
 from app.worlds.sampling import VariationRanges, sample
 from app.worlds.variations import Variation
-from gait import GaitParams, Motion
-from gait.params import FEEDBACK_GROUPS, describe_fields, group_class, merge
-
-DEFAULT_NAMES = (
-    "clock.freq_hz",
-    "shift.amp_base",
-    "short.amp_base",
-    "short.amp_speed",
-    "swing.v",
-    "swing.o",
-    "balance.foot_pitch_offset",
-    "balance.leg_roll_offset",
-)
-
-
-@dataclass(frozen=True)
-class Dimension:
-    name: str  # dotted, e.g. "swing.v"
-    low: float
-    high: float
-
-    def to_value(self, u: float) -> float:
-        return self.low + float(np.clip(u, 0.0, 1.0)) * (self.high - self.low)
-
-    def to_unit(self, value: float) -> float:
-        return (value - self.low) / (self.high - self.low)
-
-
-TUNABLE_GROUPS = ("clock", "shift", "short", "swing", "load", "balance", "leg", *FEEDBACK_GROUPS)
-
-
-def tunable_fields() -> dict[str, list[str]]:
-    """What `--tune` accepts: each group -> its numeric fields (switches are not tuned)."""
-    return {
-        group: [f for f, _d, m in describe_fields(group_class(group)) if m.get("unit") != "bool"]
-        for group in TUNABLE_GROUPS
-    }
-
-
-def dimensions(names: Sequence[str]) -> list[Dimension]:
-    """The tunable parameters with their schema ranges; ValueError names what is allowed."""
-    tunable = [f"{g}.{f}" for g, fs in tunable_fields().items() for f in fs]
-    if not names:
-        raise ValueError(f"nothing to tune: name at least one of {tunable}")
-    twice = sorted({n for n in names if list(names).count(n) > 1})
-    if twice:
-        raise ValueError(f"each parameter to tune once: {', '.join(twice)} named twice")
-    out = []
-    for name in names:
-        group, _, field = name.partition(".")
-        try:
-            fields = {f: meta for f, _d, meta in describe_fields(group_class(group))}
-        except KeyError:
-            fields = {}
-        meta = fields.get(field)
-        if meta is None or meta.get("unit") == "bool":
-            raise ValueError(f"{name!r} is not a tunable number; choose from {tunable}")
-        out.append(Dimension(name, meta["min"], meta["max"]))
-    return out
-
-
-def with_values(base: GaitParams, dims: Sequence[Dimension], unit: np.ndarray) -> GaitParams:
-    """`base` with each dimension set from its normalised coordinate."""
-    patch: dict[str, dict[str, float]] = {}
-    for dim, u in zip(dims, unit, strict=True):
-        group, _, field = dim.name.partition(".")
-        patch.setdefault(group, {})[field] = round(dim.to_value(u), 6)
-    return merge(base, patch)
+from gait import JOINT_NAMES, GaitParams, Motion
 
 
 class Tuner:
@@ -147,6 +79,11 @@ class Tuner:
         #: a robot fitted to its recording walks its fit; robust worlds are drawn about it
         self.fitted = fitted_variation(self.evaluator.robot)
         self.ranges = fitted_ranges(self.evaluator.robot, self.ranges)
+        #: each servo's stall torque on the nominal runs (JOINT_NAMES), for `torque_penalty`
+        settings = joint_settings(self.evaluator.robot.description)
+        self.stall_nm = [
+            settings[j].stall_torque_nm * self.fitted.torque_scale for j in JOINT_NAMES
+        ]
         self.duration_s, self.warmup_s = duration_s, warmup_s
         self.weights = weights = weights or LossWeights()
         start = base.gait.flat()
@@ -174,7 +111,8 @@ class Tuner:
             "runs": [name for name, _motion in self.runs],
         }
         if robust:
-            self.settings |= {"robust": robust, "robust_weight": robust_weight}
+            self.settings |= {"robust": robust, "robust_weight": robust_weight,
+                              "robust_loss": "families"}  # fmt: skip
             self.settings["ranges"] = {f.name: list(getattr(self.ranges, f.name))
                                        for f in dataclasses.fields(self.ranges)}  # fmt: skip
         self.settings |= weights.settings()
@@ -273,11 +211,12 @@ class Tuner:
     def score(self, runs: list[dict[str, Any]]) -> tuple[float, dict[str, Any]]:
         """A candidate's loss from its runs (every judged run on the nominal model, then each
         world's `robust_runs`, world by world): the paper loss on the nominal model, plus with
-        --robust the mean of the worst quarter of its worlds' pass-margin losses (CVaR at
-        25 %: a gait is judged by the worlds it handles worst, not by its luck), times the
-        robust weight. A world's pass-margin loss sums, over the
-        robustness report's cases, how far each run is from passing with room
-        (`pass_margin_loss`): in a varied world the goal is to walk, not the paper's speed."""
+        --robust the robust weight times the per-family term (`families_term`: the worst of
+        spot, forward/backward, sideways, turning and curves, each family's pass share and
+        worst quarter of worlds' pass margins scored apart, so a gain forward cannot hide a loss
+        sideways), plus the torque weight times eq (1)'s margin of the nominal runs
+        (`torque_penalty`; decision 0062). In a varied world the goal is to walk, not the
+        paper's speed."""
         n = len(self.runs)
         home = {name: m for (name, _), m in zip(self.runs, runs[:n], strict=True)}
         nominal = total_loss(home, self.duration_s, self.weights)
@@ -286,28 +225,22 @@ class Tuner:
             return nominal, stored
         judged = self.robust_runs()
         cases = [next(c for c in ROBUST_CASES if c.motion == m) for _n, m in judged]
+        names = [name for name, _m in judged]
         worlds = [runs[k : k + len(judged)] for k in range(n, len(runs), len(judged))]
-        varied = [
-            sum(
-                pass_margin_loss(c, m, home[name])
-                for c, (name, _), m in zip(cases, judged, world, strict=True)
-            )
-            for world in worlds
-        ]
-        passed = sum(
-            passes(c, m, home[name])
-            for world in worlds
-            for c, (name, _), m in zip(cases, judged, world, strict=True)
-        )
-        tail = sorted(varied)[-max(1, math.ceil(len(varied) / 4)) :]
-        cvar = float(np.mean(tail))
+        varied = world_losses(cases, names, worlds, home)
+        families = family_scores(cases, names, worlds, home)
+        term = families_term(families)
+        torque = torque_penalty(list(home.values()), self.stall_nm)
         stored["robust"] = {
             "losses": varied,
-            "cvar25": cvar,
-            "passed": passed,
+            "cvar25": cvar25(varied),
+            "passed": sum(f["passed"] for f in families.values()),
             "runs": len(cases) * len(worlds),
+            "families": families,
+            "term": term,
+            "torque": torque,
         }
-        return nominal + self.robust_weight * cvar, stored
+        return nominal + self.robust_weight * term + self.weights.torque * torque, stored
 
     def robust_runs(self) -> list[tuple[str, Motion]]:
         """The tuner's runs that walk a case of the robustness report (a tuner limited to
@@ -422,8 +355,21 @@ class Tuner:
         share = passed / runs if runs else 0.0
         return (
             f"passes {passed} of {runs} varied runs ({share:.0%}) in {len(robust['losses'])} "
-            f"worlds of its generation (`artro bench robust` measures it on more)"
+            f"worlds of its generation (`artro bench robust` measures it on more); per family "
+            f"{describe_families(robust.get('families', {}))}; eq (1) torque penalty "
+            f"{robust.get('torque', 0.0):.3f}"
         )
+
+    def families_of(
+        self, chosen: tuple[float, GaitParams, dict[str, Any]]
+    ) -> dict[str, dict[str, float]] | None:
+        """With --robust: each family's "passed", "runs" and "share" for a candidate of
+        `evaluated` (`app.study.tune_families.family_scores`; None without --robust)."""
+        robust = self.robust_of.get(id(chosen[2]))
+        if robust is None or "families" not in robust:
+            return None
+        keys = ("passed", "runs", "share")
+        return {name: {k: f[k] for k in keys} for name, f in robust["families"].items()}
 
     def best_walking(self) -> tuple[float, GaitParams, dict[str, dict[str, Any]]] | None:
         """The lowest loss of the candidates that walked every judged run without a fall
@@ -450,18 +396,3 @@ class Tuner:
 
             return max(passing, key=gain)
         return min(passing, key=lambda e: e[0])
-
-
-def judged_runs(cases: Sequence[str] | None) -> tuple[tuple[str, Motion], ...]:
-    """JUDGED_RUNS, or only the named cases and the curve pairs walking at their a_p."""
-    if not cases:
-        return JUDGED_RUNS
-    known = [c.name for c in CASES]
-    unknown = [c for c in cases if c not in known]
-    if unknown:
-        raise ValueError(f"unknown cases {unknown}; allowed: {', '.join(known)}")
-    twice = sorted({c for c in cases if list(cases).count(c) > 1})
-    if twice:
-        raise ValueError(f"each case once: {', '.join(twice)} named twice")
-    curves = {n for p in CURVES if p.straight in cases for n in curve_run_names(p)}
-    return tuple((n, m) for n, m in JUDGED_RUNS if n in cases or n in curves)

@@ -42,6 +42,11 @@ class LossWeights:
     cross_talk: float = 0.2  # unwanted rotation while translating, translation while turning
     #: the robot's legs against ArtRo's: its speed targets are the paper's times this (1: ArtRo)
     speed_scale: float = 1.0
+    #: with --robust, weight of `app.study.tune_families.torque_penalty` on the nominal runs (eq
+    #: (1)'s margin): a run within the margin costs 0; one whose worst servo asks its stall torque
+    #: with the margin and sits at its limit throughout costs 0.5 x 2 = 1, as much as a family
+    #: losing every pass (decision 0062)
+    torque: float = 0.5
 
     def settings(self) -> dict[str, float]:
         default = LossWeights()

@@ -17,7 +17,7 @@ from app.cli.options import MotionChoice, motion_arg
 from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set
 from app.params.presets import PresetStore, builtin_presets
-from app.study.tune import tunable_fields
+from app.study.tune_space import tunable_fields
 from gait import Motion
 
 SAVED = "my-gait"  # a preset saved in the data directory, as the dashboard saves one

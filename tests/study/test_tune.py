@@ -18,7 +18,14 @@ from app.params.formats import load_parameter_set
 from app.params.presets import stamped, write_parameter_set
 from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, StudyStore, open_storage
 from app.study.tune import Tuner, dimensions
-from app.study.tune_loss import case_loss, curve_loss, meets_all_criteria, total_loss
+from app.study.tune_families import FAMILIES
+from app.study.tune_loss import (
+    LossWeights,
+    case_loss,
+    curve_loss,
+    meets_all_criteria,
+    total_loss,
+)
 from gait import GaitParams
 from tests.testing.signal_support import with_sigint_default
 
@@ -323,10 +330,10 @@ def test_a_tuner_limited_to_some_cases_walks_only_those_and_their_ca_pairs():
         judged_runs(["forwards"])
 
 
-def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_path):
+def test_a_robust_score_adds_the_worst_familys_term_and_the_torque_penalty(tmp_path):
     """`--robust N`: every candidate walks the same N worlds; its loss is the paper loss on the
-    nominal model plus the mean of its worst quarter of worlds' pass-margin losses, and the
-    store keeps how many varied runs passed."""
+    nominal model plus the worst family's term and the torque penalty, and the store keeps how
+    many varied runs passed, family by family."""
     tuner = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS, robust=3)
     tuner.run(1, store(tmp_path, tuner), progress=None)
     trials = trials_in(tmp_path / "study.log")
@@ -337,7 +344,13 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
         assert 0 <= robust["passed"] <= robust["runs"]
         assert robust["cvar25"] == max(robust["losses"])  # the worst quarter of 3 is 1 world
         nominal = total_loss(trial.user_attrs["metrics"]["nominal"], SETTINGS["duration_s"])
-        assert trial.value == pytest.approx(nominal + robust["cvar25"])
+        # the worst family's term and eq (1)'s torque penalty (decision 0062)
+        families = robust["families"]
+        assert list(families) == ["spot", "forward/backward", "sideways", "turning", "curves"]
+        assert sum(f["passed"] for f in families.values()) == robust["passed"]
+        assert robust["term"] >= max(f["objective"] for f in families.values())
+        torque = LossWeights().torque * robust["torque"]
+        assert trial.value == pytest.approx(nominal + robust["term"] + torque)
     # a poor gait fails some varied runs: the margins are not all zero
     assert any(t.user_attrs["metrics"]["robust"]["cvar25"] > 0 for t in trials)
     best = tuner.best
@@ -353,6 +366,8 @@ def test_a_robust_score_adds_the_worst_quarter_of_the_worlds_pass_margins(tmp_pa
     for run, m in runs.items():
         assert m["fell"] or kept.user_attrs[f"{run}.forward_cm_s"] == m["forward_cm_s"]
     assert tuner.varied_summary(best).startswith(f"passes {passed} of {3 * len(ROBUST_CASES)} ")
+    assert "per family spot " in tuner.varied_summary(best)
+    assert set(tuner.families_of(best)) == set(FAMILIES.values())
     # bench/robust_frontier.py reads the same store: a table of the frontier and its plot
     png = tmp_path / "frontier.png"
     drawn = subprocess.run(

@@ -30,7 +30,7 @@ from app.cli.tune import CLASSIC, RECIPE
 from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets
 from app.robots.library import read_description
-from app.study.tune import tunable_fields
+from app.study.tune_space import tunable_fields
 
 ROOT = Path(__file__).resolve().parents[2]
 #: the recipe's fields kept, the sizes cut: one generation of two candidates walking forward
