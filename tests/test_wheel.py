@@ -11,13 +11,13 @@ import re
 import shutil
 import subprocess
 import sys
+import tomllib
 import venv
 import zipfile
 from pathlib import Path
 
 import httpx
 import pytest
-import tomllib
 
 from tests.testing.server_harness import free_port
 

@@ -6,7 +6,7 @@ frame 0's start, each edge at the start of its Timer tick (0.5 µs = 5 units). d
 
 from __future__ import annotations
 
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
@@ -62,7 +62,7 @@ def vcd_text(edges: Edges, t0_cycle: int, *, comment: str = "") -> str:
     """The VCD file's text (see `write_vcd`)."""
     codes = [chr(ord("!") + i) for i in range(len(VCD_NAMES))]
     lines = [
-        f"$date {datetime.now(timezone.utc).isoformat(timespec='seconds')} $end",
+        f"$date {datetime.now(UTC).isoformat(timespec='seconds')} $end",
         "$version artro-gait-studio $end",
     ]
     if comment:

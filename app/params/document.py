@@ -8,7 +8,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from typing import Any
 
 from app.assets import project_version
@@ -65,7 +65,7 @@ class ParameterSet:
             "schema_version": SCHEMA_VERSION,
             "name": self.name,
             "robot": self.robot,
-            "created": self.created or datetime.now(timezone.utc).isoformat(timespec="seconds"),
+            "created": self.created or datetime.now(UTC).isoformat(timespec="seconds"),
             "project_version": self.project_version or project_version(),
             "motion": dataclasses.asdict(self.motion),
             "gait": self.gait.to_dict(),
