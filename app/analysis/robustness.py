@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 import threading
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -69,14 +69,14 @@ def figure_metric(case: RobustCase) -> str:
     return {"forward": "forward_cm_s", "lateral": "lateral_cm_s"}.get(case.kind, "turn_deg_s")
 
 
-def _figure(case: RobustCase, m: dict) -> float | None:
+def _figure(case: RobustCase, m: Mapping[str, Any]) -> float | None:
     if case.kind == "spot":
         fwd, lat = m.get("forward_cm_s"), m.get("lateral_cm_s")
         return None if fwd is None or lat is None else math.hypot(fwd, lat)
     return m.get(figure_metric(case))
 
 
-def nominal_walks(case: RobustCase, nominal: dict) -> bool:
+def nominal_walks(case: RobustCase, nominal: Mapping[str, Any]) -> bool:
     """Whether the nominal model walks `case`: no fall, and its figure the case's way by at
     least NOMINAL_WALKS_CM_S / _DEG_S (on the spot: no fall)."""
     if nominal["fell"]:
@@ -88,7 +88,7 @@ def nominal_walks(case: RobustCase, nominal: dict) -> bool:
     return value * case.way >= floor
 
 
-def passes(case: RobustCase, m: dict, nominal: dict) -> bool:
+def passes(case: RobustCase, m: Mapping[str, Any], nominal: Mapping[str, Any]) -> bool:
     """The one definition of passing (see PASS_SHARE), only where the nominal model walks the
     case (`nominal_walks`)."""
     if m["fell"] or not nominal_walks(case, nominal):
@@ -113,7 +113,7 @@ MARGIN = 1.2
 FALL_MARGIN_LOSS = 2.0  # a fall, or a nominal run that fell: worse than any miss while walking
 
 
-def pass_margin_loss(case: RobustCase, m: dict, nominal: dict) -> float:
+def pass_margin_loss(case: RobustCase, m: Mapping[str, Any], nominal: Mapping[str, Any]) -> float:
     """How far one varied run is from passing with room (0 when it passes by MARGIN): the
     smooth form of `passes` that `artro tune --robust` minimises. Each shortfall (of the motion
     along, the forward speed of a curve, the heading or spot drift allowed) is relative to its
@@ -227,7 +227,7 @@ def jobs_for(
 def summarise(
     name: str,
     variations: Sequence[Variation],
-    metrics: Sequence[dict],
+    metrics: Sequence[Mapping[str, Any]],
     *,
     repeat: str = "artro run",
     stall_nm: Sequence[float] | None = None,
@@ -299,9 +299,9 @@ def summarise(
 
 
 def torque_bound(
-    failed: Sequence[dict],
-    passed: Sequence[dict],
-    nominal: dict,
+    failed: Sequence[Mapping[str, Any]],
+    passed: Sequence[Mapping[str, Any]],
+    nominal: Mapping[str, Any],
     stall_nm: Sequence[float] | None,
     torque_scales: Sequence[float] | None = None,
 ) -> dict[str, Any] | None:

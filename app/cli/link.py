@@ -11,7 +11,7 @@ import stat
 import sys
 import threading
 from pathlib import Path
-from typing import Any, TextIO
+from typing import TYPE_CHECKING, Any, TextIO
 from urllib.parse import urlsplit
 
 from app.cli.options import (
@@ -26,6 +26,9 @@ from app.firmware.link import SerialLink, SerialPort
 from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
 from app.robots import load_description
 from app.robots.model import RobotModel
+
+if TYPE_CHECKING:
+    import serial
 
 DEFAULT_SERVER = "http://127.0.0.1:8000"
 STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
@@ -145,7 +148,7 @@ def check_server(url: str) -> None:
         raise ValueError(f"--server must be a dashboard's address, {allowed}; got {url!r}")
 
 
-def open_port(name: str, baud: int) -> SerialPort:
+def open_port(name: str, baud: int) -> serial.Serial:
     """The robot's serial device, opened with pyserial; OSError naming it and what it is if it
     is not one (a folder, a regular file, /dev/null)."""
     import serial  # pyserial
@@ -248,7 +251,7 @@ def link(args: argparse.Namespace, out: TextIO) -> int:
             f"(--robot): give a set tuned for {firmware_robot}, or --robot {one_set.robot} if the "
             "firmware was built for it"
         )
-    port = DryRunPort(out) if args.dry_run else open_port(args.port, args.baud)
+    port: SerialPort = DryRunPort(out) if args.dry_run else open_port(args.port, args.baud)
     robot = RobotLink(SerialLink(port), dry_run=args.dry_run, log=lambda s: print(s, file=out))
     stop = threading.Event()
     previous = _stop_on_signals()

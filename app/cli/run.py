@@ -7,7 +7,7 @@ import argparse
 import dataclasses
 import json
 import sys
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from app.cli.identify import add_script_options, check_script, record_script
@@ -154,7 +154,7 @@ def command(args: argparse.Namespace) -> int:
     return exit_status(m)
 
 
-def exit_status(metrics: dict[str, Any]) -> int:
+def exit_status(metrics: Mapping[str, Any]) -> int:
     """0 when the robot walked the whole run, FELL_STATUS when it fell."""
     return FELL_STATUS if metrics["fell"] else 0
 
@@ -248,7 +248,7 @@ def stronger_servo(robot: RobotModel, joint: str) -> ServoChoice | None:
     return lightest_servo((1 + SAFETY_FACTOR) * stall, desc.supply_voltage_v, servos=servos)
 
 
-def servo_load_line(robot: RobotModel, names: list[str], m: dict[str, Any]) -> str:
+def servo_load_line(robot: RobotModel, names: list[str], m: Mapping[str, Any]) -> str:
     """The servos' load as measured: the highest peak torque against its stall torque, and the
     servos that sat at their limit (a servo cannot give more than its stall torque, so a peak
     there says only that it needed at least that: eq (1)'s static check is `robot check`)."""

@@ -129,7 +129,8 @@ def serve(args: argparse.Namespace) -> int:
         return 2
     app = create_app(config)
     print(banner(args), flush=True)
-    uvicorn.run(app, host=args.host, port=args.port, log_level="warning", **UVICORN_OPTIONS)
+    options: dict[str, Any] = dict(UVICORN_OPTIONS)  # uvicorn.run types each keyword
+    uvicorn.run(app, host=args.host, port=args.port, log_level="warning", **options)
     return 0
 
 

@@ -3,7 +3,7 @@ metrics with its trunk path, one sample per 20 ms frame (`Run`, `RunTrace`)."""
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -98,5 +98,5 @@ class RunTrace:
 class Run:
     label: str
     motion: Motion
-    metrics: dict[str, Any]
+    metrics: Mapping[str, Any]
     trace: RunTrace
