@@ -5,7 +5,9 @@ Seed 000's four walks and the mirror image of each, with targets signed in our c
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from gait import ARTRO_LEG, LegGeometry, Motion
 
@@ -54,7 +56,7 @@ CASES: tuple[PaperCase, ...] = (
 )
 
 
-def measured(case: PaperCase, metrics: dict) -> float | None:
+def measured(case: PaperCase, metrics: Mapping[str, Any]) -> float | None:
     """The run's figure comparable with the paper's, or None if the run gave none."""
     if case.metric == "drift_cm_s":
         fwd, lat = metrics.get("forward_cm_s"), metrics.get("lateral_cm_s")

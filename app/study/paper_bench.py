@@ -194,8 +194,9 @@ def _steering(rows: list[dict[str, Any]]) -> dict[str, Any] | None:
     """`app.analysis.cases.steering` of the sweep's CA = +-0.1 and 0 runs (eq (13) with the CA = 0
     run's V and b), as the tuner judges it."""
     by_ca = {round(r["ca"], 6): r for r in rows}
-    picked = [by_ca.get(ca) for ca in (CA_PROBE, -CA_PROBE, 0.0)]
-    if any(r is None for r in picked):
+    found = [by_ca.get(ca) for ca in (CA_PROBE, -CA_PROBE, 0.0)]
+    picked = [r for r in found if r is not None]
+    if len(picked) < len(found):
         return None
     plus, minus, straight = (
         {

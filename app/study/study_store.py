@@ -11,7 +11,7 @@ import json
 import re
 import sys
 import warnings
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -182,7 +182,7 @@ class StudyStore:
         file = Path(self.where) if journal else sqlite_path(self.where)
         self._lock = None if file is None else WriterLock(file)
         self._lease: WriterLease | None = None
-        if self._lock is not None:
+        if self._lock is not None and file is not None:  # the one with the other
             _make_folder(file.parent)
             self._lock.acquire()
         try:
@@ -247,7 +247,7 @@ class StudyStore:
     def record(
         self,
         generation: int,
-        unit: Sequence[float],
+        unit: Iterable[float],
         values: dict[str, tuple[float, float, float]],
         loss: float,
         metrics: dict[str, Any],

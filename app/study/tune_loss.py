@@ -149,7 +149,9 @@ def meets_all_criteria(by_run: dict[str, dict[str, Any]], speed_scale: float = 1
             return False
     for case in CASES:
         if case.mirror_of and case.name in values and case.mirror_of in values:
-            a, b = abs(values[case.name]), abs(values[case.mirror_of])
+            a, b = values[case.name], values[case.mirror_of]
+            assert a is not None and b is not None  # the loop above returned on a missing one
+            a, b = abs(a), abs(b)
             if abs(a - b) > MIRROR_TOLERANCE * 0.5 * (a + b):
                 return False
     return True
