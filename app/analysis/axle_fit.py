@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
+from collections.abc import Mapping
 from dataclasses import dataclass
+from typing import Any
 
 from app.analysis.ca_analysis import fit_axle
 from app.evaluation import BatchEvaluator, Job
@@ -88,12 +90,12 @@ def fit_effective_axle(
         fell = [ca for ca, r in zip(FIT_CA, results, strict=True) if r["fell"]]
         raise AxleFitError(f"the robot fell walking at a_p = {a_p:+.3f} with CA = {fell}")
     straight = results[FIT_CA.index(0.0)]
-    speed = straight["forward_cm_s"] / 100.0
+    speed = _figure(straight, "forward_cm_s") / 100.0
     if abs(speed) < 1e-3:
         raise AxleFitError(f"the robot does not walk at a_p = {a_p:+.3f} ({speed * 100:.2f} cm/s)")
-    turns = [math.radians(r["turn_deg_s"]) for r in results]
+    turns = [math.radians(_figure(r, "turn_deg_s")) for r in results]
     fit = fit_axle(FIT_CA, turns, speed)
-    feet = straight["feet_distance_cm"] / 100.0
+    feet = _figure(straight, "feet_distance_cm") / 100.0
     gain = None if fit.axle_eff_m is None else feet / fit.axle_eff_m
     return AxleFitResult(
         axle_eff_m=fit.axle_eff_m,
@@ -103,6 +105,14 @@ def fit_effective_axle(
         gain=gain,
         a_p=a_p,
         ca=FIT_CA,
-        turn_deg_s=tuple(r["turn_deg_s"] for r in results),
+        turn_deg_s=tuple(_figure(r, "turn_deg_s") for r in results),
         sim_s=duration_s * len(jobs),
     )
+
+
+def _figure(metrics: Mapping[str, Any], key: str) -> float:
+    """The run's figure `key`; AxleFitError if the run was too short to measure it."""
+    value = metrics[key]
+    if value is None:
+        raise AxleFitError(f"the walk was too short to measure {key}: give a longer duration")
+    return value

@@ -7,7 +7,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 from app.analysis.axle_fit import walking_amplitude
@@ -48,7 +48,7 @@ class CaCalibration:
     target_slope_deg_s: float  # eq (13): -2 V / b, in deg/s per unit CA
     a_p: float
     ca_step: float
-    trials: tuple[Trial, ...] = field(default=())
+    trials: tuple[Trial, ...] = ()
     sim_s: float = 0.0
 
     @property

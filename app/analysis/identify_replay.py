@@ -77,7 +77,8 @@ def play(
         variation=variation if sensor_errors else variation.physics,
     )
     sim.watch_sensors = True
-    out = Traces(*(np.zeros((n, k)) for k in (12, 3, 3, 8, 12, 3)))
+    commanded, gyro, accel, fsr, joints, pose = (np.zeros((n, k)) for k in (12, 3, 3, 8, 12, 3))
+    out = Traces(commanded, gyro, accel, fsr, joints, pose)
     frame = 0
     for segment, length in zip(routine, lengths, strict=True):
         if frame:
