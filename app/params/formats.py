@@ -111,7 +111,13 @@ def export_text(
     return text, MEDIA_TYPES[key], HEADER_NAME
 
 
-class _StrictRules:
+if TYPE_CHECKING:  # the loader it is mixed into
+    _Constructor = yaml.constructor.SafeConstructor
+else:
+    _Constructor = object
+
+
+class _StrictRules(_Constructor):
     """For a SafeLoader: keep unquoted dates as strings and reject duplicate keys."""
 
     yaml_implicit_resolvers: ClassVar[dict[Any, Any]] = {
@@ -128,14 +134,14 @@ class _StrictRules:
                     None, None, f"duplicate key {key!r}", key_node.start_mark
                 )
             seen.add(key if isinstance(key, str) else id(key_node))
-        return super().construct_mapping(node, deep=deep)  # type: ignore[misc]
+        return super().construct_mapping(node, deep=deep)
 
 
 class _StrictYamlLoader(_StrictRules, yaml.SafeLoader):
     """SafeLoader (pure Python) with the strict rules."""
 
 
-class _StrictCYamlLoader(_StrictRules, getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]
+class _StrictCYamlLoader(_StrictRules, getattr(yaml, "CSafeLoader", yaml.SafeLoader)):  # type: ignore[misc]  # a base chosen at run time
     """The same rules on libyaml's C parser when PyYAML has it: a 64 KiB upload parses in
     milliseconds instead of seconds of the GIL (docs/DESIGN.md §6)."""
 
@@ -418,7 +424,7 @@ def every_problem(data: dict[str, Any]) -> list[dict[str, Any]]:
 
 def _allowed(loc: tuple[Any, ...]) -> str:
     """' (allowed: 1.5 to 6.0)' for a numeric field at ('gait', 'swing', 'v'), ('motion', 'a_p')."""
-    cls = Motion if loc[:1] == ("motion",) and len(loc) == 2 else None
+    cls: type | None = Motion if loc[:1] == ("motion",) and len(loc) == 2 else None
     if loc[:1] == ("gait",) and len(loc) == 3:
         try:
             cls = group_class(str(loc[1]))

@@ -5,6 +5,7 @@ Nothing here lists a parameter by hand (docs/DESIGN.md §4): see `ParamsBody`, `
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from typing import Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, create_model
@@ -49,7 +50,7 @@ GROUP_TITLES = {
 STRICT = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
 
 
-def _field_args(meta: dict[str, Any]) -> dict[str, Any]:
+def _field_args(meta: Mapping[str, Any]) -> dict[str, Any]:
     if meta.get("unit") == "bool":
         return {"description": meta["doc"]}
     return {
@@ -79,10 +80,10 @@ def _model_for(cls: type, name: str, *, partial: bool, defaults: bool = False) -
 MotionModel = _model_for(Motion, "Motion", partial=False)
 MotionPatch = _model_for(Motion, "MotionPatch", partial=True)
 
-_groups_full = {
+_groups_full: dict[str, Any] = {
     g: (_model_for(group_class(g), f"{g.title()}Params", partial=False), ...) for g in GROUP_NAMES
 }
-_groups_patch = {
+_groups_patch: dict[str, Any] = {
     g: (_model_for(group_class(g), f"{g.title()}Patch", partial=True) | None, None)
     for g in GROUP_NAMES
 }
@@ -100,7 +101,7 @@ GaitPatch = create_model(
 )
 
 
-_groups_import = {
+_groups_import: dict[str, Any] = {
     g: (_model_for(group_class(g), f"{g.title()}Import", partial=True, defaults=True), None)
     for g in GROUP_NAMES
 }
@@ -160,8 +161,8 @@ class ParamsBody(BaseModel):
     project_version: str | None = Field(
         None, max_length=64, description="of an exported file; ignored"
     )
-    motion: MotionModel  # type: ignore[valid-type]
-    gait: GaitModel  # type: ignore[valid-type]
+    motion: MotionModel  # type: ignore[valid-type]  # made by create_model
+    gait: GaitModel  # type: ignore[valid-type]  # made by create_model
 
 
 class ParamsPatchBody(BaseModel):
@@ -170,8 +171,8 @@ class ParamsPatchBody(BaseModel):
     model_config = STRICT
     version: Version | None = BaseVersion
     name: str | None = NAME_FIELD
-    motion: MotionPatch | None = None  # type: ignore[valid-type]
-    gait: GaitPatch | None = None  # type: ignore[valid-type]
+    motion: MotionPatch | None = None  # type: ignore[valid-type]  # made by create_model
+    gait: GaitPatch | None = None  # type: ignore[valid-type]  # made by create_model
 
     def as_patch(self) -> dict[str, Any]:
         """Nested dict of only the parameters the client sent (not the version)."""
@@ -211,7 +212,7 @@ class _ImportFields(BaseModel):
     robot: str | None = ROBOT_FIELD
     created: str | None = None
     project_version: str | None = None
-    motion: MotionImport = None  # type: ignore[valid-type,assignment]
+    motion: MotionImport = None  # type: ignore[valid-type]  # made by create_model
 
 
 class ImportBody(_ImportFields):
@@ -219,7 +220,7 @@ class ImportBody(_ImportFields):
     `GET /api/params` returns; groups and fields left out take the paper's values."""
 
     schema_version: Literal[2] | None = None
-    gait: GaitImport = None  # type: ignore[valid-type,assignment]
+    gait: GaitImport = None  # type: ignore[valid-type]  # made by create_model
 
 
 class ImportBodyV1(_ImportFields):
@@ -227,12 +228,13 @@ class ImportBodyV1(_ImportFields):
     groups; app/params/document.py)."""
 
     schema_version: Literal[1]
-    gait: GaitImportV1 = None  # type: ignore[valid-type,assignment]
+    gait: GaitImportV1 = None  # type: ignore[valid-type]  # made by create_model
 
 
 def inline_schema(*models: type[BaseModel]) -> dict[str, Any]:
     """The JSON schema of one of `models`, definitions inlined (for an OpenAPI `openapi_extra`)."""
-    schema = TypeAdapter(Union[models]).json_schema()  # noqa: UP007 (a runtime tuple)
+    union: Any = Union[models]  # noqa: UP007 (a runtime tuple: a type known only when it runs)
+    schema = TypeAdapter(union).json_schema()
     defs = schema.pop("$defs", {})
 
     def resolve(node: Any) -> Any:
