@@ -24,7 +24,7 @@ DEFAULT_SERVO_COUNT = 12  # ArtRo: 6 joints per leg
 
 def _frozen_array(values: ArrayLike, dtype: type, name: str) -> NDArray:
     """Copy `values` into a 1-D read-only array of `dtype`."""
-    array = np.array(values, dtype=dtype)
+    array: NDArray = np.array(values, dtype=dtype)
     if array.ndim != 1:
         raise ValueError(f"{name} must be a 1-D array (one entry per servo), got {array.shape}")
     array.setflags(write=False)

@@ -67,7 +67,7 @@ def pulse_us_to_ocr(pulse_us: ArrayLike) -> NDArray[np.int32]:
 
 def ocr_to_pulse_us(ocr: ArrayLike) -> NDArray[np.float64]:
     """OCRnx value -> high time in µs: (OCR + 1) * TICK_US (exact in float64). Vectorised."""
-    return (np.asarray(ocr, dtype=np.int64) + 1) * TICK_US
+    return ((np.asarray(ocr, dtype=np.int64) + 1) * TICK_US).astype(np.float64, copy=False)
 
 
 def timer_registers() -> dict[str, int]:

@@ -108,8 +108,8 @@ def model_closed_loop(
             0.002,
             motion_now=motion_now,
             geometry=robot.geometry,
-            joint_delta_rad=out.joint_delta_rad if correct else None,
-            a_y_delta=float(out.a_y_delta) if correct else 0.0,
+            joint_delta_rad=out.joint_delta_rad if correct and out is not None else None,
+            a_y_delta=float(out.a_y_delta) if correct and out is not None else 0.0,
         )
         motion_now = plan.motions[0]
         freq = params.clock.freq_hz + (float(out.freq_delta_hz) if correct else 0.0)  # type: ignore[union-attr]
@@ -187,7 +187,7 @@ def _spread(values: list[int]) -> dict[str, float]:
 
 
 def _law_error(got: LawFrame, want: feedback.Output) -> float:
-    pairs = [
+    pairs: list[tuple[Any, Any]] = [  # sequences and numbers alike
         (got.joint_delta_rad, want.joint_delta_rad),
         ([got.a_y_delta], [want.a_y_delta]),
         (got.tilt_rad, want.tilt_rad),
@@ -291,11 +291,11 @@ def run_closed_loop(
         run.overrun = bool(mcu.read_symbol("g_tdm_flags")[0] & _TDM_OVERRUN)
     finally:
         drive.close()
-    values = [values_from_document(doc) for _ in range(frames + 1)]
+    per_frame = [values_from_document(doc) for _ in range(frames + 1)]
     for frame_from, first, part in switches:  # each message from the frame its ACK names
-        for held in values[frame_from:]:
+        for held in per_frame[frame_from:]:
             held[first : first + len(part)] = part
-    docs = [document_from_values(v) for v in values]
+    docs = [document_from_values(v) for v in per_frame]
     model, run.model_laws = model_closed_loop(docs, used, run.gyro_offset, hardware, robot)
     result = run.comparison
     for k, frame in enumerate(fw_frames):

@@ -271,6 +271,7 @@ def check_firmware(
     with Mcu(build.elf) as mcu:
         result = run_comparison(mcu, model, robot.hardware(), keep_edges=vcd is not None)
         if vcd:
+            assert result.edges is not None  # keep_edges
             write_vcd(vcd, result.edges, mcu.t0_cycle, comment=f"parameter set {doc['name']}")
         lag = mcu.timer3_lag_cycles
     return {

@@ -157,7 +157,7 @@ class Mcu:
         handle = self._lib.artro_mcu_new(str(self.elf).encode(), mcu, fixes, error, 256)
         if not handle:
             raise EmulatorError(error.value.decode() or "simavr could not load the firmware")
-        self._h = ctypes.c_void_p(handle)
+        self._h: ctypes.c_void_p | None = ctypes.c_void_p(handle)
         self.symbols = elf_symbols(self.elf)
         self.has_sensors = sensors is not None
         self.i2c: I2cBus | None = None

@@ -120,14 +120,14 @@ def _send_changes(link: RobotLink, before: dict, after: dict) -> int:
 
 def _recording(
     clock: FrameClock, robot: RobotModel, gait, first: int, lengths: list[int]
-) -> Recording:  # type: ignore[no-untyped-def]
+) -> Recording:
     """The frames from `first` on as a recording: each SENSORS tagged with the frame its
     reading corrected, i.e. the reading after the frame before it (PROTOCOL.md). A SENSORS the
     firmware dropped (its transmit queue full) is a frame the recording lacks."""
     n = sum(lengths)
     numbers = [f for f in range(first, first + n) if f + 1 in clock.frames]
     rows = [clock.frames[f + 1] for f in numbers]
-    readings = [decoded(RawSample(s.accel_raw, s.gyro_raw, s.adc), s.gyro_offset) for s in rows]  # type: ignore[arg-type]
+    readings = [decoded(RawSample(s.accel_raw, s.gyro_raw, s.adc), s.gyro_offset) for s in rows]
     model = play(robot, gait, ROUTINES["identify"], lengths=lengths)  # the commands, pin-exact
     kept = np.asarray(numbers, dtype=np.int64) - first
     traces = Traces(

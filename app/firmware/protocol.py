@@ -197,8 +197,8 @@ class Sensors:
     laws: int  # bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP
     support: int  # 0 left, 1 right, -1 neither
     gyro_offset: tuple[int, ...]  # the boot calibration, counts
-    accel_raw: tuple[int, ...]  # counts, the part's axes
-    gyro_raw: tuple[int, ...]  # counts, before the offset
+    accel_raw: tuple[int, int, int]  # counts, the part's axes
+    gyro_raw: tuple[int, int, int]  # counts, before the offset
     adc: tuple[int, ...]  # 8 channels, left foot fl, fr, bl, br first
     attitude_rad: tuple[float, float]  # pitch, roll estimate
     tilt_rad: tuple[float, float]  # tilt trim

@@ -30,7 +30,7 @@ def _f32(values: Any) -> list[float]:
 
 def frame_json(sensors: proto.Sensors) -> dict[str, Any] | None:
     """One SENSORS frame as the dashboard takes it, or None if a value is not finite."""
-    raw = RawSample(sensors.accel_raw, sensors.gyro_raw, sensors.adc)  # type: ignore[arg-type]
+    raw = RawSample(sensors.accel_raw, sensors.gyro_raw, sensors.adc)
     reading = decoded(raw, sensors.gyro_offset)
     frame = {
         "frame": sensors.frame,

@@ -63,7 +63,7 @@ def raw_of(reading: SensorReading) -> RawSample:
     )
     accel = _counts(reading.accel_m_s2, ACCEL_M_S2_PER_COUNT)
     adc = tuple(int(c) for c in adc_counts(np.asarray(reading.fsr_n).reshape(8)))
-    return RawSample(accel, gyro, adc)  # type: ignore[arg-type]
+    return RawSample(accel, gyro, adc)  # type: ignore[arg-type]  # 3 and 3 counts (zip of 3)
 
 
 def at_rest() -> RawSample:

@@ -11,6 +11,7 @@ import math
 import numbers
 import zlib
 from dataclasses import dataclass
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -104,7 +105,7 @@ def as_number(name: str, value: object) -> float:
     return float(value) + 0.0
 
 
-def _calibration(value: object) -> tuple[float, ...]:
+def _calibration(value: Any) -> tuple[float, ...]:
     n = len(JOINT_NAMES)
     if isinstance(value, (str, bytes)) or not hasattr(value, "__len__"):
         raise TypeError(f"variation field calibration_deg must be {n} numbers, got {value!r}")
@@ -252,7 +253,7 @@ class Variation:
 
 NOMINAL = Variation()
 FIELDS = tuple(f.name for f in dataclasses.fields(Variation))
-_DEFAULTS = {f.name: f.default for f in dataclasses.fields(Variation)}
+_DEFAULTS: dict[str, Any] = {f.name: f.default for f in dataclasses.fields(Variation)}
 #: the fields that depart from the compiled model or the set-points, calibration last
 PHYSICS_FIELDS = tuple(f for f in FIELDS if f not in SENSOR_FIELDS)
 
