@@ -5,6 +5,7 @@ arrays (`fsr_forces_of`, a lane's group), to the bit of the touch sensors."""
 from __future__ import annotations
 
 from collections.abc import Sequence
+from typing import cast
 
 import mujoco
 import numpy as np
@@ -66,13 +67,13 @@ def fsr_forces_of(
 
 def _contacts(
     model: mujoco.MjModel, datas: Sequence[mujoco.MjData]
-) -> tuple[NDArray[np.int64], ...]:
+) -> tuple[NDArray, ...]:
     """Every run's contacts of its last step, run by run in MuJoCo's order: the run of each,
     its geoms (n, 2), point (n, 3), normal (n, 3), normal force (n,) as `mj_contactForce` gives
     it, and whether it counts (in the constraint solver, normal force > 0)."""
     counts = np.array([data.ncon for data in datas])
     touched = np.flatnonzero(counts)
-    lists = [datas[k].contact for k in touched]
+    lists = [datas[int(k)].contact for k in touched]
     geoms = np.concatenate([c.geom for c in lists]) if lists else np.zeros((0, 2), int)
     if not len(geoms):
         return (
@@ -89,7 +90,7 @@ def _contacts(
         np.concatenate([c.efc_address for c in lists]),
         np.concatenate([c.dim for c in lists]),
     )
-    forces = [datas[k].efc_force for k in touched]
+    forces = [datas[int(k)].efc_force for k in touched]
     first = np.repeat(np.cumsum([0] + [len(f) for f in forces[:-1]]), counts[touched])
     pyramidal = model.opt.cone == mujoco.mjtCone.mjCONE_PYRAMIDAL
     edges = np.where(pyramidal & (dim > 1), 2 * (dim - 1), 1)  # 1: elliptic, frictionless
@@ -135,8 +136,9 @@ def _ray_hits_box(
     along a last axis, each with the arithmetic of its own test)."""
     frame = mat.reshape(*mat.shape[:-1], 3, 3)
     dif = point - pos
-    local_point = sum(frame[..., j, :] * dif[..., j, None] for j in range(3))
-    local_ray = sum(frame[..., j, :] * ray[..., j, None] for j in range(3))
+    # three arrays' sum: an array (sum's type allows its start, 0)
+    local_point = cast(NDArray, sum(frame[..., j, :] * dif[..., j, None] for j in range(3)))
+    local_ray = cast(NDArray, sum(frame[..., j, :] * ray[..., j, None] for j in range(3)))
     ray_n = local_ray[..., _FACE_AXIS]
     with np.errstate(divide="ignore", invalid="ignore"):
         x = (_FACE_SIDE * size[..., _FACE_AXIS] - local_point[..., _FACE_AXIS]) / ray_n

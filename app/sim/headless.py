@@ -11,7 +11,7 @@ import numpy as np
 
 from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop
-from app.sim.metrics import RunMetrics, Trace, compute_metrics
+from app.sim.metrics import RunFlags, RunMetrics, Trace, compute_metrics
 from app.sim.planning import FRAME_S
 from app.worlds.variations import NOMINAL, Variation
 from gait import JOINT_NAMES, GaitParams, Motion
@@ -116,7 +116,7 @@ def run(
     )
     trace = Trace()
     n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
-    flags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}
+    flags: RunFlags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}
     flags["torque_limit_frames"] = 0  # a servo's force at AT_LIMIT of its limit at a frame's end
     peak_torque = np.zeros(12)
     at_limit_frames = np.zeros(12)
@@ -139,7 +139,7 @@ def run(
         if sim.fell:
             break
     wall_s = time.perf_counter() - wall_start
-    metrics: RunMetrics = {"fell": sim.fell}
+    metrics: RunMetrics = {"fell": sim.fell}  # type: ignore[typeddict-item]  # the rest below
     if sim.fell:
         metrics["fall_time_s"] = round(sim.time_s, 3)
     metrics |= compute_metrics(trace, ca=motion.ca, freq_hz=params.clock.freq_hz, warmup_s=warmup_s)
@@ -153,7 +153,8 @@ def run(
     metrics["at_limit_share"] = (at_limit_frames / max(1, len(trace.t_s))).tolist()
     required = required_torque_from_loads(peak_torque[None, :], SAFETY_FACTOR)
     names = [sim.model.actuator(int(i)).name for i in actuators]
-    diagnosis, stuck = None, ()
+    diagnosis = None
+    stuck: tuple[str, ...] = ()
     if sim.fell and not sim.blew_up:
         last = np.array(recent)
         earlier = len(trace.t_s) - len(last)
