@@ -11,7 +11,7 @@ import warnings
 import mujoco
 
 from app.robots.cad_builder import add_cad_robot
-from app.robots.description import LEG_JOINTS, Part, RobotDescription
+from app.robots.description import LEG_JOINTS, LegJoint, LinkName, Part, RobotDescription
 from app.robots.model_parts import (
     BODY_GROUP,
     FLOOR_GROUP,
@@ -39,7 +39,7 @@ AXES = {
     "ankle_pitch": ((0.0, -1.0, 0.0), False, "ankle_link"),
     "ankle_roll": ((1.0, 0.0, 0.0), True, "foot"),
 }
-DESCRIPTION_LINK = {  # body name suffix -> the description's `links` key
+DESCRIPTION_LINK: dict[str, LinkName] = {  # body name suffix -> the description's `links` key
     "hip_yaw_link": "hip_yaw",
     "hip_roll_link": "hip_roll",
     "thigh": "thigh",
@@ -221,7 +221,7 @@ def _add_part(
 
 
 def _add_servo_case(
-    body: mujoco.MjsBody, robot: RobotDescription, joint: str, at: list[float], side: str
+    body: mujoco.MjsBody, robot: RobotDescription, joint: LegJoint, at: list[float], side: str
 ) -> None:
     """The case of `joint`'s servo in `body`, `at` the joint's position in that body; the mount's
     y offset mirrors on the right leg."""
@@ -248,7 +248,7 @@ def _add_leg(
     hip_yaw_at = [0.0, sign * geo.hip_spacing_m / 2, -geo.hip_yaw_offset_m]
     _add_servo_case(trunk, robot, "hip_yaw", hip_yaw_at, side)
     # each joint's body position in its parent, and the length of the link it moves
-    chain = [
+    chain: list[tuple[LegJoint, list[float], float]] = [
         ("hip_yaw", hip_yaw_at, geo.hip_roll_offset_m),
         ("hip_roll", [0.0, 0.0, -geo.hip_roll_offset_m], 0.0),
         ("hip_pitch", [0.0, 0.0, 0.0], geo.thigh_m),

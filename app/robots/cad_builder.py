@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import warnings
 from pathlib import Path
+from typing import TypeVar
 
 import mujoco
 import numpy as np
@@ -22,6 +23,8 @@ from app.robots.model_parts import (
     joint_settings,
 )
 from app.robots.mujoco_warnings import keep_warnings_out_of_the_folder
+
+T = TypeVar("T")
 
 # attaching the file's root with no prefix keeps its names, which the description maps by
 warnings.filterwarnings("ignore", message="Attaching a spec with an empty prefix")
@@ -180,7 +183,7 @@ def add_cad_robot(scene: mujoco.MjSpec, robot: RobotDescription) -> None:
     add_sensors(scene)
 
 
-def _element(found: object, kind: str, name: str, file: str) -> object:
+def _element(found: T | None, kind: str, name: str, file: str) -> T:
     if found is None:
         raise CadFileError(f"{file}: no {kind} {name!r}: the file changed since the import")
     return found
@@ -210,9 +213,9 @@ def _add_sole(spec: mujoco.MjSpec, robot: RobotDescription, side: str) -> None:
     body = spec.body(foot.body)
     quat = list(foot.sole_quat)
     body.add_site(name=f"{side}_sole", pos=list(foot.sole_pos_m), quat=quat, size=[0.006, 0, 0])
-    rot = np.zeros(9)
-    mujoco.mju_quat2Mat(rot, np.array(quat))
-    rot = rot.reshape(3, 3)
+    flat = np.zeros(9)
+    mujoco.mju_quat2Mat(flat, np.array(quat))
+    rot = flat.reshape(3, 3)
     at = np.array(foot.sole_pos_m)
     if foot.plate_geom is not None:
         spec.geom(foot.plate_geom).name = f"{side}_foot_plate"

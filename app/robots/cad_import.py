@@ -77,7 +77,7 @@ def import_robot(
     if servo not in table:
         raise RobotError(f"--servo: unknown servo {servo!r}; known: {', '.join(sorted(table))}")
     spec_of_servo = table[servo]
-    notes = []
+    notes: list[str] = []
     document = _document(
         path,
         output,

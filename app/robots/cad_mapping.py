@@ -132,12 +132,12 @@ def map_model(model: mujoco.MjModel, root: int, forward: str | None = None) -> M
     across = hips[0] - hips[1]
     across = unit(across - up * (across @ up))
     ankles = [_crossing(model, data, frame, leg, 4, 5, "ankle pitch", "ankle roll") for leg in legs]
-    forward, told_by = _forward(model, data, frame, legs, up, across, ankles, feet_points, forward)
-    left = np.cross(up, forward)
+    ahead, told_by = _forward(model, data, frame, legs, up, across, ankles, feet_points, forward)
+    left = np.cross(up, ahead)
     if (hips[0] - hips[1]) @ left < 0:
         legs, hips, ankles = legs[::-1], hips[::-1], ankles[::-1]
     legs[0].side, legs[1].side = "l", "r"
-    to_trunk = np.array([forward, left, up])  # root-frame vector -> trunk-frame vector
+    to_trunk = np.array([ahead, left, up])  # root-frame vector -> trunk-frame vector
     joints: dict[str, JointMap] = {}
     lengths: dict[str, list[float]] = {}
     feet: dict[str, FootMap] = {}
@@ -225,7 +225,7 @@ def _forward(
         if abs(axis @ candidate) < math.cos(math.radians(45)):
             raise ImportRefused(
                 f"--forward {given}: that axis of the file's root frame is "
-                f"{math.degrees(math.acos(min(1.0, abs(axis @ candidate)))):.0f}° from the "
+                f"{math.degrees(math.acos(min(1.0, float(abs(axis @ candidate))))):.0f}° from the "
                 "robot's front-back line (at most 45°); give the axis the toes point along"
             )
         return candidate * np.sign(axis @ candidate), "given"

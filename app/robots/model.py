@@ -103,10 +103,10 @@ class RobotModel:
         joints = [self.description.joints[name] for name in JOINT_NAMES]
         limits = [j.calibration.angle_limits_rad() for j in joints]
         calibration = ServoCalibration(
-            direction=[j.calibration.direction for j in joints],
-            trim_us=[j.calibration.trim_us for j in joints],
-            min_rad=[lo for lo, _ in limits],
-            max_rad=[hi for _, hi in limits],
+            direction=np.array([j.calibration.direction for j in joints], dtype=np.int64),
+            trim_us=np.array([j.calibration.trim_us for j in joints], dtype=np.float64),
+            min_rad=np.array([lo for lo, _ in limits], dtype=np.float64),
+            max_rad=np.array([hi for _, hi in limits], dtype=np.float64),
         )
         channels = ChannelMap(assignments=self.description.channel_assignments())
         return HardwareSetup(

@@ -10,6 +10,7 @@ import xml.etree.ElementTree as ET
 
 import mujoco
 import numpy as np
+from numpy.typing import ArrayLike
 
 from app.robots.builder import build_model
 from app.robots.description import RobotDescription
@@ -30,8 +31,8 @@ def model_urdf(robot: RobotDescription) -> str:
     return '<?xml version="1.0"?>\n' + ET.tostring(urdf, encoding="unicode") + "\n"
 
 
-def _fmt(values: object) -> str:
-    return " ".join(f"{float(v):.9g}" for v in np.ravel(values))  # type: ignore[arg-type]
+def _fmt(values: ArrayLike) -> str:
+    return " ".join(f"{float(v):.9g}" for v in np.ravel(values))
 
 
 def _rpy(quat: np.ndarray) -> list[float]:
@@ -68,7 +69,7 @@ def _link(urdf: ET.Element, model: mujoco.MjModel, b: int) -> None:
         )
         _origin(element, model.geom_pos[g], model.geom_quat[g])
         geometry = ET.SubElement(element, "geometry")
-        ET.SubElement(geometry, shape[0], **shape[1])
+        ET.SubElement(geometry, shape[0], shape[1])
 
 
 def _shape(model: mujoco.MjModel, g: int) -> tuple[str, dict[str, str]] | None:

@@ -65,9 +65,7 @@ def fsr_forces_of(
     return out
 
 
-def _contacts(
-    model: mujoco.MjModel, datas: Sequence[mujoco.MjData]
-) -> tuple[NDArray, ...]:
+def _contacts(model: mujoco.MjModel, datas: Sequence[mujoco.MjData]) -> tuple[NDArray, ...]:
     """Every run's contacts of its last step, run by run in MuJoCo's order: the run of each,
     its geoms (n, 2), point (n, 3), normal (n, 3), normal force (n,) as `mj_contactForce` gives
     it, and whether it counts (in the constraint solver, normal force > 0)."""

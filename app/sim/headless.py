@@ -116,7 +116,11 @@ def run(
     )
     trace = Trace()
     n_frames = math.ceil(duration_s / FRAME_S - 1e-9)
-    flags: RunFlags = {"servo_saturated_frames": 0, "gamma_clamped_frames": 0, "guard_violation_frames": 0}
+    flags: RunFlags = {
+        "servo_saturated_frames": 0,
+        "gamma_clamped_frames": 0,
+        "guard_violation_frames": 0,
+    }
     flags["torque_limit_frames"] = 0  # a servo's force at AT_LIMIT of its limit at a frame's end
     peak_torque = np.zeros(12)
     at_limit_frames = np.zeros(12)
