@@ -14,6 +14,7 @@ import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor, wait
+from typing import Any
 
 import mujoco
 import numpy as np
@@ -75,7 +76,8 @@ def plan_open_loop(
     start = start_at_rest(robot, data, job.params, start_motion)
     hardware, steps = robot.hardware(), frame_steps(robot.model)
     timestep_s = float(robot.model.opt.timestep)
-    key, plan = None, None
+    key: tuple[Any, ...] = ()  # plans' key, when there are plans
+    plan = None
     if plans is not None:  # by value: a varied robot's hardware is a new object holding arrays
         key = (job.params, job.motion, start_motion, start.phase, pickle.dumps(hardware))
         key += (robot.geometry, n_frames, steps, timestep_s)

@@ -91,7 +91,7 @@ def measure_frames(
             sens[:, left : left + 3], sens[:, right : right + 3]
         ).tolist(),
     )
-    metrics: RunMetrics = {"fell": fell}
+    metrics: RunMetrics = {"fell": fell}  # type: ignore[typeddict-item]  # the rest below
     if fell:
         metrics["fall_time_s"] = round(frames_done * FRAME_S, 3)
     metrics |= compute_metrics(

@@ -114,6 +114,7 @@ class Batch:
             if cancel is not None and cancel.is_set():
                 raise Cancelled(f"cancelled after 0 of {worlds} runs")
             self._stage(0)
+            flight: Flight | None
             flight = self._launch(batch, data, 0, ends.counting)
             self._stage(flight.frames)  # the next segment's rows, while the device steps
             while flight is not None:

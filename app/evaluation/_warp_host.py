@@ -174,7 +174,8 @@ class WorldEnds:
         if short is not None and notice is not None:
             notice(short)
         self.pool = pool if short is None else None
-        self._ends = tuple(HostArray(shape, shared=self.pool is not None) for shape in shapes)
+        shared = self.pool is not None
+        self._ends = (HostArray(shapes[0], shared=shared), HostArray(shapes[1], shared=shared))
         self.qpos, self.sensors = (ends.array for ends in self._ends)
         self._heights = np.array([start.standing_height_m for start in starts])
         #: the worlds still counting, and the frames each counts (to its fall)
@@ -209,6 +210,7 @@ class WorldEnds:
         ended = [int(w) for w in np.flatnonzero(~self.counting) if self._measured[w] is None]
         if not ended:
             return
+        now: list[tuple[RunMetrics, Trace | None]]
         if self.pool is None:
             now = [
                 measure_world(

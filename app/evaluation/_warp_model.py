@@ -29,7 +29,7 @@ def _flat(obj: Any, prefix: str = "") -> dict[str, tuple[Any, bool]]:
         if dataclasses.is_dataclass(value):
             out |= _flat(value, name + ".")
             continue
-        shape = getattr(field.type, "shape", ())
+        shape: tuple[Any, ...] = getattr(field.type, "shape", ())
         per_world = bool(shape) and shape[0] == _BATCHED_MARK
         if isinstance(value, wp.array):
             out[name] = (value.numpy(), per_world)

@@ -65,7 +65,9 @@ def trunk_yaws(quats_wxyz: NDArray[np.float64]) -> list[float]:
     return list(map(math.atan2, along.tolist(), across.tolist()))
 
 
-def has_fallen(qpos: NDArray[np.float64], standing_height_m: float) -> NDArray[np.bool_]:
+def has_fallen(
+    qpos: NDArray[np.float64], standing_height_m: float | NDArray[np.float64]
+) -> NDArray[np.bool_]:
     """Trunk below 60 % of its standing height, or tilted more than 50 degrees; qpos may be one
     state (nq,) or many (..., nq), with the same arithmetic either way."""
     up_z = 1.0 - 2.0 * (qpos[..., 4] ** 2 + qpos[..., 5] ** 2)  # trunk z axis, world z part
