@@ -82,7 +82,8 @@ class ServoSpec(_Figures):
                 "a pwm servo states its pulse range: pulse_min_us and pulse_max_us (µs); a "
                 "guess goes with its reason under `assumed`"
             )
-        if None not in pulses and not pulses[0] < pulses[1]:  # type: ignore[operator]
+        low, high = pulses
+        if low is not None and high is not None and not low < high:
             raise ValueError(f"pulse_min_us must be less than pulse_max_us, got {pulses}")
         return self
 

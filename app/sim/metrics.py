@@ -155,7 +155,7 @@ def compute_metrics(trace: Trace, *, ca: float, freq_hz: float, warmup_s: float)
     window = whole_cycles(a["t"], warmup_s, freq_hz)
     t, x, y, yaw = (a[k][window] for k in ("t", "x", "y", "yaw"))
     if len(t) < 2:
-        return MotionMetrics(**dict.fromkeys(MOTION_METRICS))  # type: ignore[typeddict-item]
+        return MotionMetrics(**dict.fromkeys(MOTION_METRICS))  # type: ignore[typeddict-item]  # its keys
     forward, lateral, turn = mean_body_velocity(t, x, y, yaw, freq_hz)
     axle = float(np.mean(a["feet"][window]))
     predicted_turn = float(turn_rate_rad_s(ca, forward, axle)) + 0.0  # no -0.0 in reports

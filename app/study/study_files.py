@@ -21,7 +21,7 @@ from typing import Any
 try:
     import fcntl
 except ImportError:  # not on Windows: the study is then not locked
-    fcntl = None  # type: ignore[assignment]
+    fcntl = None  # type: ignore[assignment]  # no module: None stands for it
 
 LOCK_SUFFIX = ".writer"  # Optuna's journal keeps its own short-lived `.lock` beside the file
 
