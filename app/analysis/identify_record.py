@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import json
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Annotated, Any, Final, Literal
 
 import numpy as np
 from numpy.typing import NDArray
@@ -16,8 +16,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 from app.analysis.identify_replay import Traces
 from app.analysis.identify_routine import ROUTINES, routine_id
 
-FORMAT = "artro-identify-recording"
-VERSION = 1
+FORMAT: Final = "artro-identify-recording"
+VERSION: Final = 1
 Row = Annotated[list[float], Field(min_length=1, max_length=12)]
 
 
@@ -69,7 +69,7 @@ class Recording(_Strict):
     robot_mass_kg: float = Field(gt=0, description="its model's total mass, to tell robots apart")
     params: dict[str, object] = Field(description="the gait set played, every law off")
     truth: str | None = Field(None, description="simulated only: the hidden variation")
-    frame_s: Literal[0.02] = 0.02
+    frame_s: Literal[0.02] = 0.02  # type: ignore[valid-type]  # pydantic takes a float const
     segments: list[SegmentSpan]
     first_frame: int = Field(0, ge=0, description="the robot's frame the routine began at")
     frames: Frames
@@ -222,14 +222,16 @@ def check(recording: Recording, where: str = "the recording") -> None:
             "else on the port)"
         )
     n = len(numbers)
-    columns = {
+    columns: dict[str, list[Any]] = {
         "frame": f.frame,
         "commanded": f.commanded,
         "gyro": f.gyro,
         "accel": f.accel,
         "fsr": f.fsr,
         "flags": f.flags,
-    } | ({"present": f.present} if f.present else {})
+    }
+    if f.present:
+        columns["present"] = f.present
     for column, rows in columns.items():
         if len(rows) != n:
             raise RecordingError(
@@ -237,8 +239,8 @@ def check(recording: Recording, where: str = "the recording") -> None:
             )
     widths = {"commanded": 12, "gyro": 3, "accel": 3, "fsr": 8, "present": 12}
     for column, width in widths.items():
-        rows = columns.get(column)
-        if rows is not None and any(len(r) != width for r in rows):
+        got = columns.get(column)
+        if got is not None and any(len(r) != width for r in got):
             raise RecordingError(f"{where}: every row of {column!r} has {width} values")
 
 
@@ -259,10 +261,9 @@ def traces_of(recording: Recording) -> Traces:
     joints = f.present if f.present is not None else f.commanded
     pose = recording.pose if recording.pose is not None else [[0.0, 0.0, 0.0]] * n
     numbers = np.asarray(f.frame, dtype=np.int64)
+    commanded, gyro, accel, fsr, joints_a, pose_a = (
+        np.asarray(c, dtype=np.float64) for c in (f.commanded, f.gyro, f.accel, f.fsr, joints, pose)
+    )
     return Traces(
-        *(
-            np.asarray(c, dtype=np.float64)
-            for c in (f.commanded, f.gyro, f.accel, f.fsr, joints, pose)
-        ),
-        index=numbers - recording.first_frame,
+        commanded, gyro, accel, fsr, joints_a, pose_a, index=numbers - recording.first_frame
     )

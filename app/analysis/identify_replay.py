@@ -4,6 +4,7 @@ set-points and what the sensors read after it, on a robot varied by a `Variation
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -45,8 +46,8 @@ class Traces:
 
     def at(self, rows: NDArray[np.int64]) -> Traces:
         """The rows `rows` (positions into these traces), their frames kept in `index`."""
-        cut = [getattr(self, f)[rows] for f in CHANNELS]
-        return Traces(*cut, fell_frame=self.fell_frame, index=self.positions[rows])
+        cut = {f: getattr(self, f)[rows] for f in CHANNELS}
+        return dataclasses.replace(self, **cut, index=self.positions[rows])
 
 
 CHANNELS = ("commanded", "gyro", "accel", "fsr", "joints", "pose")

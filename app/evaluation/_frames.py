@@ -143,8 +143,9 @@ class ClosedLoops:
         else:
             fsr = np.zeros((len(gyro), 2, 4))
         self.law_state, out = feedback.step_many(
-            params, self.law_state, gyro, accel, fsr, self.motion_now, self.positions, FRAME_S,
-            phase_rad=self.phase,
+            params, self.law_state, gyro, accel, fsr,
+            self.motion_now,  # type: ignore[arg-type]  # a MotionOfRuns: (K,) fields broadcast
+            self.positions, FRAME_S, phase_rad=self.phase,
         )  # fmt: skip
         plan = plan_frame_of_runs(
             params, self.motion, self.robot.hardware(), self.phase, self.steps,
@@ -159,7 +160,7 @@ class ClosedLoops:
         self.motion_now = plan.motion
         if params.timing.enabled:  # each run's clock at its own rate (gait/timing.py)
             freq = params.clock.freq_hz + out.freq_delta_hz.astype(np.float64)
-            next_phase = plan.phase + 2.0 * math.pi * freq * FRAME_S
+            next_phase: float | np.ndarray = plan.phase + 2.0 * math.pi * freq * FRAME_S
         else:
             next_phase = plan.phase + self.step_rad
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi  # as FrameLoop, in floats
@@ -171,7 +172,7 @@ class ClosedLoops:
         self.path.keep(runs)
         self.law_state = self.law_state.take(runs)
         if np.ndim(self.phase):
-            self.phase = self.phase[runs]
+            self.phase = np.asarray(self.phase)[runs]
         if isinstance(self.motion, MotionOfRuns):
             self.motion = self.motion_now = self.motion.take(runs)
         self.rows, self.sent, self.control = self.rows[runs], self.sent[runs], self.control[runs]

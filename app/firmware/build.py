@@ -12,7 +12,7 @@ import subprocess
 import tempfile
 import threading
 import typing
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -137,7 +137,7 @@ def source_files() -> dict[str, bytes]:
     return files
 
 
-def _digest(parts: dict[str, bytes | str]) -> str:
+def _digest(parts: Mapping[str, bytes | str]) -> str:
     h = hashlib.sha256()
     for name in sorted(parts):
         data = parts[name]
@@ -188,7 +188,7 @@ def build_firmware(
     )
     extra = " ".join(f"-D{k}={v}" for k, v in sorted((defines or {}).items()))
     if out_dir is None:
-        parts = {**source_files(), **headers, "cflags": extra}
+        parts: dict[str, bytes | str] = {**source_files(), **headers, "cflags": extra}
         if board != DEFAULT_BOARD:  # the ATmega128's key: its sources, headers and flags alone
             parts["board"] = board
         key = _digest(parts)

@@ -135,8 +135,9 @@ class I2cBus:
             _ptr(restarts, ctypes.c_uint8), _ptr(acked, ctypes.c_uint8), n,
         )  # fmt: skip
         address = address[:got]
+        seven_bit = (address >> 1).astype(np.uint8, copy=False)  # uint8 as it was: the stubs widen
         return Transactions(
-            start[:got].copy(), stop[:got].copy(), address >> 1, (address & 1) == 0,
+            start[:got].copy(), stop[:got].copy(), seven_bit, (address & 1) == 0,
             np.where(reg[:got] == 0xFF, -1, reg[:got]).astype(np.int16), nbytes[:got].copy(),
             restarts[:got].copy(), acked[:got] != 0,
         )  # fmt: skip

@@ -17,7 +17,7 @@ from app.firmware.build import build_firmware, wiring
 from app.firmware.closed_loop import document_from_values, gyro_offset, model_closed_loop
 from app.firmware.emulator import FRAME_CYCLES, Mcu, read_active_plan
 from app.firmware.i2c import F_CPU_HZ, IMU_ADDRESS, PCA9685_ADDRESS, Transactions
-from app.firmware.sensor_feed import at_rest, raw_of, sample_of
+from app.firmware.sensor_feed import RawSample, at_rest, raw_of, sample_of
 from app.firmware.vcd_mega import mega_vcd_text
 from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop, PinFrame
@@ -155,7 +155,8 @@ def run_mega_closed_loop(
                      hardware=hardware, variation=variation)  # fmt: skip
     loop.watch_sensors = True
     raw = at_rest()
-    used, writes = [], []  # samples the firmware read; (stop cycle, frame) of each PCA write
+    used: list[RawSample] = []  # samples the firmware read
+    writes: list[tuple[int, int]] = []  # (stop cycle, frame) of each PCA write
     pulses: list[tuple[int, NDArray[np.int64]]] = []  # (period start cycle, high cycles (12,))
     own_ocr: list[NDArray[np.int64]] = []  # the firmware's servo OCR, per frame
     traced: list[tuple[tuple[NDArray, NDArray, NDArray], Transactions]] = []
@@ -199,11 +200,14 @@ def run_mega_closed_loop(
             in_frame = [h for s, h in pulses if mcu.frame_start(k) <= s < mcu.frame_start(k + 1)]
             width_us = in_frame[-1] / (F_CPU_HZ / 1e6) if in_frame else None
             pulsed = width_us is not None and bool((width_us > 0).all())
-            ocr = frame_ocr(width_us, tdm) if pulsed else plan_ocr(plan, tdm)
+            ocr = (
+                frame_ocr(width_us, tdm) if pulsed and width_us is not None else plan_ocr(plan, tdm)
+            )
             pins = PinFrame(plan.phase_rad, ocr, frame_edges(ocr, tdm), np.zeros(12, bool), False,
                             Motion(**doc["motion"]))  # fmt: skip
             record = loop.step_pins(pins)
             run.fell |= loop.fell
+            assert record.reading is not None  # watch_sensors
             raw = raw_of(record.reading)
             mcu.set_sensors(sample_of(raw))
         if trace:
@@ -229,7 +233,9 @@ def _count_bus(mcu: Mcu, got: Transactions, run: MegaRun, writes: list[tuple[int
     for k in np.unique(frame_of):
         mine = got.select(frame_of == k)
         while len(run.bus_s) <= k:
-            run.bus_s.append(0.0), run.bus_bytes.append(0), run.transactions.append([])
+            run.bus_s.append(0.0)
+            run.bus_bytes.append(0)
+            run.transactions.append([])
         run.bus_s[k] += float(mine.bus_s().sum())
         run.bus_bytes[k] += int(mine.bytes.sum())
         said = zip(mine.address, mine.register, mine.bytes, strict=True)

@@ -6,7 +6,7 @@ cycle rounded to the nearest (10 MHz, as vcd.py). Bus times are the emulator's (
 
 from __future__ import annotations
 
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 from numpy.typing import NDArray
@@ -41,7 +41,7 @@ def mega_vcd_text(
             events += [(start, 0, f"1{code_of[address]}"), (stop, 2, f"0{code_of[address]}")]
     events.sort(key=lambda e: (e[0], e[1]))
     out = [
-        f"$date {datetime.now(timezone.utc).isoformat(timespec='seconds')} $end",
+        f"$date {datetime.now(UTC).isoformat(timespec='seconds')} $end",
         "$version artro-gait-studio $end",
     ]
     if comment:

@@ -9,7 +9,7 @@ from __future__ import annotations
 import functools
 import json
 import math
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, Strict, field_validator, model_validator
@@ -25,11 +25,14 @@ from hardware.servo import PULSE_CENTER_US, PULSE_MAX_US, PULSE_MIN_US, US_PER_D
 from hardware.timer import SLOTS_USED
 
 LegJoint = Literal["hip_yaw", "hip_roll", "hip_pitch", "knee", "ankle_pitch", "ankle_roll"]
-LEG_JOINTS: tuple[str, ...] = LegJoint.__args__  # type: ignore[attr-defined]
+LEG_JOINTS: tuple[str, ...] = get_args(LegJoint)
 #: the boards the firmware is built for (docs/BOARDS.md): ArtRo's ATmega128 with TDM-PWM, or an
 #: Arduino Mega 2560 writing the pulses to a PCA9685 on I2C
 Board = Literal["artro-atmega128", "mega2560-pca9685"]
-LINKS = ("trunk", "hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot")
+LinkName = Literal["hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot"]  # `links`' keys
+LINKS: tuple[Literal["trunk"], LinkName, LinkName, LinkName, LinkName, LinkName, LinkName] = (
+    "trunk", "hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot"
+)  # fmt: skip
 #: a stated total_mass_kg is a kitchen scale's reading; the parts are datasheet and estimated
 #: masses: they agree within 2 % of the parts or 5 g, whichever is larger (docs/DESIGN.md §7)
 MASS_TOLERANCE_FRACTION = 0.02
@@ -157,7 +160,7 @@ class Calibration(_Strict):
     """How a joint angle becomes a pulse: direction, trim and the pulse limits (seed 000 §3.B)."""
 
     direction: Literal[1, -1] = 1
-    trim_us: Real = Field(0.0, ge=-200.0, le=200.0)
+    trim_us: Real = Field(default=0.0, ge=-200.0, le=200.0)
     pulse_min_us: Real = PULSE_MIN_US
     pulse_max_us: Real = PULSE_MAX_US
 
@@ -205,9 +208,9 @@ class Joint(_Strict):
 class Contact(_Strict):
     """Floor and sole contact. Physics stays honest: sliding friction at most 1."""
 
-    friction: Real = Field(0.7, gt=0, le=1.0, description="sliding, soles and floor")
-    torsional_friction: Real = Field(0.005, ge=0, le=0.1)
-    rolling_friction: Real = Field(0.0001, ge=0, le=0.01)
+    friction: Real = Field(default=0.7, gt=0, le=1.0, description="sliding, soles and floor")
+    torsional_friction: Real = Field(default=0.005, ge=0, le=0.1)
+    rolling_friction: Real = Field(default=0.0001, ge=0, le=0.01)
     condim: Literal[3, 4, 6] = 3
 
 
@@ -234,7 +237,7 @@ class RobotDescription(_Strict):
     )
     geometry: Geometry
     trunk: tuple[Part, ...] = Field(min_length=1)
-    links: dict[Literal["hip_yaw", "hip_roll", "thigh", "shank", "ankle", "foot"], tuple[Part, ...]]
+    links: dict[LinkName, tuple[Part, ...]]
     servo_mounts: dict[LegJoint, ServoMount]
     joints: dict[str, Joint]
     tdm_channels: dict[str, tuple[str, ...]] = Field(

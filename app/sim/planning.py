@@ -66,15 +66,15 @@ class FramePlan:
     # reader that wants them (the frame loop's flags; not a closed loop's one-frame plans)
     @cached_property
     def any_saturated(self) -> list[bool]:
-        return self.saturated.any(axis=-1).tolist()
+        return np.any(self.saturated, axis=-1).tolist()
 
     @cached_property
     def any_gamma_clamped(self) -> list[bool]:
-        return self.gamma_clamped.any(axis=-1).tolist()
+        return np.any(self.gamma_clamped, axis=-1).tolist()
 
     @cached_property
     def any_guard(self) -> list[bool]:
-        return self.guard.any(axis=(-2, -1)).tolist()
+        return np.any(self.guard, axis=(-2, -1)).tolist()
 
     def __len__(self) -> int:
         return len(self.phase)
@@ -268,12 +268,12 @@ def plan_frame_of_runs(
         if isinstance(walking, MotionOfRuns):
             own = walking._replace(a_y=a_y)
         else:
-            shared = (np.full(runs, f) for f in (walking.a_r, walking.a_p))
-            own = MotionOfRuns(*shared, a_y, np.full(runs, walking.ca))
+            a_r, a_p = (np.full(runs, f) for f in (walking.a_r, walking.a_p))
+            own = MotionOfRuns(a_r, a_p, a_y, np.full(runs, walking.ca))
         # the gait reads a motion's four fields; a motion of runs holds them per run
         out = joint_angles_with_flags(
-            params, own.along_legs(), phase if own_phase else np.repeat(phase, runs), geometry,
-            startup=startup,  # type: ignore[arg-type]
+            params, own.along_legs(),  # type: ignore[arg-type]  # (K,) fields: numpy broadcasts
+            phase if own_phase else np.repeat(phase, runs), geometry, startup=startup,
         )  # fmt: skip
         angles = out.values
     angles = angles + np.asarray(joint_delta_rad, dtype=np.float64)
