@@ -112,7 +112,8 @@ def model_closed_loop(
             a_y_delta=float(out.a_y_delta) if correct and out is not None else 0.0,
         )
         motion_now = plan.motions[0]
-        freq = params.clock.freq_hz + (float(out.freq_delta_hz) if correct else 0.0)  # type: ignore[union-attr]
+        delta_hz = float(out.freq_delta_hz) if correct and out is not None else 0.0
+        freq = params.clock.freq_hz + delta_hz
         phase = float(pi_cut(phase + 2.0 * math.pi * freq * FRAME_S))
         phases.append(plan.phase[0])
         angles.append(plan.angles[0])

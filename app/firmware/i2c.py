@@ -110,7 +110,8 @@ class I2cBus:
             parts.append((cycles[:got], lines[:got], levels[:got]))
             if got < n:
                 break
-        return tuple(np.concatenate([part[i] for part in parts]) for i in range(3))  # type: ignore[return-value]
+        cycles, lines, levels = (np.concatenate([part[i] for part in parts]) for i in range(3))
+        return cycles, lines, levels
 
     def take_periods(self) -> PcaPeriods:
         n = 4096

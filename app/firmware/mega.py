@@ -214,7 +214,7 @@ def run_mega_closed_loop(
             pwm = tuple(np.concatenate([t[0][i] for t in traced]) for i in range(3))
             bus = Transactions(*(np.concatenate([getattr(t[1], f) for t in traced])
                                  for f in Transactions.__dataclass_fields__))  # fmt: skip
-            run.vcd = mega_vcd_text(pwm, bus, mcu.t0_cycle, comment=f"{frames} frames")  # type: ignore[arg-type]
+            run.vcd = mega_vcd_text(pwm, bus, mcu.t0_cycle, comment=f"{frames} frames")  # type: ignore[arg-type]  # 3 arrays
     run.frames = frames
     docs = [document_from_values(values_from_document(doc)) for _ in range(frames + 1)]
     model, _ = model_closed_loop(docs, used, offset, hardware, robot)

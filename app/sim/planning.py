@@ -240,8 +240,8 @@ def plan_frame_of_runs(
     with its corrections (a test holds them equal): the gait is elementwise along the runs.
     `phase0` may be each run's own (K,), as the timing law makes them (`FrameOfRuns.phase`
     then is too)."""
-    if np.ndim(phase0) and np.all(phase0 == phase0[0]):  # type: ignore[index]
-        phase0 = float(phase0[0])  # type: ignore[index]
+    if np.ndim(phase0) and np.all(phase0 == np.asarray(phase0)[0]):
+        phase0 = float(np.asarray(phase0)[0])
     own_phase = np.ndim(phase0) > 0
     phase = pi_cut(
         np.asarray(phase0) + 2.0 * math.pi * params.clock.freq_hz * FRAME_S * np.arange(1)
