@@ -10,7 +10,7 @@ import dataclasses
 import math
 import sys
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TextIO
 
 import numpy as np
@@ -178,7 +178,7 @@ class Tuner:
                     f"best loss {best}",
                 )
 
-        def on_result(index: int, metrics: dict[str, Any]) -> None:
+        def on_result(index: int, metrics: Mapping[str, Any]) -> None:
             i = index // per
             finished.setdefault(i, {})[index % per] = metrics
             if len(finished[i]) == per:
