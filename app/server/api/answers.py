@@ -15,7 +15,7 @@ from app.server.sim.emulated_controller import FirmwareStatus
 from app.server.sim.published import LatencySummary, PushMark, TrunkPose
 
 #: the keyword arguments of a route with an answer model: keys left out stay out
-ANSWER = {"response_model_exclude_unset": True}
+ANSWER: dict[str, Any] = {"response_model_exclude_unset": True}
 
 
 class Answer(BaseModel):
