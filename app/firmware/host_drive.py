@@ -25,6 +25,10 @@ from hardware.servo_bus import steps_to_angle
 BLOCK_FRAMES = 50  # planned at once, as `FrameLoop` plans (the same bits)
 LATE_S = 0.002  # a frame sent this much after its time is counted late
 
+#: times the torque-off is read back before a servo is said not to have taken it (a bus
+#: drops an answer now and then: a loaded host, noise on the line)
+CONFIRM_TRIES = 3
+
 
 class GaitFrames:
     """The joint angles of `artro run`'s frames for `robot`: from standing in `start_motion`'s
@@ -175,8 +179,12 @@ def drive(
         try:
             bus.torque(False)
             report.torque_off = True
-            off = bus.sync_read("torque_enable")  # read back: also waits till it was taken
-            report.torque_unconfirmed = [i for i in options.ids if off.get(i) != 0]
+            report.torque_unconfirmed = list(options.ids)
+            for _ in range(CONFIRM_TRIES):  # read back: also waits till it was taken
+                off = bus.sync_read("torque_enable")
+                report.torque_unconfirmed = [i for i in options.ids if off.get(i) != 0]
+                if not report.torque_unconfirmed:
+                    break
         except OSError as exc:
             report.port_error = report.port_error or str(exc)
     return report
