@@ -104,7 +104,7 @@ def latest_fit(services: ServicesDep) -> dict[str, Any]:
 @router.get(
     "/{job_id}/traces.png",
     response_class=FileResponse,
-    responses={200: {"content": {"image/png": {}}}, **responses(404)},
+    responses={200: {"content": {"image/png": {}}}, **responses(404, 422)},
 )
 def fit_traces(job_id: str, services: ServicesDep) -> FileResponse:
     """The fit report's plot: the recording against the nominal's and the fit's replay."""
