@@ -77,7 +77,10 @@ function show(now) {
   $("fit-progress").value = now.progress;
   const best = d.best_loss == null ? "" : ` · best loss ${fmt(d.best_loss, 4)}`;
   const left = d.left ? ` · ${d.left} left`.replaceAll(" ", "\u00a0") : "";
-  $("fit-status").textContent = `${d.percent ?? 0} % of the search${best}${left}`;
+  // the IMU's fields alone are found in closed form: no search, no percent until done
+  $("fit-status").textContent = d.percent
+    ? `${d.percent} % of the search${best}${left}`
+    : "replaying the routine on the robot shown…";
 }
 
 async function follow() {

@@ -8,6 +8,7 @@ import json
 import os
 import queue
 import re
+import signal
 import subprocess
 import sys
 import threading
@@ -21,7 +22,7 @@ from app.robots import builtin_robot_names
 from app.robots.library import description_json
 from app.robots.model import RobotModel
 from app.server.jobs.registry import Job, Jobs, Progress
-from app.server.jobs.tune_job import LOG_LINES, _next, _pump, _stop
+from app.server.jobs.tune_job import LOG_LINES, STOP_WAIT_S, _next, _pump, child_threads
 from app.worlds.variations import NOMINAL, parse_variation
 
 KIND = "fit"
@@ -35,10 +36,10 @@ class FitRunner:
     files in DATA/fits: NAME.json (the recording), NAME-fitted.yaml, NAME-fit/ (the report)."""
 
     def __init__(
-        self, jobs: Jobs, data_dir: Path, robot_now: Callable[[], RobotModel], workers: int = 1
+        self, jobs: Jobs, data_dir: Path, robot_now: Callable[[], RobotModel], workers: int = 0
     ) -> None:
         self.jobs, self.folder, self.robot_now = jobs, data_dir / "fits", robot_now
-        self.workers = workers
+        self.workers = workers or min(4, child_threads())  # the live simulation keeps a core
         self.latest: Job | None = None
         self._lock = threading.Lock()
         self._fitted: dict[str, str] = {}  # a fit's variation (its name) -> the job that fitted it
@@ -93,9 +94,15 @@ class FitRunner:
                "--workers", str(self.workers), *options]  # fmt: skip
         env = os.environ | {"PYTHONUNBUFFERED": "1"}
         child = subprocess.Popen(
-            cmd, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
-            text=True, env=env, cwd=self.folder,
-        )  # fmt: skip
+            cmd,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.STDOUT,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            env=env,
+            cwd=self.folder,
+            start_new_session=True,
+        )  # fmt: skip (its own process group: its replaying workers end with it)
         detail["pid"] = child.pid
         job.detail = dict(detail)
         lines: queue.Queue[str | None] = queue.Queue()
@@ -116,7 +123,7 @@ class FitRunner:
                     log.append(line.rstrip())
             code = child.wait()
         finally:
-            _stop(child)
+            _stop_group(child)
         if code not in (0, 1) or result is None:
             said = " | ".join(log) or "no output"
             raise RuntimeError(f"artro fit stopped (exit status {code}) before a result: {said}")
@@ -135,3 +142,20 @@ class FitRunner:
         path = self.folder / f"{model.name}.robot.yaml"
         path.write_text(description_json(model.description), "utf-8")
         return str(path)
+
+
+def _stop_group(child: subprocess.Popen[str]) -> None:
+    """The child and its workers ended: asked (SIGTERM to its group), killed after STOP_WAIT_S.
+    A child that ended by itself has closed its workers."""
+    if child.poll() is not None:
+        return
+    os.killpg(child.pid, signal.SIGTERM)
+    try:
+        child.wait(STOP_WAIT_S)
+    except subprocess.TimeoutExpired:
+        pass
+    try:
+        os.killpg(child.pid, signal.SIGKILL)  # the child, or a worker left behind
+    except ProcessLookupError:
+        pass
+    child.wait()
