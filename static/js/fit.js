@@ -127,7 +127,7 @@ function showResult(r) {
     ...Object.entries(r.fields).map(([name, f]) =>
       h("tr", {},
         h("td", {}, name),
-        h("td", { class: "num" }, `${fmt(f.value, 3)} ± ${fmt(f.sigma, 3)}`),
+        h("td", { class: "num" }, `${fmt(f.value, 3)} ± ${Number(f.sigma).toPrecision(2)}`),
         h("td", {}, f.identified ? "identified" : whyNot(name, r)),
         ...(truth ? [h("td", { class: "num" }, f.truth == null ? "—" : fmt(f.truth, 3))] : []),
       ),
