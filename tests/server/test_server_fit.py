@@ -9,6 +9,8 @@ import os
 
 import pytest
 
+from app.robots.fitted import Fitted, write_fitted
+from app.robots.model import RobotModel
 from tests.testing.fit_support import simulated_recording
 from tests.testing.server_harness import client, running_server, wait_for
 
@@ -110,3 +112,18 @@ def test_a_fit_cancelled_ends_its_child(tmp_path, recording):
         assert final["status"] == "cancelled" and final["result"] is None, final
         with pytest.raises(ProcessLookupError):  # the child is gone, not left running
             os.kill(pid, 0)
+
+
+def test_a_fitted_robot_served_walks_its_fit_and_the_world_says_so(tmp_path):
+    path = tmp_path / "artro-fitted.yaml"
+    fit = Fitted(variation="gyro_bias_deg_s=0.4", recording="rec.json")
+    write_fitted(RobotModel.load("artro").description, fit, path)
+    with running_server(tmp_path, robot=str(path)) as (base_url, _app), client(base_url) as http:
+        world = wait_for(
+            lambda: (w := http.get("/api/world").json())["variation"] != "nominal" and w,
+            "the fit in force",
+        )
+        assert world["values"]["gyro_bias_deg_s"] == pytest.approx(0.4)
+        assert world["fitted"] == "rec.json"
+        assert http.delete("/api/world").status_code == 200  # Nominal: the nominal values
+        assert http.get("/api/world").json()["fitted"] is None
