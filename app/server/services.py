@@ -19,6 +19,7 @@ from app.server.feeds.robot_sensors import RobotSensors
 from app.server.http.request_gate import served_hosts
 from app.server.jobs.axle_fitter import AxleFitter
 from app.server.jobs.ca_calibrator import CaCalibrator
+from app.server.jobs.fit_job import FitRunner
 from app.server.jobs.registry import Jobs
 from app.server.jobs.robot_importer import IMPORT_TIMEOUT_S, RobotImporter
 from app.server.jobs.robustness_job import RobustnessRunner
@@ -30,9 +31,10 @@ from app.server.robot_shelf import RobotShelf
 from app.server.sim.ghost import GhostStatus
 from app.server.sim.live_robot import Drive
 from app.server.sim.published import SimStatus
-from app.server.sim.sim_commands import Push, SimCommand
+from app.server.sim.sim_commands import Push, SetWorld, SimCommand
 from app.server.sim.sim_thread import SimThread
 from app.sim.servo_load import ServoLoadReport
+from app.worlds.fitted import fitted_variation
 from hardware import HardwareSetup
 
 
@@ -78,6 +80,8 @@ class Services:
         self.replay = Replay(self.sim.model, self.sim.recorder, self.sim)
         #: held while a recording file is read and checked: one import at a time
         self.importing = threading.Lock()
+        if started.description.fitted is not None:  # a fitted robot walks its fit (docs/FIT.md)
+            self.sim.send(SetWorld(fitted_variation(started)))
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
         self.paths, self.scope, self.recorder = self.sim.paths, self.sim.scope, self.sim.recorder
@@ -97,6 +101,7 @@ class Services:
             wait_workers_s=config.wait_workers_s,
         )
         self.tuner = TuneRunner(self.jobs, self.store, self.presets, robot_now)
+        self.fitter = FitRunner(self.jobs, config.data_dir, robot_now)
         self.viewer = None
         if config.viewer:
             from app.server.view.viser_gate import gate_viser

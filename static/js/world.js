@@ -78,6 +78,7 @@ const EXTREME = 0.1; // a value in the outer tenth of its default range, away fr
 let job = null;
 let cancelling = false; // asked to stop: its progress line no longer shown
 let ranges = {}; // the default ranges of `artro bench robust`, per field
+let fittedBy = null; // whose fit the live world is (a fit job, the fitted robot), or null
 let liveWorld = "nominal"; // the world the state last named
 let reportTitle = ""; // the title of the report drawn ("" none)
 let gaitShown = null; // the gait (as JSON) whose last report was asked for: a motion change keeps it
@@ -104,6 +105,7 @@ async function buildSliders() {
   const world = await api.get("/api/world");
   ranges = world.ranges;
   liveWorld = world.variation;
+  fittedBy = world.fitted;
   $("world-sliders").replaceChildren(
     ...FIELDS.map(([key, label, digits, unit]) => {
       const nominal = nominalOf(key);
@@ -126,6 +128,7 @@ async function buildSliders() {
 async function followWorld() {
   const world = await api.get("/api/world");
   liveWorld = world.variation;
+  fittedBy = world.fitted;
   for (const [key, , digits] of FIELDS) {
     const input = $(`world-${key}`);
     if (!input || document.activeElement === input) continue;
@@ -186,16 +189,19 @@ async function refresh() {
   const varied = state.world !== "nominal";
   const badge = $("world-badge");
   badge.hidden = !varied;
-  badge.textContent = "world varied";
   badge.title = state.world;
-  $("world-state").textContent = worldSummary(state.world);
-  $("world-state").title = varied ? state.world : "";
+  if (state.world !== liveWorld) await followWorld();
+  // a fit in force says so: "fitted: <variation>" (docs/FIT.md, "On the dashboard")
+  const fit = varied && fittedBy && state.world === liveWorld;
+  $("world-state").textContent = fit ? `fitted: ${state.world}` : worldSummary(state.world);
+  $("world-state").title = varied ? (fit ? `the fit of ${fittedBy}: ${state.world}` : state.world) : "";
+  $("world-state").classList.toggle("fitted", Boolean(fit));
+  badge.textContent = fit ? "fitted robot" : "world varied";
   showRobot(state.robot);
   // the text follows the live world, unless it is being typed or was refused: then it is kept
   if (document.activeElement !== $("world-text") && !textEdited) {
     $("world-text").value = varied ? state.world : "";
   }
-  if (state.world !== liveWorld) await followWorld();
   if (job) await followJob();
 }
 

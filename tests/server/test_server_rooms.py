@@ -63,6 +63,6 @@ def test_openapi_describes_every_json_success_body(server):
         spec,
     )
     kinds = {_resolve(s, spec)["properties"]["kind"]["const"] for s in job["oneOf"]}
-    assert kinds == {"axle-fit", "calibrate-ca", "robustness", "tune"}
+    assert kinds == {"axle-fit", "calibrate-ca", "fit", "robustness", "tune"}
     status = _resolve(job["oneOf"][0], spec)["properties"]["status"]
     assert set(status["enum"]) == {"running", "done", "failed", "cancelled"}

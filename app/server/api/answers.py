@@ -111,6 +111,11 @@ class WorldName(Answer):
 
 class World(WorldName):
     values: dict[str, Any] = Field(description="each field of the variation, its value")
+    fitted: str | None = Field(
+        None,
+        description="whose fit the variation is: a fit job's id, or the fitted robot's "
+        "recording (docs/FIT.md); null: no fit is in force",
+    )
     ranges: dict[str, list[float]] = Field(description="`artro bench robust`'s default ranges")
 
 

@@ -13,6 +13,7 @@ from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs.registry import JobBusy, RobotChanged
 from app.server.jobs.results import RobustnessJob
 from app.server.sim.sim_commands import SetWorld
+from app.worlds.fitted import fitted_variation
 from app.worlds.sampling import VariationRanges
 from app.worlds.variations import FIELDS, NOMINAL, parse_variation
 
@@ -43,7 +44,20 @@ def _world(services: Any) -> dict[str, Any]:
         "variation": name,
         "values": {f: getattr(variation, f) for f in FIELDS},
         "ranges": asdict(VariationRanges()),
+        "fitted": _fitted(services, name),
     }
+
+
+def _fitted(services: Any, name: str) -> str | None:
+    """Whose fit the world `name` is: the fitted robot's recording, or a fit job's id."""
+    fitted = services.robot.description.fitted
+    if fitted is not None and name != NOMINAL.name:
+        try:
+            if fitted_variation(services.robot).name == name:
+                return fitted.recording or "the fitted robot"
+        except ValueError:
+            pass
+    return services.fitter.fitted_by(name) if name != NOMINAL.name else None
 
 
 @router.get("/world", response_model=World, **ANSWER)

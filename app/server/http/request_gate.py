@@ -33,12 +33,14 @@ IMPORT_PATH = "/api/import"
 ROBOT_IMPORT_PATH = "/api/robot/import"
 UPLOAD_TYPES = frozenset({"application/octet-stream"})
 RECORDING_IMPORT_PATH = "/api/recording/import"
+FIT_PATH = "/api/fit"  # a recording of the identify routine (docs/FIT.md), about 1 MB
 MAX_BODY_BYTES = 16 * 1024  # a parameter set is about 4 KiB
 MAX_IMPORT_BODY_BYTES = MAX_IMPORT_BYTES
 MAX_RECORDING_BODY_BYTES = 16 * 1024 * 1024  # a 60 s recording file is about 2 MB
 BODY_LIMITS = {
     IMPORT_PATH: MAX_IMPORT_BODY_BYTES,
     RECORDING_IMPORT_PATH: MAX_RECORDING_BODY_BYTES,
+    FIT_PATH: MAX_RECORDING_BODY_BYTES,
     ROBOT_IMPORT_PATH: MAX_UPLOAD_BYTES,
 }
 GATED_PREFIXES = ("/api/", "/ws/")

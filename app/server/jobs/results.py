@@ -11,6 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.jobs.axle_fitter import KIND as AXLE_FIT
 from app.server.jobs.ca_calibrator import KIND as CALIBRATE_CA
+from app.server.jobs.fit_job import KIND as FIT
 from app.server.jobs.registry import JobStatus
 from app.server.jobs.robustness_job import KIND as ROBUSTNESS
 from app.server.jobs.tune_job import KIND as TUNE
@@ -86,6 +87,29 @@ class TuneResult(_Open):
     params_version: int | None = None
 
 
+class FitField(_Open):
+    value: float
+    sigma: float = Field(description="1 σ")
+    identified: bool = Field(description="told by the recording")
+    truth: float | None = Field(None, description="a simulated recording's hidden value")
+
+
+class FitResult(_Open):
+    """`artro fit --json`'s summary (app/study/fit_report.py) and where its files are."""
+
+    converged: bool
+    why_not: str | None = Field(None, description="why the fit did not converge")
+    variation: str = Field(description="the fit, as `artro run --vary` takes it")
+    world: str = Field(description="its name, as PUT /api/world answers it")
+    fields: dict[str, FitField]
+    correlated: list[list[str]] = Field(description="pairs correlated beyond 0.9")
+    flat: list[str] = Field(description="coordinates whose σ spans half their bounds")
+    source: str = Field(description="robot or simulation")
+    fitted: str = Field(description="the fitted robot's description (.yaml)")
+    report_dir: str
+    traces: str = Field(description="the report's plot: GET this path")
+
+
 class _JobAnswer(_Open):
     id: str
     status: JobStatus
@@ -117,6 +141,11 @@ class TuneJob(_JobAnswer):
     result: TuneResult | None
 
 
+class FitJob(_JobAnswer):
+    kind: Literal[FIT]
+    result: FitResult | None
+
+
 JobAnswer = Annotated[
-    AxleFitJob | CaCalibrationJob | RobustnessJob | TuneJob, Field(discriminator="kind")
+    AxleFitJob | CaCalibrationJob | RobustnessJob | TuneJob | FitJob, Field(discriminator="kind")
 ]
