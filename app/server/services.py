@@ -246,8 +246,7 @@ class Services:
     def start(self) -> None:
         if self.bus_port is not None:
             self.bus_port.start()
-            print(f"artro serve: the servo bus ({self.bus_port.link.protocol}, "
-                  f"{self.bus_port.link.baud} baud) is on {self.bus_port.port}", flush=True)  # fmt: skip
+            print(f"artro serve: the servo bus is on {self.bus_port.port}", flush=True)
         self.sim.start()
         if self.viewer is not None:
             self.viewer.start()

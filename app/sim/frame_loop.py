@@ -413,12 +413,12 @@ class FrameLoop:
         self._check_state()
         return self._watched(record)
 
-    def step_goals(self, setpoint: NDArray[np.float64]) -> FrameRecord:
+    def step_goals(self, setpoint: NDArray[np.float64], substep: int = 0) -> FrameRecord:
         """Simulate the next 20 ms frame with each servo's set-point given from outside (a
-        servo bus's goals, docs/BUS.md), acting from the frame's first step; no pulses (the
+        servo bus's goals, docs/BUS.md), acting from the frame's step `substep`; no pulses (the
         TDM lines stay low). The gait plans anew from here once it drives again."""
         setpoint = np.array(setpoint, dtype=np.float64)
-        self._apply_frame(np.zeros(len(setpoint), dtype=np.int64), setpoint)
+        self._apply_frame(np.full(len(setpoint), substep, dtype=np.int64), setpoint)
         record = FrameRecord(
             index=self.frame_index,
             time_s=self.frame_index * FRAME_S,

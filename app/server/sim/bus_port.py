@@ -5,7 +5,6 @@ takes them, steps the robot and publishes what the servos measure."""
 
 from __future__ import annotations
 
-import math
 import statistics
 import threading
 import time
@@ -63,14 +62,13 @@ class BusPort:
         ids = robot.description.bus_ids()
         voltage_v = float(robot.description.supply_voltage_v)
         self.bus = VirtualBus(protocol, baud, self.handoff, voltage_v, ids)
-        for servo, steps in zip(self.bus.bus.servos, angle_to_steps(np.zeros(12)).tolist()):
+        centre = angle_to_steps(np.zeros(len(ids))).tolist()
+        for servo, steps in zip(self.bus.bus.servos, centre, strict=True):
             servo.set("goal_position", steps)
             servo.set("torque_enable", 1)  # the dashboard's robot stands on its servos
         self.link = BusLink(protocol, baud, tuple(ids))
         self._goal_rad: NDArray[np.float64] | None = None
-        self._last_goal_s = -math.inf
         self._latencies_s: deque[float] = deque(maxlen=LATENCIES_KEPT)
-        self._counts: deque[tuple[float, int]] = deque()  # (monotonic s, packets so far)
         self._stop = threading.Event()
         self._thread = threading.Thread(
             target=self.bus.serve, args=(self._stop,), name="servo-bus", daemon=True
@@ -91,8 +89,9 @@ class BusPort:
 
     @property
     def driving(self) -> bool:
-        """A goal was written and a packet came within `HOLD_S` (seen at a frame)."""
-        return time.monotonic() - self._last_goal_s < HOLD_S
+        """A goal was written and the latest packet came within `HOLD_S`."""
+        last_s = self.bus.stats.last_packet_s
+        return self._goal_rad is not None and time.monotonic() - last_s < HOLD_S
 
     def take(self, now_s: float) -> NDArray[np.float64] | None:
         """(simulation thread) The goals (rad, the gait's joint order) the next frame's servos
@@ -103,19 +102,7 @@ class BusPort:
             self._latencies_s.append(max(0.0, now_s - g.effect_s))
         if goals:
             self._goal_rad = np.array(goals[-1].goal_rad[:12], dtype=np.float64)
-            self._last_goal_s = goals[-1].effect_s
-        counts = self._counts
-        packets = self.bus.stats.packets
-        if counts and packets > counts[-1][1]:  # the program goes on (the same goals again)
-            self._last_goal_s = (
-                max(self._last_goal_s, now_s) if self._goal_rad is not None else -math.inf
-            )
-        counts.append((now_s, packets))
-        while counts and now_s - counts[0][0] > RATE_WINDOW_S:
-            counts.popleft()
-        if self._goal_rad is None or now_s - self._last_goal_s >= HOLD_S:
-            return None
-        return self._goal_rad
+        return self._goal_rad if self.driving else None
 
     def publish(self, robot: RobotModel, data: mujoco.MjData) -> None:
         """(simulation thread) What the servos measure now, for the bus thread's answers."""
@@ -124,10 +111,8 @@ class BusPort:
 
     def status(self) -> BusPortStatus:
         stats = self.bus.stats
-        counts = list(self._counts)
-        rate = 0.0
-        if len(counts) > 1 and counts[-1][0] > counts[0][0]:
-            rate = (counts[-1][1] - counts[0][1]) / (counts[-1][0] - counts[0][0])
+        now_s = time.monotonic()
+        rate = sum(now_s - t < RATE_WINDOW_S for t in list(self.bus.arrivals)) / RATE_WINDOW_S
         latencies_ms = [s * 1e3 for s in list(self._latencies_s)]
         malformed = dict(stats.malformed)
         measured = self.handoff.measured

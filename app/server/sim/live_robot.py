@@ -5,6 +5,7 @@ switching robot or drive in the order docs/DESIGN.md §10 gives."""
 
 from __future__ import annotations
 
+import dataclasses
 import enum
 import time
 from collections import deque
@@ -24,6 +25,7 @@ from app.sim.frame_loop import FrameLoop, FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
 from hardware import HardwareSetup
 from hardware.firmware.schema import FIRMWARE_ENGINE
+from hardware.servo_bus import bus_frame
 
 LATENCY_KEPT = 100  # changes whose latency the status summarises
 
@@ -239,8 +241,9 @@ class LiveRobot:
             return self._step_pulses()
         goals = port.take(time.monotonic())
         self.bus_driving = goals is not None
-        if goals is not None:
-            result = self.loop.step_goals(goals), False
+        if goals is not None:  # as the frame's sync write of them: acting once it is through
+            sent = bus_frame(self.loop.frame_index, goals, **dataclasses.asdict(port.link))
+            result = self.loop.step_goals(goals, sent.substep()), False
         else:
             result = self._step_pulses()
         port.publish(self.robot, self.loop.data)
