@@ -26,7 +26,8 @@ EXAMPLES = """examples:
   artro serve                              the dashboard on http://localhost:8000
   artro serve --params my_gait.json --port 9000
   artro serve --params tuned               start with a preset, built in or saved, by name
-  artro serve --drive firmware             pulses from the robot's firmware on an emulated MCU"""
+  artro serve --drive firmware             pulses from the robot's firmware on an emulated MCU
+  artro serve --servo-bus pty              the leg servos on a virtual Dynamixel bus too"""
 
 
 def add_parser(sub: Any) -> None:
@@ -76,6 +77,20 @@ def add_parser(sub: Any) -> None:
         "firmware on an emulated ATmega128 (needs gcc-avr and simavr); switchable in the page",
     )
     s.add_argument(
+        "--servo-bus",
+        choices=("pty",),
+        default=None,
+        help="pty: the robot's 12 leg servos also answer on a pseudo-terminal as bus servos, "
+        "its path printed at the start; a program's goal writes drive the robot (default: "
+        "none; docs/BUS.md)",
+    )
+    s.add_argument(
+        "--bus-protocol",
+        choices=("dynamixel", "feetech"),
+        default="dynamixel",
+        help="the --servo-bus's servos: Dynamixel Protocol 2.0 XM430s (default) or Feetech STS",
+    )
+    s.add_argument(
         "--allowed-host",
         action="append",
         default=[],
@@ -111,6 +126,8 @@ def serve(args: argparse.Namespace) -> int:
         viewer=not args.no_viewer,
         allowed_hosts=tuple(args.allowed_host),
         drive=args.drive,
+        servo_bus=args.servo_bus,
+        bus_protocol=args.bus_protocol,
     )
     RobotShelf(RobotModel.load(args.robot))  # fail here, clearly, not inside the server
     check_port_free(args.host, args.port)  # before the banner names it (uvicorn's error: raw)

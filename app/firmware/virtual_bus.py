@@ -10,6 +10,7 @@ import select
 import threading
 import time
 import tty
+from collections import deque
 from dataclasses import dataclass, field
 
 from app.robots.model import RobotModel
@@ -28,6 +29,7 @@ from hardware.servo_bus import (
     wire_us,
 )
 
+ARRIVALS_KEPT = 2000  # packets whose arrival times are kept (a rate over the last second)
 QUIET_S = 0.05  # a partial packet the line leaves this long is dropped, as a servo's timeout
 
 
@@ -54,6 +56,7 @@ class BusStats:
     answers_lost: int = 0
     goal_writes: int = 0
     late_max_us: int = 0
+    last_packet_s: float = -1.0  # monotonic time the latest packet arrived (-1: none yet)
 
 
 class VirtualBus:
@@ -71,6 +74,7 @@ class VirtualBus:
         self.handoff = handoff
         self.voltage_v = voltage_v
         self.stats = BusStats()
+        self.arrivals: deque[float] = deque(maxlen=ARRIVALS_KEPT)  # the latest packets' times
         self._shown_s = -1.0
         self._line_free_s = 0.0  # monotonic time the last byte on the line is through
         self._master, self._slave = os.openpty()
@@ -105,7 +109,10 @@ class VirtualBus:
         answers = self.bus.handle(item)
         self.stats.malformed = dict(self.bus.malformed)
         self.stats.unanswered = self.bus.unanswered
-        self.stats.packets += isinstance(item, Packet)
+        if isinstance(item, Packet):
+            self.stats.packets += 1
+            self.stats.last_packet_s = arrived_s
+            self.arrivals.append(arrived_s)
         start_s = max(arrived_s, self._line_free_s)  # the line carries one thing at a time
         end_s = start_s + wire_us(item.size, self.baud) * 1e-6
         self._line_free_s = end_s

@@ -28,6 +28,7 @@ from app.server.param_store import ParameterStore, RobotBusy, Snapshot
 from app.server.recording.replay import Replay
 from app.server.recording.sensor_trace import SensorView
 from app.server.robot_shelf import RobotShelf
+from app.server.sim.bus_port import BusPort
 from app.server.sim.ghost import GhostStatus
 from app.server.sim.live_robot import Drive
 from app.server.sim.published import SimStatus
@@ -56,6 +57,8 @@ class ServerConfig:
     backend: str = "cpu"  # the robustness job's: "warp" or "auto" for MuJoCo Warp (docs/GPU.md)
     device: str | None = None  # of the warp backend (default cuda)
     robot_import_timeout_s: float = IMPORT_TIMEOUT_S  # a dashboard import's child, at most
+    servo_bus: str | None = None  # "pty": the leg servos answer on a pseudo-terminal (docs/BUS.md)
+    bus_protocol: str = "dynamixel"  # the servo bus's protocol: "dynamixel" or "feetech"
 
 
 class Services:
@@ -82,6 +85,10 @@ class Services:
         self.importing = threading.Lock()
         if started.description.fitted is not None:  # a fitted robot walks its fit (docs/FIT.md)
             self.sim.send(SetWorld(fitted_variation(started)))
+        self.bus_port: BusPort | None = None  # `--servo-bus pty`: the servos on a bus
+        if config.servo_bus == "pty":
+            self.bus_port = BusPort(started, config.bus_protocol)
+            self.sim.live.bus_port = self.bus_port  # before the simulation thread starts
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
         self.paths, self.scope, self.recorder = self.sim.paths, self.sim.scope, self.sim.recorder
@@ -242,6 +249,9 @@ class Services:
         ]
 
     def start(self) -> None:
+        if self.bus_port is not None:
+            self.bus_port.start()
+            print(f"artro serve: the servo bus is on {self.bus_port.port}", flush=True)
         self.sim.start()
         if self.viewer is not None:
             self.viewer.start()
@@ -253,3 +263,5 @@ class Services:
         if self.viewer is not None:
             self.viewer.stop()
         self.sim.stop()
+        if self.bus_port is not None:
+            self.bus_port.stop()

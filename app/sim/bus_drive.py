@@ -47,6 +47,18 @@ class Measured:
     trunk: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
 
+def measured_of(robot: RobotModel, d: mujoco.MjData, stall_nm: NDArray[np.float64]) -> Measured:
+    """What `robot`'s servos measure in `d` now (load: force over `stall_nm`, per joint)."""
+    force = d.actuator_force[robot.actuator_ids]
+    return Measured(
+        time_s=float(d.time),
+        position_rad=tuple(d.qpos[robot.qpos_adr].tolist()),
+        velocity_rad_s=tuple(d.qvel[robot.dof_adr].tolist()),
+        load=tuple((force / stall_nm).tolist()),
+        trunk=(float(d.qpos[0]), float(d.qpos[1]), trunk_yaw(d.qpos[3:7])),
+    )
+
+
 class Handoff:
     """Goals from the bus thread to the simulation thread, in order, under a lock; the
     measured state back as one frozen value replaced whole."""
@@ -108,15 +120,7 @@ class BusSimulation:
         self.model.actuator_biasprm[act, 1] = -kp
 
     def measured(self) -> Measured:
-        d, r = self.data, self.robot
-        force = d.actuator_force[r.actuator_ids]
-        return Measured(
-            time_s=float(d.time),
-            position_rad=tuple(d.qpos[r.qpos_adr].tolist()),
-            velocity_rad_s=tuple(d.qvel[r.dof_adr].tolist()),
-            load=tuple((force / self._stall_nm).tolist()),
-            trunk=(float(d.qpos[0]), float(d.qpos[1]), trunk_yaw(d.qpos[3:7])),
-        )
+        return measured_of(self.robot, self.data, self._stall_nm)
 
     def _apply(self, goals: Goals) -> None:
         self.goal_rad = np.array(goals.goal_rad[:12])

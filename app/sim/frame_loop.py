@@ -34,6 +34,9 @@ from gait import (
     startup_gain,
 )
 from hardware import (
+    CHANNELS,
+    OCR_IDLE,
+    SLOTS_PER_FRAME,
     FrameEdges,
     HardwareSetup,
     demultiplex,
@@ -409,6 +412,29 @@ class FrameLoop:
         self._plan = None  # the model's plan no longer continues this phase
         next_phase = pins.phase + 2.0 * math.pi * self.params.clock.freq_hz * FRAME_S
         self.phase = (next_phase + math.pi) % (2.0 * math.pi) - math.pi
+        self._check_state()
+        return self._watched(record)
+
+    def step_goals(self, setpoint: NDArray[np.float64], substep: int = 0) -> FrameRecord:
+        """Simulate the next 20 ms frame with each servo's set-point given from outside (a
+        servo bus's goals, docs/BUS.md), acting from the frame's step `substep`; no pulses (the
+        TDM lines stay low). The gait plans anew from here once it drives again."""
+        setpoint = np.array(setpoint, dtype=np.float64)
+        self._apply_frame(np.full(len(setpoint), substep, dtype=np.int64), setpoint)
+        record = FrameRecord(
+            index=self.frame_index,
+            time_s=self.frame_index * FRAME_S,
+            phase=self.phase,
+            ocr=np.full((len(CHANNELS), SLOTS_PER_FRAME), OCR_IDLE, dtype=np.int32),
+            setpoint=setpoint,
+            saturated_servos=np.zeros(len(setpoint), dtype=bool),
+            saturated=False,
+            gamma_clamped=False,
+            guard_violation=False,
+            motion=self.motion_now,
+        )
+        self.frame_index += 1
+        self._plan = None
         self._check_state()
         return self._watched(record)
 

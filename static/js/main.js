@@ -1,5 +1,6 @@
 // Entry point: wire up every panel of the dashboard.
 
+import { initBusStatus } from "./bus-status.js";
 import { initDrive } from "./drive.js";
 import { initFall } from "./fall.js";
 import { initGhost } from "./ghost.js";
@@ -21,6 +22,7 @@ import { initWorld } from "./world.js";
 
 initStatus();
 initDrive();
+initBusStatus();
 initViser();
 initScope();
 initPaths();

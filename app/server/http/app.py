@@ -20,6 +20,7 @@ from starlette.types import Scope
 from app.assets import static_dir
 from app.params.document import project_version
 from app.server.api import (
+    bus,
     fit,
     ghost,
     jobs,
@@ -96,6 +97,7 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
 
     install_handlers(app)
     resources = (sim, params, scope, paths, presets, servos, sensors, world, tune, fit, jobs, ghost)
+    resources = (*resources, bus)
     for resource in (*resources, recording, robot):
         app.include_router(resource.router)
     # the page is served under every path but the API's: a wrong method or path under /api/

@@ -5,7 +5,9 @@ switching robot or drive in the order docs/DESIGN.md §10 gives."""
 
 from __future__ import annotations
 
+import dataclasses
 import enum
+import time
 from collections import deque
 from collections.abc import Callable
 
@@ -15,6 +17,7 @@ from app.firmware.emulator import EmulatorError
 from app.robots.model import RobotModel
 from app.server.param_store import Snapshot
 from app.server.recording.recorder import Recorder
+from app.server.sim.bus_port import BusPort
 from app.server.sim.emulated_controller import EmulatedController, FirmwareStatus
 from app.server.sim.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.sim.sim_commands import DriveRefused, SwitchDrive
@@ -22,6 +25,7 @@ from app.sim.frame_loop import FrameLoop, FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
 from hardware import HardwareSetup
 from hardware.firmware.schema import FIRMWARE_ENGINE
+from hardware.servo_bus import bus_frame
 
 LATENCY_KEPT = 100  # changes whose latency the status summarises
 
@@ -71,6 +75,9 @@ class LiveRobot:
         self._gait_ramp: GaitRamp | None = None  # a change of gait constants on its way
         # per applied change: frames from entering the store to the frame whose pulses carry it
         self.latency_frames: deque[int] = deque(maxlen=LATENCY_KEPT)
+        #: `artro serve --servo-bus`: its goals move the servos while goal writes arrive
+        self.bus_port: BusPort | None = None
+        self.bus_driving = False  # the last frame's set-points were the bus's goals
 
     @property
     def drive(self) -> Drive:
@@ -225,9 +232,24 @@ class LiveRobot:
     # --- frames ----------------------------------------------------------------------------------
 
     def step(self) -> tuple[FrameRecord, bool]:
-        """One frame: the ramp's next constants, then the pulses made by the model or read off
-        the firmware's pins (an emulator that fails ends the firmware drive, said so, and the
-        model makes this frame's). Also True if a change of gait constants arrived with it."""
+        """One frame: the ramp's next constants, then the set-points: a servo bus's goals while
+        its goal writes arrive (`BusPort`), else the pulses made by the model or read off the
+        firmware's pins (an emulator that fails ends the firmware drive, said so, and the model
+        makes this frame's). Also True if a change of gait constants arrived with it."""
+        port = self.bus_port
+        if port is None:
+            return self._step_pulses()
+        goals = port.take(time.monotonic())
+        self.bus_driving = goals is not None
+        if goals is not None:  # as the frame's sync write of them: acting once it is through
+            sent = bus_frame(self.loop.frame_index, goals, **dataclasses.asdict(port.link))
+            result = self.loop.step_goals(goals, sent.substep()), False
+        else:
+            result = self._step_pulses()
+        port.publish(self.robot, self.loop.data)
+        return result
+
+    def _step_pulses(self) -> tuple[FrameRecord, bool]:
         arrived = False
         ramp = self._gait_ramp
         if ramp is not None:
