@@ -1,0 +1,46 @@
+"""The wire layouts declared once (hardware/firmware/wire.py, docs/decisions/0063): the C
+header, the host's decoder and PROTOCOL.md's tables come from the declaration, and the SENSORS
+bytes the firmware sends are the ones its hand-written packing sent."""
+
+from __future__ import annotations
+
+from app.firmware import protocol as proto
+from app.firmware.build import build_firmware
+from app.firmware.emulator import Mcu
+from app.firmware.sensor_feed import RawSample, at_rest, sample_of
+from gait.params import LAW_GROUPS
+from hardware.firmware.schema import complete_document
+from tests.testing.firmware_support import preset
+
+#: the SENSORS payload of `sensors_payload()` as the hand-written send_sensors() packed it
+#: (recorded at commit 4d6ecab, before the packing was generated)
+HAND_PACKED = (
+    "0c00000001000f00c50097ff34007cfcbc02e43e9001d4fe7800f4016202a4017c011e0000000c0005006b97513d"
+    "90af453d90ac5e3a4aa6263a2cc9393b4a33973b0bb57fba"
+)
+
+
+def sensors_payload() -> bytes:
+    """The payload of the SENSORS the firmware sends at frame 12 of a walk with every law on,
+    leaning and loaded on one foot (every field nonzero)."""
+    doc = complete_document(preset("tuned", a_p=0.05, a_y=0.05))
+    for law in LAW_GROUPS:
+        doc["gait"][law]["enabled"] = True
+    raw = RawSample(
+        accel=(-900, 700, 16100), gyro=(400, -300, 120), adc=(500, 610, 420, 380, 30, 0, 12, 5)
+    )
+    build = build_firmware(doc)
+    with Mcu(build.elf, sensors=sample_of(at_rest())) as mcu:
+        mcu.set_sensors(sample_of(raw))
+        mcu.run_to_frame(12)
+        mcu.take_uart()
+        mcu.send(proto.command(proto.Msg.GET_SENSORS))
+        mcu.run_to_frame(14)
+        _, data = mcu.take_uart()
+    (message,) = [m for m in proto.Decoder().feed(data) if m.type == proto.Msg.SENSORS]
+    return message.payload
+
+
+def test_the_sensors_bytes_are_the_hand_packed_ones() -> None:
+    payload = sensors_payload()
+    assert payload.hex() == HAND_PACKED
