@@ -1,15 +1,22 @@
-"""The wire layouts declared once (hardware/firmware/wire.py, docs/decisions/0063): the C
-header, the host's decoder and PROTOCOL.md's tables come from the declaration, and the SENSORS
-bytes the firmware sends are the ones its hand-written packing sent."""
+"""The wire layouts declared once (hardware/firmware/wire.py; the decision record:
+docs/decisions/0063-wire-layouts-declared-once.md): the C header, the host's decoder and
+PROTOCOL.md's tables come from the declaration, and the SENSORS bytes the firmware sends are the
+ones its hand-written packing sent."""
 
 from __future__ import annotations
+
+import dataclasses
+
+import pytest
 
 from app.firmware import protocol as proto
 from app.firmware.build import build_firmware
 from app.firmware.emulator import Mcu
 from app.firmware.sensor_feed import RawSample, at_rest, sample_of
 from gait.params import LAW_GROUPS
+from hardware.firmware import wire
 from hardware.firmware.schema import complete_document
+from hardware.firmware.wire import BEGIN, PROTOCOL_MD, SENSORS, c_wire_header, with_tables
 from tests.testing.firmware_support import preset
 
 #: the SENSORS payload of `sensors_payload()` as the hand-written send_sensors() packed it
@@ -44,3 +51,34 @@ def sensors_payload() -> bytes:
 def test_the_sensors_bytes_are_the_hand_packed_ones() -> None:
     payload = sensors_payload()
     assert payload.hex() == HAND_PACKED
+
+
+def test_protocol_md_holds_the_generated_tables() -> None:
+    """PROTOCOL.md's tables are the declaration's; a stale copy is found (`--check` exits 1)."""
+    text = PROTOCOL_MD.read_text(encoding="utf-8")
+    assert with_tables(text) == text, "run: python -m hardware.firmware.wire --write-docs"
+    stale = text.replace("| 4 | status | u8 |", "| 4 | status | u16 |")
+    assert stale != text and with_tables(stale) == text
+    with pytest.raises(ValueError, match="one generated part"):
+        with_tables(text.replace(BEGIN, ""))
+    assert wire.main(["--check"]) == 0
+
+
+def test_the_host_decodes_the_declared_fields() -> None:
+    """protocol.Sensors has the declaration's fields, in order; the struct is the declaration's."""
+    assert tuple(f.name for f in dataclasses.fields(proto.Sensors)) == SENSORS.names
+    assert proto.PAYLOAD_BYTES[proto.Msg.SENSORS] == SENSORS.size == 70
+    decoded = proto.parse(proto.Message(proto.Msg.SENSORS, bytes.fromhex(HAND_PACKED)))
+    assert isinstance(decoded, proto.Sensors)
+    assert (decoded.frame, decoded.laws, decoded.support) == (12, 0x0F, 0)
+    assert decoded.adc == (500, 610, 420, 380, 30, 0, 12, 5)
+    assert decoded.cop_rad[1] < 0 < decoded.cop_rad[0]
+
+
+def test_the_c_header_gives_each_field_its_offset_and_checks_its_source() -> None:
+    header = c_wire_header()
+    header.encode("ascii")  # the build writes it as ASCII
+    assert "#define ARTRO_WIRE_SENSORS_BYTES 70u" in header
+    assert "#define ARTRO_WIRE_SENSORS_COP_RAD               62u /* 2 x f32 */" in header
+    assert '_Static_assert(sizeof(g_sensor_raw.adc) == 16, "' in header
+    assert "static inline void wire_pack_sensors(uint8_t *p)" in header
