@@ -19,17 +19,19 @@ from hardware.firmware.schema import complete_document
 from hardware.firmware.wire import BEGIN, PROTOCOL_MD, SENSORS, c_wire_header, with_tables
 from tests.testing.firmware_support import preset
 
-#: the SENSORS payload of `sensors_payload()` as the hand-written send_sensors() packed it
+#: the SENSORS payload of `walk_replies()` as the hand-written send_sensors() packed it
 #: (recorded at commit 4d6ecab, before the packing was generated)
 HAND_PACKED = (
     "0c00000001000f00c50097ff34007cfcbc02e43e9001d4fe7800f4016202a4017c011e0000000c0005006b97513d"
     "90af453d90ac5e3a4aa6263a2cc9393b4a33973b0bb57fba"
 )
+#: the TELEMETRY payload after it, as the hand-written send_telemetry() packed it
+HAND_PACKED_TELEMETRY = "0e000000312b8abea80b530bcb0bab0ba10b950c820b3b0d900da107bd0db70900000000"
 
 
-def sensors_payload() -> bytes:
-    """The payload of the SENSORS the firmware sends at frame 12 of a walk with every law on,
-    leaning and loaded on one foot (every field nonzero)."""
+def walk_replies() -> dict[int, bytes]:
+    """{type: payload} of the SENSORS and TELEMETRY the firmware sends at frame 12 of a walk
+    with every law on, leaning and loaded on one foot (every field nonzero)."""
     doc = complete_document(preset("tuned", a_p=0.05, a_y=0.05))
     for law in LAW_GROUPS:
         doc["gait"][law]["enabled"] = True
@@ -41,16 +43,19 @@ def sensors_payload() -> bytes:
         mcu.set_sensors(sample_of(raw))
         mcu.run_to_frame(12)
         mcu.take_uart()
-        mcu.send(proto.command(proto.Msg.GET_SENSORS))
-        mcu.run_to_frame(14)
-        _, data = mcu.take_uart()
-    (message,) = [m for m in proto.Decoder().feed(data) if m.type == proto.Msg.SENSORS]
-    return message.payload
+        replies = {}
+        for request, until in ((proto.Msg.GET_SENSORS, 14), (proto.Msg.GET_TELEMETRY, 16)):
+            mcu.send(proto.command(request))
+            mcu.run_to_frame(until)
+            _, data = mcu.take_uart()
+            replies.update({m.type: m.payload for m in proto.Decoder().feed(data)})
+    return replies
 
 
-def test_the_sensors_bytes_are_the_hand_packed_ones() -> None:
-    payload = sensors_payload()
-    assert payload.hex() == HAND_PACKED
+def test_the_payload_bytes_are_the_hand_packed_ones() -> None:
+    replies = walk_replies()
+    assert replies[proto.Msg.SENSORS].hex() == HAND_PACKED
+    assert replies[proto.Msg.TELEMETRY].hex() == HAND_PACKED_TELEMETRY
 
 
 def test_protocol_md_holds_the_generated_tables() -> None:
