@@ -13,6 +13,7 @@ from enum import IntEnum
 
 from gait.params import LAW_GROUPS
 from hardware.firmware.wire import SENSORS as SENSORS_LAYOUT
+from hardware.firmware.wire import TELEMETRY as TELEMETRY_LAYOUT
 
 SYNC = 0xA5
 MAX_LEN = 200  # TYPE + PAYLOAD
@@ -159,6 +160,8 @@ class Info:
 
 @dataclass(frozen=True)
 class Telemetry:
+    """The plan sent last (PROTOCOL.md); fields: hardware/firmware/wire.py's TELEMETRY layout."""
+
     frame: int
     phase_rad: float
     ocr: tuple[int, ...]  # per servo
@@ -214,7 +217,8 @@ def _sensors(p: bytes) -> Sensors:
 Reply = Ack | Nak | Info | Telemetry | Angles | Params | Sensors | Message
 
 #: payload bytes of each reply of a fixed size (PROTOCOL.md); PARAMS: 2 + 4 x count
-PAYLOAD_BYTES = {Msg.ACK: 5, Msg.NAK: 3, Msg.INFO: 11, Msg.PARAM: 5, Msg.TELEMETRY: 36,
+PAYLOAD_BYTES = {Msg.ACK: 5, Msg.NAK: 3, Msg.INFO: 11, Msg.PARAM: 5,
+                 Msg.TELEMETRY: TELEMETRY_LAYOUT.size,
                  Msg.ANGLES: 52, Msg.SENSORS: SENSORS_LAYOUT.size}  # fmt: skip
 
 
@@ -263,10 +267,8 @@ def parse(message: Message) -> Reply:
         version, count, schema, frame, state = struct.unpack("<BBIIB", p)
         return Info(version, count, schema, frame, _state("INFO", state))
     if t == Msg.TELEMETRY:
-        frame, phase = struct.unpack_from("<If", p)
-        ocr = struct.unpack_from("<12H", p, 8)
-        saturated, flags, state = struct.unpack_from("<HBB", p, 32)
-        return Telemetry(frame, phase, ocr, saturated, flags, _state("TELEMETRY", state))
+        fields = TELEMETRY_LAYOUT.unpack(p)
+        return Telemetry(**{**fields, "state": _state("TELEMETRY", fields["state"])})
     if t == Msg.ANGLES:
         frame = struct.unpack_from("<I", p)[0]
         return Angles(frame, struct.unpack_from("<12f", p, 4))

@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 WIRE_HEADER_NAME = "artro_wire.h"
-_LVALUE = re.compile(r"[A-Za-z_]\w*(\.[A-Za-z_]\w*)*")
+_LVALUE = re.compile(r"[A-Za-z_]\w*((\.|->)[A-Za-z_]\w*)*")
 PROTOCOL_MD = Path(__file__).resolve().parent / "PROTOCOL.md"
 #: C type: (struct code, bytes, PROTOCOL.md's name)
 C_TYPES = {
@@ -66,6 +66,7 @@ class Layout:
     type_code: int
     fields: tuple[Field, ...]
     includes: tuple[str, ...] = ()  # the firmware headers its sources need
+    params: str = ""  # what `wire_pack_<name>` takes after `p`, when sources are a sender's locals
 
     @property
     def size(self) -> int:
@@ -135,8 +136,26 @@ SENSORS = Layout(
 )
 # fmt: on
 
+# fmt: off
+TELEMETRY = Layout(
+    "TELEMETRY",
+    0x86,
+    (
+        Field("frame", "uint32_t", 1, "the frame of the plan sent last", "plan->frame"),
+        Field("phase_rad", "float", 1, "the walking clock's phase φ_Trunk (rad)", "phase"),
+        Field("ocr", "uint16_t", 12, "OCR of each servo's pulse, in the gait's joint order",
+              "plan->servo_ocr"),
+        Field("saturated", "uint16_t", 1, "bit i: servo i clipped", "plan->saturated"),
+        Field("flags", "uint8_t", 1, "flags: the TELEMETRY flags below", "flags"),
+        Field("state", "uint8_t", 1, "state: the states below", "plan->state"),
+    ),
+    includes=("plan.h",),
+    params="const plan_t *plan, float phase, uint8_t flags",
+)
+# fmt: on
+
 #: the declared layouts, in PROTOCOL.md's order
-LAYOUTS: tuple[Layout, ...] = (SENSORS,)
+LAYOUTS: tuple[Layout, ...] = (TELEMETRY, SENSORS)
 
 
 def _c_name(layout: Layout, *parts: str) -> str:
@@ -149,17 +168,18 @@ def _c_layout(layout: Layout) -> list[str]:
     lines.append(f"#define {_c_name(layout, 'BYTES')} {layout.size}u")
     for f, at in zip(layout.fields, layout.offsets(), strict=True):
         lines.append(f"#define {_c_name(layout, f.name):<40} {at}u /* {f.wire_type('x')} */")
+    params = f", {layout.params}" if layout.params else ""
+    lines += [
+        f"/* the payload of {layout.name} from the firmware's state, into p[{layout.size}] */",
+        f"static inline void wire_pack_{lower}(uint8_t *p{params})",
+        "{",
+    ]
     for f in layout.fields:
         if f.is_lvalue:
             lines.append(
-                f'_Static_assert(sizeof({f.source}) == {f.size}, "{f.source} is not {layout.name}'
-                f"'s {f.wire_type('x')} {f.name} (hardware/firmware/wire.py)\");"
+                f'    _Static_assert(sizeof({f.source}) == {f.size}, "{f.source} is not '
+                f"{layout.name}'s {f.wire_type('x')} {f.name} (hardware/firmware/wire.py)\");"
             )
-    lines += [
-        f"/* the payload of {layout.name} from the firmware's state, into p[{layout.size}] */",
-        f"static inline void wire_pack_{lower}(uint8_t *p)",
-        "{",
-    ]
     for f in layout.fields:
         at = _c_name(layout, f.name)
         if f.count > 1:

@@ -16,7 +16,14 @@ from app.firmware.sensor_feed import RawSample, at_rest, sample_of
 from gait.params import LAW_GROUPS
 from hardware.firmware import wire
 from hardware.firmware.schema import complete_document
-from hardware.firmware.wire import BEGIN, PROTOCOL_MD, SENSORS, c_wire_header, with_tables
+from hardware.firmware.wire import (
+    BEGIN,
+    PROTOCOL_MD,
+    SENSORS,
+    TELEMETRY,
+    c_wire_header,
+    with_tables,
+)
 from tests.testing.firmware_support import preset
 
 #: the SENSORS payload of `walk_replies()` as the hand-written send_sensors() packed it
@@ -72,6 +79,13 @@ def test_protocol_md_holds_the_generated_tables() -> None:
 def test_the_host_decodes_the_declared_fields() -> None:
     """protocol.Sensors has the declaration's fields, in order; the struct is the declaration's."""
     assert tuple(f.name for f in dataclasses.fields(proto.Sensors)) == SENSORS.names
+    assert tuple(f.name for f in dataclasses.fields(proto.Telemetry)) == TELEMETRY.names
+    assert proto.PAYLOAD_BYTES[proto.Msg.TELEMETRY] == TELEMETRY.size == 36
+    telemetry = proto.parse(
+        proto.Message(proto.Msg.TELEMETRY, bytes.fromhex(HAND_PACKED_TELEMETRY))
+    )
+    assert isinstance(telemetry, proto.Telemetry) and telemetry.state == proto.RunState.WALK
+    assert telemetry.frame == 14 and len(telemetry.ocr) == 12 and 0 < abs(telemetry.phase_rad) < 3.2
     assert proto.PAYLOAD_BYTES[proto.Msg.SENSORS] == SENSORS.size == 70
     decoded = proto.parse(proto.Message(proto.Msg.SENSORS, bytes.fromhex(HAND_PACKED)))
     assert isinstance(decoded, proto.Sensors)
@@ -87,3 +101,7 @@ def test_the_c_header_gives_each_field_its_offset_and_checks_its_source() -> Non
     assert "#define ARTRO_WIRE_SENSORS_COP_RAD               62u /* 2 x f32 */" in header
     assert '_Static_assert(sizeof(g_sensor_raw.adc) == 16, "' in header
     assert "static inline void wire_pack_sensors(uint8_t *p)" in header
+    assert (
+        "wire_pack_telemetry(uint8_t *p, const plan_t *plan, float phase, uint8_t flags)" in header
+    )
+    assert "_Static_assert(sizeof(plan->servo_ocr) == 24, " in header

@@ -72,9 +72,10 @@ static void send_info(void)
     send(MSG_INFO, p, sizeof p);
 }
 
+/* TELEMETRY: its layout is declared in hardware/firmware/wire.py, as SENSORS's below */
 static void send_telemetry(void)
 {
-    uint8_t p[36];
+    uint8_t p[ARTRO_WIRE_TELEMETRY_BYTES];
     const plan_t *plan = control_current_plan();
     float phase = gait_phase_rad(plan->phase_acc);
     uint8_t flags = s_sticky;
@@ -90,12 +91,7 @@ static void send_telemetry(void)
         flags |= TELEM_SATURATED;
     if (plan->flags & PLAN_GAMMA_CLAMPED)
         flags |= TELEM_GAMMA_CLAMPED;
-    memcpy(&p[0], &plan->frame, 4);
-    memcpy(&p[4], &phase, 4);
-    memcpy(&p[8], plan->servo_ocr, 24);
-    memcpy(&p[32], &plan->saturated, 2);
-    p[34] = flags;
-    p[35] = plan->state;
+    wire_pack_telemetry(p, plan, phase, flags);
     s_sticky = 0;
     send(MSG_TELEMETRY, p, sizeof p);
 }
