@@ -198,7 +198,7 @@ class Sensors:
     frame: int  # the frame the laws corrected
     status: int  # IMU_PRESENT | IMU_STALE | ...
     imu_failures: int  # failed IMU reads since boot (255: at least)
-    laws: int  # bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP
+    laws: int  # bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP, 4 step timing (LAW_BITS)
     support: int  # 0 left, 1 right, -1 neither
     gyro_offset: tuple[int, ...]  # the boot calibration, counts
     accel_raw: tuple[int, int, int]  # counts, the part's axes

@@ -100,7 +100,7 @@ class Layout:
 
 _LAW_SWITCHES = (
     "(SWITCH(TILT_ENABLED) | SWITCH(YAW_RATE_ENABLED) << 1 | SWITCH(DAMPING_ENABLED) << 2"
-    " | SWITCH(COP_ENABLED) << 3)"
+    " | SWITCH(COP_ENABLED) << 3 | SWITCH(TIMING_ENABLED) << 4)"
 )
 
 # fmt: off
@@ -112,8 +112,8 @@ SENSORS = Layout(
         Field("status", "uint8_t", 1, "status: the SENSORS status bits below", "g_sensor_status"),
         Field("imu_failures", "uint8_t", 1, "IMU failures since boot, 255 at most",
               "g_imu_failures"),
-        Field("laws", "uint8_t", 1, "laws on: bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP",
-              _LAW_SWITCHES),
+        Field("laws", "uint8_t", 1,
+              "laws on: bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP, 4 step timing", _LAW_SWITCHES),
         Field("support", "int8_t", 1, "support foot: 0 left, 1 right, −1 none",
               "g_law_output.support"),
         Field("gyro_offset", "int16_t", 3, "gyro offsets x, y, z (the boot calibration, counts)",

@@ -61,7 +61,12 @@ def walk_replies() -> dict[int, bytes]:
 
 def test_the_payload_bytes_are_the_hand_packed_ones() -> None:
     replies = walk_replies()
-    assert replies[proto.Msg.SENSORS].hex() == HAND_PACKED
+    sent = replies[proto.Msg.SENSORS]
+    # the one change since: the laws byte (offset 6) sets bit 4, step timing, as PROTOCOL.md said
+    hand = bytearray.fromhex(HAND_PACKED)
+    assert hand[SENSORS.offsets()[SENSORS.names.index("laws")]] == 0x0F
+    hand[6] |= 0x10
+    assert sent == bytes(hand)
     assert replies[proto.Msg.TELEMETRY].hex() == HAND_PACKED_TELEMETRY
 
 
@@ -90,6 +95,7 @@ def test_the_host_decodes_the_declared_fields() -> None:
     decoded = proto.parse(proto.Message(proto.Msg.SENSORS, bytes.fromhex(HAND_PACKED)))
     assert isinstance(decoded, proto.Sensors)
     assert (decoded.frame, decoded.laws, decoded.support) == (12, 0x0F, 0)
+    assert [law for law, bit in proto.LAW_BITS.items() if 0x1F & bit] == list(LAW_GROUPS)
     assert decoded.adc == (500, 610, 420, 380, 30, 0, 12, 5)
     assert decoded.cop_rad[1] < 0 < decoded.cop_rad[0]
 
