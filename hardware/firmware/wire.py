@@ -181,14 +181,14 @@ def _c_layout(layout: Layout) -> list[str]:
                 f"{layout.name}'s {f.wire_type('x')} {f.name} (hardware/firmware/wire.py)\");"
             )
     for f in layout.fields:
-        at = _c_name(layout, f.name)
+        offset = _c_name(layout, f.name)
         if f.count > 1:
-            lines.append(f"    memcpy(&p[{at}], {f.source}, {f.size});")
+            lines.append(f"    memcpy(&p[{offset}], {f.source}, {f.size});")
         elif f.size == 1:
-            lines.append(f"    p[{at}] = (uint8_t)({f.source});")
+            lines.append(f"    p[{offset}] = (uint8_t)({f.source});")
         else:
             lines.append(f"    {{ const {f.ctype} v = ({f.ctype})({f.source});")
-            lines.append(f"      memcpy(&p[{at}], &v, {f.size}); }}")
+            lines.append(f"      memcpy(&p[{offset}], &v, {f.size}); }}")
     return [*lines, "}"]
 
 
