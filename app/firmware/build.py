@@ -1,4 +1,4 @@
-"""Building the ArtRo firmware (avr-gcc, its two generated headers for a parameter set) and the
+"""Building the ArtRo firmware (avr-gcc, its generated headers for a parameter set) and the
 simavr harness library (cc), each cached by a hash of its inputs (docs/DESIGN.md §5)."""
 
 from __future__ import annotations
@@ -30,6 +30,7 @@ from hardware.firmware.schema import (
     c_schema_header,
     complete_document,
 )
+from hardware.firmware.wire import WIRE_HEADER_NAME, c_wire_header
 
 FIRMWARE_DIR = Path(firmware_package.__file__).resolve().parent
 SOURCE_DIR = FIRMWARE_DIR / "src"
@@ -111,9 +112,9 @@ def generated_headers(
     geometry: LegGeometry = ARTRO_LEG,
     fsr_positions_m: Sequence[Sequence[float]] = ARTRO_FSR_POSITIONS_M,
 ) -> dict[str, str]:
-    """{file name: text} of the two generated headers for a parameter-set document (fields left
-    out take the schema's defaults) on a robot's legs and sole force sensors; ValueError if it
-    names an engine the firmware does not run."""
+    """{file name: text} of the generated headers (parameters, schema, wire layouts) for a
+    parameter-set document (fields left out take the schema's defaults) on a robot's legs and
+    sole force sensors; ValueError if it names an engine the firmware does not run."""
     tdm = tdm or TdmConfig()
     full = complete_document(doc)  # a define for every id of artro_schema.h
     if full["gait"]["engine"] != FIRMWARE_ENGINE:
@@ -127,7 +128,8 @@ def generated_headers(
         channel_map=tdm.channel_map or ChannelMap.default(),
         select_change_ticks=tdm.select_change_ticks,
     )
-    return {HEADER_NAME: params_h, SCHEMA_HEADER_NAME: c_schema_header(geometry, fsr_positions_m)}
+    schema_h = c_schema_header(geometry, fsr_positions_m)
+    return {HEADER_NAME: params_h, SCHEMA_HEADER_NAME: schema_h, WIRE_HEADER_NAME: c_wire_header()}
 
 
 def source_files() -> dict[str, bytes]:

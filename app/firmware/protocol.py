@@ -12,6 +12,8 @@ from dataclasses import dataclass
 from enum import IntEnum
 
 from gait.params import LAW_GROUPS
+from hardware.firmware.wire import SENSORS as SENSORS_LAYOUT
+from hardware.firmware.wire import TELEMETRY as TELEMETRY_LAYOUT
 
 SYNC = 0xA5
 MAX_LEN = 200  # TYPE + PAYLOAD
@@ -158,6 +160,8 @@ class Info:
 
 @dataclass(frozen=True)
 class Telemetry:
+    """The plan sent last (PROTOCOL.md); fields: hardware/firmware/wire.py's TELEMETRY layout."""
+
     frame: int
     phase_rad: float
     ocr: tuple[int, ...]  # per servo
@@ -184,17 +188,17 @@ IMU_PRESENT, IMU_STALE, IMU_NACK, IMU_SHORT, FSR_STALE = 0x01, 0x02, 0x04, 0x08,
 STATUS_BITS = {"imu_present": IMU_PRESENT, "imu_stale": IMU_STALE, "imu_nack": IMU_NACK,
                "imu_short": IMU_SHORT, "fsr_stale": FSR_STALE}  # fmt: skip
 LAW_BITS = {law: 1 << i for i, law in enumerate(LAW_GROUPS)}
-_SENSORS = struct.Struct("<IBBBb3h3h3h8H2f2ff2f")
 
 
 @dataclass(frozen=True)
 class Sensors:
-    """The balance sensors and laws of the frame the firmware planned last (PROTOCOL.md)."""
+    """The balance sensors and laws of the frame the firmware planned last (PROTOCOL.md); its
+    fields are those of hardware/firmware/wire.py's SENSORS layout, by name and in order."""
 
     frame: int  # the frame the laws corrected
     status: int  # IMU_PRESENT | IMU_STALE | ...
     imu_failures: int  # failed IMU reads since boot (255: at least)
-    laws: int  # bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP
+    laws: int  # bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP, 4 step timing (LAW_BITS)
     support: int  # 0 left, 1 right, -1 neither
     gyro_offset: tuple[int, ...]  # the boot calibration, counts
     accel_raw: tuple[int, int, int]  # counts, the part's axes
@@ -207,19 +211,15 @@ class Sensors:
 
 
 def _sensors(p: bytes) -> Sensors:
-    v = _SENSORS.unpack(p)
-    return Sensors(
-        frame=v[0], status=v[1], imu_failures=v[2], laws=v[3], support=v[4],
-        gyro_offset=v[5:8], accel_raw=v[8:11], gyro_raw=v[11:14], adc=v[14:22],
-        attitude_rad=v[22:24], tilt_rad=v[24:26], a_y_delta=v[26], cop_rad=v[27:29],
-    )  # fmt: skip
+    return Sensors(**SENSORS_LAYOUT.unpack(p))
 
 
 Reply = Ack | Nak | Info | Telemetry | Angles | Params | Sensors | Message
 
 #: payload bytes of each reply of a fixed size (PROTOCOL.md); PARAMS: 2 + 4 x count
-PAYLOAD_BYTES = {Msg.ACK: 5, Msg.NAK: 3, Msg.INFO: 11, Msg.PARAM: 5, Msg.TELEMETRY: 36,
-                 Msg.ANGLES: 52, Msg.SENSORS: _SENSORS.size}  # fmt: skip
+PAYLOAD_BYTES = {Msg.ACK: 5, Msg.NAK: 3, Msg.INFO: 11, Msg.PARAM: 5,
+                 Msg.TELEMETRY: TELEMETRY_LAYOUT.size,
+                 Msg.ANGLES: 52, Msg.SENSORS: SENSORS_LAYOUT.size}  # fmt: skip
 
 
 def type_name(msg_type: int) -> str:
@@ -267,10 +267,8 @@ def parse(message: Message) -> Reply:
         version, count, schema, frame, state = struct.unpack("<BBIIB", p)
         return Info(version, count, schema, frame, _state("INFO", state))
     if t == Msg.TELEMETRY:
-        frame, phase = struct.unpack_from("<If", p)
-        ocr = struct.unpack_from("<12H", p, 8)
-        saturated, flags, state = struct.unpack_from("<HBB", p, 32)
-        return Telemetry(frame, phase, ocr, saturated, flags, _state("TELEMETRY", state))
+        fields = TELEMETRY_LAYOUT.unpack(p)
+        return Telemetry(**{**fields, "state": _state("TELEMETRY", fields["state"])})
     if t == Msg.ANGLES:
         frame = struct.unpack_from("<I", p)[0]
         return Angles(frame, struct.unpack_from("<12f", p, 4))

@@ -7,6 +7,7 @@
 #include <util/crc16.h>
 
 #include "artro_schema.h"
+#include "artro_wire.h"
 #include "config.h"
 #include "control.h"
 #include "laws.h"
@@ -71,9 +72,10 @@ static void send_info(void)
     send(MSG_INFO, p, sizeof p);
 }
 
+/* TELEMETRY: its layout is declared in hardware/firmware/wire.py, as SENSORS's below */
 static void send_telemetry(void)
 {
-    uint8_t p[36];
+    uint8_t p[ARTRO_WIRE_TELEMETRY_BYTES];
     const plan_t *plan = control_current_plan();
     float phase = gait_phase_rad(plan->phase_acc);
     uint8_t flags = s_sticky;
@@ -89,12 +91,7 @@ static void send_telemetry(void)
         flags |= TELEM_SATURATED;
     if (plan->flags & PLAN_GAMMA_CLAMPED)
         flags |= TELEM_GAMMA_CLAMPED;
-    memcpy(&p[0], &plan->frame, 4);
-    memcpy(&p[4], &phase, 4);
-    memcpy(&p[8], plan->servo_ocr, 24);
-    memcpy(&p[32], &plan->saturated, 2);
-    p[34] = flags;
-    p[35] = plan->state;
+    wire_pack_telemetry(p, plan, phase, flags);
     s_sticky = 0;
     send(MSG_TELEMETRY, p, sizeof p);
 }
@@ -117,28 +114,12 @@ static void send_params(uint8_t first, uint8_t count)
     send(MSG_PARAMS, p, (uint8_t)(2u + 4u * count));
 }
 
-/* SENSORS: frame u32 (the frame the laws corrected), status u8, IMU failures u8, laws on u8
- * (bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP), support i8, gyro offsets 3 x i16, accel 3 x i16,
- * gyro 3 x i16 (raw counts), ADC 8 x u16, attitude (pitch, roll) 2 x f32, tilt trim 2 x f32,
- * a_y change f32, CoP correction 2 x f32 */
+/* SENSORS: its layout and where each field comes from are declared in hardware/firmware/wire.py,
+ * which generates artro_wire.h (PROTOCOL.md's table too) */
 static void send_sensors(void)
 {
-    uint8_t p[70];
-    const law_output_t *out = &g_law_output;
-    p[4] = g_sensor_status;
-    p[5] = g_imu_failures;
-    p[6] = (uint8_t)(SWITCH(TILT_ENABLED) | SWITCH(YAW_RATE_ENABLED) << 1
-                     | SWITCH(DAMPING_ENABLED) << 2 | SWITCH(COP_ENABLED) << 3);
-    p[7] = (uint8_t)out->support;
-    memcpy(&p[0], &g_law_frame, 4);
-    memcpy(&p[8], g_gyro_offset, 6);
-    memcpy(&p[14], g_sensor_raw.accel, 6);
-    memcpy(&p[20], g_sensor_raw.gyro, 6);
-    memcpy(&p[26], g_sensor_raw.adc, 16);
-    memcpy(&p[42], out->attitude, 8);
-    memcpy(&p[50], out->tilt, 8);
-    memcpy(&p[58], &out->a_y_delta, 4);
-    memcpy(&p[62], out->cop, 8);
+    uint8_t p[ARTRO_WIRE_SENSORS_BYTES];
+    wire_pack_sensors(p);
     send(MSG_SENSORS, p, sizeof p);
 }
 
