@@ -205,11 +205,11 @@ def search(
                popsize=args.popsize, budget=args.generations * args.popsize,
                runs=len(tuner.runs), duration_s=args.duration)  # fmt: skip
         if local is not None:
-            tuner.run(args.generations, store, events=events)
+            tuner.run(args.generations, store, sys.stderr, events=events)
         else:
             tuner.evaluator = evaluator_for(robot, **cluster_of(args))
             try:
-                tuner.run(args.generations, store, events=events)
+                tuner.run(args.generations, store, sys.stderr, events=events)
             finally:
                 close_evaluator(tuner.evaluator)
     chosen, selected = tuner.best, args.select

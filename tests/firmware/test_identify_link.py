@@ -1,6 +1,7 @@
-"""`artro link --script identify --record` against the emulated firmware on its pty
-(docs/FIT.md): the routine is played segment by segment at the frames the robot's ACKs name,
-every frame's SENSORS recorded, and the file reads back as a whole recording of the robot."""
+"""`artro link --script identify --record` against the emulated firmware on its pty, paced to
+wall time as the robot runs (docs/FIT.md): the routine is played segment by segment at the
+frames the robot's ACKs name, its SENSORS recorded, and the file reads back as a recording of
+the robot."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ def recorded(tmp_path_factory):
     out = tmp_path_factory.mktemp("link") / "rec.json"
     with (
         emulator(preset("paper"), sensors=sample_of(tilted())) as mcu,
-        served_on_a_pty(mcu) as port,
+        served_on_a_pty(mcu, realtime=True) as port,  # the host paced as on the robot
     ):
         status = main(["link", "--port", port, "--script", "identify", "--record", str(out),
                        "--params", "robust"])  # fmt: skip

@@ -36,10 +36,11 @@ def frames_for_cycles(doc: dict[str, Any], cycles: float) -> int:
 
 
 @contextlib.contextmanager
-def served_on_a_pty(mcu: Mcu) -> Iterator[str]:
-    """`mcu`'s UART on a pseudo-terminal (as fast as it runs) until the block ends: its path."""
+def served_on_a_pty(mcu: Mcu, *, realtime: bool = False) -> Iterator[str]:
+    """`mcu`'s UART on a pseudo-terminal (as fast as it runs, or paced to wall time as the
+    robot runs) until the block ends: its path."""
     stop = threading.Event()
-    bridge = PtyBridge(mcu, realtime=False)
+    bridge = PtyBridge(mcu, realtime=realtime)
     thread = threading.Thread(target=bridge.serve, args=(stop, 600.0), daemon=True)
     thread.start()
     try:
