@@ -1,5 +1,5 @@
 // The servo bus of `artro serve --servo-bus pty` (docs/BUS.md), in the status bar from GET
-// /api/bus (polled at 1 Hz; a server without a bus answers 404 once and is asked no more): its
+// /api/bus (polled at 1 Hz, only where GET /api/state says `servo_bus`): its
 // port, and while a program's goal writes drive the robot "driven by the bus" with the packet
 // rate, errors (malformed packets) and the goals' latency to the frame that took them.
 
@@ -8,7 +8,9 @@ import { $, fmt } from "./util.js";
 
 const PROTOCOL = { dynamixel: "Dynamixel 2.0", feetech: "Feetech STS" };
 
-export function initBusStatus() {
+export async function initBusStatus() {
+  const state = await api.get("/api/state");
+  if (!state.servo_bus) return; // no bus on this server: nothing to ask
   const stop = poll(async () => {
     let bus;
     try {

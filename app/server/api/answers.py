@@ -100,6 +100,7 @@ class State(Answer):
     replay: ReplayStatus
     tune: TuneRef | None
     robustness_report: bool
+    servo_bus: bool = Field(description="the server runs a servo bus (GET /api/bus)")
 
 
 # --- the world (api/world.py) ----------------------------------------------------------------

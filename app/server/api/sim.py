@@ -67,8 +67,8 @@ def health(services: ServicesDep) -> dict[str, Any]:
 def state(services: ServicesDep) -> dict[str, Any]:
     """Sim time, real-time factor, fell, trunk pose, parameter version and more; `tune` is
     the latest tune job's id and status (null: none ran) and `robustness_report` whether a
-    report of the gait in use is kept (`GET /api/world/robustness`), so a page asks for
-    neither when there is none."""
+    report of the gait in use is kept (`GET /api/world/robustness`) and `servo_bus` whether the
+    server runs a bus (`GET /api/bus`), so a page asks for none of them when there is none."""
     snap, tune, scope = services.snapshot(), services.tuner.latest, services.scope
     return services.sim_status().to_dict() | {
         "params_version": snap.version,
@@ -77,6 +77,7 @@ def state(services: ServicesDep) -> dict[str, Any]:
         "replay": services.replay_status(),
         "tune": None if tune is None else {"id": tune.id, "status": tune.status},
         "robustness_report": services.robustness.last_report(snap) is not None,
+        "servo_bus": services.bus_port is not None,
     }
 
 
