@@ -78,7 +78,8 @@ def test_a_small_fit_runs_to_done_and_its_fit_becomes_the_world(tmp_path, record
         assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
         assert http.get("/api/fit").json()["id"] == job_id
         # the fit set as the world: the World panel says whose fit it is
-        assert http.get("/api/world").json()["fitted"] is None
+        # the simulation thread takes the world at its next frame: the GET waits for it
+        wait_for(lambda: http.get("/api/world").json()["fitted"] is None, "the fit no longer said")
         put = http.put("/api/world", json={"variation": result["variation"]})
         assert put.status_code == 200 and put.json()["variation"] == result["world"]
         world = wait_for(
@@ -126,4 +127,5 @@ def test_a_fitted_robot_served_walks_its_fit_and_the_world_says_so(tmp_path):
         assert world["values"]["gyro_bias_deg_s"] == pytest.approx(0.4)
         assert world["fitted"] == "rec.json"
         assert http.delete("/api/world").status_code == 200  # Nominal: the nominal values
-        assert http.get("/api/world").json()["fitted"] is None
+        # the simulation thread takes the world at its next frame: the GET waits for it
+        wait_for(lambda: http.get("/api/world").json()["fitted"] is None, "the fit no longer said")

@@ -21,8 +21,14 @@ from app.analysis import identify_record
 from app.robots import builtin_robot_names
 from app.robots.library import description_json
 from app.robots.model import RobotModel
+from app.server.jobs.child_process import (
+    LOG_LINES,
+    STOP_WAIT_S,
+    child_threads,
+    next_line,
+    pump_lines,
+)
 from app.server.jobs.registry import Job, Jobs, Progress
-from app.server.jobs.tune_job import LOG_LINES, STOP_WAIT_S, _next, _pump, child_threads
 from app.worlds.variations import NOMINAL, parse_variation
 
 KIND = "fit"
@@ -106,12 +112,12 @@ class FitRunner:
         detail["pid"] = child.pid
         job.detail = dict(detail)
         lines: queue.Queue[str | None] = queue.Queue()
-        threading.Thread(target=_pump, args=(child, lines), name=f"artro-{job.id}-out",
+        threading.Thread(target=pump_lines, args=(child, lines), name=f"artro-{job.id}-out",
                          daemon=True).start()  # fmt: skip
         log: deque[str] = deque(maxlen=LOG_LINES)
         result: dict[str, Any] | None = None
         try:
-            while (line := _next(lines, progress)) is not None:
+            while (line := next_line(lines, progress)) is not None:
                 if line.startswith("{"):
                     result = json.loads(line)
                 elif seen := PROGRESS.search(line):

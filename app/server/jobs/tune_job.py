@@ -34,13 +34,18 @@ from app.params.presets import PresetStore, builtin_presets, check_name
 from app.robots import builtin_robot_names
 from app.robots.library import description_json
 from app.robots.model import RobotModel
+from app.server.jobs.child_process import (
+    LOG_LINES,
+    STOP_WAIT_S,
+    child_threads,
+    next_line,
+    pump_lines,
+)
 from app.server.jobs.registry import Job, Jobs, Progress, StaleVersion, on_robot
 from app.server.param_store import ParameterStore, Snapshot
 from gait.params import describe_fields, group_class
 
 KIND = "tune"
-STOP_WAIT_S = 5.0  # a child asked to stop (SIGTERM) is killed after this long
-LOG_LINES = 12  # of the child's other output, kept for the message of a failure
 
 
 class WrongRobot(ValueError):
@@ -73,11 +78,6 @@ class TuneBudget:
                 f"{self.warmup_s:g} at {slowest:g} Hz, the slowest clock the tune may try (it "
                 f"tunes clock.freq_hz): allowed: duration_s of at least {need:g}"
             )
-
-
-def child_threads() -> int:
-    """The tune's simulation threads: every core but one, which the live simulation keeps."""
-    return max(1, (os.cpu_count() or 2) - 1)
 
 
 class TuneRunner:
@@ -159,12 +159,12 @@ class TuneRunner:
         job.detail = dict(detail)
         lines: queue.Queue[str | None] = queue.Queue()
         threading.Thread(
-            target=_pump, args=(child, lines), name=f"artro-{job.id}-out", daemon=True
+            target=pump_lines, args=(child, lines), name=f"artro-{job.id}-out", daemon=True
         ).start()
         log: deque[str] = deque(maxlen=LOG_LINES)
         result: dict[str, Any] | None = None
         try:
-            while (line := _next(lines, progress)) is not None:
+            while (line := next_line(lines, progress)) is not None:
                 event = read_event(line)
                 if event is None:
                     if line.strip():
@@ -225,27 +225,6 @@ def _same_gait(start: Snapshot, robot: str) -> Callable[[Snapshot], None]:
             )
 
     return check
-
-
-def _pump(child: subprocess.Popen[str], lines: queue.Queue[str | None]) -> None:
-    """The child's output, line by line, then None."""
-    assert child.stdout is not None
-    try:
-        for line in child.stdout:
-            lines.put(line)
-    finally:
-        lines.put(None)
-
-
-def _next(lines: queue.Queue[str | None], progress: Progress) -> str | None:
-    """The next line of the child's output (None at its end); meanwhile, at least every 0.2 s,
-    `progress()`, which raises JobCancelled once the job is cancelled."""
-    while True:
-        progress(None)
-        try:
-            return lines.get(timeout=0.2)
-        except queue.Empty:
-            continue
 
 
 def _follow(detail: dict[str, Any], event: dict[str, Any], generations: int) -> float | None:
