@@ -6,16 +6,20 @@ field (within the goals' tolerances, for the fields the fit calls identified); t
 and the nominal model predict the hidden robot's speeds on walks not in the routine (the
 paper's forward a_p 0.07, sideways a_r 0.1, turning a_y 0.2). Seconds per fit are reported.
 
-    python bench/bench_fit.py [--robots 10] [--budget 160] [--workers 2] [--seed 1]
+    python bench/bench_fit.py [--robots 10] [--budget 160] [--workers 2] [--seed 1] [--resume]
 
-Writes its JSON document into bench/results/ (or --json PATH).
+Writes its JSON document into bench/results/ (or --json PATH) after every robot, so a run
+stopped early keeps what it measured; --resume goes on from that document's robots (the same
+budget, workers and seed: the robots are drawn from the seed).
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import time
+from pathlib import Path
 from typing import Any
 
 import results
@@ -66,12 +70,19 @@ def main() -> None:
     parser.add_argument("--budget", type=int, default=160, help="replays a fit (default: 160)")
     parser.add_argument("--workers", type=int, default=2, help="processes (default: 2)")
     parser.add_argument("--seed", type=int, default=1, help="the robots' draw (default: 1)")
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="go on from the robots the results document holds (default: start afresh)",
+    )
     args = results.parse_args(parser)
     robot = RobotModel.load()
     gait = preset_gait(robot.description.default_preset)
     dims = {**fit_space.PHYSICS, **fit_space.IMU}
-    cases = []
+    cases = resumed(args) if args.resume else []
     for i, truth in enumerate(hidden_robots(args.robots, args.seed)):
+        if i < len(cases):
+            continue
         traces = play(robot, open_loop(gait), IDENTIFY, truth)
         recording = identify_record.to_recording(
             traces, routine="identify", source="simulation", robot=robot.name,
@@ -97,6 +108,7 @@ def main() -> None:
         fitted = speeds(robot, gait, result.variation)
         nominal = speeds(robot, gait, NOMINAL)
         case = {
+            "robot": i,
             "truth": truth.to_text(),
             "fell_in_routine": traces.fell_frame is not None,
             "converged": result.converged,
@@ -111,6 +123,35 @@ def main() -> None:
             f"{result.converged}; speeds hidden {hidden} fitted {fitted}",
             flush=True,
         )
+        write(args, cases)
+
+
+def predicted(case: dict[str, Any], walk: str) -> bool:
+    """Whether the fitted model predicts the hidden robot's speed on `walk`: within 10 % or
+    0.3 (cm/s or °/s), or both fall."""
+    hidden, fitted = case["speeds"]["hidden"][walk], case["speeds"]["fitted"][walk]
+    if hidden is None or fitted is None:
+        return hidden is None and fitted is None
+    return bool(abs(fitted - hidden) <= max(0.1 * abs(hidden), 0.3))
+
+
+def resumed(args: argparse.Namespace) -> list[dict[str, Any]]:
+    """The robots an earlier run of the same budget, workers and seed measured, in order."""
+    path = Path(args.json) if args.json not in (None, "-") else results.default_path("bench_fit")
+    if not path.exists():
+        return []
+    doc = json.loads(path.read_text(encoding="utf-8"))
+    same = ("budget", "workers", "seed")
+    if any(doc["arguments"].get(k) != getattr(args, k) for k in same):
+        raise SystemExit(f"--resume: {path} was run with other {same}: {doc['arguments']}")
+    cases: list[dict[str, Any]] = doc["figures"]["cases"]
+    print(f"resuming after {len(cases)} robots of {path}", flush=True)
+    return cases
+
+
+def write(args: argparse.Namespace, cases: list[dict[str, Any]]) -> None:
+    """The document of the robots measured so far (written after each one)."""
+    dims = {**fit_space.PHYSICS, **fit_space.IMU}
     per_field = {}
     for k in dims:
         rows = [c["fields"][k] for c in cases if k in c["fields"]]
@@ -121,8 +162,10 @@ def main() -> None:
             "within_of_all": sum(r["within"] for r in rows),
         }
     headline = {
+        "robots_done": len(cases),
         "fit_s_median": sorted(c["seconds"] for c in cases)[len(cases) // 2],
         **{f"{k}_within_of_{len(cases)}": v["within_of_all"] for k, v in per_field.items()},
+        **{f"{w}_predicted_of_{len(cases)}": sum(predicted(c, w) for c in cases) for w in WALKS},
     }
     results.write("bench_fit", args, {"cases": cases, "per_field": per_field}, headline)
 

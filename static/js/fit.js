@@ -11,6 +11,7 @@ const MAX_BYTES = 16 * 1024 * 1024; // the server's cap on a recording (app/serv
 let job = null; // the fit followed, while it runs
 let asking = false;
 let fitted = null; // the last fit done: {variation, world}
+let seen = false; // a state came: a fit started before this page was loaded is followed once
 
 export function initFit() {
   const box = $("fit-box");
@@ -36,7 +37,22 @@ export function initFit() {
   });
   $("fit-cancel").addEventListener("click", cancel);
   $("fit-use").addEventListener("click", useFit);
-  document.addEventListener("artro:state", () => job && follow());
+  document.addEventListener("artro:state", (e) => {
+    if (job) follow();
+    else if (!seen) followStarted(e.detail.fit);
+    seen = true;
+  });
+}
+
+/** The state's latest fit ({id, status} | null): followed if it runs (a page reloaded). */
+async function followStarted(latest) {
+  if (latest?.status !== "running") return;
+  try {
+    running(await api.get(`/api/jobs/${latest.id}`));
+    setMessage($("fit-message"), "fitting a recording sent before this page was loaded…");
+  } catch {
+    // it ended meanwhile and was let go: nothing to follow
+  }
 }
 
 async function start(file) {

@@ -1,6 +1,7 @@
 """ "Fit to a recording" on the World panel in a real headless Chromium (issue 53 item 3): a
 simulated REC.json picked is fitted on the server (progress shown), the fitted fields' table
-and the report's plot appear, and "Use the fitted robot" makes the World say "fitted: ..."."""
+and the report's plot appear, and "Use the fitted robot" makes the World say "fitted: ...";
+a page reloaded meanwhile follows the fit."""
 
 import re
 
@@ -26,6 +27,10 @@ def test_fit_to_a_recording_shows_progress_the_table_and_uses_the_fit(tmp_path, 
         page.set_input_files("#fit-file", str(rec))
         expect(page.locator("#fit-progress-row")).to_be_visible(timeout=30_000)
         expect(page.locator("#fit-status")).to_have_text(re.compile("replaying the routine|% of"))
+        expect(page.locator("#fit-cancel")).to_be_visible()
+        page.reload()  # a page loaded while the fit runs follows it
+        expect(page.locator("#fit-progress-row")).to_be_visible(timeout=30_000)
+        expect(page.locator("#fit-message")).to_contain_text("sent before this page")
         expect(page.locator("#fit-cancel")).to_be_visible()
         rows = page.locator("#fit-table tbody tr")
         expect(rows).to_have_count(3, timeout=FIT_MS)  # the gyro's bias, the IMU's tilt (x, y)

@@ -38,6 +38,7 @@ def test_the_schema_and_a_bad_recording_refused_with_nothing_started(tmp_path, r
         assert schema.status_code == 200
         assert {"format", "robot", "frames", "segments"} <= set(schema.json()["properties"])
         assert http.get("/api/fit").status_code == 404  # none yet
+        assert http.get("/api/state").json()["fit"] is None  # what a page reads first
         cut = _post(http, recording[: len(recording) // 2])
         assert cut.status_code == 422 and "truncated" in cut.json()["message"], cut.text
         other = json.loads(recording) | {"robot": "micro"}
@@ -77,6 +78,7 @@ def test_a_small_fit_runs_to_done_and_its_fit_becomes_the_world(tmp_path, record
         png = http.get(result["traces"])
         assert png.status_code == 200 and png.content[:4] == b"\x89PNG"
         assert http.get("/api/fit").json()["id"] == job_id
+        assert http.get("/api/state").json()["fit"] == {"id": job_id, "status": "done"}
         # the fit set as the world: the World panel says whose fit it is
         # the simulation thread takes the world at its next frame: the GET waits for it
         wait_for(lambda: http.get("/api/world").json()["fitted"] is None, "the fit no longer said")

@@ -67,7 +67,9 @@ class ScopeClients(Answer):
     dropped: int
 
 
-class TuneRef(Answer):
+class JobRef(Answer):
+    """A background job's id and status (GET /api/jobs/{id} has the rest)."""
+
     id: str
     status: str
 
@@ -98,7 +100,8 @@ class State(Answer):
     scope: ScopeClients
     running: bool
     replay: ReplayStatus
-    tune: TuneRef | None
+    tune: JobRef | None
+    fit: JobRef | None = Field(description="the latest fit to a recording (null: none ran)")
     robustness_report: bool
     servo_bus: bool = Field(description="the server runs a servo bus (GET /api/bus)")
 

@@ -65,17 +65,20 @@ def health(services: ServicesDep) -> dict[str, Any]:
 
 @router.get("/api/state", response_model=State, **ANSWER)
 def state(services: ServicesDep) -> dict[str, Any]:
-    """Sim time, real-time factor, fell, trunk pose, parameter version and more; `tune` is
-    the latest tune job's id and status (null: none ran) and `robustness_report` whether a
-    report of the gait in use is kept (`GET /api/world/robustness`) and `servo_bus` whether the
-    server runs a bus (`GET /api/bus`), so a page asks for none of them when there is none."""
-    snap, tune, scope = services.snapshot(), services.tuner.latest, services.scope
+    """Sim time, real-time factor, fell, trunk pose, parameter version and more; `tune` and
+    `fit` are the latest tune's and fit's id and status (null: none ran), `robustness_report`
+    whether a report of the gait in use is kept (`GET /api/world/robustness`) and `servo_bus`
+    whether the server runs a bus (`GET /api/bus`), so a page asks for none of them when there
+    is none, and a reloaded page follows a job that runs."""
+    snap, scope = services.snapshot(), services.scope
+    tune, fit = services.tuner.latest, services.fitter.latest
     return services.sim_status().to_dict() | {
         "params_version": snap.version,
         "scope": {"clients": scope.client_count, "dropped": scope.dropped},
         "running": services.running,
         "replay": services.replay_status(),
         "tune": None if tune is None else {"id": tune.id, "status": tune.status},
+        "fit": None if fit is None else {"id": fit.id, "status": fit.status},
         "robustness_report": services.robustness.last_report(snap) is not None,
         "servo_bus": services.bus_port is not None,
     }
