@@ -132,6 +132,7 @@ class Mcu:
         *,
         fix_mode14: bool = True,
         fix_ocr_high_byte: bool = True,
+        fix_uart_byte_time: bool = True,
         sensors: SensorSample | None = None,
         board: str = DEFAULT_BOARD,
     ) -> None:
@@ -145,6 +146,9 @@ class Mcu:
                 before the firmware runs. False shows the emulator's bug: OCR writes ignored.
             fix_ocr_high_byte: make simavr take a 16-bit OCR write whose low byte is unchanged
                 (it drops it). False shows that bug: some pulses off by multiples of 256 ticks.
+            fix_uart_byte_time: time a UART byte as the chip does (10 bits at 57600 baud).
+                False shows simavr's: U2X0 set after the rate and a parity bit never sent are
+                ignored, and the line carries 45 % of its bytes.
             board: the board the ELF was built for (`build_firmware`'s); the Mega's gets its
                 PCA9685 and the bus monitor (`self.i2c`) before it boots.
         """
@@ -153,6 +157,7 @@ class Mcu:
         self._lib = _library()
         error = ctypes.create_string_buffer(256)
         fixes = (1 if fix_mode14 else 0) | (2 if fix_ocr_high_byte else 0)
+        fixes |= 4 if fix_uart_byte_time else 0
         mcu = BOARD_MCU[board].encode()
         handle = self._lib.artro_mcu_new(str(self.elf).encode(), mcu, fixes, error, 256)
         if not handle:

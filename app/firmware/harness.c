@@ -7,7 +7,7 @@
  * bytes for the firmware are queued and fed following simavr's XON/XOFF flow control (its receive
  * FIFO drops what comes while it is full).
  *
- * Two corrections of simavr's timer model, each can be left out to show what it does:
+ * Three corrections of simavr's timer models, each can be left out to show what it does:
  *  - FIX_MODE14: simavr maps waveform mode 14 of Timer1/Timer3 to phase-correct PWM on this core,
  *    which ignores OCR writes (upstream issue buserror/simavr#579); the table entry is set to
  *    fast PWM with TOP = ICRn.
@@ -15,6 +15,11 @@
  *    once the low byte is written, comparing with the high byte already stored -- so a change of
  *    the high byte alone is lost. On the chip the high byte waits in TEMP and both bytes change
  *    together; the harness makes simavr see such a write as the change it is.
+ *  - FIX_UART_BYTE_TIME: simavr times a UART byte when UBRRnL is written, with the U2Xn bit of
+ *    that moment and always a parity bit. The firmware sets U2X0 after the rate, as the
+ *    datasheet allows, and sends no parity: 57600 baud became 26 182 (11 bits of 32 us), so a
+ *    walk's SENSORS stream lost one frame in three. The byte time is recomputed after every
+ *    write to the UART's rate and control registers, as the chip's baud generator has it.
  *
  * The balance sensors (docs/DESIGN.md §15), attached on request:
  *  - an MPU-6050 on simavr's TWI bus: a register file at address 0x68 that acknowledges its
@@ -50,6 +55,7 @@
 #define NUM_LINES 9
 #define FIX_MODE14 1
 #define FIX_OCR_HIGH_BYTE 2
+#define FIX_UART_BYTE_TIME 4
 #define NUM_OCR 6
 #define PROFILE_PARTS 8 /* marker values 0..7 */
 #define PROFILE_ISR 8
@@ -202,6 +208,53 @@ static void on_xoff(struct avr_irq_t *irq, uint32_t value, void *param)
     (void)irq;
     (void)value;
     ((harness_t *)param)->xoff = 1;
+}
+
+/* FIX_UART_BYTE_TIME: a byte is a start bit, the data bits, a parity bit if UPMn1:0 ask for
+ * one and the stop bits, each (UBRRn + 1) * 16 cycles, or * 8 with U2Xn. */
+static void uart_byte_time(avr_t *avr, avr_uart_t *uart)
+{
+    static const uint8_t data_bits[8] = {5, 6, 7, 8, 8, 8, 8, 9};
+    uint32_t ubrr = avr_regbit_get(avr, uart->ubrrl) | (avr_regbit_get(avr, uart->ubrrh) << 8);
+    uint8_t size = avr_regbit_get(avr, uart->ucsz) | (avr_regbit_get(avr, uart->ucsz2) << 2);
+    uint8_t parity = (avr->data[uart->r_ucsrc] & 0x30) ? 1 : 0; /* UPMn1:0, bits 5:4 */
+    uint8_t stop = 1 + avr_regbit_get(avr, uart->usbs);
+    uint32_t per_bit = (ubrr + 1) * (avr_regbit_get(avr, uart->u2x) ? 8u : 16u);
+    uart->cycles_per_byte = per_bit * (1u + data_bits[size] + parity + stop);
+}
+
+/* after simavr's own handler of the register (which stores the byte) */
+static void uart_config_written(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    (void)addr;
+    (void)v;
+    uart_byte_time(avr, param);
+}
+
+/* a register simavr does not watch: the byte stored here, as the core would */
+static void uart_config_stored(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
+{
+    avr_core_watch_write(avr, addr, v);
+    uart_byte_time(avr, param);
+}
+
+static int fix_uart_byte_time(avr_t *avr)
+{
+    avr_uart_t *uart = NULL;
+    for (avr_io_t *io = avr->io_port; io; io = io->next)
+        if (io->kind && strcmp(io->kind, "uart") == 0 && ((avr_uart_t *)io)->name == '0')
+            uart = (avr_uart_t *)io; /* avr_io_t is its first member */
+    if (!uart)
+        return -1;
+    const avr_io_addr_t regs[] = {uart->ubrrl.reg, uart->ubrrh.reg, uart->r_ucsra,
+                                  uart->r_ucsrb, uart->r_ucsrc};
+    for (size_t i = 0; i < sizeof regs / sizeof regs[0]; i++) {
+        avr_io_addr_t io = AVR_DATA_TO_IO(regs[i]);
+        int watched = avr->io[io].w.c != NULL;
+        avr_register_io_write(avr, regs[i], watched ? uart_config_written : uart_config_stored,
+                              uart);
+    }
+    return 0;
 }
 
 static void ocr_low_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
@@ -489,6 +542,12 @@ harness_t *artro_mcu_new(const char *elf_path, const char *mcu, int fixes, char 
     }
     if (fixes & FIX_OCR_HIGH_BYTE)
         wrap_ocr_writes(h);
+    if ((fixes & FIX_UART_BYTE_TIME) && fix_uart_byte_time(h->avr) != 0) {
+        snprintf(error, error_len, "UART0 not found in the simavr core");
+        avr_terminate(h->avr);
+        free(h);
+        return NULL;
+    }
     if (fixes & FIX_MODE14) {
         /* mode 14 = WGMn3:0 1110: fast PWM, TOP = ICRn, OCRnx taken at the period end */
         const avr_timer_wgm_t fast_pwm_icr = AVR_TIMER_WGM_ICFASTPWM();

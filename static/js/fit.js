@@ -5,58 +5,25 @@
 // truth), the report's plot, and "Use the fitted robot", which sets the fit as the World.
 
 import { api, formatDetail } from "./api.js";
+import { fileDrop, jobFollower } from "./job-follow.js";
 import { $, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
 
 const MAX_BYTES = 16 * 1024 * 1024; // the server's cap on a recording (app/server/http/request_gate.py)
-let job = null; // the fit followed, while it runs
-let asking = false;
+const fit = jobFollower({ messageId: "fit-message", show, finish }); // the fit followed
 let fitted = null; // the last fit done: {variation, world}
-let seen = false; // a state came: a fit started before this page was loaded is followed once
 
 export function initFit() {
-  const box = $("fit-box");
-  $("fit-file").addEventListener("change", (e) => {
-    const file = e.target.files[0];
-    e.target.value = ""; // the same file picked again is a new fit
-    if (file) start(file);
-  });
-  box.addEventListener("dragover", (e) => {
-    e.preventDefault();
-    box.classList.add("dropping");
-  });
-  box.addEventListener("dragleave", () => box.classList.remove("dropping"));
-  box.addEventListener("drop", (e) => {
-    e.preventDefault();
-    box.classList.remove("dropping");
-    const files = [...(e.dataTransfer?.files || [])];
-    if (files.length !== 1) {
-      setMessage($("fit-message"), `drop one recording (REC.json), not ${files.length} files`, "error");
-      return;
-    }
-    start(files[0]);
-  });
-  $("fit-cancel").addEventListener("click", cancel);
+  fileDrop($("fit-box"), $("fit-file"), start, { messageId: "fit-message", what: "recording (REC.json)" });
+  $("fit-cancel").addEventListener("click", fit.cancel);
   $("fit-use").addEventListener("click", useFit);
-  document.addEventListener("artro:state", (e) => {
-    if (job) follow();
-    else if (!seen) followStarted(e.detail.fit);
-    seen = true;
-  });
-}
-
-/** The state's latest fit ({id, status} | null): followed if it runs (a page reloaded). */
-async function followStarted(latest) {
-  if (latest?.status !== "running") return;
-  try {
-    running(await api.get(`/api/jobs/${latest.id}`));
+  fit.watch("fit", (now) => {
+    running(now);
     setMessage($("fit-message"), "fitting a recording sent before this page was loaded…");
-  } catch {
-    // it ended meanwhile and was let go: nothing to follow
-  }
+  });
 }
 
 async function start(file) {
-  if (job) return;
+  if (fit.job) return;
   const msg = $("fit-message");
   if (file.size > MAX_BYTES) {
     setMessage(msg, `not fitted: ${file.name} has ${file.size} bytes; a recording may have ${MAX_BYTES}`, "error");
@@ -80,7 +47,7 @@ async function start(file) {
 }
 
 function running(now) {
-  job = now;
+  fit.job = now;
   $("fit-file").disabled = true;
   $("fit-cancel").hidden = false;
   $("fit-progress-row").hidden = false;
@@ -99,32 +66,9 @@ function show(now) {
     : "replaying the routine on the robot shown…";
 }
 
-async function follow() {
-  if (asking) return;
-  asking = true;
-  try {
-    const now = await api.get(`/api/jobs/${job.id}`);
-    show(now);
-    if (now.status !== "running") finish(now);
-  } catch (err) {
-    setMessage($("fit-message"), err.message, "error");
-  } finally {
-    asking = false;
-  }
-}
-
-async function cancel() {
-  if (!job) return;
-  try {
-    finish(await api.del(`/api/jobs/${job.id}`));
-  } catch (err) {
-    setMessage($("fit-message"), formatDetail(err.raw) || err.message, "error");
-  }
-}
-
 function finish(now) {
-  if (!job || now.status === "running") return;
-  job = null;
+  if (!fit.job || now.status === "running") return;
+  fit.job = null;
   $("fit-file").disabled = false;
   hideKeepingFocus($("fit-cancel"), $("fit-file"));
   $("fit-progress-row").hidden = true;

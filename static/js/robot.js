@@ -4,6 +4,7 @@
 // its mapping shown, then switched to; refusals are said why, in words.
 
 import { api, formatDetail } from "./api.js";
+import { fileDrop } from "./job-follow.js";
 import { $, fmt, fmtSigned, h, setMessage } from "./util.js";
 
 /** The server's cap on an upload (app/server/http/robot_upload.py, MAX_UPLOAD_BYTES). */
@@ -97,26 +98,9 @@ async function switchTo(name, before = "") {
 }
 
 function initImport() {
-  const box = $("robot-import");
-  $("robot-import-file").addEventListener("change", (e) => {
-    const file = e.target.files[0];
-    e.target.value = ""; // the same file picked again is a new import
-    if (file) importFile(file);
-  });
-  box.addEventListener("dragover", (e) => {
-    e.preventDefault();
-    box.classList.add("dropping");
-  });
-  box.addEventListener("dragleave", () => box.classList.remove("dropping"));
-  box.addEventListener("drop", (e) => {
-    e.preventDefault();
-    box.classList.remove("dropping");
-    const files = [...(e.dataTransfer?.files || [])];
-    if (files.length !== 1) {
-      setMessage($("robot-message"), `drop one file (a .urdf, .xml or .zip), not ${files.length}`, "error");
-      return;
-    }
-    importFile(files[0]);
+  fileDrop($("robot-import"), $("robot-import-file"), importFile, {
+    messageId: "robot-message",
+    what: "file (a .urdf, .xml or .zip)",
   });
   $("robot-import-cancel").addEventListener("click", () => api.del("/api/robot/import").catch(() => {}));
   // a file dropped beside the box would open in the tab instead of the dashboard: it does nothing

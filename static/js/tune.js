@@ -4,32 +4,17 @@
 // Done, the preset tuned-ROBOT is loaded as one undoable change and its figures are shown.
 
 import { api, formatDetail } from "./api.js";
+import { jobFollower } from "./job-follow.js";
 import { refreshParams } from "./params.js";
 import { refreshPresets } from "./presets.js";
 import { $, aboutLeft, fieldNumber, fieldRule, fmt, h, hideKeepingFocus, setMessage } from "./util.js";
 
-let job = null; // the tune followed, while it runs
-let asking = false; // a read of it in flight
-let seen = false; // the first state was read (it names a tune running since before the page)
+const tune = jobFollower({ messageId: "tune-message", show, finish }); // the tune followed
 
 export function initTune() {
   $("tune-start").addEventListener("click", start);
-  $("tune-cancel").addEventListener("click", cancel);
-  document.addEventListener("artro:state", (e) => {
-    if (job) follow();
-    else if (!seen) followStarted(e.detail.tune); // a tune started before this page was loaded
-    seen = true;
-  });
-}
-
-/** The state's latest tune ({id, status} | null): followed if it runs. */
-async function followStarted(latest) {
-  if (latest?.status !== "running") return;
-  try {
-    running(await api.get(`/api/jobs/${latest.id}`));
-  } catch {
-    // it ended meanwhile and was let go: nothing to follow
-  }
+  $("tune-cancel").addEventListener("click", tune.cancel);
+  tune.watch("tune", running); // a tune started before this page was loaded is followed too
 }
 
 async function start() {
@@ -53,7 +38,7 @@ async function start() {
 }
 
 function running(now) {
-  job = now;
+  tune.job = now;
   $("tune-start").disabled = true;
   $("tune-cancel").hidden = false;
   $("tune-progress-row").hidden = false;
@@ -72,32 +57,9 @@ function show(now) {
   $("tune-status").title = d.start ? `from '${d.start}' (its clock scaled to ${d.robot}'s legs); study ${d.study}` : "";
 }
 
-async function follow() {
-  if (asking) return;
-  asking = true;
-  try {
-    const now = await api.get(`/api/jobs/${job.id}`);
-    show(now);
-    if (now.status !== "running") finish(now);
-  } catch (err) {
-    setMessage($("tune-message"), err.message, "error");
-  } finally {
-    asking = false;
-  }
-}
-
-async function cancel() {
-  if (!job) return;
-  try {
-    finish(await api.del(`/api/jobs/${job.id}`));
-  } catch (err) {
-    setMessage($("tune-message"), formatDetail(err.raw) || err.message, "error");
-  }
-}
-
 function finish(now) {
-  if (!job || now.status === "running") return;
-  job = null;
+  if (!tune.job || now.status === "running") return;
+  tune.job = null;
   $("tune-start").disabled = false;
   hideKeepingFocus($("tune-cancel"), $("tune-start"));
   const msg = $("tune-message");
