@@ -25,8 +25,10 @@ pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="needs gcc-avr and
 @pytest.fixture
 def mega_on_a_pty() -> Iterator[str]:
     """`artro firmware run --board mega2560-pca9685 --pty`, a process of its own: its port."""
-    served = subprocess.Popen([ARTRO, "firmware", "run", "--board", MEGA, "--pty"],
-                              stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)  # fmt: skip
+    served = subprocess.Popen(
+        [ARTRO, "firmware", "run", "--board", MEGA, "--pty"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
     try:
         assert served.stdout is not None
         line = served.stdout.readline()
