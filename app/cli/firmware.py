@@ -35,7 +35,13 @@ from app.cli.options import (
     variation,
     warn_if_other_robot,
 )
-from app.firmware.build import DEFAULT_BOARD, build_firmware, export_firmware_folder, wiring
+from app.firmware.build import (
+    BOARD_BOOTLOADER_S,
+    DEFAULT_BOARD,
+    build_firmware,
+    export_firmware_folder,
+    wiring,
+)
 from app.firmware.closed_loop import run_closed_loop
 from app.firmware.conformance import check_firmware
 from app.firmware.emulator import Mcu
@@ -133,7 +139,8 @@ def add_parser(sub: Any) -> None:
         "--pty",
         action="store_true",
         help="instead: serve the emulated robot's UART on a pseudo-terminal in real time until "
-        "Ctrl-C (57600 baud, PROTOCOL.md)",
+        "Ctrl-C (57600 baud, PROTOCOL.md); the Mega board resets as the port opens and its "
+        "bootloader answers nothing for 1 s, as a real Mega's USB port does",
     )
     add_flash_parser(sub)
 
@@ -154,14 +161,23 @@ def _document(args: argparse.Namespace, robot: RobotModel) -> dict[str, Any]:
     return doc
 
 
-def _serve_pty(doc: dict[str, Any], robot: RobotModel) -> int:
+def _serve_pty(doc: dict[str, Any], robot: RobotModel, board: str = DEFAULT_BOARD) -> int:
     import threading
 
     from app.firmware.pty_bridge import PtyBridge
 
-    with Mcu(build_firmware(doc, **wiring(robot)).elf) as mcu:
-        bridge = PtyBridge(mcu)
-        print(f"emulated robot on {bridge.port} (57600 8N1); Ctrl-C ends", flush=True)
+    elf = build_firmware(doc, board=board, **wiring(robot)).elf
+    bootloader_s = BOARD_BOOTLOADER_S.get(board)
+    with Mcu(elf, board=board) as mcu:
+        if bootloader_s is None:
+            bridge = PtyBridge(mcu)
+            resets = ""
+        else:  # as a Mega's USB port: opening it resets the board (DTR)
+            bridge = PtyBridge(mcu, restart=lambda: Mcu(elf, board=board),
+                               bootloader_s=bootloader_s)  # fmt: skip
+            resets = (f"; it resets as the port opens, its bootloader answering nothing for "
+                      f"{bootloader_s:g} s")  # fmt: skip
+        print(f"emulated robot on {bridge.port} (57600 8N1{resets}); Ctrl-C ends", flush=True)
         try:
             bridge.serve(threading.Event())
         except KeyboardInterrupt:
@@ -175,11 +191,10 @@ def _run_mega(args: argparse.Namespace, doc: dict[str, Any], robot: RobotModel) 
     """The Mega build closed loop, every PCA9685 pulse against the model (docs/BOARDS.md)."""
     from app.firmware.mega import run_mega_closed_loop
 
-    given = "--pty" if args.pty else "--vary" if not args.vary.is_nominal else None
-    if given:
+    if not args.vary.is_nominal:
         raise ValueError(
-            f"{given}: not for the mega2560-pca9685 board yet; its run takes --params, "
-            "--motion, --ca, --frames, --vcd and --json"
+            "--vary: not for the mega2560-pca9685 board yet; its run takes --params, "
+            "--motion, --ca, --frames, --vcd, --json and --pty"
         )
     frames = FRAMES if args.frames is None else args.frames
     run = run_mega_closed_loop(doc, frames, robot, trace=bool(args.vcd))
@@ -218,7 +233,7 @@ def command(args: argparse.Namespace) -> int:
             command = shlex.join(upload_command(build.hex.resolve(), "PORT"))
             print(f"upload through the Mega's bootloader: {command}")
         return 0
-    if board != DEFAULT_BOARD:
+    if board != DEFAULT_BOARD and not args.pty:
         return _run_mega(args, doc, robot)
     if args.pty:
         given = [
@@ -231,7 +246,7 @@ def command(args: argparse.Namespace) -> int:
                 f"run (without --pty): leave {'it' if len(given) == 1 else 'them'} out "
                 "(--params, --motion and --ca apply)"
             )
-        return _serve_pty(doc, robot)
+        return _serve_pty(doc, robot, board)
     frames = FRAMES if args.frames is None else args.frames  # its range checked as parsed
     closed = feedback.any_law_on(GaitParams.from_dict(doc["gait"]))
     if closed and args.vcd:

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 from urllib.parse import urlsplit
 
+from app.cli.firmware_flash import add_board_option
 from app.cli.options import (
     SETS_HELP,
     number,
@@ -22,6 +23,7 @@ from app.cli.options import (
     starting_set,
     subcommand,
 )
+from app.firmware.build import BOARD_BOOTLOADER_S
 from app.firmware.link import SerialLink, SerialPort
 from app.firmware.robot_link import DEFAULT_BAUD, DryRunPort, LinkError, RobotLink, follow
 from app.robots import load_description
@@ -31,12 +33,14 @@ if TYPE_CHECKING:
     import serial
 
 DEFAULT_SERVER = "http://127.0.0.1:8000"
+RESTART_WAIT_S = 10.0  # a board that resets as its port opens: its firmware must answer by then
 STOP_SIGNALS = ("SIGTERM", "SIGHUP")  # a kill, a closed terminal: the servos go off as on Ctrl-C
 EXAMPLES = """examples:
   artro link --port /dev/ttyUSB0             follow the dashboard on http://127.0.0.1:8000,
                                              the robot's sensors in its Sensors panel
   artro link --port /dev/ttyUSB0 --no-sensors   follow it, the robot's sensors not asked for
   artro link --port /dev/pts/5 --params tuned   send one set (a preset's name or a file)
+  artro link --port /dev/ttyACM0 --board mega2560-pca9685   an Arduino Mega: waits for its restart
   artro link --dry-run --params tuned        print the messages it would send
   artro link --dry-run                       the same, following the dashboard on :8000"""
 
@@ -86,6 +90,7 @@ def add_parser(sub: Any) -> None:
         help="the robot the firmware on the port was built for (artro firmware build --robot); "
         "a set tuned for another is refused (default: artro)",
     )
+    add_board_option(p)  # an Arduino Mega resets as its port opens: the link waits for it
     p.add_argument("--dry-run", action="store_true", help="print the messages, open no port")
     p.add_argument(
         "--no-sensors",
@@ -238,7 +243,9 @@ def link(args: argparse.Namespace, out: TextIO) -> int:
             file=out,
         )
     # the set and the dashboard first: a bad name, file or address is said before a port is opened
-    firmware_robot = load_description(getattr(args, "robot", None)).name
+    description = load_description(getattr(args, "robot", None))
+    firmware_robot = description.name
+    board = getattr(args, "board", None) or description.board
     one_set = resolve_set(args.params, "--params").pset if args.params else None
     if script is not None and one_set is None:
         one_set = starting_set(RobotModel.load(getattr(args, "robot", None)), None, out)
@@ -256,6 +263,12 @@ def link(args: argparse.Namespace, out: TextIO) -> int:
     stop = threading.Event()
     previous = _stop_on_signals()
     try:
+        if board in BOARD_BOOTLOADER_S and not args.dry_run:
+            print(f"waiting for the {board} to restart: opening its port resets it (DTR) and its "
+                  f"bootloader runs ~1-2 s; asking it with PING for up to {RESTART_WAIT_S:g} s",
+                  file=out, flush=True)  # fmt: skip
+            pings = robot.wait_for_firmware(RESTART_WAIT_S)
+            print(f"the {board} answered after {pings} PINGs", file=out)
         robot.hello()
         if script is not None and one_set is not None:
             record_to(robot, one_set, args, stop, out)

@@ -7,6 +7,7 @@ import dataclasses
 import sys
 from typing import Any
 
+from app.cli.firmware_flash import add_board_option
 from app.cli.options import (
     add_backend_options,
     add_cluster_options,
@@ -27,6 +28,7 @@ EXAMPLES = """examples:
   artro serve --params my_gait.json --port 9000
   artro serve --params tuned               start with a preset, built in or saved, by name
   artro serve --drive firmware             pulses from the robot's firmware on an emulated MCU
+  artro serve --drive firmware --board mega2560-pca9685   on a Mega and its PCA9685 (docs/BOARDS.md)
   artro serve --servo-bus pty              the leg servos on a virtual Dynamixel bus too"""
 
 
@@ -74,8 +76,10 @@ def add_parser(sub: Any) -> None:
         choices=("model", "firmware"),
         default="model",
         help="who makes the servo pulses: the Python hardware model (default) or the robot's "
-        "firmware on an emulated ATmega128 (needs gcc-avr and simavr); switchable in the page",
+        "firmware on its emulated board (--board; needs gcc-avr and simavr); switchable in the "
+        "page",
     )
+    add_board_option(s)  # the firmware drive's
     s.add_argument(
         "--servo-bus",
         choices=("pty",),
@@ -126,10 +130,17 @@ def serve(args: argparse.Namespace) -> int:
         viewer=not args.no_viewer,
         allowed_hosts=tuple(args.allowed_host),
         drive=args.drive,
+        board=args.board,
         servo_bus=args.servo_bus,
         bus_protocol=args.bus_protocol,
     )
-    RobotShelf(RobotModel.load(args.robot))  # fail here, clearly, not inside the server
+    robot = RobotModel.load(args.robot)
+    RobotShelf(robot)  # fail here, clearly, not inside the server
+    if args.board and robot.hardware().bus is not None:
+        raise ValueError(
+            f"--board {args.board}: the robot {robot.name!r} has bus servos, which no firmware "
+            "board drives (the host sync-writes them, docs/BUS.md): leave --board out"
+        )
     check_port_free(args.host, args.port)  # before the banner names it (uvicorn's error: raw)
     if not args.no_viewer:  # and the 3D view's, the banner naming the one it gets
         args.viser_port = viser_port_for(args.host, args.viser_port, args.port)

@@ -49,6 +49,9 @@ BOARD_MEMORY = {
 }
 #: the MCU simavr emulates for each board
 BOARD_MCU = {"artro-atmega128": "atmega128", "mega2560-pca9685": "atmega2560"}
+#: the boards that reset as their serial port opens (an Arduino's DTR), and how long their
+#: bootloader runs before the firmware answers, s (docs/BOARDS.md)
+BOARD_BOOTLOADER_S = {"mega2560-pca9685": 1.0}
 
 
 class BuildError(RuntimeError):

@@ -12,7 +12,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.firmware import protocol as proto
-from app.firmware.build import build_firmware
+from app.firmware.build import DEFAULT_BOARD, build_firmware
 from app.firmware.conformance import frame_edges_of
 from app.firmware.emulator import Edges, Mcu, read_active_plan
 from app.firmware.link import EmulatedLink
@@ -91,17 +91,23 @@ class FirmwarePulses:
         geometry: LegGeometry = ARTRO_LEG,
         fsr_positions_m: Any = None,
         sensors: bool = True,
+        board: str = DEFAULT_BOARD,
     ) -> None:
         """Build the firmware with `doc` as its defaults (cached) for a robot's wiring, legs and
         sole sensors and boot it, with its IMU and force sensors attached (`sensors`; held at
         rest while it calibrates); BuildError, ValueError (an engine it does not run) or
-        EmulatorError if that fails."""
+        EmulatorError if that fails. `board`: the board built and emulated (docs/BOARDS.md;
+        the Mega's frames: `app.firmware.mega_pulses.MegaPulses`)."""
         extra = {} if fsr_positions_m is None else {"fsr_positions_m": fsr_positions_m}
+        if board != DEFAULT_BOARD:
+            extra["board"] = board
         self.build = build_firmware(
             doc, calibration=calibration, tdm=tdm, geometry=geometry, **extra
         )
         self.raw: RawSample = at_rest()  # what the sensors show the firmware from now on
-        self.mcu = Mcu(self.build.elf, sensors=sample_of(self.raw) if sensors else None)
+        self.mcu = Mcu(
+            self.build.elf, sensors=sample_of(self.raw) if sensors else None, board=board
+        )
         self.link = EmulatedLink(self.mcu)
         self.frame = 0
         self._busy = self.mcu.busy_cycles

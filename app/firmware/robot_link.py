@@ -307,6 +307,19 @@ class RobotLink:
                 "walks in its firmware's own set"
             )
 
+    def wait_for_firmware(self, timeout_s: float) -> int:
+        """PING until the firmware answers (a board that resets as its port opens runs its
+        bootloader first); how many PINGs it took. LinkError after `timeout_s`."""
+        deadline, pings = time.monotonic() + timeout_s, 0
+        while not self.dry_run:
+            pings += 1
+            if any(isinstance(r, proto.Info) for r in self.request(proto.encode(proto.Msg.PING))):
+                break
+            if time.monotonic() >= deadline:
+                raise LinkError(f"no answer from the robot within {timeout_s:g} s of opening its "
+                                "port (its restart: wiring, baud rate, --board?)")  # fmt: skip
+        return pings
+
     def hello(self) -> None:
         """PING; the robot's firmware must address parameters as this studio does."""
         info = self.expect(proto.encode(proto.Msg.PING), "ping")

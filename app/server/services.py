@@ -51,6 +51,7 @@ class ServerConfig:
         str, ...
     ] = ()  # more Host names to answer to (app/server/http/request_gate.py)
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
+    board: str | None = None  # the firmware drive's board (docs/BOARDS.md; default: the robot's)
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
     cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
     wait_workers_s: float | None = None  # how long the job waits for a worker (default 60 s)
@@ -89,6 +90,7 @@ class Services:
         if config.servo_bus == "pty":
             self.bus_port = BusPort(started, config.bus_protocol)
             self.sim.live.bus_port = self.bus_port  # before the simulation thread starts
+        self.sim.live.board = config.board  # before the simulation thread starts
         if config.drive != "model":
             self.sim.switch_drive(config.drive)  # taken over at the first frame
         self.paths, self.scope, self.recorder = self.sim.paths, self.sim.scope, self.sim.recorder

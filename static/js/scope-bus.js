@@ -13,7 +13,8 @@ export function showBus(frame) {
   const strip = $("scope-bus");
   const bus = frame?.bus;
   strip.hidden = !bus;
-  $("scope-title").textContent = bus ? "Servo bus and scope" : "TDM-PWM scope";
+  const mega = frame?.pca9685 ? "PCA9685 and I²C scope (Mega board)" : "TDM-PWM scope";
+  $("scope-title").textContent = bus ? "Servo bus and scope" : mega;
   if (!bus) return;
   const bytes = bus.packet.split(" ");
   const rest = bytes.length > PACKET_SHOWN ? ` … (${bytes.length - PACKET_SHOWN} more)` : "";

@@ -12,6 +12,7 @@ import { RollBuffer } from "./roll.js";
 import { CyclePlot } from "./cycle-plot.js";
 import { RollPlot } from "./roll-plot.js";
 import { drawSingleFrame, singleFrameMinHeight } from "./scope.js";
+import { drawMegaFrame, megaFrameMinHeight } from "./scope-i2c.js";
 import { ScopeFeed } from "./scope-feed.js";
 import { $, fitCanvas, h, JOINTS, SERVOS, servoColor } from "./util.js";
 
@@ -255,7 +256,9 @@ function drawOnce() {
     return;
   }
   // the single-frame view grows taller than the panel when many servo lanes are chosen
-  const need = singleFrameMinHeight(frame, state.servos.length);
+  // the Mega board's frames: its PCA9685 channels and I²C bus (scope-i2c.js)
+  const mega = Boolean(frame?.pca9685);
+  const need = mega ? megaFrameMinHeight(frame) : singleFrameMinHeight(frame, state.servos.length);
   const height = `${Math.max(wrap.clientHeight, need)}px`;
   if (height !== lastHeight) canvas.style.height = lastHeight = height;
   const { ctx, w, h: hgt } = fitCanvas(canvas);
@@ -263,7 +266,7 @@ function drawOnce() {
     placeholder(ctx, w, hgt, "waiting for TDM-PWM frames…");
     state.axis = null;
   } else {
-    const ax = drawSingleFrame(ctx, w, hgt, frame, opts);
+    const ax = (mega ? drawMegaFrame : drawSingleFrame)(ctx, w, hgt, frame, opts);
     state.axis = { x0: ax.x0, x1: ax.x1, toTime: ax.toUs };
   }
   showFrameInfo(frame);

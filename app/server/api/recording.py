@@ -117,10 +117,16 @@ def export(services: ServicesDep) -> Response:
 def export_vcd(services: ServicesDep) -> Response:
     """The recording's nine pulse and select lines as a Value Change Dump (PulseView, GTKWave):
     OC1A..OC3C, SEL0..SEL2, from the recorded OCR tables as the hardware model puts them on the
-    wires."""
+    wires. While the Mega board drives (docs/BOARDS.md) and no replay runs: its PCA9685's
+    channels PWM0..PWM11 and a line per I2C part, high from START to STOP, over the frames it
+    drove (the last 60 s at most)."""
     rec = _shown(services)
     if not len(rec):
         raise ApiError(409, "nothing recorded yet", "nothing_recorded", loc=["path"])
+    trace = services.sim.live.board_trace()
+    if trace is not None and services.replay.recording is None and len(trace):
+        text = trace.vcd_text(f"the last {len(trace)} frames of the Mega board's drive")
+        return _download(text, "vcd", "text/plain; charset=utf-8")
     tdm = services.hardware.tdm
     edges = edges_of_frames([frame_edges(ocr, tdm) for ocr in rec.ocr])
     first, last = int(rec.frame[0]), int(rec.frame[-1])

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from app.firmware.mega_pulses import BoardFrame
 from app.server.feeds.scope_frames import frame_message
 from app.sim.frame_loop import FrameRecord
 from hardware import TdmConfig
@@ -30,11 +31,14 @@ class _Frame:
     params_version: int
     tdm: TdmConfig  # the robot's wiring when it was published (a switch of robots changes it)
     bus: BusLink | None = None  # its bus, for a robot of bus servos
+    board: BoardFrame | None = None  # the Mega board's PCA9685 channels and I2C transactions
     text: str | None = None  # the JSON message, made once (a race makes it twice, both equal)
 
     def json(self) -> str:
         if self.text is None:
-            message = frame_message(self.record, self.tdm, self.params_version, self.bus)
+            message = frame_message(
+                self.record, self.tdm, self.params_version, self.bus, self.board
+            )
             self.text = json.dumps(message, default=_json_default)
         return self.text
 
@@ -62,8 +66,10 @@ class ScopeFeed:
 
     # --- simulation thread ----------------------------------------------------------------------
 
-    def publish(self, record: FrameRecord, params_version: int) -> None:
-        frame = _Frame(record, params_version, self.tdm, self.bus)
+    def publish(
+        self, record: FrameRecord, params_version: int, board: BoardFrame | None = None
+    ) -> None:
+        frame = _Frame(record, params_version, self.tdm, self.bus, board)
         with self._lock:
             self._history.append(frame)
             self.published += 1

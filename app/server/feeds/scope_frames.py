@@ -1,4 +1,5 @@
-"""The web oscilloscope's JSON of one TDM-PWM frame: slots, line edges and flags."""
+"""The web oscilloscope's JSON of one TDM-PWM frame: slots, line edges and flags; a bus robot's
+sync write; the Mega board's PCA9685 channels and I2C transactions (docs/BOARDS.md)."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from app.firmware.mega_pulses import BoardFrame
 from app.sim.frame_loop import FrameRecord
 from hardware import (
     CHANNELS,
@@ -28,12 +30,18 @@ from hardware.servo_bus import BusLink, bus_frame
 
 
 def frame_message(
-    record: FrameRecord, tdm: TdmConfig, params_version: int, bus: BusLink | None = None
+    record: FrameRecord,
+    tdm: TdmConfig,
+    params_version: int,
+    bus: BusLink | None = None,
+    board: BoardFrame | None = None,
 ) -> dict[str, Any]:
     """One scope frame: frame_to_dict plus frame number, time, phase, the version of the
     parameters that produced it, and each slot's angle; for a robot of bus servos, the frame's
     sync write (`bus`: its packet, bytes, time on the wire, the step its goals act at, each
-    servo's goal)."""
+    servo's goal); for the Mega board (`board`), `board`, `pca9685` (each channel's edges) and
+    `i2c` (each transaction: address, register, bytes, start and end), `BoardFrame.message`;
+    its `channels` and `lines` are then the servos' pulses in the TDM table's layout."""
     data = frame_to_dict(record.ocr, tdm, saturated=record.saturated_servos, edges=record.pin_edges)
     angles = zip(SERVO_NAMES, record.setpoint.tolist(), strict=True)
     degrees = {name: math.degrees(a) for name, a in angles}
@@ -48,6 +56,7 @@ def frame_message(
         "source": "model" if record.pin_edges is None else "firmware",  # who made the pulses
         **data,
         **({"bus": bus_message(record, bus)} if bus is not None else {}),
+        **(board.message() if board is not None else {}),
     }
 
 

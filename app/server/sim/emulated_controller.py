@@ -1,7 +1,7 @@
-"""The emulated controller of the firmware drive (docs/DESIGN.md §5, §10): one ATmega128 running
-the robot's firmware (simavr), whose pins the simulated servos read, and the parameter sets that
-travel to it over its emulated UART. Booted in the caller's thread, then the simulation thread's.
-"""
+"""The emulated controller of the firmware drive (docs/DESIGN.md §5, §10): the robot's board running
+its firmware (simavr): ArtRo's ATmega128, whose pins the simulated servos read, or the Mega with its
+PCA9685 (docs/BOARDS.md), and the parameter sets that travel to it over its emulated UART. Booted in
+the caller's thread, then the simulation thread's."""
 
 from __future__ import annotations
 
@@ -10,7 +10,9 @@ from dataclasses import dataclass
 from typing import Any
 
 from app.firmware import protocol as proto
+from app.firmware.build import DEFAULT_BOARD, check_board
 from app.firmware.closed_loop import read_law_output
+from app.firmware.mega_pulses import BoardFrame, MegaPulses, MegaTrace
 from app.firmware.pulses import FirmwarePulses
 from app.server.param_store import Snapshot
 from app.sim.frame_loop import PinFrame
@@ -42,6 +44,7 @@ class FirmwareStatus:
     tilt_trim_rad: tuple[float, float] = (0.0, 0.0)
     imu_ok: bool = False  # the IMU answered at boot and the last read succeeded
     imu_failures: int = 0  # failed IMU reads since boot
+    board: str = DEFAULT_BOARD  # the board emulated (docs/BOARDS.md)
 
 
 @dataclass
@@ -57,7 +60,7 @@ class _InFlight:
 
 
 class EmulatedController:
-    """One emulated ATmega128 running the firmware, and what travels to it: the sets sent, their
+    """One emulated board running the firmware, and what travels to it: the sets sent, their
     answers, the motion its gait got."""
 
     def __init__(self, pulses: FirmwarePulses, snapshot: Snapshot) -> None:
@@ -74,6 +77,8 @@ class EmulatedController:
         self._scheduled: deque[tuple[int, Snapshot]] = deque()
         self._busy: deque[int] = deque(maxlen=BUSY_WINDOW_FRAMES)
         self._naks = 0
+        #: the Mega board's last frame (its PCA9685 channels, its I2C transactions), else None
+        self.board_frame: BoardFrame | None = None
 
     @classmethod
     def boot(
@@ -82,17 +87,21 @@ class EmulatedController:
         hardware: HardwareSetup,
         geometry: LegGeometry = ARTRO_LEG,
         fsr_positions_m: Any = None,
+        board: str = DEFAULT_BOARD,
     ) -> EmulatedController:
-        """Build the firmware with the snapshot's set as its defaults and boot it (seconds on a
-        cold cache, then milliseconds). ValueError if the set names an engine the firmware does
-        not run; BuildError or EmulatorError if the tool chain or the emulator fail."""
+        """Build the firmware for `board` with the snapshot's set as its defaults and boot it
+        (seconds on a cold cache, then milliseconds). ValueError if the set names an engine the
+        firmware does not run, or a board it is not built for; BuildError or EmulatorError if
+        the tool chain or the emulator fail."""
+        check_board(board)
         if snapshot.gait.engine != FIRMWARE_ENGINE:
             raise ValueError(
                 f"the firmware runs the {FIRMWARE_ENGINE} gait engine; the current set names "
                 f"{snapshot.gait.engine!r}: choose engine {FIRMWARE_ENGINE} first"
             )
         doc = snapshot.parameter_set().to_dict()
-        pulses = FirmwarePulses(
+        kind = FirmwarePulses if board == DEFAULT_BOARD else MegaPulses
+        pulses = kind(
             doc,
             calibration=hardware.calibration,
             tdm=hardware.tdm,
@@ -120,6 +129,8 @@ class EmulatedController:
         """Run the MCU through its next frame: the pins, problems to report, and per set that
         was acknowledged the frames from its sending to the first frame it reached."""
         frame = self.pulses.next_frame()
+        if isinstance(self.pulses, MegaPulses):
+            self.board_frame = self.pulses.board_frame
         problems, latencies = [], []
         for reply in frame.replies:
             if not self._in_flight or not isinstance(reply, proto.Ack | proto.Nak):
@@ -179,7 +190,17 @@ class EmulatedController:
             sets_in_flight=len(self._in_flight),
             sets_skipped=self._skipped,
             naks=self._naks,
+            board=self.board,
         )
+
+    @property
+    def board(self) -> str:
+        return self.pulses.mcu.board
+
+    @property
+    def trace(self) -> MegaTrace | None:
+        """The Mega board's last frames (for a VCD), else None."""
+        return self.pulses.trace if isinstance(self.pulses, MegaPulses) else None
 
     def close(self) -> None:
         self.pulses.close()

@@ -14,6 +14,7 @@ from collections.abc import Callable
 import mujoco
 
 from app.firmware.emulator import EmulatorError
+from app.firmware.mega_pulses import BoardFrame, MegaTrace
 from app.robots.model import RobotModel
 from app.server.param_store import Snapshot
 from app.server.recording.recorder import Recorder
@@ -39,7 +40,7 @@ class Drive(enum.Enum):
     """Which pulses move the simulated servos (`artro serve --drive`, the page's pulses switch)."""
 
     MODEL = "model"  # the Python hardware model makes them
-    FIRMWARE = "firmware"  # the robot's firmware on an emulated ATmega128; the servos read its pins
+    FIRMWARE = "firmware"  # the robot's firmware on its emulated board; the servos read its output
 
 
 class LiveRobot:
@@ -78,6 +79,10 @@ class LiveRobot:
         #: `artro serve --servo-bus`: its goals move the servos while goal writes arrive
         self.bus_port: BusPort | None = None
         self.bus_driving = False  # the last frame's set-points were the bus's goals
+        #: `artro serve --board`: the board the firmware drive emulates (None: the robot's own)
+        self.board: str | None = None
+        #: the Mega board's view of the last frame (PCA9685 channels, I2C), else None
+        self.board_frame: BoardFrame | None = None
 
     @property
     def drive(self) -> Drive:
@@ -86,6 +91,16 @@ class LiveRobot:
     @property
     def model_name(self) -> str:
         return model_name(self.model)
+
+    @property
+    def firmware_board(self) -> str:
+        """The board the firmware drive emulates: `--board`, else the robot's `board:`."""
+        return self.board or self.robot.description.board
+
+    def board_trace(self) -> MegaTrace | None:
+        """The Mega board's last frames while it drives (any thread may read them), else None."""
+        controller = self._controller
+        return None if controller is None else controller.trace
 
     def firmware_status(self) -> FirmwareStatus | None:
         return None if self._controller is None else self._controller.status()
@@ -108,7 +123,8 @@ class LiveRobot:
                 "robot_changed",
             )
         positions = tuple(map(tuple, robot.fsr_positions_m.tolist()))
-        return EmulatedController.boot(snapshot, hardware, robot.geometry, positions)
+        board = self.board or robot.description.board
+        return EmulatedController.boot(snapshot, hardware, robot.geometry, positions, board)
 
     def take_drive(self, command: SwitchDrive, applied: Snapshot, coming: Snapshot) -> bool:
         """Answer a drive switch. The firmware is refused (closed, and said so also when no one
@@ -236,6 +252,7 @@ class LiveRobot:
         its goal writes arrive (`BusPort`), else the pulses made by the model or read off the
         firmware's pins (an emulator that fails ends the firmware drive, said so, and the model
         makes this frame's). Also True if a change of gait constants arrived with it."""
+        self.board_frame = None
         port = self.bus_port
         if port is None:
             return self._step_pulses()
@@ -267,6 +284,7 @@ class LiveRobot:
                     self._report(problem)
                 waited = self._controller_waited_frames
                 self.latency_frames.extend(n + waited for n in latencies)
+                self.board_frame = controller.board_frame
                 record = self.loop.step_pins(pins)
                 if record.reading is not None:  # the firmware reads it in the next frame
                     controller.sense(record.reading)

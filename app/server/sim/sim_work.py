@@ -208,7 +208,7 @@ class SimWork:
             self.recorder.event("fall", motion=dataclasses.asdict(record.motion))
         port = live.bus_port  # while a servo bus drives, the scope shows its goals' sync write
         self.scope.bus = port.link if port and live.bus_driving else live.hardware.bus
-        self.scope.publish(record, self._applied.version)
+        self.scope.publish(record, self._applied.version, live.board_frame)
         self.bulletin.add_load(loop.data, record.saturated_servos, record.index)
         self.sensors.add(record, loop.data)
         if record.index % SENSORS_PUBLISH_FRAMES == 0:

@@ -1,0 +1,41 @@
+"""The scope of the Mega board's firmware drive, in a real headless Chromium (docs/BOARDS.md): the
+PCA9685's twelve channels drawn as servo pulses, and a lane of the I²C bus with each transaction
+a box in time labelled with its part, address, register and bytes."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from playwright.sync_api import expect, sync_playwright
+
+from app.firmware.build import missing_tools
+from tests.testing.browser_support import shot_path
+from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
+
+pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="needs gcc-avr and simavr")
+
+
+def test_the_scope_draws_the_megas_channels_and_its_i2c_lane(tmp_path: Path) -> None:
+    data = tmp_path / "data"
+    with (
+        running_server(data, drive="firmware", board="mega2560-pca9685") as (base_url, _app),
+        sync_playwright() as p,
+    ):
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        page = browser.new_page(viewport={"width": 1600, "height": 1000})
+        errors: list[str] = []
+        page.on("pageerror", lambda exc: errors.append(str(exc)))
+        page.goto(base_url + "/")
+        expect(page.locator("#scope-title")).to_have_text(
+            "PCA9685 and I²C scope (Mega board)", timeout=30_000
+        )
+        canvas = page.locator("#scope-canvas")
+        boxes = wait_for(lambda: json.loads(canvas.get_attribute("data-i2c-boxes") or "[]"),
+                         "the I²C lane drawn")  # fmt: skip
+        # the PCA9685's write at the frame's start, the IMU's burst in slot 3
+        assert boxes == ["PCA9685 0x40 W reg 0x06 · 50 B", "MPU-6050 0x68 W+R reg 0x3b · 17 B"]
+        page.locator("#scope-panel").screenshot(path=str(shot_path("mega-scope.png", tmp_path)))
+        browser.close()
+    assert errors == [], f"JavaScript errors on the page: {errors}"
