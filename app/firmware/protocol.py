@@ -10,10 +10,9 @@ import binascii
 import struct
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from enum import IntEnum
 
 from app.firmware import wire_messages as wm
-from app.firmware.wire_messages import Ack, Angles, Info, Nak, Params, Sensors, Telemetry
+from app.firmware.wire_messages import Ack, Angles, Info, Msg, Nak, Params, Sensors, Telemetry
 from app.firmware.wire_values import LinkError
 from app.firmware.wire_values import NakReason as NakReason
 from app.firmware.wire_values import RunState as RunState
@@ -26,33 +25,6 @@ MAX_LEN = 200  # TYPE + PAYLOAD
 VERSION = 2
 #: values in one SET_PARAMS or PARAMS (3 + 4 * 48 <= MAX_LEN): a whole set takes several
 MAX_VALUES = 48
-
-
-class Msg(IntEnum):
-    # host -> robot
-    PING = 0x01
-    SET_MOTION = 0x02
-    SET_PARAM = 0x03
-    SET_PARAMS = 0x04
-    GET_PARAM = 0x05
-    GET_PARAMS = 0x06
-    START = 0x07
-    STOP = 0x08
-    TORQUE_OFF = 0x09
-    TELEMETRY_ON = 0x0A
-    GET_TELEMETRY = 0x0B
-    GET_ANGLES = 0x0C
-    RESET_PARAMS = 0x0D
-    GET_SENSORS = 0x0E
-    # robot -> host
-    ACK = 0x81
-    NAK = 0x82
-    INFO = 0x83
-    PARAM = 0x84
-    PARAMS = 0x85
-    TELEMETRY = 0x86
-    ANGLES = 0x87
-    SENSORS = 0x88
 
 
 def crc16(data: bytes) -> int:

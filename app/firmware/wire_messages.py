@@ -8,8 +8,37 @@ from __future__ import annotations
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass
+from enum import IntEnum
 
 from app.firmware.wire_values import NakReason, RunState, nak_reason, run_state
+
+
+class Msg(IntEnum):
+    """PROTOCOL.md's message types: the host's, then the robot's."""
+
+    PING = 0x01
+    SET_MOTION = 0x02
+    SET_PARAM = 0x03
+    SET_PARAMS = 0x04
+    GET_PARAM = 0x05
+    GET_PARAMS = 0x06
+    START = 0x07
+    STOP = 0x08
+    TORQUE_OFF = 0x09
+    TELEMETRY_ON = 0x0A
+    GET_TELEMETRY = 0x0B
+    GET_ANGLES = 0x0C
+    RESET_PARAMS = 0x0D
+    GET_SENSORS = 0x0E
+    ACK = 0x81
+    NAK = 0x82
+    INFO = 0x83
+    PARAM = 0x84
+    PARAMS = 0x85
+    TELEMETRY = 0x86
+    ANGLES = 0x87
+    SENSORS = 0x88
+
 
 _SET_MOTION = struct.Struct("<4f")
 _SET_PARAM = struct.Struct("<Bf")

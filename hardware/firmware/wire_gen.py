@@ -8,7 +8,7 @@ from __future__ import annotations
 import textwrap
 from collections.abc import Sequence
 
-from hardware.firmware.wire_model import C_TYPES, Field, Layout
+from hardware.firmware.wire_model import C_TYPES, Field, Layout, Message
 
 #: Field.host: (the host's annotation, its converter in app/firmware/wire_values.py)
 HOST_TYPES = {"RunState": ("RunState", "run_state"), "NakReason": ("NakReason | int", "nak_reason")}
@@ -88,10 +88,22 @@ def _c_unpack(layout: Layout) -> list[str]:
     return [*lines, "}"]
 
 
-def c_wire_header(layouts: Sequence[Layout], header_name: str) -> str:
-    """The include-guarded header: per layout its size, each field's offset
-    (`ARTRO_WIRE_<MSG>_<FIELD>`), and `wire_pack_<msg>` (the robot's, its sources' sizes
-    checked) or `wire_unpack_<msg>` (the host's)."""
+def _c_types(messages: Sequence[Message]) -> list[str]:
+    lines = []
+    for sender, first in (("host -> robot", True), ("robot -> host", False)):
+        lines += ["", f"/* message types, {sender} */", "enum {"]
+        for m in messages:
+            if (m.type_code < 0x80) == first:
+                said = f" /* -> {m.answer} */" if m.answer else ""
+                lines.append(f"    MSG_{m.name} = 0x{m.type_code:02X},{said}")
+        lines.append("};")
+    return lines
+
+
+def c_wire_header(messages: Sequence[Message], layouts: Sequence[Layout], header_name: str) -> str:
+    """The include-guarded header: the message types (`MSG_<NAME>`), per layout its size, each
+    field's offset (`ARTRO_WIRE_<MSG>_<FIELD>`), and `wire_pack_<msg>` (the robot's, its
+    sources' sizes checked) or `wire_unpack_<msg>` (the host's)."""
     includes = sorted({name for layout in layouts for name in layout.includes})
     lines = [
         f"/* {header_name} -- the payloads of PROTOCOL.md's fixed-layout messages.",
@@ -103,6 +115,7 @@ def c_wire_header(layouts: Sequence[Layout], header_name: str) -> str:
         "#include <string.h>",
         "",
         *(f'#include "{name}"' for name in includes),
+        *_c_types(messages),
     ]
     for layout in layouts:
         code = _c_pack(layout) if layout.sender == "robot" else _c_unpack(layout)
@@ -114,14 +127,42 @@ def _md(text: str) -> str:
     return text.replace("|", "\\|")
 
 
-def protocol_tables(layouts: Sequence[Layout]) -> str:
-    """PROTOCOL.md's generated part: one table per layout, each field's offset, type, meaning."""
-    parts = []
-    for layout in layouts:
+def _payload_words(m: Message) -> str:
+    """A message's payload in a summary row: its fields' names and types, or what it does."""
+    if not isinstance(m, Layout):
+        return f"– ({m.what})" if m.what else "–"
+    if len(m.fields) > 5:
+        return f"{m.what}: the table below"
+    words = [f"{f.name} {f.wire_type()}" for f in m.fields]
+    if m.repeated:
+        words.append(f"{m.repeated.name} {m.count_field} × {C_TYPES[m.repeated.ctype][2]}")
+    return ", ".join(words)
+
+
+def protocol_tables(messages: Sequence[Message]) -> str:
+    """PROTOCOL.md's generated part: the messages each way (type, name, payload, a request's
+    answer), then one table per layout, each field's offset, type, meaning."""
+    host = [m for m in messages if m.type_code < 0x80]
+    parts = [
+        "## Host → robot\n\n| type | name | payload | answer |\n|---|---|---|---|\n"
+        + "\n".join(
+            f"| 0x{m.type_code:02X} | {m.name} | {_md(_payload_words(m))} | {m.answer} |"
+            for m in host
+        ),
+        "## Robot → host\n\n| type | name | payload |\n|---|---|---|\n"
+        + "\n".join(
+            f"| 0x{m.type_code:02X} | {m.name} | {_md(_payload_words(m))} |"
+            for m in messages
+            if m.type_code >= 0x80
+        ),
+        "## Payloads\n\nEach message's payload: each field's offset, its type and what it holds.",
+    ]
+    for layout in (m for m in messages if isinstance(m, Layout)):
         rep = layout.repeated
         size = f"{layout.size} + {rep.each} × {layout.count_field}" if rep else f"{layout.size}"
+        size += " byte" if size == "1" else " bytes"
         rows = [
-            f"**{layout.name}** (0x{layout.type_code:02X}), {size} bytes, {_md(layout.what)}:",
+            f"**{layout.name}** (0x{layout.type_code:02X}), {size}, {_md(layout.what)}:",
             "",
             "| offset | field | type | what |",
             "|---|---|---|---|",
@@ -230,9 +271,9 @@ def _py_request(layout: Layout) -> list[str]:
     return [*lines, f"    return {head}"]
 
 
-def python_module(layouts: Sequence[Layout]) -> str:
-    """app/firmware/wire_messages.py: the struct of each layout, a frozen dataclass with
-    `unpack` for each reply, a `pack_<msg>` for each request."""
+def python_module(messages: Sequence[Message], layouts: Sequence[Layout]) -> str:
+    """app/firmware/wire_messages.py: the message types (`Msg`), the struct of each layout, a
+    frozen dataclass with `unpack` for each reply, a `pack_<msg>` for each request."""
     lines = [
         '"""The payloads of hardware/firmware/PROTOCOL.md\'s fixed layouts on the host',
         "(docs/DESIGN.md §5): a dataclass with `unpack` per reply, `pack_<msg>` per request.",
@@ -244,8 +285,16 @@ def python_module(layouts: Sequence[Layout]) -> str:
         "import struct",
         "from collections.abc import Sequence",
         "from dataclasses import dataclass",
+        "from enum import IntEnum",
         "",
         "from app.firmware.wire_values import NakReason, RunState, nak_reason, run_state",
+        "",
+        "",
+        "class Msg(IntEnum):",
+        '    """PROTOCOL.md\'s message types: the host\'s, then the robot\'s."""',
+        "",
+        *(f"    {m.name} = 0x{m.type_code:02X}" for m in messages),
+        "",
         "",
     ]
     lines += [f'_{layout.name} = struct.Struct("{layout.codec.format}")' for layout in layouts]

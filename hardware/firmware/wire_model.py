@@ -84,6 +84,7 @@ class Layout:
     params: str = ""  # what `wire_pack_<name>` takes after `p`, when sources are a sender's locals
     repeated: Field | None = None
     count_field: str = ""
+    answer: str = ""  # a request's: the message PROTOCOL.md answers it with
 
     def __post_init__(self) -> None:
         if (self.repeated is None) != (self.count_field == ""):
@@ -140,3 +141,16 @@ class Layout:
             code = f"<{count}{C_TYPES[self.repeated.ctype][0]}"
             out[self.repeated.name] = struct.unpack_from(code, payload, self.size)
         return out
+
+
+@dataclass(frozen=True)
+class Bare:
+    """A message without payload: its name, type, what it does, and a request's answer."""
+
+    name: str
+    type_code: int
+    what: str = ""
+    answer: str = ""
+
+
+Message = Layout | Bare

@@ -151,10 +151,14 @@ def test_every_generated_packing_and_unpacking_sends_the_hand_packed_bytes() -> 
 
 
 def test_the_host_classes_and_message_types_are_the_declarations() -> None:
-    """Each layout's type is protocol.Msg's; each reply class has the layout's host fields; the
-    generated module is fresh; a repeated field unpacks as its count says."""
-    for layout in wire.LAYOUTS:
-        assert proto.Msg[layout.name] == layout.type_code
+    """protocol.Msg is the declared messages; each request has its answer; the generated module
+    is fresh; a repeated field unpacks as its count says; a state or reason not known is said."""
+    assert [(m.name, m.value) for m in proto.Msg] == [(m.name, m.type_code) for m in wire.MESSAGES]
+    assert set(proto.ACKED) | set(proto.DATA_REPLIES) == {m for m in proto.Msg if m < 0x80}
+    for m in (m for m in wire.MESSAGES if m.type_code < 0x80):  # PROTOCOL.md's answer is the host's
+        request = proto.Msg[m.name]
+        answer = "ACK" if request in proto.ACKED else proto.DATA_REPLIES[request][0].name
+        assert answer == m.answer, m.name
     assert wire.python_module() == wire.WIRE_MESSAGES.read_text(encoding="utf-8")
     assert [f.name for f in dataclasses.fields(proto.Params)] == ["first", "values"]
     params = proto.parse(proto.Message(proto.Msg.PARAMS, bytes([3, 2]) + bytes(8)))
