@@ -82,6 +82,20 @@ def test_protocol_md_holds_the_generated_tables() -> None:
     assert wire.main(["--check"]) == 0
 
 
+def test_check_finds_a_stale_host_module_and_write_python_renews_it(tmp_path, monkeypatch) -> None:
+    """wire_messages.py as another commit left it: `--check` exits 1, `--write-python` renews it
+    (here a copy in tmp_path: the checkout's file stays as it is)."""
+    copy = tmp_path / "wire_messages.py"
+    copy.write_text(wire.python_module().replace("    frame: int", "    frame: float", 1))
+    monkeypatch.setattr(wire, "WIRE_MESSAGES", copy)
+    assert wire.main(["--check"]) == 1
+    assert wire.main(["--write-python"]) == 0
+    assert copy.read_text(encoding="utf-8") == wire.python_module()
+    assert wire.main(["--check"]) == 0
+    with pytest.raises(SystemExit):  # neither a check nor a write
+        wire.main([])
+
+
 def test_the_host_decodes_the_declared_fields() -> None:
     """protocol.Sensors has the declaration's fields, in order; the struct is the declaration's."""
     assert tuple(f.name for f in dataclasses.fields(proto.Sensors)) == SENSORS.names
