@@ -1,73 +1,30 @@
 """The host side of the ArtRo UART protocol (hardware/firmware/PROTOCOL.md; docs/DESIGN.md §5):
 `0xA5 | LEN | TYPE | PAYLOAD | CRC-16/CCITT-FALSE`, little-endian, float32 values; `encode`
 builds messages, `Decoder` splits a byte stream, `parse` types the robot's replies (LinkError for
-one whose payload is not its type's), `answers` pairs a reply with its request."""
+one whose payload is not its type's), `answers` pairs a reply with its request. The payloads'
+layouts: app/firmware/wire_messages.py, generated from hardware/firmware/wire.py."""
 
 from __future__ import annotations
 
 import binascii
 import struct
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from enum import IntEnum
 
+from app.firmware import wire_messages as wm
+from app.firmware.wire_messages import Ack, Angles, Info, Msg, Nak, Params, Sensors, Telemetry
+from app.firmware.wire_values import LinkError
+from app.firmware.wire_values import NakReason as NakReason
+from app.firmware.wire_values import RunState as RunState
 from gait.params import LAW_GROUPS
-from hardware.firmware.wire import SENSORS as SENSORS_LAYOUT
-from hardware.firmware.wire import TELEMETRY as TELEMETRY_LAYOUT
+from hardware.firmware.wire import LAYOUTS
+from hardware.firmware.wire import PARAMS as PARAMS_LAYOUT
 
 SYNC = 0xA5
 MAX_LEN = 200  # TYPE + PAYLOAD
 VERSION = 2
 #: values in one SET_PARAMS or PARAMS (3 + 4 * 48 <= MAX_LEN): a whole set takes several
 MAX_VALUES = 48
-
-
-class LinkError(RuntimeError):
-    """The robot did not answer, answered out of protocol, refused a request, or runs firmware
-    of another schema."""
-
-
-class Msg(IntEnum):
-    # host -> robot
-    PING = 0x01
-    SET_MOTION = 0x02
-    SET_PARAM = 0x03
-    SET_PARAMS = 0x04
-    GET_PARAM = 0x05
-    GET_PARAMS = 0x06
-    START = 0x07
-    STOP = 0x08
-    TORQUE_OFF = 0x09
-    TELEMETRY_ON = 0x0A
-    GET_TELEMETRY = 0x0B
-    GET_ANGLES = 0x0C
-    RESET_PARAMS = 0x0D
-    GET_SENSORS = 0x0E
-    # robot -> host
-    ACK = 0x81
-    NAK = 0x82
-    INFO = 0x83
-    PARAM = 0x84
-    PARAMS = 0x85
-    TELEMETRY = 0x86
-    ANGLES = 0x87
-    SENSORS = 0x88
-
-
-class NakReason(IntEnum):
-    BAD_CRC = 1
-    UNKNOWN_TYPE = 2
-    BAD_LENGTH = 3
-    UNKNOWN_ID = 4
-    OUT_OF_RANGE = 5
-    TIMEOUT = 6
-    RX_OVERFLOW = 7
-
-
-class RunState(IntEnum):
-    WALK = 0
-    STOP = 1
-    TORQUE_OFF = 2
 
 
 def crc16(data: bytes) -> int:
@@ -85,18 +42,18 @@ def encode(msg_type: int, payload: bytes = b"") -> bytes:
 
 
 def set_motion(a_r: float, a_p: float, a_y: float, ca: float) -> bytes:
-    return encode(Msg.SET_MOTION, struct.pack("<4f", a_r, a_p, a_y, ca))
+    return encode(Msg.SET_MOTION, wm.pack_set_motion((a_r, a_p, a_y, ca)))
 
 
 def set_param(pid: int, value: float) -> bytes:
-    return encode(Msg.SET_PARAM, struct.pack("<Bf", pid, value))
+    return encode(Msg.SET_PARAM, wm.pack_set_param(pid, value))
 
 
 def set_params(values: Sequence[float], first: int = 0) -> bytes:
     """One SET_PARAMS of at most MAX_VALUES values from id `first`."""
     if not 1 <= len(values) <= MAX_VALUES:
         raise ValueError(f"a SET_PARAMS carries 1..{MAX_VALUES} values, got {len(values)}")
-    return encode(Msg.SET_PARAMS, struct.pack(f"<BB{len(values)}f", first, len(values), *values))
+    return encode(Msg.SET_PARAMS, wm.pack_set_params(first, values))
 
 
 def param_parts(count: int) -> list[tuple[int, int]]:
@@ -114,15 +71,15 @@ def set_all_params(values: Sequence[float]) -> list[bytes]:
 
 def get_params(first: int, count: int) -> bytes:
     """GET_PARAMS of ids first..first+count-1 (count 1..MAX_VALUES)."""
-    return encode(Msg.GET_PARAMS, bytes([first, count]))
+    return encode(Msg.GET_PARAMS, wm.pack_get_params(first, count))
 
 
 def get_param(pid: int) -> bytes:
-    return encode(Msg.GET_PARAM, bytes([pid]))
+    return encode(Msg.GET_PARAM, wm.pack_get_param(pid))
 
 
 def telemetry_on(mode: int = 1) -> bytes:
-    return encode(Msg.TELEMETRY_ON, bytes([mode]))
+    return encode(Msg.TELEMETRY_ON, wm.pack_telemetry_on(mode))
 
 
 def command(msg_type: Msg) -> bytes:
@@ -136,52 +93,6 @@ class Message:
     payload: bytes
 
 
-@dataclass(frozen=True)
-class Ack:
-    acked: int
-    effective_frame: int  # first frame the change reaches
-
-
-@dataclass(frozen=True)
-class Nak:
-    rejected: int  # message type, 0 if unknown
-    reason: NakReason | int  # an int if PROTOCOL.md names no such reason
-    detail: int  # parameter id, or the bad length
-
-
-@dataclass(frozen=True)
-class Info:
-    version: int
-    param_count: int
-    schema_hash: int
-    frame: int
-    state: RunState
-
-
-@dataclass(frozen=True)
-class Telemetry:
-    """The plan sent last (PROTOCOL.md); fields: hardware/firmware/wire.py's TELEMETRY layout."""
-
-    frame: int
-    phase_rad: float
-    ocr: tuple[int, ...]  # per servo
-    saturated: int  # bit per servo
-    flags: int
-    state: RunState
-
-
-@dataclass(frozen=True)
-class Angles:
-    frame: int
-    angles_rad: tuple[float, ...]
-
-
-@dataclass(frozen=True)
-class Params:
-    first: int
-    values: tuple[float, ...]
-
-
 #: SENSORS status bits (hardware/firmware/src/sensors.h)
 IMU_PRESENT, IMU_STALE, IMU_NACK, IMU_SHORT, FSR_STALE = 0x01, 0x02, 0x04, 0x08, 0x10
 #: their names, and the laws' bits by name (the feedback groups in schema order)
@@ -190,36 +101,14 @@ STATUS_BITS = {"imu_present": IMU_PRESENT, "imu_stale": IMU_STALE, "imu_nack": I
 LAW_BITS = {law: 1 << i for i, law in enumerate(LAW_GROUPS)}
 
 
-@dataclass(frozen=True)
-class Sensors:
-    """The balance sensors and laws of the frame the firmware planned last (PROTOCOL.md); its
-    fields are those of hardware/firmware/wire.py's SENSORS layout, by name and in order."""
-
-    frame: int  # the frame the laws corrected
-    status: int  # IMU_PRESENT | IMU_STALE | ...
-    imu_failures: int  # failed IMU reads since boot (255: at least)
-    laws: int  # bit 0 tilt, 1 yaw rate, 2 damping, 3 CoP, 4 step timing (LAW_BITS)
-    support: int  # 0 left, 1 right, -1 neither
-    gyro_offset: tuple[int, ...]  # the boot calibration, counts
-    accel_raw: tuple[int, int, int]  # counts, the part's axes
-    gyro_raw: tuple[int, int, int]  # counts, before the offset
-    adc: tuple[int, ...]  # 8 channels, left foot fl, fr, bl, br first
-    attitude_rad: tuple[float, float]  # pitch, roll estimate
-    tilt_rad: tuple[float, float]  # tilt trim
-    a_y_delta: float  # yaw-rate loop's change of a_y
-    cop_rad: tuple[float, float]  # support foot's ankle pitch and roll correction
-
-
-def _sensors(p: bytes) -> Sensors:
-    return Sensors(**SENSORS_LAYOUT.unpack(p))
-
-
 Reply = Ack | Nak | Info | Telemetry | Angles | Params | Sensors | Message
 
 #: payload bytes of each reply of a fixed size (PROTOCOL.md); PARAMS: 2 + 4 x count
-PAYLOAD_BYTES = {Msg.ACK: 5, Msg.NAK: 3, Msg.INFO: 11, Msg.PARAM: 5,
-                 Msg.TELEMETRY: TELEMETRY_LAYOUT.size,
-                 Msg.ANGLES: 52, Msg.SENSORS: SENSORS_LAYOUT.size}  # fmt: skip
+PAYLOAD_BYTES = {
+    Msg[layout.name]: layout.size
+    for layout in LAYOUTS
+    if layout.sender == "robot" and layout.repeated is None
+}
 
 
 def type_name(msg_type: int) -> str:
@@ -229,11 +118,12 @@ def type_name(msg_type: int) -> str:
 
 def _check_length(t: int, p: bytes) -> None:
     if t == Msg.PARAMS:
-        count = p[1] if len(p) >= 2 else 0
-        if not 1 <= count <= MAX_VALUES or len(p) != 2 + 4 * count:
+        head = PARAMS_LAYOUT.size
+        count = p[PARAMS_LAYOUT.names.index("count")] if len(p) >= head else 0
+        if not 1 <= count <= MAX_VALUES or len(p) != head + 4 * count:
             of = f" for count {count}" if len(p) >= 2 else ""
             raise LinkError(
-                f"the robot's PARAMS has {len(p)} payload bytes{of}, expected 2 + 4 x count, "
+                f"the robot's PARAMS has {len(p)} payload bytes{of}, expected {head} + 4 x count, "
                 f"count 1..{MAX_VALUES} (firmware of another protocol?)"
             )
     elif t in PAYLOAD_BYTES and len(p) != PAYLOAD_BYTES[Msg(t)]:
@@ -243,43 +133,28 @@ def _check_length(t: int, p: bytes) -> None:
         )
 
 
-def _state(name: str, value: int) -> RunState:
-    if value not in RunState._value2member_map_:
-        raise LinkError(
-            f"the robot's {name} names state {value}; PROTOCOL.md's are 0 walking, 1 stopped, "
-            "2 torque off (firmware of another protocol?)"
-        )
-    return RunState(value)
+#: the reply of each type with a layout of its own, read from its payload
+_UNPACK: dict[int, Callable[[bytes], Reply]] = {
+    Msg.ACK: Ack.unpack,
+    Msg.NAK: Nak.unpack,
+    Msg.INFO: Info.unpack,
+    Msg.TELEMETRY: Telemetry.unpack,
+    Msg.ANGLES: Angles.unpack,
+    Msg.SENSORS: Sensors.unpack,
+    Msg.PARAMS: Params.unpack,
+}
 
 
 def parse(message: Message) -> Reply:
     """A robot message as a typed record (a Message if the type is not a reply); LinkError for
-    a reply whose payload is not as long as PROTOCOL.md gives its type."""
+    a reply whose payload is not as long as PROTOCOL.md gives its type, or that names a state
+    PROTOCOL.md does not."""
     t, p = message.type, message.payload
     _check_length(t, p)
-    if t == Msg.ACK:
-        acked, frame = struct.unpack("<BI", p)
-        return Ack(acked, frame)
-    if t == Msg.NAK:
-        reason = NakReason(p[1]) if p[1] in NakReason._value2member_map_ else p[1]
-        return Nak(p[0], reason, p[2])
-    if t == Msg.INFO:
-        version, count, schema, frame, state = struct.unpack("<BBIIB", p)
-        return Info(version, count, schema, frame, _state("INFO", state))
-    if t == Msg.TELEMETRY:
-        fields = TELEMETRY_LAYOUT.unpack(p)
-        return Telemetry(**{**fields, "state": _state("TELEMETRY", fields["state"])})
-    if t == Msg.ANGLES:
-        frame = struct.unpack_from("<I", p)[0]
-        return Angles(frame, struct.unpack_from("<12f", p, 4))
-    if t == Msg.SENSORS:
-        return _sensors(p)
-    if t == Msg.PARAM:
-        pid, value = struct.unpack("<Bf", p)
-        return Params(pid, (value,))
-    if t == Msg.PARAMS:
-        return Params(p[0], struct.unpack_from(f"<{p[1]}f", p, 2))
-    return message
+    if t == Msg.PARAM:  # one value, as the PARAMS of one id
+        param = wm.Param.unpack(p)
+        return Params(param.id, (param.value,))
+    return _UNPACK[t](p) if t in _UNPACK else message
 
 
 #: what PROTOCOL.md gives as the answer to each request: ACK of that type, or a data reply

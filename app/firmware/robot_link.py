@@ -1,12 +1,11 @@
 """A robot's ATmega128 over its serial port (hardware/firmware/PROTOCOL.md; docs/DESIGN.md §15):
 a whole set, the dashboard's followed as it changes, the robot's SENSORS forwarded to the
-Sensors panel, the servos off at the end. Each request takes only its answer (a `PortReader`
-thread reads while the stream is on); a robot gone quiet or a failed port ends the following
+Sensors panel, the servos off at the end. Each request takes only its answer (robot_port.py's
+`PortReader` reads while the stream is on); a robot gone quiet or a failed port ends the following
 within about a second; a robot that restarted (its frame count went back) gets the set again."""
 
 from __future__ import annotations
 
-import queue
 import threading
 import time
 from collections.abc import Callable
@@ -14,10 +13,12 @@ from dataclasses import dataclass, field
 from typing import Any, TextIO
 
 from app.firmware import protocol as proto
+from app.firmware.dashboard_set import dashboard_set, other_robot, plain_set
 from app.firmware.link import SerialLink
 from app.firmware.protocol import LinkError  # the link's error, raised also by parse
+from app.firmware.robot_port import PortLost, PortReader, late_ack, may_answer, port_lost
 from app.firmware.robot_telemetry import SensorForwarder
-from app.params.document import DEFAULT_ROBOT, ParameterSet
+from app.params.document import DEFAULT_ROBOT
 from hardware.firmware.schema import FIRMWARE_ENGINE, schema_hash, values_from_document
 
 DEFAULT_BAUD = 57600  # PROTOCOL.md: 57600 with U2X at 16 MHz, -0.8 % (config.h UART_BAUD)
@@ -26,31 +27,11 @@ KEEPALIVE_S = 1.0  # while following, a PING when the robot said nothing for thi
 FRAME_SLACK = 2  # an INFO's frame (the one on) may trail a SENSORS' (the one planned) by this
 #: refusals of the line, not of the message (a rejected message changes nothing: sent again once)
 LINE_NAKS = (proto.NakReason.BAD_CRC, proto.NakReason.TIMEOUT, proto.NakReason.RX_OVERFLOW)
-JSON_KINDS = {list: "list", str: "string", int: "number", float: "number", bool: "boolean",
-              type(None): "null"}  # fmt: skip
-DASHBOARD_SET = (
-    "a parameter set as an ArtRo dashboard's GET /api/params returns it (a JSON object with "
-    "version, motion and gait)"
-)
-
-
-class PortLost(LinkError):
-    """The robot's port failed (the adapter unplugged, the robot's side of a pty closed): every
-    later request says so at once."""
 
 
 class RobotRestarted(LinkError):
     """The robot's frame count went back: its MCU was reset (a brown-out as the servos draw, the
     watchdog, its reset button) and it walks in its firmware's own set again."""
-
-
-def _port_name(port: object) -> str:
-    name = getattr(port, "port", None)  # pyserial's Serial names its device
-    return f"the robot's port {name}" if isinstance(name, str) else "the robot's port"
-
-
-def _lost(port: object, exc: BaseException) -> PortLost:
-    return PortLost(f"{_port_name(port)} failed ({exc})")
 
 
 class DryRunPort:
@@ -82,106 +63,6 @@ def _got(message: bytes, reply: proto.Reply) -> str:
     return proto.describe(reply)
 
 
-def _late(message: bytes, reply: proto.Reply, given_up: set[int]) -> bool:
-    """Whether `reply` is the late ACK of a request given up on (`given_up`: their types), not
-    an answer to `message`: e.g. a START whose wait a signal ended, acknowledged while the
-    TORQUE_OFF after it waits. Taken off `given_up` then: a robot that keeps answering with
-    another message's ACK is still named."""
-    if isinstance(reply, proto.Ack) and reply.acked != message[2] and reply.acked in given_up:
-        given_up.discard(reply.acked)
-        return True
-    return False
-
-
-def _may_answer(message: bytes, reply: proto.Reply) -> bool:
-    """Whether `reply` may be the answer to `message`, not a streamed frame (those answer only
-    a GET); `proto.answers` then says whether it is the right one."""
-    if isinstance(reply, proto.Sensors):
-        return message[2] == proto.Msg.GET_SENSORS
-    if isinstance(reply, proto.Telemetry):
-        return message[2] == proto.Msg.GET_TELEMETRY
-    return True
-
-
-class PortReader:
-    """Reads the robot's port on a thread of its own while the SENSORS stream is on: each
-    streamed frame goes to `on_sensors` as it comes, every other message is an answer that
-    `request` waits for, so the stream never holds a parameter set up nor is taken for its
-    ACK. The port must have a read timeout (the CLI's: 20 ms)."""
-
-    def __init__(self, link: SerialLink, on_sensors: Callable[[proto.Sensors], None]) -> None:
-        self.link = link
-        self.on_sensors = on_sensors
-        self.error: LinkError | None = None  # why the reading ended, if it did
-        self.last_frame = time.monotonic()  # when a streamed frame came last
-        self.streamed_before: int | None = None  # the last frame streamed before the answer
-        self._streamed: int | None = None  # the last frame streamed since the last answer
-        # each answer with the last frame streamed before it; None: the reader ended
-        self._answers: queue.Queue[tuple[proto.Reply, int | None] | None] = queue.Queue()
-        self._stop = threading.Event()
-        self._thread = threading.Thread(target=self._run, name="robot-port", daemon=True)
-
-    def start(self) -> None:
-        self._thread.start()
-
-    def stop(self) -> None:
-        self._stop.set()
-        if self._thread.is_alive():
-            self._thread.join()
-
-    def _run(self) -> None:
-        try:
-            while not self._stop.is_set():
-                for message in self.link.decoder.feed(self.link.serial.read(256)):
-                    reply = proto.parse(message)
-                    if isinstance(reply, proto.Sensors):
-                        self.last_frame = time.monotonic()
-                        self._streamed = reply.frame
-                        self.on_sensors(reply)
-                    elif not isinstance(reply, proto.Telemetry):  # not asked for: not kept
-                        self._answers.put((reply, self._streamed))
-                        self._streamed = None
-        except LinkError as exc:  # a reply out of protocol
-            self.error = exc
-        except OSError as exc:  # pyserial's SerialException too: an unplugged adapter
-            self.error = _lost(self.link.serial, exc)
-        except Exception as exc:  # e.g. a frame the forwarder cannot take: said, not lost
-            self.error = LinkError(f"reading {_port_name(self.link.serial)} stopped: {exc!r}")
-        finally:  # a request waiting learns it at once, the follow loop at its next poll
-            self._answers.put(None)
-
-    def request(self, message: bytes, given_up: set[int]) -> list[proto.Reply]:
-        """Send `message`; its answer, or [] after the link's timeout; LinkError if the
-        reading ended (the port failed, or a reply out of protocol). A late ACK of a request
-        given up on (`_late`) is passed over. `streamed_before` is then the last frame
-        streamed before that answer (and after the one before it), if any."""
-        self.raise_error()
-        while not self._answers.empty():  # a late answer to a request that timed out
-            self._answers.get_nowait()
-        self.link.serial.write(message)
-        self.streamed_before = None
-        deadline = time.monotonic() + self.link.timeout_s
-        answer = None
-        while answer is None and (left := deadline - time.monotonic()) > 0:
-            try:
-                answer = self._answers.get(timeout=left)
-            except queue.Empty:
-                break
-            if answer is None:  # the reader ended
-                break
-            if _late(message, answer[0], given_up):
-                answer = None
-        self.raise_error()
-        if answer is None:
-            return []
-        reply, self.streamed_before = answer
-        return [reply]
-
-    def raise_error(self) -> None:
-        if self.error is not None:
-            raise self.error
-
-
 @dataclass
 class RobotLink:
     """One robot: `send_set` a whole parameter set, `stream_sensors` to a callback,
@@ -207,7 +88,7 @@ class RobotLink:
         try:
             replies = self._request(message)
         except OSError as exc:  # pyserial's SerialException is one
-            self._lost = _lost(self.link.serial, exc)
+            self._lost = port_lost(self.link.serial, exc)
             raise self._lost from exc
         except PortLost as exc:
             self._lost = exc
@@ -239,7 +120,7 @@ class RobotLink:
             answers = [
                 r
                 for r in replies
-                if _may_answer(message, r) and not _late(message, r, self._given_up)
+                if may_answer(message, r) and not late_ack(message, r, self._given_up)
             ]
             if answers:
                 return answers[:1]
@@ -428,7 +309,7 @@ def follow(
                     robot.log(f"{exc}: sending version {last} again")
                     restarted = True
                 try:
-                    doc = _dashboard_set(http.get("/api/params").raise_for_status(), server)
+                    doc = dashboard_set(http.get("/api/params").raise_for_status(), server)
                 except httpx.HTTPError as exc:
                     if sent == 0:
                         raise  # never reached: the command says so and ends
@@ -446,7 +327,7 @@ def follow(
                 if doc["version"] != last or restarted:
                     other_robot(doc, server, firmware_robot)
                     last = doc["version"]
-                    robot.send_set(_plain(doc, server), last)
+                    robot.send_set(plain_set(doc, server), last)
                     if sent == 0 or restarted:
                         robot.start()
                     if forwarder is not None and (sent == 0 or restarted):
@@ -475,55 +356,3 @@ def _end_stream(robot: RobotLink) -> None:
         robot.end_stream()
     except (LinkError, OSError) as exc:
         robot.log(f"could not end the robot's sensor stream: {exc}")
-
-
-def other_robot(doc: dict[str, Any], server: str, firmware_robot: str) -> None:
-    """LinkError, naming both robots, if the dashboard's set `doc` is for another robot than
-    the firmware on the port (a set is tuned for one robot's legs and servos: `PUT
-    /api/params` warns of it, a robot would walk it as it may, or fall)."""
-    robot = doc.get("robot") or DEFAULT_ROBOT
-    if robot == firmware_robot:
-        return
-    raise LinkError(
-        f"the dashboard at {server} simulates the robot {robot!r}, and its set "
-        f"{doc.get('name') or 'dashboard'!r} (version {doc['version']}) is for it; the firmware "
-        f"on the port is built for {firmware_robot!r} (--robot): nothing sent. Switch the "
-        f"dashboard to {firmware_robot!r}, or give --robot {robot} if the firmware was built "
-        "for it"
-    )
-
-
-def _dashboard_set(response: Any, server: str) -> dict[str, Any]:
-    """The JSON object of a GET /api/params answer; LinkError naming the server and what came
-    if it is not a dashboard's parameter set."""
-    try:
-        doc = response.json()
-    except ValueError:
-        kind = response.headers.get("content-type") or "no content type"
-        what = f"{kind}, not JSON ({response.text[:40]!r})"
-    else:
-        if not isinstance(doc, dict):
-            what = f"a JSON {JSON_KINDS.get(type(doc), type(doc).__name__)}"
-        else:
-            missing = [key for key in ("version", "motion", "gait") if key not in doc]
-            if not missing:
-                return doc
-            what = f"a JSON object without {', '.join(missing)}"
-    raise LinkError(
-        f"the server at {server} is not an ArtRo dashboard: GET /api/params gave {what}; "
-        f"expected {DASHBOARD_SET}"
-    )
-
-
-def _plain(doc: dict[str, Any], server: str | None = None) -> dict[str, Any]:
-    """The parameter-set document of an API answer (validated by the schema; LinkError naming
-    the `server` if the schema refuses it)."""
-    try:
-        pset = ParameterSet.from_dict({"motion": doc["motion"], "gait": doc["gait"]})
-    except ValueError as exc:
-        at = "" if server is None else f" at {server}"
-        raise LinkError(
-            f"the server{at} gave a parameter set this studio cannot take ({exc}); "
-            f"expected {DASHBOARD_SET}"
-        ) from exc
-    return pset.to_dict() | {"name": doc.get("name") or "dashboard"}

@@ -1,8 +1,8 @@
-"""A linked robot's SENSORS stream to the dashboard (docs/DESIGN.md §15): each frame decoded from
-counts to SI units as the firmware decodes them (`sensor_feed.decoded`), and posted in batches
-(`POST /api/sensors/robot`, every FORWARD_S) from a thread of its own, so neither the robot's
-port nor the parameter sending ever waits on the dashboard. A dashboard that does not answer
-for a while costs frames (the newest WINDOW_FRAMES wait), never the link."""
+"""A linked robot's SENSORS stream to the dashboard (docs/DESIGN.md §15): each frame's fields
+that hardware/firmware/wire.py marks, its counts decoded as the firmware decodes them, posted in
+batches (`POST /api/sensors/robot`, every FORWARD_S) from a thread of its own, so neither the
+port nor the parameter sending waits on the dashboard. A dashboard that does not answer costs
+frames (the last WINDOW_FRAMES wait), never the link."""
 
 from __future__ import annotations
 
@@ -16,6 +16,7 @@ import numpy as np
 
 from app.firmware import protocol as proto
 from app.firmware.sensor_feed import RawSample, decoded
+from hardware.firmware.wire import SENSORS
 
 FORWARD_S = 0.15  # a batch of about 7 frames
 POST_FRAMES = 16  # at most per request (about 7 KiB; the server takes 16)
@@ -28,25 +29,30 @@ def _f32(values: Any) -> list[float]:
     return [float(str(np.float32(v))) for v in np.ravel(values)]
 
 
+#: the names of the bits of each SENSORS field the layout marks "bits"
+BIT_NAMES = {"status": proto.STATUS_BITS, "laws": proto.LAW_BITS}
+
+
 def frame_json(sensors: proto.Sensors) -> dict[str, Any] | None:
-    """One SENSORS frame as the dashboard takes it, or None if a value is not finite."""
+    """One SENSORS frame as the dashboard takes it, or None if a value is not finite: the fields
+    hardware/firmware/wire.py marks for the dashboard, and the raw counts decoded."""
     raw = RawSample(sensors.accel_raw, sensors.gyro_raw, sensors.adc)
     reading = decoded(raw, sensors.gyro_offset)
-    frame = {
-        "frame": sensors.frame,
-        "status": [name for name, bit in proto.STATUS_BITS.items() if sensors.status & bit],
-        "imu_failures": sensors.imu_failures,
-        "laws": [name for name, bit in proto.LAW_BITS.items() if sensors.laws & bit],
-        "support": sensors.support,
-        "attitude_rad": _f32(sensors.attitude_rad),
+    frame: dict[str, Any] = {
         "gyro_rad_s": _f32(reading.gyro_rad_s),
         "accel_m_s2": _f32(reading.accel_m_s2),
         "fsr_n": [_f32(sole) for sole in reading.fsr_n],
-        "tilt_rad": _f32(sensors.tilt_rad),
-        "a_y_delta": _f32(sensors.a_y_delta)[0],
-        "cop_rad": _f32(sensors.cop_rad),
     }
-    numbers = [*sensors.attitude_rad, *sensors.tilt_rad, sensors.a_y_delta, *sensors.cop_rad]
+    numbers: list[float] = []
+    for field in SENSORS.fields:
+        value = getattr(sensors, field.name)
+        if field.dashboard == "value":
+            frame[field.name] = value
+        elif field.dashboard == "bits":
+            frame[field.name] = [name for name, bit in BIT_NAMES[field.name].items() if value & bit]
+        elif field.dashboard == "float32":
+            frame[field.name] = _f32(value) if field.count > 1 else _f32(value)[0]
+            numbers.extend(np.ravel(value))
     return frame if all(math.isfinite(v) for v in numbers) else None
 
 

@@ -1,11 +1,12 @@
-"""The wire layouts declared once (hardware/firmware/wire.py; the decision record:
-docs/decisions/0063-wire-layouts-declared-once.md): the C header, the host's decoder and
-PROTOCOL.md's tables come from the declaration, and the SENSORS bytes the firmware sends are the
-ones its hand-written packing sent."""
+"""The wire layouts declared once (hardware/firmware/wire.py; decisions 0063 and 0065): the C
+header, the host's messages (app/firmware/wire_messages.py) and PROTOCOL.md's tables come from
+the declaration, and the bytes the firmware sends are the ones its hand-written packing sent."""
 
 from __future__ import annotations
 
 import dataclasses
+import re
+import struct
 
 import pytest
 
@@ -81,6 +82,20 @@ def test_protocol_md_holds_the_generated_tables() -> None:
     assert wire.main(["--check"]) == 0
 
 
+def test_check_finds_a_stale_host_module_and_write_python_renews_it(tmp_path, monkeypatch) -> None:
+    """wire_messages.py as another commit left it: `--check` exits 1, `--write-python` renews it
+    (here a copy in tmp_path: the checkout's file stays as it is)."""
+    copy = tmp_path / "wire_messages.py"
+    copy.write_text(wire.python_module().replace("    frame: int", "    frame: float", 1))
+    monkeypatch.setattr(wire, "WIRE_MESSAGES", copy)
+    assert wire.main(["--check"]) == 1
+    assert wire.main(["--write-python"]) == 0
+    assert copy.read_text(encoding="utf-8") == wire.python_module()
+    assert wire.main(["--check"]) == 0
+    with pytest.raises(SystemExit):  # neither a check nor a write
+        wire.main([])
+
+
 def test_the_host_decodes_the_declared_fields() -> None:
     """protocol.Sensors has the declaration's fields, in order; the struct is the declaration's."""
     assert tuple(f.name for f in dataclasses.fields(proto.Sensors)) == SENSORS.names
@@ -100,6 +115,81 @@ def test_the_host_decodes_the_declared_fields() -> None:
     assert decoded.cop_rad[1] < 0 < decoded.cop_rad[0]
 
 
+#: each request and the payload of the firmware's answer (from frame 6, 4 frames apart, at rest),
+#: as the hand-written send_ack/nak/info/angles/params and dispatch() packed and read them; None:
+#: not compared (the schema's whole set)
+HAND_PACKED_ANSWERS = (
+    (proto.encode(proto.Msg.PING), None),
+    (proto.set_motion(0.01, 0.02, 0.03, 0.1), "020b000000"),
+    (proto.set_param(5, 0.3), "030505"),
+    (proto.set_params([0.01, 0.02], 0), "0413000000"),
+    (proto.get_param(7), "070ad7a33d"),
+    (proto.get_params(3, 5), "0305cdcccc3d1ae02e3f0000803f32cb5e3e0ad7a33d"),
+    (proto.get_params(0, 48), None),
+    (proto.command(proto.Msg.GET_ANGLES), "2200000065bf903c3b589e3dce934cbc00000000157b89bc66ea3d"
+     "bd6a7f113d42f04d3e8525a23d94e4e6bdeaf9563cc7c65fbe"),
+    (proto.command(proto.Msg.GET_TELEMETRY), "26000000ef78d83fd30b690ca70bb70ba50bfd0ada0b440c21"
+     "0c080be30b410b00000000"),
+    (proto.telemetry_on(0), "0a2b000000"),
+    (proto.telemetry_on(3), "0a0503"),
+    (proto.get_param(250), "0504fa"),
+    (proto.get_params(0, 0), "060500"),
+    (proto.encode(proto.Msg.SET_PARAM, b"\x01"), "030301"),
+    (proto.encode(0x55), "550200"),
+    (proto.set_param(0, 1e9), "030500"),
+    (proto.command(proto.Msg.STOP), "0847000000"),
+    (proto.encode(proto.Msg.PING), "0256........4a00000001"),  # the schema hash aside
+    (proto.set_params([1.0] * 3, 200), "0404c8"),
+    (proto.encode(proto.Msg.SET_PARAMS, bytes(6)), "040306"),
+)  # fmt: skip
+
+
+@pytest.mark.slow
+def test_every_generated_packing_and_unpacking_sends_the_hand_packed_bytes() -> None:
+    """ACK, NAK, INFO, PARAM(S), ANGLES out and the requests in: the bytes of the hand-written
+    C (recorded before the packing was generated), one answer each."""
+    doc = complete_document(preset("tuned", a_p=0.05, a_y=0.05))
+    with Mcu(build_firmware(doc).elf, sensors=sample_of(at_rest())) as mcu:
+        mcu.run_to_frame(5)
+        mcu.take_uart()
+        frame = 6
+        for request, payload in HAND_PACKED_ANSWERS:
+            mcu.send(request)
+            frame += 4
+            mcu.run_to_frame(frame)
+            (answer,) = proto.Decoder().feed(mcu.take_uart()[1])
+            if payload is not None:
+                sent = answer.payload.hex()
+                assert re.fullmatch(payload, sent), (proto.type_name(request[2]), sent)
+    assert len(answer.payload) == wire.NAK.size  # the last: a NAK
+
+
+def test_the_host_classes_and_message_types_are_the_declarations() -> None:
+    """protocol.Msg is the declared messages; each request has its answer; the generated module
+    is fresh; a repeated field unpacks as its count says; a state or reason not known is said."""
+    assert [(m.name, m.value) for m in proto.Msg] == [(m.name, m.type_code) for m in wire.MESSAGES]
+    assert set(proto.ACKED) | set(proto.DATA_REPLIES) == {m for m in proto.Msg if m < 0x80}
+    for m in (m for m in wire.MESSAGES if m.type_code < 0x80):  # PROTOCOL.md's answer is the host's
+        request = proto.Msg[m.name]
+        answer = "ACK" if request in proto.ACKED else proto.DATA_REPLIES[request][0].name
+        assert answer == m.answer, m.name
+    assert wire.python_module() == wire.WIRE_MESSAGES.read_text(encoding="utf-8")
+    assert [f.name for f in dataclasses.fields(proto.Params)] == ["first", "values"]
+    params = proto.parse(proto.Message(proto.Msg.PARAMS, bytes([3, 2]) + bytes(8)))
+    assert params == proto.Params(3, (0.0, 0.0))
+    assert wire.PARAMS.unpack(bytes([3, 1]) + bytes(4)) == {
+        "first": 3,
+        "count": 1,
+        "values": (0.0,),
+    }
+    with pytest.raises(struct.error):
+        wire.PARAMS.unpack(bytes([3, 2]) + bytes(4))
+    with pytest.raises(proto.LinkError, match="names state 7"):
+        proto.parse(proto.Message(proto.Msg.INFO, bytes(10) + b"\x07"))
+    nak = proto.parse(proto.Message(proto.Msg.NAK, bytes([3, 9, 0])))
+    assert isinstance(nak, proto.Nak) and nak.reason == 9
+
+
 def test_the_c_header_gives_each_field_its_offset_and_checks_its_source() -> None:
     header = c_wire_header()
     header.encode("ascii")  # the build writes it as ASCII
@@ -111,3 +201,12 @@ def test_the_c_header_gives_each_field_its_offset_and_checks_its_source() -> Non
         "wire_pack_telemetry(uint8_t *p, const plan_t *plan, float phase, uint8_t flags)" in header
     )
     assert "_Static_assert(sizeof(plan->servo_ocr) == 24, " in header
+    # a macro is not a variable: no size check of PROTO_VERSION (2u, an unsigned int)
+    assert "sizeof(PROTO_VERSION)" not in header and "(uint8_t)(PROTO_VERSION)" in header
+    assert "static inline uint8_t wire_pack_params(uint8_t *p, uint8_t first, uint8_t count)" in (
+        header
+    )
+    assert (
+        "memcpy(values, &p[ARTRO_WIRE_SET_PARAMS_VALUES], 4u * p[ARTRO_WIRE_SET_PARAMS_COUNT]);"
+        in (header)
+    )

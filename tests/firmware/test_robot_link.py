@@ -15,8 +15,9 @@ import serial
 
 from app.cli.link import command as cmd_link
 from app.firmware import protocol as proto
+from app.firmware.dashboard_set import plain_set
 from app.firmware.link import SerialLink, read_params
-from app.firmware.robot_link import LinkError, RobotLink, _plain, follow
+from app.firmware.robot_link import LinkError, RobotLink, follow
 from hardware.firmware.schema import values_from_document
 from tests.testing.server_harness import client, running_server
 
@@ -54,7 +55,7 @@ def test_the_dashboards_set_and_its_change_reach_the_robot(robot_on_a_pty, tmp_p
         worker.join(60)
         assert done == [2], sent
         # the robot holds exactly the dashboard's new set (as float32)
-        expected = np.float32(values_from_document(_plain(changed)))
+        expected = np.float32(values_from_document(plain_set(changed)))
         np.testing.assert_array_equal(np.float32(read_params(link, len(expected))), expected)
         (info,) = link.request(proto.encode(proto.Msg.PING))
         assert info.state == proto.RunState.WALK

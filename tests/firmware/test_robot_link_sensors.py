@@ -14,8 +14,9 @@ import pytest
 import serial
 
 from app.firmware import protocol as proto
+from app.firmware.dashboard_set import plain_set
 from app.firmware.link import SerialLink, read_params
-from app.firmware.robot_link import RobotLink, _plain, follow
+from app.firmware.robot_link import RobotLink, follow
 from app.firmware.robot_telemetry import SensorForwarder, frame_json
 from app.firmware.sensor_feed import (
     GYRO_ZERO_RATE_COUNTS,
@@ -108,7 +109,7 @@ def test_the_robots_sensors_reach_the_dashboard_while_its_sets_go_on(robot_with_
 
         # each set was paired with its ACK amid the stream: the robot holds the new set whole,
         # and after the stream's end a request gets its own answer
-        expected = np.float32(values_from_document(_plain(changed)))
+        expected = np.float32(values_from_document(plain_set(changed)))
         np.testing.assert_array_equal(np.float32(read_params(link, len(expected))), expected)
         (info,) = link.request(proto.encode(proto.Msg.PING))
         assert isinstance(info, proto.Info) and info.state == proto.RunState.WALK

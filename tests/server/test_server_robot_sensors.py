@@ -12,6 +12,7 @@ import json
 import numpy as np
 import pytest
 
+from app.firmware import protocol as proto
 from app.firmware.robot_telemetry import POST_FRAMES
 from app.robots.model import RobotModel
 from app.server.api.sensors import MAX_POSTED_FRAMES
@@ -136,8 +137,8 @@ def test_the_links_batches_fit_the_route_and_its_largest_body_the_gate():
     assert POST_FRAMES <= MAX_POSTED_FRAMES
     longest = -2.2250738585072014e-308  # the longest a float's JSON gets
     worst = frame(2**32 - 1) | {
-        "status": ["imu_present", "imu_stale", "imu_nack", "imu_short", "fsr_stale"],
-        "laws": ["tilt", "yaw_rate", "damping", "cop"],
+        "status": list(proto.STATUS_BITS),
+        "laws": list(proto.LAW_BITS),  # every law on: the timing law's bit 4 too
         "imu_failures": 255,
         "support": -1,
     }
@@ -150,6 +151,13 @@ def test_the_links_batches_fit_the_route_and_its_largest_body_the_gate():
             worst[key] = longest
     body = json.dumps({"frames": [worst] * MAX_POSTED_FRAMES}).encode()
     assert len(body) <= MAX_BODY_BYTES
+
+
+def test_a_robot_with_every_law_on_is_taken(server):
+    """Five laws since the timing law's bit 4 reached SENSORS (decision 0063): all are taken."""
+    body = {"frames": [frame(8000) | {"laws": list(proto.LAW_BITS)}]}
+    assert server.post("/api/sensors/robot", json=body).status_code == 200
+    assert server.get("/api/sensors").json()["robot"]["laws"] == list(proto.LAW_BITS)
 
 
 def test_what_is_allowed_is_said(server):

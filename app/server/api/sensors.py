@@ -42,11 +42,11 @@ class RobotFrameBody(BaseModel):
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
     frame: json_int(0) = Field(le=2**32 - 1, description="the robot's frame the laws corrected")
     status: list[Literal[tuple(proto.STATUS_BITS)]] = Field(  # type: ignore[valid-type]
-        max_length=5, description="the status bits set"
+        max_length=len(proto.STATUS_BITS), description="the status bits set"
     )
     imu_failures: json_int(0) = Field(le=255, description="failed IMU reads since boot")
     laws: list[Literal[tuple(proto.LAW_BITS)]] = Field(  # type: ignore[valid-type]
-        max_length=4, description="the laws switched on"
+        max_length=len(proto.LAW_BITS), description="the laws switched on"
     )
     support: json_int(-1) = Field(le=1, description="support foot: 0 left, 1 right, -1 neither")
     attitude_rad: Angles2

@@ -44,35 +44,30 @@ static void send(uint8_t type, const void *payload, uint8_t n)
         s_sticky |= TELEM_TX_DROPPED;
 }
 
+/* Every payload's layout, and where each field comes from, is declared in
+ * hardware/firmware/wire.py, which generates artro_wire.h (PROTOCOL.md's tables too). */
+
 static void send_ack(uint8_t type)
 {
-    uint8_t p[5];
-    uint32_t effective = control_effective_frame();
-    p[0] = type;
-    memcpy(&p[1], &effective, 4);
+    uint8_t p[ARTRO_WIRE_ACK_BYTES];
+    wire_pack_ack(p, type);
     send(MSG_ACK, p, sizeof p);
 }
 
 static void send_nak(uint8_t type, uint8_t reason, uint8_t detail)
 {
-    uint8_t p[3] = {type, reason, detail};
+    uint8_t p[ARTRO_WIRE_NAK_BYTES];
+    wire_pack_nak(p, type, reason, detail);
     send(MSG_NAK, p, sizeof p);
 }
 
 static void send_info(void)
 {
-    uint8_t p[11];
-    uint32_t hash = ARTRO_SCHEMA_HASH;
-    uint32_t frame = control_frame();
-    p[0] = PROTO_VERSION;
-    p[1] = ARTRO_PARAM_COUNT;
-    memcpy(&p[2], &hash, 4);
-    memcpy(&p[6], &frame, 4);
-    p[10] = control_state();
+    uint8_t p[ARTRO_WIRE_INFO_BYTES];
+    wire_pack_info(p);
     send(MSG_INFO, p, sizeof p);
 }
 
-/* TELEMETRY: its layout is declared in hardware/firmware/wire.py, as SENSORS's below */
 static void send_telemetry(void)
 {
     uint8_t p[ARTRO_WIRE_TELEMETRY_BYTES];
@@ -98,24 +93,17 @@ static void send_telemetry(void)
 
 static void send_angles(void)
 {
-    uint8_t p[52];
-    const plan_t *plan = control_current_plan();
-    memcpy(&p[0], &plan->frame, 4);
-    memcpy(&p[4], plan->angle, 48);
+    uint8_t p[ARTRO_WIRE_ANGLES_BYTES];
+    wire_pack_angles(p, control_current_plan());
     send(MSG_ANGLES, p, sizeof p);
 }
 
 static void send_params(uint8_t first, uint8_t count)
 {
-    uint8_t p[2 + 4 * PROTO_MAX_VALUES];
-    p[0] = first;
-    p[1] = count;
-    memcpy(&p[2], &g_params[first], 4u * count);
-    send(MSG_PARAMS, p, (uint8_t)(2u + 4u * count));
+    uint8_t p[ARTRO_WIRE_PARAMS_MAX_BYTES];
+    send(MSG_PARAMS, p, wire_pack_params(p, first, count));
 }
 
-/* SENSORS: its layout and where each field comes from are declared in hardware/firmware/wire.py,
- * which generates artro_wire.h (PROTOCOL.md's table too) */
 static void send_sensors(void)
 {
     uint8_t p[ARTRO_WIRE_SENSORS_BYTES];
@@ -139,14 +127,15 @@ static int16_t expected_length(uint8_t type)
     case MSG_GET_SENSORS:
         return 0;
     case MSG_GET_PARAM:
+        return ARTRO_WIRE_GET_PARAM_BYTES;
     case MSG_TELEMETRY_ON:
-        return 1;
+        return ARTRO_WIRE_TELEMETRY_ON_BYTES;
     case MSG_GET_PARAMS:
-        return 2;
+        return ARTRO_WIRE_GET_PARAMS_BYTES;
     case MSG_SET_PARAM:
-        return 5;
+        return ARTRO_WIRE_SET_PARAM_BYTES;
     case MSG_SET_MOTION:
-        return 16;
+        return ARTRO_WIRE_SET_MOTION_BYTES;
     case MSG_SET_PARAMS:
         return -1;
     default:
@@ -175,13 +164,13 @@ static void dispatch(void)
     }
 
     float values[PROTO_MAX_VALUES];
-    uint8_t status, bad;
+    uint8_t status, bad, id, first, count, mode;
     switch (type) {
     case MSG_PING:
         send_info();
         break;
     case MSG_SET_MOTION:
-        memcpy(values, body, 16);
+        wire_unpack_set_motion(body, values);
         status = params_set_many(ARTRO_PID_MOTION_A_R, 4, values, &bad);
         if (status != PARAM_OK)
             nak_param(type, status, bad);
@@ -189,45 +178,46 @@ static void dispatch(void)
             send_ack(type);
         break;
     case MSG_SET_PARAM:
-        memcpy(&values[0], &body[1], 4);
-        status = params_set(body[0], values[0]);
+        wire_unpack_set_param(body, &id, &values[0]);
+        status = params_set(id, values[0]);
         if (status != PARAM_OK)
-            nak_param(type, status, body[0]);
+            nak_param(type, status, id);
         else
             send_ack(type);
         break;
-    case MSG_SET_PARAMS: {
-        uint8_t first = n >= 2 ? body[0] : 0, count = n >= 2 ? body[1] : 0;
-        if (n < 2 || count == 0 || count > PROTO_MAX_VALUES || n != 2u + 4u * count) {
+    case MSG_SET_PARAMS:
+        count = n >= ARTRO_WIRE_SET_PARAMS_BYTES ? body[ARTRO_WIRE_SET_PARAMS_COUNT] : 0;
+        if (n < ARTRO_WIRE_SET_PARAMS_BYTES || count == 0 || count > PROTO_MAX_VALUES
+            || n != ARTRO_WIRE_SET_PARAMS_BYTES_OF(count)) {
             send_nak(type, NAK_BAD_LENGTH, n);
             break;
         }
-        memcpy(values, &body[2], 4u * count);
+        wire_unpack_set_params(body, &first, &count, values);
         status = params_set_many(first, count, values, &bad);
         if (status != PARAM_OK)
             nak_param(type, status, bad);
         else
             send_ack(type);
         break;
-    }
     case MSG_GET_PARAM:
-        if (body[0] >= ARTRO_PARAM_COUNT) {
-            send_nak(type, NAK_UNKNOWN_ID, body[0]);
+        wire_unpack_get_param(body, &id);
+        if (id >= ARTRO_PARAM_COUNT) {
+            send_nak(type, NAK_UNKNOWN_ID, id);
         } else {
-            uint8_t p[5];
-            p[0] = body[0];
-            memcpy(&p[1], &g_params[body[0]], 4);
+            uint8_t p[ARTRO_WIRE_PARAM_BYTES];
+            wire_pack_param(p, id);
             send(MSG_PARAM, p, sizeof p);
         }
         break;
     case MSG_GET_PARAMS:
-        if (body[1] == 0 || body[1] > PROTO_MAX_VALUES) {
-            send_nak(type, NAK_OUT_OF_RANGE, body[1]);
-        } else if ((uint16_t)body[0] + body[1] > ARTRO_PARAM_COUNT) {
+        wire_unpack_get_params(body, &first, &count);
+        if (count == 0 || count > PROTO_MAX_VALUES) {
+            send_nak(type, NAK_OUT_OF_RANGE, count);
+        } else if ((uint16_t)first + count > ARTRO_PARAM_COUNT) {
             /* the first id of the range that does not exist, as SET_PARAMS names it */
-            send_nak(type, NAK_UNKNOWN_ID, body[0] > ARTRO_PARAM_COUNT ? body[0] : ARTRO_PARAM_COUNT);
+            send_nak(type, NAK_UNKNOWN_ID, first > ARTRO_PARAM_COUNT ? first : ARTRO_PARAM_COUNT);
         } else {
-            send_params(body[0], body[1]);
+            send_params(first, count);
         }
         break;
     case MSG_START:
@@ -237,11 +227,12 @@ static void dispatch(void)
         send_ack(type);
         break;
     case MSG_TELEMETRY_ON:
-        if (body[0] > 2) {
-            send_nak(type, NAK_OUT_OF_RANGE, body[0]);
+        wire_unpack_telemetry_on(body, &mode);
+        if (mode > 2) {
+            send_nak(type, NAK_OUT_OF_RANGE, mode);
             break;
         }
-        s_telemetry_on = body[0];
+        s_telemetry_on = mode;
         send_ack(type);
         break;
     case MSG_GET_TELEMETRY:
