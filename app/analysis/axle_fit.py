@@ -13,7 +13,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from app.analysis.ca_analysis import fit_axle
-from app.evaluation import BatchEvaluator, Job
+from app.evaluation import BatchEvaluator, Evaluator, Job
 from gait import GaitParams, Motion
 
 FIT_CA = (-0.1, 0.0, 0.1)
@@ -63,7 +63,7 @@ def walking_amplitude(motion: Motion) -> float:
 def fit_effective_axle(
     params: GaitParams,
     motion: Motion,
-    evaluator: BatchEvaluator | None = None,
+    evaluator: Evaluator | None = None,
     duration_s: float = DURATION_S,
     warmup_s: float = WARMUP_S,
 ) -> AxleFitResult:

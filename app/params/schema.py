@@ -6,7 +6,7 @@ Nothing here lists a parameter by hand (docs/DESIGN.md §4): see `ParamsBody`, `
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Annotated, Any, Literal, Union
+from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, create_model
 
@@ -77,47 +77,57 @@ def _model_for(cls: type, name: str, *, partial: bool, defaults: bool = False) -
     return create_model(name, __config__=STRICT, **definitions)
 
 
-MotionModel = _model_for(Motion, "Motion", partial=False)
-MotionPatch = _model_for(Motion, "MotionPatch", partial=True)
+if TYPE_CHECKING:  # mypy cannot follow create_model: to it, each model made here is a BaseModel
+    MotionModel = BaseModel
+    MotionPatch = BaseModel
+    MotionImport = BaseModel
+    GaitModel = BaseModel
+    GaitPatch = BaseModel
+    GaitImport = BaseModel
+    GaitImportV1 = BaseModel
+else:
+    MotionModel = _model_for(Motion, "Motion", partial=False)
+    MotionPatch = _model_for(Motion, "MotionPatch", partial=True)
 
-_groups_full: dict[str, Any] = {
-    g: (_model_for(group_class(g), f"{g.title()}Params", partial=False), ...) for g in GROUP_NAMES
-}
-_groups_patch: dict[str, Any] = {
-    g: (_model_for(group_class(g), f"{g.title()}Patch", partial=True) | None, None)
-    for g in GROUP_NAMES
-}
-GaitModel = create_model(
-    "Gait",
-    __config__=STRICT,
-    engine=(EngineName, Field("behnke", description=ENGINE_DOC)),
-    **_groups_full,
-)
-GaitPatch = create_model(
-    "GaitPatch",
-    __config__=STRICT,
-    engine=(EngineName | None, Field(None, description=ENGINE_DOC)),
-    **_groups_patch,
-)
+    _groups_full: dict[str, Any] = {
+        g: (_model_for(group_class(g), f"{g.title()}Params", partial=False), ...)
+        for g in GROUP_NAMES
+    }
+    _groups_patch: dict[str, Any] = {
+        g: (_model_for(group_class(g), f"{g.title()}Patch", partial=True) | None, None)
+        for g in GROUP_NAMES
+    }
+    GaitModel = create_model(
+        "Gait",
+        __config__=STRICT,
+        engine=(EngineName, Field("behnke", description=ENGINE_DOC)),
+        **_groups_full,
+    )
+    GaitPatch = create_model(
+        "GaitPatch",
+        __config__=STRICT,
+        engine=(EngineName | None, Field(None, description=ENGINE_DOC)),
+        **_groups_patch,
+    )
 
+    _groups_import: dict[str, Any] = {
+        g: (_model_for(group_class(g), f"{g.title()}Import", partial=True, defaults=True), None)
+        for g in GROUP_NAMES
+    }
+    MotionImport = _model_for(Motion, "MotionImport", partial=True, defaults=True)
+    GaitImport = create_model(
+        "GaitImport",
+        __config__=STRICT,
+        engine=(EngineName, Field("behnke", description=ENGINE_DOC)),
+        **_groups_import,
+    )
 
-_groups_import: dict[str, Any] = {
-    g: (_model_for(group_class(g), f"{g.title()}Import", partial=True, defaults=True), None)
-    for g in GROUP_NAMES
-}
-MotionImport = _model_for(Motion, "MotionImport", partial=True, defaults=True)
-GaitImport = create_model(
-    "GaitImport",
-    __config__=STRICT,
-    engine=(EngineName, Field("behnke", description=ENGINE_DOC)),
-    **_groups_import,
-)
+    GaitImportV1 = create_model(
+        "GaitImportV1",
+        __config__=STRICT,
+        **{g: spec for g, spec in _groups_import.items() if g not in V2_GROUPS},
+    )
 
-GaitImportV1 = create_model(
-    "GaitImportV1",
-    __config__=STRICT,
-    **{g: spec for g, spec in _groups_import.items() if g not in V2_GROUPS},
-)
 
 MAX_VERSION = 2**53  # JSON-safe integer
 
@@ -161,8 +171,8 @@ class ParamsBody(BaseModel):
     project_version: str | None = Field(
         None, max_length=64, description="of an exported file; ignored"
     )
-    motion: MotionModel  # type: ignore[valid-type]  # made by create_model
-    gait: GaitModel  # type: ignore[valid-type]  # made by create_model
+    motion: MotionModel
+    gait: GaitModel
 
 
 class ParamsPatchBody(BaseModel):
@@ -171,8 +181,8 @@ class ParamsPatchBody(BaseModel):
     model_config = STRICT
     version: Version | None = BaseVersion
     name: str | None = NAME_FIELD
-    motion: MotionPatch | None = None  # type: ignore[valid-type]  # made by create_model
-    gait: GaitPatch | None = None  # type: ignore[valid-type]  # made by create_model
+    motion: MotionPatch | None = None
+    gait: GaitPatch | None = None
 
     def as_patch(self) -> dict[str, Any]:
         """Nested dict of only the parameters the client sent (not the version)."""
@@ -212,7 +222,8 @@ class _ImportFields(BaseModel):
     robot: str | None = ROBOT_FIELD
     created: str | None = None
     project_version: str | None = None
-    motion: MotionImport = None  # type: ignore[valid-type]  # made by create_model
+    # None when left out, though a body's null is refused: mypy has no type for that
+    motion: MotionImport = None  # type: ignore[assignment]
 
 
 class ImportBody(_ImportFields):
@@ -220,7 +231,8 @@ class ImportBody(_ImportFields):
     `GET /api/params` returns; groups and fields left out take the paper's values."""
 
     schema_version: Literal[2] | None = None
-    gait: GaitImport = None  # type: ignore[valid-type]  # made by create_model
+    # None when left out, though a body's null is refused: mypy has no type for that
+    gait: GaitImport = None  # type: ignore[assignment]
 
 
 class ImportBodyV1(_ImportFields):
@@ -228,7 +240,8 @@ class ImportBodyV1(_ImportFields):
     groups; app/params/document.py)."""
 
     schema_version: Literal[1]
-    gait: GaitImportV1 = None  # type: ignore[valid-type]  # made by create_model
+    # None when left out, though a body's null is refused: mypy has no type for that
+    gait: GaitImportV1 = None  # type: ignore[assignment]
 
 
 def inline_schema(*models: type[BaseModel]) -> dict[str, Any]:

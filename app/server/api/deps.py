@@ -22,10 +22,12 @@ def _whole_float_to_int(value: Any) -> Any:
     return int(value) if isinstance(value, float) and value.is_integer() else value
 
 
-def json_int(minimum: int) -> Any:
-    """An integer >= minimum as JSON has it: JSON Schema's integer includes 3.0, so a whole
-    float is taken; strings and booleans stay refused (strict)."""
-    return Annotated[int, Ge(minimum), BeforeValidator(_whole_float_to_int)]
+#: an integer as JSON has it, after its minimum (`Annotated[int, Ge(n), WHOLE_FLOAT]`): JSON
+#: Schema's integer includes 3.0, so a whole float is taken; strings and booleans stay refused
+#: (strict)
+WHOLE_FLOAT = BeforeValidator(_whole_float_to_int)
+JsonIntFrom0 = Annotated[int, Ge(0), WHOLE_FLOAT]  # an integer >= 0 as JSON has it
+JsonIntFrom1 = Annotated[int, Ge(1), WHOLE_FLOAT]  # an integer >= 1 as JSON has it
 
 
 INLINE_PARSE_BYTES = 2048  # smaller bodies parse in microseconds: not worth a thread hop

@@ -11,7 +11,7 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.params.presets import PresetError, PresetNotFound, diff
 from app.server.api.answers import ANSWER, GhostAccepted, GhostState
-from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
+from app.server.api.deps import JsonIntFrom1, ServicesDep, StrictJsonRoute
 from app.server.api.presets import NAME_SCHEMA_PATTERN
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.services import Services
@@ -31,7 +31,7 @@ class PresetGhost(BaseModel):
 
 class VersionGhost(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    version: json_int(1) = Field(
+    version: JsonIntFrom1 = Field(
         description="an earlier parameter version (undo history) or the current"
     )
 

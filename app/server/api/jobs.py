@@ -8,7 +8,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.server.api.answers import ANSWER
-from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
+from app.server.api.deps import JsonIntFrom1, ServicesDep, StrictJsonRoute
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs.axle_fitter import KIND
 from app.server.jobs.ca_calibrator import KIND as CALIBRATE
@@ -33,7 +33,7 @@ class StartBody(BaseModel):
 
 class ApplyBody(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    version: json_int(1) = Field(
+    version: JsonIntFrom1 = Field(
         description="the parameter version in use to apply the result onto (GET /api/params); "
         "409 if it is no longer the one in use"
     )

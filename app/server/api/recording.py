@@ -16,7 +16,7 @@ from app.firmware.vcd import edges_of_frames, vcd_text
 from app.params.formats import ParameterImportError, load_json_strict
 from app.server.api.answers import ANSWER, ReplayStatus
 from app.server.api.answers_data import RecordedFrame, RecordingFile, RecordingSummary
-from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
+from app.server.api.deps import JsonIntFrom0, ServicesDep, StrictJsonRoute
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.recording.recorder import RECORD_FRAMES, Recording
 from app.server.recording.recording_file import (
@@ -44,7 +44,7 @@ router = APIRouter(
 
 class ReplayBody(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    index: json_int(0) | None = Field(
+    index: JsonIntFrom0 | None = Field(
         None,
         description="position in the recording, 0 = its oldest frame; null: the newest",
     )
@@ -167,7 +167,7 @@ COLUMNS_SCHEMA = {
         "drive": _frames({"type": "integer", "minimum": 0, "maximum": 1}),
     },
 }
-IMPORT_BODY = {
+IMPORT_BODY: dict[str, Any] = {
     "requestBody": {
         "required": True,
         "description": "a recording file as GET /api/recording/export writes it (at most 16 MiB)",

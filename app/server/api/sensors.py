@@ -3,15 +3,16 @@ and what the feedback laws made of it, and beside it a linked robot's own frames
 forwards them (docs/DESIGN.md §15)."""
 
 import math
-from typing import Annotated, Any, Literal
+from typing import TYPE_CHECKING, Annotated, Any, Literal
 
+from annotated_types import Ge
 from fastapi import APIRouter
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.firmware import protocol as proto
 from app.server.api.answers import ANSWER
 from app.server.api.answers_data import FramesTaken, Sensors
-from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
+from app.server.api.deps import WHOLE_FLOAT, JsonIntFrom0, ServicesDep, StrictJsonRoute
 from app.server.feeds.robot_sensors import WINDOW_FRAMES, RobotFrame
 from app.server.http.errors import GATE_RESPONSES, responses
 from app.server.recording.sensor_trace import COLUMNS
@@ -26,13 +27,36 @@ ACCEL_LIMIT_M_S2 = 19.62  # its ±2 g range
 FSR_LIMIT_N = 5120.0  # the divider's force at the ADC's top count (5 N · 1023 / 1)
 
 
-def _values(n: int, limit: float, what: str, low: float | None = None) -> Any:
-    low = -limit if low is None else low
-    value = Annotated[float, Field(ge=low, le=limit)]
-    return Annotated[list[value], Field(min_length=n, max_length=n, description=what)]
+def _values(n: int, what: str) -> Any:
+    """The field of a list of `n` values (each within `_each`'s bounds)."""
+    return Field(min_length=n, max_length=n, description=what)
 
 
-Angles2 = _values(2, math.pi, "pitch, roll (rad, within ±π)")
+def _each(limit: float, low: float | None = None) -> Any:
+    """The field of one value, `low` (default -limit) to `limit`."""
+    return Field(ge=-limit if low is None else low, le=limit)
+
+
+Angles2 = Annotated[
+    list[Annotated[float, _each(math.pi)]], _values(2, "pitch, roll (rad, within ±π)")
+]
+Rates3 = Annotated[
+    list[Annotated[float, _each(GYRO_LIMIT_RAD_S)]],
+    _values(3, "x, y, z rate (rad/s, within ±4.37)"),
+]
+Accelerations3 = Annotated[
+    list[Annotated[float, _each(ACCEL_LIMIT_M_S2)]], _values(3, "x, y, z (m/s², within ±19.62)")
+]
+Forces4 = Annotated[
+    list[Annotated[float, _each(FSR_LIMIT_N, low=0.0)]],
+    _values(4, "fl, fr, bl, br (N, 0 to 5120)"),
+]
+if TYPE_CHECKING:  # Literals of names known only when it runs: to mypy, names
+    StatusBit = str
+    LawName = str
+else:
+    StatusBit = Literal[tuple(proto.STATUS_BITS)]
+    LawName = Literal[tuple(proto.LAW_BITS)]
 
 
 class RobotFrameBody(BaseModel):
@@ -40,21 +64,20 @@ class RobotFrameBody(BaseModel):
     the counts in SI units as app/firmware/sensor_feed.py `decoded` makes them)."""
 
     model_config = ConfigDict(extra="forbid", allow_inf_nan=False, strict=True)
-    frame: json_int(0) = Field(le=2**32 - 1, description="the robot's frame the laws corrected")
-    status: list[Literal[tuple(proto.STATUS_BITS)]] = Field(  # type: ignore[valid-type]
+    frame: JsonIntFrom0 = Field(le=2**32 - 1, description="the robot's frame the laws corrected")
+    status: list[StatusBit] = Field(
         max_length=len(proto.STATUS_BITS), description="the status bits set"
     )
-    imu_failures: json_int(0) = Field(le=255, description="failed IMU reads since boot")
-    laws: list[Literal[tuple(proto.LAW_BITS)]] = Field(  # type: ignore[valid-type]
-        max_length=len(proto.LAW_BITS), description="the laws switched on"
+    imu_failures: JsonIntFrom0 = Field(le=255, description="failed IMU reads since boot")
+    laws: list[LawName] = Field(max_length=len(proto.LAW_BITS), description="the laws switched on")
+    support: Annotated[int, Ge(-1), WHOLE_FLOAT] = Field(
+        le=1, description="support foot: 0 left, 1 right, -1 neither"
     )
-    support: json_int(-1) = Field(le=1, description="support foot: 0 left, 1 right, -1 neither")
     attitude_rad: Angles2
-    gyro_rad_s: _values(3, GYRO_LIMIT_RAD_S, "x, y, z rate (rad/s, within ±4.37)")
-    accel_m_s2: _values(3, ACCEL_LIMIT_M_S2, "x, y, z (m/s², within ±19.62)")
+    gyro_rad_s: Rates3
+    accel_m_s2: Accelerations3
     fsr_n: Annotated[
-        list[_values(4, FSR_LIMIT_N, "fl, fr, bl, br (N, 0 to 5120)", low=0.0)],
-        Field(min_length=2, max_length=2, description="left sole, right sole"),
+        list[Forces4], Field(min_length=2, max_length=2, description="left sole, right sole")
     ]
     tilt_rad: Angles2
     a_y_delta: float = Field(ge=-1.0, le=1.0, description="the yaw-rate loop's change of a_y")
@@ -67,14 +90,24 @@ class RobotFrameBody(BaseModel):
             imu_failures=self.imu_failures,
             laws=tuple(dict.fromkeys(self.laws)),
             support=self.support,
-            attitude_rad=tuple(self.attitude_rad),
-            gyro_rad_s=tuple(self.gyro_rad_s),
-            accel_m_s2=tuple(self.accel_m_s2),
+            attitude_rad=_two(self.attitude_rad),
+            gyro_rad_s=_three(self.gyro_rad_s),
+            accel_m_s2=_three(self.accel_m_s2),
             fsr_n=(tuple(self.fsr_n[0]), tuple(self.fsr_n[1])),
-            tilt_rad=tuple(self.tilt_rad),
+            tilt_rad=_two(self.tilt_rad),
             a_y_delta=self.a_y_delta,
-            cop_rad=tuple(self.cop_rad),
-        )  # type: ignore[arg-type]
+            cop_rad=_two(self.cop_rad),
+        )
+
+
+def _two(values: list[float]) -> tuple[float, float]:
+    first, second = values  # of a field of two (min_length, max_length)
+    return first, second
+
+
+def _three(values: list[float]) -> tuple[float, float, float]:
+    x, y, z = values  # of a field of three
+    return x, y, z
 
 
 class RobotFramesBody(BaseModel):
@@ -98,7 +131,11 @@ def sensors(services: ServicesDep) -> dict[str, Any]:
     robot = services.robot_sensors.view()
     view = services.sensor_view()
     if view is None:
-        empty = {"columns": {name: [] for name in COLUMNS}, "sole_mm": None, "fsr_mm": []}
+        empty: dict[str, Any] = {
+            "columns": {name: [] for name in COLUMNS},
+            "sole_mm": None,
+            "fsr_mm": [],
+        }
         return empty | {"robot": robot}
     return view.to_dict() | {"robot": robot}
 

@@ -22,7 +22,6 @@ from app.server.api.deps import ServicesDep, StrictJsonRoute
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.recording.replay import RUNS_LIVE, Replaying
 from app.server.services import Services
-from app.server.sim.live_robot import Drive
 from app.server.sim.pacing import SPEED_RANGE
 from app.server.sim.sim_commands import (
     PUSH_RANGE_N_S,
@@ -47,7 +46,7 @@ class SpeedBody(BaseModel):
 
 class DriveBody(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    drive: Literal[Drive.MODEL.value, Drive.FIRMWARE.value] = Field(
+    drive: Literal["model", "firmware"] = Field(  # app/server/sim/live_robot.py Drive's values
         description="model: the Python hardware model makes the pulses; firmware: the robot's "
         "firmware on an emulated ATmega128 does, and the servos read them off its pins"
     )

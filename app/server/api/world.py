@@ -4,11 +4,12 @@ job that walks the current gait on many of them."""
 from dataclasses import asdict
 from typing import Annotated, Any
 
+from annotated_types import Ge
 from fastapi import APIRouter, Body, Response
 from pydantic import BaseModel, ConfigDict, Field
 
 from app.server.api.answers import ANSWER, RobustnessReport, World, WorldName
-from app.server.api.deps import ServicesDep, StrictJsonRoute, json_int
+from app.server.api.deps import WHOLE_FLOAT, JsonIntFrom0, ServicesDep, StrictJsonRoute
 from app.server.http.errors import GATE_RESPONSES, ApiError, responses
 from app.server.jobs.registry import JobBusy, RobotChanged
 from app.server.jobs.results import RobustnessJob
@@ -33,8 +34,10 @@ class WorldBody(BaseModel):
 
 class RobustnessBody(BaseModel):
     model_config = ConfigDict(extra="forbid", strict=True)
-    samples: json_int(4) = Field(24, le=400, description="variations to walk (4 to 400)")
-    seed: json_int(0) = Field(0, le=2**31 - 1, description="of the variations drawn")
+    samples: Annotated[int, Ge(4), WHOLE_FLOAT] = Field(
+        default=24, le=400, description="variations to walk (4 to 400)"
+    )
+    seed: JsonIntFrom0 = Field(default=0, le=2**31 - 1, description="of the variations drawn")
 
 
 def _world(services: Any) -> dict[str, Any]:

@@ -96,9 +96,8 @@ def create_app(config: ServerConfig | None = None) -> FastAPI:
         )
 
     install_handlers(app)
-    resources = (sim, params, scope, paths, presets, servos, sensors, world, tune, fit, jobs, ghost)
-    resources = (*resources, bus)
-    for resource in (*resources, recording, robot):
+    resources = (sim, params, scope, paths, presets, servos, sensors, world, tune, fit, jobs)
+    for resource in (*resources, ghost, bus, recording, robot):
         app.include_router(resource.router)
     # the page is served under every path but the API's: a wrong method or path under /api/
     # gets the API's 405/404, never the static files' answer

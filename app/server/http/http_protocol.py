@@ -19,6 +19,8 @@ class HeadDeadlineProtocol(H11Protocol):
     _head_deadline: asyncio.TimerHandle | None = None
     _waited_cycle: object = None  # the request cycle before the head being waited for
 
+    # H11Protocol's own signature: it narrows asyncio's BaseTransport to a Transport, as uvicorn
+    # does (with the same ignore)
     def connection_made(self, transport: asyncio.Transport) -> None:  # type: ignore[override]
         super().connection_made(transport)
         self._arm_head_deadline()

@@ -137,12 +137,12 @@ class RequestGate:
             return 403, msg, "cross_site", ["header", "sec-fetch-site"]
         if scope["type"] == "http" and scope["method"] not in SAFE_METHODS:
             media = headers.get("content-type", "").split(";")[0].strip().lower()
-            allowed = JSON_TYPES | (YAML_TYPES if path == IMPORT_PATH else frozenset())
-            allowed = UPLOAD_TYPES if path == ROBOT_IMPORT_PATH else allowed
+            types = JSON_TYPES | (YAML_TYPES if path == IMPORT_PATH else frozenset())
+            types = UPLOAD_TYPES if path == ROBOT_IMPORT_PATH else types
             has_body = headers.get("content-length", "0") != "0" or "transfer-encoding" in headers
-            if (media or has_body) and media not in allowed:
+            if (media or has_body) and media not in types:
                 shown = media[:60] or "missing"
-                msg = f"Content-Type {shown!r}; allowed: {', '.join(sorted(allowed))}"
+                msg = f"Content-Type {shown!r}; allowed: {', '.join(sorted(types))}"
                 return 415, msg, "unsupported_media_type", ["header", "content-type"]
         return None
 

@@ -4,18 +4,29 @@ tracker then predicts with b_eff if it applies and nothing changed meanwhile (§
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
 
 from app.analysis.axle_fit import AxleFitResult, fit_effective_axle
 from app.evaluation import BatchEvaluator
+from app.evaluation import Job as Walk
 from app.robots.model import RobotModel
-from app.server.jobs.registry import Job, Jobs, Progress, StaleVersion, conflict, on_robot
+from app.server.jobs.registry import (
+    Job,
+    Jobs,
+    Progress,
+    Reporter,
+    StaleVersion,
+    conflict,
+    on_robot,
+)
 from app.server.param_store import ParameterStore
 from app.server.sim.path_tracker import PathTracker
+from app.sim.metrics import RunMetrics
 from gait import GaitParams, Motion
 
-KIND = "axle-fit"
+Kind = Literal["axle-fit"]  # its jobs' `kind` (app/server/jobs/results.py)
+KIND: Kind = "axle-fit"
 
 
 class _Counting:
@@ -24,9 +35,10 @@ class _Counting:
     def __init__(self, progress: Progress, robot: RobotModel | None) -> None:
         self.inner = BatchEvaluator(robot, threads=1)
         self.progress = progress
+        self.robot = self.inner.robot  # what its walks walk (the Evaluator protocol)
 
-    def evaluate(self, jobs: list[Any], **kwargs: Any) -> list[dict[str, Any]]:
-        results = []
+    def evaluate(self, jobs: Sequence[Walk], **kwargs: Any) -> list[RunMetrics]:
+        results: list[RunMetrics] = []
         for done, job in enumerate(jobs):
             self.progress(done / len(jobs))
             results.extend(self.inner.evaluate([job], **kwargs))
@@ -86,8 +98,8 @@ class AxleFitter:
             self.fitted_gait = params
             return {"applied": True}
 
-        def work(progress: Progress) -> dict[str, Any]:
-            result = fit_effective_axle(params, motion, _Counting(progress, robot))  # type: ignore[arg-type]
+        def work(progress: Reporter) -> dict[str, Any]:
+            result = fit_effective_axle(params, motion, _Counting(progress, robot))
             self.last = result
             fitted.append(result)
             done = result.to_dict() | {
@@ -100,7 +112,7 @@ class AxleFitter:
             try:
                 return done | apply(params_version, axle_serial)
             except StaleVersion as exc:
-                progress.job.applier = apply  # type: ignore[attr-defined]
+                progress.job.applier = apply
                 now = None if self.store is None else self.store.snapshot().version
                 return done | {"conflict": conflict(exc, now)}
 

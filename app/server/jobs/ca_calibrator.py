@@ -6,18 +6,29 @@ and lets the predicted path use the fitted b_eff (docs/DESIGN.md §4, §14)."""
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Callable
-from typing import Any
+from collections.abc import Callable, Sequence
+from typing import Any, Literal
 
 from app.analysis.axle_fit import walking_amplitude
 from app.analysis.ca_calibration import CalibrationError, calibrate_ca, with_k
 from app.evaluation import BatchEvaluator
+from app.evaluation import Job as Walk
 from app.robots.model import RobotModel
-from app.server.jobs.registry import Job, Jobs, Progress, StaleVersion, conflict, only_onto
+from app.server.jobs.registry import (
+    Job,
+    Jobs,
+    Progress,
+    Reporter,
+    StaleVersion,
+    conflict,
+    only_onto,
+)
 from app.server.param_store import ParameterStore
 from app.server.sim.path_tracker import PathTracker
+from app.sim.metrics import RunMetrics
 
-KIND = "calibrate-ca"
+Kind = Literal["calibrate-ca"]  # its jobs' `kind` (app/server/jobs/results.py)
+KIND: Kind = "calibrate-ca"
 SOURCE = "calibration"  # the store's source of the change it makes
 STAGES = 8  # progress lines a direction prints, about (for a progress fraction)
 
@@ -28,9 +39,10 @@ class _Checked:
     def __init__(self, progress: Progress, robot: RobotModel | None = None) -> None:
         self.inner = BatchEvaluator(robot, threads=1)  # the live simulation keeps the other core
         self.progress = progress
+        self.robot = self.inner.robot  # what its walks walk (the Evaluator protocol)
 
-    def evaluate(self, jobs: list[Any], **kwargs: Any) -> list[dict[str, Any]]:
-        results = []
+    def evaluate(self, jobs: Sequence[Walk], **kwargs: Any) -> list[RunMetrics]:
+        results: list[RunMetrics] = []
         for job in jobs:
             self.progress(None)  # a cancelled job stops here
             results.extend(self.inner.evaluate([job], **kwargs))
@@ -59,8 +71,9 @@ class CaCalibrator:
         size = abs(walking_amplitude(snap.motion))
         robot = self.robot_now()
 
-        def work(progress: Progress) -> dict[str, Any]:
-            gait, found, lines = snap.gait, {}, [0]
+        def work(progress: Reporter) -> dict[str, Any]:
+            gait, lines = snap.gait, [0]
+            found: dict[str, dict[str, Any]] = {}  # direction: its result or its error
 
             def say(_line: str) -> None:
                 lines[0] += 1
@@ -72,7 +85,7 @@ class CaCalibrator:
                     result = calibrate_ca(
                         gait,
                         dataclasses.replace(snap.motion, a_p=a_p),
-                        _Checked(progress, robot),  # type: ignore[arg-type]
+                        _Checked(progress, robot),
                         duration_s=duration_s,
                         say=say,
                     )
@@ -98,7 +111,7 @@ class CaCalibrator:
             try:
                 return kept | apply(snap.version)
             except StaleVersion as exc:
-                progress.job.applier = apply  # type: ignore[attr-defined]
+                progress.job.applier = apply
                 now = self.store.snapshot().version
                 return kept | {
                     "applied": False,

@@ -15,7 +15,7 @@ import threading
 from collections import deque
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from app.analysis import identify_record
 from app.robots import builtin_robot_names
@@ -28,10 +28,11 @@ from app.server.jobs.child_process import (
     next_line,
     pump_lines,
 )
-from app.server.jobs.registry import Job, Jobs, Progress
+from app.server.jobs.registry import Job, Jobs, Reporter
 from app.worlds.variations import NOMINAL, parse_variation
 
-KIND = "fit"
+Kind = Literal["fit"]  # its jobs' `kind` (app/server/jobs/results.py)
+KIND: Kind = "fit"
 #: the child's progress line (app/cli/fit.py)
 PROGRESS = re.compile(r"fit: (\d+) % of the search, best loss ([-+0-9.eE]+|nan), (.*) left")
 FIELDS_RE = re.compile(r"[a-z_]+(,[a-z_]+)*")
@@ -85,9 +86,9 @@ class FitRunner:
             return self._fitted.get(variation)
 
     def _work(
-        self, progress: Progress, model: RobotModel, text: str, options: list[str]
+        self, progress: Reporter, model: RobotModel, text: str, options: list[str]
     ) -> dict[str, Any]:
-        job: Job = progress.job  # type: ignore[attr-defined]
+        job: Job = progress.job
         self.folder.mkdir(parents=True, exist_ok=True)
         rec = self.folder / f"{job.id}.json"
         rec.write_text(text, encoding="utf-8")

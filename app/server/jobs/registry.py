@@ -129,7 +129,7 @@ class Jobs:
     def start(
         self,
         kind: str,
-        work: Callable[[Progress], Any],
+        work: Callable[[Reporter], Any],
         describe: Callable[[Any], dict[str, Any]] = dict,
         *,
         from_version: int | None = None,
@@ -247,6 +247,6 @@ def on_robot(robot: str) -> Callable[[Any], None]:
     return check
 
 
-def conflict(exc: StaleVersion, current_version: int) -> dict[str, Any]:
+def conflict(exc: StaleVersion, current_version: int | None) -> dict[str, Any]:
     """What a job that could not apply its result says about it (a 409 in the job's result)."""
     return {"status": 409, "type": "version_conflict", "msg": str(exc), "version": current_version}

@@ -5,16 +5,16 @@ result leaves out stays out (routes answer with `exclude_unset`)."""
 
 from __future__ import annotations
 
-from typing import Annotated, Any, Literal
+from typing import Annotated, Any
 
 from pydantic import BaseModel, ConfigDict, Field
 
-from app.server.jobs.axle_fitter import KIND as AXLE_FIT
-from app.server.jobs.ca_calibrator import KIND as CALIBRATE_CA
-from app.server.jobs.fit_job import KIND as FIT
+from app.server.jobs.axle_fitter import Kind as AxleFitKind
+from app.server.jobs.ca_calibrator import Kind as CaCalibrationKind
+from app.server.jobs.fit_job import Kind as FitKind
 from app.server.jobs.registry import JobStatus
-from app.server.jobs.robustness_job import KIND as ROBUSTNESS
-from app.server.jobs.tune_job import KIND as TUNE
+from app.server.jobs.robustness_job import Kind as RobustnessKind
+from app.server.jobs.tune_job import Kind as TuneKind
 
 
 class _Open(BaseModel):
@@ -122,27 +122,27 @@ class _JobAnswer(_Open):
 
 
 class AxleFitJob(_JobAnswer):
-    kind: Literal[AXLE_FIT]
+    kind: AxleFitKind
     result: AxleFitResult | None
 
 
 class CaCalibrationJob(_JobAnswer):
-    kind: Literal[CALIBRATE_CA]
+    kind: CaCalibrationKind
     result: CaCalibrationResult | None
 
 
 class RobustnessJob(_JobAnswer):
-    kind: Literal[ROBUSTNESS]
+    kind: RobustnessKind
     result: RobustnessResult | None
 
 
 class TuneJob(_JobAnswer):
-    kind: Literal[TUNE]
+    kind: TuneKind
     result: TuneResult | None
 
 
 class FitJob(_JobAnswer):
-    kind: Literal[FIT]
+    kind: FitKind
     result: FitResult | None
 
 

@@ -9,17 +9,18 @@ import threading
 import time
 from collections import OrderedDict
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Literal
 
 from app.analysis.robustness import ROBUST_CASES, run_robust
 from app.evaluation import Cancelled, close_evaluator, evaluator_for
 from app.evaluation.progress import time_left_s
 from app.robots.model import RobotModel
-from app.server.jobs.registry import Job, JobCancelled, Jobs, Progress
+from app.server.jobs.registry import Job, JobCancelled, Jobs, Reporter
 from app.server.param_store import ParameterStore, Snapshot
 from app.worlds.sampling import VariationRanges
 
-KIND = "robustness"
+Kind = Literal["robustness"]  # its jobs' `kind` (app/server/jobs/results.py)
+KIND: Kind = "robustness"
 SAMPLES, DURATION_S, WARMUP_S = 24, 12.0, 4.0  # ~4 minutes of one core for 225 runs
 REPORTS_KEPT = 16  # the last report of this many gaits (a reload of the page shows it again)
 
@@ -70,12 +71,12 @@ class RobustnessRunner:
         name = f"{snap.name} (v{snap.version})"
         robot = self.robot_now()
 
-        def work(progress: Progress) -> dict[str, Any]:
-            job: Job = progress.job  # type: ignore[attr-defined]
+        def work(progress: Reporter) -> dict[str, Any]:
+            job: Job = progress.job
             started = time.monotonic()
             job.detail = {"runs": 0, "runs_total": runs_of(samples), "left_s": None}
 
-            def report(done: int, total: int) -> None:
+            def runs_walked(done: int, total: int) -> None:
                 """The runs walked of all and the time left at their pace (issue 56, item 13),
                 a new dict each time: a reader never sees one change."""
                 left = time_left_s(time.monotonic() - started, done, total)
@@ -99,7 +100,7 @@ class RobustnessRunner:
                     ranges=VariationRanges(),
                     duration_s=DURATION_S,
                     warmup_s=WARMUP_S,
-                    progress=report,
+                    progress=runs_walked,
                     # looked at between chunks by every executor: a Warp batch reports progress
                     # only as its worlds end, and went on minutes after a DELETE
                     cancel=job.cancel,

@@ -15,7 +15,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from app.analysis.cases import CASES
 from app.analysis.robot_start import START_RECIPE
@@ -41,11 +41,12 @@ from app.server.jobs.child_process import (
     next_line,
     pump_lines,
 )
-from app.server.jobs.registry import Job, Jobs, Progress, StaleVersion, on_robot
+from app.server.jobs.registry import Job, Jobs, Reporter, StaleVersion, on_robot
 from app.server.param_store import ParameterStore, Snapshot
 from gait.params import describe_fields, group_class
 
-KIND = "tune"
+Kind = Literal["tune"]  # its jobs' `kind` (app/server/jobs/results.py)
+KIND: Kind = "tune"
 
 
 class WrongRobot(ValueError):
@@ -136,14 +137,14 @@ class TuneRunner:
 
     def _work(
         self,
-        progress: Progress,
+        progress: Reporter,
         model: RobotModel,
         name: str,
         study: Path,
         budget: TuneBudget,
         start: Snapshot,
     ) -> dict[str, Any]:
-        job: Job = progress.job  # type: ignore[attr-defined]
+        job: Job = progress.job
         detail: dict[str, Any] = {"robot": model.name, "name": name, "study": str(study),
                                   "trials": 0, "budget": budget.generations * budget.popsize,
                                   "best_loss": None, "generations": budget.generations}  # fmt: skip

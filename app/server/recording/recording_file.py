@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
-from typing import Any
+from typing import Any, TypeGuard
 
 import numpy as np
 
@@ -60,7 +60,7 @@ class RecordingError(ValueError):
         self.loc, self.msg = list(loc), msg
 
 
-def _is_number(value: Any) -> bool:
+def _is_number(value: Any) -> TypeGuard[int | float]:
     return type(value) in (int, float)  # never a bool or a string
 
 
@@ -138,7 +138,8 @@ def _event(event: Any, loc: list[str | int]) -> dict[str, Any]:
             raise RecordingError([*loc, "changed"], "must be a list of parameter names")
     elif kind == "fall":
         try:
-            replace_checked(Motion(), event.get("motion"), "motion")
+            motion: Any = event.get("motion")  # anything: replace_checked refuses a non-object
+            replace_checked(Motion(), motion, "motion")
         except (ValueError, TypeError) as exc:
             raise RecordingError([*loc, "motion"], str(exc)) from None
     elif kind == "drive" and event.get("drive") not in ("model", "firmware"):

@@ -57,7 +57,12 @@ class SimulationFolder:
             pause = gui.add_button_group("Run", ("Pause", "Resume", "Step", "Reset"))
             pause.on_click(self._run_button)
             speed = gui.add_slider("Speed (x real time)", 0.25, 4.0, 0.25, 1.0)
-            speed.on_update(lambda e: e.client and self.sim.send(SetSpeed(speed.value)))
+
+            def set_speed(event: viser.GuiEvent) -> None:
+                if event.client is not None:  # a user's drag, not a programmatic set
+                    self.sim.send(SetSpeed(speed.value))
+
+            speed.on_update(set_speed)
             following = gui.add_checkbox("Follow the robot", True)
             following.on_update(lambda _e: follow(following.value))
             history = gui.add_button_group("Parameters", ("Undo", "Redo"))
@@ -175,7 +180,8 @@ class ReplayFolder:
             return  # nothing recorded yet: the status says "live"
         status = self.replay.status()
         self._slider.max = max(status["frames"] - 1, 1)
-        self._slider.value = status["index"]
+        # viser defines the value's setter apart from its getter: mypy takes it as read-only
+        self._slider.value = status["index"]  # type: ignore[misc]
 
     def _seek(self, event: viser.GuiEvent) -> None:
         if event.client is None or not self.replay.active:
@@ -228,8 +234,11 @@ class PathsFolder:
             )
             self._calibrate_button.on_click(lambda _e: self._start_calibration())
             self._feet_button = gui.add_button("Axle b = distance between the feet")
-            self._feet_button.on_click(lambda _e: self.paths.set_axle(None))
+            self._feet_button.on_click(lambda _e: self._feet_axle())
             self._fit_text = gui.add_markdown("")
+
+    def _feet_axle(self) -> None:
+        self.paths.set_axle(None)
 
     def _start_calibration(self) -> None:
         self._calibrate_button.disabled = True

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 import viser
@@ -69,6 +70,7 @@ class ParameterFolders:
                 dotted = f"{key}.{name}"
                 value = snapshot[dotted]
                 hint = f"{field['doc']} — eq {field['eq']}" if field["eq"] else field["doc"]
+                handle: viser.GuiInputHandle[Any]
                 if field["unit"] == "bool":
                     handle = gui.add_checkbox(name, bool(value), hint=hint)
                 else:
@@ -82,9 +84,9 @@ class ParameterFolders:
                 self.controls[(key, name)] = handle
             reset = gui.add_button(f"Reset {group['title'].lower()} to the paper")
             defaults = {f["name"]: f["default"] for f in group["fields"]}
-            reset.on_click(lambda _e, k=key, d=defaults: self._reset_group(k, d))
+            reset.on_click(lambda _e: self._reset_group(key, defaults))
 
-    def _slider_callback(self, key: str, name: str):
+    def _slider_callback(self, key: str, name: str) -> Callable[[viser.GuiEvent], None]:
         def on_update(event: viser.GuiEvent) -> None:
             if event.client is None:  # a programmatic set: the store already has it
                 return

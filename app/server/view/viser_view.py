@@ -181,7 +181,7 @@ class Viewer:
         push = s.push
         recent = push is not None and 0.0 <= s.sim_time_s - push.sim_time_s <= PUSH_SHOWN_S
         assign(self._push, "visible", recent)
-        if recent and push is not self._push_shown:
+        if push is not None and recent and push is not self._push_shown:
             self._push_shown = push
             self._push.points = push_arrow(push)
 
