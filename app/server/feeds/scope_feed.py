@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 
 from app.server.feeds.scope_frames import frame_message
-from app.sim.frame_loop import FrameRecord
+from app.sim.frame_record import FrameRecord
 from hardware import TdmConfig
 from hardware.servo_bus import BusLink
 

@@ -8,7 +8,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from app.sim.frame_loop import FrameRecord
+from app.sim.frame_record import FrameRecord
 from hardware import (
     CHANNELS,
     FRAME_TICKS,
