@@ -16,23 +16,25 @@ from gait.params import (
     ENGINES,
     GROUP_NAMES,
     PHASE_GROUPS,
-    BalanceParams,
     ClockParams,
     GaitParams,
-    LegParams,
-    LoadParams,
     Motion,
     PfsParams,
     RampParams,
-    ShiftParams,
-    ShortParams,
     SteerParams,
-    SwingParams,
     describe_fields,
     engine_groups,
     merge,
 )
 from gait.pfs import pfs_joint_angles_with_flags
+from gait.phase_params import (
+    BalanceParams,
+    LegParams,
+    LoadParams,
+    ShiftParams,
+    ShortParams,
+    SwingParams,
+)
 from gait.phases import (
     LegParameters,
     advance_phase,

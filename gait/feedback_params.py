@@ -1,6 +1,7 @@
-"""Parameters of the balance feedback on top of the open-loop gait (docs/DESIGN.md §4): the
-attitude estimate and each law -- tilt trim, yaw-rate loop, gyro damping, centre-of-pressure loop
--- with its switch (all off: the open-loop gait to the bit) and gains. Part of the one schema."""
+"""Parameters of the balance feedback on top of the open-loop gait (docs/DESIGN.md §4, §15): the
+attitude estimate and each law -- tilt trim, yaw-rate loop, gyro damping, centre-of-pressure loop,
+step timing -- with its switch (all off: the open-loop gait to the bit) and gains; and `LAWS`,
+each law declared once: its group, titles and the outputs the trace keeps and the page draws."""
 
 from __future__ import annotations
 
@@ -191,3 +192,61 @@ class TimingParams:
 
     def __post_init__(self) -> None:
         _check_ranges(self)
+
+
+@dataclass(frozen=True)
+class LawOutput:
+    """One output of a law as the Sensors trace keeps it and the page draws it: the value of
+    `gait.feedback.Output.<field>` (its `index`-th, for an array), in degrees where `unit` is
+    "°" (the law's own are in rad), drawn `scale` times itself in the laws' chart unless not
+    `drawn` (`app/sim/sensor_channels.py` makes a channel of it)."""
+
+    key: str  # the trace's column and GET /api/sensors's key
+    label: str  # the chart's legend
+    unit: str
+    field: str
+    index: int | None = None
+    colour: str = "#adb5bd"
+    dashed: bool = False
+    scale: float = 1.0
+    drawn: bool = True
+
+
+@dataclass(frozen=True)
+class Law:
+    """A feedback law declared once: its parameter group (a field of `GaitParams` by this name),
+    the parameter panel's title, the page's short name, and its outputs."""
+
+    group: str
+    params: type
+    title: str  # the parameter panel's folder (app/params/schema.py GROUP_TITLES)
+    label: str  # the Sensors panel's "laws on: ..." and the linked robot's line
+    outputs: tuple[LawOutput, ...]
+
+
+#: The laws in the firmware's order: a law's id and switch bit (`LAW_*` in laws.h, the SENSORS
+#: laws byte) is its place here, and its group's place among the laws in `GaitParams`; a new law
+#: goes last. Joint indices are `gait.JOINT_NAMES`' (2: l_hip_pitch, 4: l_ankle_pitch).
+LAWS: tuple[Law, ...] = (
+    Law("tilt", TiltParams, "Feedback: tilt trim", "tilt trim", (
+        LawOutput("tilt_pitch_deg", "tilt trim pitch", "°", "tilt_rad", 0, "#4dabf7"),
+        LawOutput("tilt_roll_deg", "tilt trim roll", "°", "tilt_rad", 1, "#ff922b"),
+    )),
+    Law("yaw_rate", YawRateParams, "Feedback: yaw rate", "yaw rate", (
+        LawOutput("a_y_delta", "yaw rate: a_y ×100", "1", "a_y_delta", None, "#51cf66", scale=100),
+    )),
+    Law("damping", DampingParams, "Feedback: gyro damping", "gyro damping", (
+        LawOutput("damping_ankle_deg", "damping, left ankle pitch", "°", "damping_rad", 4,
+                  "#e64dff"),
+        LawOutput("damping_hip_deg", "damping, left hip pitch", "°", "damping_rad", 2,
+                  drawn=False),
+    )),
+    Law("cop", CopParams, "Feedback: centre of pressure", "CoP", (
+        LawOutput("cop_pitch_deg", "CoP pitch", "°", "cop_rad", 0, "#fcc419"),
+        LawOutput("cop_roll_deg", "CoP roll", "°", "cop_rad", 1, "#fcc419", dashed=True),
+    )),
+    Law("timing", TimingParams, "Feedback: step timing", "step timing", (
+        LawOutput("timing_freq_hz", "step timing: Hz ×10", "Hz", "freq_delta_hz", None,
+                  "#ff6b6b", scale=10),
+    )),
+)  # fmt: skip

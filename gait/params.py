@@ -12,6 +12,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any
 
 from gait.feedback_params import (
+    LAWS,
     AttitudeParams,
     CopParams,
     DampingParams,
@@ -21,9 +22,16 @@ from gait.feedback_params import (
 )
 from gait.motion_params import LateralParams, RampParams, SteerParams
 from gait.pfs_params import PfsParams
+from gait.phase_params import (
+    BalanceParams,
+    LegParams,
+    LoadParams,
+    ShiftParams,
+    ShortParams,
+    SwingParams,
+)
 from gait.schema_fields import GROUP_KEYS
 from gait.schema_fields import check_ranges as _check_ranges
-from gait.schema_fields import switch as _switch
 from gait.schema_fields import tunable as _param
 
 PHASE_GROUPS = ("shift", "short", "swing", "load", "balance")
@@ -69,146 +77,6 @@ class ClockParams:
         1.0, 0.2, 3.0, step=0.01, unit="Hz", eq="(10)-(11)",
         doc="gait cycle frequency (one left and one right step per cycle)",
     )  # fmt: skip
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-@dataclass(frozen=True)
-class ShiftParams:
-    """Lateral shifting of the centre of mass, eqs (12)–(15)."""
-
-    enabled: bool = _switch("lateral shifting phase on")
-    amp_base: float = _param(
-        0.12, 0.0, 0.4, step=0.005, unit="rad", eq="(13)", doc="shift amplitude at rest"
-    )
-    amp_speed: float = _param(
-        0.08, 0.0, 1.0, step=0.01, unit="1", eq="(13)", doc="shift gain on |(a_r, a_p)|"
-    )
-    amp_lateral: float = _param(
-        0.7, 0.0, 2.0, step=0.01, unit="1", eq="(13)", doc="shift gain on |a_r|"
-    )
-    foot_ratio: float = _param(
-        0.5, 0.0, 1.5, step=0.01, unit="1", eq="(15)",
-        doc="foot roll counter-shift, as a fraction of the leg shift",
-    )  # fmt: skip
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-@dataclass(frozen=True)
-class ShortParams:
-    """Shortening of the swing leg and lifting of the leading foot edge, eqs (16)–(21)."""
-
-    enabled: bool = _switch("shortening phase on")
-    v: float = _param(
-        3.0, 2.5, 6.0, step=0.05, unit="1", eq="(17)", doc="phase speed: 1/duration of shortening"
-    )
-    o: float = _param(
-        -0.05, -0.5, 0.3, step=0.01, unit="rad", eq="(18)", doc="phase shift vs lateral shifting"
-    )
-    amp_base: float = _param(
-        0.2, 0.0, 1.0, step=0.01, unit="1", eq="(20)", doc="shortening amplitude at rest"
-    )
-    amp_speed: float = _param(
-        2.0, 0.0, 6.0, step=0.05, unit="1/rad", eq="(20)", doc="shortening gain on |(a_r, a_p)|"
-    )
-    foot_lift: float = _param(
-        0.125, 0.0, 1.0, step=0.005, unit="1", eq="(21)", doc="toe lift gain on a_p"
-    )
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-@dataclass(frozen=True)
-class SwingParams:
-    """The fast swing and slow linear reverse motion, eqs (22)–(32)."""
-
-    enabled: bool = _switch("swinging phase on")
-    v: float = _param(
-        2.0, 1.5, 6.0, step=0.05, unit="1", eq="(23)", doc="phase speed: 1/duration of the swing"
-    )
-    o: float = _param(
-        -0.15, -0.5, 0.4, step=0.01, unit="rad", eq="(24)", doc="phase shift vs lateral shifting"
-    )
-    foot_roll: float = _param(
-        0.25, 0.0, 1.0, step=0.01, unit="1", eq="(30)", doc="foot roll swing, fraction of a_r"
-    )
-    foot_pitch: float = _param(
-        0.25, 0.0, 1.0, step=0.01, unit="1", eq="(31)", doc="foot pitch swing, fraction of a_p"
-    )
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-@dataclass(frozen=True)
-class LoadParams:
-    """The second shortening that eases loading of the landing leg, eqs (33)–(36)."""
-
-    enabled: bool = _switch("loading phase on")
-    v: float = _param(
-        3.0, 2.0, 6.0, step=0.05, unit="1", eq="(34)", doc="phase speed: 1/duration of loading"
-    )
-    amp_base: float = _param(
-        0.025, 0.0, 0.5, step=0.005, unit="1", eq="(36)", doc="loading amplitude at rest"
-    )
-    amp_pitch: float = _param(
-        0.5, 0.0, 2.0, step=0.01, unit="1", eq="(36)", doc="loading gain on 1 - cos|a_p|"
-    )
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-@dataclass(frozen=True)
-class BalanceParams:
-    """Per-step tilting and constant offsets of leg and foot angles, eqs (37)–(39)."""
-
-    enabled: bool = _switch("balancing phase on")
-    foot_roll_amp: float = _param(
-        0.5, 0.0, 2.0, step=0.01, unit="1", eq="(37)", doc="foot roll balance gain on a_r"
-    )
-    foot_roll_phase: float = _param(
-        0.35, -3.14, 3.14, step=0.01, unit="rad", eq="(37)", doc="foot roll balance phase"
-    )
-    foot_pitch_offset: float = _param(
-        0.02, -0.3, 0.3, step=0.005, unit="rad", eq="(38)", doc="constant foot pitch (toe up > 0)"
-    )
-    foot_pitch_speed: float = _param(
-        0.12, -1.0, 1.0, step=0.01, unit="1", eq="(38)", doc="foot pitch gain on a_p"
-    )
-    foot_pitch_amp: float = _param(
-        0.04, -1.0, 1.0, step=0.01, unit="1", eq="(38)", doc="foot pitch oscillation gain on a_p"
-    )
-    foot_pitch_phase: float = _param(
-        0.7, -3.14, 3.14, step=0.01, unit="rad", eq="(38)", doc="foot pitch oscillation phase"
-    )
-    leg_roll_offset: float = _param(
-        0.05, -0.2, 0.3, step=0.005, unit="rad", eq="(39)", doc="constant leg roll (outwards > 0)"
-    )
-    leg_roll_yaw: float = _param(
-        0.1, -1.0, 1.0, step=0.01, unit="1", eq="(39)", doc="leg roll gain on a_y"
-    )
-
-    def __post_init__(self) -> None:
-        _check_ranges(self)
-
-
-@dataclass(frozen=True)
-class LegParams:
-    """The leg interface, eqs (2)–(9)."""
-
-    eta_min: float = _param(
-        0.875, 0.6, 0.99, step=0.005, unit="1", eq="(2)",
-        doc="relative leg length at full shortening (gamma = -1)",
-    )  # fmt: skip
-    paper_signs: bool = _switch(
-        "eqs (30), (31), (39) with the signs as printed (I_s on foot pitch, not foot roll; "
-        "0.1*a_y not 0.1*|a_y|); off: the mirror-symmetric form"
-    )
 
     def __post_init__(self) -> None:
         _check_ranges(self)
@@ -279,33 +147,23 @@ class GaitParams:
         }  # fmt: skip
 
 
-_GROUP_CLASSES = {
-    "clock": ClockParams,
-    "shift": ShiftParams,
-    "short": ShortParams,
-    "swing": SwingParams,
-    "load": LoadParams,
-    "balance": BalanceParams,
-    "leg": LegParams,
-    "lateral": LateralParams,
-    "steer": SteerParams,
-    "ramp": RampParams,
-    "pfs": PfsParams,
-    "attitude": AttitudeParams,
-    "tilt": TiltParams,
-    "yaw_rate": YawRateParams,
-    "damping": DampingParams,
-    "cop": CopParams,
-    "timing": TimingParams,
-}
+#: each group's dataclass, in schema order (the fields of GaitParams but `engine`)
+_GROUP_CLASSES: dict[str, type] = {
+    f.name: f.default_factory  # type: ignore[misc]
+    for f in fields(GaitParams) if f.name != "engine"
+}  # fmt: skip
 GROUP_KEYS.update({cls.__name__: key for key, cls in _GROUP_CLASSES.items()})  # for errors
 #: Every parameter group, in schema order (the fields of GaitParams but `engine`).
 GROUP_NAMES: tuple[str, ...] = tuple(_GROUP_CLASSES)
-#: Groups every engine uses.
 #: the balance feedback on top of either engine (docs/DESIGN.md §15): the laws, each with its
-#: switch, and the attitude estimate they share
-LAW_GROUPS = ("tilt", "yaw_rate", "damping", "cop", "timing")
+#: switch, in the firmware's order (`gait.feedback_params.LAWS`), and the attitude estimate
+LAW_GROUPS: tuple[str, ...] = tuple(law.group for law in LAWS)
+if tuple(g for g in GROUP_NAMES if g in LAW_GROUPS) != LAW_GROUPS or any(
+    _GROUP_CLASSES[law.group] is not law.params for law in LAWS
+):
+    raise RuntimeError("GaitParams must hold each law of LAWS as its group, in LAWS' order")
 FEEDBACK_GROUPS = ("attitude", *LAW_GROUPS)
+#: Groups every engine uses.
 COMMON_GROUPS = ("clock", "steer", "ramp", *FEEDBACK_GROUPS)
 _ENGINE_ONLY = {"behnke": (*PHASE_GROUPS, "leg", "lateral"), "pfs": ("pfs",)}
 

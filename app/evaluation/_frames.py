@@ -13,8 +13,8 @@ import numpy as np
 
 from app.evaluation._api import Job
 from app.robots.model import RobotModel
-from app.sim.frame_loop import stand
 from app.sim.planning import FRAME_S, START_PHASE_RAD, MotionOfRuns, plan_frame_of_runs
+from app.sim.robot_pose import stand
 from app.sim.sensors import SensorBank
 from app.worlds.servo_path import FramePaths
 from gait import GaitParams, Motion, feedback

@@ -12,10 +12,10 @@ import numpy as np
 from app.evaluation._api import Job
 from app.evaluation._frames import Start
 from app.robots.model import RobotModel
-from app.sim.frame_loop import has_fallen, planar_distance_m, trunk_yaws
 from app.sim.headless import AT_LIMIT
 from app.sim.metrics import RunMetrics, Trace, compute_metrics
 from app.sim.planning import FRAME_S
+from app.sim.robot_pose import has_fallen, planar_distance_m, trunk_yaws
 
 
 def fallen(qpos: np.ndarray, start: Start) -> np.ndarray:

@@ -26,8 +26,8 @@ from app.evaluation._warp_pool import (
     varied_robots,
 )
 from app.robots.model import RobotModel
-from app.sim.frame_loop import has_fallen
 from app.sim.metrics import RunMetrics, Trace
+from app.sim.robot_pose import has_fallen
 from app.worlds.variations import Variation
 
 #: a call of fewer worlds is planned and measured in the calling process: starting the pool

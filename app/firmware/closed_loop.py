@@ -21,7 +21,8 @@ from app.firmware.emulator import CYCLES_PER_TICK, Mcu
 from app.firmware.pulses import FirmwarePulses
 from app.firmware.sensor_feed import RawSample, decoded
 from app.robots.model import RobotModel
-from app.sim.frame_loop import FrameLoop, PinFrame
+from app.sim.frame_loop import FrameLoop
+from app.sim.frame_record import PinFrame
 from app.sim.planning import FRAME_S, START_PHASE_RAD, plan_frames
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams, Motion, feedback, pi_cut
@@ -31,7 +32,19 @@ from hardware.firmware.schema import param_specs, values_from_document
 #: law outputs, firmware (float32, avr-libc's functions) against the model (numpy float32):
 #: well below a tenth of a Timer tick's angle
 LAW_TOLERANCE = 2e-5
-_LAW_OUTPUT = struct.Struct("<12ff2f2fb2ff")  # laws.h law_output_t (avr-gcc packs it)
+#: laws.h `law_output_t`, member by member in its order (avr-gcc packs it): the field of
+#: `feedback.Output` and of `LawFrame` it holds, its struct code and count. A law whose output
+#: the firmware reports adds its member here, as laws.h does, and its field of `LawFrame`
+LAW_OUTPUT_MEMBERS = (
+    ("joint_delta_rad", "f", 12),
+    ("a_y_delta", "f", 1),
+    ("tilt_rad", "f", 2),
+    ("cop_rad", "f", 2),
+    ("support", "b", 1),
+    ("attitude_rad", "f", 2),
+    ("freq_delta_hz", "f", 1),
+)
+_LAW_OUTPUT = struct.Struct("<" + "".join(f"{n}{code}" for _, code, n in LAW_OUTPUT_MEMBERS))
 _TDM_OVERRUN = 0x01  # tdm.h
 #: the planning window of frame k+1 in frame k: from the guard of slot 3 to that of slot 7
 PLAN_REQUEST_TICK, PLAN_LATCH_TICK = 19_900, 39_900
@@ -51,12 +64,13 @@ class LawFrame:
 
 
 def read_law_output(mcu: Mcu) -> LawFrame:
-    v = _LAW_OUTPUT.unpack(mcu.read_symbol("g_law_output"))
-    f32 = np.float32
-    return LawFrame(
-        np.array(v[:12], f32), v[12], np.array(v[13:15], f32), np.array(v[15:17], f32), v[17],
-        np.array(v[18:20], f32), v[20],
-    )  # fmt: skip
+    """The firmware's `g_law_output`, each member of `LAW_OUTPUT_MEMBERS` as its field."""
+    values = iter(_LAW_OUTPUT.unpack(mcu.read_symbol("g_law_output")))
+    fields: dict[str, Any] = {}
+    for name, _, n in LAW_OUTPUT_MEMBERS:
+        taken = [next(values) for _ in range(n)]
+        fields[name] = np.array(taken, np.float32) if n > 1 else taken[0]
+    return LawFrame(**fields)
 
 
 def gyro_offset(mcu: Mcu) -> tuple[int, int, int]:
@@ -188,15 +202,13 @@ def _spread(values: list[int]) -> dict[str, float]:
 
 
 def _law_error(got: LawFrame, want: feedback.Output) -> float:
-    pairs: list[tuple[Any, Any]] = [  # sequences and numbers alike
-        (got.joint_delta_rad, want.joint_delta_rad),
-        ([got.a_y_delta], [want.a_y_delta]),
-        (got.tilt_rad, want.tilt_rad),
-        (got.cop_rad, want.cop_rad),
-        (got.attitude_rad, want.attitude_rad),
-        ([got.freq_delta_hz], [want.freq_delta_hz]),
-    ]
-    error = max(float(np.max(np.abs(np.float64(a) - np.float64(b)))) for a, b in pairs)
+    """The largest difference of a law output the firmware reports (`LAW_OUTPUT_MEMBERS`); inf
+    where the support foot differs."""
+    error = max(
+        float(np.max(np.abs(np.float64(getattr(got, name)) - np.float64(getattr(want, name)))))
+        for name, code, _ in LAW_OUTPUT_MEMBERS
+        if code != "b"
+    )
     return error if got.support == want.support else math.inf
 
 

@@ -20,7 +20,8 @@ from app.firmware.i2c import F_CPU_HZ, IMU_ADDRESS, PCA9685_ADDRESS, Transaction
 from app.firmware.sensor_feed import RawSample, at_rest, raw_of, sample_of
 from app.firmware.vcd_mega import mega_vcd_text
 from app.robots.model import RobotModel
-from app.sim.frame_loop import FrameLoop, PinFrame
+from app.sim.frame_loop import FrameLoop
+from app.sim.frame_record import PinFrame
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams, Motion
 from hardware import frame_edges, frame_ocr, servo_frame_ocr

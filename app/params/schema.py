@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, TypeAdapter, create_model
 
 from app.params.document import V2_GROUPS
+from gait.feedback_params import LAWS
 from gait.params import (
     ENGINES,
     GROUP_NAMES,
@@ -39,11 +40,7 @@ GROUP_TITLES = {
     "ramp": "Motion ramp",
     "pfs": "PFS oscillators",
     "attitude": "Attitude estimate",
-    "tilt": "Feedback: tilt trim",
-    "yaw_rate": "Feedback: yaw rate",
-    "damping": "Feedback: gyro damping",
-    "cop": "Feedback: centre of pressure",
-    "timing": "Feedback: step timing",
+    **{law.group: law.title for law in LAWS},  # each law's own (gait.feedback_params)
 }
 
 # forbid unknown fields, NaN and inf, and take no strings for numbers

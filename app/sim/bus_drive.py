@@ -17,7 +17,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
-from app.sim.frame_loop import stand, trunk_yaw
+from app.sim.robot_pose import stand, trunk_yaw
 from gait import GaitParams, Motion
 
 TICK_S = 0.002  # the simulation catches up with the wall clock this often

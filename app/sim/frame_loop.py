@@ -1,20 +1,21 @@
 """The frame loop: one `FrameLoop.step_frame()` is one 20 ms TDM frame of the planned gait and
 hardware (`app.sim.planning`) applied to MuJoCo, set-points acting at their pulses' falling edges
-(docs/DESIGN.md §2), or a frame of pulses made elsewhere (`step_pins`); the fall test, `stand`."""
+(docs/DESIGN.md §2), or a frame of pulses made elsewhere (`step_pins`); its record
+`app.sim.frame_record`, the fall test and `stand` `app.sim.robot_pose`."""
 
 from __future__ import annotations
 
 import dataclasses
 import itertools
 import math
-from collections import deque
-from dataclasses import dataclass
 
 import mujoco
 import numpy as np
 from numpy.typing import NDArray
 
 from app.robots.model import RobotModel
+from app.sim.frame_record import FrameRecord, PinFrame, planned_record, pulseless_record
+from app.sim.loop_sensing import LoopSensing
 from app.sim.planning import (
     FRAME_S,
     START_PHASE_RAD,
@@ -23,125 +24,23 @@ from app.sim.planning import (
     frame_steps,
     plan_frames,
 )
-from app.sim.sensors import SensorReading, Sensors, rest_accelerometers
+from app.sim.robot_pose import has_fallen, sole_distance_m, stand, trunk_yaw
+from app.sim.sensors import SensorReading, rest_accelerometers
 from app.worlds.servo_path import ServoPath
 from app.worlds.variations import NOMINAL, Variation, varied_robot
-from gait import (
-    GaitParams,
-    Motion,
-    feedback,
-    joint_angles_with_flags,
-    startup_gain,
-)
+from gait import GaitParams, Motion, feedback
 from hardware import (
-    CHANNELS,
-    OCR_IDLE,
-    SLOTS_PER_FRAME,
-    FrameEdges,
     HardwareSetup,
     demultiplex,
     pulses_to_angles_rad,
 )
 
-FALL_HEIGHT_FRACTION = 0.6  # fallen: trunk below 60 % of its standing height ...
-FALL_TILT_RAD = math.radians(50.0)  # ... or tilted more than 50 degrees
 #: MuJoCo resets the state itself when it meets these; we report them as a blow-up.
 BLOW_UP = (
     mujoco.mjtWarning.mjWARN_BADQPOS,
     mujoco.mjtWarning.mjWARN_BADQVEL,
     mujoco.mjtWarning.mjWARN_BADQACC,
 )
-
-
-def trunk_yaw(quat_wxyz: NDArray[np.float64]) -> float:
-    """Heading of the trunk (counter-clockwise) from its orientation quaternion."""
-    w, x, y, z = quat_wxyz
-    return math.atan2(2.0 * (w * z + x * y), 1.0 - 2.0 * (y * y + z * z))
-
-
-def trunk_yaws(quats_wxyz: NDArray[np.float64]) -> list[float]:
-    """`trunk_yaw` of each row of (n, 4) quaternions, to the bit: the same float arithmetic in
-    whole arrays, then `math.atan2` per row."""
-    w, x, y, z = quats_wxyz.T
-    along = 2.0 * (w * z + x * y)
-    across = 1.0 - 2.0 * (y * y + z * z)
-    return list(map(math.atan2, along.tolist(), across.tolist()))
-
-
-def has_fallen(
-    qpos: NDArray[np.float64], standing_height_m: float | NDArray[np.float64]
-) -> NDArray[np.bool_]:
-    """Trunk below 60 % of its standing height, or tilted more than 50 degrees; qpos may be one
-    state (nq,) or many (..., nq), with the same arithmetic either way."""
-    up_z = 1.0 - 2.0 * (qpos[..., 4] ** 2 + qpos[..., 5] ** 2)  # trunk z axis, world z part
-    return (qpos[..., 2] < FALL_HEIGHT_FRACTION * standing_height_m) | (
-        up_z < math.cos(FALL_TILT_RAD)
-    )
-
-
-def planar_distance_m(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distance in the ground plane between points (..., >= 2), elementwise arithmetic only, so
-    one point pair and many give the same bits."""
-    dx, dy = a[..., 0] - b[..., 0], a[..., 1] - b[..., 1]
-    return np.sqrt(dx * dx + dy * dy)
-
-
-def sole_distance_m(data: mujoco.MjData) -> float:
-    """Distance between the sole centres in the ground plane (the differential drive's b), from
-    the site positions MuJoCo last computed."""
-    return float(planar_distance_m(data.site("l_sole").xpos, data.site("r_sole").xpos))
-
-
-@dataclass(frozen=True)
-class FrameRecord:
-    """What happened in one frame: the input to metrics, plots and the scope."""
-
-    index: int
-    time_s: float
-    phase: float
-    ocr: NDArray[np.int32]  # (6, 8)
-    setpoint: NDArray[np.float64]  # (12,) angle each servo decodes from its pulse
-    saturated_servos: NDArray[np.bool_]  # (12,)
-    saturated: bool
-    gamma_clamped: bool
-    guard_violation: bool
-    motion: Motion  # what the gait got: the requested motion, or a step of the ramp toward it
-    pin_edges: FrameEdges | None = None  # the pins as recorded, when a PinFrame made the frame
-    reading: SensorReading | None = None  # what the sensors read before it (closed loop)
-    feedback: feedback.Output | None = None  # what the laws made of it
-
-
-@dataclass(frozen=True)
-class PinFrame:
-    """One frame of pulses made outside the model (the emulated firmware), as its pins carried
-    them; the servos read their set-points off `edges` (docs/DESIGN.md §5)."""
-
-    phase: float  # phi_Trunk the frame was made for
-    ocr: NDArray[np.int32]  # (6, 8) decoded from the pins
-    edges: FrameEdges
-    saturated_servos: NDArray[np.bool_]  # (12,)
-    gamma_clamped: bool
-    motion: Motion  # the motion the maker of the pulses had
-
-
-def stand(
-    robot: RobotModel, data: mujoco.MjData, params: GaitParams, motion: Motion, phase: float
-) -> NDArray[np.float64]:
-    """Reset `data` and stand the robot on the floor in the gait's pose of `motion` at `phase`
-    (start-up gain at time 0), feet flat, at rest, each servo's set-point on its angle, the IMU
-    reading as at rest there (`rest_accelerometers`); returns the pose. `data` is the scratch
-    for the standing height first: no MjData is made."""
-    pose = joint_angles_with_flags(
-        params, motion, phase, robot.geometry, startup=startup_gain(params, 0.0)
-    ).values
-    height = robot.standing_height_m(pose, scratch=data)
-    mujoco.mj_resetData(robot.model, data)
-    data.qpos[robot.qpos_adr] = pose
-    data.qpos[2] = height + 1e-4
-    data.ctrl[robot.actuator_ids] = pose
-    mujoco.mj_forward(robot.model, data)
-    rest_accelerometers(robot.model, data)
-    return pose
 
 
 def _varied(robot: RobotModel, variation: Variation) -> RobotModel:
@@ -206,15 +105,11 @@ class FrameLoop:
         self._plan = None
         self._new_path(pose)
         self.steps_done = 0  # physics steps since the reset (the push counts them)
-        self._law_state = feedback.State()
-        self._new_sensors()
+        self._new_sensors(None)
 
-    def _new_sensors(self) -> None:
-        """The variation's sensors, read anew from here (their noise too), with the rows they
-        need filled with the state as it is."""
-        self.sensors = Sensors(self.robot, self.variation)
-        self._rows: deque[NDArray[np.float64]] = deque(maxlen=self.sensors.steps_needed)
-        self._rows_as_now()
+    def _new_sensors(self, state: feedback.State | None) -> None:
+        """The variation's sensors and push, from here; the laws' `state` carried (None: anew)."""
+        self.sensing = LoopSensing(self.robot, self.variation, self.data, state)
         self._push_step, self._push_force = self.variation.push(self.timestep_s)
 
     def _new_path(self, setpoint: NDArray[np.float64]) -> None:
@@ -231,7 +126,7 @@ class FrameLoop:
         self.robot = _varied(self.nominal_robot, variation)
         self.model = self.robot.model
         self._new_path(self._sent)
-        self._new_sensors()
+        self._new_sensors(self.sensing.state)
 
     def set_gait(self, params: GaitParams | None = None, motion: Motion | None = None) -> None:
         """New parameters or motion vector: they reach the servos from the next frame on, a new
@@ -241,7 +136,8 @@ class FrameLoop:
             if params.engine != self.params.engine:
                 self.engine_start_frame = self.frame_index
             if feedback.laws_on(params) != feedback.laws_on(self.params):
-                self._restart_laws()
+                # the estimate is current where a law was on or the sensors watched
+                self.sensing.restart(feedback.any_law_on(self.params) or self.watch_sensors)
             self.params = params
         if motion is not None:
             self.motion = motion
@@ -251,22 +147,7 @@ class FrameLoop:
         """The robot was put where `data.qpos` says (forward kinematics done): the sensors'
         rows read it at rest there, the floor's tilt in its pose (`rest_accelerometers`)."""
         rest_accelerometers(self.model, self.data)
-        self._rows_as_now()
-
-    def _restart_laws(self) -> None:
-        """Another set of laws is on from the next frame: they start anew, as the firmware's
-        (`feedback.restarted`). The attitude estimate is kept where it is current (a law was on
-        or the sensors watched); else the rows, not read meanwhile, are filled with the state
-        as it is and the estimate starts from them."""
-        if feedback.any_law_on(self.params) or self.watch_sensors:
-            self._law_state = feedback.restarted(self._law_state)
-            return
-        self._rows_as_now()
-        self._law_state = feedback.State()
-
-    def _rows_as_now(self) -> None:
-        """Every sensor row the IMU's delay reaches back to: the sensors as they read now."""
-        self._rows.extend([self.data.sensordata.copy()] * self.sensors.steps_needed)
+        self.sensing.rows_as_now()
 
     def set_hardware(self, hardware: HardwareSetup) -> None:
         """New calibration or channel map: in effect from the next frame on."""
@@ -296,17 +177,9 @@ class FrameLoop:
 
     def _read_and_step_laws(self) -> tuple[SensorReading, feedback.Output]:
         """The sensors read now, and the laws' step on that reading (their state carried on)."""
-        reading = self.sensors.read(np.array(self._rows), self.data)
-        self._law_state, out = feedback.step(
-            self.params,
-            self._law_state,
-            law_reading(reading),
-            self.motion_now,
-            self.fsr_positions_m,
-            FRAME_S,
-            phase_rad=self.phase,
+        return self.sensing.read_and_step(
+            self.params, self.motion_now, self.fsr_positions_m, self.phase
         )
-        return reading, out
 
     def push_now(self, impulse_n_s: float, direction_deg: float) -> tuple[float, float] | None:
         """Push the trunk in the next physics step (the dashboard's Push): impulse_n_s, level,
@@ -350,18 +223,7 @@ class FrameLoop:
         k = plan.next_index
         plan.next_index += 1
         self._apply_frame(plan.substep[k], plan.setpoint[k])
-        record = FrameRecord(
-            index=self.frame_index,
-            time_s=self.frame_index * FRAME_S,
-            phase=float(plan.phase[k]),
-            ocr=plan.ocr[k],
-            setpoint=plan.setpoint[k],
-            saturated_servos=plan.saturated[k],
-            saturated=plan.any_saturated[k],
-            gamma_clamped=plan.any_gamma_clamped[k],
-            guard_violation=plan.any_guard[k],
-            motion=plan.motions[k],
-        )
+        record = planned_record(plan, k, self.frame_index)
         self.motion_now = plan.motions[k]
         self.frame_index += 1
         freq = self.params.clock.freq_hz + freq_delta_hz  # + 0.0: the same bits
@@ -377,6 +239,11 @@ class FrameLoop:
         record = self._step_planned(self._plan, float(out.freq_delta_hz))
         self._plan = None  # the next frame is planned after the next reading
         return dataclasses.replace(record, reading=reading, feedback=out)
+
+    @property
+    def _law_state(self) -> feedback.State:
+        """The laws' state carried to the next frame (`sensing.state`; the tests read it)."""
+        return self.sensing.state
 
     @property
     def fsr_positions_m(self) -> NDArray[np.float32]:
@@ -421,18 +288,7 @@ class FrameLoop:
         TDM lines stay low). The gait plans anew from here once it drives again."""
         setpoint = np.array(setpoint, dtype=np.float64)
         self._apply_frame(np.full(len(setpoint), substep, dtype=np.int64), setpoint)
-        record = FrameRecord(
-            index=self.frame_index,
-            time_s=self.frame_index * FRAME_S,
-            phase=self.phase,
-            ocr=np.full((len(CHANNELS), SLOTS_PER_FRAME), OCR_IDLE, dtype=np.int32),
-            setpoint=setpoint,
-            saturated_servos=np.zeros(len(setpoint), dtype=bool),
-            saturated=False,
-            gamma_clamped=False,
-            guard_violation=False,
-            motion=self.motion_now,
-        )
+        record = pulseless_record(self.frame_index, self.phase, setpoint, self.motion_now)
         self.frame_index += 1
         self._plan = None
         self._check_state()
@@ -496,7 +352,7 @@ class FrameLoop:
             mujoco.mj_step(self.model, data)
             if step == self._push_step:
                 data.xfrc_applied[trunk, :3] = 0.0
-            self._rows.append(data.sensordata.copy())
+            self.sensing.keep_row()
 
     def _check_state(self) -> None:
         data = self.data
@@ -528,12 +384,3 @@ class FrameLoop:
     def feet_distance_m(self) -> float:
         """Distance between the sole centres in the ground plane, m (the drive's axle b)."""
         return sole_distance_m(self.data)
-
-
-def law_reading(reading: SensorReading) -> feedback.Reading:
-    """A sensor reading as the laws take it (float32, as the firmware holds it)."""
-    return feedback.Reading(
-        gyro_rad_s=reading.gyro_rad_s.astype(np.float32),
-        accel_m_s2=reading.accel_m_s2.astype(np.float32),
-        fsr_n=reading.fsr_n.astype(np.float32),
-    )

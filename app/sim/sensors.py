@@ -17,6 +17,7 @@ from app.robots.model import RobotModel
 from app.sim.force_sensors import fsr_forces, fsr_forces_of
 from app.worlds.servo_path import latency_steps
 from app.worlds.variations import NOMINAL, Variation
+from gait import feedback
 from gait.attitude import G_M_S2 as GRAVITY_M_S2
 from hardware.fsr import as_read
 
@@ -55,6 +56,14 @@ class SensorReading:
         total = self.fsr_n.sum(axis=1, keepdims=True)
         with np.errstate(invalid="ignore", divide="ignore"):
             return np.where(total > 0.0, (self.fsr_n @ positions_m) / total, np.nan)
+
+    def for_laws(self) -> feedback.Reading:
+        """The reading as the laws take it (float32, as the firmware holds it)."""
+        return feedback.Reading(
+            gyro_rad_s=self.gyro_rad_s.astype(np.float32),
+            accel_m_s2=self.accel_m_s2.astype(np.float32),
+            fsr_n=self.fsr_n.astype(np.float32),
+        )
 
 
 def quantised(values: NDArray[np.float64], per_count: float) -> NDArray[np.float64]:

@@ -1,8 +1,9 @@
 // The Sensors panel: what the modelled IMU and sole force sensors read and what the feedback
-// laws made of it (GET /api/sensors, the last 5 s, five times a second), drawn by uPlot --
-// the estimated against the true trunk pitch and roll, the gyro, each law's output -- and each
-// sole's centre of pressure drawn in its outline, while the panel is on screen; and the Push control (POST /api/sim/push,
-// button or the P key), the push then drawn in the 3D view. While `artro link` forwards a real
+// laws made of it (GET /api/sensors, the last 5 s, five times a second), drawn by uPlot in the
+// charts the server declares (GET /api/sensors/channels: the estimated against the true trunk
+// pitch and roll, the gyro, each law's output) -- and each sole's centre of pressure drawn in its
+// outline, while the panel is on screen; and the Push control (POST /api/sim/push, button or the
+// P key), the push then drawn in the 3D view. While `artro link` forwards a real
 // robot's frames (the view's `robot`), its attitude, gyro and tilt trim are drawn beside the
 // simulation's as series of their own ("robot: ...", the simulation's "sim: ..."), its last
 // frame placed where it arrived, and a line says how its IMU is; no robot, nothing extra.
@@ -12,47 +13,11 @@ import { THEME, UPLOT_AXIS } from "./scope.js";
 import { $, fieldNumber, fieldRule, fitCanvas, fmt, setMessage } from "./util.js";
 
 const uPlot = window.uPlot;
-const LAWS = [
-  ["tilt", "tilt trim"],
-  ["yaw_rate", "yaw rate"],
-  ["damping", "gyro damping"],
-  ["cop", "CoP"],
-  ["timing", "step timing"],
-];
-const PLOTS = {
-  attitude: {
-    el: "sensors-attitude",
-    label: "trunk tilt (°)",
-    series: [
-      ["pitch_est_deg", "pitch, estimated", "#4dabf7", undefined],
-      ["pitch_true_deg", "pitch, true", "#4dabf7", [4, 4]],
-      ["roll_est_deg", "roll, estimated", "#ff922b", undefined],
-      ["roll_true_deg", "roll, true", "#ff922b", [4, 4]],
-    ],
-  },
-  gyro: {
-    el: "sensors-gyro",
-    label: "gyro (°/s)",
-    series: [
-      ["gyro_x_deg_s", "roll rate x", "#ff922b", undefined],
-      ["gyro_y_deg_s", "pitch rate y", "#4dabf7", undefined],
-      ["gyro_z_deg_s", "yaw rate z", "#51cf66", undefined],
-    ],
-  },
-  laws: {
-    el: "sensors-laws-plot",
-    label: "law outputs (°; a_y ×100)",
-    series: [
-      ["tilt_pitch_deg", "tilt trim pitch", "#4dabf7", undefined],
-      ["tilt_roll_deg", "tilt trim roll", "#ff922b", undefined],
-      ["a_y_delta", "yaw rate: a_y ×100", "#51cf66", undefined, 100],
-      ["damping_ankle_deg", "damping, left ankle pitch", "#e64dff", undefined],
-      ["cop_pitch_deg", "CoP pitch", "#fcc419", undefined],
-      ["cop_roll_deg", "CoP roll", "#fcc419", [4, 4]],
-      ["timing_freq_hz", "step timing: Hz ×10", "#ff6b6b", undefined, 10],
-    ],
-  },
-};
+// the laws ([group, name], in switch-bit order) and the charts with their series, as the server
+// declares them once (GET /api/sensors/channels, app/sim/sensor_channels.py): asked once
+let LAWS = [];
+// the charts' boxes in the page; a chart without one gets a box after the last
+const PLOT_BOXES = { attitude: "sensors-attitude", gyro: "sensors-gyro", laws: "sensors-laws-plot" };
 const FEET = [
   ["l", "left", "#4dabf7"],
   ["r", "right", "#ff922b"],
@@ -81,7 +46,6 @@ let latest = null;
 let fallen = false; // the robot lies fallen: a push waits for a reset (the server refuses it)
 
 export function initSensors() {
-  for (const [key, spec] of Object.entries(PLOTS)) plots[key] = new SensorPlot($(spec.el), spec, ROBOT_SERIES[key]);
   $("push-button").addEventListener("click", push);
   document.addEventListener("artro:state", (e) => (fallen = Boolean(e.detail.fell)));
   document.addEventListener("keydown", (e) => {
@@ -99,8 +63,30 @@ export function initSensors() {
 
 let onScreen = false;
 
+/** A chart per declared chart, each drawing the channels declared on it, in their order. */
+function buildPlots(declared) {
+  LAWS = declared.laws.map(({ group, label }) => [group, label]);
+  for (const chart of declared.charts) {
+    const series = declared.channels
+      .filter((c) => c.chart === chart.key)
+      .map((c) => [c.key, c.label, c.colour, c.dashed ? [4, 4] : undefined, c.scale === 1 ? undefined : c.scale]);
+    const spec = { label: chart.label, series };
+    plots[chart.key] = new SensorPlot(plotBox(chart.key), spec, ROBOT_SERIES[chart.key] ?? []);
+  }
+}
+
+function plotBox(chart) {
+  const id = PLOT_BOXES[chart] ?? `sensors-${chart}`;
+  if ($(id)) return $(id);
+  const last = Object.values(plots).at(-1)?.el ?? $(PLOT_BOXES.laws);
+  const box = Object.assign(document.createElement("div"), { className: "sensors-plot", id });
+  last.after(box);
+  return box;
+}
+
 async function refresh() {
   if (!onScreen || document.hidden) return;
+  if (!LAWS.length) buildPlots(await api.get("/api/sensors/channels"));
   const [view, params] = await Promise.all([api.get("/api/sensors"), lawsOn()]);
   latest = view;
   const robot = view.robot ? robotOnSimTime(view) : null;

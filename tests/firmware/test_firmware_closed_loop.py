@@ -7,6 +7,8 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,9 +16,11 @@ import pytest
 from app.firmware import protocol as proto
 from app.firmware.build import build_firmware
 from app.firmware.closed_loop import (
+    LAW_OUTPUT_MEMBERS,
     LAW_TOLERANCE,
     PLAN_LATCH_TICK,
     PLAN_REQUEST_TICK,
+    LawFrame,
     run_closed_loop,
 )
 from app.firmware.conformance import ANGLE_TOLERANCE_RAD
@@ -24,6 +28,7 @@ from app.firmware.emulator import CYCLES_PER_TICK, FRAME_CYCLES, Mcu
 from app.firmware.link import EmulatedLink
 from app.firmware.sensor_feed import GYRO_ZERO_RATE_COUNTS, RawSample, at_rest, sample_of
 from app.worlds.variations import Variation
+from gait import feedback
 from hardware.firmware.schema import complete_document
 from tests.testing.firmware_support import preset
 
@@ -328,3 +333,20 @@ def test_the_laws_rest_while_the_robot_stands_and_start_anew_when_it_walks() -> 
     assert stopped.attitude_rad[0] == pytest.approx(LEAN, abs=1e-3)  # estimated all along
     assert 0.0 < restarted[0] < wound[0] / 10  # a frame or two's worth
     assert 0.0 < started.tilt_rad[0] < walking.tilt_rad[0] / 5
+
+
+def test_the_law_outputs_read_off_the_firmware_are_laws_h_members_in_its_order() -> None:
+    """`LAW_OUTPUT_MEMBERS` mirrors laws.h `law_output_t` member by member (type and count), and
+    each names a field of `LawFrame` and of `feedback.Output`, which the model is judged on."""
+    laws_h = (Path(__file__).parents[2] / "hardware/firmware/src/laws.h").read_text()
+    body = laws_h.split("typedef struct {")[2].split("} law_output_t;")[0]
+    members = re.findall(r"^\s*(float|int8_t) \w+(?:\[(\w+)\])?;", body, re.M)
+    counts = {"": 1, "GAIT_NUM_JOINTS": 12}
+    declared = [
+        ({"float": "f", "int8_t": "b"}[c_type], counts.get(size) or int(size))
+        for c_type, size in members
+    ]
+    assert [(code, n) for _, code, n in LAW_OUTPUT_MEMBERS] == declared
+    names = {name for name, _, _ in LAW_OUTPUT_MEMBERS}
+    assert names == {f.name for f in dataclasses.fields(LawFrame)}
+    assert names <= {f.name for f in dataclasses.fields(feedback.Output)}

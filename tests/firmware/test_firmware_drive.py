@@ -16,7 +16,8 @@ from app.robots.model import RobotModel
 from app.server.param_store import ParameterStore
 from app.server.sim.emulated_controller import EmulatedController
 from app.server.sim.sim_commands import Reset
-from app.sim.frame_loop import FrameLoop, PinFrame
+from app.sim.frame_loop import FrameLoop
+from app.sim.frame_record import PinFrame
 from gait import GaitParams, Motion
 from hardware import TICK_US, US_PER_DEG
 from tests.testing.firmware_support import preset

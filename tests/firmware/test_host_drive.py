@@ -19,9 +19,10 @@ from app.firmware.virtual_bus import VirtualBus, start_bus
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel
 from app.sim.bus_drive import BusSimulation
-from app.sim.frame_loop import FrameLoop, stand
+from app.sim.frame_loop import FrameLoop
 from app.sim.headless import run
 from app.sim.planning import START_PHASE_RAD
+from app.sim.robot_pose import stand
 from gait import Motion
 from hardware.servo_bus import bus_frame
 from tests.testing.bus_support import (

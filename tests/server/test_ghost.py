@@ -164,5 +164,5 @@ def test_a_ghost_turned_to_the_live_heading_reads_its_imu_in_that_pose() -> None
     model, data = ghost.loop.model, ghost.loop.data
     site = model.sensor_objid[model.sensor_adr.tolist().index(live.robot.accel_adr)]
     at_rest = data.site_xmat[site].reshape(3, 3).T @ -model.opt.gravity
-    rows = np.array(ghost.loop._rows)[:, live.robot.accel_adr : live.robot.accel_adr + 3]
+    rows = np.array(ghost.loop.sensing.rows)[:, live.robot.accel_adr : live.robot.accel_adr + 3]
     np.testing.assert_allclose(rows, np.broadcast_to(at_rest, rows.shape), atol=1e-9)

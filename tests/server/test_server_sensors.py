@@ -127,3 +127,15 @@ def test_a_fallen_robot_is_not_pushed_and_the_answer_says_to_reset(server):
     assert server.get("/api/state").json()["push"] == mark  # no new mark, nothing recorded
     server.post("/api/sim/reset")
     wait_for(lambda: not server.get("/api/state").json()["fell"], "standing again")
+
+
+def test_the_channels_say_what_each_column_is_and_how_the_panel_draws_it(server):
+    declared = server.get("/api/sensors/channels").json()
+    assert [c["key"] for c in declared["channels"]] == list(COLUMNS)
+    charts = {chart["key"] for chart in declared["charts"]}
+    assert charts == {"attitude", "gyro", "laws"}
+    assert {c["chart"] for c in declared["channels"]} == charts | {None}
+    pitch = next(c for c in declared["channels"] if c["key"] == "pitch_est_deg")
+    assert pitch["unit"] == "°" and pitch["chart"] == "attitude" and pitch["dashed"] is False
+    groups = [law["group"] for law in declared["laws"]]
+    assert groups == ["tilt", "yaw_rate", "damping", "cop", "timing"]  # the switch bits' order

@@ -17,8 +17,9 @@ from app.robots import build_spec
 from app.robots.model import RobotModel
 from app.robots.model_parts import FSR_CORNERS
 from app.sim.force_sensors import fsr_forces
-from app.sim.frame_loop import FrameLoop, stand
+from app.sim.frame_loop import FrameLoop
 from app.sim.planning import START_PHASE_RAD
+from app.sim.robot_pose import stand
 from app.sim.sensors import (
     ACCEL_M_S2_PER_COUNT,
     GRAVITY_M_S2,

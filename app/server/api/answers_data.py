@@ -70,6 +70,18 @@ class Sensors(Answer):
     robot: LinkedRobotSensors | None
 
 
+class SensorChannels(Answer):
+    """The Sensors panel's charts, the trace's columns and the laws, as declared once
+    (app/sim/sensor_channels.py, gait/feedback_params.py `LAWS`)."""
+
+    charts: list[dict[str, Any]] = Field(description="each chart's key and axis label")
+    channels: list[dict[str, Any]] = Field(
+        description="each column of GET /api/sensors in order: key, unit, label, the chart that "
+        "draws it (null: none), colour, dashed, scale (drawn times this)"
+    )
+    laws: list[dict[str, Any]] = Field(description="each law's group and name, in bit order")
+
+
 class FramesTaken(Answer):
     taken: int = Field(description="the frames new to the ring")
     window_frames: int

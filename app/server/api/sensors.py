@@ -11,11 +11,12 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from app.firmware import protocol as proto
 from app.server.api.answers import ANSWER
-from app.server.api.answers_data import FramesTaken, Sensors
+from app.server.api.answers_data import FramesTaken, SensorChannels, Sensors
 from app.server.api.deps import WHOLE_FLOAT, JsonIntFrom0, ServicesDep, StrictJsonRoute
 from app.server.feeds.robot_sensors import WINDOW_FRAMES, RobotFrame
 from app.server.http.errors import GATE_RESPONSES, responses
 from app.server.recording.sensor_trace import COLUMNS
+from app.sim.sensor_channels import channel_list
 
 router = APIRouter(
     prefix="/api/sensors", tags=["sensors"], responses=GATE_RESPONSES, route_class=StrictJsonRoute
@@ -138,6 +139,15 @@ def sensors(services: ServicesDep) -> dict[str, Any]:
         }
         return empty | {"robot": robot}
     return view.to_dict() | {"robot": robot}
+
+
+@router.get("/channels", response_model=SensorChannels, **ANSWER)
+def channels() -> dict[str, Any]:
+    """What the columns of GET /api/sensors are and how the Sensors panel draws them, declared
+    once (app/sim/sensor_channels.py): its charts; each column's key, unit, label, chart (null:
+    drawn by none, as the soles' CoP and loads), colour, dashed and scale; each law's group and
+    name in the order of its switch bit. The same for the server's life: ask once."""
+    return channel_list()
 
 
 @router.post("/robot", response_model=FramesTaken, responses=responses(422), **ANSWER)

@@ -17,7 +17,7 @@ import numpy as np
 
 from app.firmware.mega_pulses import BoardFrame
 from app.server.feeds.scope_frames import frame_message
-from app.sim.frame_loop import FrameRecord
+from app.sim.frame_record import FrameRecord
 from hardware import TdmConfig
 from hardware.servo_bus import BusLink
 

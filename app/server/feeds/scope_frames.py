@@ -10,7 +10,7 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from app.firmware.mega_pulses import BoardFrame
-from app.sim.frame_loop import FrameRecord
+from app.sim.frame_record import FrameRecord
 from hardware import (
     CHANNELS,
     FRAME_TICKS,

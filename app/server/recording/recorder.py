@@ -12,7 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from app.sim.frame_loop import FrameRecord
+from app.sim.frame_record import FrameRecord
 from app.sim.planning import FRAME_S
 from hardware import CHANNELS, SLOTS_PER_FRAME
 

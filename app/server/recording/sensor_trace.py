@@ -1,7 +1,6 @@
 """The Sensors panel's data (docs/DESIGN.md §15): per frame, what the modelled sensors read and
-what the feedback laws made of it -- the estimated against the true trunk pitch and roll, the
-gyro, each law's output, each sole's centre of pressure and load -- over the last seconds. Fed
-by the simulation thread; `view()` is an immutable copy for any thread."""
+what the feedback laws made of it -- the columns of `app.sim.sensor_channels.CHANNELS` -- over
+the last seconds. Fed by the simulation thread; `view()` is an immutable copy for any thread."""
 
 from __future__ import annotations
 
@@ -12,27 +11,18 @@ import mujoco
 import numpy as np
 
 from app.robots.model import RobotModel
-from app.sim.frame_loop import FrameRecord
+from app.sim.frame_record import FrameRecord
+from app.sim.sensor_channels import CHANNELS, COLUMNS, FrameSample
 from gait.attitude import accel_tilt
-from gait.feedback import ANKLE_PITCH, HIP_PITCH
 
 WINDOW_FRAMES = 250  # 5 s of 20 ms frames
-#: the columns of a view, in order (angles in degrees, rates in °/s, CoP in mm, loads in N)
-COLUMNS = (
-    "t_s",
-    "pitch_est_deg", "roll_est_deg", "pitch_true_deg", "roll_true_deg",
-    "gyro_x_deg_s", "gyro_y_deg_s", "gyro_z_deg_s",
-    "tilt_pitch_deg", "tilt_roll_deg", "a_y_delta", "damping_ankle_deg", "damping_hip_deg",
-    "cop_pitch_deg", "cop_roll_deg", "timing_freq_hz",
-    "cop_l_x_mm", "cop_l_y_mm", "cop_r_x_mm", "cop_r_y_mm", "load_l_n", "load_r_n",
-)  # fmt: skip
 
 
 @dataclass(frozen=True)
 class SensorView:
-    """The last frames (rows of `COLUMNS`, oldest first), the sole outline and the force
-    sensors' places (mm, x forward, y left, from each sole's centre) to draw the CoP in. Its
-    columns are made when asked for, in the asker's thread."""
+    """The last frames (rows of `COLUMNS`: `CHANNELS`' keys, oldest first), the sole outline and
+    the force sensors' places (mm, x forward, y left, from each sole's centre) to draw the CoP
+    in. Its columns are made when asked for, in the asker's thread."""
 
     rows: tuple[tuple[float, ...], ...]
     sole_mm: tuple[float, float]  # half length, half width
@@ -82,23 +72,14 @@ class SensorTrace:
         reading, out = record.reading, record.feedback
         if reading is None or out is None:
             return
-        cop = reading.centre_of_pressure_m(self._positions_m) * 1e3
-        gyro = np.degrees(reading.gyro_rad_s)
-        attitude, tilt = np.degrees(out.attitude_rad), np.degrees(out.tilt_rad)
-        cop_out = np.degrees(out.cop_rad)
-        damping = np.degrees(out.damping_rad)
-        self._rows.append(
-            (
-                record.time_s + 0.02,  # read after the frame
-                float(attitude[0]), float(attitude[1]), *true_tilt_deg(data, self._imu_site),
-                float(gyro[0]), float(gyro[1]), float(gyro[2]),
-                float(tilt[0]), float(tilt[1]), float(out.a_y_delta),
-                float(damping[ANKLE_PITCH[0]]), float(damping[HIP_PITCH[0]]),
-                float(cop_out[0]), float(cop_out[1]), float(out.freq_delta_hz),
-                float(cop[0, 0]), float(cop[0, 1]), float(cop[1, 0]), float(cop[1, 1]),
-                float(reading.fsr_n[0].sum()), float(reading.fsr_n[1].sum()),
-            )
-        )  # fmt: skip
+        sample = FrameSample(
+            time_s=record.time_s + 0.02,  # read after the frame
+            reading=reading,
+            out=out,
+            true_tilt_deg=true_tilt_deg(data, self._imu_site),
+            cop_mm=reading.centre_of_pressure_m(self._positions_m) * 1e3,
+        )
+        self._rows.append(tuple(channel.take(sample) for channel in CHANNELS))
 
     def view(self) -> SensorView:
         """A copy of the window (a tuple of the rows: cheap for the simulation thread)."""

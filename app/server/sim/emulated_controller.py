@@ -15,7 +15,7 @@ from app.firmware.closed_loop import read_law_output
 from app.firmware.mega_pulses import BoardFrame, MegaPulses, MegaTrace
 from app.firmware.pulses import FirmwarePulses
 from app.server.param_store import Snapshot
-from app.sim.frame_loop import PinFrame
+from app.sim.frame_record import PinFrame
 from app.sim.planning import FRAME_S
 from app.sim.sensors import SensorReading
 from gait import ARTRO_LEG, LegGeometry, ramp_motion

@@ -22,7 +22,8 @@ from app.server.sim.bus_port import BusPort
 from app.server.sim.emulated_controller import EmulatedController, FirmwareStatus
 from app.server.sim.gait_ramp import GAIT_RAMP_S, GaitRamp, gait_fields_changed
 from app.server.sim.sim_commands import DriveRefused, SwitchDrive
-from app.sim.frame_loop import FrameLoop, FrameRecord
+from app.sim.frame_loop import FrameLoop
+from app.sim.frame_record import FrameRecord
 from app.sim.planning import FRAME_S, START_PHASE_RAD
 from hardware import HardwareSetup
 from hardware.firmware.schema import FIRMWARE_ENGINE

@@ -33,7 +33,7 @@ from app.server.sim.published import (
     TrunkPose,
 )
 from app.server.sim.sim_commands import PendingPushes, Push
-from app.sim.frame_loop import FrameRecord
+from app.sim.frame_record import FrameRecord
 from app.sim.planning import FRAME_S
 from app.worlds.variations import NOMINAL, Variation
 
