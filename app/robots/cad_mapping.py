@@ -37,7 +37,7 @@ from app.robots.cad_legs import (
     foot_points,
     link_masses,
 )
-from app.robots.description import LEG_JOINTS
+from app.robots.description_parts import LEG_JOINTS
 
 #: a hinge's axis may lie this far from what its place in the chain needs: the gait's inverse
 #: kinematics (eqs 2–9) assumes exact axes; 5° tilts a 0.3 rad swing's foot by under 0.03 rad
