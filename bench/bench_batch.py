@@ -55,7 +55,9 @@ import numpy as np
 import results
 
 from app.evaluation import BatchEvaluator, Job
-from app.evaluation._lanes import SEGMENT_FRAMES, STATE_SPEC, _LaneKit
+from app.evaluation._frames import STATE_SPEC
+from app.evaluation._lane_kit import LaneKit
+from app.evaluation._lanes import SEGMENT_FRAMES
 from app.evaluation._processes import ProcessEvaluator
 from app.params.presets import builtin_presets
 from app.sim.planning import FRAME_S, frame_steps
@@ -210,7 +212,7 @@ def rollout_cpu_s(jobs: list[Job], frames: int, frames_per_call: int) -> float:
     (one frame a call: what a closed loop pays for its calls alone, before any Python of its
     own). Runs that fall are rolled out to the end: both call sizes step the same."""
     evaluator = BatchEvaluator(threads=1)
-    kit, steps = _LaneKit(evaluator.model), evaluator.steps_per_frame
+    kit, steps = LaneKit(evaluator.model), evaluator.steps_per_frame
     planned = [evaluator._plan_run(job, frames, kit.data) for job in jobs]
     start = time.process_time()
     for robot, begin, control in planned:

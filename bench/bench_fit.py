@@ -27,7 +27,7 @@ import results
 from app.analysis import identify_record
 from app.analysis.identify_replay import play
 from app.analysis.identify_routine import IDENTIFY, open_loop
-from app.robots.description import preset_gait
+from app.robots.gait_reach import preset_gait
 from app.robots.model import RobotModel
 from app.sim.headless import run
 from app.study import fit_space

@@ -33,7 +33,8 @@ import time
 import numpy as np
 import results
 
-from app.analysis.robustness import ROBUST_CASES, jobs_for, passes
+from app.analysis.robust_cases import ROBUST_CASES, passes
+from app.analysis.robustness import jobs_for
 from app.evaluation import BatchEvaluator
 from app.evaluation._warp import AGREEMENT, WarpEvaluator
 from app.params.presets import builtin_presets

@@ -32,7 +32,7 @@ from bench_batch import concurrent_raw, raw_replay, walks
 from mujoco import rollout
 
 from app.evaluation import BatchEvaluator
-from app.evaluation._lanes import STATE_SPEC
+from app.evaluation._frames import STATE_SPEC
 
 FRAMES = 500  # 10 s
 

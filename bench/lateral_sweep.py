@@ -2,7 +2,7 @@
 
 Walks `robust` and variants of it (each --variant a list of GROUP.FIELD=VALUE, comma separated,
 on top of the preset) through `bench robust`'s two sideways cases on the same variations of the
-stock robot, judged by its pass rule (`app.analysis.robustness.passes`), and prints each
+stock robot, judged by its pass rule (`app.analysis.robust_cases.passes`), and prints each
 variant's pass share per way, the nominal model's speed, and its falls.
 
     python bench/lateral_sweep.py [--preset robust] [--samples 20] [--seed 0] \
@@ -17,7 +17,7 @@ import argparse
 
 import results
 
-from app.analysis.robustness import MAX_TURN_DEG_S, PASS_SHARE, ROBUST_CASES, passes
+from app.analysis.robust_cases import MAX_TURN_DEG_S, PASS_SHARE, ROBUST_CASES, passes
 from app.evaluation import BatchEvaluator, Job
 from app.robots.model import RobotModel
 from app.study.walks import resolve_presets

@@ -20,7 +20,7 @@ import sys
 
 import results
 
-from app.analysis.robustness import ROBUST_CASES, _figure, passes
+from app.analysis.robust_cases import ROBUST_CASES, case_figure, passes
 from app.evaluation import BatchEvaluator, Job
 from app.evaluation.progress import progress_printer
 from app.params.formats import load_parameter_set
@@ -104,7 +104,7 @@ def measure(bench: str, worlds: list[Variation], doc: str, presets: str) -> None
             for case, m, home in zip(ROBUST_CASES, runs, nominal, strict=True):
                 ok = passes(case, m, home)
                 passed += ok
-                value, goal = _figure(case, m), _figure(case, home)
+                value, goal = case_figure(case, m), case_figure(case, home)
                 share = None
                 if m["fell"]:
                     cells.append("F")

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from hardware.bus_control_tables import STS3215, TABLES, XM430_W350, ControlTable
 from hardware.bus_packets import (
     ACTION,
     BROADCAST_ID,
@@ -49,16 +50,7 @@ from hardware.bus_packets import (
     stuff,
     unstuff,
 )
-from hardware.bus_servos import (
-    STS3215,
-    TABLES,
-    XM430_W350,
-    Answer,
-    BusServo,
-    ControlTable,
-    Present,
-    ServoBus,
-)
+from hardware.bus_servos import Answer, BusServo, Present, ServoBus
 from hardware.bus_timing import (
     BITS_PER_BYTE,
     CENTER_STEPS,

@@ -151,7 +151,9 @@ def preset_specs(text: str | None, default: str, duration_s: float, warmup_s: fl
 
 
 def robust(args: argparse.Namespace) -> int:
-    from app.analysis.robustness import ROBUST_CASES, advised_robot, run_robust
+    from app.analysis.robust_cases import ROBUST_CASES
+    from app.analysis.robustness import run_robust
+    from app.analysis.servo_advice import advised_robot
     from app.evaluation import close_evaluator, evaluator_for
     from app.evaluation.progress import progress_printer
     from app.robots.model import RobotModel

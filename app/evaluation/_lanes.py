@@ -8,145 +8,32 @@ from __future__ import annotations
 
 import math
 import os
-import pickle
 import queue
 import threading
 import time
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor, wait
-from typing import Any
 
 import mujoco
 import numpy as np
 from mujoco import rollout
 
 from app.evaluation._api import Cancelled, Job, OnResult, Progress
-from app.evaluation._frames import STATE_SPEC, Push, Start, start_at_rest, step_by_hand
+from app.evaluation._frames import Push, Start, start_at_rest, step_by_hand
 from app.evaluation._groups import GroupEnds, Tally, lane_tasks, roll_out_group
+from app.evaluation._lane_kit import LaneKit, check_rollout_arrays
 from app.evaluation._measure import FrameEnds, end_checks, measure_frames
+from app.evaluation._open_loop import plan_open_loop
 from app.robots.model import RobotModel
 from app.sim.metrics import RunMetrics, Trace
-from app.sim.planning import FRAME_S, FramePlan, frame_steps, plan_frames
-from app.worlds.servo_path import acting_setpoints
-from app.worlds.variations import NOMINAL, Variation, varied_robot
+from app.sim.planning import FRAME_S, frame_steps
+from app.worlds.variations import Variation, varied_robot
 from gait import feedback
 
 #: a run rolls out this many frames per `rollout` call and stops after the call it fell in
 SEGMENT_FRAMES = 50
 POLL_S = 0.2  # how often a waiting `evaluate` shows a group's progress and looks at its cancel
 VARIED_CACHE = 64  # varied models kept (a robust study reuses each variation for every case)
-
-
-def control_sequence(
-    robot: RobotModel, start: Start, plan: FramePlan, variation: Variation = NOMINAL
-) -> np.ndarray:
-    """ctrl of every physics step (frames * steps per frame, nu), as the frame loop applies it:
-    each servo switches to its frame's set-point at the step after its pulse's falling edge
-    (`plan.substep`), through the variation's set-point path (latency, calibration, play)."""
-    act = robot.actuator_ids
-    acting = acting_setpoints(
-        variation,
-        float(robot.model.opt.timestep),
-        start.ctrl[act],
-        plan.setpoint,
-        plan.substep,
-        frame_steps(robot.model),
-    )
-    if len(act) == robot.model.nu and np.array_equal(act, np.arange(len(act))):
-        return np.ascontiguousarray(acting)  # every actuator a servo, in order (ArtRo)
-    ctrl = np.empty((len(acting), robot.model.nu))
-    if len(act) < robot.model.nu:
-        ctrl[:] = start.ctrl
-    ctrl[:, act] = acting
-    return ctrl
-
-
-def plan_open_loop(
-    robot: RobotModel,
-    job: Job,
-    n_frames: int,
-    data: mujoco.MjData,
-    plans: dict[tuple, FramePlan] | None = None,
-) -> tuple[Start, np.ndarray]:
-    """An open-loop run on `robot` (the job's varied robot): its start, made in `data` (which
-    it overwrites), and the ctrl of every physics step of `n_frames` frames (`control_sequence`).
-    `plans` keeps the gait's frame plans by everything they depend on, for a caller planning
-    many runs of few gaits (a robust study: one plan per case, not per variation)."""
-    start_motion = job.motion if job.start_motion is None else job.start_motion
-    start = start_at_rest(robot, data, job.params, start_motion)
-    hardware, steps = robot.hardware(), frame_steps(robot.model)
-    timestep_s = float(robot.model.opt.timestep)
-    key: tuple[Any, ...] = ()  # plans' key, when there are plans
-    plan = None
-    if plans is not None:  # by value: a varied robot's hardware is a new object holding arrays
-        key = (job.params, job.motion, start_motion, start.phase, pickle.dumps(hardware))
-        key += (robot.geometry, n_frames, steps, timestep_s)
-        plan = plans.get(key)
-    if plan is None:
-        plan = plan_frames(
-            job.params,
-            job.motion,
-            hardware,
-            start.phase,
-            n_frames,
-            steps,
-            timestep_s,
-            motion_now=start_motion,
-            geometry=robot.geometry,
-        )
-        if plans is not None:
-            plans[key] = plan
-    return start, control_sequence(robot, start, plan, job.variation)
-
-
-def _check_rollout_arrays(
-    model: mujoco.MjModel,
-    start: Start,
-    control: np.ndarray,
-    state_out: np.ndarray,
-    sensor_out: np.ndarray,
-) -> None:
-    """What `rollout` checks on every call (it then runs unchecked): C-ordered float64 arrays of
-    the model's sizes, one run, an output row per step. ValueError otherwise."""
-    steps = control.shape[0]
-    shapes = {
-        "start state": (start.state, (mujoco.mj_stateSize(model, STATE_SPEC),)),
-        "control": (control, (steps, model.nu)),
-        "state output": (state_out, (1, steps, mujoco.mj_stateSize(model, STATE_SPEC))),
-        "sensor output": (sensor_out, (1, steps, model.nsensordata)),
-    }
-    for name, (array, shape) in shapes.items():
-        if array.shape != shape or array.dtype != np.float64 or not array.flags.c_contiguous:
-            raise ValueError(
-                f"{name} must be a C-ordered float64 array of shape {shape}, got "
-                f"{array.dtype} {array.shape}"
-            )
-
-
-class _LaneKit:
-    """What one lane needs at a time: an MjData of the robot's size, kept output arrays, and a
-    kept `Rollout` on the calling thread (one per call costs ~1.4 % of a run, decision 0027)."""
-
-    def __init__(self, model: mujoco.MjModel) -> None:
-        self._model = model
-        self.data = mujoco.MjData(model)
-        self._datas: list[mujoco.MjData] = []
-        self.rollout = rollout.Rollout(nthread=0)
-        self._state = np.empty((1, 0, mujoco.mj_stateSize(model, STATE_SPEC)))
-        self._sensors = np.empty((1, 0, model.nsensordata))
-
-    def datas(self, runs: int) -> list[mujoco.MjData]:
-        """`runs` MjData of the robot's size (a group's: each run keeps its warm start)."""
-        while len(self._datas) < runs:
-            self._datas.append(mujoco.MjData(self._model))
-        return self._datas[:runs]
-
-    def output(self, steps: int) -> tuple[np.ndarray, np.ndarray]:
-        """(1, steps, state size) and (1, steps, sensors) arrays, grown when a run is longer."""
-        if self._state.shape[1] < steps:
-            self._state = np.empty((1, steps, self._state.shape[2]))
-            self._sensors = np.empty((1, steps, self._sensors.shape[2]))
-        return self._state[:, :steps], self._sensors[:, :steps]
 
 
 class BatchEvaluator:
@@ -178,9 +65,9 @@ class BatchEvaluator:
         self.steps_per_frame = frame_steps(self.model)  # variations keep the timestep
         #: one lane's kit at a time: its MjData and its kept rollout output arrays (a run's
         #: states, reused run after run rather than fresh arrays to page-fault, decision 0027)
-        self._kits: queue.SimpleQueue[_LaneKit] = queue.SimpleQueue()
+        self._kits: queue.SimpleQueue[LaneKit] = queue.SimpleQueue()
         for _ in range(self.threads):
-            self._kits.put(_LaneKit(self.model))
+            self._kits.put(LaneKit(self.model))
         self._lock = threading.Lock()  # guards the varied cache, stage_s, frames_rolled
         self._varied_cache: dict[Variation, RobotModel] = {}
         #: seconds spent per stage since creation, summed over the lanes (bench/bench_batch.py
@@ -369,7 +256,7 @@ class BatchEvaluator:
         hand (`step_by_hand`). Returns the frames rolled out."""
         model, steps = robot.model, self.steps_per_frame
         n_frames = control.shape[0] // steps
-        _check_rollout_arrays(model, start, control, state_out, sensor_out)
+        check_rollout_arrays(model, start, control, state_out, sensor_out)
         done, initial, warmstart = 0, start.state[None, :], None
         push_frame = push.step // steps if push is not None and push.step >= 0 else -1
         while done < n_frames:

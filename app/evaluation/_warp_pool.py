@@ -24,8 +24,8 @@ import numpy as np
 
 from app.evaluation._api import Job
 from app.evaluation._frames import STATE_SPEC, Start
-from app.evaluation._lanes import plan_open_loop
 from app.evaluation._measure import fallen, measure_frames, not_finite
+from app.evaluation._open_loop import plan_open_loop
 from app.evaluation._processes import WorkerDied
 from app.robots import parse_description
 from app.robots.model import RobotModel

@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import Any
 
 import hardware.firmware as firmware_package
-from app.robots.description import Board
+from app.robots.description_parts import Board
 from app.robots.model import RobotModel
 from gait import ARTRO_LEG, LegGeometry
 from hardware import ChannelMap, ServoCalibration, TdmConfig

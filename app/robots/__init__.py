@@ -3,7 +3,8 @@ the checks that run before anything simulates, and the built-in robots; the comp
 its joint addresses is `app.robots.model.RobotModel`."""
 
 from app.robots.builder import build_model, build_spec, joint_settings, model_xml
-from app.robots.description import Calibration, Geometry, Joint, Part, RobotDescription
+from app.robots.description import RobotDescription
+from app.robots.description_parts import Calibration, Geometry, Joint, Part
 from app.robots.library import (
     BUILTIN_DEFAULT,
     RobotError,

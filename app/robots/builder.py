@@ -11,7 +11,8 @@ import warnings
 import mujoco
 
 from app.robots.cad_builder import add_cad_robot
-from app.robots.description import LEG_JOINTS, LegJoint, LinkName, Part, RobotDescription
+from app.robots.description import RobotDescription
+from app.robots.description_parts import LEG_JOINTS, LegJoint, LinkName, Part
 from app.robots.model_parts import (
     BODY_GROUP,
     FLOOR_GROUP,

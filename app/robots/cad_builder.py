@@ -12,7 +12,8 @@ from typing import TypeVar
 import mujoco
 import numpy as np
 
-from app.robots.description import LEG_JOINTS, RobotDescription
+from app.robots.description import RobotDescription
+from app.robots.description_parts import LEG_JOINTS
 from app.robots.model_parts import (
     BODY_GROUP,
     FSR_CORNERS,

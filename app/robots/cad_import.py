@@ -17,7 +17,8 @@ import yaml
 from app.robots.cad_builder import CadFileError, read_file_spec, robot_root, strip_scene
 from app.robots.cad_mapping import ImportRefused, Mapping, map_model
 from app.robots.cad_source import resolved
-from app.robots.description import LEG_JOINTS, RobotDescription
+from app.robots.description import RobotDescription
+from app.robots.description_parts import LEG_JOINTS
 from app.robots.library import RobotError, parse_description
 from app.robots.servos import servo_table
 

@@ -20,7 +20,7 @@ from app.robots.cad_geometry import (
     subtree_of,
     tree_children,
 )
-from app.robots.description import LEG_JOINTS
+from app.robots.description_parts import LEG_JOINTS
 
 #: a third chain whose end comes this close (as a share of the leg) to the soles' level is a leg
 THIRD_LEG_FRACTION = 0.1

@@ -9,7 +9,8 @@ import math
 import mujoco
 import numpy as np
 
-from app.robots.description import LEG_JOINTS, RobotDescription
+from app.robots.description import RobotDescription
+from app.robots.description_parts import LEG_JOINTS
 from app.robots.servos import ServoSettings, servo_settings
 
 FLOOR_GROUP, BODY_GROUP = 0, 1

@@ -18,7 +18,7 @@ import numpy as np
 from app.analysis.cases import CURVES, curve_run_names, steering
 from app.analysis.robot_start import walks
 from app.analysis.robot_tune import RUNS, TRIAL, EventWriter
-from app.analysis.robustness import ROBUST_CASES
+from app.analysis.robust_cases import ROBUST_CASES
 from app.evaluation import BatchEvaluator, Evaluator, Job
 from app.evaluation.progress import ProgressLine, about, bar, time_left_s
 from app.params.document import ParameterSet

@@ -10,7 +10,7 @@ from typing import Any
 
 import numpy as np
 
-from app.analysis.robustness import RobustCase, pass_margin_loss, passes
+from app.analysis.robust_cases import RobustCase, pass_margin_loss, passes
 from app.robots.checks import SAFETY_FACTOR
 
 #: ROBUST_CASES's kinds as the families a tune is judged on, in the order they are said

@@ -10,7 +10,7 @@ import pytest
 from app.analysis.fit_sensors import Cycles, fit_imu, residuals, soft_l1
 from app.analysis.identify_replay import play
 from app.analysis.identify_routine import IDENTIFY, open_loop
-from app.robots.description import preset_gait
+from app.robots.gait_reach import preset_gait
 from app.robots.model import RobotModel
 from app.worlds.variations import NOMINAL, parse_variation
 

@@ -12,7 +12,7 @@ import pytest
 from app.analysis import identify_record as rec
 from app.analysis.identify_replay import play
 from app.analysis.identify_routine import IDENTIFY, ROUTINES, open_loop, routine_id, total_frames
-from app.robots.description import preset_gait
+from app.robots.gait_reach import preset_gait
 from app.robots.model import RobotModel
 from app.worlds.variations import parse_variation
 

@@ -12,16 +12,15 @@ from pathlib import Path
 
 import pytest
 
-from app.analysis.robustness import (
+from app.analysis.failure_dependence import dependence, wilson
+from app.analysis.robust_cases import (
     FALL_MARGIN_LOSS,
     ROBUST_CASES,
-    dependence,
     nominal_walks,
     pass_margin_loss,
     passes,
-    run_robust,
-    wilson,
 )
+from app.analysis.robustness import run_robust
 from app.evaluation import BatchEvaluator
 from app.params.presets import builtin_presets
 from app.robots.model import RobotModel

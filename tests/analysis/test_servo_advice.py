@@ -8,7 +8,7 @@ from __future__ import annotations
 import pytest
 import yaml
 
-from app.analysis.robustness import MIN_LIMIT_SHARE, advised_robot, servo_advice, torque_bound
+from app.analysis.servo_advice import MIN_LIMIT_SHARE, advised_robot, servo_advice, torque_bound
 from app.assets import builtin_robots_dir
 from app.robots.library import load_description
 from app.robots.model import RobotModel

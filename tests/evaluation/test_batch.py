@@ -7,7 +7,8 @@ import pytest
 from mujoco import MjData, rollout
 
 from app.evaluation import BatchEvaluator, Cancelled, Job, same_results
-from app.evaluation._lanes import control_sequence, start_at_rest
+from app.evaluation._frames import start_at_rest
+from app.evaluation._open_loop import control_sequence
 from app.sim.frame_loop import FrameLoop
 from app.sim.headless import run
 from app.sim.metrics import MOTION_METRICS
@@ -168,13 +169,13 @@ def test_a_cancel_stops_before_the_next_run_and_keeps_what_finished_in_order():
 def test_arrays_a_lane_would_roll_out_unchecked_are_checked_first():
     """A lane calls `rollout` unchecked, so the run's arrays are checked once before: a wrong
     shape, dtype or order is a ValueError naming the array, and nothing is rolled out."""
-    from app.evaluation._lanes import _check_rollout_arrays, _LaneKit
+    from app.evaluation._lane_kit import LaneKit, check_rollout_arrays
 
     robot = EVALUATOR.robot
-    kit = _LaneKit(robot.model)
+    kit = LaneKit(robot.model)
     robot_, start, control = EVALUATOR._plan_run(Job(GaitParams(), Motion()), 3, kit.data)
     state_out, sensor_out = (np.zeros_like(a) for a in kit.output(control.shape[0]))
-    _check_rollout_arrays(robot.model, start, control, state_out, sensor_out)  # passes
+    check_rollout_arrays(robot.model, start, control, state_out, sensor_out)  # passes
     bad = {
         "control": (control[:, :-1], state_out),
         "control ": (np.asfortranarray(control), state_out),

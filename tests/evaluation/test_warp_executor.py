@@ -19,7 +19,7 @@ import threading
 import numpy as np
 import pytest
 
-from app.analysis.robustness import RobustCase, passes
+from app.analysis.robust_cases import RobustCase, passes
 from app.evaluation import (
     BatchEvaluator,
     Cancelled,

@@ -19,7 +19,7 @@ import pytest
 from mujoco import rollout
 
 from app.evaluation import Cancelled, Job, close_evaluator, same_results
-from app.evaluation._lanes import plan_open_loop
+from app.evaluation._open_loop import plan_open_loop
 from app.evaluation._processes import WorkerDied
 from app.evaluation._warp import WarpEvaluator
 from app.evaluation._warp_host import WorldEnds, plan_batch

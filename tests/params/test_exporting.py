@@ -8,15 +8,8 @@ import pytest
 import yaml
 
 from app.params.document import ParameterSet, project_version
-from app.params.formats import (
-    FORMATS,
-    MAX_IMPORT_BYTES,
-    ImportTooLarge,
-    ParameterImportError,
-    export_text,
-    load_json_strict,
-    parse_import,
-)
+from app.params.formats import FORMATS, MAX_IMPORT_BYTES, ImportTooLarge, export_text, parse_import
+from app.params.strict_text import ParameterImportError, load_json_strict
 from gait import GaitParams, Motion
 
 

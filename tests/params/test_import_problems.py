@@ -5,8 +5,9 @@ import json
 
 import pytest
 
-from app.params.formats import ParameterImportError, export_text, load_parameter_set, parse_import
+from app.params.formats import export_text, load_parameter_set, parse_import
 from app.params.presets import builtin_presets
+from app.params.strict_text import ParameterImportError
 
 FOUR_WRONG = {
     "motion": {"a_p": 2},

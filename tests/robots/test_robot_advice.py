@@ -203,7 +203,7 @@ def test_eq1_covers_the_robots_own_gait_not_only_the_papers(tmp_path):
     """ArtRo with three times its trunk: the paper's poses leave the knees a third to spare, its
     default preset's (robust) ask more than their MG996R gives. The check used the paper's
     alone, so `--suggest` cleared a robot that could not step."""
-    from app.robots.description import preset_gait
+    from app.robots.gait_reach import preset_gait
     from gait import GaitParams
 
     path = with_trunk_times(3, "heavy", tmp_path)
@@ -221,7 +221,7 @@ def test_eq1_covers_the_robots_own_gait_not_only_the_papers(tmp_path):
 def test_a_range_that_holds_the_papers_reach_but_not_the_default_presets_is_refused(tmp_path):
     """Joint ranges just wide enough for the paper's constants passed, and the robot's own
     preset (robust) then walked into its limits: 59 % slower forward, 86 % sideways."""
-    from app.robots.description import REACH_CASES, REACH_PHASES
+    from app.robots.gait_reach import REACH_CASES, REACH_PHASES
     from gait import JOINT_NAMES, GaitParams, LegGeometry, joint_angles_with_flags
 
     doc = artro_doc()

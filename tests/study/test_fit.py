@@ -9,7 +9,7 @@ import pytest
 from app.analysis import identify_record as rec
 from app.analysis.identify_replay import play
 from app.analysis.identify_routine import IDENTIFY, open_loop
-from app.robots.description import preset_gait
+from app.robots.gait_reach import preset_gait
 from app.robots.model import RobotModel
 from app.study import fit_space
 from app.study.fit import fit

@@ -13,7 +13,8 @@ from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.patches import Rectangle
 from matplotlib.text import Text
 
-from app.analysis.robustness import PASS_RULE, ROBUST_CASES, RobustCase, summarise
+from app.analysis.robust_cases import PASS_RULE, ROBUST_CASES, RobustCase
+from app.analysis.robustness import summarise
 from app.study.robust_report import SIGNS, render, robust_figure
 from app.worlds.sampling import VariationRanges, sample
 

@@ -11,7 +11,7 @@ import optuna
 import pytest
 
 from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
-from app.analysis.robustness import ROBUST_CASES
+from app.analysis.robust_cases import ROBUST_CASES
 from app.evaluation import BatchEvaluator, Job
 from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set

@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import pytest
 
-from app.analysis.robustness import ROBUST_CASES, pass_margin_loss
+from app.analysis.robust_cases import ROBUST_CASES, pass_margin_loss
 from app.cli import main
 from app.study.tune_families import (
     FAMILIES,

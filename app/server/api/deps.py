@@ -1,7 +1,7 @@
 """Dependencies and the route class shared by the routers.
 
 `StrictJsonRoute` parses every JSON body with the project's one rule (duplicate keys and
-NaN/Infinity refused, naming the key: `app.params.formats.load_json_strict`), off the event loop
+NaN/Infinity refused, naming the key: `app.params.strict_text.load_json_strict`), off the event loop
 when the body is not tiny (docs/DESIGN.md §6)."""
 
 import json
@@ -14,7 +14,7 @@ from fastapi.routing import APIRoute
 from pydantic import BeforeValidator
 from starlette.concurrency import run_in_threadpool
 
-from app.params.formats import ParameterImportError, load_json_strict
+from app.params.strict_text import ParameterImportError, load_json_strict
 from app.server.services import Services
 
 

@@ -8,15 +8,10 @@ from starlette.concurrency import run_in_threadpool
 from starlette.exceptions import HTTPException as StarletteHTTPException
 
 from app.params.document import ParameterSet
-from app.params.formats import (
-    MAX_IMPORT_BYTES,
-    ImportTooLarge,
-    ParameterImportError,
-    export_text,
-    parse_import,
-)
+from app.params.formats import MAX_IMPORT_BYTES, ImportTooLarge, export_text, parse_import
 from app.params.presets import NAME_RULE, PresetError, PresetNotFound, diff
 from app.params.schema import ImportBody, ImportBodyV1, inline_schema
+from app.params.strict_text import ParameterImportError
 from app.server.api.answers import (
     ANSWER,
     Deleted,

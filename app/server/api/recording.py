@@ -13,7 +13,7 @@ from pydantic import BaseModel, ConfigDict, Field
 from starlette.concurrency import run_in_threadpool
 
 from app.firmware.vcd import edges_of_frames, vcd_text
-from app.params.formats import ParameterImportError, load_json_strict
+from app.params.strict_text import ParameterImportError, load_json_strict
 from app.server.api.answers import ANSWER, ReplayStatus
 from app.server.api.answers_data import RecordedFrame, RecordingFile, RecordingSummary
 from app.server.api.deps import JsonIntFrom0, ServicesDep, StrictJsonRoute

@@ -11,7 +11,8 @@ from collections import OrderedDict
 from collections.abc import Callable
 from typing import Any, Literal
 
-from app.analysis.robustness import ROBUST_CASES, run_robust
+from app.analysis.robust_cases import ROBUST_CASES
+from app.analysis.robustness import run_robust
 from app.evaluation import Cancelled, close_evaluator, evaluator_for
 from app.evaluation.progress import time_left_s
 from app.robots.model import RobotModel
