@@ -31,6 +31,15 @@ MOVE_S = 10.0  # wall time the joint has to get there (real time; a loaded machi
 TRIES = 5
 
 
+@pytest.fixture(autouse=True)
+def slow_adapter(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Both SDKs size an answer's timeout for a USB adapter's 16 ms latency timer (~34 ms in
+    all); a loaded 2-core machine can starve the bus thread longer, as a slow adapter would
+    delay its bytes: the SDKs wait here as for a 100 ms latency timer (their own constant)."""
+    monkeypatch.setattr(dxl.port_handler, "LATENCY_TIMER", 100)
+    monkeypatch.setattr(scs.port_handler, "LATENCY_TIMER", 100)
+
+
 def _tried(call: Callable[[], tuple], timeout: int, port: object) -> tuple:
     """`call()` (an SDK call whose second item is its result) until it is not `timeout`, the
     port's input cleared before each new try (a late answer is not the next call's)."""
@@ -97,6 +106,7 @@ def test_dynamixel_sdk_pings_writes_and_reads_the_simulated_servos() -> None:
             bad = bytearray(dxl_packet(3, dxl.INST_PING))
             bad[-2] ^= 0xFF
             port.writePort(list(bad))
+            port.setPacketTimeoutMillis(1000)  # the raw read's own wait, as a program sets it
             reply, result = packets.rxPacket(port, False)
             assert result == dxl.COMM_SUCCESS and reply[8] == 0x03  # error 3: CRC
             assert (
