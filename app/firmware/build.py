@@ -36,8 +36,14 @@ FIRMWARE_DIR = Path(firmware_package.__file__).resolve().parent
 SOURCE_DIR = FIRMWARE_DIR / "src"
 MAKEFILE = FIRMWARE_DIR / "Makefile"
 HARNESS_SOURCE = Path(__file__).resolve().parent / "harness.c"
-#: compiled with it: the Mega board's I2C bus (the PCA9685 part, the monitor)
-HARNESS_SOURCES = (HARNESS_SOURCE, HARNESS_SOURCE.with_name("harness_i2c.c"))
+#: compiled with it: simavr's corrections, the balance sensors, the Mega board's I2C bus (the
+#: PCA9685 part, the monitor)
+HARNESS_SOURCES = tuple(
+    HARNESS_SOURCE.with_name(name)
+    for name in ("harness.c", "harness_fixes.c", "harness_sensors.c", "harness_i2c.c")
+)
+#: what they include (not compiled alone, but in the library's hash)
+HARNESS_HEADERS = (HARNESS_SOURCE.with_name("harness.h"),)
 TOOLS = ("avr-gcc", "avr-objcopy", "avr-size", "make")
 #: the boards the firmware builds for (the Makefile's BOARD, docs/BOARDS.md), the first the default
 BOARDS: tuple[str, ...] = typing.get_args(Board)
@@ -239,7 +245,7 @@ def harness_library() -> Path:
     """The simavr harness as a shared library, compiled on first use."""
     if missing := missing_tools(("cc",)):
         raise BuildError(f"missing tools: {', '.join(missing)}")
-    sources = {path.name: path.read_bytes() for path in HARNESS_SOURCES}
+    sources = {path.name: path.read_bytes() for path in (*HARNESS_SOURCES, *HARNESS_HEADERS)}
     target = cache_dir() / "mcu" / f"libartro_mcu-{_digest(sources)}.so"
     if target.exists():
         return target

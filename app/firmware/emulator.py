@@ -27,7 +27,7 @@ FRAME_CYCLES = FRAME_TICKS * PRESCALER  # 320 000 cycles = 20 ms at 16 MHz
 DATA_OFFSET = 0x800000  # avr-gcc puts data-space symbols at 0x800000 + address
 CPU_DONE, CPU_CRASHED = 6, 7  # simavr's cpu_Done, cpu_Crashed
 _START_TIMEOUT_CYCLES = 16_000_000  # the timers must start within 1 s of reset
-PROFILE_BINS = 10  # harness.c: the part marker's values 0..7, in interrupts, asleep
+PROFILE_BINS = 10  # harness.h: the part marker's values 0..7, in interrupts, asleep
 PROFILE_ISR, PROFILE_SLEEP = 8, 9
 
 

@@ -7,33 +7,9 @@
  * bytes for the firmware are queued and fed following simavr's XON/XOFF flow control (its receive
  * FIFO drops what comes while it is full).
  *
- * Three corrections of simavr's timer models, each can be left out to show what it does:
- *  - FIX_MODE14: simavr maps waveform mode 14 of Timer1/Timer3 to phase-correct PWM on this core,
- *    which ignores OCR writes (upstream issue buserror/simavr#579); the table entry is set to
- *    fast PWM with TOP = ICRn.
- *  - FIX_OCR_HIGH_BYTE: in PWM modes simavr takes a new OCRnx only if the 16-bit value differs
- *    once the low byte is written, comparing with the high byte already stored -- so a change of
- *    the high byte alone is lost. On the chip the high byte waits in TEMP and both bytes change
- *    together; the harness makes simavr see such a write as the change it is.
- *  - FIX_UART_BYTE_TIME: simavr times a UART byte when UBRRnL is written, with the U2Xn bit of
- *    that moment and always a parity bit. The firmware sets U2X0 after the rate, as the
- *    datasheet allows, and sends no parity: 57600 baud became 26 182 (11 bits of 32 us), so a
- *    walk's SENSORS stream lost one frame in three. The byte time is recomputed after every
- *    write to the UART's rate and control registers, as the chip's baud generator has it.
- *
- * The balance sensors (docs/DESIGN.md §15), attached on request:
- *  - an MPU-6050 on simavr's TWI bus: a register file at address 0x68 that acknowledges its
- *    address, takes a register pointer and writes, and answers reads from the pointer on, as
- *    the part does; its 14 data registers from 0x3B hold what Python sets for the frame. Faults
- *    on request: the next transactions not acknowledged (NACK), or a burst ended by a bus error
- *    after k bytes (the harness cancels the TWI's pending status and raises status 0x00).
- *  - the force sensors on simavr's ADC0..ADC7 inputs, in millivolts. simavr scales a
- *    conversion by 1023 / Vref where the chip takes 1024 / Vref: Python feeds the millivolts
- *    that give the chip's count (app/firmware/sensor_feed.py).
- * simavr 1.6 reports the status after SLA+W as a data byte's: corrected (on_twi_status).
- * simavr times a TWI byte at 9 us whatever TWBR says (400 kHz takes 22.5 us): when a read
- * completes differs, what it reads does not; the firmware waits for neither.
- * docs/DESIGN.md §5.
+ * The core of the harness: loading, running, the edges, the UART bridge, the profile and the
+ * artro_mcu_* calls of all that. The corrections of simavr it applies are in harness_fixes.c,
+ * the balance sensors in harness_sensors.c, what they share in harness.h. docs/DESIGN.md §5.
  */
 #include <stdarg.h>
 #include <stdint.h>
@@ -41,103 +17,16 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <simavr/avr_adc.h>
 #include <simavr/avr_extint.h>
 #include <simavr/avr_ioport.h>
 #include <simavr/avr_timer.h>
-#include <simavr/avr_twi.h>
 #include <simavr/avr_uart.h>
 #include <simavr/sim_avr.h>
 #include <simavr/sim_elf.h>
 #include <simavr/sim_io.h>
 #include <simavr/sim_irq.h>
 
-#define NUM_LINES 9
-#define FIX_MODE14 1
-#define FIX_OCR_HIGH_BYTE 2
-#define FIX_UART_BYTE_TIME 4
-#define NUM_OCR 6
-#define PROFILE_PARTS 8 /* marker values 0..7 */
-#define PROFILE_ISR 8
-#define PROFILE_SLEEP 9
-#define PROFILE_BINS 10
-#define F_CPU_HZ 16000000u
-#define PCA9685_ADDRESS 0x40u
-
-/* harness_i2c.c: the PCA9685 and the bus monitor */
-struct i2c_bus;
-struct i2c_bus *i2c_bus_new(avr_t *avr, avr_irq_t *input, uint8_t address);
-void i2c_bus_free(struct i2c_bus *bus);
-void i2c_bus_on_twi(struct avr_irq_t *irq, uint32_t value, void *param);
-void i2c_bus_on_reply(struct avr_irq_t *irq, uint32_t value, void *param);
-
-typedef struct {
-    uint64_t cycle;
-    uint8_t line;
-    uint8_t level;
-} edge_t;
-
-typedef struct {
-    uint64_t cycle;
-    uint8_t byte;
-} uart_byte_t;
-
-typedef struct harness harness_t;
-
-#define IMU_ADDRESS_BYTE (0x68u << 1) /* SLA+W; SLA+R is | 1 */
-
-typedef struct {
-    avr_irq_t *irq; /* TWI_IRQ_INPUT (to the MCU) and TWI_IRQ_OUTPUT (from it) */
-    avr_twi_t *twi;
-    uint8_t reg[128];
-    uint8_t selected, pointer, index; /* index: bytes since the address in this transaction */
-    uint32_t nack_left;               /* transactions still to be refused */
-    int32_t short_after;              /* end the next burst with a bus error after this many bytes */
-    uint32_t transactions, reads, bytes_read, faults;
-    int sla_w_sent; /* FIX_TWI_SLA_W: the next status is SLA+W's */
-} imu_t;
-
-/* simavr's write handler of an OCRnxL register, wrapped */
-typedef struct {
-    avr_io_write_t write;
-    void *param;
-    avr_io_addr_t high;
-    uint8_t last_high;
-} ocr_wrap_t;
-
-typedef struct {
-    harness_t *h;
-    uint8_t line;
-} line_ref_t;
-
-struct harness {
-    avr_t *avr;
-    avr_timer_t *timer1, *timer3;
-    int64_t timer_start[2]; /* cycle at which Timer1 / Timer3 started counting, -1 before */
-    uint8_t level[NUM_LINES];
-    line_ref_t refs[NUM_LINES];
-    edge_t *edges;
-    size_t n_edges, cap_edges;
-    uart_byte_t *out;
-    size_t n_out, cap_out;
-    uint8_t *in;
-    size_t in_head, in_tail, cap_in;
-    int xoff;
-    avr_irq_t *uart_input;
-    uint64_t slept_cycles;
-    ocr_wrap_t ocr[NUM_OCR];
-    imu_t imu;
-    int imu_attached, bus_connected;
-    int one_timer; /* not the ATmega128: no Timer3 to wait for */
-    struct i2c_bus *i2c; /* harness_i2c.c's bus, once attached */
-    uint32_t adc_conversions;
-    /* profile: cycles by the main loop's part marker (a byte of SRAM), in interrupts, asleep;
-     * and the cycle at which a flag byte last went from 0 to non-zero */
-    int profiling;
-    uint32_t part_addr, flag_addr;
-    uint64_t part_cycles[PROFILE_BINS];
-    uint64_t flag_rose_cycle;
-};
+#include "harness.h"
 
 static const struct {
     char port;
@@ -210,81 +99,6 @@ static void on_xoff(struct avr_irq_t *irq, uint32_t value, void *param)
     ((harness_t *)param)->xoff = 1;
 }
 
-/* FIX_UART_BYTE_TIME: a byte is a start bit, the data bits, a parity bit if UPMn1:0 ask for
- * one and the stop bits, each (UBRRn + 1) * 16 cycles, or * 8 with U2Xn. */
-static void uart_byte_time(avr_t *avr, avr_uart_t *uart)
-{
-    static const uint8_t data_bits[8] = {5, 6, 7, 8, 8, 8, 8, 9};
-    uint32_t ubrr = avr_regbit_get(avr, uart->ubrrl) | (avr_regbit_get(avr, uart->ubrrh) << 8);
-    uint8_t size = avr_regbit_get(avr, uart->ucsz) | (avr_regbit_get(avr, uart->ucsz2) << 2);
-    uint8_t parity = (avr->data[uart->r_ucsrc] & 0x30) ? 1 : 0; /* UPMn1:0, bits 5:4 */
-    uint8_t stop = 1 + avr_regbit_get(avr, uart->usbs);
-    uint32_t per_bit = (ubrr + 1) * (avr_regbit_get(avr, uart->u2x) ? 8u : 16u);
-    uart->cycles_per_byte = per_bit * (1u + data_bits[size] + parity + stop);
-}
-
-/* after simavr's own handler of the register (which stores the byte) */
-static void uart_config_written(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
-{
-    (void)addr;
-    (void)v;
-    uart_byte_time(avr, param);
-}
-
-/* a register simavr does not watch: the byte stored here, as the core would */
-static void uart_config_stored(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
-{
-    avr_core_watch_write(avr, addr, v);
-    uart_byte_time(avr, param);
-}
-
-static int fix_uart_byte_time(avr_t *avr)
-{
-    avr_uart_t *uart = NULL;
-    for (avr_io_t *io = avr->io_port; io; io = io->next)
-        if (io->kind && strcmp(io->kind, "uart") == 0 && ((avr_uart_t *)io)->name == '0')
-            uart = (avr_uart_t *)io; /* avr_io_t is its first member */
-    if (!uart)
-        return -1;
-    const avr_io_addr_t regs[] = {uart->ubrrl.reg, uart->ubrrh.reg, uart->r_ucsra,
-                                  uart->r_ucsrb, uart->r_ucsrc};
-    for (size_t i = 0; i < sizeof regs / sizeof regs[0]; i++) {
-        avr_io_addr_t io = AVR_DATA_TO_IO(regs[i]);
-        int watched = avr->io[io].w.c != NULL;
-        avr_register_io_write(avr, regs[i], watched ? uart_config_written : uart_config_stored,
-                              uart);
-    }
-    return 0;
-}
-
-static void ocr_low_write(avr_t *avr, avr_io_addr_t addr, uint8_t v, void *param)
-{
-    ocr_wrap_t *w = param;
-    uint8_t high = avr->data[w->high];
-    if (avr->data[addr] == v && high != w->last_high)
-        avr->data[addr] = (uint8_t)~v; /* let simavr see the 16-bit value change */
-    w->last_high = high;
-    w->write(avr, addr, v, w->param);
-}
-
-static void wrap_ocr_writes(harness_t *h)
-{
-    avr_timer_t *timers[2] = {h->timer1, h->timer3};
-    for (int t = 0; t < 2; t++) {
-        for (int c = 0; c < 3; c++) {
-            avr_timer_comp_t *comp = &timers[t]->comp[c];
-            ocr_wrap_t *w = &h->ocr[3 * t + c];
-            avr_io_addr_t io = AVR_DATA_TO_IO(comp->r_ocr);
-            w->write = h->avr->io[io].w.c;
-            w->param = h->avr->io[io].w.param;
-            w->high = comp->r_ocrh;
-            w->last_high = h->avr->data[comp->r_ocrh];
-            h->avr->io[io].w.c = ocr_low_write;
-            h->avr->io[io].w.param = w;
-        }
-    }
-}
-
 static harness_t *harness_of(avr_t *avr)
 {
     return avr->custom.data;
@@ -318,190 +132,6 @@ static void quiet_logger(avr_t *avr, const int level, const char *format, va_lis
 {
     if (level <= LOG_ERROR && (!avr || avr->log >= level))
         vfprintf(stderr, format, ap);
-}
-
-/* ---- the MPU-6050 register file on the TWI bus ------------------------------------------- */
-
-/* A bus error now: the TWI's pending status change is cancelled, TWSR reads 0x00 and its
- * interrupt is raised (what the chip shows for an illegal START/STOP on the bus). */
-static avr_cycle_count_t bus_error(avr_t *avr, avr_cycle_count_t when, void *param)
-{
-    (void)when;
-    imu_t *imu = param;
-    avr_cycle_timer_t pending[8];
-    int n = 0;
-    for (avr_cycle_timer_slot_p t = avr->cycle_timers.timer; t && n < 8; t = t->next)
-        if (t->param == imu->twi)
-            pending[n++] = t->timer;
-    for (int i = 0; i < n; i++)
-        avr_cycle_timer_cancel(avr, pending[i], imu->twi);
-    avr_regbit_setto_raw(avr, imu->twi->twsr, 0x00);
-    avr_raise_interrupt(avr, &imu->twi->twi);
-    imu->faults++;
-    return 0;
-}
-
-static void on_twi(struct avr_irq_t *irq, uint32_t value, void *param)
-{
-    (void)irq;
-    harness_t *h = param;
-    imu_t *imu = &h->imu;
-    avr_twi_msg_irq_t v;
-    v.u.v = value;
-    if (v.u.twi.msg & TWI_COND_STOP) {
-        imu->selected = 0;
-    }
-    if (v.u.twi.msg & TWI_COND_START) {
-        imu->selected = 0;
-        imu->index = 0;
-        imu->sla_w_sent = !(v.u.twi.addr & 1u);
-        if ((v.u.twi.addr & 0xFEu) != IMU_ADDRESS_BYTE || !h->imu_attached)
-            return;
-        if (!(v.u.twi.addr & 1u)) { /* SLA+W: a new transaction */
-            imu->transactions++;
-            if (imu->nack_left) {
-                imu->nack_left--;
-                imu->faults++;
-                return; /* no ACK: the master reads SLA+W NACK */
-            }
-        }
-        imu->selected = v.u.twi.addr;
-        avr_raise_irq(imu->irq + TWI_IRQ_INPUT, avr_twi_irq_msg(TWI_COND_ACK, imu->selected, 1));
-        return;
-    }
-    if (!imu->selected)
-        return;
-    if (v.u.twi.msg & TWI_COND_WRITE) {
-        avr_raise_irq(imu->irq + TWI_IRQ_INPUT, avr_twi_irq_msg(TWI_COND_ACK, imu->selected, 1));
-        if (imu->index++ == 0)
-            imu->pointer = v.u.twi.data & 0x7Fu;
-        else
-            imu->reg[imu->pointer++ & 0x7Fu] = v.u.twi.data;
-    }
-    if (v.u.twi.msg & TWI_COND_READ) {
-        if (imu->index == 0)
-            imu->reads++;
-        if (imu->short_after >= 0 && imu->index >= imu->short_after) {
-            imu->short_after = -1;
-            imu->selected = 0;
-            avr_cycle_timer_register(h->avr, 1, bus_error, imu);
-            return;
-        }
-        imu->index++;
-        imu->bytes_read++;
-        uint8_t data = imu->reg[imu->pointer++ & 0x7Fu];
-        avr_raise_irq(imu->irq + TWI_IRQ_INPUT, avr_twi_irq_msg(TWI_COND_READ, imu->selected, data));
-    }
-}
-
-/* simavr 1.6 reports SLA+W as a data byte: writing SLA+W to TWDR marks its write latch, and the
- * address phase then sets status 0x28/0x30 (data ACK/NACK) where the chip sets 0x18/0x20
- * (fixed upstream after 1.6, "fix for wrong return value of i2c_write"). The harness rewrites
- * the status that follows an SLA+W. */
-static void on_twi_status(struct avr_irq_t *irq, uint32_t value, void *param)
-{
-    (void)irq;
-    imu_t *imu = param;
-    if (!imu->sla_w_sent)
-        return;
-    imu->sla_w_sent = 0;
-    if (value == 0x28u || value == 0x30u)
-        avr_regbit_setto_raw(imu->twi->io.avr, imu->twi->twsr, value == 0x28u ? 0x18u : 0x20u);
-}
-
-static void on_adc_trigger(struct avr_irq_t *irq, uint32_t value, void *param)
-{
-    (void)irq;
-    (void)value;
-    ((harness_t *)param)->adc_conversions++;
-}
-
-/* Connect the harness to the MCU's TWI (once): the SLA+W status fix, then what answers. */
-static int bus_connect(harness_t *h)
-{
-    static const char *names[2] = {"8>imu.out", "32<imu.in"};
-    imu_t *imu = &h->imu;
-    if (h->bus_connected)
-        return 0;
-    for (avr_io_t *io = h->avr->io_port; io; io = io->next)
-        if (io->kind && strcmp(io->kind, "twi") == 0)
-            imu->twi = (avr_twi_t *)io;
-    if (!imu->twi)
-        return -1;
-    imu->irq = avr_alloc_irq(&h->avr->irq_pool, 0, 2, names);
-    avr_irq_register_notify(imu->irq + TWI_IRQ_OUTPUT, on_twi, h);
-    avr_connect_irq(imu->irq + TWI_IRQ_INPUT, avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_INPUT));
-    avr_connect_irq(avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_OUTPUT), imu->irq + TWI_IRQ_OUTPUT);
-    avr_irq_register_notify(
-        avr_io_getirq(h->avr, AVR_IOCTL_TWI_GETIRQ(0), TWI_IRQ_STATUS), on_twi_status, imu);
-    h->bus_connected = 1;
-    return 0;
-}
-
-/* Put the MPU-6050 on the TWI bus and connect the ADC inputs; 0 on success. */
-int artro_mcu_attach_sensors(harness_t *h)
-{
-    imu_t *imu = &h->imu;
-    if (bus_connect(h) != 0)
-        return -1;
-    imu->reg[0x75] = 0x68u; /* WHO_AM_I */
-    imu->short_after = -1;
-    avr_irq_register_notify(
-        avr_io_getirq(h->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_OUT_TRIGGER), on_adc_trigger, h);
-    h->imu_attached = 1;
-    return 0;
-}
-
-/* Put a PCA9685 (address 0x40) and the bus monitor on the TWI bus; the bus (for the
- * artro_pca_* and artro_i2c_* calls of harness_i2c.c), NULL if there is no TWI. */
-struct i2c_bus *artro_mcu_attach_pca9685(harness_t *h)
-{
-    if (h->i2c)
-        return h->i2c;
-    if (bus_connect(h) != 0)
-        return NULL;
-    h->i2c = i2c_bus_new(h->avr, h->imu.irq + TWI_IRQ_INPUT, PCA9685_ADDRESS);
-    if (!h->i2c)
-        return NULL;
-    avr_irq_register_notify(h->imu.irq + TWI_IRQ_OUTPUT, i2c_bus_on_twi, h->i2c);
-    avr_irq_register_notify(h->imu.irq + TWI_IRQ_INPUT, i2c_bus_on_reply, h->i2c);
-    return h->i2c;
-}
-
-/* The IMU's 14 data registers from 0x3B (accel x, y, z, temperature, gyro x, y, z; big-endian). */
-void artro_mcu_set_imu_data(harness_t *h, const uint8_t *data14)
-{
-    memcpy(&h->imu.reg[0x3B], data14, 14);
-}
-
-uint8_t artro_mcu_imu_register(harness_t *h, uint8_t reg)
-{
-    return h->imu.reg[reg & 0x7Fu];
-}
-
-/* Refuse the next `nack` transactions; end the next burst after `short_after` bytes (-1: no). */
-void artro_mcu_imu_fault(harness_t *h, uint32_t nack, int32_t short_after)
-{
-    h->imu.nack_left = nack;
-    h->imu.short_after = short_after;
-}
-
-/* ADC0..ADC7 inputs, millivolts. */
-void artro_mcu_set_adc_mv(harness_t *h, const uint16_t *mv)
-{
-    for (int i = 0; i < 8; i++)
-        avr_raise_irq(avr_io_getirq(h->avr, AVR_IOCTL_ADC_GETIRQ, ADC_IRQ_ADC0 + i), mv[i]);
-}
-
-/* Counters since the start: TWI transactions begun with our address, burst reads, bytes read,
- * faults delivered, ADC conversions. */
-void artro_mcu_sensor_counts(harness_t *h, uint32_t *out5)
-{
-    out5[0] = h->imu.transactions;
-    out5[1] = h->imu.reads;
-    out5[2] = h->imu.bytes_read;
-    out5[3] = h->imu.faults;
-    out5[4] = h->adc_conversions;
 }
 
 harness_t *artro_mcu_new(const char *elf_path, const char *mcu, int fixes, char *error,
@@ -548,12 +178,8 @@ harness_t *artro_mcu_new(const char *elf_path, const char *mcu, int fixes, char 
         free(h);
         return NULL;
     }
-    if (fixes & FIX_MODE14) {
-        /* mode 14 = WGMn3:0 1110: fast PWM, TOP = ICRn, OCRnx taken at the period end */
-        const avr_timer_wgm_t fast_pwm_icr = AVR_TIMER_WGM_ICFASTPWM();
-        h->timer1->wgm_op[14] = fast_pwm_icr;
-        h->timer3->wgm_op[14] = fast_pwm_icr;
-    }
+    if (fixes & FIX_MODE14)
+        fix_mode14(h);
     h->timer_start[0] = h->timer_start[1] = -1;
     /* Speed, not behaviour: simavr polls a pin every cycle while it is low if the pin is an
      * external interrupt in its default low-level mode, enabled or not. OC3B/OC3C are INT4/INT5

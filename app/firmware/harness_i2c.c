@@ -1,5 +1,5 @@
 /* harness_i2c.c -- the I2C bus of the emulated Mega board (docs/BOARDS.md): an NXP PCA9685 part
- * and a monitor of every transaction, on simavr's TWI beside the MPU-6050 of harness.c.
+ * and a monitor of every transaction, on simavr's TWI beside the MPU-6050 of harness_sensors.c.
  *
  * The PCA9685 (datasheet rev. 4): a register file at 0x40 with the register pointer, MODE1's
  * SLEEP and AI (auto-increment), PRE_SCALE (written only while asleep), LEDn_ON/OFF at 0x06 + 4n

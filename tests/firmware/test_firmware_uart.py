@@ -1,6 +1,7 @@
-"""The emulated UART times a byte as the chip does (app/firmware/harness.c, FIX_UART_BYTE_TIME):
-at 57600 baud with U2X0 a byte is 10 bits of 35 × 8 cycles, and a walk's SENSORS stream, one a
-frame, loses nothing. simavr's own timing (the correction left out) loses one frame in three."""
+"""The emulated UART times a byte as the chip does (app/firmware/harness_fixes.c,
+FIX_UART_BYTE_TIME): at 57600 baud with U2X0 a byte is 10 bits of 35 × 8 cycles, and a walk's
+SENSORS stream, one a frame, loses nothing. simavr's own timing (the correction left out) loses
+one frame in three."""
 
 from __future__ import annotations
 
