@@ -3,7 +3,7 @@
 // servos dashed and shifted by half a cycle, so each joint's left and right lie over each other.
 
 import { foldCycles } from "./cycle-fold.js";
-import { UPLOT_AXIS } from "./scope.js";
+import { UPLOT_AXIS } from "./scope-theme.js";
 import { SERVOS, servoColor } from "./util.js";
 
 const uPlot = window.uPlot;

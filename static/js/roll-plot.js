@@ -3,7 +3,8 @@
 // dots, the scope's cursors A/B. The samples come from RollBuffer (roll.js); a click reports the
 // time under the pointer to the scope panel, which owns the cursors.
 
-import { drawCursors, THEME, UPLOT_AXIS } from "./scope.js";
+import { drawCursors } from "./scope-axis.js";
+import { THEME, UPLOT_AXIS } from "./scope-theme.js";
 import { SERVOS, servoColor } from "./util.js";
 
 const uPlot = window.uPlot;

@@ -4,7 +4,8 @@
 // same way): from its START to its end at 400 kHz, labelled with the part, address, register and
 // bytes. Times are µs from the frame start (the frame's `pca9685` and `i2c`, app/firmware/mega_pulses.py).
 
-import { drawCursors, frameAxis, GUTTER, THEME } from "./scope.js";
+import { drawCursors, frameAxis, GUTTER } from "./scope-axis.js";
+import { THEME } from "./scope-theme.js";
 import { servoColor, shortServo } from "./util.js";
 
 const TOP = 22;

@@ -1,5 +1,6 @@
-// The oscilloscope panel: servo lane choice, single-frame / roll views, cursors, freeze and the
-// receive readout. Frames arrive from ScopeFeed at 50/s; the canvas is redrawn at most once per
+// The oscilloscope panel: single-frame / roll / cycle views, freeze and replay (the lane choice,
+// cursors and readouts: scope-servo-picker.js, scope-cursors.js, scope-readout.js).
+// Frames arrive from ScopeFeed at 50/s; the canvas is redrawn at most once per
 // animation frame, with the newest frame (or the frozen one), at most every DRAW_MS and never
 // more than a DRAW_SHARE of the time (a slow machine draws less often), only while the panel is
 // on screen; the frame's text readout at most every INFO_MS. Drawing all 50 frames a second and
@@ -13,12 +14,13 @@ import { CyclePlot } from "./cycle-plot.js";
 import { RollPlot } from "./roll-plot.js";
 import { drawSingleFrame, singleFrameMinHeight } from "./scope.js";
 import { drawMegaFrame, megaFrameMinHeight } from "./scope-i2c.js";
+import { scopeCursors } from "./scope-cursors.js";
 import { ScopeFeed } from "./scope-feed.js";
-import { $, fitCanvas, h, JOINTS, SERVOS, servoColor } from "./util.js";
+import { showRun, updateFpsReadout, updateFrameInfo } from "./scope-readout.js";
+import { buildServoPicker, loadServos } from "./scope-servo-picker.js";
+import { $, fitCanvas } from "./util.js";
 
 const ROLL_WINDOW_S = 10;
-const DEFAULT_SERVOS = ["l_hip_pitch", "l_knee", "r_hip_pitch", "r_knee"];
-const STORAGE_KEY = "artro.scope.servos";
 
 const state = {
   mode: "single", // "single" | "roll"
@@ -46,11 +48,14 @@ let lastHeight = ""; // the canvas's CSS height last set: set again only when it
 const INFO_MS = 100; // the frame's readout is rewritten at most this often
 let infoShownAt = 0;
 let infoTimer = null;
-let flagsKey = "";
+const cursors = scopeCursors(state, requestDraw);
 
 export function initScope() {
   state.servos = loadServos();
-  buildServoPicker();
+  buildServoPicker(state.servos, (servos) => {
+    state.servos = servos;
+    requestDraw();
+  });
 
   $("scope-mode-single").addEventListener("click", () => setMode("single"));
   $("scope-mode-roll").addEventListener("click", () => setMode("roll"));
@@ -61,12 +66,12 @@ export function initScope() {
   $("scope-freeze").addEventListener("click", toggleFreeze);
   $("scope-clear-cursors").addEventListener("click", () => {
     state.cursors = { a: null, b: null };
-    updateCursorReadout();
+    cursors.updateCursorReadout();
     requestDraw();
   });
-  $("scope-canvas").addEventListener("click", onCanvasClick);
-  $("scope-canvas").addEventListener("keydown", onCanvasKey);
-  roll = new RollPlot($("roll-plot"), $("roll-legend"), setCursor);
+  $("scope-canvas").addEventListener("click", cursors.onCanvasClick);
+  $("scope-canvas").addEventListener("keydown", cursors.onCanvasKey);
+  roll = new RollPlot($("roll-plot"), $("roll-legend"), cursors.setCursor);
   cycle = new CyclePlot($("cycle-plot"), $("cycle-info"));
   $("scope-mode-cycle").addEventListener("click", () => setMode("cycle"));
   new ResizeObserver(() => requestDraw()).observe($("scope-wrap"));
@@ -91,10 +96,10 @@ export function initScope() {
   feed.connect();
   document.addEventListener("artro:state", (e) => {
     state.sim = e.detail.fell ? "fallen" : e.detail.paused ? "paused" : "running";
-    showRun();
+    showRun(state);
   });
   prefill();
-  setInterval(updateFpsReadout, 500);
+  setInterval(() => updateFpsReadout(feed), 500);
   setMode("single");
 }
 
@@ -113,49 +118,6 @@ async function prefill() {
   requestDraw();
 }
 
-function loadServos() {
-  try {
-    const saved = JSON.parse(localStorage.getItem(STORAGE_KEY));
-    if (Array.isArray(saved)) return SERVOS.filter((s) => saved.includes(s));
-  } catch {
-    /* ignore a damaged entry */
-  }
-  return [...DEFAULT_SERVOS];
-}
-
-/** Two rows (left leg, right leg) of checkboxes, one per joint, coloured like their traces. */
-function buildServoPicker() {
-  const box = $("scope-servos");
-  box.replaceChildren();
-  for (const side of ["l", "r"]) {
-    const row = h("div", { class: "servo-row" }, h("span", { class: "servo-side" }, side === "l" ? "Left" : "Right"));
-    for (const joint of JOINTS) {
-      const name = `${side}_${joint}`;
-      const input = h("input", { type: "checkbox", id: `servo-${name}`, value: name, checked: state.servos.includes(name) });
-      input.addEventListener("change", () => {
-        state.servos = SERVOS.filter((s) => $(`servo-${s}`).checked);
-        localStorage.setItem(STORAGE_KEY, JSON.stringify(state.servos));
-        requestDraw();
-      });
-      row.append(
-        h("label", { class: "servo-chip", title: name }, input, h("span", { class: "dot", style: `background:${servoColor(name)}` }), joint),
-      );
-    }
-    box.append(row);
-  }
-  const all = h("button", { type: "button", class: "small", id: "scope-servos-all" }, "All");
-  const none = h("button", { type: "button", class: "small", id: "scope-servos-none" }, "None");
-  const setAll = (on) => {
-    for (const s of SERVOS) $(`servo-${s}`).checked = on;
-    state.servos = on ? [...SERVOS] : [];
-    localStorage.setItem(STORAGE_KEY, JSON.stringify(state.servos));
-    requestDraw();
-  };
-  all.addEventListener("click", () => setAll(true));
-  none.addEventListener("click", () => setAll(false));
-  box.lastChild.append(h("span", { class: "spacer" }), all, none);
-}
-
 function setMode(mode) {
   state.mode = mode;
   state.cursors = { a: null, b: null };
@@ -168,7 +130,7 @@ function setMode(mode) {
     state.unit = "deg"; // angles compare left with right; pulse widths carry each servo's direction
     $("roll-unit").value = "deg";
   }
-  updateCursorReadout();
+  cursors.updateCursorReadout();
   requestDraw();
 }
 
@@ -179,26 +141,8 @@ export function showRecorded(frame) {
   state.frozenFrame = frame;
   if (frame) state.frozenSamples = buffer.toArray();
   $("scope-freeze").disabled = !!frame;
-  showRun();
+  showRun(state);
   requestDraw();
-}
-
-/** The badge says what the scope shows: a replay, a frozen picture, a fallen or paused robot (no
- *  new frames come then), or frames as they run. */
-function showRun() {
-  const [text, kind, title] = state.replaying
-    ? ["REPLAY", "warn", "a recorded frame of the replay"]
-    : state.frozen
-      ? ["STOP", "bad", "frozen: frames keep arriving, the picture stays"]
-      : state.sim === "fallen"
-        ? ["FALLEN", "bad", "the robot has fallen: no new frames until a reset"]
-        : state.sim === "paused"
-          ? ["PAUSED", "warn", "the simulation is paused: no new frames until it resumes"]
-          : ["RUN", "ok", "frames as the simulation makes them"];
-  const run = $("scope-run");
-  run.textContent = text;
-  run.className = `badge ${kind}`;
-  run.title = title;
 }
 
 function toggleFreeze() {
@@ -211,7 +155,7 @@ function toggleFreeze() {
   btn.textContent = state.frozen ? "Unfreeze" : "Freeze";
   btn.classList.toggle("active", state.frozen);
   btn.setAttribute("aria-pressed", String(state.frozen));
-  showRun();
+  showRun(state);
   requestDraw();
 }
 
@@ -295,116 +239,3 @@ function placeholder(ctx, w, hgt, text) {
   ctx.fillText(text, w / 2, hgt / 2);
 }
 
-/** Click: cursor A (or B if A is set and B is not); shift-click: cursor B. */
-function onCanvasClick(ev) {
-  const ax = state.axis;
-  if (!ax) return;
-  const rect = ev.currentTarget.getBoundingClientRect();
-  const x = ev.clientX - rect.left;
-  if (x < ax.x0 || x > ax.x1) return;
-  setCursor(ax.toTime(x), ev.shiftKey);
-}
-
-const KEY_STEP_US = 10; // an arrow moves a cursor 10 µs (Shift: 100 µs; a TDM slot is 2 500 µs)
-let keyCursor = "a"; // the cursor the arrows move: the last one placed by key
-
-/** Keys on the single-frame view: A or B places that cursor (mid-frame if unset), ←/→ move
- * it (Shift: ×10), Escape clears both. */
-function onCanvasKey(ev) {
-  const ax = state.axis;
-  if (!ax || ev.ctrlKey || ev.metaKey || ev.altKey) return;
-  const frameUs = ax.toTime(ax.x1);
-  const c = state.cursors;
-  const key = ev.key.toLowerCase();
-  if (key === "a" || key === "b") {
-    keyCursor = key;
-    if (c[key] == null) c[key] = frameUs / 2;
-  } else if (ev.key === "ArrowLeft" || ev.key === "ArrowRight") {
-    const step = (ev.key === "ArrowLeft" ? -1 : 1) * KEY_STEP_US * (ev.shiftKey ? 10 : 1);
-    const from = c[keyCursor] ?? frameUs / 2;
-    c[keyCursor] = Math.min(frameUs, Math.max(0, from + step));
-  } else if (ev.key === "Escape") {
-    state.cursors = { a: null, b: null };
-  } else {
-    return;
-  }
-  ev.preventDefault();
-  updateCursorReadout();
-  requestDraw();
-}
-
-/** Cursor A at `t`, or B if A is set and B is not (or with shift). */
-function setCursor(t, shiftKey) {
-  const c = state.cursors;
-  if (shiftKey || (c.a != null && c.b == null)) c.b = t;
-  else {
-    c.a = t;
-    c.b = null;
-  }
-  updateCursorReadout();
-  requestDraw();
-}
-
-/** µs -> "850 µs" or "2.345 ms". */
-function fmtFrameTime(us) {
-  return Math.abs(us) < 1000 ? `${us.toFixed(1)} µs` : `${(us / 1000).toFixed(3)} ms`;
-}
-
-function updateCursorReadout() {
-  const { a, b } = state.cursors;
-  const el = $("scope-cursors");
-  if (a == null && b == null) {
-    el.textContent =
-      state.mode === "cycle"
-        ? "cycle view: hover for values"
-        : state.mode === "single"
-          ? "cursors: click = A, shift-click or 2nd click = B; keys (scope focused): A, B, ← →"
-          : "cursors: click = A, shift-click or 2nd click = B";
-    el.classList.add("dim");
-    return;
-  }
-  el.classList.remove("dim");
-  const f = state.mode === "single" ? fmtFrameTime : (s) => `${s.toFixed(3)} s`;
-  const parts = [];
-  if (a != null) parts.push(`A ${f(a)}`);
-  if (b != null) parts.push(`B ${f(b)}`);
-  if (a != null && b != null) {
-    const d = b - a;
-    const seconds = state.mode === "single" ? d * 1e-6 : d;
-    const hz = Math.abs(seconds) > 0 ? ` · ${(1 / Math.abs(seconds)).toFixed(Math.abs(seconds) < 0.01 ? 0 : 2)} Hz` : "";
-    parts.push(`Δt ${f(d)}${hz}`);
-  }
-  el.textContent = parts.join("   ");
-}
-
-function updateFpsReadout() {
-  if (!feed) return;
-  const el = $("scope-fps");
-  el.textContent = `${feed.fps()} fps · ${feed.dropped} dropped`;
-  el.title = `frames received per second (averaged over 2 s) and frames lost (gaps in the frame numbers); ${feed.received} received since the page opened`;
-}
-
-function updateFrameInfo(frame) {
-  const info = $("scope-info");
-  const flags = $("scope-flags");
-  if (!frame) {
-    info.textContent = "";
-    flags.replaceChildren();
-    flagsKey = "";
-    return;
-  }
-  const pins = (frame.source === "firmware" ? " · firmware pins" : "") + (frame.recorded ? " · recorded" : "");
-  info.textContent = `#${frame.frame} · ${frame.t_s.toFixed(2)} s · φ ${frame.phase_rad.toFixed(2)}${pins}`;
-  info.title = `frame number, sim time and trunk phase φ (rad) of the frame shown; parameters v${frame.params_version ?? "?"}`;
-  const f = frame.flags || {};
-  const key = JSON.stringify([f.guard_violation, f.saturated, f.glitch, f.stray]);
-  if (key === flagsKey) return; // the same flags: the page is not laid out again for them
-  flagsKey = key;
-  const items = [];
-  if (f.guard_violation) items.push(h("span", { class: "flag guard" }, "guard violation"));
-  if (f.saturated?.length) items.push(h("span", { class: "flag sat" }, `saturated: ${f.saturated.join(", ")}`));
-  if (f.glitch?.length) items.push(h("span", { class: "flag glitch" }, `glitch: ${f.glitch.join(", ")}`));
-  if (f.stray?.length) items.push(h("span", { class: "flag glitch" }, `stray: ${f.stray.map((s) => s.join("·")).join(", ")}`));
-  if (!items.length) items.push(h("span", { class: "flag none" }, "no flags"));
-  flags.replaceChildren(...items);
-}

@@ -9,7 +9,7 @@
 // frame placed where it arrived, and a line says how its IMU is; no robot, nothing extra.
 
 import { api, poll } from "./api.js";
-import { THEME, UPLOT_AXIS } from "./scope.js";
+import { THEME, UPLOT_AXIS } from "./scope-theme.js";
 import { $, fieldNumber, fieldRule, fitCanvas, fmt, setMessage } from "./util.js";
 
 const uPlot = window.uPlot;
