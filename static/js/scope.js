@@ -1,7 +1,8 @@
 // Single-frame oscilloscope view: one whole 20 ms TDM-PWM frame, triggered at the frame start.
 //
 // Horizontal: the plot area [GUTTER, w - RIGHT] maps linearly onto [0, frame length] in µs
-// (scope-axis.js: axis, grid, cursors; the lanes: scope-trace.js, scope-notes.js, scope-decoded-lanes.js).
+// (scope-axis.js: axis, grid, cursors; the lanes: scope-trace.js, scope-notes.js,
+// scope-decoded-lanes.js).
 // Vertical: lanes stacked top to bottom - the six TDM lines (OC1A..OC3C, with a per-slot
 // annotation), the three select lines S0..S2, the decoded select bus, then one lane per chosen
 // servo (demultiplexer output = its TDM line AND select == its slot).
