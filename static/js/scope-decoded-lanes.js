@@ -5,7 +5,7 @@ import { demuxOutput } from "./scope-model.js";
 import { GUTTER } from "./scope-axis.js";
 import { fmtDeg, fmtUs } from "./scope-notes.js";
 import { THEME } from "./scope-theme.js";
-import { trace } from "./scope-trace.js";
+import { busBox, trace } from "./scope-trace.js";
 import { servoColor, shortServo } from "./util.js";
 
 /** The select bus as a logic analyser shows a bus: a band per constant value, with the value. */
@@ -22,14 +22,7 @@ export function drawBus(ctx, segs, ax, tickUs, lane) {
     const xe = ax.toX(e * tickUs);
     const bevel = Math.min(3, (xe - xs) / 3);
     ctx.strokeStyle = v <= 4 ? THEME.select : THEME.dim;
-    ctx.beginPath();
-    ctx.moveTo(xs, mid);
-    ctx.lineTo(xs + bevel, top);
-    ctx.lineTo(xe - bevel, top);
-    ctx.lineTo(xe, mid);
-    ctx.lineTo(xe - bevel, bot);
-    ctx.lineTo(xs + bevel, bot);
-    ctx.closePath();
+    busBox(ctx, xs, xe, top, mid, bot, bevel);
     ctx.stroke();
     if (xe - xs > 14) {
       ctx.fillStyle = v <= 4 ? THEME.select : THEME.dim;

@@ -6,6 +6,7 @@
 
 import { drawCursors, frameAxis, GUTTER } from "./scope-axis.js";
 import { THEME } from "./scope-theme.js";
+import { busBox } from "./scope-trace.js";
 import { servoColor, shortServo } from "./util.js";
 
 const TOP = 22;
@@ -173,14 +174,7 @@ function drawI2c(ctx, lane, ax, i2c) {
     ctx.fillStyle = `${color}30`;
     ctx.strokeStyle = color;
     ctx.lineWidth = 1.4;
-    ctx.beginPath();
-    ctx.moveTo(xs, mid);
-    ctx.lineTo(xs + bevel, top);
-    ctx.lineTo(xe - bevel, top);
-    ctx.lineTo(xe, mid);
-    ctx.lineTo(xe - bevel, bot);
-    ctx.lineTo(xs + bevel, bot);
-    ctx.closePath();
+    busBox(ctx, xs, xe, top, mid, bot, bevel);
     ctx.fill();
     ctx.stroke();
     ctx.font = THEME.small;

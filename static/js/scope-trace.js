@@ -52,3 +52,15 @@ export function laneLabel(ctx, lane, title, sub, color) {
     ctx.fillText(sub, 8, lane.y + 17);
   }
 }
+
+/** The path of a bus value's box from xs to xe, its ends bevelled to `mid` (stroke or fill it). */
+export function busBox(ctx, xs, xe, top, mid, bot, bevel) {
+  ctx.beginPath();
+  ctx.moveTo(xs, mid);
+  ctx.lineTo(xs + bevel, top);
+  ctx.lineTo(xe - bevel, top);
+  ctx.lineTo(xe, mid);
+  ctx.lineTo(xe - bevel, bot);
+  ctx.lineTo(xs + bevel, bot);
+  ctx.closePath();
+}
