@@ -7,14 +7,10 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
-import pytest
 from playwright.sync_api import expect, sync_playwright
 
-from app.firmware.build import missing_tools
 from tests.testing.browser_support import shot_path
 from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
-
-pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="needs gcc-avr and simavr")
 
 
 def test_the_scope_draws_the_megas_channels_and_its_i2c_lane(tmp_path: Path) -> None:

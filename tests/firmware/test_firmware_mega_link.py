@@ -14,12 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from app.firmware.build import missing_tools
-
 ARTRO = str(Path(sys.executable).with_name("artro"))
 MEGA = "mega2560-pca9685"
-
-pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="needs gcc-avr and simavr")
 
 
 @pytest.fixture

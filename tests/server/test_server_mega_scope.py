@@ -11,7 +11,6 @@ from pathlib import Path
 
 import pytest
 
-from app.firmware.build import missing_tools
 from app.firmware.mega import STEP_S
 from hardware import SERVO_NAMES
 from tests.firmware.test_vcd_sigrok import _ANNOTATION
@@ -19,8 +18,6 @@ from tests.testing.server_harness import client, running_server, wait_for
 
 MEGA = "mega2560-pca9685"
 PERIOD_US = 4096 * STEP_S * 1e6  # the PCA9685's own period: 19.988 ms
-
-pytestmark = pytest.mark.skipif(bool(missing_tools()), reason="needs gcc-avr and simavr")
 
 
 def sigrok_pulses(vcd: Path, line: str) -> list[tuple[float, float]]:
