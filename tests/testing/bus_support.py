@@ -117,6 +117,23 @@ def rt_permitted(priority: int = RT_PRIORITY) -> bool:
     return permitted[0]
 
 
+@contextmanager
+def sampled_at_priority(priority: int) -> Iterator[None]:
+    """The calling thread SCHED_FIFO at `priority` (0: as it is) until the block ends. A thread
+    that samples the virtual bus's simulation shares the interpreter's lock with the bus's
+    SCHED_FIFO threads: preempted by other programs while it holds the lock, it would hold them
+    back (priority inversion); at a real-time priority it is never preempted by them."""
+    if priority <= 0:
+        yield
+        return
+    before = os.sched_getscheduler(0), os.sched_getparam(0)
+    os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    try:
+        yield
+    finally:
+        os.sched_setscheduler(0, before[0], before[1])
+
+
 def drive_and_measure(
     sim: BusSimulation, port: str, args: list[str], walk_s: float, warmup_s: float, freq_hz: float
 ) -> DrivenWalk:
@@ -144,15 +161,17 @@ def drive_and_measure(
         said.append(line.strip())
     start_s = sim.handoff.measured.time_s  # frame 0 has just gone out
     trace = Trace()
-    while True:  # a sample per frame or so: each carries the simulated time it was taken at
-        m = sim.handoff.measured
-        if m.time_s <= start_s + walk_s and (not trace.t_s or m.time_s > trace.t_s[-1]):
-            trace.append(m.time_s - start_s, m.trunk, np.zeros(3), 0.0)
-        try:
-            drive.wait(timeout=0.01)
-            break
-        except subprocess.TimeoutExpired:
-            continue
+    # below the bus's threads (RT_PRIORITY and one less), above every other program
+    with sampled_at_priority(RT_PRIORITY - 2 if rt_permitted() else 0):
+        while True:  # a sample per frame or so: each carries the simulated time it was taken at
+            m = sim.handoff.measured
+            if m.time_s <= start_s + walk_s and (not trace.t_s or m.time_s > trace.t_s[-1]):
+                trace.append(m.time_s - start_s, m.trunk, np.zeros(3), 0.0)
+            try:
+                drive.wait(timeout=0.01)
+                break
+            except subprocess.TimeoutExpired:
+                continue
     out, err = drive.communicate(timeout=30)
     summary = json.loads(out.strip().splitlines()[-1]) if out.strip() else {"stderr": err}
     forward = None
