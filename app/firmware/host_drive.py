@@ -28,6 +28,9 @@ LATE_S = 0.002  # a frame sent this much after its time is counted late
 #: times the torque-off is read back before a servo is said not to have taken it (a bus
 #: drops an answer now and then: a loaded host, noise on the line)
 CONFIRM_TRIES = 3
+#: how long each read-back waits for the answers: the walk is over, so the drive waits longer
+#: than a frame's exchange may (a host busy with other programs answers late, not never)
+CONFIRM_TIMEOUT_S = 0.25
 
 
 class GaitFrames:
@@ -180,6 +183,7 @@ def drive(
             bus.torque(False)
             report.torque_off = True
             report.torque_unconfirmed = list(options.ids)
+            bus.port.timeout = max(options.timeout_s, CONFIRM_TIMEOUT_S)
             for _ in range(CONFIRM_TRIES):  # read back: also waits till it was taken
                 off = bus.sync_read("torque_enable")
                 report.torque_unconfirmed = [i for i in options.ids if off.get(i) != 0]
