@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from app.cli._compute_options import add_cluster_options, cluster_of
 from app.cli.options import add_robot_option, number, output_file_of, subcommand
 from app.evaluation.progress import about
 
@@ -21,6 +22,7 @@ EXAMPLES = """examples:
   artro fit rec.json                      fit it on artro: rec-fitted.yaml, rec-fit/report.md
   artro fit rec.json --fix trunk_mass_scale=1.05      a field you measured, held
   artro fit rec.json --fields latency_ms,kp_scale --budget 60   fewer fields, a quicker fit
+  artro fit rec.json --cluster tcp://10.0.0.5:8786   the replays on a Dask cluster
   artro tune --robot rec-fitted.yaml      then tune on the fitted robot
 
 exit status: 0 fitted, 1 the fit did not converge (the nominal kept, the report written),
@@ -72,8 +74,10 @@ def add_parser(sub: Any) -> None:
         "--workers",
         type=number(1, 64, integer=True, what="workers"),
         default=min(4, os.cpu_count() or 1),
-        help="processes replaying at once (default: the cores, at most 4)",
+        help="processes replaying at once (default: the cores, at most 4; with --cluster the "
+        "cluster's workers instead)",
     )
+    add_cluster_options(p, "replay on this Dask scheduler's workers (docs/CLUSTER.md)")
     p.add_argument(
         "--seed",
         type=number(0, 2**31 - 1, integer=True, what="seed"),
@@ -120,6 +124,7 @@ def command(args: argparse.Namespace) -> int:
         workers=args.workers,
         seed=args.seed,
         progress=progress,
+        **cluster_of(args),
     )
     fitted_robot(robot, result, recording, path, out)
     report = write_report(result, recording, report_dir, robot.name, out)

@@ -59,7 +59,7 @@ def add_parser(sub: Any) -> None:
     add_robot_option(s)
     add_cluster_options(
         s,
-        "run the dashboard's robustness job on this Dask scheduler (docs/CLUSTER.md)",
+        "run the dashboard's robustness and fit jobs on this Dask scheduler (docs/CLUSTER.md)",
     )
     add_backend_options(s)  # the robustness job's; the live simulation is always MuJoCo's
     s.add_argument(

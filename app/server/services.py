@@ -53,7 +53,7 @@ class ServerConfig:
     drive: str = "model"  # who makes the pulses at the start: "model" or "firmware"
     board: str | None = None  # the firmware drive's board (docs/BOARDS.md; default: the robot's)
     robot: str | None = None  # a built-in robot's name or a description file (default: artro)
-    cluster: str | None = None  # a Dask scheduler for the robustness job (default: local)
+    cluster: str | None = None  # a Dask scheduler for the robustness and fit jobs (default: local)
     wait_workers_s: float | None = None  # how long the job waits for a worker (default 60 s)
     backend: str = "cpu"  # the robustness job's: "warp" or "auto" for MuJoCo Warp (docs/GPU.md)
     device: str | None = None  # of the warp backend (default cuda)
@@ -110,7 +110,13 @@ class Services:
             wait_workers_s=config.wait_workers_s,
         )
         self.tuner = TuneRunner(self.jobs, self.store, self.presets, robot_now)
-        self.fitter = FitRunner(self.jobs, config.data_dir, robot_now)
+        self.fitter = FitRunner(
+            self.jobs,
+            config.data_dir,
+            robot_now,
+            cluster=config.cluster,
+            wait_workers_s=config.wait_workers_s,
+        )
         self.viewer = None
         if config.viewer:
             from app.server.view.viser_gate import gate_viser

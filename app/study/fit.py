@@ -1,109 +1,65 @@
-"""Fit the model to a recording (docs/FIT.md): CMA-ES over the physics fields in two stages
-(standing, then the walks), each point the routine replayed on worker processes with the IMU's
-errors fitted in closed form; what was found and how sure: `app.study.fit_result`."""
+"""Fit the model to a recording (docs/FIT.md): CMA-ES over the physics fields in two rounds of
+two stages (standing, then the walks), each point the routine replayed where
+`app.study.fit_replays` runs it; what was found and how sure: `app.study.fit_result`."""
 
 from __future__ import annotations
 
 import math
 import threading
 from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
 from app.analysis import fit_sensors
 from app.analysis.identify_record import Recording, traces_of
-from app.analysis.identify_replay import Traces, play
-from app.analysis.identify_routine import ROUTINES
+from app.analysis.identify_replay import Traces
 from app.robots.model import RobotModel
 from app.study import fit_space
+from app.study.fit_replays import FitCancelled, Replays, aligned, imu_fit
 from app.study.fit_result import Fit, judged, uncertainty
 from app.study.fit_space import Dim
 from app.worlds.variations import NOMINAL, Variation
 from gait import GaitParams
 
+__all__ = ["STAGES", "FitCancelled", "Stage", "fit", "stages"]
+
 #: CMA-ES stops when its step (in the unit box) is below this
 TOL_X = 0.002
-#: the fields the routine's first segment (standing still) tells alone: searched first, on it
-#: alone (a replay a tenth as long), then held while the walks fit the others (docs/FIT.md)
+#: the fields the routine's first segment (standing still) tells alone: searched on it alone
+#: (a replay a tenth as long) with the others held (docs/FIT.md)
 STANDING = ("trunk_mass_scale", "link_mass_scale", "tilt_x_deg", "tilt_y_deg")
-#: the share of the budget (in whole replays' worth) the standing stage may use: its replays
-#: are short, so it gets many (a 160-replay budget: ~290 of the first segment)
-STANDING_SHARE = 0.15
 
 
-class FitCancelled(RuntimeError):
-    """The fit was cancelled; nothing was written."""
+@dataclass(frozen=True)
+class Stage:
+    """One CMA-ES search: the standing fields on the first segment or the others on the whole
+    routine, the rest held where the stages before left them; `share` of the budget (in whole
+    replays' worth), `sigma0` its first step in the unit box."""
+
+    standing: bool
+    share: float
+    sigma0: float
 
 
-# --- the work a process does: one replay at a point --------------------------------------------
-
-_WORKER: dict[str, Any] = {}
-
-
-def _start_worker(
-    robot: str,
-    params: dict[str, Any],
-    routine: str,
-    recording: Traces,
-    present: bool,
-    fixed: str,
-    lengths: list[int],
-) -> None:
-    _WORKER.update(
-        robot=RobotModel.load(robot),
-        params=GaitParams.from_dict(params),
-        routine=ROUTINES[routine],
-        recorded=recording,
-        present=present,
-        fixed=fit_space.parse_fixed([fixed] if fixed else []),
-        lengths=lengths,
-    )
+#: standing still's answer leans on the stiffness it is replayed with (a floor 0.2° off at the
+#: nominal kp, decision 0067), so a second round asks it again with the walks' fields found, and
+#: then refines those from where they were, with a smaller first step
+STAGES = (
+    Stage(standing=True, share=0.10, sigma0=0.2),
+    Stage(standing=False, share=0.55, sigma0=0.2),
+    Stage(standing=True, share=0.05, sigma0=0.05),
+    Stage(standing=False, share=0.30, sigma0=0.08),
+)
 
 
-def _replay(values: dict[str, float], segments: int | None = None) -> Traces:
-    """The routine (its first `segments` only, when given) replayed at the physics `values`."""
-    w = _WORKER
-    variation = fit_space.physics_variation(values, w["fixed"])
-    routine, lengths = w["routine"][:segments], w["lengths"][:segments]
-    return play(w["robot"], w["params"], routine, variation, sensor_errors=False, lengths=lengths)
-
-
-def _score(
-    values: dict[str, float], imu: tuple[str, ...], segments: int | None = None
-) -> tuple[float, dict[str, float]]:
-    """The loss at the physics point `values` over the routine's first `segments` (all: None),
-    the IMU's errors fitted there (those in `imu`)."""
-    w = _WORKER
-    recorded = within(w["recorded"], sum(w["lengths"][:segments]))
-    replay = aligned(_replay(values, segments), recorded)
-    errors = _imu_fit(replay, recorded, imu, w["fixed"])
-    cycles = fit_sensors.Cycles(tuple(w["lengths"][:segments]), w["params"].clock.freq_hz)
-    parts = fit_sensors.residuals(replay, errors, recorded, w["present"], cycles)
-    return fit_sensors.soft_l1(parts), fit_space.imu_values(errors)
-
-
-def within(traces: Traces, frames: int) -> Traces:
-    """The rows of `traces` in the routine's first `frames` frames."""
-    return traces.at(np.flatnonzero(traces.positions < frames))
-
-
-def aligned(replay: Traces, recorded: Traces) -> Traces:
-    """The replay's rows at the recording's frames (a recording may lack some)."""
-    return replay.at(recorded.positions)
-
-
-def _imu_fit(replay: Traces, recorded: Traces, imu: tuple[str, ...], fixed: Variation):
-    errors = fit_sensors.fit_imu(
-        replay, recorded, bias="gyro_bias_deg_s" in imu, tilt="imu_tilt_x_deg" in imu
-    )
-    held = fit_space.imu_errors({}, fixed)
-    return fit_sensors.ImuErrors(
-        errors.imu_tilt_bias_deg if "imu_tilt_x_deg" in imu else held.imu_tilt_bias_deg,
-        errors.imu_tilt_direction_deg if "imu_tilt_x_deg" in imu else held.imu_tilt_direction_deg,
-        errors.gyro_bias_deg_s if "gyro_bias_deg_s" in imu else held.gyro_bias_deg_s,
-    )
+def stages(standing: bool, walking: bool) -> list[Stage]:
+    """The stages for fields of each kind; with one kind only, one search of the whole
+    budget; none without physics fields (the IMU's errors alone are fitted in closed form)."""
+    if standing and walking:
+        return list(STAGES)
+    return [Stage(standing=standing, share=1.0, sigma0=0.2)] if standing or walking else []
 
 
 # --- the search ---------------------------------------------------------------------------------
@@ -120,92 +76,77 @@ def fit(
     seed: int = 1,
     progress: Callable[[float, float, float], None] | None = None,
     cancel: threading.Event | None = None,
+    cluster: str | None = None,
+    wait_workers_s: float | None = None,
 ) -> Fit:
     """Fit `recording` on `robot` (a name or description file): at most `budget` replays in the
-    search, on `workers` processes (1: in this one), the same result for a seed. `fields` the
-    searched ones (`fit_space.FIELDS`), `fixed` held; `progress(done, total, best_loss)` in whole
-    replays' worth of work."""
+    search, on `workers` processes (1: in this one) or the Dask scheduler at `cluster`, the same
+    result for a seed wherever it runs. `fields` the searched ones (`fit_space.FIELDS`), `fixed`
+    held; `progress(done, total, best_loss)` in whole replays' worth of work."""
     physics, imu_dims = fit_space.coordinates(fields)
     imu = tuple(d.name for d in imu_dims)
     recorded = traces_of(recording)
     present = recording.frames.present is not None
     name = recording.routine.split("-v", 1)[0]
     lengths = [s.frames for s in recording.segments]
+    model = RobotModel.load(robot)
     init = (robot, recording.params, name, recorded, present, fixed.to_text(), lengths)
-    pool = (
-        ProcessPoolExecutor(workers, initializer=_start_worker, initargs=init)
-        if workers > 1
-        else None
+    runner = Replays(
+        init, model, workers=workers, cluster=cluster, wait_workers_s=wait_workers_s, cancel=cancel
     )
-    if pool is None:
-        _start_worker(*init)
-
-    def run_all(fn: Callable[..., Any], points: list[Any]) -> list[Any]:
-        if cancel is not None and cancel.is_set():
-            raise FitCancelled("the fit was cancelled; nothing was written")
-        if pool is None:
-            return [fn(*p) for p in points]
-        return list(pool.map(fn, *zip(*points, strict=True)))
+    run_all = runner.map
 
     try:
         nominal = {d.name: d.nominal for d in physics}
         held = fit_space.truth_values(fixed)
         nominal = {k: held.get(k, v) for k, v in nominal.items()}
-        # the nominal model's loss (the IMU's errors as held too), and at nominal physics with
-        # the IMU's errors fitted: where the search starts
-        (loss0, _), (start_loss, _) = run_all(_score, [(nominal, ()), (nominal, imu)])
-        best, best_loss, evaluations, sigma_now = dict(nominal), start_loss, 2, 0.0
-        standing = [d for d in physics if d.name in STANDING]
-        walking = [d for d in physics if d.name not in STANDING]
+        # the nominal model's loss (the IMU's errors as held too)
+        ((loss0, _),) = run_all("score", [(nominal, ())])
+        best, evaluations = dict(nominal), 1
+        spread: dict[str, float] = {}
+        kinds = {
+            True: [d for d in physics if d.name in STANDING],
+            False: [d for d in physics if d.name not in STANDING],
+        }
         weight = lengths[0] / sum(lengths)  # a standing replay's share of a whole one
-        share = 0 if not standing else round(budget * (STANDING_SHARE if walking else 1) / weight)
-        walking_budget = budget - round(share * weight)
-        work = share * weight + (walking_budget if walking else 0)
-        if standing:
-            best, _, done, sigma_now = _search(
-                standing,
+        plan = stages(bool(kinds[True]), bool(kinds[False]))
+        done_work, work = 0.0, float(budget)
+        for stage in plan:
+            segments, cost = (1, weight) if stage.standing else (None, 1.0)
+            ((start_loss, _),) = run_all("score", [(best, imu, segments)])
+            best, _, done, stds = _search(
+                kinds[stage.standing],
                 best,
                 imu,
-                share,
+                max(1, round(budget * stage.share / cost)),
                 seed,
                 run_all,
-                told(progress, 0.0, work, weight),
-                math.inf,
-                segments=1,
-            )
-            evaluations += done
-        if walking:
-            ((start_loss, _),) = run_all(_score, [(best, imu)])
-            best, best_loss, done, sigma_now = _search(
-                walking,
-                best,
-                imu,
-                walking_budget,
-                seed,
-                run_all,
-                told(progress, share * weight, work, 1.0),
+                told(progress, done_work, work, cost),
                 start_loss,
+                segments,
+                stage.sigma0,
             )
-            evaluations += done
-        else:
-            ((best_loss, _),) = run_all(_score, [(best, imu)])
-        replays = [aligned(r, recorded) for r in run_all(_replay, [(nominal,), (best,)])]
+            evaluations += done + 1
+            done_work = min(work, done_work + done * cost)
+            spread |= stds
+        ((best_loss, _),) = run_all("score", [(best, imu)])
+        evaluations += 1
+        replays = [aligned(r, recorded) for r in run_all("replay", [(nominal,), (best,)])]
         values = dict(best)
-        errors = _imu_fit(replays[1], recorded, imu, fixed)
+        errors = imu_fit(replays[1], recorded, imu, fixed)
         values |= {k: v for k, v in fit_space.imu_values(errors).items() if k in imu}
         cycles = fit_sensors.Cycles(
             tuple(lengths), GaitParams.from_dict(recording.params).clock.freq_hz
         )
 
         def replays_at(points: list[dict[str, float]]) -> list[Traces]:
-            return [aligned(r, recorded) for r in run_all(_replay, [(p,) for p in points])]
+            return [aligned(r, recorded) for r in run_all("replay", [(p,) for p in points])]
 
         sigma, corr = uncertainty(
             cycles, physics, imu_dims, values, replays[1], recorded, present, fixed, replays_at
         )
     finally:
-        if pool is not None:
-            pool.shutdown(cancel_futures=True)
+        runner.close()
     return judged(
         physics + imu_dims,
         values,
@@ -218,7 +159,7 @@ def fit(
         loss0,
         best_loss,
         evaluations,
-        sigma_now,
+        spread,
     )
 
 
@@ -231,10 +172,12 @@ def _search(
     run_all: Callable[..., list[Any]],
     progress: Callable[[int, float], None] | None,
     loss0: float,
-    segments: int | None = None,
-) -> tuple[dict[str, float], float, int, float]:
+    segments: int | None,
+    sigma0: float,
+) -> tuple[dict[str, float], float, int, dict[str, float]]:
     """CMA-ES over the coordinates `physics` from `start` (the others held there), at most
-    `budget` replays of the routine's first `segments`."""
+    `budget` replays of the routine's first `segments` (None: all): the best point, its loss,
+    the replays done and each coordinate's spread left in the search (its σ, in its unit)."""
     import cma  # only to fit
 
     x0 = [d.to_unit(start[d.name]) for d in physics]
@@ -247,14 +190,14 @@ def _search(
     }
     if len(physics) == 1:
         options["maxstd_boundrange"] = math.inf
-    es = cma.CMAEvolutionStrategy(x0, 0.2, options)
+    es = cma.CMAEvolutionStrategy(x0, sigma0, options)
     best, best_loss, done = dict(start), loss0, 0
     while done < budget and not es.stop():
         xs = es.ask()
         points = [
             start | {d.name: d.from_unit(u) for d, u in zip(physics, x, strict=True)} for x in xs
         ]
-        scores = run_all(_score, [(p, imu, segments) for p in points])
+        scores = run_all("score", [(p, imu, segments) for p in points])
         losses = [s for s, _ in scores]
         es.tell(xs, losses)
         done += len(xs)
@@ -263,7 +206,9 @@ def _search(
             best, best_loss = points[i], losses[i]
         if progress is not None:
             progress(min(done, budget), best_loss)
-    return best, best_loss, done, float(es.sigma)
+    stds = es.result.stds  # each coordinate's σ in the unit box
+    spread = {d.name: float(u) * (d.high - d.low) for d, u in zip(physics, stds, strict=True)}
+    return best, best_loss, done, spread
 
 
 def told(

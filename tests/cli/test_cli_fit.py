@@ -69,6 +69,8 @@ def test_the_fitted_robot_walks_its_fit(folder, fitted):
         (["rec.json", "--fields", "mass"], "unknown field 'mass': choose from latency_ms"),
         (["rec.json", "--fix", "kp=1"], "unknown variation field 'kp'"),
         (["rec.json", "--budget", "3"], "budget must be a whole number 10 to 5000"),
+        (["rec.json", "--wait-workers", "5"], "--cluster's workers; give both"),
+        (["rec.json", "--cluster", "http://host:8786"], "unsupported scheduler address"),
     ],
 )
 def test_bad_input_is_refused(folder, args, said):

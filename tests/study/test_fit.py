@@ -1,6 +1,6 @@
 """`app.study.fit` on a simulated recording whose variation it is not told (docs/FIT.md): the
 standing stage gives back the floor's tilt and the IMU's errors within the goals' tolerances,
-says them identified, and gives the same values for the same seed."""
+says them identified, and gives the same values for the same seed, on processes or a cluster."""
 
 from __future__ import annotations
 
@@ -14,6 +14,7 @@ from app.robots.model import RobotModel
 from app.study import fit_space
 from app.study.fit import fit
 from app.worlds.variations import parse_variation
+from tests.testing.cluster_support import LoopbackCluster
 
 TRUTH = (
     "tilt_deg=1.5,tilt_direction_deg=60,imu_tilt_bias_deg=0.5,imu_tilt_direction_deg=120,"
@@ -57,11 +58,25 @@ def test_the_residual_is_said_against_the_noise(fitted):
     assert all(fitted.rms_fit[c] < fitted.rms_nominal[c] for c in ratio)
 
 
-def test_one_seed_one_fit(recording):
-    """Two fits of a small budget (two dozen standing replays) with one seed: the same fit."""
-    first, again = (fit(recording, "artro", fields=("tilt",), budget=2, workers=1, seed=5)
-                    for _ in range(2))  # fmt: skip
-    assert first.values == again.values and first.variation == again.variation
+@pytest.fixture(scope="module")
+def small(recording):
+    """A fit of a small budget (two dozen standing replays) in this process."""
+    return fit(recording, "artro", fields=("tilt",), budget=2, workers=1, seed=5)
+
+
+def test_one_seed_one_fit(recording, small):
+    again = fit(recording, "artro", fields=("tilt",), budget=2, workers=2, seed=5)
+    assert small.values == again.values and small.variation == again.variation
+
+
+def test_a_dask_cluster_replays_the_same_fit(recording, small):
+    """Real `dask scheduler` and `dask worker` processes: the robot sent as its description,
+    the replays on the workers, the same fit to the bit."""
+    with LoopbackCluster(workers=2) as cluster:
+        remote = fit(recording, "artro", fields=("tilt",), budget=2, seed=5,
+                     cluster=cluster.address, wait_workers_s=60)  # fmt: skip
+    assert remote.values == small.values and remote.sigma == small.sigma
+    assert remote.variation == small.variation and remote.evaluations == small.evaluations
 
 
 def test_a_held_field_is_held(recording):

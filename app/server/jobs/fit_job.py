@@ -43,10 +43,20 @@ class FitRunner:
     files in DATA/fits: NAME.json (the recording), NAME-fitted.yaml, NAME-fit/ (the report)."""
 
     def __init__(
-        self, jobs: Jobs, data_dir: Path, robot_now: Callable[[], RobotModel], workers: int = 0
+        self,
+        jobs: Jobs,
+        data_dir: Path,
+        robot_now: Callable[[], RobotModel],
+        workers: int = 0,
+        cluster: str | None = None,
+        wait_workers_s: float | None = None,
     ) -> None:
         self.jobs, self.folder, self.robot_now = jobs, data_dir / "fits", robot_now
         self.workers = workers or min(4, child_threads())  # the live simulation keeps a core
+        # `artro serve --cluster`: the replays on its workers, as the robustness job's runs
+        self.on_cluster = [] if cluster is None else ["--cluster", cluster]
+        if cluster is not None and wait_workers_s is not None:
+            self.on_cluster += ["--wait-workers", f"{wait_workers_s:g}"]
         self.latest: Job | None = None
         self._lock = threading.Lock()
         self._fitted: dict[str, str] = {}  # a fit's variation (its name) -> the job that fitted it
@@ -98,7 +108,7 @@ class FitRunner:
         job.detail = dict(detail)
         cmd = [sys.executable, "-m", "app.cli", "fit", str(rec), "--robot",
                self._robot_arg(model), "--json", "-o", str(out),
-               "--workers", str(self.workers), *options]  # fmt: skip
+               "--workers", str(self.workers), *self.on_cluster, *options]  # fmt: skip
         env = os.environ | {"PYTHONUNBUFFERED": "1"}
         child = subprocess.Popen(
             cmd,

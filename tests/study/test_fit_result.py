@@ -1,0 +1,57 @@
+"""How a fit is judged (docs/FIT.md, decision 0067): converged only when each field's spread
+left in its search is within its precision, the nominal kept otherwise; and the search's stages,
+two rounds of standing then walking when the fields are of both kinds."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from app.analysis.identify_replay import Traces
+from app.study import fit_space
+from app.study.fit import STAGES, stages
+from app.study.fit_result import CONVERGED_SPREAD, judged
+from app.worlds.variations import NOMINAL
+
+
+def _traces(offset: float) -> Traces:
+    n = 40
+    rows = np.arange(n, dtype=float)[:, None]
+    return Traces(
+        commanded=np.zeros((n, 12)),
+        gyro=np.sin(rows / 5) * np.ones((1, 3)) * 0.1 + offset,
+        accel=np.tile([0.0, 0.0, 9.81], (n, 1)) + offset,
+        fsr=np.ones((n, 8)) + offset,
+        joints=np.zeros((n, 12)),
+        pose=np.zeros((n, 3)),
+    )
+
+
+def _judge(spread: dict[str, float]):
+    dims = [fit_space.PHYSICS["latency_ms"], fit_space.PHYSICS["kp_scale"]]
+    values = {"latency_ms": 20.0, "kp_scale": 0.9}
+    recorded, nominal, fitted = _traces(0.0), _traces(0.05), _traces(0.001)
+    return judged(dims, values, np.array([0.1, 0.001]), np.eye(2), [nominal, fitted],
+                  recorded, False, NOMINAL, 1.0, 0.1, 100, spread)  # fmt: skip
+
+
+def test_a_search_settled_within_each_fields_precision_has_converged():
+    result = _judge({"latency_ms": 4.9 * CONVERGED_SPREAD, "kp_scale": 0.01})
+    assert result.converged, result.why_not
+    assert result.variation.latency_ms == 20.0 and result.variation.kp_scale == 0.9
+
+
+def test_a_search_still_wide_in_one_field_keeps_the_nominal_and_names_it():
+    result = _judge({"latency_ms": 1.0, "kp_scale": 0.2})
+    assert not result.converged
+    assert "kp_scale" in result.why_not and "--budget" in result.why_not
+    assert result.variation == NOMINAL
+
+
+def test_both_kinds_of_field_take_two_rounds_one_kind_one_search():
+    both = stages(True, True)
+    assert both == list(STAGES)
+    assert [s.standing for s in both] == [True, False, True, False]
+    assert sum(s.share for s in both) == pytest.approx(1.0)
+    assert stages(True, False)[0].standing and stages(True, False)[0].share == 1.0
+    assert len(stages(False, True)) == 1 and stages(False, False) == []
