@@ -69,9 +69,9 @@ def uncertainty(
     replays_at: Callable[[list[dict[str, float]]], list[Traces]],
 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """σ of each coordinate and their correlations: J from central differences (the physics
-    replayed at ±step, the IMU's errors turned at ±step), cov = s²·τ·(JᵀJ)⁻¹ with s² the
-    residuals' variance and τ = (1 + ρ)/(1 − ρ) from their lag-one autocorrelation ρ (a
-    recording's frames are not independent draws)."""
+    replayed at ±step, the IMU's errors turned at ±step; inside the bounds, `_ends`), cov =
+    s²·τ·(JᵀJ)⁻¹ with s² the residuals' variance and τ = (1 + ρ)/(1 − ρ) from their lag-one
+    autocorrelation ρ (a recording's frames are not independent draws)."""
 
     def at(v: dict[str, float], rep: Traces) -> NDArray[np.float64]:
         errors = fit_space.imu_errors({k: x for k, x in v.items() if k in fit_space.IMU}, fixed)
@@ -79,20 +79,23 @@ def uncertainty(
 
     dims = physics + imu_dims
     base = at(values, replay)
+    ends = {d.name: _ends(d, values[d.name]) for d in dims}
     points = []
     for d in physics:
-        for sign in (1, -1):
+        for end in ends[d.name]:
             here = {p.name: values[p.name] for p in physics}
-            points.append(here | {d.name: values[d.name] + sign * d.step})
+            points.append(here | {d.name: end})
     replays = replays_at(points) if points else []
     columns = []
     for i, d in enumerate(physics):
         plus, minus = at(values, replays[2 * i]), at(values, replays[2 * i + 1])
-        columns.append((plus - minus) / (2 * d.step))
+        high, low = ends[d.name]
+        columns.append((plus - minus) / (high - low))
     for d in imu_dims:
-        plus = at({**values, d.name: values[d.name] + d.step}, replay)
-        minus = at({**values, d.name: values[d.name] - d.step}, replay)
-        columns.append((plus - minus) / (2 * d.step))
+        high, low = ends[d.name]
+        plus = at({**values, d.name: high}, replay)
+        minus = at({**values, d.name: low}, replay)
+        columns.append((plus - minus) / (high - low))
     jac = np.stack(columns, 1) if columns else np.zeros((len(base), 0))
     n, p = jac.shape
     s2 = float(base @ base) / max(1, n - p)
@@ -104,6 +107,16 @@ def uncertainty(
     scale = np.where(sigma > 0, sigma, 1.0)
     corr = cov / np.outer(scale, scale)
     return sigma, corr if len(dims) else np.zeros((0, 0))
+
+
+def _ends(d: Dim, value: float) -> tuple[float, float]:
+    """The central difference's two points about `value`, a step apart each way, moved inside
+    the coordinate's bounds where a step would leave them (a latency fitted at 1 ms: 0 and 4 ms;
+    a variation refuses a negative latency)."""
+    low, high = max(d.low, value - d.step), min(d.high, value + d.step)
+    if high - low < d.step:  # squeezed against a bound: one step from it, inward
+        low, high = (d.low, d.low + d.step) if low == d.low else (d.high - d.step, d.high)
+    return high, low
 
 
 def judged(

@@ -10,7 +10,7 @@ import pytest
 from app.analysis.identify_replay import Traces
 from app.study import fit_space
 from app.study.fit import STAGES, stages
-from app.study.fit_result import CONVERGED_SPREAD, judged
+from app.study.fit_result import CONVERGED_SPREAD, _ends, judged
 from app.worlds.variations import NOMINAL
 
 
@@ -55,3 +55,12 @@ def test_both_kinds_of_field_take_two_rounds_one_kind_one_search():
     assert sum(s.share for s in both) == pytest.approx(1.0)
     assert stages(True, False)[0].standing and stages(True, False)[0].share == 1.0
     assert len(stages(False, True)) == 1 and stages(False, False) == []
+
+
+def test_the_uncertaintys_differences_stay_inside_each_fields_bounds():
+    """A latency fitted at 0.5 ms: its difference is taken at 0 and 3.5 ms (a variation refuses
+    a negative latency: a fit of a robot with little latency once failed there)."""
+    latency = fit_space.PHYSICS["latency_ms"]
+    assert _ends(latency, 0.5) == (3.5, 0.0)
+    assert _ends(latency, 20.0) == (23.0, 17.0)
+    assert _ends(latency, 80.0) == (80.0, 77.0)
