@@ -5,6 +5,7 @@ sigrok-cli); an ATmega128 frame carries neither."""
 
 from __future__ import annotations
 
+import itertools
 import re
 import subprocess
 from pathlib import Path
@@ -141,7 +142,7 @@ def _check_slots_and_the_pcas_clock(frames: list[dict]) -> None:
             for c in pca["channels"]:  # ON = 0: every channel rises as its period begins
                 assert [start, 1] in c["edges_us"]
         starts.append(pca["period_starts_us"])
-    slips = [b[0] - a[-1] for a, b in zip(starts, starts[1:], strict=False) if a and b]
+    slips = [b[0] - a[-1] for a, b in itertools.pairwise(starts) if a and b]
     assert slips and all(s == pytest.approx(PERIOD_US - 20_000, abs=0.07) for s in slips)
 
 
