@@ -130,7 +130,8 @@ def add_parser(sub: Any) -> None:
         type=variation,
         default=NOMINAL,
         metavar="KEY=VALUE,...",
-        help="closed loop (a feedback law on): the simulated robot and its sensors varied, e.g. "
+        help="closed loop (a feedback law on; a mega2560-pca9685 run always is): the simulated "
+        "robot and its sensors varied, e.g. "
         "imu_tilt_bias_deg=1,gyro_bias_deg_s=0.5,fsr_gain=1.1 (docs/DESIGN.md §8) "
         "(default: none, the nominal model)",
     )
@@ -191,16 +192,13 @@ def _run_mega(args: argparse.Namespace, doc: dict[str, Any], robot: RobotModel) 
     """The Mega build closed loop, every PCA9685 pulse against the model (docs/BOARDS.md)."""
     from app.firmware.mega import run_mega_closed_loop
 
-    if not args.vary.is_nominal:
-        raise ValueError(
-            "--vary: not for the mega2560-pca9685 board yet; its run takes --params, "
-            "--motion, --ca, --frames, --vcd, --json and --pty"
-        )
     frames = FRAMES if args.frames is None else args.frames
-    run = run_mega_closed_loop(doc, frames, robot, trace=bool(args.vcd))
+    # always closed loop (the robot simulated, its IMU read): --vary with or without a law on
+    check_pushed_variation(args.vary, frames * FRAME_S, f"{frames} frames of {FRAME_S:g} s")
+    run = run_mega_closed_loop(doc, frames, robot, args.vary, trace=bool(args.vcd))
     if args.vcd:
         Path(args.vcd).write_text(run.vcd, encoding="ascii")
-    summary = {**run.summary(), "robot": robot.name}
+    summary = {**run.summary(), "robot": robot.name, "variation": args.vary.name}
     if args.json:
         print(json.dumps(summary))
     else:

@@ -6,6 +6,7 @@ the last frames' for a VCD (app/firmware/vcd_mega.py)."""
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from collections import deque
 from dataclasses import dataclass
@@ -26,6 +27,13 @@ _PLAN_TICK = 100  # as pulses.py: the frame's plan is read just after its start
 CYCLES_PER_US = F_CPU_HZ / 1e6
 PART_NAMES = {PCA9685_ADDRESS: "PCA9685", IMU_ADDRESS: "MPU-6050"}
 TRACE_FRAMES = 3000  # the frames a VCD carries: the recorder's 60 s
+#: what the Mega's 2.5 ms slots do (mega_clock.c; SENSE_SLOT, COMPUTE_SLOT in config.h), the
+#: scope frame's `slots`: the others only keep the clock
+SLOT_TASKS = {0: "PCA9685 write", 3: "IMU + FSR read", 4: "plan next frame"}
+SLOTS_PER_FRAME = 8
+#: the PCA9685's own period (4096 steps of its 25 MHz oscillator) and its slip per 20 ms frame
+PERIOD_US = 4096 * STEP_S * 1e6
+FRAME_US = 20_000.0
 
 PwmEdges = tuple[NDArray[np.uint64], NDArray[np.uint8], NDArray[np.uint8]]
 
@@ -56,9 +64,15 @@ class BoardFrame:
     pwm: PwmEdges  # (cycle, channel, level) in the frame, oldest first
     pulse_us: NDArray[np.float64] | None  # (12,) the pulses the servos got; None: the plan's
     bus: Transactions
+    #: the PCA9685's periods begun in the frame (CPU cycles): where its own clock has slipped to
+    period_starts: NDArray[np.uint64] = dataclasses.field(
+        default_factory=lambda: np.empty(0, np.uint64)
+    )
 
     def message(self) -> dict[str, Any]:
-        """The scope frame's `board`, `pca9685` and `i2c` (times in µs from the frame's start;
+        """The scope frame's `board`, `slots` (what each 2.5 ms slot does), `pca9685` (with its
+        own period, its slip a frame and where its periods began) and `i2c` (times in µs from the
+        frame's start;
         a transaction's `end_us` is its START plus its time on a 400 kHz bus, `emulated_stop_us`
         the emulator's STOP, simavr's TWI taking 9 µs a byte)."""
         us = lambda cycle: round((int(cycle) - self.start_cycle) / CYCLES_PER_US, 4)  # noqa: E731
@@ -90,7 +104,11 @@ class BoardFrame:
         ]
         return {
             "board": MEGA,
-            "pca9685": {"address": PCA9685_ADDRESS, "step_us": STEP_S * 1e6, "channels": channels},
+            "slots": [{"slot": k, "task": SLOT_TASKS.get(k)} for k in range(SLOTS_PER_FRAME)],
+            "pca9685": {"address": PCA9685_ADDRESS, "step_us": STEP_S * 1e6, "channels": channels,
+                        "period_us": round(PERIOD_US, 4),
+                        "slip_us_per_frame": round(PERIOD_US - FRAME_US, 4),
+                        "period_starts_us": [us(c) for c in self.period_starts.tolist()]},
             "i2c": {"bus_hz": BUS_HZ, "bus_us": round(float(bus_s.sum()) * 1e6, 4),
                     "transactions": transactions},
         }  # fmt: skip
@@ -116,15 +134,30 @@ class MegaTrace:
         none is kept."""
         with self._lock:
             frames = list(self._frames)
-        if not frames:
-            raise ValueError("no frame of the Mega board is kept yet")
-        first = frames[0]
-        high = np.flatnonzero(first.initial)  # a channel high as the trace starts rises at 0
-        start = (np.full(len(high), first.start_cycle, np.uint64), high.astype(np.uint8),
-                 np.ones(len(high), np.uint8))  # fmt: skip
-        pwm = tuple(np.concatenate([start[i]] + [f.pwm[i] for f in frames]) for i in range(3))
-        bus = _join_bus([f.bus for f in frames])
-        return mega_vcd_text(pwm, bus, first.start_cycle, comment=comment)  # type: ignore[arg-type]  # 3 arrays
+        return board_frames_vcd(frames, comment)
+
+
+def board_frames_vcd(frames: list[BoardFrame], comment: str = "") -> str:
+    """Consecutive frames of one Mega run as VCD (vcd_mega.py), time 0 the first one's start;
+    ValueError if there are none."""
+    if not frames:
+        raise ValueError("no frame of the Mega board is kept yet")
+    first = frames[0]
+    high = np.flatnonzero(first.initial)  # a channel high as the trace starts rises at 0
+    start = (np.full(len(high), first.start_cycle, np.uint64), high.astype(np.uint8),
+             np.ones(len(high), np.uint8))  # fmt: skip
+    pwm = tuple(np.concatenate([start[i]] + [f.pwm[i] for f in frames]) for i in range(3))
+    bus = _join_bus([f.bus for f in frames])
+    return mega_vcd_text(pwm, bus, first.start_cycle, comment=comment)  # type: ignore[arg-type]  # 3 arrays
+
+
+def last_run(frames: list[BoardFrame]) -> list[BoardFrame]:
+    """The frames of the last emulated run among `frames` (oldest first): a firmware drive
+    started anew boots a new MCU, whose cycles count from 0 again."""
+    begin = len(frames) - 1
+    while begin > 0 and frames[begin - 1].start_cycle < frames[begin].start_cycle:
+        begin -= 1
+    return frames[max(begin, 0) :]
 
 
 class MegaPulses(FirmwarePulses):
@@ -181,7 +214,8 @@ class MegaPulses(FirmwarePulses):
         bus = _join_bus([self._bus, self.i2c.take_transactions()])
         frame_of = (bus.start_cycle.astype(np.int64) - mcu.t0_cycle) // FRAME_CYCLES
         self._bus = bus.select(frame_of > k)
-        board = BoardFrame(start, self._level.copy(), pwm, width_us, bus.select(frame_of <= k))
+        board = BoardFrame(start, self._level.copy(), pwm, width_us, bus.select(frame_of <= k),
+                           begun)  # fmt: skip
         for line, level in zip(pwm[1].tolist(), pwm[2].tolist(), strict=True):
             self._level[line] = level
         self.board_frame = board

@@ -202,7 +202,8 @@ function drawOnce() {
   // the single-frame view grows taller than the panel when many servo lanes are chosen
   // the Mega board's frames: its PCA9685 channels and I²C bus (scope-i2c.js)
   const mega = Boolean(frame?.pca9685);
-  const need = mega ? megaFrameMinHeight(frame) : singleFrameMinHeight(frame, state.servos.length);
+  const n = state.servos.length;
+  const need = mega ? megaFrameMinHeight(frame, n) : singleFrameMinHeight(frame, n);
   const height = `${Math.max(wrap.clientHeight, need)}px`;
   if (height !== lastHeight) canvas.style.height = lastHeight = height;
   const { ctx, w, h: hgt } = fitCanvas(canvas);

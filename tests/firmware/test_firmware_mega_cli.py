@@ -65,9 +65,32 @@ def test_run_on_the_mega_compares_every_pulse(capsys) -> None:
     summary = json.loads(capsys.readouterr().out)
     assert summary["ok"] and summary["board"] == "mega2560-pca9685" and summary["pulses"] >= 12 * 39
     assert summary["pulse_error_max_us"] <= summary["step_us"]
-    with pytest.raises(ValueError, match="not for the mega2560-pca9685 board yet"):
-        cmd_firmware(parse(["firmware", "run", "--board", "mega2560-pca9685", "--vary",
-                            "imu_tilt_bias_deg=1"]))  # fmt: skip
+
+
+def _pwm_changes(vcd: Path) -> list[str]:
+    """The VCD's value changes (its header, with the date, left out)."""
+    return vcd.read_text(encoding="ascii").split("$enddefinitions $end")[1].splitlines()
+
+
+def test_a_varied_mega_run_walks_the_varied_robot(tmp_path: Path, capsys) -> None:
+    """`--vary` on the Mega: the robot and its IMU varied, every pulse still the model's (fed
+    what the firmware read), and the laws' answer to the IMU's tilt on the PCA9685's lines."""
+    runs = {}
+    for vary in ("imu_tilt_bias_deg=3", None):
+        vcd = tmp_path / f"{vary}.vcd"
+        argv = ["firmware", "run", "--board", "mega2560-pca9685", "--frames", "30", "--json",
+                "--vcd", str(vcd)] + (["--vary", vary] if vary else [])  # fmt: skip
+        assert cmd_firmware(parse(argv)) == 0
+        runs[vary] = (json.loads(capsys.readouterr().out), _pwm_changes(vcd))
+    (varied, varied_lines), (nominal, nominal_lines) = runs.values()
+    assert varied["ok"] and varied["variation"] == "imu_tilt_bias_deg=3"
+    assert nominal["variation"] == "nominal"
+    assert varied["pulses"] == nominal["pulses"] >= 12 * 29
+    assert varied_lines != nominal_lines  # the tilt law answered the biased IMU
+    # a push after the run's end is refused as the ATmega128's run refuses it
+    with pytest.raises(ValueError, match="push_time_s"):
+        cmd_firmware(parse(["firmware", "run", "--board", "mega2560-pca9685", "--frames", "10",
+                            "--vary", "push_n_s=0.5,push_time_s=5"]))  # fmt: skip
 
 
 def test_the_megas_vcd_carries_its_channels_and_its_bus(tmp_path: Path, capsys) -> None:

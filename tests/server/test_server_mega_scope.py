@@ -5,6 +5,7 @@ sigrok-cli); an ATmega128 frame carries neither."""
 
 from __future__ import annotations
 
+import itertools
 import re
 import subprocess
 from pathlib import Path
@@ -12,6 +13,7 @@ from pathlib import Path
 import pytest
 
 from app.firmware.mega import STEP_S
+from app.firmware.mega_pulses import SLOT_TASKS
 from hardware import SERVO_NAMES
 from tests.firmware.test_vcd_sigrok import _ANNOTATION
 from tests.testing.server_harness import client, running_server, wait_for
@@ -50,7 +52,9 @@ def test_the_megas_scope_frames_and_vcd_carry_its_channels_and_its_bus(tmp_path:
                           "ten scope frames of the Mega board")  # fmt: skip
         state = http.get("/api/state").json()
         vcd = http.get("/api/recording/export.vcd")
+        replayed = _replayed_vcds(http)
     assert state["drive"] == "firmware" and state["firmware"]["board"] == MEGA
+    _check_slots_and_the_pcas_clock(frames)
     for frame in frames:
         assert frame["source"] == "firmware"
         channels = frame["pca9685"]["channels"]
@@ -88,6 +92,58 @@ def test_the_megas_scope_frames_and_vcd_carry_its_channels_and_its_bus(tmp_path:
     for width_us, period_us in pulses:
         assert 600 <= width_us <= 2400
         assert period_us == pytest.approx(PERIOD_US, abs=0.2)  # the part's clock, not 20 ms
+    # a replay of the session: the frames the Mega drove, from what the recorder kept of them
+    live_replay, imported = replayed
+    assert live_replay.status_code == 200
+    names = re.findall(r"^\$var wire 1 \S (\S+) \$end$", live_replay.text, re.MULTILINE)
+    assert names == [f"PWM{n}" for n in range(12)] + ["I2C_PCA9685", "I2C_MPU6050"]
+    assert "the Mega board drove" in live_replay.text
+    path.write_text(live_replay.text, encoding="ascii")
+    assert len(sigrok_pulses(path, "PWM7")) >= 8
+    # an imported file keeps the OCR tables only: refused, saying what there is
+    assert imported.status_code == 409, imported.text[:300]
+    problem = imported.json()["detail"][0]
+    assert problem["type"] == "no_board_lines"
+    assert "firmware frames, kept as OCR tables only" in problem["msg"]
+    assert problem["msg"].endswith("this download of the live drive"), problem["msg"]
+    assert "GET /api/recording/export" in problem["msg"]
+
+
+def _replayed_vcds(http) -> tuple:
+    """The VCD download while the session is replayed, then while a file of it is."""
+    assert http.post("/api/recording/replay", json={}).status_code == 200
+    live_replay = http.get("/api/recording/export.vcd")
+    exported = http.get("/api/recording/export").text
+    http.post("/api/recording/live")
+    headers = {"content-type": "application/json"}
+    assert http.post("/api/recording/import", content=exported, headers=headers).is_success
+    imported = http.get("/api/recording/export.vcd")
+    http.post("/api/recording/live")
+    return live_replay, imported
+
+
+def _check_slots_and_the_pcas_clock(frames: list[dict]) -> None:
+    """What the Mega's slots do, as config.h schedules them, and where the PCA9685's period
+    began: 11.52 µs earlier each frame (its own oscillator), where its channels rise."""
+    config = Path("hardware/firmware/src/config.h").read_text()
+    slot = {name: int(v) for name, v in re.findall(r"#define (SENSE_SLOT|COMPUTE_SLOT) (\d+)u",
+                                                    config)}  # fmt: skip
+    assert SLOT_TASKS == {0: "PCA9685 write", slot["SENSE_SLOT"]: "IMU + FSR read",
+                          slot["COMPUTE_SLOT"]: "plan next frame"}  # fmt: skip
+    starts = []
+    for frame in frames:
+        assert frame["slots"] == [{"slot": k, "task": SLOT_TASKS.get(k)} for k in range(8)]
+        pca = frame["pca9685"]
+        assert pca["period_us"] == pytest.approx(PERIOD_US)
+        assert pca["slip_us_per_frame"] == pytest.approx(PERIOD_US - 20_000)
+        assert len(pca["period_starts_us"]) <= 2
+        for start in pca["period_starts_us"]:
+            assert 0 <= start < 20_000
+            for c in pca["channels"]:  # ON = 0: every channel rises as its period begins
+                assert [start, 1] in c["edges_us"]
+        starts.append(pca["period_starts_us"])
+    slips = [b[0] - a[-1] for a, b in itertools.pairwise(starts) if a and b]
+    assert slips and all(s == pytest.approx(PERIOD_US - 20_000, abs=0.07) for s in slips)
 
 
 def test_an_atmega128_frame_carries_no_pca9685(server, http) -> None:

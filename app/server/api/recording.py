@@ -12,6 +12,8 @@ from fastapi.responses import Response
 from pydantic import BaseModel, ConfigDict, Field
 from starlette.concurrency import run_in_threadpool
 
+from app.firmware.build import DEFAULT_BOARD
+from app.firmware.mega_pulses import board_frames_vcd, last_run
 from app.firmware.vcd import edges_of_frames, vcd_text
 from app.params.strict_text import ParameterImportError, load_json_strict
 from app.server.api.answers import ANSWER, ReplayStatus
@@ -117,9 +119,9 @@ def export(services: ServicesDep) -> Response:
 def export_vcd(services: ServicesDep) -> Response:
     """The recording's nine pulse and select lines as a Value Change Dump (PulseView, GTKWave):
     OC1A..OC3C, SEL0..SEL2, from the recorded OCR tables as the hardware model puts them on the
-    wires. While the Mega board drives (docs/BOARDS.md) and no replay runs: its PCA9685's
-    channels PWM0..PWM11 and a line per I2C part, high from START to STOP, over the frames it
-    drove (the last 60 s at most)."""
+    wires. Frames the Mega board drove (docs/BOARDS.md), live or replayed: its PCA9685's
+    channels PWM0..PWM11 and a line per I2C part, high from START to STOP (409 for a replayed
+    file of the Mega's, which keeps only the OCR tables)."""
     rec = _shown(services)
     if not len(rec):
         raise ApiError(409, "nothing recorded yet", "nothing_recorded", loc=["path"])
@@ -127,10 +129,27 @@ def export_vcd(services: ServicesDep) -> Response:
     if trace is not None and services.replay.recording is None and len(trace):
         text = trace.vcd_text(f"the last {len(trace)} frames of the Mega board's drive")
         return _download(text, "vcd", "text/plain; charset=utf-8")
+    mega = [(i, b) for i, b in enumerate(rec.boards) if b is not None]
+    if mega:
+        run = last_run([b for _, b in mega])
+        first, last = mega[-len(run)][0], mega[-1][0]
+        said = (f"recorded frames {int(rec.frame[first])}..{int(rec.frame[last])} the Mega "
+                f"board drove, {rec.model}")  # fmt: skip
+        return _download(board_frames_vcd(run, said), "vcd", "text/plain; charset=utf-8")
+    board = services.sim.live.firmware_board
+    if rec.drive.any() and board != DEFAULT_BOARD:
+        raise ApiError(
+            409,
+            f"the {board} board drove this recording's firmware frames, kept as OCR tables only "
+            "(no PCA9685 edges, no I2C bus: an imported file); available: the recording (GET "
+            "/api/recording/export), or, back live, this download of the live drive",
+            "no_board_lines",
+            loc=["path"],
+        )
     tdm = services.hardware.tdm
     edges = edges_of_frames([frame_edges(ocr, tdm) for ocr in rec.ocr])
-    first, last = int(rec.frame[0]), int(rec.frame[-1])
-    text = vcd_text(edges, 0, comment=f"recorded frames {first}..{last}, {rec.model}")
+    first_frame, last_frame = int(rec.frame[0]), int(rec.frame[-1])
+    text = vcd_text(edges, 0, comment=f"recorded frames {first_frame}..{last_frame}, {rec.model}")
     return _download(text, "vcd", "text/plain; charset=utf-8")
 
 

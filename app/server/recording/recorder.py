@@ -12,6 +12,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from app.firmware.mega_pulses import BoardFrame
 from app.sim.frame_record import FrameRecord
 from app.sim.planning import FRAME_S
 from hardware import CHANNELS, SLOTS_PER_FRAME
@@ -39,6 +40,9 @@ class Recording:
     events: tuple[dict[str, Any], ...] = ()  # {"t_s", "kind", ...}: params, reset, fall, drive
     params: dict[int, dict[str, Any]] = field(default_factory=dict)  # version -> document
     model: str = ""
+    #: per frame, what the Mega board showed (its PCA9685's edges, its I2C bus; None: another
+    #: drive); kept in memory for the VCD download, not written to the file
+    boards: tuple[BoardFrame | None, ...] = ()
 
     def __len__(self) -> int:
         return len(self.frame)
@@ -80,6 +84,7 @@ class Recorder:
         self._ocr = np.zeros((capacity, len(CHANNELS), SLOTS_PER_FRAME), np.int16)
         self._version = np.zeros(capacity, np.int32)
         self._drive = np.zeros(capacity, np.int8)
+        self._boards: list[BoardFrame | None] = [None] * capacity
         self._written = 0  # frames since the start; the ring holds the last `capacity`
         self._events: list[dict[str, Any]] = []
         self._params: dict[int, dict[str, Any]] = {}
@@ -95,8 +100,14 @@ class Recorder:
     def session_s(self) -> float:
         return self._written * FRAME_S
 
-    def add(self, record: FrameRecord, qpos: NDArray[np.float64], version: int) -> None:
-        """One frame (the simulation thread, after the frame)."""
+    def add(
+        self,
+        record: FrameRecord,
+        qpos: NDArray[np.float64],
+        version: int,
+        board: BoardFrame | None = None,
+    ) -> None:
+        """One frame (the simulation thread, after the frame); `board`: the Mega board's."""
         with self._lock:
             i = self._written % self.capacity
             self._frame[i] = record.index
@@ -107,6 +118,7 @@ class Recorder:
             self._ocr[i] = record.ocr
             self._version[i] = version
             self._drive[i] = record.pin_edges is not None
+            self._boards[i] = board
             self._written += 1
 
     def event(self, kind: str, **fields: Any) -> None:
@@ -156,4 +168,5 @@ class Recorder:
                 events=tuple(e for e in self._events if e["t_s"] >= first_t),
                 params={v: d for v, d in self._params.items() if v in versions},
                 model=self.model,
+                boards=tuple(self._boards[i] for i in order.tolist()),
             )

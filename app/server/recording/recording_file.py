@@ -207,7 +207,7 @@ def recording_from_json(data: Any, nq: int) -> Recording:
     for name in columns:
         if name not in specs:
             raise RecordingError(["columns", name[:64]], f"unknown; allowed: {', '.join(specs)}")
-    arrays: dict[str, np.ndarray] = {}
+    arrays: dict[str, Any] = {}  # the columns, each an array (Recording takes them by name)
     frames: int | None = None
     for name, spec in specs.items():
         if name not in columns:

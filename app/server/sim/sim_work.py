@@ -203,7 +203,7 @@ class SimWork:
             return
         if self._ghost is not None:
             self._step_ghost(record)
-        self.recorder.add(record, loop.data.qpos, self._applied.version)
+        self.recorder.add(record, loop.data.qpos, self._applied.version, live.board_frame)
         if loop.fell:
             self.recorder.event("fall", motion=dataclasses.asdict(record.motion))
         port = live.bus_port  # while a servo bus drives, the scope shows its goals' sync write
