@@ -4,9 +4,10 @@
 // pitch and roll, the gyro, each law's output) -- and each sole's centre of pressure drawn in its
 // outline, while the panel is on screen; and the Push control (POST /api/sim/push, button or the
 // P key), the push then drawn in the 3D view. While `artro link` forwards a real
-// robot's frames (the view's `robot`), its attitude, gyro and tilt trim are drawn beside the
-// simulation's as series of their own ("robot: ...", the simulation's "sim: ..."), its last
-// frame placed where it arrived, and a line says how its IMU is; no robot, nothing extra.
+// robot's frames (the view's `robot`), the series the server declares for it (the channels'
+// `robot`: its attitude, gyro and tilt trim) are drawn beside the simulation's ("robot: ...",
+// the simulation's "sim: ..."), its last frame placed where it arrived, and a line says how its
+// IMU is; no robot, nothing extra.
 
 import { api, poll } from "./api.js";
 import { THEME, UPLOT_AXIS } from "./scope-theme.js";
@@ -22,22 +23,6 @@ const FEET = [
   ["l", "left", "#4dabf7"],
   ["r", "right", "#ff922b"],
 ];
-// the robot's series of each plot: [column, label, colour] (drawn thicker, in a lighter tint)
-const ROBOT_SERIES = {
-  attitude: [
-    ["pitch_est_deg", "robot: pitch", "#a5d8ff"],
-    ["roll_est_deg", "robot: roll", "#ffd8a8"],
-  ],
-  gyro: [
-    ["gyro_x_deg_s", "robot: roll rate x", "#ffd8a8"],
-    ["gyro_y_deg_s", "robot: pitch rate y", "#a5d8ff"],
-    ["gyro_z_deg_s", "robot: yaw rate z", "#b2f2bb"],
-  ],
-  laws: [
-    ["tilt_pitch_deg", "robot: tilt trim pitch", "#a5d8ff"],
-    ["tilt_roll_deg", "robot: tilt trim roll", "#ffd8a8"],
-  ],
-};
 const COP_TRAIL_FRAMES = 50; // the last second of each sole's centre of pressure
 const PLOT_HEIGHT = 190; // px, the legend below
 
@@ -71,7 +56,9 @@ function buildPlots(declared) {
       .filter((c) => c.chart === chart.key)
       .map((c) => [c.key, c.label, c.colour, c.dashed ? [4, 4] : undefined, c.scale === 1 ? undefined : c.scale]);
     const spec = { label: chart.label, series };
-    plots[chart.key] = new SensorPlot(plotBox(chart.key), spec, ROBOT_SERIES[chart.key] ?? []);
+    // the robot's series: [column, label, colour] (drawn thicker, in a lighter tint)
+    const robot = (declared.robot[chart.key] ?? []).map((r) => [r.key, `robot: ${r.label}`, r.colour]);
+    plots[chart.key] = new SensorPlot(plotBox(chart.key), spec, robot);
   }
 }
 

@@ -2,7 +2,8 @@
 posts shows in GET /api/sensors beside the simulation's, in the robot's frame order, each
 sole's load and centre of pressure on the dashboard robot's force sensors; a frame posted again
 is not kept twice; a bad body is refused with a 422 that says what is allowed, and changes
-nothing."""
+nothing. The robot view's columns, taken from the declared channels, are the hand-written ones
+to the bit."""
 
 from __future__ import annotations
 
@@ -16,8 +17,10 @@ from app.firmware import protocol as proto
 from app.firmware.robot_telemetry import POST_FRAMES
 from app.robots.model import RobotModel
 from app.server.api.sensors import MAX_POSTED_FRAMES
-from app.server.feeds.robot_sensors import COLUMNS, WINDOW_FRAMES
+from app.server.feeds.robot_sensors import COLUMNS, WINDOW_FRAMES, RobotFrame, RobotSensors
 from app.server.http.request_gate import MAX_BODY_BYTES
+from app.sim.planning import FRAME_S
+from app.sim.sensors import SensorReading
 from tests.testing.server_harness import client, running_server
 
 
@@ -164,3 +167,68 @@ def test_what_is_allowed_is_said(server):
     body = {"frames": [copy.deepcopy(frame(7000)) | {"support": 5}]}
     msg = server.post("/api/sensors/robot", json=body).json()["message"]
     assert "support" in msg and "less than or equal to 1" in msg
+
+
+#: the robot view's columns as they were written by hand before the channels declared them
+HAND_WRITTEN_COLUMNS = (
+    "t_s", "frame",
+    "pitch_est_deg", "roll_est_deg",
+    "gyro_x_deg_s", "gyro_y_deg_s", "gyro_z_deg_s",
+    "tilt_pitch_deg", "tilt_roll_deg", "a_y_delta", "cop_pitch_deg", "cop_roll_deg",
+    "cop_l_x_mm", "cop_l_y_mm", "cop_r_x_mm", "cop_r_y_mm", "load_l_n", "load_r_n",
+)  # fmt: skip
+
+
+def _hand_written_row(frame: RobotFrame, positions_m) -> tuple[float | None, ...]:
+    """The robot view's row as robot_sensors.py wrote it by hand before."""
+    reading = SensorReading(
+        np.asarray(frame.gyro_rad_s), np.asarray(frame.accel_m_s2), np.asarray(frame.fsr_n)
+    )
+    load = reading.fsr_n.sum(axis=1)
+    cop_mm = reading.centre_of_pressure_m(positions_m) * 1e3
+    deg = np.degrees
+    return (
+        frame.frame * FRAME_S, float(frame.frame),
+        *(float(v) for v in deg(frame.attitude_rad)),
+        *(float(v) for v in deg(frame.gyro_rad_s)),
+        *(float(v) for v in deg(frame.tilt_rad)), float(frame.a_y_delta),
+        *(float(v) for v in deg(frame.cop_rad)),
+        *(None if np.isnan(v) else float(v) for v in cop_mm.reshape(4)),
+        float(load[0]), float(load[1]),
+    )  # fmt: skip
+
+
+def _random_frame(rng: np.random.Generator, n: int) -> RobotFrame:
+    """Frame `n` with values anywhere the route allows; a sole (or both) unloaded now and then,
+    a negative zero here and there."""
+
+    def values(k: int, limit: float) -> tuple[float, ...]:
+        drawn = rng.uniform(-limit, limit, k)
+        drawn[rng.random(k) < 0.1] = -0.0
+        return tuple(float(v) for v in drawn)
+
+    soles = np.abs(rng.normal(0.0, 20.0, (2, 4)))
+    soles[rng.random(2) < 0.3] = 0.0
+    return RobotFrame(
+        frame=n, status=("imu_present",), imu_failures=0, laws=("tilt", "cop"), support=0,
+        attitude_rad=values(2, np.pi), gyro_rad_s=values(3, 4.37), accel_m_s2=values(3, 19.6),
+        fsr_n=(tuple(soles[0].tolist()), tuple(soles[1].tolist())), tilt_rad=values(2, 0.2),
+        a_y_delta=values(1, 1.0)[0], cop_rad=values(2, 0.2),
+    )  # fmt: skip
+
+
+def test_the_robot_view_is_the_hand_written_one_to_the_bit():
+    """As decision 0064 pinned the simulation's trace: the same columns in the same order, and
+    the view's JSON the same to the bit over a window of frames (None for an unloaded sole)."""
+    assert COLUMNS == HAND_WRITTEN_COLUMNS
+    positions = RobotModel.load().fsr_positions_m
+    rng = np.random.default_rng(69)
+    frames = [_random_frame(rng, n) for n in range(1000, 1000 + WINDOW_FRAMES)]
+    robot = RobotSensors()
+    assert robot.add(frames, positions, now=0.0) == WINDOW_FRAMES
+    view = robot.view(now=0.25)
+    assert view is not None
+    rows = [_hand_written_row(f, positions) for f in frames]
+    columns = {name: [row[i] for row in rows] for i, name in enumerate(HAND_WRITTEN_COLUMNS)}
+    assert None in columns["cop_l_x_mm"] and None in columns["cop_r_y_mm"]
+    assert json.dumps(view) == json.dumps(view | {"columns": columns})

@@ -9,6 +9,7 @@ import numpy as np
 import pytest
 
 from app.robots.model import RobotModel
+from app.server.feeds.robot_sensors import COLUMNS as ROBOT_COLUMNS
 from app.server.recording.sensor_trace import COLUMNS
 from tests.testing.server_harness import client, running_server, wait_for
 
@@ -139,3 +140,7 @@ def test_the_channels_say_what_each_column_is_and_how_the_panel_draws_it(server)
     assert pitch["unit"] == "°" and pitch["chart"] == "attitude" and pitch["dashed"] is False
     groups = [law["group"] for law in declared["laws"]]
     assert groups == ["tilt", "yaw_rate", "damping", "cop", "timing"]  # the switch bits' order
+    robot = declared["robot"]  # a linked robot's series of each chart: its columns, drawn
+    assert set(robot) == charts
+    assert robot["gyro"][2] == {"key": "gyro_z_deg_s", "label": "yaw rate z", "colour": "#b2f2bb"}
+    assert {s["key"] for chart in robot.values() for s in chart} <= set(ROBOT_COLUMNS)

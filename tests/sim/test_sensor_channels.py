@@ -11,7 +11,15 @@ import numpy as np
 from app.params.schema import GROUP_TITLES
 from app.server.recording.sensor_trace import SensorTrace, true_tilt_deg
 from app.sim.frame_loop import FrameLoop
-from app.sim.sensor_channels import CHANNELS, CHARTS, COLUMNS, channel_list
+from app.sim.sensor_channels import (
+    CHANNELS,
+    CHARTS,
+    COLUMNS,
+    ROBOT_CHANNELS,
+    ROBOT_OUTPUT_FIELDS,
+    ROBOT_SERIES,
+    channel_list,
+)
 from gait import GaitParams, feedback
 from gait.feedback import ANKLE_PITCH, HIP_PITCH
 from gait.feedback_params import LAWS
@@ -49,6 +57,23 @@ def test_every_drawn_channel_has_its_chart_and_the_list_says_so():
     listed = channel_list()
     assert [c["key"] for c in listed["channels"]] == list(COLUMNS)
     assert [law["group"] for law in listed["laws"]] == list(LAW_GROUPS)
+
+
+def test_the_robot_carries_what_its_sensors_frame_sends_and_its_series_are_listed_per_chart():
+    """The law outputs on the robot follow SENSORS' float32 fields (hardware/firmware/wire.py);
+    every robot series is a carried, drawn channel; the list gives each chart its series."""
+    assert ROBOT_OUTPUT_FIELDS == ("attitude_rad", "tilt_rad", "a_y_delta", "cop_rad")
+    assert ROBOT_CHANNELS[0].key == "t_s"
+    not_carried = {c.key for c in CHANNELS} - {c.key for c in ROBOT_CHANNELS}
+    assert not_carried == {
+        "pitch_true_deg", "roll_true_deg", "damping_ankle_deg", "damping_hip_deg",
+        "timing_freq_hz",
+    }  # fmt: skip
+    listed = channel_list()["robot"]
+    assert set(listed) == set(CHARTS)
+    assert [s["key"] for chart in listed.values() for s in chart] == [s.key for s in ROBOT_SERIES]
+    assert [s["label"] for s in listed["attitude"]] == ["pitch", "roll"]
+    assert [s["key"] for s in listed["laws"]] == ["tilt_pitch_deg", "tilt_roll_deg"]
 
 
 def _hand_written_row(trace: SensorTrace, record, data) -> tuple[float, ...]:

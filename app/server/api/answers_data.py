@@ -70,9 +70,17 @@ class Sensors(Answer):
     robot: LinkedRobotSensors | None
 
 
+class LinkedRobotSeries(Answer):
+    """A series a linked robot's frames add to a chart (app/sim/sensor_channels.py)."""
+
+    key: str = Field(description="its column in GET /api/sensors `robot.columns`")
+    label: str = Field(description='the legend says "robot: " and this')
+    colour: str = Field(description="drawn in this colour (CSS), thicker than the simulation's")
+
+
 class SensorChannels(Answer):
-    """The Sensors panel's charts, the trace's columns and the laws, as declared once
-    (app/sim/sensor_channels.py, gait/feedback_params.py `LAWS`)."""
+    """The Sensors panel's charts, the trace's columns, the laws and a linked robot's series,
+    as declared once (app/sim/sensor_channels.py, gait/feedback_params.py `LAWS`)."""
 
     charts: list[dict[str, Any]] = Field(description="each chart's key and axis label")
     channels: list[dict[str, Any]] = Field(
@@ -80,6 +88,11 @@ class SensorChannels(Answer):
         "draws it (null: none), colour, dashed, scale (drawn times this)"
     )
     laws: list[dict[str, Any]] = Field(description="each law's group and name, in bit order")
+    robot: dict[str, list[LinkedRobotSeries]] = Field(
+        default={},
+        description="each chart's key: the series a linked robot's frames add to it, in order "
+        "(drawn while GET /api/sensors has a `robot`)",
+    )
 
 
 class FramesTaken(Answer):

@@ -146,7 +146,9 @@ def channels() -> dict[str, Any]:
     """What the columns of GET /api/sensors are and how the Sensors panel draws them, declared
     once (app/sim/sensor_channels.py): its charts; each column's key, unit, label, chart (null:
     drawn by none, as the soles' CoP and loads), colour, dashed and scale; each law's group and
-    name in the order of its switch bit. The same for the server's life: ask once."""
+    name in the order of its switch bit; per chart, the series a linked robot's frames add to
+    it (key: its column in `robot.columns`, label, colour). The same for the server's life: ask
+    once."""
     return channel_list()
 
 

@@ -5,6 +5,7 @@ from outside: the simulation thread never sees it; any thread may add or read, u
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import deque
@@ -16,17 +17,17 @@ from numpy.typing import NDArray
 
 from app.server.recording.sensor_trace import WINDOW_FRAMES
 from app.sim.planning import FRAME_S
+from app.sim.sensor_channels import ROBOT_CHANNELS, ROBOT_OUTPUT_FIELDS, robot_sample
 from app.sim.sensors import SensorReading
 
 FRESH_S = 2.0  # frames older than this: no robot linked
-#: the columns of the robot's view, named as the simulation's (app/server/recording/sensor_trace.py)
-COLUMNS = (
-    "t_s", "frame",
-    "pitch_est_deg", "roll_est_deg",
-    "gyro_x_deg_s", "gyro_y_deg_s", "gyro_z_deg_s",
-    "tilt_pitch_deg", "tilt_roll_deg", "a_y_delta", "cop_pitch_deg", "cop_roll_deg",
-    "cop_l_x_mm", "cop_l_y_mm", "cop_r_x_mm", "cop_r_y_mm", "load_l_n", "load_r_n",
-)  # fmt: skip
+#: the columns of the robot's view: the channels its frames carry (app/sim/sensor_channels.py),
+#: named as the simulation's, its own frame number after the time
+COLUMNS: tuple[str, ...] = (
+    ROBOT_CHANNELS[0].key,
+    "frame",
+    *(channel.key for channel in ROBOT_CHANNELS[1:]),
+)
 
 
 @dataclass(frozen=True)
@@ -48,23 +49,17 @@ class RobotFrame:
 
 
 def frame_row(frame: RobotFrame, positions_m: NDArray[np.float64]) -> tuple[float | None, ...]:
-    """`frame` as a row of COLUMNS; each sole's centre of pressure from the force sensors'
-    places `positions_m` (4, 2: the dashboard's robot), None for a sole that carries nothing."""
+    """`frame` as a row of COLUMNS, each channel taken as the trace takes it; each sole's centre
+    of pressure from the force sensors' places `positions_m` (4, 2: the dashboard's robot), None
+    for a sole that carries nothing."""
     reading = SensorReading(
         np.asarray(frame.gyro_rad_s), np.asarray(frame.accel_m_s2), np.asarray(frame.fsr_n)
     )
-    load = reading.fsr_n.sum(axis=1)
+    sent = {name: getattr(frame, name) for name in ROBOT_OUTPUT_FIELDS}
     cop_mm = reading.centre_of_pressure_m(positions_m) * 1e3
-    deg = np.degrees
-    return (
-        frame.frame * FRAME_S, float(frame.frame),
-        *(float(v) for v in deg(frame.attitude_rad)),
-        *(float(v) for v in deg(frame.gyro_rad_s)),
-        *(float(v) for v in deg(frame.tilt_rad)), float(frame.a_y_delta),
-        *(float(v) for v in deg(frame.cop_rad)),
-        *(None if np.isnan(v) else float(v) for v in cop_mm.reshape(4)),
-        float(load[0]), float(load[1]),
-    )  # fmt: skip
+    sample = robot_sample(frame.frame * FRAME_S, reading, sent, cop_mm)
+    time_s, *values = (channel.take(sample) for channel in ROBOT_CHANNELS)
+    return (time_s, float(frame.frame), *(None if math.isnan(v) else v for v in values))
 
 
 class RobotSensors:
