@@ -7,7 +7,7 @@ view, `GET /api/sensors/channels` and the page's charts follow (`CHANNELS`, `ROB
 from __future__ import annotations
 
 from collections.abc import Callable
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, fields, replace
 from typing import Any
 
 import numpy as np
@@ -85,10 +85,12 @@ def _law_output(output: LawOutput) -> Callable[[FrameSample], float]:
     return take
 
 
-#: the fields of `feedback.Output` a linked robot's SENSORS frame carries: those of its law
-#: outputs that hardware/firmware/wire.py forwards to the dashboard (as float32), by the same name
+#: the fields of `feedback.Output` a linked robot's SENSORS frame carries: those that
+#: hardware/firmware/wire.py forwards to the dashboard as float32, by the same name
 ROBOT_OUTPUT_FIELDS: tuple[str, ...] = tuple(
-    f.name for f in SENSORS.fields if f.dashboard == "float32"
+    f.name
+    for f in SENSORS.fields
+    if f.dashboard == "float32" and f.name in {o.name for o in fields(feedback.Output)}
 )
 
 
@@ -183,13 +185,13 @@ def channel_list() -> dict[str, object]:
     /api/sensors/channels`): {"charts": [{key, label}], "channels": [{key, unit, label, chart,
     colour, dashed, scale}], "laws": [{group, label}], "robot": {chart: [{key, label,
     colour}]}}, the last a linked robot's series of each chart."""
-    fields = ("key", "unit", "label", "chart", "colour", "dashed", "scale")
+    keys = ("key", "unit", "label", "chart", "colour", "dashed", "scale")
     robot: dict[str, list[dict[str, str]]] = {chart: [] for chart in CHARTS}
     for s in ROBOT_SERIES:
         robot[_DRAWN_ON_ROBOT[s.key]].append({"key": s.key, "label": s.label, "colour": s.colour})
     return {
         "charts": [{"key": key, "label": label} for key, label in CHARTS.items()],
-        "channels": [{name: getattr(c, name) for name in fields} for c in CHANNELS],
+        "channels": [{name: getattr(c, name) for name in keys} for c in CHANNELS],
         "laws": [{"group": law.group, "label": law.label} for law in LAWS],
         "robot": robot,
     }
