@@ -7,7 +7,7 @@ robust cases on the hidden robot and on robots about it (each goal field drawn w
 precision, the rest as the hidden robot has them), and the runs that pass (`robust_cases`'
 rule, against each set's own walk on the hidden robot) are counted.
 
-    python bench/bench_fit_tune.py [--robust 4] [--generations 4] [--popsize 6] [--samples 20]
+    python bench/bench_fit_tune.py [--robust 4] [--generations 6] [--popsize 8] [--samples 20]
 
 Writes bench/results/bench_fit_tune.json (or --json PATH); keeps its files in --work.
 """
@@ -61,8 +61,8 @@ def main() -> None:
     parser.add_argument("--base", default="robust", help="the tunes' start (default: robust)")
     parser.add_argument("--budget", type=int, default=160, help="the fit's (default: 160)")
     parser.add_argument("--robust", type=int, default=4, help="variations a tune (default: 4)")
-    parser.add_argument("--generations", type=int, default=4, help="a tune's (default: 4)")
-    parser.add_argument("--popsize", type=int, default=6, help="a tune's (default: 6)")
+    parser.add_argument("--generations", type=int, default=6, help="a tune's (default: 6)")
+    parser.add_argument("--popsize", type=int, default=8, help="a tune's (default: 8)")
     parser.add_argument(
         "--samples", type=int, default=20, help="robots about the hidden one (default: 20)"
     )

@@ -24,7 +24,8 @@ class Traces:
     left, front-right, back-left, back-right), the joints' angles (n, 12) rad, the trunk's x, y
     (m) and yaw (rad) (n, 3); `fell_frame` the frame the robot fell in (None: it stood);
     `index` each row's frame in the routine (None: every frame, in order; a recording from the
-    link may lack some, docs/FIT.md)."""
+    link may lack some, docs/FIT.md); `effort` each servo's |torque| over its limit (n, 12), a
+    simulated replay's only (None: a recording's)."""
 
     commanded: NDArray[np.float64]
     gyro: NDArray[np.float64]
@@ -34,6 +35,7 @@ class Traces:
     pose: NDArray[np.float64]
     fell_frame: int | None = None
     index: NDArray[np.int64] | None = None
+    effort: NDArray[np.float64] | None = None
 
     @property
     def frames(self) -> int:
@@ -47,7 +49,8 @@ class Traces:
     def at(self, rows: NDArray[np.int64]) -> Traces:
         """The rows `rows` (positions into these traces), their frames kept in `index`."""
         cut = {f: getattr(self, f)[rows] for f in CHANNELS}
-        return dataclasses.replace(self, **cut, index=self.positions[rows])
+        effort = None if self.effort is None else self.effort[rows]
+        return dataclasses.replace(self, **cut, index=self.positions[rows], effort=effort)
 
 
 CHANNELS = ("commanded", "gyro", "accel", "fsr", "joints", "pose")
@@ -79,7 +82,10 @@ def play(
     )
     sim.watch_sensors = True
     commanded, gyro, accel, fsr, joints, pose = (np.zeros((n, k)) for k in (12, 3, 3, 8, 12, 3))
-    out = Traces(commanded, gyro, accel, fsr, joints, pose)
+    effort = np.zeros((n, 12))
+    out = Traces(commanded, gyro, accel, fsr, joints, pose, effort=effort)
+    actuators = robot.actuator_ids
+    limit = np.abs(sim.model.actuator_forcerange[actuators, 1])
     frame = 0
     for segment, length in zip(routine, lengths, strict=True):
         if frame:
@@ -95,10 +101,12 @@ def play(
                 out.fsr[frame] = np.asarray(reading.fsr_n).reshape(8)
                 out.joints[frame] = sim.data.qpos[robot.qpos_adr]
                 out.pose[frame] = sim.trunk_pose()
+                effort[frame] = np.abs(sim.data.actuator_force[actuators]) / limit
                 if sim.fell:
                     out.fell_frame = frame
             else:
                 for trace in (out.commanded, out.gyro, out.accel, out.fsr, out.joints, out.pose):
                     trace[frame] = trace[frame - 1]
+                effort[frame] = 0.0  # lying still
             frame += 1
     return out

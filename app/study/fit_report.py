@@ -60,6 +60,7 @@ def summary(result: Fit, recording: Recording) -> dict[str, Any]:
         },
         "correlated": [list(c) for c in result.correlated],
         "flat": result.flat,
+        "still": result.still,
         "loss": {"nominal": result.loss_nominal, "fitted": result.loss_fit},
         "rms": {"nominal": result.rms_nominal, "fitted": result.rms_fit},
         "noise_ratio": result.noise_ratio(),
@@ -119,6 +120,8 @@ def write_report(result: Fit, recording: Recording, folder: Path, robot: str, fi
 
 
 def why_not_told(name: str, result: Fit) -> str:
+    if name in result.still:
+        return f"no: {result.still[name]}"
     if name in result.flat:
         return "no: the recording barely moves it (flat)"
     partners = [b if a == name else a for a, b, _ in result.correlated if name in (a, b)]

@@ -14,9 +14,11 @@ from app.study.fit_result import CONVERGED_SPREAD, _ends, judged
 from app.worlds.variations import NOMINAL
 
 
-def _traces(offset: float) -> Traces:
+def _traces(offset: float, at_limit_frames: int = 0) -> Traces:
     n = 40
     rows = np.arange(n, dtype=float)[:, None]
+    effort = np.full((n, 12), 0.5)
+    effort[:at_limit_frames, 3] = 1.0
     return Traces(
         commanded=np.zeros((n, 12)),
         gyro=np.sin(rows / 5) * np.ones((1, 3)) * 0.1 + offset,
@@ -24,14 +26,16 @@ def _traces(offset: float) -> Traces:
         fsr=np.ones((n, 8)) + offset,
         joints=np.zeros((n, 12)),
         pose=np.zeros((n, 3)),
+        effort=effort,
     )
 
 
-def _judge(spread: dict[str, float]):
-    dims = [fit_space.PHYSICS["latency_ms"], fit_space.PHYSICS["kp_scale"]]
-    values = {"latency_ms": 20.0, "kp_scale": 0.9}
-    recorded, nominal, fitted = _traces(0.0), _traces(0.05), _traces(0.001)
-    return judged(dims, values, np.array([0.1, 0.001]), np.eye(2), [nominal, fitted],
+def _judge(spread: dict[str, float], at_limit_frames: int = 10):
+    dims = [fit_space.PHYSICS[k] for k in ("latency_ms", "kp_scale", "torque_scale")]
+    values = {"latency_ms": 20.0, "kp_scale": 0.9, "torque_scale": 0.85}
+    recorded, nominal = _traces(0.0), _traces(0.05)
+    fitted = _traces(0.001, at_limit_frames)
+    return judged(dims, values, np.array([0.1, 0.001, 0.001]), np.eye(3), [nominal, fitted],
                   recorded, False, NOMINAL, 1.0, 0.1, 100, spread)  # fmt: skip
 
 
@@ -39,6 +43,16 @@ def test_a_search_settled_within_each_fields_precision_has_converged():
     result = _judge({"latency_ms": 4.9 * CONVERGED_SPREAD, "kp_scale": 0.01})
     assert result.converged, result.why_not
     assert result.variation.latency_ms == 20.0 and result.variation.kp_scale == 0.9
+    assert result.identified == {"latency_ms": True, "kp_scale": True, "torque_scale": True}
+
+
+def test_a_torque_the_routine_never_leans_on_is_not_told():
+    """A servo at its torque limit in 0 of 40 frames: the torque scale is not told, whatever
+    its σ; in 10 of 40 it is."""
+    result = _judge({}, at_limit_frames=0)
+    assert not result.identified["torque_scale"] and result.identified["kp_scale"]
+    assert "torque limit in 0.0 %" in result.still["torque_scale"]
+    assert "torque_scale" not in _judge({}, at_limit_frames=10).still
 
 
 def test_a_search_still_wide_in_one_field_keeps_the_nominal_and_names_it():
