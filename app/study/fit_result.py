@@ -25,7 +25,7 @@ CORRELATED = 0.9
 MIN_GAIN = 0.02
 #: the torque scale is told only when the fit's replay holds a servo at its torque limit (at
 #: AT_LIMIT of it) for at least this share of the frames; below, the routine never leans on it
-#: (decision 0067: a robot at 0.1 % was fitted 0.19 off, robots at 8-26 % within 0.04)
+#: (decision 0067: robots at 0.1 and 0.17 % fitted 0.19 and 0.14 off, at 5-26 % within 0.035)
 TORQUE_TOLD_SHARE = 0.01
 #: CMA-ES has converged when each coordinate's spread left in its search (its σ) is within
 #: this many times the precision the field must reach: on a loss the contacts make rough the
