@@ -151,7 +151,11 @@ class Replays:
             self.cluster = ClusterEvaluator(cluster, robot, wait_workers_s=wait)
             self.key = uuid.uuid4().hex
             sent = json.dumps(robot.description.model_dump(mode="json"), sort_keys=True)
-            (self.init,) = self.cluster.client.scatter([(sent, *init[1:])], broadcast=True)
+            try:
+                (self.init,) = self.cluster.client.scatter([(sent, *init[1:])], broadcast=True)
+            except BaseException:  # the client closed, not left to its finaliser
+                self.cluster.close()
+                raise
         elif workers > 1:
             self.pool = ProcessPoolExecutor(workers, initializer=start_worker, initargs=init)
         else:
