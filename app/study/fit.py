@@ -15,7 +15,6 @@ import numpy as np
 from app.analysis import fit_sensors
 from app.analysis.identify_record import Recording, traces_of
 from app.analysis.identify_replay import Traces
-from app.robots.model import RobotModel
 from app.study import fit_space
 from app.study.fit_replays import FitCancelled, Replays, aligned, imu_fit
 from app.study.fit_result import Fit, judged, uncertainty
@@ -89,10 +88,9 @@ def fit(
     present = recording.frames.present is not None
     name = recording.routine.split("-v", 1)[0]
     lengths = [s.frames for s in recording.segments]
-    model = RobotModel.load(robot)
     init = (robot, recording.params, name, recorded, present, fixed.to_text(), lengths)
     runner = Replays(
-        init, model, workers=workers, cluster=cluster, wait_workers_s=wait_workers_s, cancel=cancel
+        init, workers=workers, cluster=cluster, wait_workers_s=wait_workers_s, cancel=cancel
     )
     run_all = runner.map
 

@@ -134,7 +134,6 @@ class Replays:
     def __init__(
         self,
         init: tuple[Any, ...],
-        robot: RobotModel,
         *,
         workers: int = 1,
         cluster: str | None = None,
@@ -148,6 +147,7 @@ class Replays:
             from app.evaluation._dask import WAIT_WORKERS_S, ClusterEvaluator  # optional extra
 
             wait = WAIT_WORKERS_S if wait_workers_s is None else wait_workers_s
+            robot = load_robot(init[0])  # the client's own: only a cluster needs it here
             self.cluster = ClusterEvaluator(cluster, robot, wait_workers_s=wait)
             self.key = uuid.uuid4().hex
             sent = json.dumps(robot.description.model_dump(mode="json"), sort_keys=True)
