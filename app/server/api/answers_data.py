@@ -78,16 +78,35 @@ class LinkedRobotSeries(Answer):
     colour: str = Field(description="drawn in this colour (CSS), thicker than the simulation's")
 
 
+class SensorChart(Answer):
+    key: str = Field(description="the chart's name, as a column's `chart` gives it")
+    label: str = Field(description="its axis label")
+
+
+class SensorChannel(Answer):
+    """A column of GET /api/sensors (app/sim/sensor_channels.py `Channel`)."""
+
+    key: str = Field(description="its name among GET /api/sensors `columns`")
+    unit: str
+    label: str
+    chart: str | None = Field(description="the chart that draws it; null: none (the soles')")
+    colour: str = Field(description="drawn in this colour (CSS)")
+    dashed: bool
+    scale: float = Field(description="drawn times this")
+
+
+class SensorLaw(Answer):
+    group: str = Field(description="the law's group of the gait schema")
+    label: str = Field(description="its name on the panel")
+
+
 class SensorChannels(Answer):
     """The Sensors panel's charts, the trace's columns, the laws and a linked robot's series,
     as declared once (app/sim/sensor_channels.py, gait/feedback_params.py `LAWS`)."""
 
-    charts: list[dict[str, Any]] = Field(description="each chart's key and axis label")
-    channels: list[dict[str, Any]] = Field(
-        description="each column of GET /api/sensors in order: key, unit, label, the chart that "
-        "draws it (null: none), colour, dashed, scale (drawn times this)"
-    )
-    laws: list[dict[str, Any]] = Field(description="each law's group and name, in bit order")
+    charts: list[SensorChart] = Field(description="each chart's key and axis label")
+    channels: list[SensorChannel] = Field(description="each column of GET /api/sensors, in order")
+    laws: list[SensorLaw] = Field(description="each law's group and name, in bit order")
     robot: dict[str, list[LinkedRobotSeries]] = Field(
         default={},
         description="each chart's key: the series a linked robot's frames add to it, in order "
