@@ -14,7 +14,7 @@ from playwright.sync_api import expect, sync_playwright
 from tests.testing.browser_support import LARGE, SMALL, open_page, rgb, shot_path, wait_until
 from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
 
-CAUTION = "rgb(255, 146, 43)"  # style.css --caution (--orange)
+CAUTION = "rgb(255, 146, 43)"  # css/base.css --caution (--orange)
 
 
 def red_pixels(png: bytes) -> int:
