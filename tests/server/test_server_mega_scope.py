@@ -93,7 +93,10 @@ def test_the_megas_scope_frames_and_vcd_carry_its_channels_and_its_bus(tmp_path:
         assert 600 <= width_us <= 2400
         assert period_us == pytest.approx(PERIOD_US, abs=0.2)  # the part's clock, not 20 ms
     # a replay of the session: the frames the Mega drove, from what the recorder kept of them
-    live_replay, imported = replayed
+    live_replay, imported, last_frame = replayed
+    assert last_frame["recorded"] and last_frame["board"] == MEGA  # drawn as it was live
+    assert [c["servo"] for c in last_frame["pca9685"]["channels"]] == list(SERVO_NAMES)
+    assert {t["part"] for t in last_frame["i2c"]["transactions"]} == {"PCA9685", "MPU-6050"}
     assert live_replay.status_code == 200
     names = re.findall(r"^\$var wire 1 \S (\S+) \$end$", live_replay.text, re.MULTILINE)
     assert names == [f"PWM{n}" for n in range(12)] + ["I2C_PCA9685", "I2C_MPU6050"]
@@ -110,8 +113,11 @@ def test_the_megas_scope_frames_and_vcd_carry_its_channels_and_its_bus(tmp_path:
 
 
 def _replayed_vcds(http) -> tuple:
-    """The VCD download while the session is replayed, then while a file of it is."""
-    assert http.post("/api/recording/replay", json={}).status_code == 200
+    """The VCD download while the session is replayed, then while a file of it is; the
+    replay's last frame."""
+    status = http.post("/api/recording/replay", json={})
+    assert status.status_code == 200
+    last_frame = http.get(f"/api/recording/frame/{status.json()['frames'] - 1}").json()
     live_replay = http.get("/api/recording/export.vcd")
     exported = http.get("/api/recording/export").text
     http.post("/api/recording/live")
@@ -119,7 +125,7 @@ def _replayed_vcds(http) -> tuple:
     assert http.post("/api/recording/import", content=exported, headers=headers).is_success
     imported = http.get("/api/recording/export.vcd")
     http.post("/api/recording/live")
-    return live_replay, imported
+    return live_replay, imported, last_frame
 
 
 def _check_slots_and_the_pcas_clock(frames: list[dict]) -> None:

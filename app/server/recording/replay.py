@@ -134,9 +134,11 @@ class Replay:
 
     def frame_message(self, index: int, tdm: TdmConfig) -> dict[str, Any]:
         """The scope frame at `index` of the replayed recording (or, live, of the session so
-        far); IndexError with the allowed range."""
+        far), with the Mega board's channels and I2C where the recorder kept them;
+        IndexError with the allowed range."""
         rec = self.recording or self.recorder.recording()
         self._check(rec, index)
+        board = rec.boards[index] if index < len(rec.boards) else None  # a file keeps none
         return {
             "index": index,
             "frame": int(rec.frame[index]),
@@ -147,6 +149,7 @@ class Replay:
             "source": "firmware" if rec.drive[index] else "model",
             "recorded": True,
             **frame_to_dict(rec.ocr[index].astype(np.int32), tdm),
+            **(board.message() if board is not None else {}),  # the Mega's, as it was live
         }
 
     def status(self) -> dict[str, Any]:
