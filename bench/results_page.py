@@ -24,7 +24,7 @@ BENCH_DIR = Path(__file__).resolve().parent
 RESULTS_DIR = BENCH_DIR / "results"
 PAGE = BENCH_DIR / "RESULTS.md"
 #: modules in bench/ that are no benches: this script and the helper the benches write with
-HELPERS = ("results", "results_page")
+HELPERS = ("batch_measures", "results", "results_page")
 
 
 def benches(bench_dir: Path = BENCH_DIR) -> list[str]:

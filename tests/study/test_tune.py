@@ -1,22 +1,18 @@
-"""`artro tune`: a short run improves its objective, resumes from its results file, and writes a
-preset that loads."""
+"""`artro tune`: a short run improves its objective and writes a preset that loads; the loss,
+the criteria, the robust score per family, and progress (resuming: test_tune_resume.py)."""
 
 import io
-import signal
 import subprocess
 import sys
-from pathlib import Path
 
 import optuna
 import pytest
 
 from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
 from app.analysis.robust_cases import ROBUST_CASES
-from app.evaluation import BatchEvaluator, Job
-from app.params.document import ParameterSet
 from app.params.formats import load_parameter_set
 from app.params.presets import stamped, write_parameter_set
-from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, StudyStore, open_storage
+from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, open_storage
 from app.study.tune import Tuner, dimensions
 from app.study.tune_families import FAMILIES
 from app.study.tune_loss import (
@@ -27,29 +23,16 @@ from app.study.tune_loss import (
     total_loss,
 )
 from gait import GaitParams
-from tests.testing.signal_support import with_sigint_default
-
-ROOT = Path(__file__).resolve().parents[2]
-EVALUATOR = BatchEvaluator(threads=2)
-# a deliberately poor start: a slow clock and almost no foot clearance
-POOR = ParameterSet(
-    name="poor",
-    gait=GaitParams.from_dict(
-        {"clock": {"freq_hz": 0.5}, "short": {"amp_base": 0.05}, "leg": {"paper_signs": False}}
-    ),
+from tests.testing.tune_support import (
+    EVALUATOR,
+    NAMES,
+    POOR,
+    ROOT,
+    SETTINGS,
+    base_loss,
+    store,
+    trials_in,
 )
-NAMES = ("clock.freq_hz", "short.amp_base")
-SETTINGS = {"duration_s": 3.0, "warmup_s": 1.0, "popsize": 4, "seed": 3}
-
-
-def base_loss() -> float:
-    jobs = [Job(POOR.gait, motion) for _name, motion in JUDGED_RUNS]
-    metrics = EVALUATOR.evaluate(jobs, duration_s=3.0, warmup_s=1.0)
-    return total_loss({name: m for (name, _), m in zip(JUDGED_RUNS, metrics, strict=True)}, 3.0)
-
-
-def store(tmp_path, tuner: Tuner, name: str = "study.log") -> StudyStore:
-    return StudyStore(tmp_path / name, tuner.settings)
 
 
 @pytest.mark.slow
@@ -71,149 +54,6 @@ def test_a_short_run_improves_and_writes_a_loadable_preset(tmp_path):
     assert set(trials[0].user_attrs["metrics"]["nominal"]) == {n for n, _m in JUDGED_RUNS}
     assert set(trials[0].params) == set(NAMES)
     assert study.best_value == pytest.approx(tuner.best[0])
-
-
-class Counting(BatchEvaluator):
-    """The real evaluator, counting the runs it simulates."""
-
-    runs = 0
-
-    def evaluate(self, jobs, **kwargs):
-        Counting.runs += len(jobs)
-        return super().evaluate(jobs, **kwargs)
-
-
-def test_resuming_replays_the_store_without_simulating(tmp_path):
-    first = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
-    first.run(2, store(tmp_path, first), progress=None)
-    Counting.runs = 0
-    again = Tuner(POOR, NAMES, evaluator=Counting(threads=1), **SETTINGS)
-    again.run(2, store(tmp_path, again), progress=None)  # both generations come from the store
-    assert Counting.runs == 0
-    assert again.best[0] == first.best[0] and again.generation == 2
-    fewer = Tuner(POOR, NAMES, evaluator=Counting(threads=1), **SETTINGS)
-    with (
-        store(tmp_path, fewer) as held,
-        pytest.raises(ValueError, match="holds 2 generations, more than the 1 asked for"),
-    ):
-        fewer.run(1, held, progress=None)  # it would choose among the first only
-    assert Counting.runs == 0 and fewer.best is None
-    other = Tuner(POOR, NAMES, evaluator=EVALUATOR, **{**SETTINGS, "seed": 4})
-    with pytest.raises(ValueError, match="other settings"):
-        store(tmp_path, other)
-
-
-def test_a_journal_cut_short_by_a_crash_resumes_from_its_whole_entries(tmp_path, capsys):
-    """Issue 33: a crash that cut the journal's last line made every finished trial unreadable
-    ("Expecting ':' delimiter") once the resumed tune appended to it."""
-    journal = tmp_path / "study.log"
-    first = Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS)
-    with StudyStore(journal, first.settings) as kept:
-        first.run(1, kept, progress=None)
-    data = journal.read_bytes()
-    last = data.rstrip(b"\n").rfind(b"\n") + 1  # the last candidate's trial
-    cut = last + (len(data) - last) // 2
-    journal.write_bytes(data[:cut])
-    Counting.runs = 0
-    again = Tuner(POOR, NAMES, evaluator=Counting(threads=2), **SETTINGS)
-    with StudyStore(journal, again.settings) as resumed:
-        again.run(1, resumed, progress=None)
-    said = capsys.readouterr().err
-    assert f"the study journal {journal} ended in a damaged entry" in said
-    assert Counting.runs == len(JUDGED_RUNS)  # only the cut candidate ran again
-    trials = trials_in(journal)
-    assert len(trials) == 4 and again.best[0] == first.best[0]
-    (aside,) = tmp_path.glob("study.log.damaged-*")
-    assert aside.read_bytes() == data[last:cut]
-
-
-@pytest.mark.slow
-def test_a_study_killed_mid_generation_resumes_without_losing_a_finished_evaluation(tmp_path):
-    study_file = tmp_path / "killed.log"
-    command = [
-        sys.executable, "-m", "app.cli", "tune", "--tune", ",".join(NAMES), "--generations", "1",
-        "--popsize", "6", "--duration", "7", "--warmup", "1", "--seed", "3", "--study",
-        str(study_file), "--out", str(tmp_path / "out.json"), "--threads", "2",
-    ]  # fmt: skip
-    tuner = subprocess.Popen(command, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
-    finished_before = 0
-    for _ in range(3000):  # bounded: until some, not all, candidates of the generation are in
-        if study_file.exists():
-            try:
-                finished_before = len(trials_in(study_file))
-            except KeyError:  # the tuner is still creating the study in the file
-                finished_before = 0
-            if finished_before >= 1:
-                tuner.send_signal(signal.SIGKILL)
-                break
-        try:
-            tuner.wait(0.1)
-            break
-        except subprocess.TimeoutExpired:
-            pass
-    tuner.wait(60)
-    kept = trials_in(study_file)
-    assert 1 <= len(kept) <= 6, tuner.stderr.read()
-    before = {tuple(t.user_attrs["unit"]): t.value for t in kept}
-    resumed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True)
-    assert resumed.returncode == 0, resumed.stderr[-2000:]
-    after = trials_in(study_file)
-    assert len(after) == 6  # the generation is whole, each candidate once
-    units = [tuple(t.user_attrs["unit"]) for t in after]
-    assert len(set(units)) == 6
-    for unit, value in before.items():  # what finished before the kill was kept, not redone
-        assert [t.value for t in after if tuple(t.user_attrs["unit"]) == unit] == [value]
-
-
-@pytest.mark.slow
-def test_ctrl_c_ends_a_tune_in_a_sentence_and_the_study_resumes(tmp_path):
-    study_file = tmp_path / "interrupted.log"
-    command = [
-        sys.executable, "-m", "app.cli", "tune", "--tune", "swing.v,short.amp_base",
-        "--generations", "3", "--popsize", "4", "--duration", "4", "--warmup", "1", "--seed",
-        "3", "--cases", "forward", "--study", str(study_file), "--out",
-        str(tmp_path / "out.json"), "--threads", "2",
-    ]  # fmt: skip
-    # Ctrl-C as from a terminal, though the suite runs as a background job (SIGINT ignored)
-    tuner = subprocess.Popen(
-        with_sigint_default(command), cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
-    )
-    for _ in range(3000):  # bounded: until a candidate is in the study
-        try:
-            if study_file.exists() and trials_in(study_file):
-                break
-        except KeyError:  # the study is still being made in the file
-            pass
-        try:
-            tuner.wait(0.1)
-            break
-        except subprocess.TimeoutExpired:
-            pass
-    assert tuner.poll() is None, "the tune ended before it could be interrupted"
-    tuner.send_signal(signal.SIGINT)
-    said = tuner.communicate(timeout=120)[1].decode()
-    assert tuner.returncode == 130, said[-2000:]
-    assert "Traceback" not in said
-    assert said.strip().splitlines()[-1] == (
-        f"artro tune: interrupted; the study {study_file} keeps every candidate that finished: "
-        "the same command resumes it"
-    )
-    kept = len(trials_in(study_file))
-    resumed = subprocess.run(command, cwd=ROOT, capture_output=True, text=True)
-    assert resumed.returncode == 0, resumed.stderr[-2000:]
-    assert 1 <= kept <= len(trials_in(study_file)) == 12
-
-
-def trials_in(path: Path, *, study: bool = False):
-    """The finished trials of the one tuning study in `path` (or the study itself): a Tuner's
-    own (DEFAULT_STUDY) or `artro tune`'s (tune-ROBOT-DIGEST). KeyError while none is made."""
-    storage = open_storage(path)
-    names = optuna.get_all_study_names(storage)
-    if not names:
-        raise KeyError("no study yet")
-    (name,) = names
-    loaded = optuna.load_study(study_name=name, storage=storage)
-    return loaded if study else loaded.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
 
 
 def test_loss_rewards_the_paper_figure_and_punishes_falls():
