@@ -46,6 +46,7 @@ from app.robots.checks import eq1_torques
 from app.robots.model import RobotModel
 from app.study.study_store import StudyStore, study_name_for
 from app.study.tune import Tuner
+from app.study.tune_choice import best_passing, best_walking, families_of, varied_summary
 from app.study.tune_loss import LossWeights
 from gait.params import merge, parse_settings
 
@@ -123,6 +124,10 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
     check_timing(names, base.gait, args.duration, args.warmup)
     if args.range and not args.robust:
         raise ValueError("--range narrows the variations of --robust N: give --robust too")
+    if args.keep_base and not args.robust:
+        raise ValueError(
+            "--keep-base keeps the base's passes in --robust N's worlds: give --robust"
+        )
     ranges = ranges_from(args.range, args.duration)
     backend = backend_of(args)
     local = (
@@ -148,6 +153,7 @@ def tune(args: argparse.Namespace, events_to: Any) -> int:
         robust=args.robust,
         robust_weight=args.robust_weight,
         ranges=ranges,
+        keep_base=args.keep_base,
     )
     tuner.settings["set"] = args.set
     settings = {**tuner.settings, "robot": robot.name}
@@ -214,12 +220,12 @@ def search(
                 close_evaluator(tuner.evaluator)
     chosen, selected = tuner.best, args.select
     if args.select == "walking":
-        chosen = tuner.best_walking()
+        chosen = best_walking(tuner)
         if chosen is None:
             print("no candidate walked every run without a fall; saving the lowest loss instead")
             chosen, selected = tuner.best, "lowest loss"
     elif args.select in ("passing", "steering"):
-        chosen = tuner.best_passing(by="loss" if args.select == "passing" else "steering")
+        chosen = best_passing(tuner, by="loss" if args.select == "passing" else "steering")
         if chosen is None:
             print("no candidate met every criterion; saving the lowest loss instead")
             chosen, selected = tuner.best, "lowest loss"
@@ -263,8 +269,8 @@ def report(
     events(RESULT, name=name, preset=start_mode, loss=chosen[0], select=args.select,
            walked=walks(chosen[2]), generations=tuner.generation, trials=len(tuner.evaluated),
            saved=saved, replaced=bool(start_mode and earlier), figures=figures,
-           **({"families": fam} if (fam := tuner.families_of(chosen)) else {}))  # fmt: skip
-    if varied := tuner.varied_summary(chosen):
+           **({"families": fam} if (fam := families_of(tuner, chosen)) else {}))  # fmt: skip
+    if varied := varied_summary(tuner, chosen):
         print(f"  robust: {varied}")
     if fell := [run for run, m in chosen[2].items() if m.get("fell", True)]:
         where = args.robot or robot

@@ -205,6 +205,16 @@ def add_parser(sub: Any, command: Any) -> None:
         help="weight of that term (default 1.0)",
     )
     parser.add_argument(
+        "--keep-base",
+        type=number(0, 1000, what="--keep-base"),
+        default=0.0,
+        metavar="W",
+        help="with --robust, also walk the base set in each generation's worlds and add W times "
+        "how far each case family's pass share falls below the base's there, summed: a gain "
+        "in the worst family cannot buy a loss in another (default 0: not walked; decision "
+        "0070)",
+    )
+    parser.add_argument(
         "--torque-weight",
         type=number(0, 1000, what="--torque-weight"),
         default=0.5,

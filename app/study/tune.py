@@ -15,10 +15,8 @@ from typing import Any, TextIO
 
 import numpy as np
 
-from app.analysis.cases import CURVES, curve_run_names, steering
-from app.analysis.robot_start import walks
 from app.analysis.robot_tune import RUNS, TRIAL, EventWriter
-from app.analysis.robust_cases import ROBUST_CASES
+from app.analysis.robust_cases import ROBUST_CASES, RobustCase
 from app.evaluation import BatchEvaluator, Evaluator, Job
 from app.evaluation.progress import ProgressLine, about, bar, time_left_s
 from app.params.document import ParameterSet
@@ -26,13 +24,13 @@ from app.robots.model_parts import joint_settings
 from app.study.study_store import StudyStore
 from app.study.tune_families import (
     cvar25,
-    describe_families,
     families_term,
     family_scores,
+    kept_shortfall,
     torque_penalty,
     world_losses,
 )
-from app.study.tune_loss import LossWeights, meets_all_criteria, total_loss
+from app.study.tune_loss import LossWeights, total_loss
 from app.study.tune_space import DEFAULT_NAMES, dimensions, judged_runs, with_values
 from app.worlds.fitted import fitted_ranges, fitted_variation
 from app.worlds.sampling import VariationRanges, sample
@@ -65,13 +63,23 @@ class Tuner:
         robust: int = 0,
         robust_weight: float = 1.0,
         ranges: VariationRanges | None = None,
+        keep_base: float = 0.0,
     ) -> None:
         if robust < 0 or not math.isfinite(robust_weight) or robust_weight < 0:
             raise ValueError(
                 f"robust needs N >= 0 variations and a weight >= 0, got {robust}, {robust_weight}"
             )
+        if not math.isfinite(keep_base) or keep_base < 0 or (keep_base and not robust):
+            raise ValueError(
+                f"keeping the base needs a weight >= 0 and robust N >= 1 variations to keep it "
+                f"in, got {keep_base} with robust {robust}"
+            )
         self.base = base
         self.robust, self.robust_weight = robust, robust_weight
+        #: with --robust: the weight of the shortfall of each family's pass share below the
+        #: base set's in the same worlds (`kept_shortfall`); 0: the base is not walked
+        self.keep_base = keep_base
+        self._base_families: dict[int, dict[str, dict[str, Any]]] = {}  # by generation
         self.ranges = ranges or VariationRanges()
         self.runs = judged_runs(cases)
         self.dims = dimensions(names)
@@ -115,6 +123,8 @@ class Tuner:
                               "robust_loss": "families"}  # fmt: skip
             self.settings["ranges"] = {f.name: list(getattr(self.ranges, f.name))
                                        for f in dataclasses.fields(self.ranges)}  # fmt: skip
+        if keep_base:
+            self.settings["keep_base"] = keep_base
         self.settings |= weights.settings()
         self.best: tuple[float, GaitParams, dict[str, dict[str, Any]]] | None = None
         #: with --robust, each evaluated candidate's varied runs ("passed" of "runs"), by the
@@ -149,14 +159,20 @@ class Tuner:
         worlds = self.variations(self.generation)
         varied = self.robust_runs()  # in a varied world only what the robust term judges
         per = len(self.runs) + len(worlds) * len(varied)
-        jobs = [
-            job
-            for p in sets
-            for job in (
+
+        def jobs_of(p: GaitParams) -> list[Job]:
+            return [
                 *(Job(p, m, variation=self.fitted) for _n, m in self.runs),
                 *(Job(p, m, variation=v) for v in worlds for _n, m in varied),
+            ]
+
+        if self.keep_base and self.generation not in self._base_families:
+            base_runs = self.evaluator.evaluate(
+                jobs_of(self.base.gait), duration_s=self.duration_s, warmup_s=self.warmup_s
             )
-        ]
+            self._walked += per
+            self._base_families[self.generation] = self._families([dict(m) for m in base_runs])
+        jobs = [job for p in sets for job in jobs_of(p)]
         started = time.monotonic()
         finished: dict[int, dict[int, Any]] = {}
         out: list[tuple[float, dict[str, dict[str, Any]]] | None] = [None] * len(sets)
@@ -224,10 +240,7 @@ class Tuner:
         stored: dict[str, Any] = {"nominal": home}
         if len(runs) == n:
             return nominal, stored
-        judged = self.robust_runs()
-        cases = [next(c for c in ROBUST_CASES if c.motion == m) for _n, m in judged]
-        names = [name for name, _m in judged]
-        worlds = [runs[k : k + len(judged)] for k in range(n, len(runs), len(judged))]
+        cases, names, worlds = self._varied(runs)
         varied = world_losses(cases, names, worlds, home)
         families = family_scores(cases, names, worlds, home)
         term = families_term(families)
@@ -241,7 +254,30 @@ class Tuner:
             "term": term,
             "torque": torque,
         }
+        if self.keep_base:
+            base = self._base_families[self.generation]
+            shortfall = kept_shortfall(families, base)
+            term += self.keep_base * shortfall
+            stored["robust"] |= {"term": term, "base_shares": {f: b["share"] for f, b in
+                                 base.items()}, "kept_shortfall": shortfall}  # fmt: skip
         return nominal + self.robust_weight * term + self.weights.torque * torque, stored
+
+    def _varied(
+        self, runs: list[dict[str, Any]]
+    ) -> tuple[list[RobustCase], list[str], list[list[dict[str, Any]]]]:
+        """The robustness cases of `robust_runs`, their names, and `runs`' varied runs world
+        by world (after the nominal runs)."""
+        judged = self.robust_runs()
+        cases = [next(c for c in ROBUST_CASES if c.motion == m) for _n, m in judged]
+        names = [name for name, _m in judged]
+        n = len(self.runs)
+        return cases, names, [runs[k : k + len(judged)] for k in range(n, len(runs), len(judged))]
+
+    def _families(self, runs: list[dict[str, Any]]) -> dict[str, dict[str, Any]]:
+        """`family_scores` of one set's runs (nominal runs, then each world's)."""
+        home = {name: m for (name, _), m in zip(self.runs, runs[: len(self.runs)], strict=True)}
+        cases, names, worlds = self._varied(runs)
+        return family_scores(cases, names, worlds, home)
 
     def robust_runs(self) -> list[tuple[str, Motion]]:
         """The tuner's runs that walk a case of the robustness report (a tuner limited to
@@ -345,55 +381,3 @@ class Tuner:
         self.events(
             TRIAL, done=len(self.evaluated), budget=self.budget, loss=loss, best=self.best[0]
         )
-
-    def varied_summary(self, chosen: tuple[float, GaitParams, dict[str, Any]]) -> str | None:
-        """With --robust: "passes P of N varied runs (S %) in W worlds" for a candidate of
-        `evaluated` (None without --robust)."""
-        robust = self.robust_of.get(id(chosen[2]))
-        if robust is None:
-            return None
-        passed, runs = robust["passed"], robust["runs"]
-        share = passed / runs if runs else 0.0
-        return (
-            f"passes {passed} of {runs} varied runs ({share:.0%}) in {len(robust['losses'])} "
-            f"worlds of its generation (`artro bench robust` measures it on more); per family "
-            f"{describe_families(robust.get('families', {}))}; eq (1) torque penalty "
-            f"{robust.get('torque', 0.0):.3f}"
-        )
-
-    def families_of(
-        self, chosen: tuple[float, GaitParams, dict[str, Any]]
-    ) -> dict[str, dict[str, float]] | None:
-        """With --robust: each family's "passed", "runs" and "share" for a candidate of
-        `evaluated` (`app.study.tune_families.family_scores`; None without --robust)."""
-        robust = self.robust_of.get(id(chosen[2]))
-        if robust is None or "families" not in robust:
-            return None
-        keys = ("passed", "runs", "share")
-        return {name: {k: f[k] for k in keys} for name, f in robust["families"].items()}
-
-    def best_walking(self) -> tuple[float, GaitParams, dict[str, dict[str, Any]]] | None:
-        """The lowest loss of the candidates that walked every judged run without a fall
-        (`app.analysis.robot_start.walks`), or None if none did."""
-        walking = [e for e in self.evaluated if walks(e[2])]
-        return min(walking, key=lambda e: e[0]) if walking else None
-
-    def best_passing(
-        self, by: str = "loss"
-    ) -> tuple[float, GaitParams, dict[str, dict[str, Any]]] | None:
-        """Of the candidates that meet every paper criterion (if any did): the lowest loss
-        (by="loss"), or the one CA steers most, forward (by="steering": the highest gain)."""
-        scale = self.weights.speed_scale
-        passing = [e for e in self.evaluated if meets_all_criteria(e[2], scale)]
-        if not passing:
-            return None
-        if by == "steering":
-            pair = next(p for p in CURVES if p.required)
-
-            def gain(entry: tuple[float, GaitParams, dict[str, dict[str, Any]]]) -> float:
-                plus, minus = (entry[2][name] for name in curve_run_names(pair))
-                s = steering(plus, minus, entry[2][pair.straight])
-                return -math.inf if s is None else s.gain
-
-            return max(passing, key=gain)
-        return min(passing, key=lambda e: e[0])

@@ -91,6 +91,16 @@ def families_term(families: dict[str, dict[str, Any]]) -> float:
     return max(objectives) + MEAN_SHARE * float(np.mean(objectives))
 
 
+def kept_shortfall(families: dict[str, dict[str, Any]], base: dict[str, dict[str, Any]]) -> float:
+    """How far a candidate's pass share falls below the base set's, summed over the families
+    (the base walked in the same worlds; `Tuner(keep_base=W)`, decision 0070): 0 where every
+    family passes at least as often. The worst family alone lets a gain there buy a loss in
+    another family; this term does not."""
+    return sum(
+        max(0.0, base[f]["share"] - fam["share"]) for f, fam in families.items() if f in base
+    )
+
+
 def asked_share(metrics: dict[str, Any], stall_nm: Sequence[float]) -> list[float]:
     """Eq (1) on a run, per servo: (1 + sf) x its peak torque over its stall torque; above 1 the
     servo lacks eq (1)'s margin (margin = 1 - this). A fall counts as asking the limit (1 + sf)."""

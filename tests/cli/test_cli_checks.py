@@ -111,6 +111,11 @@ CASES = {
         ["tune", "--range", "friction=0.3:0.6"],
         "--range narrows the variations of --robust N",
     ),
+    "tune: keeping the base without --robust": (
+        ["tune", "--keep-base", "2"],
+        "--keep-base keeps the base's passes in --robust N's worlds: give --robust",
+    ),
+    "tune: a negative keep weight": (["tune", "--keep-base", "-1"], "--keep-base must be"),
     "calibrate-ca: threads by the hundred thousand": (
         ["calibrate-ca", "--threads", "100000"],
         "--threads must be a whole number 1 to 1024",

@@ -10,11 +10,13 @@ import pytest
 
 from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
 from app.analysis.robust_cases import ROBUST_CASES
+from app.evaluation import BatchEvaluator
 from app.params.formats import load_parameter_set
 from app.params.presets import stamped, write_parameter_set
 from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, open_storage
 from app.study.tune import Tuner, dimensions
-from app.study.tune_families import FAMILIES
+from app.study.tune_choice import best_passing, families_of, varied_summary
+from app.study.tune_families import FAMILIES, families_term, kept_shortfall
 from app.study.tune_loss import (
     LossWeights,
     case_loss,
@@ -142,8 +144,8 @@ def test_select_the_passing_set_with_the_lowest_loss_or_the_most_steering():
     params = POOR.gait
     wrong_way = (0.5, params, judged(-0.2))  # the lowest loss, but CA steers the wrong way
     tuner.evaluated = [(1.0, params, judged(0.1)), (2.0, params, judged(0.4)), wrong_way]
-    assert tuner.best_passing()[0] == 1.0
-    assert tuner.best_passing(by="steering")[0] == 2.0
+    assert best_passing(tuner)[0] == 1.0
+    assert best_passing(tuner, by="steering")[0] == 2.0
 
 
 def test_settings_parse_numbers_and_switches_and_say_the_form():
@@ -205,9 +207,9 @@ def test_a_robust_score_adds_the_worst_familys_term_and_the_torque_penalty(tmp_p
     assert kept.user_attrs["robust.pass_share"] == passed / (3 * len(ROBUST_CASES))
     for run, m in runs.items():
         assert m["fell"] or kept.user_attrs[f"{run}.forward_cm_s"] == m["forward_cm_s"]
-    assert tuner.varied_summary(best).startswith(f"passes {passed} of {3 * len(ROBUST_CASES)} ")
-    assert "per family spot " in tuner.varied_summary(best)
-    assert set(tuner.families_of(best)) == set(FAMILIES.values())
+    assert varied_summary(tuner, best).startswith(f"passes {passed} of {3 * len(ROBUST_CASES)} ")
+    assert "per family spot " in varied_summary(tuner, best)
+    assert set(families_of(tuner, best)) == set(FAMILIES.values())
     # bench/robust_frontier.py reads the same store: a table of the frontier and its plot
     png = tmp_path / "frontier.png"
     drawn = subprocess.run(
@@ -244,6 +246,48 @@ def test_a_robust_score_adds_the_worst_familys_term_and_the_torque_penalty(tmp_p
         (best.params["clock.freq_hz"], best.params["short.amp_base"]), abs=1e-6
     )
     assert pick.leg == POOR.gait.leg  # untuned fields come from the base
+
+
+def test_the_kept_shortfall_sums_each_familys_loss_below_the_base():
+    base = {"sideways": {"share": 0.6}, "curves": {"share": 0.95}, "turning": {"share": 1.0}}
+    gains_sideways = {
+        "sideways": {"share": 0.7},
+        "curves": {"share": 0.9},
+        "turning": {"share": 1.0},
+    }
+    assert kept_shortfall(gains_sideways, base) == pytest.approx(0.05)  # the gain buys nothing
+    assert kept_shortfall(base, base) == 0.0
+
+
+class CountingJobs(BatchEvaluator):
+    """The real evaluator, counting the jobs it is given."""
+
+    jobs = 0
+
+    def evaluate(self, jobs, **kwargs):
+        CountingJobs.jobs += len(jobs)
+        return super().evaluate(jobs, **kwargs)
+
+
+def test_keeping_the_base_walks_it_in_the_same_worlds_and_adds_the_shortfall(tmp_path):
+    """`--keep-base W` (decision 0070): each generation also walks the base set in its worlds,
+    and each candidate's term adds W times its families' shortfall below the base's shares."""
+    with pytest.raises(ValueError, match=r"robust N >= 1 variations"):
+        Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS, keep_base=2.0)
+    CountingJobs.jobs = 0
+    tuner = Tuner(POOR, NAMES, evaluator=CountingJobs(threads=2), **SETTINGS, robust=2,
+                  keep_base=3.0)  # fmt: skip
+    assert tuner.settings["keep_base"] == 3.0  # a study of its own: another digest
+    tuner.run(1, store(tmp_path, tuner), progress=None)
+    per_set = len(tuner.runs) + 2 * len(tuner.robust_runs())
+    assert CountingJobs.jobs == (SETTINGS["popsize"] + 1) * per_set  # the base once
+    for trial in trials_in(tmp_path / "study.log"):
+        robust = trial.user_attrs["metrics"]["robust"]
+        base, families = robust["base_shares"], robust["families"]
+        assert list(base) == list(families) and all(0 <= b <= 1 for b in base.values())
+        shortfall = sum(max(0.0, base[f] - fam["share"]) for f, fam in families.items())
+        assert robust["kept_shortfall"] == pytest.approx(shortfall)
+        assert robust["term"] == pytest.approx(families_term(families) + 3.0 * shortfall)
 
 
 def test_progress_through_a_pipe_is_a_line_per_tenth_not_one_huge_line(tmp_path):

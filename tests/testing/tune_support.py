@@ -1,5 +1,6 @@
-"""Shared by the tuner's tests (tests/study/test_tune*.py): a deliberately poor start, the
-fields and settings of a short tune, its study store, and the finished trials in a store."""
+"""Shared by the tuner's tests (tests/study/test_tune.py, test_tune_resume.py): a deliberately
+poor start, the fields and settings of a short tune, its study store, and the finished trials in
+a store."""
 
 from pathlib import Path
 
