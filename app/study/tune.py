@@ -222,7 +222,8 @@ class Tuner:
         walked, and `per` runs for each candidate of the generations after it) at the pace of
         the runs this `run` has walked so far; None before the first run ends."""
         walked = self._walked + done
-        after = max(self.generations - self.generation - 1, 0) * self.es.popsize * per
+        sets = self.es.popsize + (1 if self.keep_base else 0)  # and the base, kept
+        after = max(self.generations - self.generation - 1, 0) * sets * per
         return time_left_s(time.monotonic() - self._since, walked, walked + total - done + after)
 
     def score(self, runs: list[dict[str, Any]]) -> tuple[float, dict[str, Any]]:
