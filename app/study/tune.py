@@ -233,8 +233,9 @@ class Tuner:
         spot, forward/backward, sideways, turning and curves, each family's pass share and
         worst quarter of worlds' pass margins scored apart, so a gain forward cannot hide a loss
         sideways), plus the torque weight times eq (1)'s margin of the nominal runs
-        (`torque_penalty`; decision 0062). In a varied world the goal is to walk, not the
-        paper's speed."""
+        (`torque_penalty`; decision 0062), and with `keep_base` W times the families' pass
+        share below the base set's in the same worlds (`kept_shortfall`, decision 0070). In a
+        varied world the goal is to walk, not the paper's speed."""
         n = len(self.runs)
         home = {name: m for (name, _), m in zip(self.runs, runs[:n], strict=True)}
         nominal = total_loss(home, self.duration_s, self.weights)
