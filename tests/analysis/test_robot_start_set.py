@@ -27,7 +27,7 @@ ARTRO = shutil.which("artro", path=str(Path(sys.executable).parent)) or "artro"
 
 
 def long_legs(tmp_path: Path) -> Path:
-    """ArtRo's file with legs of 0.11 + 0.10 m, nothing else changed (its default: robust)."""
+    """ArtRo's file with legs of 0.11 + 0.10 m, nothing else changed (its default preset)."""
     doc = yaml.safe_load((builtin_robots_dir() / "artro.yaml").read_text(encoding="utf-8"))
     doc["name"] = "long"
     doc["geometry"]["thigh_m"], doc["geometry"]["shank_m"] = 0.11, 0.10
@@ -61,6 +61,7 @@ def test_a_long_legged_artro_stands_in_its_default_set(tmp_path):
         capture_output=True, text=True, timeout=600, env=env,
     )  # fmt: skip
     assert out.returncode == 0, out.stderr  # it stood the whole run (it fell at 11.00 s)
-    assert "parameter set 'robust' was tuned for the robot 'artro', not 'long', scaled to its " \
-        "legs (clock 0.648074 Hz" in out.stderr  # fmt: skip
+    default = load_description("artro").default_preset
+    assert f"parameter set '{default}' was tuned for the robot 'artro', not 'long', scaled to " \
+        "its legs (clock 0.648074 Hz" in out.stderr  # fmt: skip
     assert "FELL" not in out.stdout

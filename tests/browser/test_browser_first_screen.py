@@ -11,6 +11,7 @@ import numpy as np
 import pytest
 from playwright.sync_api import expect, sync_playwright
 
+from app.robots import load_description
 from tests.testing.browser_support import LARGE, SMALL, open_page, rgb, shot_path, wait_until
 from tests.testing.server_harness import CHROMIUM, CHROMIUM_ARGS, running_server, wait_for
 
@@ -58,7 +59,8 @@ def test_the_default_gait_s_load_budget_is_a_caution_naming_the_servo_that_meets
     server, browser, width, height, tmp_path
 ):
     base_url, http = server
-    assert http.get("/api/params").json()["name"] == "robust"  # the robot's default preset
+    default = load_description("artro").default_preset
+    assert http.get("/api/params").json()["name"] == default  # the robot's default preset
     report = wait_for(lambda: knees_short(http), "the knees walk past eq (1)'s need", 1200)
     knee = next(j for j in report["joints"] if j["joint"] == "l_knee")
     # the server names the servo in place and the lightest of models/servos.yaml that meets it

@@ -8,11 +8,13 @@ import re
 import pytest
 from playwright.sync_api import expect
 
+from app.robots import load_description
 from tests.browser.test_browser_world import opened_page
 from tests.testing.browser_support import SMALL, shot_path
 from tests.testing.server_harness import CHROMIUM  # noqa: F401 (marks the module `browser`)
 
 TUNE_MS = 120_000  # the deadline of a tiny tune (about 10 s alone)
+DEFAULT = load_description("artro").default_preset  # the set the server starts with
 
 
 def size(page, generations: int, popsize: int, duration_s: int) -> None:
@@ -25,7 +27,7 @@ def size(page, generations: int, popsize: int, duration_s: int) -> None:
 @SMALL
 def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_path, width, height):
     with opened_page(tmp_path, width, height) as (page, http, errors):
-        expect(page.locator("#params-name")).to_have_text("robust", timeout=30_000)
+        expect(page.locator("#params-name")).to_have_text(DEFAULT, timeout=30_000)
         status, message = page.locator("#tune-status"), page.locator("#tune-message")
 
         # a long tune: its progress shows, Cancel stops it and nothing is loaded
@@ -37,7 +39,7 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         expect(status).to_contain_text("generation 1 of 20 · run ", timeout=TUNE_MS)  # runs walked
         # and the time the whole tune has left (issue 56, item 13)
         expect(status).to_contain_text(re.compile(r" · ~\d+\s(s|min|h\s\d+\smin)\sleft$"))
-        expect(status).to_have_attribute("title", re.compile("from 'robust'"))
+        expect(status).to_have_attribute("title", re.compile(f"from '{DEFAULT}'"))
         assert page.locator("#tune-progress").evaluate("el => el.value") > 0
         page.locator("#world-panel").screenshot(
             path=shot_path(f"tune-running-{width}.png", tmp_path)
@@ -49,7 +51,7 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         expect(message).to_contain_text("tune cancelled: nothing loaded", timeout=30_000)
         expect(page.locator("#tune-cancel")).to_be_hidden()
         expect(page.locator("#tune-start")).to_be_focused()  # the focus went on, not to the top
-        assert http.get("/api/params").json()["name"] == "robust"
+        assert http.get("/api/params").json()["name"] == DEFAULT
 
         # a tiny one: done, tuned-artro is the set in use, its row marked, its figures shown
         size(page, 1, 2, 9)
@@ -72,5 +74,5 @@ def test_tune_for_this_robot_shows_progress_cancels_and_loads_the_result(tmp_pat
         )
         page.locator("#world-panel").screenshot(path=shot_path(f"tune-done-{width}.png", tmp_path))
         page.click("#params-undo")
-        expect(page.locator("#params-name")).to_have_text("robust", timeout=30_000)
+        expect(page.locator("#params-name")).to_have_text(DEFAULT, timeout=30_000)
         assert errors == [], f"JavaScript errors on the page: {errors}"

@@ -220,7 +220,7 @@ def test_eq1_covers_the_robots_own_gait_not_only_the_papers(tmp_path):
 
 def test_a_range_that_holds_the_papers_reach_but_not_the_default_presets_is_refused(tmp_path):
     """Joint ranges just wide enough for the paper's constants passed, and the robot's own
-    preset (robust) then walked into its limits: 59 % slower forward, 86 % sideways."""
+    preset (then robust) walked into its limits: 59 % slower forward, 86 % sideways."""
     from app.robots.gait_reach import REACH_CASES, REACH_PHASES
     from gait import JOINT_NAMES, GaitParams, LegGeometry, joint_angles_with_flags
 
@@ -240,7 +240,8 @@ def test_a_range_that_holds_the_papers_reach_but_not_the_default_presets_is_refu
     path.write_text(yaml.safe_dump(doc), encoding="utf-8")
     out = artro("robot", "check", str(path))
     assert out.returncode == 2
-    assert "default_preset 'robust' walking forward, backward, sideways" in out.stderr
+    assert f"default_preset '{doc['default_preset']}' walking forward, backward, sideways" in \
+        out.stderr  # fmt: skip
 
 
 def test_suggest_fails_when_no_servo_carries_a_joint(tmp_path):

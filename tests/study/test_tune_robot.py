@@ -29,7 +29,7 @@ from app.cli._sets import resolve_set
 from app.cli.tune import CLASSIC, RECIPE
 from app.params.formats import load_parameter_set
 from app.params.presets import builtin_presets
-from app.robots.library import read_description
+from app.robots.library import load_description, read_description
 from app.study.tune_space import tunable_fields
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -65,7 +65,8 @@ def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 def test_the_references_are_the_built_in_robots_and_their_presets():
     # each built-in robot's default preset: both with the laws on, micro's scaled to its legs
-    assert reference_legs() == {"robust": pytest.approx(0.18), "micro-robust": pytest.approx(0.09)}
+    assert reference_legs() == {"robust-2": pytest.approx(0.18),
+                                "micro-robust": pytest.approx(0.09)}  # fmt: skip
 
 
 @pytest.mark.parametrize(
@@ -155,7 +156,7 @@ def test_tune_robot_without_base_saves_tuned_robot_among_the_presets(work, capsy
     robot = robot_file(work / "big.yaml", "big", 0.117, "DS3218")
     assert main(["tune", "--robot", str(robot), *TINY_TUNE, "--study", "s.log"]) == 0
     said = capsys.readouterr().out
-    assert "starting from 'robust' (legs 0.180 m) scaled to legs 0.234 m" in said
+    assert "starting from 'robust-2' (legs 0.180 m) scaled to legs 0.234 m" in said
     assert "clock 0.614 Hz" in said  # robust's 0.70 Hz x sqrt(0.18 / 0.234)
     saved = work / "data" / "presets" / "tuned-big.json"
     assert f"saved preset 'tuned-big' in {saved.parent}" in said
@@ -163,9 +164,9 @@ def test_tune_robot_without_base_saves_tuned_robot_among_the_presets(work, capsy
     chosen = resolve_set("tuned-big", "--params")  # what every --params and the dashboard do
     assert chosen.path == saved and not chosen.builtin
     assert chosen.pset.name == "tuned-big" and chosen.pset.robot == "big"
-    # the recipe's fields were searched around the scaled start: the others are robust's (the
-    # yaw-rate loop's lengths scaled with the legs)
-    start = builtin_presets()["robust"].gait.flat()
+    # the recipe's fields were searched around the scaled start: the others are the start's,
+    # ArtRo's default (the yaw-rate loop's lengths scaled with the legs)
+    start = builtin_presets()[load_description("artro").default_preset].gait.flat()
     moved = {k for k, v in chosen.pset.gait.flat().items() if v != start[k]}
     assert moved and moved <= {*START_RECIPE.names, "yaw_rate.axle_m", "yaw_rate.speed_per_a_p"}
     # -o also writes the file where asked; the same study replays
