@@ -23,6 +23,7 @@ import dataclasses
 import mujoco
 import numpy as np
 import results
+from ca_phases import foot_loads_n
 
 from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop
@@ -33,19 +34,6 @@ from gait.params import replace_checked
 WARMUP_S = 5.0
 A_P = 0.07  # the paper's forward walk
 FRAME_S = 0.02
-
-
-def sole_loads(model: mujoco.MjModel, data: mujoco.MjData, feet: tuple[int, int]) -> np.ndarray:
-    """The normal contact force on each foot (left, right), N."""
-    loads, wrench = np.zeros(2), np.zeros(6)
-    for i in range(data.ncon):
-        contact = data.contact[i]
-        bodies = (model.geom_bodyid[contact.geom1], model.geom_bodyid[contact.geom2])
-        for k, foot in enumerate(feet):
-            if foot in bodies:
-                mujoco.mj_contactForce(model, data, i, wrench)
-                loads[k] += wrench[0]
-    return loads
 
 
 def walk(robot: RobotModel, params: GaitParams, a_p: float, duration_s: float) -> dict:
@@ -67,7 +55,7 @@ def walk(robot: RobotModel, params: GaitParams, a_p: float, duration_s: float) -
         mujoco.mj_kinematics(model, commanded)
         trunk_x = float(data.qpos[0])
         sole_x = np.array([data.site_xpos[s][0] for s in soles])
-        support = int(np.argmax(sole_loads(model, data, robot.foot_ids)))
+        support = int(np.argmax(foot_loads_n(model, data, robot.foot_ids)))
         if previous_sole is not None:
             slip += sole_x[support] - previous_sole[support]
         previous_sole = sole_x
