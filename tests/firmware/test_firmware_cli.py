@@ -166,7 +166,8 @@ def test_a_firmware_of_a_set_it_chose_names_that_set(tmp_path: Path) -> None:
     artro = Path(sys.executable).with_name("artro")
     chosen = (
         "no --params: the parameter set 'throwaway' (robot mine, made 20",
-        "the newest set saved for mine (its default preset 'robust' was tuned for artro)",
+        f"the newest set saved for mine (its default preset '{raw['default_preset']}' was tuned "
+        "for artro)",
     )
     for action in (["build", "-o", "fw"], ["run", "--frames", "2", "--json"]):
         said = subprocess.run(

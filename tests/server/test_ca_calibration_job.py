@@ -12,6 +12,9 @@ pytestmark = pytest.mark.slow
 
 def test_calibrate_ca_runs_in_the_background_and_applies_both_k(tmp_path):
     with running_server(tmp_path) as (base_url, app), client(base_url) as http:
+        # `tuned`, open loop: CA steers it by K alone (the default's yaw-rate law steers it
+        # backward at K = 0, so its calibration keeps K = 0 there)
+        assert http.post("/api/presets/tuned/load").is_success
         before = http.get("/api/params").json()
         started = http.post("/api/jobs/calibrate-ca", json={})
         assert started.status_code == 202 and started.headers["Location"].startswith("/api/jobs/")

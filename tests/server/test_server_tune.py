@@ -15,10 +15,12 @@ import yaml
 from optuna.storages import JournalStorage
 from optuna.storages.journal import JournalFileBackend
 
-from app.robots.library import MAX_DESCRIPTION_BYTES, read_description
+from app.robots.library import MAX_DESCRIPTION_BYTES, load_description, read_description
 from app.study.study_files import WriterLock
 from tests.study.test_tune_robot import robot_file
 from tests.testing.server_harness import client, running_server, wait_for
+
+DEFAULT = load_description("artro").default_preset  # the set the server starts with
 
 pytestmark = pytest.mark.slow
 
@@ -182,7 +184,7 @@ def test_the_robot_started_from_a_file_is_tuned_from_its_description(tmp_path):
         assert job.finished.wait(TUNE_DEADLINE * 0.05), "the tune did not finish"
         done = http.get(f"/api/jobs/{job_id}").json()
         assert done["status"] == "done", done
-        assert done["detail"]["start"] == "robust"  # legs 0.234 m: ArtRo's preset, scaled
+        assert done["detail"]["start"] == DEFAULT  # legs 0.234 m: ArtRo's preset, scaled
         # speeds scale with the legs: forward's target is ArtRo's 3.8 cm/s x 1.3
         forward = next(r for r in done["result"]["figures"] if r["run"] == "forward")
         assert forward["target"] == pytest.approx(3.8 * 0.234 / 0.18)
@@ -212,7 +214,7 @@ def test_a_robot_the_server_accepted_is_one_its_tune_accepts(tmp_path):
 
         started = wait_for(started_or_ended, "the child read the robot", attempts=TUNE_DEADLINE)
         assert started["status"] == "running", started.get("error")
-        assert started["detail"]["start"] == "robust"
+        assert started["detail"]["start"] == DEFAULT
         assert http.delete(f"/api/jobs/{job_id}").status_code == 200
         wait_for(lambda: http.get(f"/api/jobs/{job_id}").json()["status"] != "running", "ended")
     (handed,) = (tmp_path / "data" / "studies").glob("*.robot.yaml")
@@ -238,7 +240,7 @@ def test_a_gait_changed_while_the_tune_ran_is_kept_and_the_result_saved_not_load
             "to try it)"
         )
         now = http.get("/api/params").json()
-        assert now["version"] == edited.json()["version"] and now["name"] == "robust"
+        assert now["version"] == edited.json()["version"] and now["name"] == DEFAULT
         assert "tuned-artro" in [p["name"] for p in http.get("/api/presets").json()["presets"]]
 
 
