@@ -10,7 +10,6 @@ import pytest
 
 from app.analysis.cases import CASES, CURVES, JUDGED_RUNS, steering, steers_right, within_eq13
 from app.analysis.robust_cases import ROBUST_CASES
-from app.evaluation import BatchEvaluator
 from app.params.formats import load_parameter_set
 from app.params.presets import stamped, write_parameter_set
 from app.study.study_store import DEFAULT_STUDY, OBJECTIVE, open_storage
@@ -31,6 +30,7 @@ from tests.testing.tune_support import (
     POOR,
     ROOT,
     SETTINGS,
+    Counting,
     base_loss,
     store,
     trials_in,
@@ -259,28 +259,18 @@ def test_the_kept_shortfall_sums_each_familys_loss_below_the_base():
     assert kept_shortfall(base, base) == 0.0
 
 
-class CountingJobs(BatchEvaluator):
-    """The real evaluator, counting the jobs it is given."""
-
-    jobs = 0
-
-    def evaluate(self, jobs, **kwargs):
-        CountingJobs.jobs += len(jobs)
-        return super().evaluate(jobs, **kwargs)
-
-
 def test_keeping_the_base_walks_it_in_the_same_worlds_and_adds_the_shortfall(tmp_path):
     """`--keep-base W` (decision 0070): each generation also walks the base set in its worlds,
     and each candidate's term adds W times its families' shortfall below the base's shares."""
     with pytest.raises(ValueError, match=r"robust N >= 1 variations"):
         Tuner(POOR, NAMES, evaluator=EVALUATOR, **SETTINGS, keep_base=2.0)
-    CountingJobs.jobs = 0
-    tuner = Tuner(POOR, NAMES, evaluator=CountingJobs(threads=2), **SETTINGS, robust=2,
+    Counting.runs = 0
+    tuner = Tuner(POOR, NAMES, evaluator=Counting(threads=2), **SETTINGS, robust=2,
                   keep_base=3.0)  # fmt: skip
     assert tuner.settings["keep_base"] == 3.0  # a study of its own: another digest
     tuner.run(1, store(tmp_path, tuner), progress=None)
     per_set = len(tuner.runs) + 2 * len(tuner.robust_runs())
-    assert CountingJobs.jobs == (SETTINGS["popsize"] + 1) * per_set  # the base once
+    assert Counting.runs == (SETTINGS["popsize"] + 1) * per_set  # the base once
     for trial in trials_in(tmp_path / "study.log"):
         robust = trial.user_attrs["metrics"]["robust"]
         base, families = robust["base_shares"], robust["families"]

@@ -8,7 +8,6 @@ import sys
 import pytest
 
 from app.analysis.cases import JUDGED_RUNS
-from app.evaluation import BatchEvaluator
 from app.study.study_store import StudyStore
 from app.study.tune import Tuner
 from tests.testing.signal_support import with_sigint_default
@@ -18,19 +17,10 @@ from tests.testing.tune_support import (
     POOR,
     ROOT,
     SETTINGS,
+    Counting,
     store,
     trials_in,
 )
-
-
-class Counting(BatchEvaluator):
-    """The real evaluator, counting the runs it simulates."""
-
-    runs = 0
-
-    def evaluate(self, jobs, **kwargs):
-        Counting.runs += len(jobs)
-        return super().evaluate(jobs, **kwargs)
 
 
 def test_resuming_replays_the_store_without_simulating(tmp_path):

@@ -1,6 +1,6 @@
 """Shared by the tuner's tests (tests/study/test_tune.py, test_tune_resume.py): a deliberately
-poor start, the fields and settings of a short tune, its study store, and the finished trials in
-a store."""
+poor start, the fields and settings of a short tune, its study store, the finished trials in a
+store, and the real evaluator counting the runs it simulates."""
 
 from pathlib import Path
 
@@ -47,3 +47,13 @@ def trials_in(path: Path, *, study: bool = False):
     (name,) = names
     loaded = optuna.load_study(study_name=name, storage=storage)
     return loaded if study else loaded.get_trials(states=(optuna.trial.TrialState.COMPLETE,))
+
+
+class Counting(BatchEvaluator):
+    """The real evaluator, counting the runs it simulates."""
+
+    runs = 0
+
+    def evaluate(self, jobs, **kwargs):
+        Counting.runs += len(jobs)
+        return super().evaluate(jobs, **kwargs)
