@@ -27,13 +27,13 @@ from ca_phases import foot_loads_n
 
 from app.robots.model import RobotModel
 from app.sim.frame_loop import FrameLoop
+from app.sim.planning import FRAME_S
 from app.study.walks import resolve_presets
 from gait import GaitParams, Motion
 from gait.params import replace_checked
 
 WARMUP_S = 5.0
 A_P = 0.07  # the paper's forward walk
-FRAME_S = 0.02
 
 
 def walk(robot: RobotModel, params: GaitParams, a_p: float, duration_s: float) -> dict:
