@@ -76,6 +76,11 @@ class SwingParams:
     foot_pitch: float = _param(
         0.25, 0.0, 1.0, step=0.01, unit="1", eq="(31)", doc="foot pitch swing, fraction of a_p"
     )
+    #: eq (28)'s coefficient, 1 in the paper: the stride per unit a_p, for a robot whose legs
+    #: walk shorter than the paper's at its a_p (decision 0071)
+    pitch_gain: float = _param(
+        1.0, 0.5, 2.0, step=0.01, unit="1", eq="(28)", doc="leg pitch swing per a_p (paper: 1)"
+    )
 
     def __post_init__(self) -> None:
         _check_ranges(self)
@@ -128,6 +133,11 @@ class BalanceParams:
     )
     leg_roll_yaw: float = _param(
         0.1, -1.0, 1.0, step=0.01, unit="1", eq="(39)", doc="leg roll gain on a_y"
+    )
+    #: eq (39)'s coefficient of I_s a_r + |a_r|, 1 in the paper: the leading leg's spread on a
+    #: side step (2 |a_r|), which loads the hip rolls of stock servos past their stall (0071)
+    leg_roll_side: float = _param(
+        1.0, 0.0, 2.0, step=0.01, unit="1", eq="(39)", doc="side-step leg spread gain (paper: 1)"
     )
 
     def __post_init__(self) -> None:

@@ -112,7 +112,7 @@ def leg_parameters_with_flags(
         phi_swing = sw.v * (phi_leg + HALF_PI + sw.o)  # eq (22)
         theta_swing = swing_profile(phi_swing, sw.v)  # eqs (25)–(26)
         leg_roll += i_s * a_r * theta_swing  # eq (27)
-        leg_pitch += ca_scale * a_p * theta_swing  # eq (28)
+        leg_pitch += sw.pitch_gain * ca_scale * a_p * theta_swing  # eq (28)
         a_y_eff = a_y + params.steer.yaw_amplitude(a_p, ca)  # eq (29) with the steering term
         leg_yaw += i_s * a_y_eff * theta_swing  # eq (29)
         roll_sign = 1.0 if paper_signs else i_s
@@ -135,7 +135,10 @@ def leg_parameters_with_flags(
             - bl.foot_pitch_amp * a_p * np.cos(2.0 * phi_leg + bl.foot_pitch_phase)
         )  # eq (38)
         yaw_term = a_y if paper_signs else abs(a_y)
-        leg_roll += bl.leg_roll_offset + i_s * a_r + abs(a_r) + bl.leg_roll_yaw * yaw_term  # (39)
+        side = bl.leg_roll_side  # the paper's 1: the sum below as printed, to the bit
+        leg_roll += (
+            bl.leg_roll_offset + side * i_s * a_r + side * abs(a_r) + bl.leg_roll_yaw * yaw_term
+        )  # (39)
 
     lat = params.lateral
     if lat.support_roll_rad or lat.sway_per_a_r:  # none: not a bit changes

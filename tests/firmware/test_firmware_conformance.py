@@ -47,6 +47,16 @@ def test_the_support_lean_is_pin_exact_stepping_sideways() -> None:
     check(doc, cycles=2)
 
 
+@pytest.mark.parametrize("motion", [{"a_r": 0.1}, {"a_p": -0.07, "ca": 0.1}])
+def test_the_stride_and_spread_coefficients_are_pin_exact(motion: dict) -> None:
+    """Eq (28)'s `swing.pitch_gain` and eq (39)'s `balance.leg_roll_side` off the paper's 1
+    (decision 0071), stepping sideways and walking backward on a curve."""
+    doc = preset("tuned", **motion)
+    doc["gait"]["swing"]["pitch_gain"] = 1.2
+    doc["gait"]["balance"]["leg_roll_side"] = 0.15
+    check(doc, cycles=2)
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize(
     "motion",

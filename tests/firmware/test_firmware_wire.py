@@ -16,7 +16,7 @@ from app.firmware.emulator import Mcu
 from app.firmware.sensor_feed import RawSample, at_rest, sample_of
 from gait.params import LAW_GROUPS
 from hardware.firmware import wire
-from hardware.firmware.schema import complete_document
+from hardware.firmware.schema import complete_document, param_specs
 from hardware.firmware.wire import (
     BEGIN,
     PROTOCOL_MD,
@@ -138,7 +138,8 @@ HAND_PACKED_ANSWERS = (
     (proto.encode(0x55), "550200"),
     (proto.set_param(0, 1e9), "030500"),
     (proto.command(proto.Msg.STOP), "0847000000"),
-    (proto.encode(proto.Msg.PING), "0256........4a00000001"),  # the schema hash aside
+    # the parameter count, the schema hash aside
+    (proto.encode(proto.Msg.PING), f"02{len(param_specs()):02x}........4a00000001"),
     (proto.set_params([1.0] * 3, 200), "0404c8"),
     (proto.encode(proto.Msg.SET_PARAMS, bytes(6)), "040306"),
 )  # fmt: skip

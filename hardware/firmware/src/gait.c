@@ -148,7 +148,7 @@ static void leg_parameters(float phi_leg, float i_s, float ca_scale, const frame
         float roll_sign = paper_signs ? 1.0f : i_s;
         float pitch_sign = paper_signs ? i_s : 1.0f;
         leg[LEG_ROLL] += i_s * a_r * theta_swing;                          /* eq (27) */
-        leg[LEG_PITCH] += ca_scale * a_p * theta_swing;                    /* eq (28) */
+        leg[LEG_PITCH] += P(SWING_PITCH_GAIN) * ca_scale * a_p * theta_swing; /* eq (28) */
         leg[LEG_YAW] += i_s * t->a_y_eff * theta_swing;                    /* eq (29) */
         leg[FOOT_ROLL] += roll_sign * P(SWING_FOOT_ROLL) * a_r * theta_swing;  /* eq (30) */
         leg[FOOT_PITCH] +=
@@ -165,7 +165,8 @@ static void leg_parameters(float phi_leg, float i_s, float ca_scale, const frame
             * (mirror * t->roll_cos_left);                                 /* eq (37) */
         leg[FOOT_PITCH] += t->pitch_balance;                               /* eq (38) */
         float yaw_term = paper_signs ? a_y : fabsf(a_y);
-        leg[LEG_ROLL] += P(BALANCE_LEG_ROLL_OFFSET) + i_s * a_r + fabsf(a_r)
+        const float side = P(BALANCE_LEG_ROLL_SIDE);    /* the paper's 1: as printed, to the bit */
+        leg[LEG_ROLL] += P(BALANCE_LEG_ROLL_OFFSET) + side * i_s * a_r + side * fabsf(a_r)
             + P(BALANCE_LEG_ROLL_YAW) * yaw_term;                          /* eq (39) */
     }
 
