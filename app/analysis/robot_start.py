@@ -82,7 +82,7 @@ def reference_legs() -> dict[str, float]:
 def nearest_preset(leg_m: float, references: Mapping[str, float]) -> str:
     """The preset whose robot's leg is nearest `leg_m` in ratio (smallest |ln(L / L_ref)|;
     the first of equals). With the built-in robots' legs L = L_UL + L_LL (eq (3)): ArtRo's
-    0.18 m (`robust-2`) or micro's 0.09 m (`micro-robust`), the crossover at their geometric mean,
+    0.18 m (`robust-3`) or micro's 0.09 m (`micro-robust`), the crossover at their geometric mean,
     0.127 m."""
     if not references or not math.isfinite(leg_m) or leg_m <= 0:
         raise ValueError(f"a leg length > 0 and references are needed, got {leg_m}")

@@ -30,7 +30,7 @@ def test_the_sensors_panel_draws_the_sensors_and_pushes_the_robot(tmp_path):
         page.goto(base_url + "/")
         panel = page.locator("#sensors-panel")
         panel.scroll_into_view_if_needed()
-        laws = page.locator("#sensors-laws")  # the server starts with `robust-2`: its laws on
+        laws = page.locator("#sensors-laws")  # the server starts with `robust-3`: its laws on
         expect(laws).to_have_text("laws on: tilt trim, yaw rate, gyro damping", timeout=20_000)
         off = {g: {"enabled": False} for g in ("tilt", "yaw_rate", "damping", "cop")}
         http.patch("/api/params", json={"gait": off})

@@ -43,7 +43,7 @@ def test_walking_on_the_spot_for_30_s_stands_and_does_not_drift():
 @pytest.mark.parametrize("as_json", [True, False])
 def test_a_run_whose_robot_falls_exits_1_so_a_script_can_tell(as_json):
     """It exited 0 whether the robot walked or fell: only the text said so. (`robust` falls at
-    this motion within 3 s; `robust-2`, the default, has walked it.)"""
+    this motion within 3 s; `robust-2` and `robust-3` have walked it.)"""
     motion = ["--params", "robust", "--motion", "a_p=0.3,a_r=0.3", "--duration", "3", "--warmup",
               "1"]  # fmt: skip
     out = artro("run", *motion, *(["--json"] if as_json else []))

@@ -150,7 +150,7 @@ def test_scope_frames_over_http_and_websocket(http, server):
 
 
 def test_pulses_follow_a_parameter_change_within_two_frames(http, server):
-    # the feedback laws off (the server starts with `robust-2`: they correct the plan), one at a
+    # the feedback laws off (the server starts with `robust-3`: they correct the plan), one at a
     # time, each applied before the next (two constants at once would ramp over 2 s)
     for law in ("tilt", "yaw_rate", "damping"):
         off = http.patch("/api/params", json={"gait": {law: {"enabled": False}}}).json()

@@ -13,7 +13,7 @@ PRESET_NAMES_BAD = ["..", "a b", "x" * 65, ".hidden", "a..b", "con:x"]
 def test_the_server_starts_with_the_default_preset_and_lists_the_builtins(http):
     # a new user sees a robot that walks, and keeps walking on a robot that is not the model
     started = http.get("/api/params").json()
-    assert started["name"] == "robust-2" and started["gait"]["tilt"]["enabled"]
+    assert started["name"] == "robust-3" and started["gait"]["tilt"]["enabled"]
     assert started["name"] == load_description("artro").default_preset
     presets = {p["name"]: p for p in http.get("/api/presets").json()["presets"]}
     assert presets["paper"]["builtin"] and presets["tuned"]["builtin"]

@@ -65,7 +65,7 @@ def work(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 
 def test_the_references_are_the_built_in_robots_and_their_presets():
     # each built-in robot's default preset: both with the laws on, micro's scaled to its legs
-    assert reference_legs() == {"robust-2": pytest.approx(0.18),
+    assert reference_legs() == {"robust-3": pytest.approx(0.18),
                                 "micro-robust": pytest.approx(0.09)}  # fmt: skip
 
 
@@ -156,7 +156,7 @@ def test_tune_robot_without_base_saves_tuned_robot_among_the_presets(work, capsy
     robot = robot_file(work / "big.yaml", "big", 0.117, "DS3218")
     assert main(["tune", "--robot", str(robot), *TINY_TUNE, "--study", "s.log"]) == 0
     said = capsys.readouterr().out
-    assert "starting from 'robust-2' (legs 0.180 m) scaled to legs 0.234 m" in said
+    assert "starting from 'robust-3' (legs 0.180 m) scaled to legs 0.234 m" in said
     assert "clock 0.614 Hz" in said  # robust's 0.70 Hz x sqrt(0.18 / 0.234)
     saved = work / "data" / "presets" / "tuned-big.json"
     assert f"saved preset 'tuned-big' in {saved.parent}" in said
