@@ -1,7 +1,8 @@
-"""Hostile counterparts for `artro link`'s tests (tests/firmware/test_robot_link_*.py): a pty
-robot that answers as told (`FakeRobot`; a real firmware cannot answer wrongly), the emulated
-firmware on a pty that can go silent or be killed (`BridgedRobot`), dashboards of any shape
-(`serving`, `fake_dashboard`), and the link run in this process or on a thread."""
+"""Hostile counterparts for the tests of `artro link` (tests/firmware/test_robot_link_hostile.py,
+test_robot_link_gone.py, test_robot_link_edges.py): a pty robot that answers as told
+(`FakeRobot`; a real firmware cannot answer wrongly), the emulated firmware on a pty that can go
+silent or be killed (`BridgedRobot`), dashboards of any shape (`serving`, `fake_dashboard`), and
+the link run in this process or on a thread."""
 
 from __future__ import annotations
 
