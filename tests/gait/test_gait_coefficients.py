@@ -41,11 +41,10 @@ def with_fields(swing: float = 1.0, side: float = 1.0) -> GaitParams:
     )
 
 
-def only(group: str, **fields) -> GaitParams:
+def only(group: str) -> GaitParams:
     """The default gait with every phase but `group` off."""
     p = GaitParams()
-    off = {g: dataclasses.replace(getattr(p, g), enabled=False) for g in PHASE_GROUPS}
-    off[group] = dataclasses.replace(getattr(p, group), enabled=True, **fields)
+    off = {g: dataclasses.replace(getattr(p, g), enabled=g == group) for g in PHASE_GROUPS}
     return dataclasses.replace(p, **off)
 
 
